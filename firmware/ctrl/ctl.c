@@ -1,0 +1,124 @@
+/* The control step: supervisor, active controller, kinematics. */
+#include "ctrl/ctl.h"
+
+#include <errno.h>
+
+void ctl_params_default(ctl_params_t *p)
+{
+    /* Table 1 of the paper. */
+    p->r_m = NUM_C(0.2);
+    p->r_ob = NUM_C(0.1);
+    p->d_det = NUM_C(3.5);
+    p->d_act = NUM_C(0.5);
+    p->d_s = NUM_C(0.35);
+    p->trk = (trk_gains_t){.k1 = NUM_C(3.0), .k2 = NUM_C(12.0), .k3 = NUM_C(6.0)};
+    p->avd = (avd_gains_t){.k1 = NUM_C(3.0), .k2 = NUM_C(6.0)};
+    /* Not in the paper: a small robot whose wheels never saturate in its
+     * scenarios (they peak near 32 rad/s). */
+    p->kin = (kin_params_t){
+        .wheel_radius = NUM_C(0.05), .track_width = NUM_C(0.3), .max_wheel_speed = NUM_C(100.0)};
+}
+
+static bool positive(num_t x) { return num_is_finite(x) && x > NUM_ZERO; }
+
+int ctl_params_check(const ctl_params_t *p)
+{
+    const num_t all[] = {p->r_m,    p->r_ob,   p->d_det,  p->d_act,
+                         p->d_s,    p->trk.k1, p->trk.k2, p->trk.k3,
+                         p->avd.k1, p->avd.k2, p->kin.wheel_radius, p->kin.track_width,
+                         p->kin.max_wheel_speed};
+    for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) {
+        if (!positive(all[i])) {
+            return -EINVAL;
+        }
+    }
+    /* Definition 2 (D_s >= R_m), Definition 4 (D_s < D_act), and activation
+     * must lie within what the sensor sees. */
+    if (p->d_s < p->r_m || p->d_s >= p->d_act || p->d_act > p->d_det) {
+        return -EINVAL;
+    }
+    return 0;
+}
+
+int ctl_init(ctl_t *c, const ctl_params_t *p)
+{
+    int rc = ctl_params_check(p);
+    if (rc == 0) {
+        c->p = *p;
+    } else {
+        ctl_params_default(&c->p);
+    }
+    const sup_params_t sp = {
+        .r_ob = c->p.r_ob, .d_det = c->p.d_det, .d_act = c->p.d_act, .d_s = c->p.d_s};
+    sup_init(&c->sup, &sp);
+    return rc;
+}
+
+void ctl_reset(ctl_t *c) { sup_reset(&c->sup); }
+
+static bool inputs_finite(const ctl_input_t *in)
+{
+    const num_t v[] = {in->robot.x, in->robot.y, in->robot.theta, in->ref.x, in->ref.y,
+                       in->ref.theta, in->v_r, in->w_r};
+    for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
+        if (!num_is_finite(v[i])) {
+            return false;
+        }
+    }
+    return true;
+}
+
+static void fill_distances(const ctl_t *c, const pose_t *robot, ctl_status_t *st)
+{
+    st->n_obstacles = c->sup.n_obs;
+    for (uint8_t i = 0; i < c->sup.n_obs; i++) {
+        const sup_obstacle_t *o = &c->sup.obs[i].o;
+        st->obstacle_id[i] = o->id;
+        st->distance[i] = num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y));
+    }
+}
+
+void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
+{
+    ctl_status_t *st = &out->status;
+    *st = (ctl_status_t){.mode = SUP_MODE_STOP, .side = AVD_SIDE_NONE};
+    out->n_events = 0;
+    out->wheels = (kin_wheels_t){NUM_ZERO, NUM_ZERO};
+
+    if (!inputs_finite(in)) {
+        /* Bad data from outside: stop, and leave the supervisor as it was. */
+        st->faults = CTL_FAULT_INPUT_NONFINITE;
+        return;
+    }
+
+    const uint16_t dropped_before = c->sup.dropped;
+    sup_decision_t d;
+    sup_step(&c->sup, &in->robot, &in->ref, in->v_r, in->w_r, in->obstacles, in->n_obstacles,
+             in->t_us, out->events, &d);
+    out->n_events = d.n_events;
+    if (c->sup.dropped != dropped_before) {
+        st->faults |= CTL_FAULT_OBSTACLE_DROPPED;
+    }
+
+    trk_errors(&in->robot, &in->ref, &st->err);
+    st->mode = d.mode;
+    num_t v = NUM_ZERO;
+    num_t w = NUM_ZERO;
+    if (d.active != NULL) {
+        st->active_obstacle = d.active->o.id;
+        st->side = d.side;
+    }
+    if (d.mode == SUP_MODE_TRACK) {
+        trk_control(&c->p.trk, &st->err, in->v_r, in->w_r, &v, &w);
+    } else if (d.mode == SUP_MODE_AVOID) {
+        avd_control(&c->p.avd, &in->robot, &st->err, in->v_r, d.active->o.x, d.active->o.y,
+                    d.active->d_s, d.side, &v, &w, &st->e);
+    } /* SUP_MODE_STOP, p3: v = ω = 0. */
+
+    kin_wheels_from_vw(&c->p.kin, v, w, &out->wheels);
+    if (kin_saturate(&c->p.kin, &out->wheels)) {
+        st->faults |= CTL_FAULT_SATURATED;
+    }
+    kin_vw_from_wheels(&c->p.kin, &out->wheels, &st->v, &st->w);
+    fill_distances(c, &in->robot, st);
+}

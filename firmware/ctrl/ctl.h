@@ -1,0 +1,108 @@
+/**
+ * @file ctl.h
+ * @brief The control step: supervisor, the active controller, kinematics.
+ *
+ * One call per control period. No clock reads, no heap, no platform headers:
+ * time comes in as an argument and the caller owns every buffer.
+ */
+#ifndef MSTC_CTL_H
+#define MSTC_CTL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ctrl/avd.h"
+#include "ctrl/sup.h"
+#include "ctrl/trk.h"
+#include "kin/kin.h"
+
+/** @brief Every parameter of the controller (Table 1 and wheel geometry). */
+typedef struct {
+    num_t r_m;   /**< robot radius R_m [m] */
+    num_t r_ob;  /**< default obstacle radius R_ob [m] */
+    num_t d_det; /**< sensor range D_det [m] */
+    num_t d_act; /**< activation distance D_act [m] */
+    num_t d_s;   /**< safe distance D_s [m] */
+    trk_gains_t trk;
+    avd_gains_t avd;
+    kin_params_t kin;
+} ctl_params_t;
+
+/** @brief Status bits in ctl_status_t::faults. */
+enum {
+    CTL_FAULT_INPUT_NONFINITE = 1u << 0, /**< a pose or velocity was NaN or inf: robot stopped */
+    CTL_FAULT_OBSTACLE_DROPPED = 1u << 1, /**< an obstacle report was rejected (see sup_step) */
+    CTL_FAULT_SATURATED = 1u << 2,       /**< wheel speeds were scaled to the limit */
+};
+
+/** @brief Inputs of one step. */
+typedef struct {
+    pose_t robot;                     /**< measured robot pose */
+    pose_t ref;                       /**< reference pose */
+    num_t v_r;                        /**< reference linear velocity [m/s] */
+    num_t w_r;                        /**< reference angular velocity [rad/s] */
+    const sup_obstacle_t *obstacles;  /**< obstacles the sensor reports now */
+    size_t n_obstacles;
+    uint64_t t_us;                    /**< step time [µs] */
+} ctl_input_t;
+
+/** @brief What the step did, for telemetry. */
+typedef struct {
+    sup_mode_t mode;
+    uint8_t active_obstacle; /**< id of the obstacle avoided, 0 when none */
+    avd_side_t side;         /**< its side */
+    trk_err_t err;           /**< e1, e2, e3 */
+    num_t e;                 /**< avoidance heading error [rad], 0 unless avoiding */
+    num_t v;                 /**< commanded linear velocity after saturation [m/s] */
+    num_t w;                 /**< commanded angular velocity after saturation [rad/s] */
+    uint8_t faults;          /**< CTL_FAULT_* bits of this step */
+    uint8_t n_obstacles;     /**< obstacles remembered */
+    uint8_t obstacle_id[SUP_MAX_OBSTACLES];
+    num_t distance[SUP_MAX_OBSTACLES]; /**< centre distance to each [m] */
+} ctl_status_t;
+
+/** @brief Outputs of one step. */
+typedef struct {
+    kin_wheels_t wheels; /**< wheel angular speed commands [rad/s] */
+    ctl_status_t status;
+    sup_event_t events[SUP_MAX_EVENTS];
+    size_t n_events;
+} ctl_output_t;
+
+/** @brief Controller state. */
+typedef struct {
+    ctl_params_t p;
+    sup_t sup;
+} ctl_t;
+
+/** @brief Parameters of Table 1, with wheel geometry that never saturates in
+ *         the paper's scenarios (r = 0.05 m, L = 0.3 m, 100 rad/s). */
+void ctl_params_default(ctl_params_t *p);
+
+/**
+ * @brief Check parameters: every value finite and > 0, D_s >= R_m,
+ *        D_s < D_act <= D_det.
+ * @retval 0       valid.
+ * @retval -EINVAL a value is out of range.
+ */
+int ctl_params_check(const ctl_params_t *p);
+
+/**
+ * @brief Initialise the controller.
+ * @retval 0       ready.
+ * @retval -EINVAL @p p fails ctl_params_check(); @p c is then left reset with
+ *                 default parameters, so a step stays safe.
+ */
+int ctl_init(ctl_t *c, const ctl_params_t *p);
+
+/** @brief Forget obstacles and return to tracking. */
+void ctl_reset(ctl_t *c);
+
+/**
+ * @brief One control step. Total: never fails. A non-finite pose or velocity
+ *        gives zero wheel speeds, mode STOP and CTL_FAULT_INPUT_NONFINITE,
+ *        and leaves the supervisor untouched.
+ */
+void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
+
+#endif /* MSTC_CTL_H */

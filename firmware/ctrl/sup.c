@@ -1,0 +1,146 @@
+/* Switch strategy, paper section 4, with the choices of notes.md. */
+#include "ctrl/sup.h"
+
+bool sup_p1(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_act)
+{
+    /* u1 = q − O, u2 = q_r − O; eq. (19) |u2| > D_act, eq. (20) u1·u2 > 0. */
+    const num_t u1x = num_sub(robot->x, ox);
+    const num_t u1y = num_sub(robot->y, oy);
+    const num_t u2x = num_sub(ref->x, ox);
+    const num_t u2y = num_sub(ref->y, oy);
+    return num_hypot(u2x, u2y) > d_act &&
+           num_add(num_mul(u1x, u2x), num_mul(u1y, u2y)) > NUM_ZERO;
+}
+
+bool sup_p2(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_act)
+{
+    const num_t d = num_hypot(num_sub(robot->x, ox), num_sub(robot->y, oy));
+    return d < d_act && !sup_p1(robot, ref, ox, oy, d_act);
+}
+
+bool sup_p3(num_t v_r, num_t w_r) { return v_r == NUM_ZERO && w_r == NUM_ZERO; }
+
+void sup_init(sup_t *s, const sup_params_t *p)
+{
+    s->p = *p;
+    sup_reset(s);
+}
+
+void sup_reset(sup_t *s)
+{
+    s->n_obs = 0;
+    s->avoiding = 0;
+    s->active = 0;
+    s->side = AVD_SIDE_NONE;
+    s->dropped = 0;
+}
+
+static bool report_valid(const sup_obstacle_t *o)
+{
+    return o->id != 0 && num_is_finite(o->x) && num_is_finite(o->y) &&
+           num_is_finite(o->radius) && o->radius > NUM_ZERO;
+}
+
+static sup_entry_t *find(sup_t *s, uint8_t id)
+{
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        if (s->obs[i].o.id == id) {
+            return &s->obs[i];
+        }
+    }
+    return NULL;
+}
+
+static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t kind,
+                 uint8_t id, avd_side_t side)
+{
+    events[*n] = (sup_event_t){
+        .t_us = t_us, .kind = (uint8_t)kind, .obstacle = id, .side = (int8_t)side};
+    (*n)++;
+}
+
+static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o)
+{
+    /* A larger obstacle moves both thresholds out by its extra radius. */
+    const num_t extra = num_sub(o->radius, s->p.r_ob);
+    e->o = *o;
+    e->d_s = num_add(s->p.d_s, extra);
+    e->d_act = num_add(s->p.d_act, extra);
+}
+
+/* Definition 1: remember each reported obstacle from the first step at which
+ * it lies within D_det. At most one new entry per id, so at most
+ * SUP_MAX_OBSTACLES detect events per step. */
+static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                         size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+{
+    for (size_t i = 0; i < n_reports; i++) {
+        const sup_obstacle_t *o = &reports[i];
+        if (!report_valid(o)) {
+            s->dropped++;
+            continue;
+        }
+        sup_entry_t *e = find(s, o->id);
+        if (e != NULL) {
+            set_entry(s, e, o);
+            continue;
+        }
+        if (num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y)) > s->p.d_det) {
+            continue; /* reported, but not yet detected by Definition 1 */
+        }
+        if (s->n_obs >= SUP_MAX_OBSTACLES) {
+            s->dropped++;
+            continue;
+        }
+        set_entry(s, &s->obs[s->n_obs], o);
+        s->n_obs++;
+        emit(events, n_ev, t_us, SUP_EVENT_DETECT, o->id, AVD_SIDE_NONE);
+    }
+}
+
+void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
+              const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us,
+              sup_event_t *events, sup_decision_t *d)
+{
+    size_t n_ev = 0;
+    take_reports(s, robot, reports, n_reports, t_us, events, &n_ev);
+
+    /* notes.md, several obstacles: completion of the active obstacle first. */
+    if (s->avoiding != 0) {
+        const sup_entry_t *a = &s->obs[s->active];
+        if (sup_p1(robot, ref, a->o.x, a->o.y, a->d_act)) {
+            emit(events, &n_ev, t_us, SUP_EVENT_COMPLETE, a->o.id, AVD_SIDE_NONE);
+            s->avoiding = 0;
+            s->side = AVD_SIDE_NONE;
+        }
+    }
+    /* Then, when tracking, the nearest obstacle satisfying p2. */
+    if (s->avoiding == 0) {
+        int best = -1;
+        num_t best_d = NUM_ZERO;
+        for (uint8_t i = 0; i < s->n_obs; i++) {
+            const sup_entry_t *e = &s->obs[i];
+            const num_t dist = num_hypot(num_sub(robot->x, e->o.x), num_sub(robot->y, e->o.y));
+            if ((best < 0 || dist < best_d) && sup_p2(robot, ref, e->o.x, e->o.y, e->d_act)) {
+                best = i;
+                best_d = dist;
+            }
+        }
+        if (best >= 0) {
+            const sup_entry_t *e = &s->obs[best];
+            s->avoiding = 1;
+            s->active = (uint8_t)best;
+            s->side = avd_choose_side(robot, e->o.x, e->o.y); /* held until completion */
+            emit(events, &n_ev, t_us, SUP_EVENT_ACTIVATE, e->o.id, s->side);
+        }
+    }
+
+    d->n_events = n_ev;
+    d->active = s->avoiding != 0 ? &s->obs[s->active] : NULL;
+    d->side = s->side;
+    if (sup_p3(v_r, w_r)) {
+        d->mode = SUP_MODE_STOP;
+    } else {
+        d->mode = s->avoiding != 0 ? SUP_MODE_AVOID : SUP_MODE_TRACK;
+    }
+}

@@ -1,0 +1,143 @@
+/**
+ * @file sup.h
+ * @brief Supervisor: the switch strategy of section 4 of the paper.
+ *
+ * Keeps the table of detected obstacles (Definition 1), decides each step
+ * which controller runs (p1 completion, p2 activation, p3 stop), holds the
+ * side of eq. (11)-(12) chosen at activation, and emits events stamped with
+ * the step time. With several obstacles (notes.md): completion of the active
+ * obstacle is checked first; then, when tracking, the nearest obstacle that
+ * satisfies p2 is activated, possibly in the same step.
+ *
+ * Obstacles are circles. Thresholds are centre to centre for the radius R_ob
+ * of Table 1; for an obstacle of another radius R, D_s and D_act are moved out
+ * by (R − R_ob), so the clearance to its surface is what it is for R_ob.
+ */
+#ifndef MSTC_SUP_H
+#define MSTC_SUP_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ctrl/avd.h"
+#include "ctrl/pose.h"
+
+/** @brief Obstacles the supervisor can remember at once. */
+#define SUP_MAX_OBSTACLES 16u
+/** @brief Most events one step can emit: a detect per new obstacle, a
+ *         complete and an activate. */
+#define SUP_MAX_EVENTS (SUP_MAX_OBSTACLES + 2u)
+
+/** @brief Which controller runs. */
+typedef enum {
+    SUP_MODE_TRACK = 0, /**< trajectory tracking, eq. (1)-(3) */
+    SUP_MODE_AVOID = 1, /**< obstacle avoidance, eq. (9)-(24) */
+    SUP_MODE_STOP = 2,  /**< p3: v_r = ω_r = 0, so v = ω = 0 */
+} sup_mode_t;
+
+/** @brief Kinds of event. */
+typedef enum {
+    SUP_EVENT_DETECT = 1,   /**< first step with D_r <= D_det (Definition 1) */
+    SUP_EVENT_ACTIVATE = 2, /**< p2 held: avoidance starts, with its side */
+    SUP_EVENT_COMPLETE = 3, /**< p1 held for the active obstacle: tracking resumes */
+} sup_event_kind_t;
+
+/** @brief An event, stamped with the time of the step that emitted it. */
+typedef struct {
+    uint64_t t_us;    /**< step time [µs] */
+    uint8_t kind;     /**< sup_event_kind_t */
+    uint8_t obstacle; /**< obstacle id */
+    int8_t side;      /**< avd_side_t on ACTIVATE, AVD_SIDE_NONE otherwise */
+} sup_event_t;
+
+/** @brief An obstacle as the range sensor reports it. */
+typedef struct {
+    uint8_t id;   /**< identifier, 1..255, stable over time (0 is invalid) */
+    num_t x;      /**< centre [m] */
+    num_t y;      /**< centre [m] */
+    num_t radius; /**< [m], > 0 */
+} sup_obstacle_t;
+
+/** @brief Thresholds of Definitions 1-4 (Table 1), centre to centre. */
+typedef struct {
+    num_t r_ob;  /**< obstacle radius the thresholds are set for [m] */
+    num_t d_det; /**< sensor range D_det [m] */
+    num_t d_act; /**< activation distance D_act [m], > d_s */
+    num_t d_s;   /**< safe distance D_s [m], >= R_m */
+} sup_params_t;
+
+/** @brief A remembered obstacle and its own thresholds. */
+typedef struct {
+    sup_obstacle_t o;
+    num_t d_s;   /**< D_s + (radius − R_ob) [m] */
+    num_t d_act; /**< D_act + (radius − R_ob) [m] */
+} sup_entry_t;
+
+/** @brief Supervisor state. */
+typedef struct {
+    sup_params_t p;
+    sup_entry_t obs[SUP_MAX_OBSTACLES]; /**< detected obstacles, in detection order */
+    uint8_t n_obs;                      /**< entries used in obs[] */
+    uint8_t avoiding;                   /**< 1 while the avoidance controller runs */
+    uint8_t active;                     /**< index into obs[] while avoiding */
+    avd_side_t side;                    /**< side held while avoiding */
+    uint16_t dropped;                   /**< reports rejected (bad value or table full) */
+} sup_t;
+
+/** @brief What the supervisor decided for one step. */
+typedef struct {
+    sup_mode_t mode;
+    const sup_entry_t *active; /**< the obstacle being avoided, or NULL */
+    avd_side_t side;           /**< its side, or AVD_SIDE_NONE */
+    size_t n_events;           /**< events written */
+} sup_decision_t;
+
+/**
+ * @brief Completion condition p1, eq. (19)-(20): |u2| > D_act and u1·u2 > 0,
+ *        with u1 = robot − obstacle and u2 = reference − obstacle.
+ */
+bool sup_p1(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_act);
+
+/** @brief Activation condition p2: |u1| < D_act and not p1. */
+bool sup_p2(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_act);
+
+/** @brief Stop condition p3: v_r = 0 and ω_r = 0. */
+bool sup_p3(num_t v_r, num_t w_r);
+
+/**
+ * @brief Initialise with thresholds @p p (not checked here: see ctl_init) and
+ *        forget every obstacle.
+ */
+void sup_init(sup_t *s, const sup_params_t *p);
+
+/** @brief Forget every obstacle and return to tracking; keep the thresholds. */
+void sup_reset(sup_t *s);
+
+/**
+ * @brief One step of the switch strategy, on the state at the start of the
+ *        control period.
+ *
+ * 1. Reports of unknown ids within D_det enter the table (DETECT); reports of
+ *    known ids update their position. Reports with id 0, a non-finite value or
+ *    a radius <= 0, and new ones when the table is full, are counted in
+ *    `dropped` and ignored.
+ * 2. While avoiding, p1 of the active obstacle ends the avoidance (COMPLETE).
+ * 3. While tracking, the nearest obstacle satisfying p2 is activated, its side
+ *    chosen by avd_choose_side() and held (ACTIVATE).
+ * 4. p3 overrides the output mode with STOP (the avoidance state is kept).
+ *
+ * @param s        state.
+ * @param robot    robot pose.
+ * @param ref      reference pose.
+ * @param v_r,w_r  reference velocities [m/s], [rad/s].
+ * @param reports  obstacles reported this step (may be NULL when @p n_reports is 0).
+ * @param n_reports number of reports.
+ * @param t_us     step time [µs], stamped on the events.
+ * @param events   where events go; at least SUP_MAX_EVENTS entries.
+ * @param[out] d   the decision.
+ */
+void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
+              const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us,
+              sup_event_t *events, sup_decision_t *d);
+
+#endif /* MSTC_SUP_H */

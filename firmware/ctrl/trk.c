@@ -1,0 +1,25 @@
+/* Trajectory tracking, paper eq. (1)-(3) (Kanayama et al. 1990). */
+#include "ctrl/trk.h"
+
+void trk_errors(const pose_t *robot, const pose_t *ref, trk_err_t *err)
+{
+    /* eq. (1): the world-frame position error rotated into the body frame. */
+    const num_t c = num_cos(robot->theta);
+    const num_t s = num_sin(robot->theta);
+    const num_t dx = num_sub(ref->x, robot->x);
+    const num_t dy = num_sub(ref->y, robot->y);
+    err->e1 = num_add(num_mul(c, dx), num_mul(s, dy));
+    err->e2 = num_sub(num_mul(c, dy), num_mul(s, dx));
+    /* notes.md erratum 2: e3 only makes sense wrapped. */
+    err->e3 = num_wrap(num_sub(ref->theta, robot->theta));
+}
+
+void trk_control(const trk_gains_t *g, const trk_err_t *err, num_t v_r, num_t w_r, num_t *v,
+                 num_t *w)
+{
+    /* eq. (2) */
+    *v = num_add(num_mul(v_r, num_cos(err->e3)), num_mul(g->k1, err->e1));
+    /* eq. (3) */
+    const num_t turn = num_add(num_mul(g->k2, err->e2), num_mul(g->k3, num_sin(err->e3)));
+    *w = num_add(w_r, num_mul(v_r, turn));
+}

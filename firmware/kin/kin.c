@@ -1,0 +1,34 @@
+/* Differential-drive kinematics. */
+#include "kin/kin.h"
+
+void kin_wheels_from_vw(const kin_params_t *p, num_t v, num_t w, kin_wheels_t *out)
+{
+    const num_t half_turn = num_mul(w, num_mul(p->track_width, NUM_C(0.5))); /* ω L/2 */
+    out->right = num_div(num_add(v, half_turn), p->wheel_radius);
+    out->left = num_div(num_sub(v, half_turn), p->wheel_radius);
+}
+
+void kin_vw_from_wheels(const kin_params_t *p, const kin_wheels_t *wheels, num_t *v, num_t *w)
+{
+    *v = num_mul(p->wheel_radius, num_mul(num_add(wheels->right, wheels->left), NUM_C(0.5)));
+    *w = num_div(num_mul(p->wheel_radius, num_sub(wheels->right, wheels->left)), p->track_width);
+}
+
+bool kin_saturate(const kin_params_t *p, kin_wheels_t *wheels)
+{
+    const num_t peak = num_max(num_abs(wheels->left), num_abs(wheels->right));
+    if (peak <= p->max_wheel_speed) {
+        return false;
+    }
+    /* One factor for both wheels keeps their ratio, so ω/v is unchanged. The
+     * faster wheel is set to the limit exactly rather than through the factor. */
+    const num_t f = num_div(p->max_wheel_speed, peak);
+    if (num_abs(wheels->left) >= num_abs(wheels->right)) {
+        wheels->right = num_mul(wheels->right, f);
+        wheels->left = wheels->left > NUM_ZERO ? p->max_wheel_speed : num_neg(p->max_wheel_speed);
+    } else {
+        wheels->left = num_mul(wheels->left, f);
+        wheels->right = wheels->right > NUM_ZERO ? p->max_wheel_speed : num_neg(p->max_wheel_speed);
+    }
+    return true;
+}

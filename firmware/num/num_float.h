@@ -1,0 +1,77 @@
+/**
+ * @file num_float.h
+ * @brief Float mode of num.h: `num_t` is IEEE-754 single precision. Include
+ *        num.h, not this file.
+ *
+ * Range and resolution are those of `float` (24-bit significand); overflow
+ * gives ±inf, which the controllers never produce from finite inputs in range
+ * (their entry points reject non-finite values, see ctl.h).
+ */
+#ifndef MSTC_NUM_FLOAT_H
+#define MSTC_NUM_FLOAT_H
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+typedef float num_t;
+
+/** @brief Name of the numeric mode, for logs and reports. */
+#define NUM_MODE_NAME "float"
+
+/** @brief A compile-time constant from a literal or constant expression. */
+#define NUM_C(x) ((num_t)(x))
+
+#define NUM_ZERO NUM_C(0.0)
+#define NUM_ONE NUM_C(1.0)
+/** @brief float(π): 3.14159274, just above π. */
+#define NUM_PI NUM_C(3.14159265358979323846)
+#define NUM_TWO_PI NUM_C(6.28318530717958647692)
+/** @brief Largest finite value. */
+#define NUM_MAX NUM_C(3.40282347e+38)
+
+static inline num_t num_add(num_t a, num_t b) { return a + b; }
+static inline num_t num_sub(num_t a, num_t b) { return a - b; }
+static inline num_t num_neg(num_t a) { return -a; }
+static inline num_t num_mul(num_t a, num_t b) { return a * b; }
+/** @brief a / b; b == 0 gives ±inf or NaN: callers guard against it. */
+static inline num_t num_div(num_t a, num_t b) { return a / b; }
+static inline num_t num_abs(num_t a) { return fabsf(a); }
+/** @brief Square root; negative input gives 0. */
+static inline num_t num_sqrt(num_t a) { return a > 0.0f ? sqrtf(a) : 0.0f; }
+static inline num_t num_sin(num_t a) { return sinf(a); }
+static inline num_t num_cos(num_t a) { return cosf(a); }
+/** @brief atan2(y, x) in [-π, π]; atan2(0, 0) = 0. */
+static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }
+/** @brief sqrt(x² + y²) without intermediate overflow. */
+static inline num_t num_hypot(num_t x, num_t y) { return hypotf(x, y); }
+/** @brief true unless @p a is NaN or ±inf. */
+static inline bool num_is_finite(num_t a) { return isfinite(a) != 0; }
+
+/**
+ * @brief Angle wrapped into (-π, π].
+ * @param a angle [rad], finite.
+ */
+static inline num_t num_wrap(num_t a)
+{
+    if (a > NUM_PI || a <= -NUM_PI) {
+        /* a - 2π·ceil((a - π)/2π) lies in (-π, π]; computed once, not by a
+         * loop, so large inputs cost the same as small ones. */
+        a = a - NUM_TWO_PI * ceilf((a - NUM_PI) / NUM_TWO_PI);
+        if (a <= -NUM_PI) {
+            a = NUM_PI;
+        } else if (a > NUM_PI) {
+            a = NUM_PI;
+        }
+    }
+    return a;
+}
+
+/** @brief Conversion from float (exact in float mode). */
+static inline num_t num_from_float(float f) { return f; }
+/** @brief Conversion to float (exact in float mode). */
+static inline float num_to_float(num_t a) { return a; }
+/** @brief Conversion from a small integer. */
+static inline num_t num_from_int(int32_t i) { return (num_t)i; }
+
+#endif /* MSTC_NUM_FLOAT_H */

@@ -1,0 +1,89 @@
+/**
+ * @file mstc_sil.h
+ * @brief C ABI of the firmware's control step as a shared library
+ *        (build/host/<numeric>/libmstc_sil.so), for the Python plant.
+ *
+ * Plain C types and doubles only, whatever the firmware's numeric mode: the
+ * library converts at this boundary. The caller owns the controller's memory
+ * (mstc_sil_size() bytes, 16-byte aligned); nothing is allocated here.
+ */
+#ifndef MSTC_SIL_H
+#define MSTC_SIL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define MSTC_SIL_MAX_OBSTACLES 16
+#define MSTC_SIL_MAX_EVENTS 18
+
+/** @brief Parameters, SI units (see ctl_params_t). */
+typedef struct {
+    double r_m, r_ob, d_det, d_act, d_s;
+    double trk_k[3]; /**< tracking gains k1, k2, k3 */
+    double avd_k[2]; /**< avoidance gains k1, k2 */
+    double wheel_radius, track_width, max_wheel_speed;
+} mstc_sil_params_t;
+
+/** @brief A reported obstacle. */
+typedef struct {
+    uint32_t id; /**< 1..255 */
+    double x, y, radius;
+} mstc_sil_obstacle_t;
+
+/** @brief Inputs of one step. */
+typedef struct {
+    double robot[3]; /**< x [m], y [m], θ [rad] */
+    double ref[3];   /**< x_r, y_r, θ_r */
+    double v_r, w_r; /**< [m/s], [rad/s] */
+    uint64_t t_us;   /**< step time [µs] */
+    uint32_t n_obstacles;
+    const mstc_sil_obstacle_t *obstacles;
+} mstc_sil_input_t;
+
+/** @brief An event (see sup_event_t). */
+typedef struct {
+    uint64_t t_us;
+    int32_t kind;     /**< 1 detect, 2 activate, 3 complete */
+    int32_t obstacle; /**< obstacle id */
+    int32_t side;     /**< 1 left, -1 right, 0 none */
+} mstc_sil_event_t;
+
+/** @brief Outputs of one step (see ctl_output_t). */
+typedef struct {
+    double wheel_left, wheel_right; /**< [rad/s] */
+    int32_t mode;                   /**< 0 track, 1 avoid, 2 stop */
+    int32_t active_obstacle;        /**< id, 0 when none */
+    int32_t side;                   /**< 1 left, -1 right, 0 none */
+    uint32_t faults;                /**< CTL_FAULT_* bits */
+    double e1, e2, e3, e;
+    double v, w; /**< commanded body velocity after saturation */
+    uint32_t n_obstacles;
+    uint32_t obstacle_id[MSTC_SIL_MAX_OBSTACLES];
+    double distance[MSTC_SIL_MAX_OBSTACLES];
+    uint32_t n_events;
+    mstc_sil_event_t events[MSTC_SIL_MAX_EVENTS];
+} mstc_sil_output_t;
+
+/** @brief Bytes the caller must provide for one controller. */
+size_t mstc_sil_size(void);
+
+/** @brief "float" or "fixed". */
+const char *mstc_sil_numeric(void);
+
+/** @brief Table 1 defaults into @p p. */
+void mstc_sil_defaults(mstc_sil_params_t *p);
+
+/**
+ * @brief Initialise the controller in @p mem.
+ * @retval 0 ready; -EINVAL parameters rejected (ctl_params_check).
+ */
+int mstc_sil_init(void *mem, const mstc_sil_params_t *p);
+
+/**
+ * @brief One control step.
+ * @retval 0 done; -EINVAL more than MSTC_SIL_MAX_OBSTACLES obstacles or a
+ *         NULL pointer (nothing is done).
+ */
+int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out);
+
+#endif /* MSTC_SIL_H */
