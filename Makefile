@@ -20,10 +20,21 @@ WARN := -Wall -Wextra -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototyp
         -Wmissing-prototypes -Wundef -Wcast-align -Werror
 CSTD := -std=c11 -D_DEFAULT_SOURCE
 OPT ?= -O2 -g
-CFLAGS_HOST := $(CSTD) $(OPT) $(WARN) -fPIC -Ifirmware
+CFLAGS_HOST := $(CSTD) $(OPT) $(WARN) -fPIC -Ifirmware -Ihal/include
 
-# Portable core: every firmware module (no HAL, no platform headers).
+# Firmware: the portable control core (num, ctrl, kin), the protocol (comm)
+# and the application (app). No platform headers; app reaches the outside
+# through hal/include/hal/*.h only.
+CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*.c))
+ifneq ($(wildcard firmware/comm/comm.c),)
 FW_SRCS := $(sort $(wildcard firmware/*/*.c))
+SIL_SRCS := hal/sil/mstc_sil.c hal/sil/hal_sil.c
+else
+# Until the protocol layer lands, the SIL library is the in-memory step only.
+FW_SRCS := $(CORE_SRCS)
+SIL_SRCS := hal/sil/mstc_sil.c
+NUM_CFLAGS_SIL := -DMSTC_SIL_MEMORY_ONLY
+endif
 # Numeric mode: NUM_CFLAGS, NUM_SRCS and NUM_DEPS per mode (mk/numeric.mk).
 include mk/numeric.mk
 
@@ -56,11 +67,21 @@ $(B)/obj/%.o: %.c $(NUM_DEPS) | $(STAMP)/apt-sim
 	$(CC) $(CFLAGS_HOST) $(NUM_CFLAGS) -MMD -MP -c $< -o $@
 -include $(FW_OBJS:.o=.d)
 
-$(B)/libmstc_sil.so: $(FW_OBJS) $(B)/obj/hal/sil/mstc_sil.o
-	$(CC) -shared -o $@ $^ -lm
-$(B)/obj/hal/sil/mstc_sil.o: CFLAGS_HOST += -Ihal/sil
+SIL_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(SIL_SRCS))
+$(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS)
+	$(CC) -shared -Wl,--no-undefined -o $@ $^ -lm
+$(SIL_OBJS): CFLAGS_HOST += -Ihal/sil $(NUM_CFLAGS_SIL)
 .PHONY: lib
 lib: $(B)/libmstc_sil.so  ## build the firmware as a shared library (SIL)
+
+# The firmware as a Linux process on SocketCAN (hal/linux).
+LINUX_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(sort $(wildcard hal/linux/*.c)))
+$(B)/mstc-fw: $(FW_OBJS) $(LINUX_OBJS)
+	$(CC) -o $@ $^ -lm
+build/host/mstc-fw: $(B)/mstc-fw
+	ln -sfn $(NUMERIC)/mstc-fw $@
+.PHONY: fw build/host/mstc-fw
+fw: build/host/mstc-fw  ## build build/host/mstc-fw (the firmware on SocketCAN)
 
 # ----------------------------------------------------------------------- sim
 SCENARIO ?= sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
@@ -75,10 +96,12 @@ UNITY_OBJ := $(B)/obj/deps/unity/unity.o
 $(UNITY_OBJ): deps/unity/.sha256
 	@mkdir -p $(dir $@)
 	$(CC) -std=c11 -O1 -g -DUNITY_INCLUDE_DOUBLE -c deps/unity/unity.c -o $@
-$(B)/tests/%: tests/unit/%.c $(FW_OBJS) $(UNITY_OBJ) $(wildcard tests/unit/*.h)
+FAKE_OBJS := $(B)/obj/hal/fake/hal_fake.o
+$(FAKE_OBJS): CFLAGS_HOST += -Ihal/fake
+$(B)/tests/%: tests/unit/%.c $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) $(wildcard tests/unit/*.h)
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_HOST) $(NUM_CFLAGS) -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit \
-	  $< $(FW_OBJS) $(UNITY_OBJ) -lm -o $@
+	$(CC) $(CFLAGS_HOST) $(NUM_CFLAGS) -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake \
+	  $< $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) -lm -o $@
 
 .PHONY: test test-unit test-python
 test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module

@@ -40,6 +40,11 @@ int ctl_params_check(const ctl_params_t *p)
     return 0;
 }
 
+static sup_params_t sup_params_of(const ctl_params_t *p)
+{
+    return (sup_params_t){.r_ob = p->r_ob, .d_det = p->d_det, .d_act = p->d_act, .d_s = p->d_s};
+}
+
 int ctl_init(ctl_t *c, const ctl_params_t *p)
 {
     int rc = ctl_params_check(p);
@@ -48,9 +53,19 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     } else {
         ctl_params_default(&c->p);
     }
-    const sup_params_t sp = {
-        .r_ob = c->p.r_ob, .d_det = c->p.d_det, .d_act = c->p.d_act, .d_s = c->p.d_s};
+    const sup_params_t sp = sup_params_of(&c->p);
     sup_init(&c->sup, &sp);
+    return rc;
+}
+
+int ctl_set_params(ctl_t *c, const ctl_params_t *p)
+{
+    int rc = ctl_params_check(p);
+    if (rc == 0) {
+        c->p = *p;
+        const sup_params_t sp = sup_params_of(p);
+        sup_set_params(&c->sup, &sp);
+    }
     return rc;
 }
 

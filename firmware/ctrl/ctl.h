@@ -95,6 +95,14 @@ int ctl_params_check(const ctl_params_t *p);
  */
 int ctl_init(ctl_t *c, const ctl_params_t *p);
 
+/**
+ * @brief Replace the parameters, keeping the supervisor's state (obstacles,
+ *        mode, side), as when a board is tuned over the bus.
+ * @retval 0 applied. @retval -EINVAL rejected by ctl_params_check(); nothing
+ *         changes.
+ */
+int ctl_set_params(ctl_t *c, const ctl_params_t *p);
+
 /** @brief Forget obstacles and return to tracking. */
 void ctl_reset(ctl_t *c);
 

@@ -35,6 +35,17 @@ void sup_reset(sup_t *s)
     s->dropped = 0;
 }
 
+static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o);
+
+void sup_set_params(sup_t *s, const sup_params_t *p)
+{
+    s->p = *p;
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        const sup_obstacle_t o = s->obs[i].o;
+        set_entry(s, &s->obs[i], &o);
+    }
+}
+
 static bool report_valid(const sup_obstacle_t *o)
 {
     return o->id != 0 && num_is_finite(o->x) && num_is_finite(o->y) &&

@@ -110,6 +110,10 @@ bool sup_p3(num_t v_r, num_t w_r);
  */
 void sup_init(sup_t *s, const sup_params_t *p);
 
+/** @brief New thresholds; the obstacles' own thresholds are recomputed, the
+ *         rest of the state is kept. */
+void sup_set_params(sup_t *s, const sup_params_t *p);
+
 /** @brief Forget every obstacle and return to tracking; keep the thresholds. */
 void sup_reset(sup_t *s);
 

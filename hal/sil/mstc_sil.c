@@ -4,16 +4,87 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <string.h>
 
 #include "ctrl/ctl.h"
+#include "hal/hal_can.h"
+#ifndef MSTC_SIL_MEMORY_ONLY
+#include "app/app.h"
+#include "hal_sil.h"
+#endif
 
 _Static_assert(MSTC_SIL_MAX_OBSTACLES == SUP_MAX_OBSTACLES, "obstacle table sizes differ");
 _Static_assert(MSTC_SIL_MAX_EVENTS == SUP_MAX_EVENTS, "event buffer sizes differ");
+_Static_assert(sizeof(mstc_sil_frame_t) == sizeof(hal_can_frame_t) &&
+                   offsetof(mstc_sil_frame_t, dlc) == offsetof(hal_can_frame_t, dlc) &&
+                   offsetof(mstc_sil_frame_t, data) == offsetof(hal_can_frame_t, data),
+               "frame layouts differ");
 
+#ifndef MSTC_SIL_MEMORY_ONLY
+/* The frame path's firmware instance: one per library, like one board. */
+static app_t app;
+#endif
+
+#if defined(NUM_FIXED)
+/* double to Q16.16: rounded to nearest, ties away from zero (as NUM_C and
+ * num_from_float), saturated to [NUM_MIN, NUM_MAX]. d·2^16 is exact in double
+ * (a power-of-two scale, or ±inf for huge d, which saturates). Q16.16 has no
+ * NaN or inf, so ctl_step cannot see them: they give 0 here, which
+ * ctl_params_check rejects for a parameter (every one must be > 0), and
+ * mstc_sil_step catches them in poses, velocities and obstacle reports before
+ * converting (input_finite, obstacle_id), taking the path the firmware takes
+ * for them in float mode. */
+static num_t from_d(double d)
+{
+    if (!isfinite(d)) {
+        return NUM_ZERO;
+    }
+    const double v = d * 65536.0;
+    if (v >= 2147483647.5) {
+        return NUM_MAX;
+    }
+    if (v <= -2147483648.5) {
+        return NUM_MIN;
+    }
+    return (num_t)round(v);
+}
+/* Q16.16 to double: exact. */
+static double to_d(num_t n) { return (double)n / 65536.0; }
+
+/* Float mode's ctl_step rejects a non-finite pose or velocity (mode STOP,
+ * CTL_FAULT_INPUT_NONFINITE, supervisor untouched); fixed mode checks here. */
+static bool input_finite(const mstc_sil_input_t *in)
+{
+    const double v[] = {in->robot[0], in->robot[1], in->robot[2], in->ref[0],
+                        in->ref[1],   in->ref[2],   in->v_r,      in->w_r};
+    for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
+        if (!isfinite(v[i])) {
+            return false;
+        }
+    }
+    return true;
+}
+#else
 /* double to num_t; non-finite values are kept non-finite in float mode, so the
  * firmware's own input check sees them. */
 static num_t from_d(double d) { return num_from_float((float)d); }
 static double to_d(num_t n) { return (double)num_to_float(n); }
+#endif
+
+/* The obstacle id the firmware gets: 0 (a report it drops and counts) for an
+ * id out of range and, in fixed mode, for a non-finite coordinate or radius,
+ * which sup_step drops in float mode. */
+static uint8_t obstacle_id(const mstc_sil_obstacle_t *o)
+{
+#if defined(NUM_FIXED)
+    if (!isfinite(o->x) || !isfinite(o->y) || !isfinite(o->radius)) {
+        return 0u;
+    }
+#endif
+    return o->id <= 255u ? (uint8_t)o->id : 0u;
+}
 
 size_t mstc_sil_size(void) { return sizeof(ctl_t); }
 
@@ -37,12 +108,9 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
     };
 }
 
-int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
+static ctl_params_t params_from(const mstc_sil_params_t *p)
 {
-    if (mem == NULL || p == NULL) {
-        return -EINVAL;
-    }
-    const ctl_params_t c = {
+    return (ctl_params_t){
         .r_m = from_d(p->r_m),
         .r_ob = from_d(p->r_ob),
         .d_det = from_d(p->d_det),
@@ -52,8 +120,56 @@ int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
         .avd = {from_d(p->avd_k[0]), from_d(p->avd_k[1])},
         .kin = {from_d(p->wheel_radius), from_d(p->track_width), from_d(p->max_wheel_speed)},
     };
+}
+
+int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
+{
+    if (mem == NULL || p == NULL) {
+        return -EINVAL;
+    }
+    const ctl_params_t c = params_from(p);
     return ctl_init((ctl_t *)mem, &c);
 }
+
+#ifndef MSTC_SIL_MEMORY_ONLY
+int mstc_sil_fw_init(const mstc_sil_params_t *p)
+{
+    hal_sil_reset();
+    if (p == NULL) {
+        return app_init(&app, NULL);
+    }
+    const ctl_params_t c = params_from(p);
+    return app_init(&app, &c);
+}
+
+int mstc_sil_fw_send(const mstc_sil_frame_t *f)
+{
+    if (f == NULL) {
+        return -EINVAL;
+    }
+    hal_can_frame_t hf = {.id = f->id, .dlc = f->dlc};
+    memcpy(hf.data, f->data, sizeof hf.data);
+    const int rc = hal_sil_to_fw(&hf);
+    if (rc == 0) {
+        (void)app_poll(&app, 0);
+    }
+    return rc;
+}
+
+int mstc_sil_fw_recv(mstc_sil_frame_t *f)
+{
+    if (f == NULL) {
+        return -EINVAL;
+    }
+    hal_can_frame_t hf;
+    const int rc = hal_sil_from_fw(&hf);
+    if (rc == 0) {
+        *f = (mstc_sil_frame_t){.id = hf.id, .dlc = hf.dlc};
+        memcpy(f->data, hf.data, sizeof f->data);
+    }
+    return rc;
+}
+#endif
 
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 {
@@ -61,10 +177,17 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
         (in->n_obstacles > 0 && in->obstacles == NULL)) {
         return -EINVAL;
     }
+#if defined(NUM_FIXED)
+    if (!input_finite(in)) {
+        *out = (mstc_sil_output_t){.mode = (int32_t)SUP_MODE_STOP,
+                                   .faults = CTL_FAULT_INPUT_NONFINITE};
+        return 0;
+    }
+#endif
     sup_obstacle_t obs[MSTC_SIL_MAX_OBSTACLES];
     for (uint32_t i = 0; i < in->n_obstacles; i++) {
         const mstc_sil_obstacle_t *o = &in->obstacles[i];
-        obs[i] = (sup_obstacle_t){.id = o->id <= 255u ? (uint8_t)o->id : 0u,
+        obs[i] = (sup_obstacle_t){.id = obstacle_id(o),
                                   .x = from_d(o->x),
                                   .y = from_d(o->y),
                                   .radius = from_d(o->radius)};

@@ -1,11 +1,19 @@
 /**
  * @file mstc_sil.h
- * @brief C ABI of the firmware's control step as a shared library
+ * @brief C ABI of the firmware as a shared library
  *        (build/host/<numeric>/libmstc_sil.so), for the Python plant.
  *
+ * Two entries into the same firmware:
+ * - the whole application behind CAN frames (mstc_sil_fw_*): the frames go
+ *   through the SIL HAL's queues to the same app code that runs in mstc-fw and
+ *   on boards; this is what the python-can interface "mstc-sil" wraps;
+ * - the control step alone, in memory (mstc_sil_init/step), the reference
+ *   the frame path is compared against.
+ *
  * Plain C types and doubles only, whatever the firmware's numeric mode: the
- * library converts at this boundary. The caller owns the controller's memory
- * (mstc_sil_size() bytes, 16-byte aligned); nothing is allocated here.
+ * library converts at this boundary. For the in-memory step the caller owns
+ * the controller's memory (mstc_sil_size() bytes, 16-byte aligned); the frame
+ * path has one firmware instance per loaded library, like a board.
  */
 #ifndef MSTC_SIL_H
 #define MSTC_SIL_H
@@ -85,5 +93,34 @@ int mstc_sil_init(void *mem, const mstc_sil_params_t *p);
  *         NULL pointer (nothing is done).
  */
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out);
+
+/** @brief A classic CAN frame (same layout as hal_can_frame_t). */
+typedef struct {
+    uint32_t id;     /**< 11-bit identifier */
+    uint8_t dlc;     /**< 0..8 */
+    uint8_t data[8];
+} mstc_sil_frame_t;
+
+/**
+ * @brief (Re)start the library's firmware instance: empty bus queues, fresh
+ *        application state.
+ * @param p parameters, or NULL for the defaults.
+ * @retval 0 ready; -EINVAL parameters rejected (the defaults are then used).
+ */
+int mstc_sil_fw_init(const mstc_sil_params_t *p);
+
+/**
+ * @brief Put a frame on the firmware's bus; the firmware handles it before
+ *        this returns (its answers wait in mstc_sil_fw_recv()).
+ * @retval 0 handled (or dropped and counted by the firmware's checks).
+ * @retval -EINVAL bad identifier or length. @retval -EAGAIN queue full.
+ */
+int mstc_sil_fw_send(const mstc_sil_frame_t *f);
+
+/**
+ * @brief Take the next frame the firmware sent.
+ * @retval 0 taken. @retval -EAGAIN none waiting.
+ */
+int mstc_sil_fw_recv(mstc_sil_frame_t *f);
 
 #endif /* MSTC_SIL_H */

@@ -1,0 +1,136 @@
+"""Command line: ``python -m mstc_sim run SCENARIO.toml...``."""
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from mstc_sim.firmware import LIB_ENV, FirmwareError, SilController
+from mstc_sim.output import write_outputs
+from mstc_sim.report import format_report
+from mstc_sim.run import RunResult, simulate
+from mstc_sim.scenario import Scenario, ScenarioError, load_scenario
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+"""The firmware could not be loaded or run, or the outputs not written."""
+EXIT_USAGE = 2
+"""Bad command line or bad scenario file: nothing was run or written."""
+
+_RUN_EPILOG = f"""\
+Each scenario writes DIR/<file stem>/: events.json, trace.csv and the figures
+path.png, position_error.png, angle_error.png, v.png, w.png, distance.png and
+overview.png. The table printed for each lists the switching events beside
+the scenario's [[expected]] times, the difference in control steps, and the
+minimum distance to each obstacle against D_s. The format of scenario files
+is in docs/scenarios.md.
+
+Every scenario is validated before any runs: a bad file prints one line
+(file, key, problem) and nothing is written.
+
+exit status: 0 done; 1 the firmware library failed or an output could not be
+written; 2 bad arguments or a bad scenario file.
+
+example:
+  PYTHONPATH=sim python -m mstc_sim run --lib build/host/float/libmstc_sil.so \\
+      sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
+
+The library is built by `make lib`; without --lib it is read from {LIB_ENV}.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``python -m mstc_sim``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m mstc_sim",
+        description="Kinematic plant of mstc: runs scenarios in closed loop with the "
+        "firmware's controller and writes events, traces and figures.",
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    run = commands.add_parser(
+        "run",
+        help="run scenario files against the firmware",
+        description="Run scenario files in closed loop against the firmware's control step "
+        "(libmstc_sil.so, called in-process).",
+        epilog=_RUN_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run.add_argument(
+        "--lib",
+        metavar="PATH",
+        type=Path,
+        help=f"firmware shared library (default: ${LIB_ENV})",
+    )
+    run.add_argument(
+        "--out",
+        metavar="DIR",
+        type=Path,
+        default=Path("build/sim"),
+        help="output folder; each scenario writes DIR/<file stem>/ (default: %(default)s)",
+    )
+    run.add_argument(
+        "scenarios",
+        metavar="SCENARIO.toml",
+        nargs="+",
+        type=Path,
+        help="scenario files (format: docs/scenarios.md)",
+    )
+    return parser
+
+
+def _error(message: str) -> None:
+    print(f"error: {message}", file=sys.stderr)
+
+
+def _load_all(paths: Sequence[Path], out: Path) -> list[Scenario] | None:
+    """Every scenario, or None after printing each problem."""
+    scenarios = []
+    ok = True
+    for path in paths:
+        try:
+            scenarios.append(load_scenario(path))
+        except ScenarioError as exc:
+            _error(str(exc))
+            ok = False
+    seen: dict[str, Path] = {}
+    for scenario in scenarios:
+        first = seen.setdefault(scenario.name, scenario.path)
+        if first != scenario.path:
+            _error(f"{first} and {scenario.path} would both write {out / scenario.name}/")
+            ok = False
+    return scenarios if ok else None
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """``run``: validate every scenario, run each, then write and report."""
+    scenarios = _load_all(args.scenarios, args.out)
+    if scenarios is None:
+        return EXIT_USAGE
+    results: list[RunResult] = []
+    firmware = ""
+    try:
+        for scenario in scenarios:
+            controller = SilController(scenario.params, args.lib)
+            firmware = f"{controller.lib_path} ({controller.numeric})"
+            results.append(simulate(scenario, controller))
+    except FirmwareError as exc:
+        _error(str(exc))
+        return EXIT_FAILED
+    print(f"firmware: {firmware}")
+    for result in results:
+        try:
+            folder = write_outputs(result, args.out)
+        except OSError as exc:
+            _error(f"cannot write the outputs of {result.scenario.path}: {exc}")
+            return EXIT_FAILED
+        print()
+        print(format_report(result, folder))
+    return EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    if args.command == "run":
+        return run_command(args)
+    raise AssertionError(f"unhandled command {args.command}")

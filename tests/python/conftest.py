@@ -1,0 +1,82 @@
+"""Shared fixtures: the firmware library, and scenario files written from dicts."""
+
+import math
+import os
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The repository."""
+SCENARIOS = ROOT / "sim" / "scenarios"
+
+# `make test-python` sets PYTHONPATH=sim; this lets a bare `pytest` work too.
+if str(ROOT / "sim") not in sys.path:
+    sys.path.insert(0, str(ROOT / "sim"))
+
+
+@pytest.fixture(scope="session")
+def sil_lib() -> Path:
+    """The firmware built as a shared library. Never skipped: without it the
+    end-to-end tests fail, loudly."""
+    value = os.environ.get("MSTC_SIL_LIB")
+    if not value:
+        pytest.fail(
+            "MSTC_SIL_LIB is not set: the end-to-end tests need the firmware library. "
+            "Run `make test-python`, or `make lib` and set "
+            "MSTC_SIL_LIB=build/host/float/libmstc_sil.so",
+            pytrace=False,
+        )
+    path = Path(value)
+    if not path.is_file():
+        pytest.fail(f"MSTC_SIL_LIB={value} does not exist: run `make lib`", pytrace=False)
+    return path
+
+
+def _toml_value(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {value!r} as an inline TOML value")
+
+
+def to_toml(doc: Mapping[str, object]) -> str:
+    """A small TOML writer for test documents: top-level scalars, tables of
+    scalars and arrays of such tables (a list of dicts becomes [[name]])."""
+    lines = [f"{k} = {_toml_value(v)}" for k, v in doc.items() if not _is_table(v)]
+    for key, value in doc.items():
+        if isinstance(value, dict):
+            lines.append(f"\n[{key}]")
+            lines += [f"{k} = {_toml_value(v)}" for k, v in value.items()]
+        elif _is_table(value):
+            for entry in value:  # type: ignore[union-attr]
+                lines.append(f"\n[[{key}]]")
+                lines += [f"{k} = {_toml_value(v)}" for k, v in entry.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _is_table(value: object) -> bool:
+    return isinstance(value, dict) or (
+        isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+    )
+
+
+@pytest.fixture
+def write_scenario(tmp_path: Path) -> Callable[[Mapping[str, object], str], Path]:
+    """Write a document as tmp_path/<name>.toml and return the path."""
+
+    def write(doc: Mapping[str, object], name: str = "scenario") -> Path:
+        path = tmp_path / f"{name}.toml"
+        path.write_text(to_toml(doc))
+        return path
+
+    return write

@@ -1,0 +1,114 @@
+"""The command line and what a run writes, through the real library."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT, SCENARIOS
+from mstc_sim.cli import main
+from mstc_sim.firmware import FirmwareError, SilController
+from mstc_sim.params import Params
+
+TRACE_HEADER = "t,x,y,theta,x_r,y_r,theta_r,v,w,v_r,w_r,mode,e1,e2,e3,e,d1,d2".split(",")
+FIGURES = ("path", "position_error", "angle_error", "v", "w", "distance", "overview")
+
+
+def python_m(*args: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "sim")}
+    return subprocess.run(
+        [sys.executable, "-m", "mstc_sim", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
+    )
+
+
+def test_help_describes_the_run_command() -> None:
+    top = python_m("--help")
+    assert top.returncode == 0
+    assert "run" in top.stdout
+    run = python_m("run", "--help")
+    assert run.returncode == 0
+    for words in ("--lib", "--out", "events.json", "trace.csv", "exit status", "MSTC_SIL_LIB"):
+        assert words in run.stdout
+
+
+@pytest.mark.parametrize("args", [["run", "--bogus", "x.toml"], ["run"], ["fly"], []])
+def test_bad_arguments_exit_2(args: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    assert info.value.code == 2
+    assert "error:" in capsys.readouterr().err
+
+
+def test_run_writes_events_trace_and_figures(
+    sil_lib: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "sim"
+    rc = main(["run", "--lib", str(sil_lib), "--out", str(out), str(SCENARIOS / "paper-line.toml")])
+    report = capsys.readouterr().out
+    assert rc == 0
+    folder = out / "paper-line"
+
+    doc = json.loads((folder / "events.json").read_text())
+    assert list(doc) == ["events", "min_distance"]
+    assert doc["events"] == [
+        {"t": 0.82, "event": "detect", "obstacle": 1},
+        {"t": 3.1, "event": "detect", "obstacle": 2},
+        {"t": 6.82, "event": "activate", "obstacle": 1, "side": "right"},
+        {"t": 8.76, "event": "complete", "obstacle": 1},
+        {"t": 9.36, "event": "activate", "obstacle": 2, "side": "left"},
+        {"t": 11.1, "event": "complete", "obstacle": 2},
+    ]
+    assert [list(e) for e in doc["events"]][2] == ["t", "event", "obstacle", "side"]
+    assert len(doc["min_distance"]) == 2
+    assert all(d == round(d, 4) and d >= 0.35 for d in doc["min_distance"])
+
+    with (folder / "trace.csv").open() as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == TRACE_HEADER
+    assert len(rows) == 1 + 1001
+    assert {row[TRACE_HEADER.index("mode")] for row in rows[1:]} == {"track", "avoid"}
+    assert float(rows[-1][0]) == 20.0
+
+    for name in FIGURES:
+        assert (folder / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    for line in ("activate  O1", "right", "6.82", "min distance", str(folder)):
+        assert line in report
+
+
+def test_missing_library_fails_before_writing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    scenario = str(SCENARIOS / "paper-line.toml")
+    rc = main(["run", "--lib", str(tmp_path / "absent.so"), "--out", str(out), scenario])
+    assert rc == 1
+    assert "cannot load firmware library" in capsys.readouterr().err
+    monkeypatch.delenv("MSTC_SIL_LIB", raising=False)
+    rc = main(["run", "--out", str(out), scenario])
+    assert rc == 1
+    assert "MSTC_SIL_LIB" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_firmware_defaults_are_table_1(sil_lib: Path) -> None:
+    fw = SilController.defaults(sil_lib)
+    py = Params()
+    for name in ("r_m", "r_ob", "d_det", "d_act", "d_s", "wheel_radius", "track_width"):
+        assert getattr(fw, name) == pytest.approx(getattr(py, name), rel=1e-6), name
+    assert fw.tracking_gains == py.tracking_gains
+    assert fw.avoidance_gains == py.avoidance_gains
+    assert fw.max_wheel_speed == py.max_wheel_speed
+
+
+def test_firmware_rejects_invalid_parameters_clearly(sil_lib: Path) -> None:
+    with pytest.raises(FirmwareError, match="rejected the parameters.*EINVAL"):
+        SilController(Params(d_s=0.6), sil_lib)

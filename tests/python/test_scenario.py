@@ -1,0 +1,309 @@
+"""Scenario loader: valid files, every kind of bad file, and what the CLI does
+with a bad file (one error line, exit 2, nothing written)."""
+
+import copy
+import math
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from conftest import SCENARIOS
+from mstc_sim.cli import main
+from mstc_sim.controller import EventKind, Side
+from mstc_sim.params import Params
+from mstc_sim.plant import Integrator, Pose
+from mstc_sim.scenario import ScenarioError, load_scenario
+
+WriteScenario = Callable[[Mapping[str, object], str], Path]
+
+VALID: dict[str, Any] = {
+    "robot": {"pose": [0.0, 2.5, 0.5]},
+    "reference": {"pose": [0.1, 2.6, 0.7], "v": 0.5, "w": 0.0},
+    "obstacles": [{"position": [3.0, 5.2]}, {"position": [4.0, 5.8], "radius": 0.2}],
+    "sim": {"duration": 2.0, "dt": 0.02, "integrator": "euler"},
+    "params": {"D_s": 0.3, "tracking_gains": [3, 12, 6]},
+    "expected": [
+        {"t": 0.5, "event": "detect", "obstacle": 1},
+        {"t": 1.0, "event": "activate", "obstacle": 2, "side": "left"},
+    ],
+}
+
+
+def edit(path: str, value: object = None, *, delete: bool = False) -> dict[str, Any]:
+    """VALID with one key set (or deleted); path like "params.D_s",
+    "obstacles[2].position" (1-based, as in the error messages)."""
+    doc = copy.deepcopy(VALID)
+    *parents, last = path.split(".")
+    node: Any = doc
+    for part in parents:
+        if part.endswith("]"):
+            name, index = part[:-1].split("[")
+            node = node[name][int(index) - 1]
+        else:
+            node = node.setdefault(part, {})
+    if delete:
+        del node[last]
+    else:
+        node[last] = value
+    return doc
+
+
+def test_valid_file_loads_with_table_1_defaults_and_overrides(
+    write_scenario: WriteScenario,
+) -> None:
+    s = load_scenario(write_scenario(VALID, "valid"))
+    assert s.name == "valid"
+    assert s.robot == Pose(0.0, 2.5, 0.5)
+    assert s.reference.pose == Pose(0.1, 2.6, 0.7)
+    assert (s.reference.v, s.reference.w) == (0.5, 0.0)
+    assert [(o.x, o.y, o.radius) for o in s.obstacles] == [(3.0, 5.2, 0.1), (4.0, 5.8, 0.2)]
+    assert (s.sim.duration, s.sim.dt, s.sim.integrator) == (2.0, 0.02, Integrator.EULER)
+    assert (s.sim.steps, s.sim.dt_us) == (100, 20_000)
+    assert s.params == Params(d_s=0.3)
+    assert [(e.t, e.event, e.obstacle, e.side) for e in s.expected] == [
+        (0.5, EventKind.DETECT, 1, None),
+        (1.0, EventKind.ACTIVATE, 2, Side.LEFT),
+    ]
+
+
+def test_table_1_defaults() -> None:
+    p = Params()
+    assert (p.r_m, p.r_ob, p.d_det, p.d_act, p.d_s) == (0.2, 0.1, 3.5, 0.5, 0.35)
+    assert p.tracking_gains == (3, 12, 6)
+    assert p.avoidance_gains == (3, 6)
+    assert (p.wheel_radius, p.track_width, p.max_wheel_speed) == (0.05, 0.3, 100)
+
+
+def test_minimal_file_without_obstacles_params_or_expected(write_scenario: WriteScenario) -> None:
+    doc = {k: v for k, v in VALID.items() if k not in ("obstacles", "params", "expected")}
+    doc["reference"] = {"pose": [0, 0, 0], "v": 1, "w": -1}  # integers are numbers
+    s = load_scenario(write_scenario(doc, "minimal"))
+    assert s.obstacles == ()
+    assert s.expected == ()
+    assert s.params == Params()
+    assert (s.reference.v, s.reference.w) == (1.0, -1.0)
+
+
+def test_obstacle_radius_defaults_to_the_overridden_r_ob(write_scenario: WriteScenario) -> None:
+    s = load_scenario(write_scenario(edit("params.R_ob", 0.15), "r_ob"))
+    assert s.obstacles[0].radius == 0.15
+
+
+def test_paper_scenarios_load() -> None:
+    for name in ("paper-line", "paper-circle"):
+        s = load_scenario(SCENARIOS / f"{name}.toml")
+        assert s.params == Params()
+        assert (s.sim.dt, s.sim.integrator) == (0.02, Integrator.EULER)
+
+
+SEVENTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(17)]
+
+# (document, key named in the message (None: the whole file), words of the problem)
+BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
+    "missing robot": (edit("robot", delete=True), "robot", "missing required table [robot]"),
+    "missing robot.pose": (edit("robot.pose", delete=True), "robot.pose", "missing"),
+    "missing reference.v": (edit("reference.v", delete=True), "reference.v", "missing"),
+    "missing reference.w": (edit("reference.w", delete=True), "reference.w", "missing"),
+    "missing sim": (edit("sim", delete=True), "sim", "missing"),
+    "missing sim.dt": (edit("sim.dt", delete=True), "sim.dt", "missing"),
+    "missing sim.duration": (edit("sim.duration", delete=True), "sim.duration", "missing"),
+    "missing sim.integrator": (edit("sim.integrator", delete=True), "sim.integrator", "missing"),
+    "missing obstacle position": (
+        edit("obstacles[2].position", delete=True),
+        "obstacles[2].position",
+        "missing",
+    ),
+    "missing expected t": (edit("expected[1].t", delete=True), "expected[1].t", "missing"),
+    "missing activate side": (
+        edit("expected[2].side", delete=True),
+        "expected[2].side",
+        "missing",
+    ),
+    "unknown top-level table": (edit("simulation", {"dt": 0.02}), "simulation", "unknown key"),
+    "misspelled param": (edit("params.Ds", 0.3), "params.Ds", "did you mean 'D_s'"),
+    "wrong-case param": (edit("params.d_s", 0.3), "params.d_s", "did you mean 'D_s'"),
+    "unknown key in robot": (edit("robot.heading", 0.5), "robot.heading", "unknown key"),
+    "misspelled obstacle key": (
+        edit("obstacles[2].radious", 0.2),
+        "obstacles[2].radious",
+        "did you mean 'radius'",
+    ),
+    "unknown key in sim": (edit("sim.steps", 10), "sim.steps", "unknown key"),
+    "unknown key in expected": (edit("expected[1].when", 1.0), "expected[1].when", "unknown"),
+    "string for number": (edit("reference.v", "fast"), "reference.v", "must be a number"),
+    "boolean for number": (edit("reference.w", True), "reference.w", "got boolean"),
+    "boolean in pose": (edit("robot.pose", [0.0, True, 0.0]), "robot.pose", "element y"),
+    "string in position": (
+        edit("obstacles[1].position", [3.0, "5"]),
+        "obstacles[1].position",
+        "element y must be a number",
+    ),
+    "boolean param": (edit("params.D_det", False), "params.D_det", "got boolean"),
+    "boolean gain": (
+        edit("params.avoidance_gains", [3, True]),
+        "params.avoidance_gains",
+        "element k2 must be a number",
+    ),
+    "number for pose": (edit("robot.pose", 1.0), "robot.pose", "must be an array"),
+    "robot not a table": (edit("robot", 3), "robot", "must be a table"),
+    "params not a table": (edit("params", [1, 2]), "params", "must be a table"),
+    "obstacles not tables": (edit("obstacles", 3), "obstacles", "array of tables"),
+    "nan number": (edit("reference.v", math.nan), "reference.v", "finite"),
+    "inf in pose": (edit("robot.pose", [0.0, math.inf, 0.0]), "robot.pose", "finite"),
+    "inf param": (edit("params.D_det", math.inf), "params.D_det", "finite"),
+    "nan duration": (edit("sim.duration", math.nan), "sim.duration", "finite"),
+    "huge integer": (edit("reference.v", 10**400), "reference.v", "finite"),
+    "huge integer in pose": (edit("robot.pose", [0, 10**400, 0]), "robot.pose", "element y"),
+    "short pose": (edit("robot.pose", [0.0, 2.5]), "robot.pose", "3 elements"),
+    "long position": (
+        edit("obstacles[1].position", [3.0, 5.2, 0.0]),
+        "obstacles[1].position",
+        "2 elements",
+    ),
+    "two tracking gains": (
+        edit("params.tracking_gains", [3, 12]),
+        "params.tracking_gains",
+        "3 elements",
+    ),
+    "D_s equal to D_act": (edit("params.D_s", 0.5), "params.D_s", "D_act"),
+    "D_s above D_act": (edit("params.D_act", 0.25), "params.D_s", "must be < D_act"),
+    "D_s below R_m": (edit("params.D_s", 0.15), "params.D_s", "must be >= R_m"),
+    "R_m above D_s": (edit("params.R_m", 0.4), "params.D_s", "R_m"),
+    "D_act above D_det": (edit("params.D_act", 4.0), "params.D_act", "must be <= D_det"),
+    "D_det below D_act": (edit("params.D_det", 0.4), "params.D_det", "D_act"),
+    "zero tracking gain": (
+        edit("params.tracking_gains", [3, 0, 6]),
+        "params.tracking_gains",
+        "k2 must be > 0",
+    ),
+    "negative avoidance gain": (
+        edit("params.avoidance_gains", [-3, 6]),
+        "params.avoidance_gains",
+        "k1 must be > 0",
+    ),
+    "zero dt": (edit("sim.dt", 0.0), "sim.dt", "must be > 0"),
+    "negative dt": (edit("sim.dt", -0.02), "sim.dt", "must be > 0"),
+    "sub-microsecond dt": (edit("sim.dt", 2.5e-7), "sim.dt", "whole number of microseconds"),
+    "zero duration": (edit("sim.duration", 0), "sim.duration", "must be > 0"),
+    "negative R_m": (edit("params.R_m", -0.2), "params.R_m", "must be > 0"),
+    "zero R_ob": (edit("params.R_ob", 0.0), "params.R_ob", "must be > 0"),
+    "zero obstacle radius": (edit("obstacles[2].radius", 0.0), "obstacles[2].radius", "> 0"),
+    "negative obstacle radius": (edit("obstacles[1].radius", -0.1), "obstacles[1].radius", "> 0"),
+    "zero wheel radius": (edit("params.wheel_radius", 0), "params.wheel_radius", "> 0"),
+    "negative track width": (edit("params.track_width", -0.3), "params.track_width", "> 0"),
+    "zero wheel limit": (edit("params.max_wheel_speed", 0.0), "params.max_wheel_speed", "> 0"),
+    "unknown integrator": (edit("sim.integrator", "rk4"), "sim.integrator", 'got "rk4"'),
+    "integrator not a string": (edit("sim.integrator", 1), "sim.integrator", "must be a string"),
+    "17 obstacles": (edit("obstacles", SEVENTEEN_OBSTACLES), "obstacles", "at most 16"),
+    "unknown event": (edit("expected[1].event", "collide"), "expected[1].event", "one of"),
+    "side on detect": (edit("expected[1].side", "left"), "expected[1].side", "only activate"),
+    "unknown side": (edit("expected[2].side", "up"), "expected[2].side", '"left", "right"'),
+    "no such obstacle": (edit("expected[1].obstacle", 3), "expected[1].obstacle", "no obstacle 3"),
+    "boolean obstacle": (
+        edit("expected[1].obstacle", True),
+        "expected[1].obstacle",
+        "must be an integer",
+    ),
+    "expected after the end": (edit("expected[1].t", 2.5), "expected[1].t", "within the run"),
+}
+
+
+@pytest.fixture(params=sorted(BAD))
+def bad_case(request: pytest.FixtureRequest) -> tuple[str, dict[str, Any], str | None, str]:
+    doc, key, problem = BAD[request.param]
+    return request.param, doc, key, problem
+
+
+def check_message(message: str, path: Path, key: str | None, problem: str) -> None:
+    assert "\n" not in message
+    assert message.startswith(f"{path}: ")
+    if key is not None:
+        assert message.startswith(f"{path}: {key}: ")
+    assert problem in message
+
+
+def test_bad_file_raises_one_line_naming_file_and_key(
+    bad_case: tuple[str, dict[str, Any], str | None, str], write_scenario: WriteScenario
+) -> None:
+    _, doc, key, problem = bad_case
+    path = write_scenario(doc, "bad")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    check_message(str(info.value), path, key, problem)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    path = tmp_path / "absent.toml"
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    check_message(str(info.value), path, None, "cannot read")
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["[robot]\npose = [0.0, 2.5, 0.5\n", "[robot]\npose = \n", "[sim]\n[sim]\n", "\xff\xfe"],
+)
+def test_toml_syntax_error(tmp_path: Path, text: str) -> None:
+    path = tmp_path / "syntax.toml"
+    path.write_bytes(text.encode("latin-1"))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: ")
+    assert "TOML syntax error" in message or "UTF-8" in message
+
+
+def run_cli(tmp_path: Path, *scenarios: Path) -> tuple[int, Path]:
+    """`run` into tmp_path/out with a library that does not exist: a bad file
+    must be caught before the library is even looked at."""
+    out = tmp_path / "out"
+    args = ["run", "--lib", str(tmp_path / "never-loaded.so"), "--out", str(out)]
+    return main([*args, *map(str, scenarios)]), out
+
+
+def test_cli_exits_2_on_a_bad_file_and_writes_nothing(
+    bad_case: tuple[str, dict[str, Any], str | None, str],
+    write_scenario: WriteScenario,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    _, doc, key, problem = bad_case
+    path = write_scenario(doc, "bad")
+    rc, out = run_cli(tmp_path, path)
+    captured = capsys.readouterr()
+    assert rc == 2
+    assert not out.exists()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("error: ")
+    check_message(lines[0].removeprefix("error: "), path, key, problem)
+
+
+def test_cli_validates_every_file_before_running_any(
+    write_scenario: WriteScenario, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = write_scenario(VALID, "good")
+    bad = write_scenario(edit("params.D_s", 0.6), "bad")
+    missing = tmp_path / "missing.toml"
+    rc, out = run_cli(tmp_path, good, bad, missing)
+    err = capsys.readouterr().err.splitlines()
+    assert rc == 2
+    assert not out.exists()
+    assert [line.split(": ")[1] for line in err] == [str(bad), str(missing)]
+
+
+def test_cli_refuses_two_scenarios_writing_the_same_folder(
+    write_scenario: WriteScenario, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first = write_scenario(VALID, "same")
+    second = tmp_path / "sub" / "same.toml"
+    second.parent.mkdir()
+    second.write_text(first.read_text())
+    rc, out = run_cli(tmp_path, first, second)
+    assert rc == 2
+    assert not out.exists()
+    assert "would both write" in capsys.readouterr().err
