@@ -26,15 +26,8 @@ CFLAGS_HOST := $(CSTD) $(OPT) $(WARN) -fPIC -Ifirmware -Ihal/include
 # and the application (app). No platform headers; app reaches the outside
 # through hal/include/hal/*.h only.
 CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*.c))
-ifneq ($(wildcard firmware/comm/comm.c),)
 FW_SRCS := $(sort $(wildcard firmware/*/*.c))
 SIL_SRCS := hal/sil/mstc_sil.c hal/sil/hal_sil.c
-else
-# Until the protocol layer lands, the SIL library is the in-memory step only.
-FW_SRCS := $(CORE_SRCS)
-SIL_SRCS := hal/sil/mstc_sil.c
-NUM_CFLAGS_SIL := -DMSTC_SIL_MEMORY_ONLY
-endif
 # Numeric mode: NUM_CFLAGS, NUM_SRCS and NUM_DEPS per mode (mk/numeric.mk).
 include mk/numeric.mk
 
@@ -70,7 +63,7 @@ $(B)/obj/%.o: %.c $(NUM_DEPS) | $(STAMP)/apt-sim
 SIL_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(SIL_SRCS))
 $(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS)
 	$(CC) -shared -Wl,--no-undefined -o $@ $^ -lm
-$(SIL_OBJS): CFLAGS_HOST += -Ihal/sil $(NUM_CFLAGS_SIL)
+$(SIL_OBJS): CFLAGS_HOST += -Ihal/sil
 .PHONY: lib
 lib: $(B)/libmstc_sil.so  ## build the firmware as a shared library (SIL)
 
@@ -85,9 +78,10 @@ fw: build/host/mstc-fw  ## build build/host/mstc-fw (the firmware on SocketCAN)
 
 # ----------------------------------------------------------------------- sim
 SCENARIO ?= sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
+BUS ?= sil
 .PHONY: sim
-sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios (or SCENARIO=file.toml)
-	PYTHONPATH=sim $(PY) -m mstc_sim run --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
+sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
+	$(PY) -m mstc_sim run --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
 
 # ---------------------------------------------------------------------- test
 UNIT_TESTS := $(patsubst tests/unit/%.c,%,$(sort $(wildcard tests/unit/test_*.c)))
@@ -107,10 +101,10 @@ $(B)/tests/%: tests/unit/%.c $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) $(wildcard tes
 test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module
 	@tools/run-unit-tests $(UNIT_BINS)
 test-python: deps-test $(B)/libmstc_sil.so  ## pytest
-	MSTC_SIL_LIB=$(B)/libmstc_sil.so PYTHONPATH=sim $(PY) -m pytest -q tests/python
+	MSTC_SIL_LIB=$(B)/libmstc_sil.so $(PY) -m pytest -q tests/python
 test: test-unit test-python  ## every test
 
--include mk/*.mk.local
+include mk/comm.mk
 
 .PHONY: clean help
 clean:  ## remove build outputs (keeps .venv and deps/)

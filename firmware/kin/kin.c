@@ -14,6 +14,14 @@ void kin_vw_from_wheels(const kin_params_t *p, const kin_wheels_t *wheels, num_t
     *w = num_div(num_mul(p->wheel_radius, num_sub(wheels->right, wheels->left)), p->track_width);
 }
 
+static num_t limit_or_scale(num_t w, num_t peak, num_t f, num_t limit)
+{
+    if (num_abs(w) == peak) {
+        return w > NUM_ZERO ? limit : num_neg(limit);
+    }
+    return num_mul(w, f);
+}
+
 bool kin_saturate(const kin_params_t *p, kin_wheels_t *wheels)
 {
     const num_t peak = num_max(num_abs(wheels->left), num_abs(wheels->right));
@@ -21,14 +29,10 @@ bool kin_saturate(const kin_params_t *p, kin_wheels_t *wheels)
         return false;
     }
     /* One factor for both wheels keeps their ratio, so ω/v is unchanged. The
-     * faster wheel is set to the limit exactly rather than through the factor. */
+     * faster wheel (both, when they are equally fast) is set to the limit
+     * exactly rather than through the rounded factor. */
     const num_t f = num_div(p->max_wheel_speed, peak);
-    if (num_abs(wheels->left) >= num_abs(wheels->right)) {
-        wheels->right = num_mul(wheels->right, f);
-        wheels->left = wheels->left > NUM_ZERO ? p->max_wheel_speed : num_neg(p->max_wheel_speed);
-    } else {
-        wheels->left = num_mul(wheels->left, f);
-        wheels->right = wheels->right > NUM_ZERO ? p->max_wheel_speed : num_neg(p->max_wheel_speed);
-    }
+    wheels->left = limit_or_scale(wheels->left, peak, f, p->max_wheel_speed);
+    wheels->right = limit_or_scale(wheels->right, peak, f, p->max_wheel_speed);
     return true;
 }

@@ -9,11 +9,9 @@
 #include <string.h>
 
 #include "ctrl/ctl.h"
-#include "hal/hal_can.h"
-#ifndef MSTC_SIL_MEMORY_ONLY
 #include "app/app.h"
+#include "hal/hal_can.h"
 #include "hal_sil.h"
-#endif
 
 _Static_assert(MSTC_SIL_MAX_OBSTACLES == SUP_MAX_OBSTACLES, "obstacle table sizes differ");
 _Static_assert(MSTC_SIL_MAX_EVENTS == SUP_MAX_EVENTS, "event buffer sizes differ");
@@ -22,10 +20,8 @@ _Static_assert(sizeof(mstc_sil_frame_t) == sizeof(hal_can_frame_t) &&
                    offsetof(mstc_sil_frame_t, data) == offsetof(hal_can_frame_t, data),
                "frame layouts differ");
 
-#ifndef MSTC_SIL_MEMORY_ONLY
 /* The frame path's firmware instance: one per library, like one board. */
 static app_t app;
-#endif
 
 #if defined(NUM_FIXED)
 /* double to Q16.16: rounded to nearest, ties away from zero (as NUM_C and
@@ -131,7 +127,6 @@ int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
     return ctl_init((ctl_t *)mem, &c);
 }
 
-#ifndef MSTC_SIL_MEMORY_ONLY
 int mstc_sil_fw_init(const mstc_sil_params_t *p)
 {
     hal_sil_reset();
@@ -169,7 +164,6 @@ int mstc_sil_fw_recv(mstc_sil_frame_t *f)
     }
     return rc;
 }
-#endif
 
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 {

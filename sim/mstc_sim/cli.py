@@ -1,12 +1,16 @@
 """Command line: ``python -m mstc_sim run SCENARIO.toml...``."""
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import can
+
+from mstc_sim.canctl import CanController, ControllerError
 from mstc_sim.firmware import LIB_ENV, FirmwareError, SilController
-from mstc_sim.output import write_outputs
+from mstc_sim.output import BusLog, write_outputs
 from mstc_sim.report import format_report
 from mstc_sim.run import RunResult, simulate
 from mstc_sim.scenario import Scenario, ScenarioError, load_scenario
@@ -20,7 +24,8 @@ EXIT_USAGE = 2
 _RUN_EPILOG = f"""\
 Each scenario writes DIR/<file stem>/: events.json, trace.csv and the figures
 path.png, position_error.png, angle_error.png, v.png, w.png, distance.png and
-overview.png. The table printed for each lists the switching events beside
+overview.png; through CAN (--bus sil or socketcan) also bus.log, every frame
+in candump -L format. The table printed for each lists the switching events beside
 the scenario's [[expected]] times, the difference in control steps, and the
 minimum distance to each obstacle against D_s. The format of scenario files
 is in docs/scenarios.md.
@@ -31,8 +36,16 @@ Every scenario is validated before any runs: a bad file prints one line
 exit status: 0 done; 1 the firmware library failed or an output could not be
 written; 2 bad arguments or a bad scenario file.
 
+buses:
+  sil        the firmware in process behind CAN frames: python-can's interface
+             "mstc-sil" around libmstc_sil.so (default)
+  memory     the firmware's control step called directly, no frames: the
+             reference the frame path is compared against
+  socketcan  python-can's socketcan interface on --channel, where mstc-fw or
+             a board runs (see docs/hil.md)
+
 example:
-  PYTHONPATH=sim python -m mstc_sim run --lib build/host/float/libmstc_sil.so \\
+  .venv/bin/python -m mstc_sim run --lib build/host/float/libmstc_sil.so \\
       sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 
 The library is built by `make lib`; without --lib it is read from {LIB_ENV}.
@@ -50,8 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
     run = commands.add_parser(
         "run",
         help="run scenario files against the firmware",
-        description="Run scenario files in closed loop against the firmware's control step "
-        "(libmstc_sil.so, called in-process).",
+        description="Run scenario files in closed loop against the firmware: in process "
+        "through CAN frames (default), in memory, or over SocketCAN.",
         epilog=_RUN_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -60,6 +73,18 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PATH",
         type=Path,
         help=f"firmware shared library (default: ${LIB_ENV})",
+    )
+    run.add_argument(
+        "--bus",
+        choices=("sil", "memory", "socketcan"),
+        default="sil",
+        help="how the plant reaches the firmware (default: %(default)s; see below)",
+    )
+    run.add_argument(
+        "--channel",
+        metavar="IFACE",
+        default="vcan0",
+        help="SocketCAN interface for --bus socketcan (default: %(default)s)",
     )
     run.add_argument(
         "--out",
@@ -106,26 +131,46 @@ def run_command(args: argparse.Namespace) -> int:
     scenarios = _load_all(args.scenarios, args.out)
     if scenarios is None:
         return EXIT_USAGE
-    results: list[RunResult] = []
+    results: list[tuple[RunResult, BusLog | None]] = []
     firmware = ""
     try:
         for scenario in scenarios:
-            controller = SilController(scenario.params, args.lib)
-            firmware = f"{controller.lib_path} ({controller.numeric})"
-            results.append(simulate(scenario, controller))
-    except FirmwareError as exc:
+            firmware, result, log = _run_one(args, scenario)
+            results.append((result, log))
+    except (FirmwareError, ControllerError, can.CanError) as exc:
         _error(str(exc))
         return EXIT_FAILED
     print(f"firmware: {firmware}")
-    for result in results:
+    for result, log in results:
         try:
-            folder = write_outputs(result, args.out)
+            folder = write_outputs(result, args.out, log)
         except OSError as exc:
             _error(f"cannot write the outputs of {result.scenario.path}: {exc}")
             return EXIT_FAILED
         print()
         print(format_report(result, folder))
+        if log is not None:
+            print(f"  bus           {log.describe()}")
     return EXIT_OK
+
+
+def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog | None]:
+    """Run one scenario on the bus the arguments name."""
+    if args.bus == "memory":
+        controller = SilController(scenario.params, args.lib)
+        return f"{controller.lib_path} ({controller.numeric})", simulate(scenario, controller), None
+    if args.bus == "sil":
+        lib = args.lib if args.lib is not None else os.environ.get(LIB_ENV)
+        bus = can.Bus(interface="mstc-sil", channel="sil0", lib=lib)
+    else:
+        bus = can.Bus(interface="socketcan", channel=args.channel)
+    try:
+        ctl = CanController(bus, scenario.params, sim_time_stamps=args.bus == "sil")
+        result = simulate(scenario, ctl)
+    finally:
+        bus.shutdown()
+    log = BusLog(args.channel if args.bus == "socketcan" else "sil0", ctl)
+    return bus.channel_info, result, log
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -55,6 +55,9 @@ class Fault(IntFlag):
     """An obstacle report was rejected (bad value, or the table was full)."""
     SATURATED = 4
     """Wheel speeds were scaled down to the limit."""
+    FRAME_DROPPED = 8
+    """Through CAN only: a received frame failed its checks since the last
+    STATUS (wrong length, CRC, alive counter, unknown identifier)."""
 
 
 @dataclass(frozen=True)

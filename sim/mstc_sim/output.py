@@ -2,11 +2,37 @@
 
 import csv
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from mstc_sim.buslog import write_candump
 from mstc_sim.controller import Event
 from mstc_sim.plots import plot_all
 from mstc_sim.run import TRACE_COLUMNS, RunResult
+
+if TYPE_CHECKING:
+    from mstc_sim.canctl import CanController
+
+
+@dataclass(frozen=True)
+class BusLog:
+    """The frames of a run through CAN, and what was dropped."""
+
+    channel: str
+    controller: "CanController"
+
+    def describe(self) -> str:
+        """One line for the report."""
+        traffic = self.controller.traffic
+        sent = sum(1 for _, own in traffic.frames if own)
+        plant = {r.value: n for r, n in self.controller.proto.drops.items() if n}
+        fw = {k: v for k, v in traffic.firmware_drops.items() if v}
+        return (
+            f"{self.channel}: {sent} frames sent, {len(traffic.frames) - sent} received "
+            f"(bus.log); dropped by the firmware: {fw or 'none'}, by the plant: {plant or 'none'}"
+        )
+
 
 # trace.csv puts mode after the velocities, before the errors.
 _MODE_COLUMN = TRACE_COLUMNS.index("w_r") + 1
@@ -51,8 +77,9 @@ def write_trace(result: RunResult, path: Path) -> None:
             writer.writerow([*row[:m], str(mode), *row[m:], *(repr(float(d)) for d in dist)])
 
 
-def write_outputs(result: RunResult, out_dir: Path) -> Path:
-    """Write every output of a run into ``out_dir/<scenario name>/``.
+def write_outputs(result: RunResult, out_dir: Path, bus_log: BusLog | None = None) -> Path:
+    """Write every output of a run into ``out_dir/<scenario name>/``, with
+    bus.log when the run went through CAN.
 
     :returns: That folder.
     """
@@ -60,5 +87,8 @@ def write_outputs(result: RunResult, out_dir: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     write_events(result, folder / "events.json")
     write_trace(result, folder / "trace.csv")
+    if bus_log is not None:
+        frames = [m for m, _ in bus_log.controller.traffic.frames]
+        write_candump(folder / "bus.log", frames, bus_log.channel)
     plot_all(result, folder)
     return folder

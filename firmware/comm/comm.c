@@ -1,0 +1,474 @@
+/*
+ * The CAN protocol for the firmware (comm.h): E2E protection and checks,
+ * scaling between raw signals and num_t, dispatch by identifier. Bit packing
+ * is the generated codec's (mstc_dbc.c); this file only decides values.
+ */
+#include "comm/comm.h"
+
+#include <errno.h>
+
+#include "comm/mstc_dbc.h"
+
+#ifndef NUM_FIXED
+#include <math.h>
+#endif
+
+/* -------------------------------------------------------------- frame table */
+
+/* The identifiers of comm.h are those of the DBC (the generated codec). */
+_Static_assert(COMM_ID_ODOM_XY == MSTC_DBC_ODOM_XY_FRAME_ID, "ODOM_XY id");
+_Static_assert(COMM_ID_ODOM_THETA == MSTC_DBC_ODOM_THETA_FRAME_ID, "ODOM_THETA id");
+_Static_assert(COMM_ID_REF_XY == MSTC_DBC_REF_XY_FRAME_ID, "REF_XY id");
+_Static_assert(COMM_ID_REF_MOTION == MSTC_DBC_REF_MOTION_FRAME_ID, "REF_MOTION id");
+_Static_assert(COMM_ID_STEP == MSTC_DBC_STEP_FRAME_ID, "STEP id");
+_Static_assert(COMM_ID_OBSTACLE == MSTC_DBC_OBSTACLE_FRAME_ID, "OBSTACLE id");
+_Static_assert(COMM_ID_PARAM_SET == MSTC_DBC_PARAM_SET_FRAME_ID, "PARAM_SET id");
+_Static_assert(COMM_ID_PARAM_GET == MSTC_DBC_PARAM_GET_FRAME_ID, "PARAM_GET id");
+_Static_assert(COMM_ID_WHEEL_CMD == MSTC_DBC_WHEEL_CMD_FRAME_ID, "WHEEL_CMD id");
+_Static_assert(COMM_ID_STATUS == MSTC_DBC_STATUS_FRAME_ID, "STATUS id");
+_Static_assert(COMM_ID_STATUS_TRK == MSTC_DBC_STATUS_TRK_FRAME_ID, "STATUS_TRK id");
+_Static_assert(COMM_ID_STATUS_COUNTERS == MSTC_DBC_STATUS_COUNTERS_FRAME_ID, "STATUS_COUNTERS id");
+_Static_assert(COMM_ID_EVENT == MSTC_DBC_EVENT_FRAME_ID, "EVENT id");
+_Static_assert(COMM_ID_HEARTBEAT == MSTC_DBC_HEARTBEAT_FRAME_ID, "HEARTBEAT id");
+_Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
+/* So are the enumerations that go on the wire unchanged. */
+_Static_assert(COMM_PARAM_MAX_WHEEL_SPEED ==
+                   MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE,
+               "parameter indices");
+_Static_assert(COMM_PARAM_REJECTED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE,
+               "parameter results");
+_Static_assert(COMM_STATE_FAULT == MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE,
+               "heartbeat states");
+_Static_assert(SUP_MODE_TRACK == MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE &&
+                   SUP_MODE_AVOID == MSTC_DBC_STATUS_STATUS_MODE_AVOID_CHOICE &&
+                   SUP_MODE_STOP == MSTC_DBC_STATUS_STATUS_MODE_STOP_CHOICE,
+               "modes");
+_Static_assert(SUP_EVENT_DETECT == MSTC_DBC_EVENT_EVENT_KIND_DETECT_CHOICE &&
+                   SUP_EVENT_ACTIVATE == MSTC_DBC_EVENT_EVENT_KIND_ACTIVATE_CHOICE &&
+                   SUP_EVENT_COMPLETE == MSTC_DBC_EVENT_EVENT_KIND_COMPLETE_CHOICE,
+               "event kinds");
+
+/* Every frame is 8 bytes: E2E needs bytes 0 and 1, and a fixed length is
+ * what lets the DLC check catch truncated frames. */
+#define FRAME_LEN 8u
+
+typedef struct {
+    uint32_t id;
+    uint16_t data_id; /* E2EDataID in mstc.dbc; tests/python/test_codec.py compares */
+    bool rx;          /* received by the firmware; the others it only sends */
+} frame_t;
+
+/* Indexed like comm_t's counter arrays. */
+static const frame_t frames[COMM_N_FRAMES] = {
+    {COMM_ID_ODOM_XY, 0x1100u, true},
+    {COMM_ID_ODOM_THETA, 0x1101u, true},
+    {COMM_ID_REF_XY, 0x1102u, true},
+    {COMM_ID_REF_MOTION, 0x1103u, true},
+    {COMM_ID_STEP, 0x1104u, true},
+    {COMM_ID_OBSTACLE, 0x1110u, true},
+    {COMM_ID_PARAM_SET, 0x1120u, true},
+    {COMM_ID_PARAM_GET, 0x1121u, true},
+    {COMM_ID_WHEEL_CMD, 0x1180u, false},
+    {COMM_ID_STATUS, 0x1181u, false},
+    {COMM_ID_STATUS_TRK, 0x1182u, false},
+    {COMM_ID_STATUS_COUNTERS, 0x1183u, false},
+    {COMM_ID_EVENT, 0x1184u, false},
+    {COMM_ID_HEARTBEAT, 0x1185u, false},
+    {COMM_ID_PARAM_VALUE, 0x1190u, false},
+};
+
+/* Index of @p id in frames[], or COMM_N_FRAMES when it is not a protocol frame. */
+static size_t frame_index(uint32_t id)
+{
+    size_t i = 0;
+    while (i < COMM_N_FRAMES && frames[i].id != id) {
+        i++;
+    }
+    return i;
+}
+
+int comm_data_id(uint32_t id, uint16_t *data_id)
+{
+    const size_t i = frame_index(id);
+    if (i == COMM_N_FRAMES) {
+        return -ENOENT;
+    }
+    *data_id = frames[i].data_id;
+    return 0;
+}
+
+/* ---------------------------------------------------------------------- E2E */
+
+/* The alive counter is bits 8..11: the low nibble of byte 1. */
+#define COUNTER_MASK 0x0Fu
+
+uint8_t comm_crc8h2f(const uint8_t *data, size_t len)
+{
+    /* Bitwise, MSB first, not reflected: nine bytes a frame do not justify a
+     * 256-byte table, and this form can be checked against the polynomial by
+     * reading it. */
+    uint8_t crc = 0xFFu;
+    for (size_t i = 0; i < len; i++) {
+        crc ^= data[i];
+        for (unsigned b = 0; b < 8u; b++) {
+            crc = (crc & 0x80u) != 0u ? (uint8_t)((crc << 1) ^ 0x2Fu) : (uint8_t)(crc << 1);
+        }
+    }
+    return (uint8_t)(crc ^ 0xFFu);
+}
+
+/* CRC of a frame: over its data ID (low byte first) and payload bytes 1..7.
+ * The data ID makes a frame that lands under the wrong identifier (a
+ * corrupted ID, a misconfigured sender) fail the CRC. */
+static uint8_t frame_crc(uint16_t data_id, const uint8_t *payload)
+{
+    uint8_t buf[2u + FRAME_LEN - 1u];
+    buf[0] = (uint8_t)(data_id & 0xFFu);
+    buf[1] = (uint8_t)(data_id >> 8);
+    for (size_t i = 1; i < FRAME_LEN; i++) {
+        buf[1u + i] = payload[i];
+    }
+    return comm_crc8h2f(buf, sizeof buf);
+}
+
+/* Counter, then CRC (the CRC covers the counter) on a packed payload. */
+static void e2e_protect(comm_t *c, size_t i, hal_can_frame_t *f)
+{
+    f->id = frames[i].id;
+    f->dlc = FRAME_LEN;
+    f->data[1] = (uint8_t)((f->data[1] & ~COUNTER_MASK) | c->tx_counter[i]);
+    c->tx_counter[i] = (uint8_t)((c->tx_counter[i] + 1u) & COUNTER_MASK);
+    f->data[0] = frame_crc(frames[i].data_id, f->data);
+}
+
+static void count_drop(uint16_t *n)
+{
+    if (*n < COMM_DROP_COUNT_MAX) {
+        (*n)++;
+    }
+}
+
+void comm_init(comm_t *c) { *c = (comm_t){0}; }
+
+/* ------------------------------------------------------------------ scaling */
+
+/* A scaled signal of mstc.dbc: resolution 2^-frac_bits, raw range [lo, hi]
+ * (the DBC's [min|max] divided by the resolution). */
+typedef struct {
+    uint8_t frac_bits;
+    int32_t lo, hi;
+} scale_t;
+
+#define SIGNED_BITS(frac, bits) {(frac), -(INT32_C(1) << ((bits) - 1)), (INT32_C(1) << ((bits) - 1)) - 1}
+
+static const scale_t s_pos = SIGNED_BITS(16, 24);      /* ODOM_XY, REF_XY x, y [m] */
+static const scale_t s_theta = SIGNED_BITS(16, 20);    /* ODOM_THETA [rad] */
+static const scale_t s_ref_theta = SIGNED_BITS(15, 18); /* REF_MOTION theta [rad] */
+static const scale_t s_ref_vw = SIGNED_BITS(12, 17);   /* REF_MOTION v [m/s], w [rad/s] */
+static const scale_t s_obs_xy = SIGNED_BITS(12, 20);   /* OBSTACLE x, y [m] */
+static const scale_t s_wheel = SIGNED_BITS(10, 18);    /* WHEEL_CMD [rad/s] */
+static const scale_t s_angle13 = SIGNED_BITS(13, 16);  /* STATUS e, STATUS_TRK e3 [rad] */
+static const scale_t s_err = SIGNED_BITS(10, 16);      /* STATUS_TRK e1, e2 [m] */
+static const scale_t s_distance = {10, 0, 65535};      /* STATUS distance [m] */
+
+#ifdef NUM_FIXED
+
+/* Q16.16: num_t is the raw int32 value, so a DBC resolution of 2^-k is a
+ * shift by 16 - k, exact in both directions except for the rounding of the
+ * bits an encoder drops. */
+_Static_assert(sizeof(num_t) == sizeof(int32_t) && (num_t)-1 < 0 && (num_t)1 / 2 == 0 &&
+                   NUM_FRAC_BITS == 16,
+               "fixed mode: num_t must be the Q16.16 int32");
+
+static num_t num_from_raw(int32_t raw, const scale_t *s)
+{
+    /* |raw| < 2^23 and shift <= 16 - k keep the product inside int32 for
+     * every signal (at most 24 significant bits). Multiplication, because a
+     * left shift of a negative value is undefined. */
+    return (num_t)(raw * (INT32_C(1) << (NUM_FRAC_BITS - s->frac_bits)));
+}
+
+static int32_t raw_from_num(num_t v, const scale_t *s)
+{
+    const unsigned shift = (unsigned)(NUM_FRAC_BITS - s->frac_bits);
+    int64_t r = (int64_t)v;
+    if (shift > 0u) {
+        /* Round halves away from zero, as roundf() does in float mode. */
+        const int64_t half = INT64_C(1) << (shift - 1u);
+        r = r >= 0 ? (r + half) >> shift : -((-r + half) >> shift);
+    }
+    if (r < s->lo) {
+        return s->lo;
+    }
+    if (r > s->hi) {
+        return s->hi;
+    }
+    return (int32_t)r;
+}
+
+#else
+
+static num_t num_from_raw(int32_t raw, const scale_t *s)
+{
+    /* Exact: |raw| < 2^24 fits the float significand, and the scale is a
+     * power of two. */
+    return num_from_float(ldexpf((float)raw, -(int)s->frac_bits));
+}
+
+static int32_t raw_from_num(num_t v, const scale_t *s)
+{
+    const float y = ldexpf(num_to_float(v), (int)s->frac_bits); /* exact, or ±inf */
+    /* Compare in float before converting: converting an out-of-range float
+     * to an integer is undefined. lo and hi have at most 24 bits, so they
+     * are exact in float. */
+    if (isnan(y)) {
+        return 0;
+    }
+    if (y <= (float)s->lo) {
+        return s->lo;
+    }
+    if (y >= (float)s->hi) {
+        return s->hi;
+    }
+    return (int32_t)roundf(y);
+}
+
+#endif
+
+/* OBSTACLE radius: centimetres, the one decimal resolution of mstc.dbc, so a
+ * radius of 0.1 m arrives as exactly the value NUM_C(0.1) and a parameter
+ * R_ob of 0.1 have (the supervisor compares them). */
+static num_t radius_from_cm(uint8_t cm)
+{
+#ifdef NUM_FIXED
+    /* Round to nearest: cm·2^16/100, at most 255·65536 + 50 < 2^31. */
+    return (num_t)(((int32_t)cm * 65536 + 50) / 100);
+#else
+    return num_from_float((float)cm / 100.0f); /* correctly rounded */
+#endif
+}
+
+/* An unscaled unsigned field: values above its largest saturate. */
+static uint8_t sat_u8(uint32_t v, uint8_t max) { return v > max ? max : (uint8_t)v; }
+
+/* avd_side_t (0, +1, -1) to the wire's none/left/right (0, 1, 2). */
+static uint8_t side_to_wire(int side)
+{
+    return side == AVD_SIDE_LEFT    ? (uint8_t)MSTC_DBC_STATUS_STATUS_SIDE_LEFT_CHOICE
+           : side == AVD_SIDE_RIGHT ? (uint8_t)MSTC_DBC_STATUS_STATUS_SIDE_RIGHT_CHOICE
+                                    : (uint8_t)MSTC_DBC_STATUS_STATUS_SIDE_NONE_CHOICE;
+}
+
+/* ------------------------------------------------------------------- decode */
+
+static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
+{
+    /* The unpackers cannot fail: the frame is FRAME_LEN bytes (checked). */
+    switch (id) {
+    case COMM_ID_ODOM_XY: {
+        struct mstc_dbc_odom_xy_t s;
+        (void)mstc_dbc_odom_xy_unpack(&s, d, FRAME_LEN);
+        m->u.xy.x = num_from_raw(s.odom_xy_x, &s_pos);
+        m->u.xy.y = num_from_raw(s.odom_xy_y, &s_pos);
+        break;
+    }
+    case COMM_ID_ODOM_THETA: {
+        struct mstc_dbc_odom_theta_t s;
+        (void)mstc_dbc_odom_theta_unpack(&s, d, FRAME_LEN);
+        m->u.theta = num_from_raw(s.odom_theta_theta, &s_theta);
+        break;
+    }
+    case COMM_ID_REF_XY: {
+        struct mstc_dbc_ref_xy_t s;
+        (void)mstc_dbc_ref_xy_unpack(&s, d, FRAME_LEN);
+        m->u.xy.x = num_from_raw(s.ref_xy_x, &s_pos);
+        m->u.xy.y = num_from_raw(s.ref_xy_y, &s_pos);
+        break;
+    }
+    case COMM_ID_REF_MOTION: {
+        struct mstc_dbc_ref_motion_t s;
+        (void)mstc_dbc_ref_motion_unpack(&s, d, FRAME_LEN);
+        m->u.ref_motion.theta = num_from_raw(s.ref_motion_theta, &s_ref_theta);
+        m->u.ref_motion.v = num_from_raw(s.ref_motion_v, &s_ref_vw);
+        m->u.ref_motion.w = num_from_raw(s.ref_motion_w, &s_ref_vw);
+        break;
+    }
+    case COMM_ID_STEP: {
+        struct mstc_dbc_step_t s;
+        (void)mstc_dbc_step_unpack(&s, d, FRAME_LEN);
+        m->u.step.step = s.step_step;
+        m->u.step.time_us = s.step_time;
+        break;
+    }
+    case COMM_ID_OBSTACLE: {
+        struct mstc_dbc_obstacle_t s;
+        (void)mstc_dbc_obstacle_unpack(&s, d, FRAME_LEN);
+        m->u.obstacle.id = s.obstacle_id;
+        m->u.obstacle.x = num_from_raw(s.obstacle_x, &s_obs_xy);
+        m->u.obstacle.y = num_from_raw(s.obstacle_y, &s_obs_xy);
+        m->u.obstacle.radius = radius_from_cm(s.obstacle_radius);
+        break;
+    }
+    case COMM_ID_PARAM_SET: {
+        struct mstc_dbc_param_set_t s;
+        (void)mstc_dbc_param_set_unpack(&s, d, FRAME_LEN);
+        m->u.param_set.index = s.param_set_index;
+        m->u.param_set.value = s.param_set_value;
+        break;
+    }
+    default: { /* COMM_ID_PARAM_GET, the last frame comm_decode() lets through */
+        struct mstc_dbc_param_get_t s;
+        (void)mstc_dbc_param_get_unpack(&s, d, FRAME_LEN);
+        m->u.param_get = s.param_get_index;
+        break;
+    }
+    }
+    m->id = id;
+}
+
+int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg)
+{
+    const size_t i = frame_index(f->id);
+    if (i == COMM_N_FRAMES || !frames[i].rx) {
+        count_drop(&c->drops.unknown);
+        return -ENOENT;
+    }
+    if (f->dlc != FRAME_LEN) {
+        count_drop(&c->drops.len);
+        return -EMSGSIZE;
+    }
+    if (f->data[0] != frame_crc(frames[i].data_id, f->data)) {
+        count_drop(&c->drops.crc);
+        return -EBADMSG;
+    }
+    /* A good CRC: the counter is genuine, so the sequence follows it whether
+     * or not the frame is accepted; one lost burst costs one frame, not a
+     * stream. */
+    const uint8_t counter = (uint8_t)(f->data[1] & COUNTER_MASK);
+    const uint8_t delta = (uint8_t)((counter - c->rx_counter[i]) & COUNTER_MASK);
+    const bool first = c->rx_seen[i] == 0u;
+    c->rx_counter[i] = counter;
+    c->rx_seen[i] = 1u;
+    if (!first && delta == 0u) {
+        count_drop(&c->drops.seq);
+        return -EALREADY;
+    }
+    if (!first && delta > COMM_MAX_COUNTER_JUMP) {
+        count_drop(&c->drops.seq);
+        return -ERANGE;
+    }
+    decode_payload(f->id, f->data, msg);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ encoders */
+
+int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_wheel_cmd_t s = {
+        .wheel_cmd_step = step,
+        .wheel_cmd_left = raw_from_num(w->left, &s_wheel),
+        .wheel_cmd_right = raw_from_num(w->right, &s_wheel),
+    };
+    (void)mstc_dbc_wheel_cmd_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_WHEEL_CMD), f);
+    return 0;
+}
+
+/* STATUS_distance: the active obstacle's distance, else the nearest one's,
+ * else beyond the signal's range (sent as its maximum). */
+static num_t status_distance(const ctl_status_t *st)
+{
+    num_t nearest = NUM_MAX;
+    const size_t n = st->n_obstacles < SUP_MAX_OBSTACLES ? st->n_obstacles : SUP_MAX_OBSTACLES;
+    for (size_t i = 0; i < n; i++) {
+        if (st->active_obstacle != 0u && st->obstacle_id[i] == st->active_obstacle) {
+            return st->distance[i];
+        }
+        nearest = num_min(nearest, st->distance[i]);
+    }
+    return nearest;
+}
+
+int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
+                       hal_can_frame_t *f)
+{
+    /* Bit 3 is this layer's; the controller's own bits are 0..2. */
+    const uint8_t ctl_faults = (uint8_t)(st->faults & (CTL_FAULT_INPUT_NONFINITE |
+                                                       CTL_FAULT_OBSTACLE_DROPPED |
+                                                       CTL_FAULT_SATURATED));
+    const struct mstc_dbc_status_t s = {
+        .status_mode = sat_u8((uint32_t)st->mode, MSTC_DBC_STATUS_STATUS_MODE_STOP_CHOICE),
+        .status_side = side_to_wire(st->side),
+        .status_obstacle = sat_u8(st->active_obstacle, 15u),
+        .status_faults = (uint8_t)(ctl_faults | (frame_faults ? 0x08u : 0u)),
+        .status_e = (int16_t)raw_from_num(st->e, &s_angle13),
+        .status_distance = (uint16_t)raw_from_num(status_distance(st), &s_distance),
+        .status_step = (uint8_t)(step & 0xFFu),
+    };
+    (void)mstc_dbc_status_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_STATUS), f);
+    return 0;
+}
+
+int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_status_trk_t s = {
+        .status_trk_e1 = (int16_t)raw_from_num(err->e1, &s_err),
+        .status_trk_e2 = (int16_t)raw_from_num(err->e2, &s_err),
+        .status_trk_e3 = (int16_t)raw_from_num(err->e3, &s_angle13),
+    };
+    (void)mstc_dbc_status_trk_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_STATUS_TRK), f);
+    return 0;
+}
+
+int comm_encode_counters(comm_t *c, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_status_counters_t s = {
+        .status_counters_crc_errors = c->drops.crc,
+        .status_counters_seq_errors = c->drops.seq,
+        .status_counters_len_errors = c->drops.len,
+        .status_counters_unknown_ids = c->drops.unknown,
+    };
+    (void)mstc_dbc_status_counters_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_STATUS_COUNTERS), f);
+    return 0;
+}
+
+int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_event_t s = {
+        .event_kind = sat_u8(e->kind, MSTC_DBC_EVENT_EVENT_KIND_COMPLETE_CHOICE),
+        .event_side = side_to_wire(e->side),
+        .event_obstacle = sat_u8(e->obstacle, 15u),
+        /* A time stamp wraps with the STEP time it answers (comm.h). */
+        .event_time = (uint32_t)(e->t_us & UINT32_MAX),
+    };
+    (void)mstc_dbc_event_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_EVENT), f);
+    return 0;
+}
+
+int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_heartbeat_t s = {
+        .heartbeat_state = sat_u8((uint32_t)state, MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE),
+    };
+    (void)mstc_dbc_heartbeat_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_HEARTBEAT), f);
+    return 0;
+}
+
+int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result, float value,
+                            hal_can_frame_t *f)
+{
+    const struct mstc_dbc_param_value_t s = {
+        .param_value_index = index, /* echoed as received (comm.h) */
+        .param_value_result = sat_u8((uint32_t)result, MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE),
+        .param_value_value = value,
+    };
+    (void)mstc_dbc_param_value_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_PARAM_VALUE), f);
+    return 0;
+}

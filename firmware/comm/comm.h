@@ -1,0 +1,202 @@
+/**
+ * @file comm.h
+ * @brief The CAN protocol of mstc (mstc.dbc) for the firmware: E2E
+ *        protection and checking, scaling between raw signals and num_t (in
+ *        both numeric modes), saturation, and dispatch by identifier.
+ *
+ * E2E, in the style of AUTOSAR E2E: byte 0 of every frame is the CRC-8H2F
+ * over the frame's 16-bit data ID (low byte, then high byte; the DBC
+ * attribute E2EDataID of each message) followed by bytes 1..7; bits 8..11 are
+ * a 4-bit alive counter, incremented by the sender for every frame of that
+ * identifier.
+ *
+ * Thin hand-written adapters over the codec that cantools generates from
+ * mstc.dbc (mstc_dbc.c/.h by tools/gen-codec, committed, never edited by
+ * hand). Raw values are scaled with the DBC's factors, which are powers of two
+ * (2^-k, k <= 16): in fixed mode a conversion is an exact shift of the Q16.16
+ * value, in float mode an exact multiplication. Encoding rounds to the nearest
+ * raw value (halves away from zero) and saturates to the signal's range, never
+ * wraps; NaN (float mode) is sent as 0. Decoding is exact.
+ *
+ * Not scaled, and so not saturated: STEP_time and EVENT_time (the low 32 bits
+ * of a time in µs, which wrap after 4294.967296 s like the step counters) and
+ * the parameter index, echoed as received so that an unknown one can be
+ * answered. Decoded ids and enumerations are passed on as received, even when
+ * out of their DBC range (an OBSTACLE id or radius of 0): validating them is
+ * the receiver's job (sup_step() drops such reports and counts them).
+ */
+#ifndef MSTC_COMM_H
+#define MSTC_COMM_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ctrl/ctl.h"
+#include "hal/hal_can.h"
+
+/** @brief Frame identifiers (mstc.dbc). */
+enum {
+    COMM_ID_ODOM_XY = 0x100,
+    COMM_ID_ODOM_THETA = 0x101,
+    COMM_ID_REF_XY = 0x102,
+    COMM_ID_REF_MOTION = 0x103,
+    COMM_ID_STEP = 0x104,
+    COMM_ID_OBSTACLE = 0x110,
+    COMM_ID_PARAM_SET = 0x120,
+    COMM_ID_PARAM_GET = 0x121,
+    COMM_ID_WHEEL_CMD = 0x180,
+    COMM_ID_STATUS = 0x181,
+    COMM_ID_STATUS_TRK = 0x182,
+    COMM_ID_STATUS_COUNTERS = 0x183,
+    COMM_ID_EVENT = 0x184,
+    COMM_ID_HEARTBEAT = 0x185,
+    COMM_ID_PARAM_VALUE = 0x190,
+};
+
+/** @brief Number of distinct frames in the protocol. */
+#define COMM_N_FRAMES 15u
+
+/** @brief Parameter indices of PARAM_SET / PARAM_GET / PARAM_VALUE. */
+typedef enum {
+    COMM_PARAM_R_M = 0,
+    COMM_PARAM_R_OB,
+    COMM_PARAM_D_DET,
+    COMM_PARAM_D_ACT,
+    COMM_PARAM_D_S,
+    COMM_PARAM_TRK_K1,
+    COMM_PARAM_TRK_K2,
+    COMM_PARAM_TRK_K3,
+    COMM_PARAM_AVD_K1,
+    COMM_PARAM_AVD_K2,
+    COMM_PARAM_WHEEL_RADIUS,
+    COMM_PARAM_TRACK_WIDTH,
+    COMM_PARAM_MAX_WHEEL_SPEED,
+    COMM_PARAM_COUNT
+} comm_param_t;
+
+/** @brief Results in PARAM_VALUE. */
+typedef enum {
+    COMM_PARAM_OK = 0,
+    COMM_PARAM_UNKNOWN_INDEX = 1,
+    COMM_PARAM_OUT_OF_RANGE = 2,
+    COMM_PARAM_REJECTED = 3,
+} comm_param_result_t;
+
+/** @brief Heartbeat states. */
+typedef enum {
+    COMM_STATE_INIT = 0,
+    COMM_STATE_READY = 1,
+    COMM_STATE_RUNNING = 2,
+    COMM_STATE_STOPPED = 3,
+    COMM_STATE_FAULT = 4,
+} comm_state_t;
+
+/** @brief Largest value of each drop counter (12 bits in STATUS_COUNTERS). */
+#define COMM_DROP_COUNT_MAX 4095u
+
+/** @brief Received frames dropped, by reason; each saturates at COMM_DROP_COUNT_MAX. */
+typedef struct {
+    uint16_t crc;     /**< CRC mismatch */
+    uint16_t seq;     /**< alive counter repeated or out of sequence */
+    uint16_t len;     /**< wrong DLC */
+    uint16_t unknown; /**< identifier not received by the firmware */
+} comm_counters_t;
+
+/** @brief A decoded frame received by the firmware. */
+typedef struct {
+    uint32_t id; /**< COMM_ID_* */
+    union {
+        struct { num_t x, y; } xy;                     /**< ODOM_XY, REF_XY [m] */
+        num_t theta;                                   /**< ODOM_THETA [rad] */
+        struct { num_t theta, v, w; } ref_motion;      /**< REF_MOTION */
+        struct { uint16_t step; uint32_t time_us; } step; /**< STEP */
+        sup_obstacle_t obstacle;                       /**< OBSTACLE */
+        struct { uint8_t index; float value; } param_set; /**< PARAM_SET */
+        uint8_t param_get;                             /**< PARAM_GET index */
+    } u;
+} comm_msg_t;
+
+/** @brief Protocol state: alive counters per frame, drop counters. */
+typedef struct {
+    uint8_t tx_counter[COMM_N_FRAMES];
+    uint8_t rx_counter[COMM_N_FRAMES];
+    uint8_t rx_seen[COMM_N_FRAMES];
+    comm_counters_t drops;
+} comm_t;
+
+/** @brief Reset counters and sequence state: the next frame of every
+ *         identifier is accepted whatever its alive counter, and every
+ *         identifier's first frame sent carries counter 0. */
+void comm_init(comm_t *c);
+
+/**
+ * @brief E2E data ID of a frame (the DBC attribute E2EDataID).
+ * @param id frame identifier, COMM_ID_*.
+ * @param[out] data_id its data ID.
+ * @retval 0 found. @retval -ENOENT @p id is not a frame of the protocol.
+ */
+int comm_data_id(uint32_t id, uint16_t *data_id);
+
+/**
+ * @brief CRC-8H2F of @p len bytes: polynomial 0x2F, init 0xFF, final xor
+ *        0xFF (AUTOSAR Crc_CalculateCRC8H2F; check value 0xDF for "123456789").
+ */
+uint8_t comm_crc8h2f(const uint8_t *data, size_t len);
+
+/**
+ * @brief Check and decode a frame addressed to the firmware.
+ *
+ * Order of checks: identifier known and received by the firmware, DLC = 8,
+ * CRC over the frame's data ID and bytes 1..7, alive counter (repeated →
+ * drop; a jump of more than COMM_MAX_COUNTER_JUMP → drop; the counter is
+ * resynchronised on every frame with a good CRC, so the frame after a dropped
+ * jump is accepted again; the first frame of an identifier after comm_init()
+ * is accepted). A dropped frame is counted in c->drops, once, under the first
+ * check it fails, and leaves @p msg unchanged.
+ * @param c   protocol state.
+ * @param f   the received frame.
+ * @param[out] msg the decoded frame.
+ * @retval 0 @p msg holds the frame.
+ * @retval -ENOENT unknown identifier (or one the firmware only sends).
+ * @retval -EMSGSIZE wrong length.
+ * @retval -EBADMSG CRC mismatch.
+ * @retval -EALREADY repeated counter. @retval -ERANGE counter jump too large.
+ */
+int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg);
+
+/** @brief Largest accepted alive-counter increment (1 = no frame lost). */
+#define COMM_MAX_COUNTER_JUMP 3u
+
+/* Encoders for the frames the firmware sends. Each fills @p f (id, dlc 8,
+ * payload with CRC and the next alive counter) and returns 0. Values outside a
+ * signal's range saturate; so do ids and enumerations beyond their largest
+ * value (not the parameter index, echoed as received). */
+
+/** @brief WHEEL_CMD: wheel speeds echoing @p step. */
+int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_can_frame_t *f);
+/**
+ * @brief STATUS from the status of a step.
+ *
+ * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
+ * faults = st->faults bits 0..2 (CTL_FAULT_*), bit 3 = @p frame_faults; e;
+ * distance = centre distance to the active obstacle, else to the nearest one
+ * remembered, else the signal's maximum (63.999 m); the low byte of @p step.
+ * @param frame_faults a received frame was dropped since the last STATUS.
+ */
+int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
+                       hal_can_frame_t *f);
+/** @brief STATUS_TRK: e1, e2, e3. */
+int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f);
+/** @brief STATUS_COUNTERS from c->drops. */
+int comm_encode_counters(comm_t *c, hal_can_frame_t *f);
+/** @brief EVENT: kind, side, obstacle (saturated at 15) and the low 32 bits
+ *         of e->t_us. */
+int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f);
+/** @brief HEARTBEAT. */
+int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f);
+/** @brief PARAM_VALUE. */
+int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result, float value,
+                            hal_can_frame_t *f);
+
+#endif /* MSTC_COMM_H */

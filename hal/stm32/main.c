@@ -1,0 +1,106 @@
+/* The main loop of the STM32 boards: real-time mode. A timer counts control
+ * periods; this loop drains received frames into the application, runs one
+ * control step per period with the time of that period, sends the wheel
+ * speeds to the motor outputs, and kicks the watchdog only when a step has
+ * run, so a stuck loop or a dead timer resets the MCU. Interrupts only queue
+ * frames and count periods (events up, no control code in an ISR). */
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "app/app.h"
+#include "board.h"
+#include "comm/comm.h"
+#include "cortex_m.h"
+#include "hal/hal_can.h"
+#include "hal/hal_motor.h"
+#include "hal/hal_sys.h"
+#include "hal_can_status.h"
+#include "stm32_hal.h"
+#include "wheel_cmd.h"
+
+/* Static, not on the stack: its size is then in the RAM budget, not the
+ * stack's. No heap anywhere. */
+static app_t app;
+
+/* The frames the firmware receives (comm.h); the controller's filters drop
+ * every other identifier in hardware, so the bus's other traffic (our own
+ * telemetry echoed by nobody, other nodes) never reaches the queue. */
+static const hal_can_filter_t rx_filters[] = {
+    {COMM_ID_ODOM_XY, HAL_CAN_MAX_STD_ID},   {COMM_ID_ODOM_THETA, HAL_CAN_MAX_STD_ID},
+    {COMM_ID_REF_XY, HAL_CAN_MAX_STD_ID},    {COMM_ID_REF_MOTION, HAL_CAN_MAX_STD_ID},
+    {COMM_ID_STEP, HAL_CAN_MAX_STD_ID},      {COMM_ID_OBSTACLE, HAL_CAN_MAX_STD_ID},
+    {COMM_ID_PARAM_SET, HAL_CAN_MAX_STD_ID}, {COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID},
+};
+
+/* Status LED: toggles every LED_SLOW_MS while all is well, every LED_FAST_MS
+ * while something needs a look (the crystal did not start, CAN is not up,
+ * error-passive or bus-off). It follows the control steps, so a dark or
+ * frozen LED means the loop stopped. */
+#define LED_SLOW_MS 500u
+#define LED_FAST_MS 100u
+
+static bool degraded(bool can_ok)
+{
+    hal_can_status_t st;
+    if (!can_ok || hal_can_status(&st) != 0 || !board_clocks()->hse) {
+        return true;
+    }
+    return st.state == HAL_CAN_STATE_ERROR_PASSIVE || st.state == HAL_CAN_STATE_BUS_OFF;
+}
+
+static void led_step(uint32_t steps, bool can_ok)
+{
+    const uint32_t half_ms = degraded(can_ok) ? LED_FAST_MS : LED_SLOW_MS;
+    const uint32_t half_steps = half_ms * 1000u / BOARD_CONTROL_PERIOD_US;
+    const uint32_t k = half_steps > 0u ? half_steps : 1u;
+    board_led(((steps / k) & 1u) != 0u);
+}
+
+static void motors_from_last_step(void)
+{
+    const kin_wheels_t *w = app_last_wheels(&app);
+    const num_t max = app.ctl.p.kin.max_wheel_speed;
+    (void)hal_motor_set(wheel_cmd_from_speed(w->left, max), wheel_cmd_from_speed(w->right, max));
+}
+
+int main(void)
+{
+    board_clock_init();
+    board_debug_init();
+    board_gpio_init();
+    stm32_time_init(board_clocks()->sysclk_hz);
+    (void)hal_motor_init();
+
+    /* CAN failing to start is not fatal: the loop, the watchdog and the LED
+     * still run, and the LED says so. */
+    bool can_ok = hal_can_open(NULL) == 0;
+    if (can_ok) {
+        can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
+    }
+    (void)app_init(&app, NULL);
+    (void)stm32_tick_start(BOARD_CONTROL_PERIOD_US);
+    (void)hal_sys_watchdog_start(BOARD_WATCHDOG_MS);
+
+    uint64_t t_us = 0u;
+    uint32_t steps = 0u;
+    for (;;) {
+        (void)app_poll(&app, 0u);
+        const uint32_t periods = stm32_tick_take();
+        if (periods > 0u) {
+            /* The step's time is the end of the period that has elapsed, not
+             * when this loop got to it: steps stay evenly spaced. Missed
+             * periods are skipped (stm32_tick_overruns() counts them). */
+            t_us += (uint64_t)periods * BOARD_CONTROL_PERIOD_US;
+            app_control_tick(&app, t_us);
+            motors_from_last_step();
+            led_step(++steps, can_ok);
+            hal_sys_watchdog_kick();
+        }
+        /* Sleep until the next interrupt unless work arrived meanwhile. */
+        const uint32_t primask = cm_irq_save();
+        if (!stm32_can_rx_pending() && !stm32_tick_pending()) {
+            cm_wfi();
+        }
+        cm_irq_restore(primask);
+    }
+}

@@ -1,0 +1,85 @@
+/**
+ * @file stm32_calc.h
+ * @brief Board-independent computations of the STM32 ports: watchdog and
+ *        timer settings, PWM compare values, reset cause. Pure functions,
+ *        unit-tested on the host (tests/unit/test_stm32_calc.c).
+ *
+ * The IWDG and the general-purpose timers TIM2..TIM5 are the same IP on the
+ * F1 and F4. RM0090 sections first, RM0008 in brackets.
+ */
+#ifndef STM32_CALC_H
+#define STM32_CALC_H
+
+#include <stdint.h>
+
+#include "hal/hal_sys.h"
+
+/** @brief IWDG prescaler code and reload value. */
+typedef struct {
+    uint8_t pr;   /**< IWDG_PR: divider 4 · 2^pr, 0..6 */
+    uint16_t rlr; /**< IWDG_RLR, 0..4095 */
+} stm32_iwdg_t;
+
+/**
+ * @brief IWDG setting for a timeout of @p timeout_ms at LSI frequency
+ *        @p lsi_hz: timeout = 4 · 2^pr · (rlr + 1) / f_LSI (RM0090 §21.3.3
+ *        [§19.3.3]). The smallest divider that reaches the timeout (finest
+ *        step), the reload rounded up so the timeout is never shorter than
+ *        asked at the nominal frequency. The LSI is not trimmed (F4: 17..47
+ *        kHz, F1: 30..60 kHz): the real timeout is this one × nominal / actual.
+ * @retval 0 done. @retval -EINVAL timeout 0, lsi_hz 0, or longer than
+ *         4095 · 256 / f_LSI can hold (32.7 s at 32 kHz).
+ */
+int stm32_iwdg_config(uint32_t timeout_ms, uint32_t lsi_hz, stm32_iwdg_t *out);
+
+/** @brief A timer's prescaler and auto-reload: update every
+ *         (psc + 1)(arr + 1) timer clocks. */
+typedef struct {
+    uint16_t psc;
+    uint16_t arr;
+} stm32_timer_t;
+
+/**
+ * @brief Prescaler and auto-reload for an update event every @p period_us,
+ *        on a 16-bit timer (TIM2 and TIM5 are 32-bit on the F4, 16-bit on
+ *        the F1: 16 bits serve both) clocked at @p clk_hz (RM0090 §18.3.1
+ *        [§15.3.1]). The smallest prescaler whose period is exact; when none
+ *        is, the smallest prescaler that fits, rounded to the nearest count.
+ * @param[out] err_ppm the period's error [ppm] (0 when exact).
+ * @retval 0 done. @retval -EINVAL period 0, or longer than 2^32 clocks.
+ */
+int stm32_timer_period(uint32_t clk_hz, uint32_t period_us, stm32_timer_t *out, int32_t *err_ppm);
+
+/**
+ * @brief Compare value (CCRx) for a duty of |@p cmd| / full_scale on a timer
+ *        counting 0..@p arr in PWM mode 1 (output high while CNT < CCR):
+ *        0 → 0 (always low), full scale or more → arr + 1 (always high),
+ *        else rounded to nearest.
+ */
+uint32_t stm32_pwm_compare(int32_t cmd, int32_t full_scale, uint32_t arr);
+
+/** @brief Reset flags of RCC_CSR, at the same positions on the F1 and F4
+ *         (RM0090 §7.3.21 [§7.3.10]). */
+enum {
+    STM32_RCC_CSR_BORRSTF = 1u << 25, /**< F4 only */
+    STM32_RCC_CSR_PINRSTF = 1u << 26,
+    STM32_RCC_CSR_PORRSTF = 1u << 27,
+    STM32_RCC_CSR_SFTRSTF = 1u << 28,
+    STM32_RCC_CSR_IWDGRSTF = 1u << 29,
+    STM32_RCC_CSR_WWDGRSTF = 1u << 30,
+    STM32_RCC_CSR_LPWRRSTF = 1u << 31,
+};
+
+/**
+ * @brief Cause of the last reset from RCC_CSR. Several flags are set at
+ *        once (every internal reset also drives NRST, so PINRSTF comes with
+ *        all of them, and a power-on sets PINRSTF too): the most specific
+ *        wins, in this order: watchdog (IWDG or WWDG), software, power-on or
+ *        brown-out, low-power, pin.
+ */
+hal_reset_cause_t stm32_reset_cause(uint32_t csr);
+
+/** @brief SysTick reload for a 1 kHz tick from the core clock (24 bits). */
+uint32_t stm32_systick_reload(uint32_t sysclk_hz);
+
+#endif /* STM32_CALC_H */

@@ -1,0 +1,42 @@
+/**
+ * @file stm32_hal.h
+ * @brief Internal interface between the shared STM32 drivers (hal/stm32/*.c)
+ *        and the board main loop (hal/stm32/main.c). Not a HAL service: the
+ *        firmware never sees it.
+ */
+#ifndef STM32_HAL_H
+#define STM32_HAL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+/** @brief Start SysTick (hal_time) from the core clock. Task context. */
+void stm32_time_init(uint32_t sysclk_hz);
+
+/**
+ * @brief Start the control-period timer (board_config.h: BOARD_TICK_TIM):
+ *        an update interrupt every @p period_us, which only counts.
+ * @retval 0 started. @retval -EINVAL no setting for this period.
+ */
+int stm32_tick_start(uint32_t period_us);
+
+/** @brief Control periods elapsed since the last call (0 when none): the
+ *         main loop's "timer flag". Task context. */
+uint32_t stm32_tick_take(void);
+
+/** @brief A period elapsed that stm32_tick_take() has not taken yet (the
+ *         main loop checks it, interrupts masked, before sleeping). */
+bool stm32_tick_pending(void);
+
+/** @brief Periods the main loop missed (more than one elapsed between two
+ *         stm32_tick_take() calls), since start. */
+uint32_t stm32_tick_overruns(void);
+
+/** @brief A received frame is waiting (the main loop checks it, interrupts
+ *         masked, before sleeping). */
+bool stm32_can_rx_pending(void);
+
+/** @brief The bit rate hal_can_open() set up [bit/s] (0 when not open). */
+uint32_t stm32_can_bitrate(void);
+
+#endif /* STM32_HAL_H */

@@ -1,0 +1,67 @@
+/**
+ * @file board_config.h
+ * @brief STM32F103 board: clocks, pins and peripheral choices. Edit the pin
+ *        map here for another F103 board; the rest of the port follows.
+ *
+ * Target: STM32F103C8 (64 KB flash, 20 KB SRAM; LQFP48), as on the common
+ * "blue pill" boards: 8 MHz crystal, LED on PC13 (active low). Clocked at
+ * 72 MHz, the datasheet maximum. CAN on PB8/PB9 (remap 2): PA11/PA12 go to
+ * the USB connector on those boards. Pins as on the F405 port where the
+ * families allow:
+ *
+ *   signal         pin   function
+ *   CAN_RX         PB8   input pull-up (CAN remap 2, RM0008 §9.3.3)
+ *   CAN_TX         PB9   alternate push-pull
+ *   PWM left       PA6   TIM3_CH1 (no remap), alternate push-pull
+ *   PWM right      PA7   TIM3_CH2
+ *   DIR left       PB0   output, high = forward
+ *   DIR right      PB1   output, high = forward
+ *   driver enable  PB12  output, high = enabled (fit a pull-down)
+ *   status LED     PC13  output, low = on
+ */
+#ifndef BOARD_CONFIG_H
+#define BOARD_CONFIG_H
+
+#include "stm32_regs.h"
+
+#define BOARD_NAME "stm32f103"
+
+/** @brief Crystal [Hz]. board.c's PLL settings assume 8 MHz. */
+#define BOARD_HSE_HZ 8000000u
+/** @brief LSI nominal frequency [Hz] (datasheet DS5319: 30..60 kHz). */
+#define BOARD_LSI_HZ 40000u
+
+/** @brief CAN bit rate [bit/s]: 500000 or 1000000 (any rate with an exact
+ *         timing from 36 MHz works). */
+#ifndef BOARD_CAN_BITRATE
+#define BOARD_CAN_BITRATE 500000u
+#endif
+/** @brief Control period [µs]. */
+#ifndef BOARD_CONTROL_PERIOD_US
+#define BOARD_CONTROL_PERIOD_US 20000u
+#endif
+/** @brief Watchdog time-out [ms] at the nominal LSI: 5 control periods. At
+ *         the fastest LSI (60 kHz) it is 67 ms, still over 3 periods. */
+#ifndef BOARD_WATCHDOG_MS
+#define BOARD_WATCHDOG_MS 100u
+#endif
+/** @brief Motor PWM frequency [Hz]: above hearing. */
+#define BOARD_PWM_HZ 20000u
+
+/* ST's F1 SVD names the controller CAN; the generator makes it CAN1. IRQ 19
+ * and 20 are shared with USB (USB_HP_CAN_TX, USB_LP_CAN_RX0); USB is unused. */
+#define BOARD_CAN CAN1
+#define BOARD_CAN_TX_IRQn CAN1_TX_IRQn
+#define BOARD_CAN_RX0_IRQn CAN1_RX0_IRQn
+#define BOARD_CAN_SCE_IRQn CAN1_SCE_IRQn
+#define BOARD_CAN_TX_IRQHandler CAN1_TX_IRQHandler
+#define BOARD_CAN_RX0_IRQHandler CAN1_RX0_IRQHandler
+#define BOARD_CAN_SCE_IRQHandler CAN1_SCE_IRQHandler
+
+#define BOARD_TICK_TIM TIM2
+#define BOARD_TICK_IRQn TIM2_IRQn
+#define BOARD_TICK_IRQHandler TIM2_IRQHandler
+
+#define BOARD_PWM_TIM TIM3
+
+#endif /* BOARD_CONFIG_H */

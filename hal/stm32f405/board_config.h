@@ -1,0 +1,65 @@
+/**
+ * @file board_config.h
+ * @brief STM32F405 board: clocks, pins and peripheral choices. Edit the pin
+ *        map here for another F405 board; the rest of the port follows.
+ *
+ * Target: STM32F405RG (1 MB flash, 128 KB SRAM + 64 KB CCM; LQFP64), 8 MHz
+ * crystal, clocked at 168 MHz (the datasheet maximum, VOS scale 1).
+ * CAN1 on PB8/PB9 (AF9), the pins that VESC 4.x/6.x and ODrive v3 boards use
+ * for their transceiver. Motor outputs for two PWM/DIR H-bridge drivers:
+ *
+ *   signal         pin   function
+ *   CAN1_RX        PB8   AF9
+ *   CAN1_TX        PB9   AF9
+ *   PWM left       PA6   TIM3_CH1, AF2
+ *   PWM right      PA7   TIM3_CH2, AF2
+ *   DIR left       PB0   output, high = forward
+ *   DIR right      PB1   output, high = forward
+ *   driver enable  PB12  output, high = enabled (fit a pull-down: low
+ *                        through reset and until the firmware drives it)
+ *   status LED     PB5   output, high = on
+ */
+#ifndef BOARD_CONFIG_H
+#define BOARD_CONFIG_H
+
+#include "stm32_regs.h"
+
+#define BOARD_NAME "stm32f405"
+
+/** @brief Crystal [Hz]. board.c's PLL settings assume 8 MHz. */
+#define BOARD_HSE_HZ 8000000u
+/** @brief LSI nominal frequency [Hz] (datasheet DS8626: 17..47 kHz). */
+#define BOARD_LSI_HZ 32000u
+
+/** @brief CAN bit rate [bit/s]: 500000 or 1000000 (any rate with an exact
+ *         timing from 42 MHz works). */
+#ifndef BOARD_CAN_BITRATE
+#define BOARD_CAN_BITRATE 500000u
+#endif
+/** @brief Control period [µs]. */
+#ifndef BOARD_CONTROL_PERIOD_US
+#define BOARD_CONTROL_PERIOD_US 20000u
+#endif
+/** @brief Watchdog time-out [ms] at the nominal LSI: 5 control periods. At
+ *         the fastest LSI (47 kHz) it is 68 ms, still over 3 periods. */
+#ifndef BOARD_WATCHDOG_MS
+#define BOARD_WATCHDOG_MS 100u
+#endif
+/** @brief Motor PWM frequency [Hz]: above hearing. */
+#define BOARD_PWM_HZ 20000u
+
+#define BOARD_CAN CAN1
+#define BOARD_CAN_TX_IRQn CAN1_TX_IRQn
+#define BOARD_CAN_RX0_IRQn CAN1_RX0_IRQn
+#define BOARD_CAN_SCE_IRQn CAN1_SCE_IRQn
+#define BOARD_CAN_TX_IRQHandler CAN1_TX_IRQHandler
+#define BOARD_CAN_RX0_IRQHandler CAN1_RX0_IRQHandler
+#define BOARD_CAN_SCE_IRQHandler CAN1_SCE_IRQHandler
+
+#define BOARD_TICK_TIM TIM2
+#define BOARD_TICK_IRQn TIM2_IRQn
+#define BOARD_TICK_IRQHandler TIM2_IRQHandler
+
+#define BOARD_PWM_TIM TIM3
+
+#endif /* BOARD_CONFIG_H */

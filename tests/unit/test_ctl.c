@@ -1,0 +1,483 @@
+/*
+ * Unity tests of firmware/ctrl/ctl: parameters (Table 1 defaults and their
+ * check), and the control step end to end (supervisor, active controller,
+ * kinematics) on hand-derived cases.
+ *
+ * Expected values: hand derivations written beside them, with the closed
+ * forms of eq. (1)-(3), (21)-(24) and the kinematics of kin.h evaluated in
+ * double inside the test where a number has many digits.
+ */
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "ctrl/ctl.h"
+#include "test_util.h"
+#include "unity.h"
+
+/* ------------------------------------------------------------ tolerances */
+
+/* Parameters as stored [m, gains]: conversion of values ≤ 100. float: the
+ * literal to float, 1 ulp relative; fixed: half a Q16.16 lsb. */
+#define TOL_PARAM TU_TOL(1e-5, 1e-5)
+/* e1, e2 [m], e3 [rad] for differences ≤ 0.2 m. float: a few roundings of
+ * values ≤ 0.2 (7.5e-9) and sin/cos of 0.1 (7.5e-9); fixed: sin/cos error
+ * 1e-4 times 0.2 m plus Q16.16 roundings, and 2e-5 for e3. */
+#define TOL_ERR TU_TOL(1e-6, 1e-4)
+/* v [m/s], ω [rad/s] ≤ 9 in tracking: float: ~10 roundings of values ≤ 1
+ * (6e-8) → 1e-6; fixed: cos/sin error 1e-4 times k3·v_r = 3 → 3e-4, plus
+ * products. */
+#define TOL_VW TU_TOL(2e-6, 1e-3)
+/* Wheel speeds [rad/s] ≤ 40: v and ω errors above divided by r = 0.05
+ * (×20, ×3 for ω·L/2r). float: 8e-5 → 1e-4; fixed: 1e-3·(20 + 3) → 2.5e-2. */
+#define TOL_WHEEL TU_TOL(1e-4, 2.5e-2)
+/* Avoidance ω [rad/s] ≤ 9: β̇ (|u| = 0.35) and k2 = 6 times e. float:
+ * β̇ 2e-5 plus 6·1e-6; fixed: β̇ 3e-3 plus 6·3e-4. */
+#define TOL_OMEGA_AVD TU_TOL(5e-5, 6e-3)
+/* Avoidance wheel speeds ≤ 40: ω error times L/2r = 3 plus v error ×20.
+ * float: 2e-4; fixed: 6e-3·3 + 1e-3·20 → 4e-2. */
+#define TOL_WHEEL_AVD TU_TOL(2e-4, 4e-2)
+/* Heading error e [rad] on the safe circle. float: atan2f and a subtraction
+ * (≤ 5e-7); fixed: atan2 error ~1e-4 plus Q16.16 rounding of u ≈ 3e-5 over
+ * |u| = 0.35. */
+#define TOL_E TU_TOL(1e-6, 3e-4)
+/* Distances [m] ≤ 1 in the status: float: hypotf, 1 ulp (1.2e-7); fixed:
+ * Q16.16 root, 2 lsb. */
+#define TOL_DIST TU_TOL(5e-7, 4e-5)
+
+static ctl_t c;
+static ctl_output_t out;
+
+/* Geometry of ctl.h's defaults. */
+#define R_WHEEL 0.05
+#define HALF_TRACK 0.15
+
+void setUp(void)
+{
+    memset(&c, 0, sizeof c);
+    memset(&out, 0, sizeof out);
+    ctl_params_t p;
+    ctl_params_default(&p);
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+}
+
+void tearDown(void) {}
+
+static ctl_input_t input(pose_t robot, pose_t ref, double v_r, double w_r,
+                         const sup_obstacle_t *obs, size_t n, uint64_t t_us)
+{
+    ctl_input_t in;
+    in.robot = robot;
+    in.ref = ref;
+    in.v_r = tu_num(v_r);
+    in.w_r = tu_num(w_r);
+    in.obstacles = obs;
+    in.n_obstacles = n;
+    in.t_us = t_us;
+    return in;
+}
+
+static sup_obstacle_t obstacle(uint8_t id, double x, double y, double radius)
+{
+    sup_obstacle_t o;
+    o.id = id;
+    o.x = tu_num(x);
+    o.y = tu_num(y);
+    o.radius = tu_num(radius);
+    return o;
+}
+
+/* ------------------------------------------------------------ parameters */
+
+static void test_ctl_defaults_are_table_1(void)
+{
+    ctl_params_t p;
+    memset(&p, 0, sizeof p);
+    ctl_params_default(&p);
+    /* Table 1: R_m 0.2, R_ob 0.1, D_det 3.5, D_act 0.5, D_s 0.35; tracking
+     * gains 3, 12, 6; avoidance gains 3, 6. ctl.h: r 0.05, L 0.3, 100 rad/s. */
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.2, p.r_m);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.1, p.r_ob);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 3.5, p.d_det);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.5, p.d_act);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, p.d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 3.0, p.trk.k1);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 12.0, p.trk.k2);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 6.0, p.trk.k3);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 3.0, p.avd.k1);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 6.0, p.avd.k2);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.05, p.kin.wheel_radius);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.3, p.kin.track_width);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 100.0, p.kin.max_wheel_speed);
+    TEST_ASSERT_EQUAL_INT(0, ctl_params_check(&p));
+}
+
+/* Apply one change to the defaults and expect ctl_params_check's verdict. */
+#define EXPECT_CHECK(expected, change)                                                   \
+    do {                                                                                 \
+        ctl_params_t p_;                                                                 \
+        ctl_params_default(&p_);                                                         \
+        change;                                                                          \
+        TEST_ASSERT_EQUAL_INT_MESSAGE((expected), ctl_params_check(&p_), #change);       \
+    } while (0)
+
+static void test_ctl_params_check_rejects_each_bad_parameter(void)
+{
+    /* D_s < D_act (Definition 4): D_s = D_act and D_s > D_act rejected. */
+    EXPECT_CHECK(-EINVAL, p_.d_s = tu_num(0.5));
+    EXPECT_CHECK(-EINVAL, p_.d_s = tu_num(0.6));
+    EXPECT_CHECK(-EINVAL, p_.d_act = tu_num(0.3));
+    /* D_s ≥ R_m (Definition 2, eq. (6)). */
+    EXPECT_CHECK(-EINVAL, p_.d_s = tu_num(0.19));
+    EXPECT_CHECK(-EINVAL, p_.r_m = tu_num(0.36));
+    /* D_act ≤ D_det. */
+    EXPECT_CHECK(-EINVAL, p_.d_det = tu_num(0.4));
+    /* Every value > 0. */
+    EXPECT_CHECK(-EINVAL, p_.r_m = NUM_ZERO);
+    EXPECT_CHECK(-EINVAL, p_.r_m = tu_num(-0.2));
+    EXPECT_CHECK(-EINVAL, p_.r_ob = NUM_ZERO);
+    EXPECT_CHECK(-EINVAL, p_.r_ob = tu_num(-0.1));
+    EXPECT_CHECK(-EINVAL, p_.trk.k1 = NUM_ZERO);
+    EXPECT_CHECK(-EINVAL, p_.trk.k2 = tu_num(-12.0));
+    EXPECT_CHECK(-EINVAL, p_.trk.k3 = NUM_ZERO);
+    EXPECT_CHECK(-EINVAL, p_.avd.k1 = tu_num(-3.0));
+    EXPECT_CHECK(-EINVAL, p_.avd.k2 = NUM_ZERO);
+    EXPECT_CHECK(-EINVAL, p_.kin.wheel_radius = NUM_ZERO);
+    EXPECT_CHECK(-EINVAL, p_.kin.track_width = tu_num(-0.3));
+    EXPECT_CHECK(-EINVAL, p_.kin.max_wheel_speed = NUM_ZERO);
+}
+
+static void test_ctl_params_check_accepts_the_boundaries(void)
+{
+    /* D_s = R_m is allowed (D_s ≥ R_m), D_act = D_det too (D_act ≤ D_det). */
+    EXPECT_CHECK(0, p_.d_s = tu_num(0.2));
+    EXPECT_CHECK(0, p_.d_det = tu_num(0.5));
+    /* Other valid values. */
+    EXPECT_CHECK(0, (p_.trk.k1 = tu_num(0.5), p_.avd.k2 = tu_num(20.0)));
+}
+
+#ifndef NUM_FIXED
+/* Float mode only: Q16.16 has no NaN or infinity, so these parameters cannot
+ * be built in fixed mode. */
+static void test_ctl_params_check_rejects_non_finite_values(void)
+{
+    EXPECT_CHECK(-EINVAL, p_.d_s = num_from_float(NAN));
+    EXPECT_CHECK(-EINVAL, p_.d_act = num_from_float(NAN));
+    EXPECT_CHECK(-EINVAL, p_.d_det = num_from_float(INFINITY));
+    EXPECT_CHECK(-EINVAL, p_.r_m = num_from_float(NAN));
+    EXPECT_CHECK(-EINVAL, p_.r_ob = num_from_float(INFINITY));
+    EXPECT_CHECK(-EINVAL, p_.trk.k2 = num_from_float(NAN));
+    EXPECT_CHECK(-EINVAL, p_.avd.k1 = num_from_float(INFINITY));
+    EXPECT_CHECK(-EINVAL, p_.kin.wheel_radius = num_from_float(NAN));
+    EXPECT_CHECK(-EINVAL, p_.kin.max_wheel_speed = num_from_float(INFINITY));
+}
+#endif
+
+static void test_ctl_init_with_bad_parameters_falls_back_to_defaults(void)
+{
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.d_s = tu_num(0.6); /* ≥ D_act */
+    p.trk.k1 = tu_num(-1.0);
+    TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_init(&c, &p));
+    /* ctl.h: left reset with default parameters. */
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, c.p.d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 3.0, c.p.trk.k1);
+    TEST_ASSERT_EQUAL_INT(0, ctl_params_check(&c.p));
+    /* A step stays safe: the tracking hand case below, same wheels. */
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.2, 0.0, 0.0), 0.0, 0.1, NULL, 0, 0);
+    ctl_step(&c, &in, &out);
+    /* v = 0 + 3·0.2 = 0.6 (default k1 = 3, not −1), ω = 0.1:
+     * ω_R = (0.6 + 0.015)/0.05 = 12.3, ω_L = (0.6 − 0.015)/0.05 = 11.7. */
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 12.3, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 11.7, out.wheels.left);
+}
+
+/* ---------------------------------------------------------------- tracking */
+
+static void test_ctl_tracking_step_gives_eq2_eq3_wheel_speeds(void)
+{
+    /* Robot (0, 0, 0), ref (0.1, 0.05, 0.1), v_r 0.5, ω_r 0.1, no obstacles.
+     * Eq. (1), θ = 0: e1 = 0.1, e2 = 0.05, e3 = 0.1.
+     * Eq. (2): v = 0.5 cos 0.1 + 3·0.1 = 0.4975021 + 0.3 = 0.7975021.
+     * Eq. (3): ω = 0.1 + 12·0.5·0.05 + 6·0.5·sin 0.1 = 0.1 + 0.3 + 0.2995002
+     *        = 0.6995002.
+     * Wheels: ω_R = (v + 0.15 ω)/0.05 = 18.0485, ω_L = (v − 0.15 ω)/0.05
+     *        = 13.8515 (to 4 decimals; closed form in double below). */
+    ctl_input_t in =
+        input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.05, 0.1), 0.5, 0.1, NULL, 0, 123456);
+    ctl_step(&c, &in, &out);
+    const double e1 = tu_q(0.1), e2 = tu_q(0.05), e3 = tu_q(0.1);
+    const double v = 0.5 * cos(e3) + 3.0 * e1;
+    const double w = tu_q(0.1) + 12.0 * 0.5 * e2 + 6.0 * 0.5 * sin(e3);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 0.7975021, 0.5 * cos(0.1) + 0.3);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 0.6995002, 0.4 + 3.0 * sin(0.1));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-4, 18.0485, (0.7975021 + 0.15 * 0.6995002) / 0.05);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-4, 13.8515, (0.7975021 - 0.15 * 0.6995002) / 0.05);
+
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, (v + HALF_TRACK * w) / R_WHEEL, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, (v - HALF_TRACK * w) / R_WHEEL, out.wheels.left);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.active_obstacle);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_NONE, out.status.side);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.1, out.status.err.e1);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.05, out.status.err.e2);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.1, out.status.err.e3);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.0, out.status.e);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, v, out.status.v);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, w, out.status.w);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults);
+    TEST_ASSERT_EQUAL_size_t(0, out.n_events);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.n_obstacles);
+}
+
+static void test_ctl_tracking_in_a_rotated_frame(void)
+{
+    /* Robot (1, 2, π/2), ref (0.9, 2.2, π/2 + 0.05), v_r 0.4, ω_r −0.2.
+     * Eq. (1), θ = π/2: e1 = Δy = 0.2, e2 = −Δx = 0.1, e3 = 0.05.
+     * v = 0.4 cos 0.05 + 0.6 = 0.9995001; ω = −0.2 + 12·0.4·0.1 + 6·0.4·sin 0.05
+     *   = −0.2 + 0.48 + 0.1199500 = 0.3999500. */
+    ctl_input_t in = input(tu_pose(1.0, 2.0, TU_PI / 2), tu_pose(0.9, 2.2, TU_PI / 2 + 0.05), 0.4,
+                           -0.2, NULL, 0, 0);
+    ctl_step(&c, &in, &out);
+    const double v = 0.4 * cos(0.05) + 0.6, w = -0.2 + 0.48 + 2.4 * sin(0.05);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 0.9995001, v);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 0.3999500, w);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.2, out.status.err.e1);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.1, out.status.err.e2);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.05, out.status.err.e3);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, (v + HALF_TRACK * w) / R_WHEEL, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, (v - HALF_TRACK * w) / R_WHEEL, out.wheels.left);
+}
+
+static void test_ctl_saturation_scales_wheels_and_reports_it(void)
+{
+    /* The first tracking case with a 10 rad/s limit: ω_R = 18.0485 is the
+     * larger, factor k = 10/ω_R: right → 10, left → 13.8515·k = 7.6746.
+     * The status reports v, ω after saturation: both times k. */
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.kin.max_wheel_speed = tu_num(10.0);
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.05, 0.1), 0.5, 0.1, NULL, 0, 0);
+    ctl_step(&c, &in, &out);
+    const double v = 0.5 * cos(tu_q(0.1)) + 3.0 * tu_q(0.1);
+    const double w = tu_q(0.1) + 12.0 * 0.5 * tu_q(0.05) + 3.0 * sin(tu_q(0.1));
+    const double right = (v + HALF_TRACK * w) / R_WHEEL, left = (v - HALF_TRACK * w) / R_WHEEL;
+    const double k = 10.0 / right;
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 10.0, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, left * k, out.wheels.left);
+    TEST_ASSERT_TRUE(out.wheels.right <= p.kin.max_wheel_speed);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_SATURATED) != 0);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, v * k, out.status.v);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, w * k, out.status.w);
+    /* Without saturation the bit is clear (previous test's case, limit 100). */
+    setUp();
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_SATURATED) == 0);
+}
+
+/* ------------------------------------------------------------------- stop */
+
+static void test_ctl_p3_gives_zero_wheel_speeds(void)
+{
+    /* v_r = ω_r = 0 with the robot 0.2 m behind the reference: the tracking
+     * law alone would give v = k1·e1 = 0.6; p3 gives v = ω = 0. */
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.2, 0.1, 0.3), 0.0, 0.0, NULL, 0, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_STOP, out.status.mode);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.0, out.wheels.left);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.0, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.w);
+}
+
+/* ------------------------------------------------------------- non-finite */
+
+#ifndef NUM_FIXED
+/* Float mode only: Q16.16 has no NaN or infinity, so a non-finite input
+ * cannot be built in fixed mode and the guard has nothing to catch there. */
+static void test_ctl_non_finite_input_stops_the_robot(void)
+{
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0), ref = tu_pose(0.1, 0.05, 0.1);
+    const num_t q_nan = num_from_float(NAN), q_inf = num_from_float(INFINITY);
+    for (int k = 0; k < 8; k++) {
+        setUp();
+        ctl_input_t in = input(robot, ref, 0.5, 0.1, NULL, 0, 0);
+        const char *what = "";
+        switch (k) {
+        case 0: in.robot.x = q_nan; what = "robot.x NaN"; break;
+        case 1: in.robot.y = q_inf; what = "robot.y inf"; break;
+        case 2: in.robot.theta = q_nan; what = "robot.theta NaN"; break;
+        case 3: in.ref.x = num_neg(q_inf); what = "ref.x -inf"; break;
+        case 4: in.ref.y = q_nan; what = "ref.y NaN"; break;
+        case 5: in.ref.theta = q_inf; what = "ref.theta inf"; break;
+        case 6: in.v_r = q_inf; what = "v_r inf"; break;
+        default: in.w_r = q_nan; what = "w_r NaN"; break;
+        }
+        ctl_step(&c, &in, &out);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(SUP_MODE_STOP, out.status.mode, what);
+        TEST_ASSERT_TRUE_MESSAGE(out.wheels.left == 0.0f && out.wheels.right == 0.0f, what);
+        TEST_ASSERT_TRUE_MESSAGE((out.status.faults & CTL_FAULT_INPUT_NONFINITE) != 0, what);
+    }
+}
+
+static void test_ctl_non_finite_input_leaves_the_supervisor_untouched(void)
+{
+    /* Step 1: obstacle 1 detected 2 m away. Step 2: NaN pose, and a new
+     * obstacle 2 reported: no event, the table unchanged. Step 3: valid
+     * again: obstacle 2 is new, so it is detected now. */
+    sup_obstacle_t o[2] = {obstacle(1, 2.0, 0.0, 0.1), obstacle(2, 0.0, 2.0, 0.1)};
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(1, out.n_events);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, o, 2, 20000);
+    in.robot.x = num_from_float(NAN);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(0, out.n_events);
+    TEST_ASSERT_EQUAL_UINT8(1, c.sup.n_obs);
+    in.robot.x = NUM_ZERO;
+    in.t_us = 40000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(1, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, out.events[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(2, out.events[0].obstacle);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_INPUT_NONFINITE) == 0);
+}
+#endif
+
+/* ----------------------------------------------------------- avoidance */
+
+static void test_ctl_avoidance_step_on_the_safe_circle(void)
+{
+    /* Robot (0, 0, 0.3); ref beside it, 0.1 m to its left:
+     * (−0.1 sin 0.3, 0.1 cos 0.3), θ_r = 0.3 → e1 = 0, e2 = 0.1, e3 = 0.
+     * Obstacle 6 at (0.35, 0): D_r = 0.35 < 0.5; u2 = (−0.0296 − 0.35,
+     * 0.0955), |u2| = 0.39 < 0.5 → p1 false → p2 → ACTIVATE; φ = 0,
+     * θ − φ = 0.3 → LEFT.
+     * Eq. (23): v = 0.5 cos 0 + 3·0 = 0.5 (= v_r, so β̇ below is the same
+     * whichever of v and v_r the step feeds it).
+     * On the safe circle, LEFT, obstacle east: β = π/2;
+     * e = π/2 − 0.3 = 1.2707963;
+     * β̇ = v (cos θ − sin θ)/D_s = 0.5 (0.9553365 − 0.2955202)/0.35 = 0.9425947
+     * (derived in test_avd.c: u̇ = (−q̇_x + q̇_y, −q̇_x), β̇ = −u̇_x/D_s);
+     * ω = β̇ + 6 e = 0.9425947 + 7.6247780 = 8.5673727.
+     * Wheels: ω_R = (0.5 + 0.15 ω)/0.05 = 35.702118,
+     *         ω_L = (0.5 − 0.15 ω)/0.05 = −15.702118. */
+    const double th = 0.3;
+    sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, th), tu_pose(-0.1 * sin(th), 0.1 * cos(th), th), 0.5,
+                           0.0, &o, 1, 7000000);
+    ctl_step(&c, &in, &out);
+
+    TEST_ASSERT_EQUAL_size_t(2, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, out.events[0].kind);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_ACTIVATE, out.events[1].kind);
+    TEST_ASSERT_EQUAL_UINT8(6, out.events[1].obstacle);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.events[1].side);
+    TEST_ASSERT_EQUAL_UINT64(7000000, out.events[1].t_us);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(6, out.status.active_obstacle);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.status.side);
+    TEST_ASSERT_EQUAL_UINT8(1, out.status.n_obstacles);
+    TEST_ASSERT_EQUAL_UINT8(6, out.status.obstacle_id[0]);
+    TEST_ASSERT_NUM_WITHIN(TOL_DIST, 0.35, out.status.distance[0]);
+
+    const double t = tu_q(th);
+    const double e = TU_PI / 2 - t;
+    const double w = 0.5 * (cos(t) - sin(t)) / 0.35 + 6.0 * e;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 8.5673727, 0.5 * (cos(0.3) - sin(0.3)) / 0.35 +
+                                                   6.0 * (TU_PI / 2 - 0.3));
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.0, out.status.err.e1);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.1, out.status.err.e2);
+    TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.0, out.status.err.e3);
+    TEST_ASSERT_NUM_WITHIN(TOL_E, e, out.status.e);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.5, out.status.v);
+    TEST_ASSERT_NUM_WITHIN(TOL_OMEGA_AVD, w, out.status.w);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL_AVD, (0.5 + HALF_TRACK * w) / R_WHEEL, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL_AVD, (0.5 - HALF_TRACK * w) / R_WHEEL, out.wheels.left);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-5, 35.702118, (0.5 + 0.15 * 8.5673727) / 0.05);
+}
+
+static void test_ctl_avoidance_uses_the_obstacle_own_safe_distance(void)
+{
+    /* sup.h: an obstacle of radius 0.3 has D_s = 0.35 + 0.2 = 0.55 and
+     * D_act = 0.7. Robot (0, 0, 0.3) at 0.55 from obstacle 8 at (0.55, 0);
+     * ref as above (e1 = e3 = 0). 0.55 < 0.7 → ACTIVATE LEFT.
+     * On its safe circle: β = π/2 (with D_s = 0.35 it would be
+     * atan2(0.55, 0.2) = 1.22), e = π/2 − 0.3,
+     * β̇ = 0.5 (cos 0.3 − sin 0.3)/0.55 = 0.5998330, ω = β̇ + 6e = 8.2246110. */
+    const double th = 0.3;
+    sup_obstacle_t o = obstacle(8, 0.55, 0.0, 0.3);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, th), tu_pose(-0.1 * sin(th), 0.1 * cos(th), th), 0.5,
+                           0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.status.side);
+    const double t = tu_q(th);
+    const double e = TU_PI / 2 - t;
+    const double w = 0.5 * (cos(t) - sin(t)) / 0.55 + 6.0 * e;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 8.2246110, 0.5 * (cos(0.3) - sin(0.3)) / 0.55 +
+                                                   6.0 * (TU_PI / 2 - 0.3));
+    TEST_ASSERT_NUM_WITHIN(TOL_E, e, out.status.e);
+    TEST_ASSERT_NUM_WITHIN(TOL_OMEGA_AVD, w, out.status.w);
+}
+
+static void test_ctl_reports_dropped_obstacles(void)
+{
+    /* An id-0 report is rejected: CTL_FAULT_OBSTACLE_DROPPED, the step still
+     * runs (tracking). */
+    sup_obstacle_t o = obstacle(0, 1.0, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_OBSTACLE_DROPPED) != 0);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.n_obstacles);
+    /* v = 0.5 + 3·0.1 = 0.8, ω = 0: both wheels 0.8/0.05 = 16. */
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 16.0, out.wheels.left);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 16.0, out.wheels.right);
+    /* Next step without the bad report: the bit is of this step only. */
+    in.n_obstacles = 0;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_OBSTACLE_DROPPED) == 0);
+}
+
+static void test_ctl_reset_forgets_obstacles(void)
+{
+    sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    ctl_reset(&c);
+    in.n_obstacles = 0;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.n_obstacles);
+    /* Parameters are kept. */
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, c.p.d_s);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_ctl_defaults_are_table_1);
+    RUN_TEST(test_ctl_params_check_rejects_each_bad_parameter);
+    RUN_TEST(test_ctl_params_check_accepts_the_boundaries);
+#ifndef NUM_FIXED
+    RUN_TEST(test_ctl_params_check_rejects_non_finite_values);
+#endif
+    RUN_TEST(test_ctl_init_with_bad_parameters_falls_back_to_defaults);
+    RUN_TEST(test_ctl_tracking_step_gives_eq2_eq3_wheel_speeds);
+    RUN_TEST(test_ctl_tracking_in_a_rotated_frame);
+    RUN_TEST(test_ctl_saturation_scales_wheels_and_reports_it);
+    RUN_TEST(test_ctl_p3_gives_zero_wheel_speeds);
+#ifndef NUM_FIXED
+    RUN_TEST(test_ctl_non_finite_input_stops_the_robot);
+    RUN_TEST(test_ctl_non_finite_input_leaves_the_supervisor_untouched);
+#endif
+    RUN_TEST(test_ctl_avoidance_step_on_the_safe_circle);
+    RUN_TEST(test_ctl_avoidance_uses_the_obstacle_own_safe_distance);
+    RUN_TEST(test_ctl_reports_dropped_obstacles);
+    RUN_TEST(test_ctl_reset_forgets_obstacles);
+    return UNITY_END();
+}

@@ -1,0 +1,351 @@
+/*
+ * Unity tests of firmware/num: the scalar type and its operations.
+ *
+ * Expected values: hand values (written beside each), or libm in double on
+ * the value the input really holds (tu_q), which is an independent
+ * computation of the same closed form.
+ */
+#include <float.h>
+#include <stdio.h>
+
+#include "num/num.h"
+#include "test_util.h"
+#include "unity.h"
+
+/* ------------------------------------------------------------ tolerances */
+
+/* Values that must come back unchanged (in-range wrap, min/max/clamp): exact
+ * in both modes, the functions only select or return their input. */
+#define TOL_EXACT TU_TOL(0.0, 0.0)
+/* An angle of magnitude ≤ 2π after one reduction step. float: float(π) is
+ * 8.7e-8 above π and the result rounds to ulp(π)/2 = 1.2e-7; fixed: Q16.16
+ * π and 2π are within 2^-17 = 7.6e-6 and the result within one lsb 1.5e-5. */
+#define TOL_WRAP_ABS TU_TOL(4e-7, 3e-5)
+/* Growth of the wrap error with |a|, per radian of input. float: a − 2π·n
+ * loses half an ulp of |a| (6e-8·|a|) and float(2π)'s error 2.8e-8 times n
+ * turns; 4·FLT_EPSILON = 4.8e-7 covers both. fixed: Q16.16 2π is off by up to
+ * 7.6e-6, times n = |a|/2π turns: 1.2e-6·|a|; 2e-6 leaves margin. */
+#define TOL_WRAP_REL TU_TOL(4.8e-7, 2e-6)
+/* atan2, sin, cos results ≤ π. float: libm float versions are within 1-2 ulp
+ * of values ≤ π (2.4e-7 each); fixed: the trig error target of issue 3 is
+ * about 1e-4 rad (libfixmath), doubled for margin. */
+#define TOL_TRIG TU_TOL(5e-7, 2e-4)
+/* hypot and sqrt, absolute part. float: unused (relative part dominates);
+ * fixed: inputs rounded to 7.6e-6 each plus the root rounded to 1.5e-5. */
+#define TOL_ROOT_ABS TU_TOL(0.0, 6e-5)
+/* hypot and sqrt, relative part. float: hypotf/sqrtf are within 1 ulp
+ * (1.2e-7 relative), 3e-7 for margin; fixed: 1e-5 relative allows for a
+ * range reduction of large arguments before the root. */
+#define TOL_ROOT_REL TU_TOL(3e-7, 1e-5)
+/* One multiply or divide of values ≤ 4. float: one rounding, ulp(4)/2 =
+ * 2.4e-7; fixed: one Q16.16 rounding, 1.5e-5. */
+#define TOL_ARITH TU_TOL(2.4e-7, 1.6e-5)
+/* Conversion of a value ≤ 20000 from float and back. float: exact; fixed:
+ * rounding to the Q16.16 grid, half an lsb = 7.6e-6. */
+#define TOL_CONVERT TU_TOL(0.0, 7.7e-6)
+
+static double tol_wrap(double a) { return TOL_WRAP_ABS + TOL_WRAP_REL * fabs(a); }
+
+void setUp(void) {}
+void tearDown(void) {}
+
+/* ------------------------------------------------------------- num_wrap */
+
+static void test_num_wrap_leaves_interior_angles_unchanged(void)
+{
+    /* Already in (-π, π]: returned as they are. */
+    const double in[] = {0.0, 1.0, -1.0, 3.0, -3.0, 3.14, -3.14, 1e-3};
+    for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
+        num_t a = tu_num(in[i]);
+        TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_dbl(a), num_wrap(a));
+    }
+}
+
+static void test_num_wrap_maps_pi_to_pi(void)
+{
+    /* π is inside (-π, π]: it stays π (not -π). */
+    num_t r = num_wrap(NUM_PI);
+    TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_PI, r);
+    TEST_ASSERT_NUM_ANGLE_IN_RANGE(r);
+}
+
+static void test_num_wrap_maps_minus_pi_to_plus_pi(void)
+{
+    /* -π is outside (-π, π]; -π ≡ π, so the answer is +π. A plain
+     * closeness check to π fails on -π (off by 2π). */
+    num_t r = num_wrap(num_neg(NUM_PI));
+    TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_PI, r);
+    TEST_ASSERT_NUM_ANGLE_IN_RANGE(r);
+    /* The same from the literal, which rounds to the same or a neighbouring
+     * value just beyond -π. */
+    r = num_wrap(tu_num(-TU_PI));
+    TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_PI, r);
+    TEST_ASSERT_NUM_ANGLE_IN_RANGE(r);
+}
+
+static void test_num_wrap_odd_multiples_of_pi_land_on_the_seam(void)
+{
+    /* ±3π ≡ π. The inputs hold 3π only to within rounding, so the exact
+     * answer is π or -π + ε (both the seam); check the angle modulo 2π and
+     * the range. */
+    const double in[] = {3.0 * TU_PI, -3.0 * TU_PI, 5.0 * TU_PI, -7.0 * TU_PI};
+    for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
+        num_t r = num_wrap(tu_num(in[i]));
+        TEST_ASSERT_ANGLE_WITHIN(tol_wrap(in[i]), TU_PI, r);
+        TEST_ASSERT_NUM_ANGLE_IN_RANGE(r);
+    }
+}
+
+static void test_num_wrap_reduces_by_whole_turns(void)
+{
+    /* Hand values: subtract the whole number of turns k·2π. */
+    const struct {
+        double in, expected;
+    } c[] = {
+        {TU_TWO_PI, 0.0},                  /* 2π − 2π */
+        {-TU_TWO_PI, 0.0},                 /* −2π + 2π */
+        {TU_TWO_PI + 0.5, 0.5},            /* one turn */
+        {-2.0 * TU_TWO_PI - 0.5, -0.5},    /* two turns */
+        {7.0, 7.0 - TU_TWO_PI},            /* 0.7168147 */
+        {-7.0, -7.0 + TU_TWO_PI},          /* −0.7168147 */
+        {3.2, 3.2 - TU_TWO_PI},            /* just past π: −3.0831853 */
+        {-3.2, -3.2 + TU_TWO_PI},          /* just past −π: 3.0831853 */
+        {4.0 * TU_PI + 1.0, 1.0},          /* two turns */
+    };
+    char msg[64];
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        snprintf(msg, sizeof msg, "input %.9g", c[i].in);
+        num_t r = num_wrap(tu_num(c[i].in));
+        TEST_ASSERT_NUM_WITHIN_MESSAGE(tol_wrap(c[i].in), c[i].expected, r, msg);
+        TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(r, msg);
+    }
+}
+
+static void test_num_wrap_large_angles(void)
+{
+    /* Expected: libm remainder() in double of the value the input holds.
+     * Hand check: 100 − 16·2π = −0.5309649; −1000 + 159·2π = −0.9735362;
+     * 20000 − 3183·2π = 0.6211928 (Q16.16 holds up to 32767). */
+    const double in[] = {100.0, -1000.0, 20000.0, -20000.0};
+    char msg[64];
+    for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
+        snprintf(msg, sizeof msg, "input %.9g", in[i]);
+        num_t r = num_wrap(tu_num(in[i]));
+        TEST_ASSERT_NUM_WITHIN_MESSAGE(tol_wrap(in[i]), tu_wrap(tu_q(in[i])), r, msg);
+        TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(r, msg);
+    }
+    /* The hand value of the first, to check the reference itself. */
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, -0.5309649, tu_wrap(100.0));
+}
+
+static void test_num_wrap_sweep_stays_in_range_and_keeps_the_angle(void)
+{
+    /* Every input from −50 to 50 rad in steps of 0.37: result in (−π, π]
+     * and equal to the input modulo 2π (libm reference). */
+    char msg[64];
+    for (int i = -135; i <= 135; i++) {
+        double a = 0.37 * (double)i;
+        num_t r = num_wrap(tu_num(a));
+        snprintf(msg, sizeof msg, "input %.9g", a);
+        TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(r, msg);
+        TEST_ASSERT_ANGLE_WITHIN_MESSAGE(tol_wrap(a), tu_q(a), r, msg);
+    }
+}
+
+/* ------------------------------------------------------------ num_atan2 */
+
+static void test_num_atan2_four_quadrants(void)
+{
+    /* Hand values: the diagonals. */
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, TU_PI / 4.0, num_atan2(tu_num(1.0), tu_num(1.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, 3.0 * TU_PI / 4.0, num_atan2(tu_num(1.0), tu_num(-1.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -3.0 * TU_PI / 4.0, num_atan2(tu_num(-1.0), tu_num(-1.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -TU_PI / 4.0, num_atan2(tu_num(-1.0), tu_num(1.0)));
+    /* Off the diagonals, libm atan2 in double: (3, 4) → 0.6435011. */
+    const double yx[][2] = {{3.0, 4.0}, {4.0, -3.0}, {-0.05, -0.02}, {-100.0, 250.0}, {0.2, 7.0}};
+    char msg[64];
+    for (size_t i = 0; i < sizeof yx / sizeof yx[0]; i++) {
+        snprintf(msg, sizeof msg, "atan2(%g, %g)", yx[i][0], yx[i][1]);
+        TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_TRIG, atan2(tu_q(yx[i][0]), tu_q(yx[i][1])),
+                                       num_atan2(tu_num(yx[i][0]), tu_num(yx[i][1])), msg);
+    }
+}
+
+static void test_num_atan2_axes(void)
+{
+    /* Hand values on the axes; (0, −1) is π or −π (same angle). */
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, 0.0, num_atan2(tu_num(0.0), tu_num(2.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, TU_PI / 2.0, num_atan2(tu_num(2.0), tu_num(0.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -TU_PI / 2.0, num_atan2(tu_num(-2.0), tu_num(0.0)));
+    TEST_ASSERT_ANGLE_WITHIN(TOL_TRIG, TU_PI, num_atan2(tu_num(0.0), tu_num(-2.0)));
+    /* Documented: atan2(0, 0) = 0. */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, num_atan2(NUM_ZERO, NUM_ZERO));
+}
+
+/* ------------------------------------------------------------ num_hypot */
+
+static void test_num_hypot_known_triangles(void)
+{
+    /* Hand values: 3-4-5 triangles at several scales, signs, the axes. */
+    const double c[][3] = {
+        {3.0, 4.0, 5.0},       {-3.0, 4.0, 5.0},   {-3.0, -4.0, 5.0},  {0.0, -2.5, 2.5},
+        {0.003, 0.004, 0.005}, {0.0, 0.0, 0.0},    {-60.0, 80.0, 100.0},
+    };
+    char msg[64];
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        snprintf(msg, sizeof msg, "hypot(%g, %g)", c[i][0], c[i][1]);
+        TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_ROOT_ABS + TOL_ROOT_REL * c[i][2], c[i][2],
+                                       num_hypot(tu_num(c[i][0]), tu_num(c[i][1])), msg);
+    }
+}
+
+static void test_num_hypot_across_a_100_m_field_and_beyond(void)
+{
+    /* Diagonal of a 100 m × 100 m field: 100·√2 = 141.4213562 (issue 3: no
+     * squared distance may overflow there). */
+    TEST_ASSERT_NUM_WITHIN(TOL_ROOT_ABS + TOL_ROOT_REL * 141.5, 100.0 * sqrt(2.0),
+                           num_hypot(tu_num(100.0), tu_num(-100.0)));
+    /* num.h: "without intermediate overflow": 300² + 400² = 250000 is far
+     * beyond Q16.16's 32767, the result 500 is not. */
+    TEST_ASSERT_NUM_WITHIN(TOL_ROOT_ABS + TOL_ROOT_REL * 500.0, 500.0,
+                           num_hypot(tu_num(300.0), tu_num(400.0)));
+}
+
+static void test_num_sqrt_values_and_negative_input(void)
+{
+    TEST_ASSERT_NUM_WITHIN(TOL_ROOT_ABS + TOL_ROOT_REL * 1.5, sqrt(2.0), num_sqrt(tu_num(2.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_ROOT_ABS + TOL_ROOT_REL * 0.35, 0.35, num_sqrt(tu_num(0.1225)));
+    TEST_ASSERT_NUM_WITHIN(TOL_ROOT_ABS + TOL_ROOT_REL * 150.0, 150.0, num_sqrt(tu_num(22500.0)));
+    /* Documented: negative input gives 0. */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, num_sqrt(tu_num(-4.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, num_sqrt(NUM_ZERO));
+}
+
+/* ---------------------------------------------------- min, max, clamp */
+
+static void test_num_min_max_pick_the_right_operand(void)
+{
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(1.25), num_min(tu_num(1.25), tu_num(2.5)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(1.25), num_min(tu_num(2.5), tu_num(1.25)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(-2.0), num_min(tu_num(-1.0), tu_num(-2.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(2.5), num_max(tu_num(1.25), tu_num(2.5)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(2.5), num_max(tu_num(2.5), tu_num(1.25)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(-1.0), num_max(tu_num(-1.0), tu_num(-2.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(0.5), num_max(tu_num(0.5), tu_num(0.5)));
+}
+
+static void test_num_clamp_limits_and_passes_through(void)
+{
+    const num_t lo = tu_num(-1.0), hi = tu_num(2.0);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.0, num_clamp(tu_num(5.0), lo, hi));   /* above */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.0, num_clamp(tu_num(-5.0), lo, hi)); /* below */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(0.3), num_clamp(tu_num(0.3), lo, hi)); /* inside */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.0, num_clamp(tu_num(2.0), lo, hi));   /* on hi */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.0, num_clamp(tu_num(-1.0), lo, hi)); /* on lo */
+    /* lo == hi: everything becomes that value. */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.5, num_clamp(tu_num(-3.0), tu_num(0.5), tu_num(0.5)));
+}
+
+/* ------------------------------------------------- arithmetic, trig */
+
+static void test_num_arithmetic_hand_values(void)
+{
+    /* Hand values: 1.5·(−2.25) = −3.375; 1/3; 0.75 + 1.5 = 2.25; 0.75 − 1.5
+     * = −0.75; −(−0.5) = 0.5; |−1.75| = 1.75. */
+    TEST_ASSERT_NUM_WITHIN(TOL_ARITH, -3.375, num_mul(tu_num(1.5), tu_num(-2.25)));
+    TEST_ASSERT_NUM_WITHIN(TOL_ARITH, 1.0 / 3.0, num_div(tu_num(1.0), tu_num(3.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_ARITH, -4.0 / 3.0, num_div(tu_num(4.0), tu_num(-3.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.25, num_add(tu_num(0.75), tu_num(1.5)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -0.75, num_sub(tu_num(0.75), tu_num(1.5)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.5, num_neg(tu_num(-0.5)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 1.75, num_abs(tu_num(-1.75)));
+}
+
+static void test_num_sin_cos_hand_values(void)
+{
+    /* sin(π/6) = 0.5, cos(π/3) = 0.5, sin(−π/2) = −1, cos(π) = −1, cos(0) = 1,
+     * sin(3π/4) = √2/2. */
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, 0.5, num_sin(tu_num(TU_PI / 6.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, 0.5, num_cos(tu_num(TU_PI / 3.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -1.0, num_sin(tu_num(-TU_PI / 2.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -1.0, num_cos(NUM_PI));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, 1.0, num_cos(NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(TOL_TRIG, sqrt(2.0) / 2.0, num_sin(tu_num(3.0 * TU_PI / 4.0)));
+}
+
+static void test_num_conversions_round_trip(void)
+{
+    const double in[] = {0.0, 1.5, -0.1, 0.35, -12345.5, 20000.25};
+    char msg[64];
+    for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
+        snprintf(msg, sizeof msg, "value %g", in[i]);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(TOL_CONVERT + fabs(in[i]) * (double)FLT_EPSILON,
+                                          in[i], tu_q(in[i]), msg);
+    }
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -7.0, num_from_int(-7));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 1000.0, num_from_int(1000));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, NUM_ZERO);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 1.0, NUM_ONE);
+    TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_PI / 2.0, NUM_HALF_PI);
+    TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_TWO_PI, NUM_TWO_PI);
+}
+
+#ifndef NUM_FIXED
+/* Float mode only: Q16.16 has no NaN or infinity, so these values cannot be
+ * built in fixed mode; test_num_every_fixed_value_is_finite covers it. */
+static void test_num_is_finite_rejects_nan_and_inf(void)
+{
+    TEST_ASSERT_TRUE(num_is_finite(tu_num(1.0)));
+    TEST_ASSERT_TRUE(num_is_finite(NUM_MAX));
+    TEST_ASSERT_FALSE(num_is_finite(num_from_float(NAN)));
+    TEST_ASSERT_FALSE(num_is_finite(num_from_float(INFINITY)));
+    TEST_ASSERT_FALSE(num_is_finite(num_from_float(-INFINITY)));
+}
+#else
+/* Fixed mode: every Q16.16 value is a finite number. */
+static void test_num_every_fixed_value_is_finite(void)
+{
+    TEST_ASSERT_TRUE(num_is_finite(NUM_MAX));
+    TEST_ASSERT_TRUE(num_is_finite(num_neg(NUM_MAX)));
+    TEST_ASSERT_TRUE(num_is_finite(NUM_ZERO));
+}
+
+/* Issue 3: fixed-point helpers saturate, never wrap. 200·200 = 40000 and
+ * 30000 + 30000 = 60000 exceed Q16.16's 32767.99998. */
+static void test_num_fixed_overflow_saturates(void)
+{
+    TEST_ASSERT_TRUE(num_to_float(num_mul(tu_num(200.0), tu_num(200.0))) > 32767.0f);
+    TEST_ASSERT_TRUE(num_to_float(num_mul(tu_num(200.0), tu_num(-200.0))) < -32767.0f);
+    TEST_ASSERT_TRUE(num_to_float(num_add(tu_num(30000.0), tu_num(30000.0))) > 32767.0f);
+    TEST_ASSERT_TRUE(num_to_float(num_sub(tu_num(-30000.0), tu_num(30000.0))) < -32767.0f);
+}
+#endif
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_num_wrap_leaves_interior_angles_unchanged);
+    RUN_TEST(test_num_wrap_maps_pi_to_pi);
+    RUN_TEST(test_num_wrap_maps_minus_pi_to_plus_pi);
+    RUN_TEST(test_num_wrap_odd_multiples_of_pi_land_on_the_seam);
+    RUN_TEST(test_num_wrap_reduces_by_whole_turns);
+    RUN_TEST(test_num_wrap_large_angles);
+    RUN_TEST(test_num_wrap_sweep_stays_in_range_and_keeps_the_angle);
+    RUN_TEST(test_num_atan2_four_quadrants);
+    RUN_TEST(test_num_atan2_axes);
+    RUN_TEST(test_num_hypot_known_triangles);
+    RUN_TEST(test_num_hypot_across_a_100_m_field_and_beyond);
+    RUN_TEST(test_num_sqrt_values_and_negative_input);
+    RUN_TEST(test_num_min_max_pick_the_right_operand);
+    RUN_TEST(test_num_clamp_limits_and_passes_through);
+    RUN_TEST(test_num_arithmetic_hand_values);
+    RUN_TEST(test_num_sin_cos_hand_values);
+    RUN_TEST(test_num_conversions_round_trip);
+#ifndef NUM_FIXED
+    RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
+#else
+    RUN_TEST(test_num_every_fixed_value_is_finite);
+    RUN_TEST(test_num_fixed_overflow_saturates);
+#endif
+    return UNITY_END();
+}

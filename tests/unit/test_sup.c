@@ -1,0 +1,588 @@
+/*
+ * Unity tests of firmware/ctrl/sup: the switch strategy of section 4 of the
+ * paper (p1, p2, p3), detection (Definition 1), the held side, several
+ * obstacles (notes.md), events, rejected reports, and the radius offset of
+ * the thresholds (sup.h).
+ *
+ * Expected values are hand derivations, written beside each case: distances,
+ * dot products and sides of the small geometries used. Inputs at thresholds
+ * are chosen exact in binary (0.5, 0.375, 0.625, 3.5, ...) so that "at the
+ * threshold" means exactly that in float and in Q16.16.
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "ctrl/sup.h"
+#include "test_util.h"
+#include "unity.h"
+
+/* ------------------------------------------------------------ tolerances */
+
+/* Positions and per-obstacle thresholds [m] stored in the table, ≤ 5 m.
+ * float: one addition (ulp(5)/2 = 2.4e-7); fixed: two Q16.16 roundings. */
+#define TOL_M TU_TOL(1e-6, 4e-5)
+
+static sup_t s;
+static sup_event_t ev[SUP_MAX_EVENTS];
+static sup_decision_t d;
+
+void setUp(void)
+{
+    /* Table 1: R_ob 0.1, D_det 3.5, D_act 0.5, D_s 0.35. */
+    sup_params_t p;
+    p.r_ob = tu_num(0.1);
+    p.d_det = tu_num(3.5);
+    p.d_act = tu_num(0.5);
+    p.d_s = tu_num(0.35);
+    memset(&s, 0xA5, sizeof s); /* sup_init must set every field it relies on */
+    sup_init(&s, &p);
+    memset(ev, 0, sizeof ev);
+    memset(&d, 0, sizeof d);
+}
+
+void tearDown(void) {}
+
+static sup_obstacle_t obstacle(uint8_t id, double x, double y, double radius)
+{
+    sup_obstacle_t o;
+    o.id = id;
+    o.x = tu_num(x);
+    o.y = tu_num(y);
+    o.radius = tu_num(radius);
+    return o;
+}
+
+/* One supervisor step with the reference moving at 0.5 m/s (p3 false). */
+static void step(pose_t robot, pose_t ref, const sup_obstacle_t *reports, size_t n, uint64_t t_us)
+{
+    memset(ev, 0, sizeof ev);
+    sup_step(&s, &robot, &ref, tu_num(0.5), NUM_ZERO, reports, n, t_us, ev, &d);
+}
+
+static void expect_event(size_t i, sup_event_kind_t kind, uint8_t id, avd_side_t side,
+                         uint64_t t_us)
+{
+    char msg[64];
+    snprintf(msg, sizeof msg, "event %zu", i);
+    TEST_ASSERT_TRUE_MESSAGE(i < d.n_events, msg);
+    TEST_ASSERT_EQUAL_INT_MESSAGE((int)kind, (int)ev[i].kind, msg);
+    TEST_ASSERT_EQUAL_INT_MESSAGE((int)id, (int)ev[i].obstacle, msg);
+    TEST_ASSERT_EQUAL_INT_MESSAGE((int)side, (int)ev[i].side, msg);
+    TEST_ASSERT_EQUAL_UINT64_MESSAGE(t_us, ev[i].t_us, msg);
+}
+
+static void expect_avoiding(uint8_t id, avd_side_t side)
+{
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    TEST_ASSERT_NOT_NULL(d.active);
+    TEST_ASSERT_EQUAL_INT((int)id, (int)d.active->o.id);
+    TEST_ASSERT_EQUAL_INT((int)side, (int)d.side);
+}
+
+static void expect_tracking(void)
+{
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+    TEST_ASSERT_NULL(d.active);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_NONE, d.side);
+}
+
+/* ------------------------------------------------------------------ p1 */
+
+static void test_sup_p1_reference_distance_threshold(void)
+{
+    /* Obstacle (2, 1); robot at (2.3, 1): u1 = (0.3, 0). D_act = 0.5.
+     * ref (2.5, 1): u2 = (0.5, 0), |u2| = D_act, not > → false.
+     * ref (2.501, 1): |u2| = 0.501 > 0.5, u1·u2 = 0.15 > 0 → true.
+     * ref (2.499, 1): |u2| = 0.499 → false. */
+    const num_t ox = tu_num(2.0), oy = tu_num(1.0), da = tu_num(0.5);
+    pose_t robot = tu_pose(2.3, 1.0, 0.0);
+    pose_t ref = tu_pose(2.5, 1.0, 0.0);
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+    ref = tu_pose(2.501, 1.0, 0.0);
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref, ox, oy, da));
+    ref = tu_pose(2.499, 1.0, 0.0);
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+
+    /* Off the axes: ref (2.375, 0.5): u2 = (0.375, −0.5), |u2| = 0.625
+     * exactly (3-4-5). Robot (2.3, 0.8): u1 = (0.3, −0.2), u1·u2 = 0.2125 > 0.
+     * D_act = 0.625 → false (not >); 0.624 → true; 0.626 → false. */
+    robot = tu_pose(2.3, 0.8, 0.0);
+    ref = tu_pose(2.375, 0.5, 0.0);
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, tu_num(0.625)));
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref, ox, oy, tu_num(0.624)));
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, tu_num(0.626)));
+}
+
+static void test_sup_p1_sign_of_the_dot_product(void)
+{
+    /* Obstacle (−1, 2); ref at (0, 2): u2 = (1, 0), |u2| = 1 > 0.5.
+     * u1 = robot − obstacle; u1·u2 = u1_x. */
+    const num_t ox = tu_num(-1.0), oy = tu_num(2.0), da = tu_num(0.5);
+    const pose_t ref = tu_pose(0.0, 2.0, 0.0);
+    pose_t robot;
+    robot = tu_pose(-0.7, 2.0, 0.0); /* u1 = (0.3, 0): dot 0.3 > 0 → true */
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref, ox, oy, da));
+    robot = tu_pose(-1.0, 2.3, 0.0); /* u1 = (0, 0.3): dot 0, not > 0 → false */
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+    robot = tu_pose(-1.3, 2.0, 0.0); /* u1 = (−0.3, 0): dot −0.3 → false */
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+    robot = tu_pose(-0.999, 2.3, 0.0); /* u1 = (0.001, 0.3): dot 0.001 → true */
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref, ox, oy, da));
+    robot = tu_pose(-1.001, 2.3, 0.0); /* u1 = (−0.001, 0.3): dot −0.001 → false */
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+    /* The dot product, not the x components: ref (−1, 3) → u2 = (0, 1);
+     * robot (−0.7, 2.2): u1 = (0.3, 0.2), dot 0.2 → true; robot (−0.7, 1.8):
+     * dot −0.2 → false. */
+    const pose_t ref_n = tu_pose(-1.0, 3.0, 0.0);
+    robot = tu_pose(-0.7, 2.2, 0.0);
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref_n, ox, oy, da));
+    robot = tu_pose(-0.7, 1.8, 0.0);
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref_n, ox, oy, da));
+}
+
+/* ------------------------------------------------------------------ p2 */
+
+static void test_sup_p2_robot_distance_threshold(void)
+{
+    /* Obstacle (−1, 2); ref (−0.8, 2.1): u2 = (0.2, 0.1), |u2| = 0.224 <
+     * D_act, so p1 is false and p2 is |u1| < D_act alone. */
+    const num_t ox = tu_num(-1.0), oy = tu_num(2.0), da = tu_num(0.5);
+    const pose_t ref = tu_pose(-0.8, 2.1, 0.0);
+    pose_t robot;
+    robot = tu_pose(-0.501, 2.0, 0.0); /* |u1| = 0.499 < 0.5 → true */
+    TEST_ASSERT_TRUE(sup_p2(&robot, &ref, ox, oy, da));
+    robot = tu_pose(-0.5, 2.0, 0.0); /* |u1| = 0.5, not < → false */
+    TEST_ASSERT_FALSE(sup_p2(&robot, &ref, ox, oy, da));
+    robot = tu_pose(-0.499, 2.0, 0.0); /* |u1| = 0.501 → false */
+    TEST_ASSERT_FALSE(sup_p2(&robot, &ref, ox, oy, da));
+    /* Off the axes, exact: u1 = (−0.375, 0.5), |u1| = 0.625.
+     * D_act 0.625 → false; 0.626 → true; 0.624 → false. */
+    robot = tu_pose(-1.375, 2.5, 0.0);
+    TEST_ASSERT_FALSE(sup_p2(&robot, &ref, ox, oy, tu_num(0.625)));
+    TEST_ASSERT_TRUE(sup_p2(&robot, &ref, ox, oy, tu_num(0.626)));
+    TEST_ASSERT_FALSE(sup_p2(&robot, &ref, ox, oy, tu_num(0.624)));
+}
+
+static void test_sup_p2_is_false_while_p1_holds(void)
+{
+    const num_t ox = tu_num(-1.0), oy = tu_num(2.0), da = tu_num(0.5);
+    /* Robot close (u1 = (0.3, 0), |u1| = 0.3 < 0.5) but the reference is
+     * clear: u2 = (1, 0), |u2| = 1 > 0.5, dot 0.3 > 0 → p1 → p2 false. */
+    pose_t robot = tu_pose(-0.7, 2.0, 0.0);
+    pose_t ref = tu_pose(0.0, 2.0, 0.0);
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref, ox, oy, da));
+    TEST_ASSERT_FALSE(sup_p2(&robot, &ref, ox, oy, da));
+    /* Same reference, robot on the far side: u1 = (−0.3, 0), dot −0.3 →
+     * p1 false → p2 true. */
+    robot = tu_pose(-1.3, 2.0, 0.0);
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+    TEST_ASSERT_TRUE(sup_p2(&robot, &ref, ox, oy, da));
+}
+
+/* ------------------------------------------------------------------ p3 */
+
+static void test_sup_p3_only_when_both_reference_velocities_are_zero(void)
+{
+    TEST_ASSERT_TRUE(sup_p3(NUM_ZERO, NUM_ZERO));
+    TEST_ASSERT_FALSE(sup_p3(tu_num(0.1), NUM_ZERO));
+    TEST_ASSERT_FALSE(sup_p3(NUM_ZERO, tu_num(-0.1)));
+    TEST_ASSERT_FALSE(sup_p3(tu_num(-0.5), tu_num(0.3)));
+    TEST_ASSERT_FALSE(sup_p3(tu_num(1e-3), NUM_ZERO));
+}
+
+/* ----------------------------------------------------------- detection */
+
+static void test_sup_detects_on_first_step_within_range_and_only_once(void)
+{
+    const pose_t robot = tu_pose(1.0, 1.0, 0.0), ref = tu_pose(1.2, 1.1, 0.0);
+    const uint64_t t0 = 5000000000ull; /* beyond 2^32 µs: t_us is 64-bit */
+    sup_obstacle_t o;
+
+    /* D_r = 3.501 > D_det = 3.5: not detected, not remembered, not dropped. */
+    o = obstacle(5, 4.501, 1.0, 0.1);
+    step(robot, ref, &o, 1, t0);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(0, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT16(0, s.dropped);
+    expect_tracking();
+
+    /* D_r = 3.5 = D_det: detected (≤), stamped with this step's time. */
+    o = obstacle(5, 4.5, 1.0, 0.1);
+    step(robot, ref, &o, 1, t0 + 20000u);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events);
+    expect_event(0, SUP_EVENT_DETECT, 5, AVD_SIDE_NONE, t0 + 20000u);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT8(5, s.obs[0].o.id);
+    expect_tracking();
+
+    /* Closer, reported again: no second DETECT; the position is updated. */
+    o = obstacle(5, 4.4, 1.25, 0.1);
+    step(robot, ref, &o, 1, t0 + 40000u);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 4.4, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.25, s.obs[0].o.y);
+
+    /* Not reported this step: still remembered, no event. */
+    step(robot, ref, NULL, 0, t0 + 60000u);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+
+    /* Reported beyond D_det again: a known id, still no event. */
+    o = obstacle(5, 6.0, 1.0, 0.1);
+    step(robot, ref, &o, 1, t0 + 80000u);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+}
+
+static void test_sup_remembers_a_detected_obstacle_without_new_reports(void)
+{
+    /* Detected at 3 m; then the robot is 0.4 m from it with no report:
+     * ref (2.8, 0.1) → u2 = (−0.2, 0.1), p1 false; |u1| = 0.4 → p2 →
+     * ACTIVATE. φ = 0, θ = 0.1 → wrap(0.1) ≥ 0 → LEFT. */
+    sup_obstacle_t o = obstacle(4, 3.0, 0.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.2, 0.0, 0.0), &o, 1, 0);
+    expect_event(0, SUP_EVENT_DETECT, 4, AVD_SIDE_NONE, 0);
+    step(tu_pose(2.6, 0.0, 0.1), tu_pose(2.8, 0.1, 0.0), NULL, 0, 20000);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events);
+    expect_event(0, SUP_EVENT_ACTIVATE, 4, AVD_SIDE_LEFT, 20000);
+    expect_avoiding(4, AVD_SIDE_LEFT);
+}
+
+/* ------------------------------------------------ activation, completion */
+
+static void test_sup_activation_emits_the_side_and_holds_it(void)
+{
+    /* Step 1: robot (0, 0, 0.2), obstacle 9 at (0.45, 0), ref (0.2, 0.1).
+     * |u1| = 0.45 < 0.5; u2 = (−0.25, 0.1), |u2| = 0.27 < 0.5 → p1 false →
+     * p2. φ = atan2(0, 0.45) = 0, wrap(0.2 − 0) = 0.2 ≥ 0 → LEFT.
+     * Detection and activation in the same step: DETECT first. */
+    sup_obstacle_t o = obstacle(9, 0.45, 0.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.2), tu_pose(0.2, 0.1, 0.0), &o, 1, 1000);
+    TEST_ASSERT_EQUAL_size_t(2, d.n_events);
+    expect_event(0, SUP_EVENT_DETECT, 9, AVD_SIDE_NONE, 1000);
+    expect_event(1, SUP_EVENT_ACTIVATE, 9, AVD_SIDE_LEFT, 1000);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+
+    /* Step 2: the robot has turned to θ = −0.3 at (0.05, 0): now
+     * wrap(θ − φ) = −0.3 < 0, so a fresh choice would be RIGHT; but p1 is
+     * still false (ref (0.25, 0.1): u2 = (−0.2, 0.1)), so the side held since
+     * activation stays LEFT and nothing is emitted. */
+    step(tu_pose(0.05, 0.0, -0.3), tu_pose(0.25, 0.1, 0.0), &o, 1, 21000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+
+    /* Step 3: robot on the other side, heading far off: still LEFT. */
+    step(tu_pose(0.45, -0.4, 2.5), tu_pose(0.5, 0.2, 0.0), &o, 1, 41000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+}
+
+static void test_sup_completion_returns_to_tracking(void)
+{
+    sup_obstacle_t o = obstacle(9, 0.45, 0.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.2), tu_pose(0.2, 0.1, 0.0), &o, 1, 0);
+    expect_avoiding(9, AVD_SIDE_LEFT); /* as in the test above */
+
+    /* ref (1.2, 0): u2 = (0.75, 0), |u2| > 0.5; robot (0.45, 0.4):
+     * u1 = (0, 0.4), u1·u2 = 0 → p1 false: still avoiding. */
+    step(tu_pose(0.45, 0.4, 0.0), tu_pose(1.2, 0.0, 0.0), &o, 1, 20000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+
+    /* robot (0.6, 0.35): u1 = (0.15, 0.35), u1·u2 = 0.1125 > 0 → p1 →
+     * COMPLETE, tracking. |u1| = 0.38 < 0.5 but p1 holds, so p2 does not and
+     * the same obstacle is not activated again in this step. */
+    step(tu_pose(0.6, 0.35, 0.0), tu_pose(1.2, 0.0, 0.0), &o, 1, 40000);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events);
+    expect_event(0, SUP_EVENT_COMPLETE, 9, AVD_SIDE_NONE, 40000);
+    expect_tracking();
+
+    /* Next step, same geometry: nothing happens. */
+    step(tu_pose(0.6, 0.35, 0.0), tu_pose(1.2, 0.0, 0.0), &o, 1, 60000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_tracking();
+
+    /* Later p2 holds again for the same obstacle (robot (0.2, 0, 0),
+     * ref (0.3, 0.1): u2 = (−0.15, 0.1), p1 false, |u1| = 0.25): activated
+     * again, with a fresh side: φ = 0, θ = −0.1 → RIGHT. */
+    step(tu_pose(0.2, 0.0, -0.1), tu_pose(0.3, 0.1, 0.0), &o, 1, 80000);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events);
+    expect_event(0, SUP_EVENT_ACTIVATE, 9, AVD_SIDE_RIGHT, 80000);
+    expect_avoiding(9, AVD_SIDE_RIGHT);
+}
+
+/* ---------------------------------------------------- several obstacles */
+
+static void test_sup_activates_the_nearest_obstacle_satisfying_p2(void)
+{
+    /* Robot (0, 0, 0), ref (0.1, −0.1). Obstacle 7 at (0.45, 0): |u1| = 0.45,
+     * u2 = (−0.35, −0.1), |u2| = 0.36 → p1 false → p2. Obstacle 3 at
+     * (0, −0.4): |u1| = 0.4, u2 = (0.1, 0.3), |u2| = 0.32 → p2. Nearest: 3.
+     * Side for 3: φ = −π/2, wrap(0 + π/2) > 0 → LEFT. Both report orders
+     * (the table keeps detection order; nearness decides). */
+    sup_obstacle_t r[2];
+    for (int order = 0; order < 2; order++) {
+        setUp();
+        r[order] = obstacle(7, 0.45, 0.0, 0.1);
+        r[1 - order] = obstacle(3, 0.0, -0.4, 0.1);
+        step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, -0.1, 0.0), r, 2, 777);
+        TEST_ASSERT_EQUAL_size_t(3, d.n_events);
+        expect_event(0, SUP_EVENT_DETECT, r[0].id, AVD_SIDE_NONE, 777);
+        expect_event(1, SUP_EVENT_DETECT, r[1].id, AVD_SIDE_NONE, 777);
+        expect_event(2, SUP_EVENT_ACTIVATE, 3, AVD_SIDE_LEFT, 777);
+        expect_avoiding(3, AVD_SIDE_LEFT);
+    }
+}
+
+static void test_sup_skips_a_nearer_obstacle_for_which_p1_holds(void)
+{
+    /* Robot (0, 0, 0), ref (1, 0).
+     * Obstacle 1 at (−0.3, 0), nearer (0.3): u1 = (0.3, 0), u2 = (1.3, 0),
+     * |u2| > 0.5, dot > 0 → p1 → not p2.
+     * Obstacle 2 at (0.4, 0.1), 0.41 away: u1 = (−0.4, −0.1),
+     * u2 = (0.6, −0.1), |u2| = 0.61 > 0.5 but dot = −0.24 + 0.01 < 0 →
+     * p1 false → p2. Activated: 2; φ = atan2(0.1, 0.4) = 0.245,
+     * wrap(0 − 0.245) < 0 → RIGHT. */
+    sup_obstacle_t r[2] = {obstacle(1, -0.3, 0.0, 0.1), obstacle(2, 0.4, 0.1, 0.1)};
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), r, 2, 100);
+    TEST_ASSERT_EQUAL_size_t(3, d.n_events);
+    expect_event(2, SUP_EVENT_ACTIVATE, 2, AVD_SIDE_RIGHT, 100);
+    expect_avoiding(2, AVD_SIDE_RIGHT);
+}
+
+static void test_sup_completes_one_and_activates_another_in_the_same_step(void)
+{
+    /* Step 1 (t = 1 s): robot (0, 0, 0.1), ref (0.2, 0.1); A = 1 at (0.45, 0),
+     * B = 2 at (1.2, 0.6) (1.34 away). A activated: φ = 0, θ = 0.1 → LEFT. */
+    sup_obstacle_t r[2] = {obstacle(1, 0.45, 0.0, 0.1), obstacle(2, 1.2, 0.6, 0.1)};
+    step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.2, 0.1, 0.0), r, 2, 1000000);
+    TEST_ASSERT_EQUAL_size_t(3, d.n_events);
+    expect_event(2, SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT, 1000000);
+    expect_avoiding(1, AVD_SIDE_LEFT);
+
+    /* Step 2 (t = 1.02 s): robot (0.9, 0.35, 0), ref (1.5, 0.25).
+     * A: u1 = (0.45, 0.35), u2 = (1.05, 0.25), |u2| = 1.08 > 0.5,
+     *    dot = 0.4725 + 0.0875 = 0.56 > 0 → p1 → COMPLETE 1.
+     * B: u1 = (−0.3, −0.25), |u1| = 0.39 < 0.5; u2 = (0.3, −0.35),
+     *    |u2| = 0.46 < 0.5 → p1 false → p2 → ACTIVATE 2.
+     *    φ = atan2(0.25, 0.3) = 0.69, wrap(0 − 0.69) < 0 → RIGHT.
+     * (A after completion: |u1| = 0.57 > 0.5, not p2.)
+     * Order: COMPLETE, then ACTIVATE, both stamped 1020000. */
+    step(tu_pose(0.9, 0.35, 0.0), tu_pose(1.5, 0.25, 0.0), r, 2, 1020000);
+    TEST_ASSERT_EQUAL_size_t(2, d.n_events);
+    expect_event(0, SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE, 1020000);
+    expect_event(1, SUP_EVENT_ACTIVATE, 2, AVD_SIDE_RIGHT, 1020000);
+    expect_avoiding(2, AVD_SIDE_RIGHT);
+}
+
+static void test_sup_does_not_switch_obstacles_while_avoiding(void)
+{
+    /* Avoiding A (as above); then B comes within D_act while p1 of A is
+     * still false: only one controller runs, A stays active. Step 2: robot
+     * (0.3, 0.3, 0.5), ref (0.5, 0.3): A: u1 = (−0.15, 0.3), u2 = (0.05, 0.3),
+     * |u2| = 0.30 < 0.5 → no completion. B at (0.5, 0.65): |u1| = 0.40 <
+     * 0.5, u2 = (0, −0.35) → p2 would hold, but A is active. */
+    sup_obstacle_t r[2] = {obstacle(1, 0.45, 0.0, 0.1), obstacle(2, 0.5, 0.65, 0.1)};
+    step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.2, 0.1, 0.0), r, 2, 0);
+    expect_avoiding(1, AVD_SIDE_LEFT);
+    step(tu_pose(0.3, 0.3, 0.5), tu_pose(0.5, 0.3, 0.0), r, 2, 20000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(1, AVD_SIDE_LEFT);
+}
+
+/* ---------------------------------------------------------- bad reports */
+
+static void test_sup_counts_bad_reports_as_dropped(void)
+{
+    /* id 0, radius 0 and radius < 0 are rejected and counted; the good one
+     * (id 4, 2 m away) is detected. */
+    sup_obstacle_t r[4] = {obstacle(0, 1.0, 0.0, 0.1), obstacle(2, 1.0, 0.5, 0.0),
+                           obstacle(3, 1.0, -0.5, -0.1), obstacle(4, 2.0, 0.0, 0.1)};
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 4, 50);
+    TEST_ASSERT_EQUAL_UINT16(3, s.dropped);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT8(4, s.obs[0].o.id);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events);
+    expect_event(0, SUP_EVENT_DETECT, 4, AVD_SIDE_NONE, 50);
+    /* Every step counts again. */
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 4, 70);
+    TEST_ASSERT_EQUAL_UINT16(6, s.dropped);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+}
+
+#ifndef NUM_FIXED
+/* Float mode only: Q16.16 has no NaN or infinity, so such a report cannot
+ * be built in fixed mode. */
+static void test_sup_drops_non_finite_reports(void)
+{
+    sup_obstacle_t r[5] = {obstacle(4, 2.0, 0.0, 0.1), obstacle(5, 1.0, 0.0, 0.1),
+                           obstacle(6, 1.0, 0.5, 0.1), obstacle(7, 1.0, -0.5, 0.1),
+                           obstacle(8, 1.5, 0.0, 0.1)};
+    r[1].x = num_from_float(NAN);
+    r[2].y = num_from_float(INFINITY);
+    r[3].radius = num_from_float(NAN);
+    r[4].radius = num_from_float(INFINITY);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 5, 0);
+    TEST_ASSERT_EQUAL_UINT16(4, s.dropped);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT8(4, s.obs[0].o.id);
+    /* A known id reported with a NaN position: dropped, position kept. */
+    r[0].x = num_from_float(NAN);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 1, 20000);
+    TEST_ASSERT_EQUAL_UINT16(5, s.dropped);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 2.0, s.obs[0].o.x);
+}
+#endif
+
+static void test_sup_table_full_drops_new_obstacles(void)
+{
+    /* 16 obstacles on a circle of 2 m around the robot: all detected (16
+     * DETECT events, fewer than SUP_MAX_EVENTS). A 17th id: dropped once per
+     * step; the 16 known ids are updates, not drops. */
+    sup_obstacle_t r[SUP_MAX_OBSTACLES + 1];
+    for (unsigned k = 0; k < SUP_MAX_OBSTACLES; k++) {
+        const double a = TU_TWO_PI * (double)k / (double)SUP_MAX_OBSTACLES;
+        r[k] = obstacle((uint8_t)(k + 1), 2.0 * cos(a), 2.0 * sin(a), 0.1);
+    }
+    r[SUP_MAX_OBSTACLES] = obstacle(17, 0.0, 3.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, SUP_MAX_OBSTACLES, 0);
+    TEST_ASSERT_EQUAL_size_t(SUP_MAX_OBSTACLES, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT16(0, s.dropped);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, SUP_MAX_OBSTACLES + 1, 20000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT16(1, s.dropped);
+    for (unsigned k = 0; k < SUP_MAX_OBSTACLES; k++) {
+        TEST_ASSERT_TRUE(s.obs[k].o.id != 17);
+    }
+}
+
+/* -------------------------------------------------------- radius offset */
+
+static void test_sup_thresholds_move_out_with_the_obstacle_radius(void)
+{
+    /* sup.h: D_s and D_act move out by (R − R_ob). R = 0.3: +0.2 →
+     * D_s 0.55, D_act 0.7. R = 0.05: −0.05 → D_s 0.30, D_act 0.45. R = 0.1:
+     * unchanged. */
+    sup_obstacle_t r[3] = {obstacle(1, 3.0, 0.0, 0.3), obstacle(2, 0.0, 3.0, 0.05),
+                           obstacle(3, -3.0, 0.0, 0.1)};
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 3, 0);
+    TEST_ASSERT_EQUAL_UINT8(3, s.n_obs);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.55, s.obs[0].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.70, s.obs[0].d_act);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.30, s.obs[1].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.45, s.obs[1].d_act);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.35, s.obs[2].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.50, s.obs[2].d_act);
+}
+
+static void test_sup_large_obstacle_activates_and_completes_at_its_own_d_act(void)
+{
+    /* Robot (0, 0, 0), ref (0.3, 0.3), obstacle at (0.65, 0): |u1| = 0.65.
+     * u2 = (−0.35, 0.3), |u2| = 0.46 → p1 false.
+     * Radius 0.1 (D_act 0.5): 0.65 ≥ 0.5, nothing. */
+    sup_obstacle_t o = obstacle(1, 0.65, 0.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.3, 0.3, 0.0), &o, 1, 0);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events); /* DETECT only */
+    expect_tracking();
+
+    /* Radius 0.3 (D_act 0.7): 0.65 < 0.7 → ACTIVATE; φ = 0, θ = 0.1 → LEFT. */
+    setUp();
+    o = obstacle(1, 0.65, 0.0, 0.3);
+    step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.3, 0.3, 0.0), &o, 1, 0);
+    TEST_ASSERT_EQUAL_size_t(2, d.n_events);
+    expect_event(1, SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT, 0);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.55, d.active->d_s);
+
+    /* ref (1.25, 0): u2 = (0.6, 0), |u2| = 0.6: > 0.5 but not > 0.7; robot
+     * (0.9, 0.5): u1 = (0.25, 0.5), dot 0.15 > 0. Not complete. */
+    step(tu_pose(0.9, 0.5, 0.0), tu_pose(1.25, 0.0, 0.0), &o, 1, 20000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(1, AVD_SIDE_LEFT);
+    /* ref (1.4, 0): |u2| = 0.75 > 0.7 → COMPLETE. */
+    step(tu_pose(0.9, 0.5, 0.0), tu_pose(1.4, 0.0, 0.0), &o, 1, 40000);
+    TEST_ASSERT_EQUAL_size_t(1, d.n_events);
+    expect_event(0, SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE, 40000);
+    expect_tracking();
+}
+
+/* ------------------------------------------------------------ p3, reset */
+
+static void test_sup_p3_stops_and_keeps_the_avoidance(void)
+{
+    sup_obstacle_t o = obstacle(9, 0.45, 0.0, 0.1);
+    const pose_t robot = tu_pose(0.0, 0.0, 0.2), ref = tu_pose(0.2, 0.1, 0.0);
+    step(robot, ref, &o, 1, 0);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+
+    /* v_r = ω_r = 0: STOP, the avoidance state (obstacle, side) is kept. */
+    sup_step(&s, &robot, &ref, NUM_ZERO, NUM_ZERO, &o, 1, 20000, ev, &d);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_STOP, d.mode);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_EQUAL_UINT8(1, s.avoiding);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, s.side);
+
+    /* Moving again: back to AVOID with the held side, no new ACTIVATE. */
+    step(robot, ref, &o, 1, 40000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+}
+
+static void test_sup_p3_stops_while_tracking(void)
+{
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0), ref = tu_pose(0.2, 0.0, 0.0);
+    sup_step(&s, &robot, &ref, NUM_ZERO, NUM_ZERO, NULL, 0, 0, ev, &d);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_STOP, d.mode);
+    /* ω_r alone non-zero: not p3. */
+    sup_step(&s, &robot, &ref, NUM_ZERO, tu_num(0.3), NULL, 0, 20000, ev, &d);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+}
+
+static void test_sup_reset_forgets_obstacles_and_keeps_thresholds(void)
+{
+    sup_obstacle_t o = obstacle(9, 0.45, 0.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.2), tu_pose(0.2, 0.1, 0.0), &o, 1, 0);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+    sup_reset(&s);
+    TEST_ASSERT_EQUAL_UINT8(0, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT8(0, s.avoiding);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.5, s.p.d_act);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.35, s.p.d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 3.5, s.p.d_det);
+    /* Nothing remembered: tracking, and the same report is new again. */
+    step(tu_pose(0.0, 0.0, 0.2), tu_pose(0.2, 0.1, 0.0), NULL, 0, 20000);
+    expect_tracking();
+    step(tu_pose(0.0, 0.0, 0.2), tu_pose(0.2, 0.1, 0.0), &o, 1, 40000);
+    expect_event(0, SUP_EVENT_DETECT, 9, AVD_SIDE_NONE, 40000);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_sup_p1_reference_distance_threshold);
+    RUN_TEST(test_sup_p1_sign_of_the_dot_product);
+    RUN_TEST(test_sup_p2_robot_distance_threshold);
+    RUN_TEST(test_sup_p2_is_false_while_p1_holds);
+    RUN_TEST(test_sup_p3_only_when_both_reference_velocities_are_zero);
+    RUN_TEST(test_sup_detects_on_first_step_within_range_and_only_once);
+    RUN_TEST(test_sup_remembers_a_detected_obstacle_without_new_reports);
+    RUN_TEST(test_sup_activation_emits_the_side_and_holds_it);
+    RUN_TEST(test_sup_completion_returns_to_tracking);
+    RUN_TEST(test_sup_activates_the_nearest_obstacle_satisfying_p2);
+    RUN_TEST(test_sup_skips_a_nearer_obstacle_for_which_p1_holds);
+    RUN_TEST(test_sup_completes_one_and_activates_another_in_the_same_step);
+    RUN_TEST(test_sup_does_not_switch_obstacles_while_avoiding);
+    RUN_TEST(test_sup_counts_bad_reports_as_dropped);
+#ifndef NUM_FIXED
+    RUN_TEST(test_sup_drops_non_finite_reports);
+#endif
+    RUN_TEST(test_sup_table_full_drops_new_obstacles);
+    RUN_TEST(test_sup_thresholds_move_out_with_the_obstacle_radius);
+    RUN_TEST(test_sup_large_obstacle_activates_and_completes_at_its_own_d_act);
+    RUN_TEST(test_sup_p3_stops_and_keeps_the_avoidance);
+    RUN_TEST(test_sup_p3_stops_while_tracking);
+    RUN_TEST(test_sup_reset_forgets_obstacles_and_keeps_thresholds);
+    return UNITY_END();
+}
