@@ -100,8 +100,8 @@ $(B)/tests/%: tests/unit/%.c $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) $(wildcard tes
 .PHONY: test test-unit test-python
 test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module
 	@tools/run-unit-tests $(UNIT_BINS)
-test-python: deps-test $(B)/libmstc_sil.so  ## pytest
-	MSTC_SIL_LIB=$(B)/libmstc_sil.so $(PY) -m pytest -q tests/python
+test-python: deps-test $(B)/libmstc_sil.so build/host/mstc-fw  ## pytest
+	MSTC_SIL_LIB=$(B)/libmstc_sil.so MSTC_FW=build/host/mstc-fw $(PY) -m pytest -q tests/python
 test: test-unit test-python  ## every test
 
 include mk/comm.mk

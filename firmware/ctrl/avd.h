@@ -66,7 +66,9 @@ void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_
  * @param d_s   safe distance [m].
  * @param side  side held since activation.
  * @param[out] v linear velocity [m/s]: v_r cos e3 + k1 e1.
- * @param[out] w angular velocity [rad/s]: β̇ + k2 e.
+ * @param[out] w angular velocity [rad/s]: β̇ + k2 e, with β̇ from
+ *             avd_direction() for the velocity @p v just computed (the motion
+ *             this step commands).
  * @param[out] e heading error wrap(β − θ) [rad], eq. (21).
  */
 void avd_control(const avd_gains_t *g, const pose_t *robot, const trk_err_t *err, num_t v_r,

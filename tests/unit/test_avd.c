@@ -222,9 +222,11 @@ static void test_avd_beta_off_the_safe_circle(void)
     TEST_ASSERT_NUM_WITHIN(TOL_BETA, TU_PI - atan(4.0 / 3.0), dir.beta);
     TEST_ASSERT_NUM_WITHIN(TOL_UNORM, 0.25, dir.u_norm);
 
-    /* General positions against eq. (9)-(14) in double. */
-    const double c[][4] = {{1.7, 1.3, 2.0, 1.0}, {2.3, 0.6, 2.0, 1.0}, {-0.4, 3.1, 0.1, 2.9},
-                           {5.0, -1.0, 4.5, -0.6}};
+    /* General positions against eq. (9)-(14) in double, two of them at the
+     * corners of a 100 m field. */
+    const double c[][4] = {{1.7, 1.3, 2.0, 1.0},     {2.3, 0.6, 2.0, 1.0},
+                           {-0.4, 3.1, 0.1, 2.9},    {5.0, -1.0, 4.5, -0.6},
+                           {98.4, 97.0, 98.8, 97.3}, {-99.0, 99.5, -99.3, 99.9}};
     char msg[96];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         for (int side = -1; side <= 1; side += 2) {

@@ -37,9 +37,9 @@
 /* Avoidance wheel speeds ≤ 40: ω error times L/2r = 3 plus v error ×20.
  * float: 2e-4; fixed: 6e-3·3 + 1e-3·20 → 4e-2. */
 #define TOL_WHEEL_AVD TU_TOL(2e-4, 4e-2)
-/* Heading error e [rad] on the safe circle. float: atan2f and a subtraction
+/* Heading error e [rad] with |u| ≥ 0.35. float: atan2f and a subtraction
  * (≤ 5e-7); fixed: atan2 error ~1e-4 plus Q16.16 rounding of u ≈ 3e-5 over
- * |u| = 0.35. */
+ * |u| ≥ 0.35. */
 #define TOL_E TU_TOL(1e-6, 3e-4)
 /* Distances [m] ≤ 1 in the status: float: hypotf, 1 ulp (1.2e-7); fixed:
  * Q16.16 root, 2 lsb. */
@@ -179,6 +179,7 @@ static void test_ctl_init_with_bad_parameters_falls_back_to_defaults(void)
     ctl_params_default(&p);
     p.d_s = tu_num(0.6); /* ≥ D_act */
     p.trk.k1 = tu_num(-1.0);
+    memset(&c, 0, sizeof c); /* nothing left over from setUp's ctl_init */
     TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_init(&c, &p));
     /* ctl.h: left reset with default parameters. */
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, c.p.d_s);
@@ -457,6 +458,57 @@ static void test_ctl_reset_forgets_obstacles(void)
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, c.p.d_s);
 }
 
+static void test_ctl_set_params_rejects_bad_values_and_changes_nothing(void)
+{
+    /* Avoiding obstacle 6 (as in the safe-circle case); then a bad set
+     * (D_s = D_act) is rejected and changes neither parameters nor state. */
+    sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.d_s = tu_num(0.5);
+    p.trk.k1 = tu_num(7.0);
+    TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_set_params(&c, &p));
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, c.p.d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 3.0, c.p.trk.k1);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.35, c.sup.p.d_s);
+    TEST_ASSERT_EQUAL_UINT8(1, c.sup.n_obs);
+    TEST_ASSERT_EQUAL_UINT8(1, c.sup.avoiding);
+}
+
+static void test_ctl_set_params_applies_and_keeps_the_supervisor_state(void)
+{
+    /* Same avoidance; a valid set with D_s 0.3, D_act 0.6 and tracking k1 5
+     * is applied, the obstacle and the avoidance with its side are kept, and
+     * the obstacle's thresholds follow (radius 0.1 = R_ob: 0.3, 0.6). */
+    sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.status.side);
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.d_s = tu_num(0.3);
+    p.d_act = tu_num(0.6);
+    p.trk.k1 = tu_num(5.0);
+    TEST_ASSERT_EQUAL_INT(0, ctl_set_params(&c, &p));
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.3, c.p.d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 5.0, c.p.trk.k1);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.6, c.sup.p.d_act);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.3, c.sup.obs[0].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.6, c.sup.obs[0].d_act);
+    in.t_us = 20000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(0, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.status.side);
+    /* The new D_s is the one the avoidance uses: robot at 0.35 from the
+     * obstacle, D_s 0.3: u_mo = (0.35, 0), u_p = (0.05, 0), LEFT u_f =
+     * (0, 0.35): β = atan2(0.35, 0.05) = atan 7 = 1.4288993, e = β − 0.3. */
+    TEST_ASSERT_NUM_WITHIN(TOL_E, atan(7.0) - tu_q(0.3), out.status.e);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -479,5 +531,7 @@ int main(void)
     RUN_TEST(test_ctl_avoidance_uses_the_obstacle_own_safe_distance);
     RUN_TEST(test_ctl_reports_dropped_obstacles);
     RUN_TEST(test_ctl_reset_forgets_obstacles);
+    RUN_TEST(test_ctl_set_params_rejects_bad_values_and_changes_nothing);
+    RUN_TEST(test_ctl_set_params_applies_and_keeps_the_supervisor_state);
     return UNITY_END();
 }

@@ -152,6 +152,52 @@ static void test_num_wrap_sweep_stays_in_range_and_keeps_the_angle(void)
     }
 }
 
+/* The num_t value one step (ulp in float, LSB in fixed) after @p a, @p d
+ * steps away. */
+static num_t step_from(num_t a, int d)
+{
+#ifdef NUM_FIXED
+    return (num_t)(a + d);
+#else
+    for (; d > 0; d--) {
+        a = nextafterf(a, INFINITY);
+    }
+    for (; d < 0; d++) {
+        a = nextafterf(a, -INFINITY);
+    }
+    return a;
+#endif
+}
+
+static void test_num_wrap_near_odd_multiples_of_pi_stays_in_range(void)
+{
+    /* The seam is where rounding can push a reduced angle to −π or just
+     * beyond π. Every representable input within 6 steps of kπ, k odd,
+     * |k| ≤ 41 (|a| ≤ 129) and 1801 ≤ |k| ≤ 2001 (|a| up to 6286, where a
+     * float ulp, 4.9e-4, is coarse enough for a reduction to land beyond ±π):
+     * the result lies in (−π, π] and equals the input modulo 2π (libm
+     * remainder in double on the value the input holds). */
+    char msg[80];
+    for (int k = -2001; k <= 2001; k += 2) {
+        if (k < -41 && k > -1801) {
+            k = -43;
+            continue;
+        }
+        if (k > 41 && k < 1801) {
+            k = 1799;
+            continue;
+        }
+        const num_t centre = tu_num((double)k * TU_PI);
+        for (int d = -6; d <= 6; d++) {
+            const num_t a = step_from(centre, d);
+            const num_t r = num_wrap(a);
+            snprintf(msg, sizeof msg, "input %.9g (%d pi %+d steps)", tu_dbl(a), k, d);
+            TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(r, msg);
+            TEST_ASSERT_ANGLE_WITHIN_MESSAGE(tol_wrap(tu_dbl(a)), tu_dbl(a), r, msg);
+        }
+    }
+}
+
 /* ------------------------------------------------------------ num_atan2 */
 
 static void test_num_atan2_four_quadrants(void)
@@ -331,6 +377,7 @@ int main(void)
     RUN_TEST(test_num_wrap_reduces_by_whole_turns);
     RUN_TEST(test_num_wrap_large_angles);
     RUN_TEST(test_num_wrap_sweep_stays_in_range_and_keeps_the_angle);
+    RUN_TEST(test_num_wrap_near_odd_multiples_of_pi_stays_in_range);
     RUN_TEST(test_num_atan2_four_quadrants);
     RUN_TEST(test_num_atan2_axes);
     RUN_TEST(test_num_hypot_known_triangles);

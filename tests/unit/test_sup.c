@@ -391,6 +391,33 @@ static void test_sup_does_not_switch_obstacles_while_avoiding(void)
     expect_avoiding(1, AVD_SIDE_LEFT);
 }
 
+static void test_sup_works_across_a_100_m_field(void)
+{
+    /* Issue 3: no squared distance may overflow in a 100 m × 100 m field.
+     * Obstacle (100, 100), ref at (0, 0): u2 = (−100, −100), |u2| = 141.4;
+     * robot (99.7, 99.6): u1 = (−0.3, −0.4), u1·u2 = 30 + 40 = 70 > 0 → p1;
+     * robot (100.3, 100.4): u1·u2 = −70 → not p1;
+     * robot (100.3, 100.3): |u1| = 0.42 → p2. */
+    const num_t ox = tu_num(100.0), oy = tu_num(100.0), da = tu_num(0.5);
+    const pose_t ref = tu_pose(0.0, 0.0, 0.0);
+    pose_t robot = tu_pose(99.7, 99.6, 0.0);
+    TEST_ASSERT_TRUE(sup_p1(&robot, &ref, ox, oy, da));
+    robot = tu_pose(100.3, 100.4, 0.0);
+    TEST_ASSERT_FALSE(sup_p1(&robot, &ref, ox, oy, da));
+    robot = tu_pose(100.3, 100.3, 0.0);
+    TEST_ASSERT_TRUE(sup_p2(&robot, &ref, ox, oy, da));
+    /* Across the field diagonal: robot (0, 0), obstacle (100, 100), 141 m:
+     * not detected (D_det 3.5), not dropped. */
+    sup_obstacle_t o = obstacle(1, 100.0, 100.0, 0.1);
+    step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), &o, 1, 0);
+    TEST_ASSERT_EQUAL_UINT8(0, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT16(0, s.dropped);
+    /* Robot at (97, 98.5): 3.354 m (√(9 + 2.25)) from it → DETECT. */
+    step(tu_pose(97.0, 98.5, 0.0), tu_pose(97.1, 98.5, 0.0), &o, 1, 20000);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    expect_event(0, SUP_EVENT_DETECT, 1, AVD_SIDE_NONE, 20000);
+}
+
 /* ---------------------------------------------------------- bad reports */
 
 static void test_sup_counts_bad_reports_as_dropped(void)
@@ -558,6 +585,33 @@ static void test_sup_reset_forgets_obstacles_and_keeps_thresholds(void)
     expect_event(0, SUP_EVENT_DETECT, 9, AVD_SIDE_NONE, 40000);
 }
 
+static void test_sup_set_params_recomputes_thresholds_and_keeps_state(void)
+{
+    /* Avoiding obstacle 9 (radius 0.3: D_s 0.55, D_act 0.7 under Table 1),
+     * obstacle 4 (radius 0.1) remembered. New thresholds D_act 0.6, D_s 0.4:
+     * 9 → D_s 0.4 + 0.2 = 0.6, D_act 0.6 + 0.2 = 0.8; 4 → 0.4, 0.6. The
+     * table, the avoidance and its side are kept (sup.h). */
+    sup_obstacle_t r[2] = {obstacle(9, 0.65, 0.0, 0.3), obstacle(4, 2.0, 2.0, 0.1)};
+    step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.3, 0.3, 0.0), r, 2, 0);
+    expect_avoiding(9, AVD_SIDE_LEFT); /* 0.65 < 0.7, φ = 0, θ = 0.1 → LEFT */
+    sup_params_t p = s.p;
+    p.d_act = tu_num(0.6);
+    p.d_s = tu_num(0.4);
+    sup_set_params(&s, &p);
+    TEST_ASSERT_EQUAL_UINT8(2, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT8(1, s.avoiding);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, s.side);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.6, s.obs[0].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.8, s.obs[0].d_act);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.4, s.obs[1].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.6, s.obs[1].d_act);
+    /* The new D_act is the one completion uses: ref at (1.4, 0), |u2| = 0.75,
+     * robot (0.9, 0.5), dot 0.1875 > 0. Complete under 0.7, not under 0.8. */
+    step(tu_pose(0.9, 0.5, 0.0), tu_pose(1.4, 0.0, 0.0), r, 2, 20000);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    expect_avoiding(9, AVD_SIDE_LEFT);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -574,6 +628,7 @@ int main(void)
     RUN_TEST(test_sup_skips_a_nearer_obstacle_for_which_p1_holds);
     RUN_TEST(test_sup_completes_one_and_activates_another_in_the_same_step);
     RUN_TEST(test_sup_does_not_switch_obstacles_while_avoiding);
+    RUN_TEST(test_sup_works_across_a_100_m_field);
     RUN_TEST(test_sup_counts_bad_reports_as_dropped);
 #ifndef NUM_FIXED
     RUN_TEST(test_sup_drops_non_finite_reports);
@@ -584,5 +639,6 @@ int main(void)
     RUN_TEST(test_sup_p3_stops_and_keeps_the_avoidance);
     RUN_TEST(test_sup_p3_stops_while_tracking);
     RUN_TEST(test_sup_reset_forgets_obstacles_and_keeps_thresholds);
+    RUN_TEST(test_sup_set_params_recomputes_thresholds_and_keeps_state);
     return UNITY_END();
 }

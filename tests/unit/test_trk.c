@@ -112,6 +112,22 @@ static void test_trk_errors_general_poses(void)
     check_errors(10.0, 20.0, -0.4, 8.0, 21.5, 0.25);
 }
 
+static void test_trk_errors_far_from_the_origin(void)
+{
+    /* Corners of a 100 m × 100 m field (issue 3: nothing may overflow there
+     * in fixed point). Hand case: robot (99, 98, 0), ref (99.5, 98.25, 0):
+     * e1 = 0.5, e2 = 0.25. Then eq. (1) in double for general poses, with
+     * position differences up to 4 m. */
+    pose_t robot = tu_pose(99.0, 98.0, 0.0), ref = tu_pose(99.5, 98.25, 0.0);
+    trk_err_t err;
+    trk_errors(&robot, &ref, &err);
+    TEST_ASSERT_NUM_WITHIN(TOL_E12, 0.5, err.e1);
+    TEST_ASSERT_NUM_WITHIN(TOL_E12, 0.25, err.e2);
+    check_errors(95.0, 97.0, 0.7, 95.4, 96.8, 0.9);
+    check_errors(-98.5, 99.0, -2.8, -101.0, 97.5, 2.9);
+    check_errors(2.0, -99.0, 1.9, 0.5, -96.0, 1.2);
+}
+
 static void test_trk_e3_wraps_across_the_seam(void)
 {
     /* θ_r = 3.0, θ = −3.0: θ_r − θ = 6 → 6 − 2π = −0.2831853 (a small turn
@@ -240,6 +256,7 @@ int main(void)
     RUN_TEST(test_trk_errors_robot_at_origin_heading_east);
     RUN_TEST(test_trk_errors_rotate_into_the_body_frame);
     RUN_TEST(test_trk_errors_general_poses);
+    RUN_TEST(test_trk_errors_far_from_the_origin);
     RUN_TEST(test_trk_e3_wraps_across_the_seam);
     RUN_TEST(test_trk_e3_of_opposite_headings_is_plus_pi);
     RUN_TEST(test_trk_control_zero_error_follows_the_reference);

@@ -1,0 +1,327 @@
+/* Unity tests of the application layer (firmware/app): the lock-step
+ * exchange, the safe stop before inputs arrive, parameters over the bus,
+ * drop reporting and housekeeping. The HAL is hal/fake: received frames are
+ * scripted, sent frames recorded.
+ *
+ * Frames are built and read with the generated codec (mstc_dbc.c, checked
+ * bit-exact against cantools by tests/python/test_codec.py) and the CRC of
+ * comm.c (checked against the AUTOSAR vectors by test_comm.c); the expected
+ * values are derived by hand from the DBC's resolutions and eq. (1)-(3).
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "app/app.h"
+#include "comm/mstc_dbc.h"
+#include "hal_fake.h"
+#include "test_util.h"
+
+static app_t app;
+static uint8_t counters[0x800];
+
+/* Wheel speeds are sent at 2^-10 rad/s. float: exact up to the last
+ * rounding of the raw value (1 lsb). fixed: Q16.16 r = 0.05 is 3277/65536,
+ * 6.1e-5 relative too large, so 70 rad/s comes out 4.3e-3 rad/s (4.4 lsb)
+ * low. */
+#define TOL_WHEEL_RAW TU_TOL(1, 6)
+
+void setUp(void)
+{
+    hal_fake_reset();
+    memset(counters, 0, sizeof counters);
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+}
+
+void tearDown(void) {}
+
+/* E2E-protect a payload as a sender would: the next alive counter of the
+ * identifier in bits 8..11, then the CRC over the data ID and bytes 1..7. */
+static hal_can_frame_t seal(uint32_t id, uint8_t payload[8])
+{
+    uint16_t data_id = 0;
+    TEST_ASSERT_EQUAL_INT(0, comm_data_id(id, &data_id));
+    payload[1] = (uint8_t)((payload[1] & 0xF0u) | (counters[id] & 0x0Fu));
+    counters[id]++;
+    uint8_t buf[9] = {(uint8_t)(data_id & 0xFFu), (uint8_t)(data_id >> 8)};
+    memcpy(&buf[2], &payload[1], 7);
+    payload[0] = comm_crc8h2f(buf, sizeof buf);
+    hal_can_frame_t f = {.id = id, .dlc = 8};
+    memcpy(f.data, payload, 8);
+    return f;
+}
+
+static void feed(hal_can_frame_t f) { TEST_ASSERT_EQUAL_INT(0, app_on_frame(&app, &f)); }
+
+static void send_odom(double x, double y, double theta)
+{
+    uint8_t p[8] = {0};
+    const struct mstc_dbc_odom_xy_t xy = {.odom_xy_x = (int32_t)lround(x * 65536.0),
+                                          .odom_xy_y = (int32_t)lround(y * 65536.0)};
+    mstc_dbc_odom_xy_pack(p, &xy, 8);
+    feed(seal(COMM_ID_ODOM_XY, p));
+    memset(p, 0, sizeof p);
+    const struct mstc_dbc_odom_theta_t th = {.odom_theta_theta = (int32_t)lround(theta * 65536.0)};
+    mstc_dbc_odom_theta_pack(p, &th, 8);
+    feed(seal(COMM_ID_ODOM_THETA, p));
+}
+
+static void send_ref(double x, double y, double theta, double v, double w)
+{
+    uint8_t p[8] = {0};
+    const struct mstc_dbc_ref_xy_t xy = {.ref_xy_x = (int32_t)lround(x * 65536.0),
+                                         .ref_xy_y = (int32_t)lround(y * 65536.0)};
+    mstc_dbc_ref_xy_pack(p, &xy, 8);
+    feed(seal(COMM_ID_REF_XY, p));
+    memset(p, 0, sizeof p);
+    const struct mstc_dbc_ref_motion_t m = {.ref_motion_theta = (int32_t)lround(theta * 32768.0),
+                                            .ref_motion_v = (int32_t)lround(v * 4096.0),
+                                            .ref_motion_w = (int32_t)lround(w * 4096.0)};
+    mstc_dbc_ref_motion_pack(p, &m, 8);
+    feed(seal(COMM_ID_REF_MOTION, p));
+}
+
+static void send_obstacle(uint8_t id, double x, double y, uint8_t radius_cm)
+{
+    uint8_t p[8] = {0};
+    const struct mstc_dbc_obstacle_t o = {.obstacle_id = id,
+                                          .obstacle_x = (int32_t)lround(x * 4096.0),
+                                          .obstacle_y = (int32_t)lround(y * 4096.0),
+                                          .obstacle_radius = radius_cm};
+    mstc_dbc_obstacle_pack(p, &o, 8);
+    feed(seal(COMM_ID_OBSTACLE, p));
+}
+
+static void send_step(uint16_t step, uint32_t time_us)
+{
+    uint8_t p[8] = {0};
+    const struct mstc_dbc_step_t s = {.step_step = step, .step_time = time_us};
+    mstc_dbc_step_pack(p, &s, 8);
+    feed(seal(COMM_ID_STEP, p));
+}
+
+static void send_param(uint32_t id, uint8_t index, float value)
+{
+    uint8_t p[8] = {0};
+    if (id == COMM_ID_PARAM_SET) {
+        const struct mstc_dbc_param_set_t s = {.param_set_index = index, .param_set_value = value};
+        mstc_dbc_param_set_pack(p, &s, 8);
+    } else {
+        const struct mstc_dbc_param_get_t g = {.param_get_index = index};
+        mstc_dbc_param_get_pack(p, &g, 8);
+    }
+    feed(seal(id, p));
+}
+
+/* The last frame with @p id that the firmware sent, or fail. */
+static const hal_can_frame_t *last_sent(uint32_t id)
+{
+    for (unsigned i = hal_fake.n_sent; i-- > 0;) {
+        if (hal_fake.sent[i].id == id) {
+            return &hal_fake.sent[i];
+        }
+    }
+    TEST_FAIL_MESSAGE("frame not sent");
+    return NULL;
+}
+
+static struct mstc_dbc_wheel_cmd_t last_wheels(void)
+{
+    struct mstc_dbc_wheel_cmd_t w;
+    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_wheel_cmd_unpack(&w, last_sent(COMM_ID_WHEEL_CMD)->data, 8));
+    return w;
+}
+
+static struct mstc_dbc_status_t last_status(void)
+{
+    struct mstc_dbc_status_t s;
+    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_status_unpack(&s, last_sent(COMM_ID_STATUS)->data, 8));
+    return s;
+}
+
+static struct mstc_dbc_param_value_t last_param(void)
+{
+    struct mstc_dbc_param_value_t v;
+    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_param_value_unpack(&v, last_sent(COMM_ID_PARAM_VALUE)->data, 8));
+    return v;
+}
+
+static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(void)
+{
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent); /* inputs alone send nothing */
+    send_step(7, 20000u);
+    /* Housekeeping (first step), then STATUS, STATUS_TRK and WHEEL_CMD. */
+    TEST_ASSERT_EQUAL_UINT(5, hal_fake.n_sent);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_HEARTBEAT, hal_fake.sent[0].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_COUNTERS, hal_fake.sent[1].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS, hal_fake.sent[2].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_TRK, hal_fake.sent[3].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_CMD, hal_fake.sent[4].id);
+    TEST_ASSERT_EQUAL_UINT16(7, last_wheels().wheel_cmd_step);
+}
+
+static void test_app_step_drives_the_wheels_by_eq_2_and_3(void)
+{
+    /* Robot at the origin heading east, reference 1 m ahead: e1 = 1, e2 = 0,
+     * e3 = 0, so v = 0.5 + 3·1 = 3.5 m/s, ω = 0; both wheels 3.5/0.05 =
+     * 70 rad/s = 71680 lsb of 2^-10 rad/s. */
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    send_step(0, 0u);
+    struct mstc_dbc_wheel_cmd_t w = last_wheels();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, w.wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, w.wheel_cmd_right);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_TRACK, last_status().status_mode);
+
+    /* Reference 1 m to the left: e1 = 0, e2 = 1, e3 = 0, so v = 0.5,
+     * ω = 12·0.5·1 = 6 rad/s; ω_R = (0.5 + 6·0.15)/0.05 = 28 rad/s (28672
+     * lsb), ω_L = (0.5 − 0.9)/0.05 = −8 rad/s (−8192 lsb). */
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(0.0, 1.0, 0.0, 0.5, 0.0);
+    send_step(1, 20000u);
+    w = last_wheels();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 28672, w.wheel_cmd_right);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, -8192, w.wheel_cmd_left);
+}
+
+static void test_app_stands_still_until_every_input_has_arrived(void)
+{
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    /* A fresh application that has only the odometry. */
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    memset(counters, 0, sizeof counters);
+    send_odom(0.0, 0.0, 0.0);
+    send_step(3, 0u);
+    const struct mstc_dbc_wheel_cmd_t w = last_wheels();
+    TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_right);
+    TEST_ASSERT_EQUAL_UINT16(3, w.wheel_cmd_step);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, last_status().status_mode);
+}
+
+static void test_app_reports_events_before_the_wheel_command(void)
+{
+    /* An obstacle 2 m ahead is within D_det = 3.5 m: detected at this step. */
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(0.1, 0.0, 0.0, 0.5, 0.0);
+    send_obstacle(5, 2.0, 0.0, 10);
+    send_step(0, 1234567u);
+    const hal_can_frame_t *ev = last_sent(COMM_ID_EVENT);
+    struct mstc_dbc_event_t e;
+    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_event_unpack(&e, ev->data, 8));
+    TEST_ASSERT_EQUAL_UINT8(SUP_EVENT_DETECT, e.event_kind);
+    TEST_ASSERT_EQUAL_UINT8(5, e.event_obstacle);
+    TEST_ASSERT_EQUAL_UINT32(1234567u, e.event_time);
+    TEST_ASSERT_TRUE(ev < last_sent(COMM_ID_WHEEL_CMD));
+    /* Reported once per step only: the next step has no new detection. */
+    const unsigned before = hal_fake.n_sent;
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(0.1, 0.0, 0.0, 0.5, 0.0);
+    send_obstacle(5, 2.0, 0.0, 10);
+    send_step(1, 1254567u);
+    for (unsigned i = before; i < hal_fake.n_sent; i++) {
+        TEST_ASSERT_NOT_EQUAL(COMM_ID_EVENT, hal_fake.sent[i].id);
+    }
+}
+
+static void test_app_sets_and_gets_parameters_over_the_bus(void)
+{
+    send_param(COMM_ID_PARAM_GET, COMM_PARAM_D_S, 0.0f);
+    struct mstc_dbc_param_value_t v = last_param();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_D_S, v.param_value_index);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.35f, v.param_value_value); /* Table 1 */
+
+    send_param(COMM_ID_PARAM_SET, COMM_PARAM_D_S, 0.4f);
+    v = last_param();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, v.param_value_value);
+
+    /* D_s = 0.6 would not be < D_act = 0.5 (Definition 4): rejected, kept. */
+    send_param(COMM_ID_PARAM_SET, COMM_PARAM_D_S, 0.6f);
+    v = last_param();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, v.param_value_value);
+
+    send_param(COMM_ID_PARAM_SET, 200, 1.0f);
+    v = last_param();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, v.param_value_result);
+    TEST_ASSERT_EQUAL_UINT8(200, v.param_value_index);
+}
+
+static void test_app_reports_a_dropped_frame_in_the_next_status_only(void)
+{
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    uint8_t p[8] = {0};
+    hal_can_frame_t bad = seal(COMM_ID_ODOM_XY, p);
+    bad.data[4] ^= 0x10u; /* one flipped bit */
+    TEST_ASSERT_EQUAL_INT(-EBADMSG, app_on_frame(&app, &bad));
+    send_step(0, 0u);
+    TEST_ASSERT_EQUAL_UINT8(8u, last_status().status_faults & 8u);
+    TEST_ASSERT_EQUAL_UINT16(1, app.comm.drops.crc);
+    send_step(1, 20000u);
+    TEST_ASSERT_EQUAL_UINT8(0u, last_status().status_faults & 8u);
+}
+
+static void test_app_housekeeping_runs_every_100_ms_of_step_time(void)
+{
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    unsigned heartbeats[6] = {0};
+    for (uint16_t k = 0; k < 6; k++) {
+        const unsigned before = hal_fake.n_sent;
+        send_step(k, (uint32_t)k * 20000u); /* 50 Hz */
+        for (unsigned i = before; i < hal_fake.n_sent; i++) {
+            heartbeats[k] += hal_fake.sent[i].id == COMM_ID_HEARTBEAT;
+        }
+    }
+    /* At t = 0 and t = 100 ms (k = 5), nowhere between. */
+    const unsigned want[6] = {1, 0, 0, 0, 0, 1};
+    TEST_ASSERT_EQUAL_UINT_ARRAY(want, heartbeats, 6);
+}
+
+static void test_app_extends_the_step_time_past_its_32_bit_wrap(void)
+{
+    send_step(0, 0xFFFFF000u);
+    send_step(1, 0x00001000u);
+    TEST_ASSERT_EQUAL_UINT32(1, app.time_wraps);
+    TEST_ASSERT_EQUAL_UINT32(0x00001000u, app.time_raw);
+}
+
+static void test_app_poll_drains_the_queue_waiting_only_for_the_first_frame(void)
+{
+    hal_fake_push_rx(&(hal_can_frame_t){.id = 0x7FF, .dlc = 8});
+    hal_fake_push_rx(&(hal_can_frame_t){.id = 0x7FE, .dlc = 8});
+    TEST_ASSERT_EQUAL_UINT(2, app_poll(&app, 5000u));
+    TEST_ASSERT_EQUAL_UINT(3, hal_fake.n_recv_calls);
+    TEST_ASSERT_EQUAL_UINT32(0, hal_fake.last_timeout_us); /* only the first waits */
+    TEST_ASSERT_EQUAL_UINT16(2, app.comm.drops.unknown);
+}
+
+static void test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults(void)
+{
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.d_s = NUM_C(0.6); /* >= D_act */
+    TEST_ASSERT_EQUAL_INT(-EINVAL, app_init(&app, &p));
+    TEST_ASSERT_TRUE(app.ctl.p.d_s == NUM_C(0.35));
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_app_answers_a_step_with_telemetry_then_the_wheel_command_last);
+    RUN_TEST(test_app_step_drives_the_wheels_by_eq_2_and_3);
+    RUN_TEST(test_app_stands_still_until_every_input_has_arrived);
+    RUN_TEST(test_app_reports_events_before_the_wheel_command);
+    RUN_TEST(test_app_sets_and_gets_parameters_over_the_bus);
+    RUN_TEST(test_app_reports_a_dropped_frame_in_the_next_status_only);
+    RUN_TEST(test_app_housekeeping_runs_every_100_ms_of_step_time);
+    RUN_TEST(test_app_extends_the_step_time_past_its_32_bit_wrap);
+    RUN_TEST(test_app_poll_drains_the_queue_waiting_only_for_the_first_frame);
+    RUN_TEST(test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults);
+    return UNITY_END();
+}
