@@ -105,6 +105,10 @@ test-python: deps-test $(B)/libmstc_sil.so build/host/mstc-fw  ## pytest
 test: test-unit test-python  ## every test
 
 include mk/comm.mk
+include mk/firmware.mk
+include mk/cross.mk
+include mk/bench.mk
+include mk/numerics.mk
 
 .PHONY: clean help
 clean:  ## remove build outputs (keeps .venv and deps/)

@@ -41,6 +41,7 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us)
         a->state = COMM_STATE_READY;
     }
     a->n_reports = 0;
+    a->wheels = out.wheels;
     a->step = step;
     a->steps++;
 

@@ -45,6 +45,7 @@ typedef struct {
     comm_state_t state;
     uint64_t next_housekeeping_us;
     uint32_t steps;         /**< control steps run */
+    kin_wheels_t wheels;    /**< wheel speeds of the last control step [rad/s]; 0 before the first */
 } app_t;
 
 /** @brief Bits of app_t::have. */
@@ -89,5 +90,12 @@ void app_control_tick(app_t *a, uint64_t now_us);
  *        heartbeat going while no step runs.
  */
 void app_housekeeping(app_t *a, uint64_t now_us);
+
+/**
+ * @brief Wheel speeds [rad/s] commanded by the last control step (zero before
+ *        the first), for a board's motor outputs: the same values as the
+ *        step's WHEEL_CMD, before the frame's scaling.
+ */
+static inline const kin_wheels_t *app_last_wheels(const app_t *a) { return &a->wheels; }
 
 #endif /* MSTC_APP_H */

@@ -50,6 +50,12 @@ int hal_can_recv(hal_can_frame_t *frame, uint32_t timeout_us)
 
 void hal_can_close(void) {}
 
+int hal_can_status(hal_can_status_t *st)
+{
+    *st = hal_fake.can_status;
+    return hal_fake.can_status_rc;
+}
+
 uint64_t hal_time_now_us(void) { return hal_fake.now_us; }
 
 void hal_time_sleep_until_us(uint64_t t_us)

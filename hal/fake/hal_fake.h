@@ -27,6 +27,8 @@ typedef struct {
     uint64_t now_us;                           /**< returned by hal_time_now_us() */
     unsigned kicks;                            /**< hal_sys_watchdog_kick() calls */
     hal_reset_cause_t reset_cause;
+    hal_can_status_t can_status;               /**< returned by hal_can_status() */
+    int can_status_rc;                         /**< its return value (0) */
 } hal_fake_t;
 
 extern hal_fake_t hal_fake;

@@ -100,6 +100,15 @@ int hal_can_recv(hal_can_frame_t *frame, uint32_t timeout_us)
     return 0;
 }
 
+/* SocketCAN reports controller state as error frames, which a raw socket
+ * receives only with CAN_RAW_ERR_FILTER set; vcan has no controller at all.
+ * Not kept here yet. */
+int hal_can_status(hal_can_status_t *st)
+{
+    (void)st;
+    return -ENOTSUP;
+}
+
 void hal_can_close(void)
 {
     if (sock >= 0) {

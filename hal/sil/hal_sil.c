@@ -108,6 +108,12 @@ int hal_can_recv(hal_can_frame_t *f, uint32_t timeout_us)
 
 void hal_can_close(void) {}
 
+int hal_can_status(hal_can_status_t *st)
+{
+    (void)st;
+    return -ENOTSUP; /* no controller: nothing to count */
+}
+
 /* The SIL runs lock-step only: the firmware's time comes from STEP frames. */
 uint64_t hal_time_now_us(void) { return 0; }
 void hal_time_sleep_until_us(uint64_t t_us) { (void)t_us; }

@@ -13,7 +13,6 @@
 #include "cortex_m.h"
 #include "hal/hal_can.h"
 #include "hal/hal_time.h"
-#include "hal_can_status.h"
 #include "stm32_hal.h"
 
 /* Interrupt priorities (0 most urgent): receive first, as the hardware FIFO

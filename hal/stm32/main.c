@@ -14,13 +14,14 @@
 #include "hal/hal_can.h"
 #include "hal/hal_motor.h"
 #include "hal/hal_sys.h"
-#include "hal_can_status.h"
 #include "stm32_hal.h"
 #include "wheel_cmd.h"
 
 /* Static, not on the stack: its size is then in the RAM budget, not the
  * stack's. No heap anywhere. */
 static app_t app;
+
+volatile stm32_loop_stats_t stm32_loop_stats;
 
 /* The frames the firmware receives (comm.h); the controller's filters drop
  * every other identifier in hardware, so the bus's other traffic (our own
@@ -71,9 +72,14 @@ int main(void)
     stm32_time_init(board_clocks()->sysclk_hz);
     (void)hal_motor_init();
 
+    stm32_loop_stats.reset_cause = (uint32_t)hal_sys_reset_cause();
+    stm32_loop_stats.sysclk_hz = board_clocks()->sysclk_hz;
+
     /* CAN failing to start is not fatal: the loop, the watchdog and the LED
      * still run, and the LED says so. */
-    bool can_ok = hal_can_open(NULL) == 0;
+    const int can_rc = hal_can_open(NULL);
+    stm32_loop_stats.can_open = can_rc;
+    bool can_ok = can_rc == 0;
     if (can_ok) {
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
     }
@@ -94,6 +100,8 @@ int main(void)
             app_control_tick(&app, t_us);
             motors_from_last_step();
             led_step(++steps, can_ok);
+            stm32_loop_stats.steps = steps;
+            stm32_loop_stats.overruns = stm32_tick_overruns();
             hal_sys_watchdog_kick();
         }
         /* Sleep until the next interrupt unless work arrived meanwhile. */

@@ -1,4 +1,4 @@
-/* Start-up of the STM32 ports: reset handler and default handler. */
+/* Start-up of the STM32 ports: reset handler and the fault path. */
 #include "startup.h"
 
 #include "cortex_m.h"
@@ -33,7 +33,7 @@ void Reset_Handler(void)
  * keep their last command: stop them, then spin until the independent
  * watchdog resets the MCU (a debugger attached here sees the faulting state;
  * before the watchdog is started this waits for one). */
-void Default_Handler(void)
+void stm32_unhandled(void)
 {
     hal_motor_stop();
     for (;;) {

@@ -31,9 +31,13 @@ extern uint32_t __bss_start__, __bss_end__;
 /** @brief Entry after reset: FPU on (M4F), .data copied, .bss zeroed, main(). */
 void Reset_Handler(void);
 
-/** @brief Every handler a port does not define: a fault or an unexpected
- *         interrupt. Stops the motors, then waits for the watchdog. */
+/** @brief Every handler a port does not define (generated, in
+ *         stm32_vectors.c, with the weak aliases): calls stm32_unhandled(). */
 void Default_Handler(void);
+
+/** @brief A fault or an unexpected interrupt: stops the motors, then waits
+ *         for the watchdog. */
+void stm32_unhandled(void);
 
 int main(void);
 

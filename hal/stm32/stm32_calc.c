@@ -30,11 +30,11 @@ int stm32_timer_period(uint32_t clk_hz, uint32_t period_us, stm32_timer_t *out, 
     }
     /* Timer clocks per period, ×10^6 to stay exact. */
     const uint64_t ticks_e6 = (uint64_t)clk_hz * period_us;
-    const uint64_t limit = 65536u * 65536u;
-    if (ticks_e6 > limit * 1000000u || ticks_e6 < 1000000u) {
+    const uint64_t max_counts_e6 = (uint64_t)65536u * 1000000u; /* one prescaler step */
+    if (ticks_e6 > (uint64_t)65536u * max_counts_e6 || ticks_e6 < 1000000u) {
         return -EINVAL;
     }
-    const uint64_t min_div = (ticks_e6 + 65536u * 1000000u - 1u) / (65536u * 1000000u);
+    const uint64_t min_div = (ticks_e6 + max_counts_e6 - 1u) / max_counts_e6;
     if (ticks_e6 % 1000000u == 0u) {
         const uint64_t ticks = ticks_e6 / 1000000u;
         for (uint64_t div = min_div < 1u ? 1u : min_div; div <= 65536u; div++) {
@@ -58,7 +58,9 @@ int stm32_timer_period(uint32_t clk_hz, uint32_t period_us, stm32_timer_t *out, 
     out->psc = (uint16_t)(div - 1u);
     out->arr = (uint16_t)(counts - 1u);
     const int64_t actual_e6 = (int64_t)(div * counts * 1000000u);
-    *err_ppm = (int32_t)((actual_e6 - (int64_t)ticks_e6) * 1000000 / (int64_t)ticks_e6);
+    const int64_t diff = (actual_e6 - (int64_t)ticks_e6) * 1000000;
+    const int64_t half = (int64_t)ticks_e6 / 2;
+    *err_ppm = (int32_t)((diff + (diff < 0 ? -half : half)) / (int64_t)ticks_e6); /* nearest */
     return 0;
 }
 

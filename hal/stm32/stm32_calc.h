@@ -45,7 +45,7 @@ typedef struct {
  *        the F1: 16 bits serve both) clocked at @p clk_hz (RM0090 §18.3.1
  *        [§15.3.1]). The smallest prescaler whose period is exact; when none
  *        is, the smallest prescaler that fits, rounded to the nearest count.
- * @param[out] err_ppm the period's error [ppm] (0 when exact).
+ * @param[out] err_ppm the period's error [ppm], rounded (0 when exact).
  * @retval 0 done. @retval -EINVAL period 0, or longer than 2^32 clocks.
  */
 int stm32_timer_period(uint32_t clk_hz, uint32_t period_us, stm32_timer_t *out, int32_t *err_ppm);

@@ -1,6 +1,6 @@
 /**
  * @file stm32_hal.h
- * @brief Internal interface between the shared STM32 drivers (hal/stm32/*.c)
+ * @brief Internal interface between the shared STM32 drivers (hal/stm32)
  *        and the board main loop (hal/stm32/main.c). Not a HAL service: the
  *        firmware never sees it.
  */
@@ -38,5 +38,18 @@ bool stm32_can_rx_pending(void);
 
 /** @brief The bit rate hal_can_open() set up [bit/s] (0 when not open). */
 uint32_t stm32_can_bitrate(void);
+
+/** @brief What the main loop has done, for a debugger (and the QEMU smoke
+ *         test, tools/bench/qemu_smoke): words only, so its layout is plain. */
+typedef struct {
+    uint32_t steps;       /**< control steps run */
+    uint32_t overruns;    /**< control periods skipped because the loop was late */
+    int32_t can_open;     /**< hal_can_open() result (0, or a negative errno) */
+    uint32_t reset_cause; /**< hal_reset_cause_t at start */
+    uint32_t sysclk_hz;   /**< core clock in force */
+} stm32_loop_stats_t;
+
+/** @brief Written by the main loop only. */
+extern volatile stm32_loop_stats_t stm32_loop_stats;
 
 #endif /* STM32_HAL_H */

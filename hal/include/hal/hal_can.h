@@ -66,4 +66,34 @@ int hal_can_recv(hal_can_frame_t *frame, uint32_t timeout_us);
 /** @brief Close the interface. Task context. */
 void hal_can_close(void);
 
+/** @brief Error state of the CAN controller (ISO 11898-1 fault confinement). */
+typedef enum {
+    HAL_CAN_STATE_STOPPED = 0,       /**< not open, or the controller did not start */
+    HAL_CAN_STATE_ERROR_ACTIVE = 1,  /**< both error counters < 96 */
+    HAL_CAN_STATE_ERROR_WARNING = 2, /**< a counter >= 96 */
+    HAL_CAN_STATE_ERROR_PASSIVE = 3, /**< a counter >= 128 */
+    HAL_CAN_STATE_BUS_OFF = 4,       /**< TEC > 255: off the bus; recovering if the port
+                                          recovers automatically */
+} hal_can_state_t;
+
+/** @brief Counters since hal_can_open(); each wraps at 2^32. */
+typedef struct {
+    hal_can_state_t state; /**< state now */
+    uint8_t tx_err;        /**< transmit error counter (TEC) now, saturated at 255 */
+    uint8_t rx_err;        /**< receive error counter (REC) now */
+    uint32_t bus_off;      /**< times the controller went bus-off (the event) */
+    uint32_t rx_dropped;   /**< received frames lost: receive queue or controller FIFO full */
+    uint32_t tx_dropped;   /**< frames hal_can_send() refused with -EAGAIN */
+} hal_can_status_t;
+
+/**
+ * @brief Read the controller's state and counters, so that bus-off (and its
+ *        automatic recovery) is visible to the application (after Zephyr's
+ *        can_get_state()).
+ * @param[out] st filled on success.
+ * @retval 0 filled. @retval -ENOTSUP this port keeps no such state.
+ * Task or ISR context; never blocks.
+ */
+int hal_can_status(hal_can_status_t *st);
+
 #endif /* HAL_CAN_H */

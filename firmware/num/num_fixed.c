@@ -1,0 +1,302 @@
+/* Fixed mode of num.h: the Q16.16 primitives that are not inline (see
+ * num_fixed.h for range, resolution and overflow of each). Every firmware
+ * source is compiled in both modes, so in float mode this file is empty. */
+#if defined(NUM_FIXED)
+
+#include "num/num.h"
+
+/* libfixmath's header is not clean under -Wconversion; including it here
+ * lets the compiler check num_fixed.h's declarations of fix16_smul and
+ * fix16_sdiv against the real ones. */
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#endif
+#include "fix16.h"
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+
+/* ------------------------------------------------------------- integer help */
+
+/* Leading zeros of a nonzero 32-bit value (CLZ on Cortex-M3/M4). */
+static inline unsigned clz32(uint32_t x)
+{
+#if defined(__GNUC__)
+    return (unsigned)__builtin_clz(x);
+#else
+    unsigned n = 0;
+    while ((x & 0x80000000u) == 0u) {
+        x <<= 1;
+        n++;
+    }
+    return n;
+#endif
+}
+
+/* |a| as an unsigned value, exact also for INT32_MIN. */
+static inline uint32_t uabs32(int32_t a) { return a < 0 ? 0u - (uint32_t)a : (uint32_t)a; }
+
+/* Signed product of two Q2.30 values, in Q2.30, truncated toward −inf
+ * (an arithmetic shift; GCC defines >> on negative values so). */
+static inline int32_t mul_q30(int32_t a, int32_t b)
+{
+    return (int32_t)(((int64_t)a * b) >> 30);
+}
+
+/* Q2.30 (or any Q.30 in int64) to Q16.16, rounded to nearest. */
+static inline int32_t q30_to_q16(int32_t a) { return (int32_t)(((int64_t)a + (1 << 13)) >> 14); }
+
+/* ----------------------------------------------------------- square roots */
+
+/*
+ * round(sqrt(s)) for s <= 2^63, as uint32 (<= 3037000500); larger s are
+ * outside its contract (the final check would overflow).
+ *
+ * s is normalised by an even shift 2k so that n = s·4^k has bit 63 or 62 set;
+ * g = floor(sqrt(n >> 32)) comes from two Newton steps in 32 bits (hardware
+ * division on a Cortex-M3), then one more Newton step on the remainder gives
+ * sqrt(n) to within a few units, and shifting back by k and a final check
+ * against s in exact 64-bit arithmetic give the correctly rounded result.
+ * On a Cortex-M3 num_sqrt takes 92 instructions, libfixmath's bit-by-bit
+ * fix16_sqrt 178 (docs/performance.md).
+ */
+static uint32_t isqrt64_round(uint64_t s)
+{
+    if (s == 0u) {
+        return 0u;
+    }
+    const uint32_t s_hi = (uint32_t)(s >> 32);
+    const unsigned lz = s_hi != 0u ? clz32(s_hi) : 32u + clz32((uint32_t)s);
+    const unsigned k = lz >> 1;
+    const uint64_t n = s << (2u * k);
+    const uint32_t hi = (uint32_t)(n >> 32); /* in [2^30, 2^32) */
+    const uint32_t lo = (uint32_t)n;
+
+    /* sqrt(hi) in [2^15, 2^16): start from the chord 2^15·(m + 2)/3 with
+     * m = hi/2^30 in [1, 4), which is below √m by at most 6.07 % (at m = 2),
+     * lifted by 1/16 so that it is never below the root (and at most 6.25 %
+     * above); integer Newton steps from above stay >= floor(√hi), and two
+     * bring the 6.25 % down to 2e-6, i.e. to floor or floor + 1. */
+    uint32_t g = ((hi >> 15) + 65536u) / 3u;
+    g += g >> 4;
+    g = (g + hi / g) >> 1;
+    g = (g + hi / g) >> 1;
+    if (g > 0xFFFFu) {
+        g = 0xFFFFu;
+    }
+    while (g * g > hi) {
+        g--;
+    }
+    const uint32_t rem = hi - g * g; /* ≤ 2g < 2^17 */
+
+    /* sqrt(n) ≈ g·2^16 + (rem·2^32 + lo) / (2·g·2^16); the numerator below is
+     * that over 2^17 and fits in 32 bits (rem·2^15 ≤ 2^32 − 2^16). */
+    const uint32_t num = (rem << 15) + (lo >> 17);
+    uint64_t r = ((uint64_t)g << 16) + num / g; /* ≈ sqrt(n), within a few units */
+
+    /* Back to sqrt(s) = sqrt(n) / 2^k, rounded; then make it exact:
+     * round(sqrt(s)) is the r with r² − r < s ≤ r² + r. */
+    if (k > 0u) {
+        r = (r + ((uint64_t)1 << (k - 1u))) >> k;
+    }
+    while (r * r + r < s) {
+        r++;
+    }
+    while (r > 0u && r * r - r >= s) {
+        r--;
+    }
+    return (uint32_t)r;
+}
+
+num_t num_sqrt(num_t a)
+{
+    if (a <= 0) {
+        return NUM_ZERO;
+    }
+    /* sqrt(a/2^16)·2^16 = sqrt(a·2^16): at most 181.02·2^16, in range. */
+    return (num_t)isqrt64_round((uint64_t)(uint32_t)a << 16);
+}
+
+num_t num_hypot(num_t x, num_t y)
+{
+    /* Exact sum of squares in Q32.32: each square ≤ 2^62, so the sum < 2^63. */
+    const uint64_t ax = uabs32(x);
+    const uint64_t ay = uabs32(y);
+    const uint32_t r = isqrt64_round(ax * ax + ay * ay);
+    return r > (uint32_t)INT32_MAX ? NUM_MAX : (num_t)r;
+}
+
+/* ------------------------------------------------------------ trigonometry */
+
+/* π/2 in Q32.32 (6746518852.26…), 2/π in Q0.32 (2734261102.37…). */
+#define HALF_PI_Q32 INT64_C(6746518852)
+#define TWO_OVER_PI_Q32 INT64_C(2734261102)
+
+/* Taylor coefficients in Q2.30 for |r| ≤ π/4 (+ a little): the first omitted
+ * terms are r⁹/9! ≤ 3.1e-7 and r¹⁰/10! ≤ 2.5e-8, below 0.02 LSB. */
+#define SIN_C3 (-178956971) /* −1/6 */
+#define SIN_C5 8947849      /* 1/120 */
+#define SIN_C7 (-213045)    /* −1/5040 */
+#define COS_C2 (-536870912) /* −1/2 */
+#define COS_C4 44739243     /* 1/24 */
+#define COS_C6 (-1491308)   /* −1/720 */
+#define COS_C8 26631        /* 1/40320 */
+#define ONE_Q30 (1 << 30)
+
+/*
+ * sin(a) (cos_shift = 0) or cos(a) (cos_shift = 1) in Q2.30.
+ * a = q·π/2 + r with q = round(a·2/π) and |r| ≲ π/4, r in Q2.30; then
+ * sin(a) = ±sin r or ±cos r by quadrant (q + cos_shift) mod 4.
+ */
+static int32_t sincos_q30(num_t a, unsigned cos_shift)
+{
+    /* q from a·(2/π): |a·2^16·(2/π)·2^32| < 2^63. The rounding of q may be
+     * off by one at a boundary; r is then just past π/4, still accurate. */
+    const int32_t q = (int32_t)(((int64_t)a * TWO_OVER_PI_Q32 + (INT64_C(1) << 47)) >> 48);
+    /* r = a − q·π/2 in Q32.32, exact but for π/2's 2^-33 rounding times q. */
+    const int64_t r32 = ((int64_t)a << 16) - (int64_t)q * HALF_PI_Q32;
+    const int32_t r = (int32_t)((r32 + 2) >> 2); /* Q2.30, |r| < 0.8 */
+    const int32_t z = mul_q30(r, r);
+
+    const unsigned quadrant = ((unsigned)q + cos_shift) & 3u;
+    int32_t v;
+    if ((quadrant & 1u) == 0u) {
+        /* sin r = r + r·z·(C3 + z·(C5 + z·C7)) */
+        int32_t p = SIN_C5 + mul_q30(z, SIN_C7);
+        p = SIN_C3 + mul_q30(z, p);
+        v = r + mul_q30(r, mul_q30(z, p));
+    } else {
+        /* cos r = 1 + z·(C2 + z·(C4 + z·(C6 + z·C8))) */
+        int32_t p = COS_C6 + mul_q30(z, COS_C8);
+        p = COS_C4 + mul_q30(z, p);
+        p = COS_C2 + mul_q30(z, p);
+        v = ONE_Q30 + mul_q30(z, p);
+    }
+    return (quadrant & 2u) != 0u ? -v : v;
+}
+
+num_t num_sin(num_t a) { return q30_to_q16(sincos_q30(a, 0u)); }
+
+num_t num_cos(num_t a) { return q30_to_q16(sincos_q30(a, 1u)); }
+
+/*
+ * floor((u1·2^32 + u0) / v) for u1 < v and v normalised (bit 31 set): the
+ * quotient fits in 32 bits. Two 16-bit digits of schoolbook division, each
+ * from a 32/16 hardware division and at most two corrections (Knuth's
+ * algorithm D; Hacker's Delight, divlu).
+ */
+static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
+{
+    const uint32_t b = 65536u;
+    const uint32_t vn1 = v >> 16;
+    const uint32_t vn0 = v & 0xFFFFu;
+    const uint32_t un1 = u0 >> 16;
+    const uint32_t un0 = u0 & 0xFFFFu;
+
+    uint32_t q1 = u1 / vn1;
+    uint32_t rhat = u1 - q1 * vn1;
+    while (q1 >= b || q1 * vn0 > b * rhat + un1) {
+        q1--;
+        rhat += vn1;
+        if (rhat >= b) {
+            break;
+        }
+    }
+    const uint32_t un21 = u1 * b + un1 - q1 * v; /* mod 2^32: the true value < v */
+    uint32_t q0 = un21 / vn1;
+    rhat = un21 - q0 * vn1;
+    while (q0 >= b || q0 * vn0 > b * rhat + un0) {
+        q0--;
+        rhat += vn1;
+        if (rhat >= b) {
+            break;
+        }
+    }
+    return q1 * b + q0;
+}
+
+/* Coefficients of atan(t) ≈ t·(A1 + A3·t² + … + A13·t¹²) on [0, 1], in
+ * Q2.30: a minimax fit (tools/numerics/fit_atan.py), max error 2.48e-7 rad
+ * (0.016 LSB) with the coefficients rounded as here. */
+#define ATAN_A1 1073737649
+#define ATAN_A3 (-357742515)
+#define ATAN_A5 212684800
+#define ATAN_A7 (-142091928)
+#define ATAN_A9 85495265
+#define ATAN_A11 (-36082255)
+#define ATAN_A13 7314107
+/* π/4, π/2 and π in Q2.30 as unsigned (π·2^30 needs 32 bits). */
+#define QUARTER_PI_U30 843314857u
+#define HALF_PI_U30 1686629713u
+#define PI_U30 3373259426u
+
+num_t num_atan2(num_t y, num_t x)
+{
+    const uint32_t ax = uabs32(x);
+    const uint32_t ay = uabs32(y);
+    if (ax == 0u && ay == 0u) {
+        return NUM_ZERO;
+    }
+    /* Octant: t = min/max in [0, 1]. */
+    const bool steep = ay > ax;
+    const uint32_t n = steep ? ax : ay;
+    const uint32_t m = steep ? ay : ax;
+    uint32_t angle; /* atan(n/m) in Q2.30, then the full angle in [0, π] */
+    if (n == m) {
+        angle = QUARTER_PI_U30;
+    } else {
+        /* t = n/m in Q0.32 from the normalised pair (n < m so t < 1). */
+        const unsigned sh = clz32(m);
+        const uint32_t t32 = udiv64_32(n << sh, 0u, m << sh);
+        const int32_t t = (int32_t)(t32 >> 2); /* Q2.30 */
+        const int32_t z = mul_q30(t, t);
+        int32_t p = ATAN_A11 + mul_q30(z, ATAN_A13);
+        p = ATAN_A9 + mul_q30(z, p);
+        p = ATAN_A7 + mul_q30(z, p);
+        p = ATAN_A5 + mul_q30(z, p);
+        p = ATAN_A3 + mul_q30(z, p);
+        p = ATAN_A1 + mul_q30(z, p);
+        angle = (uint32_t)mul_q30(t, p);
+    }
+    if (steep) {
+        angle = HALF_PI_U30 - angle;
+    }
+    if (x < 0) {
+        angle = PI_U30 - angle;
+    }
+    const num_t r = (num_t)((angle + (1u << 13)) >> 14);
+    return y < 0 ? -r : r;
+}
+
+/* ------------------------------------------------------------- angle wrap */
+
+/* 2π and π in Q32.32; 1/(2π) in Q0.32 (683565275.58…). */
+#define TWO_PI_Q32 INT64_C(26986075409)
+#define PI_Q32 INT64_C(13493037705)
+#define INV_TWO_PI_Q32 INT64_C(683565276)
+
+num_t num_wrap(num_t a)
+{
+    if (a > -NUM_PI && a <= NUM_PI) {
+        return a;
+    }
+    /* k = round(a/2π) from a multiplication (|a·2^16·2^32/2π| < 2^61); then
+     * w = a − k·2π in Q32.32, exact but for 2π's rounding (2^-33) times
+     * |k| ≤ 5216, i.e. ≤ 6e-7 = 0.04 LSB. */
+    const int64_t k = ((int64_t)a * INV_TWO_PI_Q32 + (INT64_C(1) << 47)) >> 48;
+    int64_t w = ((int64_t)a << 16) - k * TWO_PI_Q32;
+    /* k may be off by one at the seam: bring w into (−π, π]. */
+    if (w > PI_Q32) {
+        w -= TWO_PI_Q32;
+    } else if (w <= -PI_Q32) {
+        w += TWO_PI_Q32;
+    }
+    /* π·2^16 = 205887.42, so w rounds to a code in [−NUM_PI, NUM_PI]; the
+     * seam code −NUM_PI becomes NUM_PI, as in float mode. */
+    const num_t r = (num_t)((w + (INT64_C(1) << 15)) >> 16);
+    return r == -NUM_PI ? NUM_PI : r;
+}
+
+#endif /* NUM_FIXED */

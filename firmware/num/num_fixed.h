@@ -1,0 +1,232 @@
+/**
+ * @file num_fixed.h
+ * @brief Fixed mode of num.h (`-DNUM_FIXED`): `num_t` is signed Q16.16.
+ *        Include num.h, not this file.
+ *
+ * Representation: a num_t `a` holds the real value a / 2^16.
+ * - Range: [-32768, 32768 - 2^-16] = [NUM_MIN, NUM_MAX].
+ * - Resolution (1 LSB): 2^-16 = 1.52587890625e-5 (15.3 µm, 15.3 µrad).
+ * - Overflow: every operation saturates to NUM_MIN or NUM_MAX; none wraps.
+ *   There is no NaN and no infinity: num_is_finite() is true for every value.
+ *
+ * Who computes what (see docs/numerics.md for the measured errors, and
+ * tools/numerics/ for the tool that measures them):
+ * - add, sub, neg, abs, conversions, wrap: here and in num_fixed.c;
+ * - mul, div: libfixmath (fix16_smul, fix16_sdiv: 64-bit product, rounding,
+ *   saturation), built from its source with the configuration below for the
+ *   host and for every cross build alike, so both compute the same numbers;
+ * - sqrt, hypot, sin, cos, atan2: num_fixed.c. libfixmath's versions were
+ *   measured and fall short: its sin/cos are off by up to 7.8e-3 (509 LSB)
+ *   near ±π (the x^11 term of its series overflows Q16.16), its atan2 by
+ *   1.0e-2 rad (a cubic), it has no hypot, and its sqrt, correctly rounded,
+ *   takes twice the instructions of num_sqrt on a Cortex-M3 (178 against 92).
+ *   Figures: docs/numerics.md and docs/performance.md.
+ *
+ * libfixmath configuration (mk/numeric.mk, the same for every build):
+ * FIXMATH_NO_CACHE (its sin and atan2 caches take 80 KiB of RAM, and make
+ * the time of a call depend on the calls before it); rounding on (FIXMATH_NO_ROUNDING unset: mul and
+ * div round to nearest); overflow detection on (FIXMATH_NO_OVERFLOW unset:
+ * needed by the saturating fix16_smul/fix16_sdiv); 64-bit multiply
+ * (FIXMATH_NO_64BIT unset: a Cortex-M3 has SMULL); FIXMATH_FAST_SIN and
+ * FIXMATH_SIN_LUT unset (their sin is not used).
+ */
+#ifndef MSTC_NUM_FIXED_H
+#define MSTC_NUM_FIXED_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+/** @brief Q16.16: value = raw / 65536. */
+typedef int32_t num_t;
+
+/** @brief Name of the numeric mode, for logs and reports. */
+#define NUM_MODE_NAME "fixed"
+
+/** @brief Fractional bits of num_t. */
+#define NUM_FRAC_BITS 16
+
+/**
+ * @brief A compile-time constant from a literal or constant expression:
+ *        rounded to the nearest Q16.16 value (ties away from zero) and
+ *        saturated to [NUM_MIN, NUM_MAX]. The double arithmetic is folded by
+ *        the compiler; no double reaches the code.
+ */
+#define NUM_C(x)                                                                     \
+    ((num_t)((x) >= 32767.9999847412109375                                          \
+                 ? 2147483647.0                                                      \
+                 : ((x) <= -32768.0 ? -2147483648.0                                  \
+                                    : ((x) >= 0 ? (x) * 65536.0 + 0.5 : (x) * 65536.0 - 0.5))))
+
+#define NUM_ZERO ((num_t)0)
+#define NUM_ONE ((num_t)65536)
+/** @brief round(π·2^16) = 205887 = 3.14158630, 6.35e-6 (0.42 LSB) below π:
+ *         the largest Q16.16 value <= π. −NUM_PI is likewise above −π. */
+#define NUM_PI ((num_t)205887)
+/** @brief round(2π·2^16) = 411775 = 6.28318787, 2.56e-6 (0.17 LSB) above 2π. */
+#define NUM_TWO_PI ((num_t)411775)
+/** @brief Largest value, 32768 − 2^-16. */
+#define NUM_MAX ((num_t)INT32_MAX)
+/** @brief Smallest value, −32768. */
+#define NUM_MIN ((num_t)INT32_MIN)
+
+/**
+ * @brief a + b, saturated to [NUM_MIN, NUM_MAX]. Exact when in range.
+ */
+static inline num_t num_add(num_t a, num_t b)
+{
+    /* Unsigned sum wraps by definition; overflow happened when a and b have
+     * the same sign and the sum has the other. */
+    const uint32_t s = (uint32_t)a + (uint32_t)b;
+    if ((int32_t)((s ^ (uint32_t)a) & (s ^ (uint32_t)b)) < 0) {
+        return a < 0 ? NUM_MIN : NUM_MAX;
+    }
+    return (num_t)s;
+}
+
+/**
+ * @brief a − b, saturated to [NUM_MIN, NUM_MAX]. Exact when in range.
+ */
+static inline num_t num_sub(num_t a, num_t b)
+{
+    const uint32_t d = (uint32_t)a - (uint32_t)b;
+    if ((int32_t)((d ^ (uint32_t)a) & ((uint32_t)a ^ (uint32_t)b)) < 0) {
+        return a < 0 ? NUM_MIN : NUM_MAX;
+    }
+    return (num_t)d;
+}
+
+/** @brief −a; −NUM_MIN saturates to NUM_MAX. Exact otherwise. */
+static inline num_t num_neg(num_t a) { return a == NUM_MIN ? NUM_MAX : -a; }
+
+/** @brief |a|; |NUM_MIN| saturates to NUM_MAX. Exact otherwise. */
+static inline num_t num_abs(num_t a) { return a < 0 ? num_neg(a) : a; }
+
+/* libfixmath (deps/libfixmath/fix16.c), declared here so that users of num.h
+ * do not see its header, which is not clean under -Wconversion. num_fixed.c
+ * includes fix16.h, so the compiler checks that these declarations match. */
+int32_t fix16_smul(int32_t inArg0, int32_t inArg1);
+int32_t fix16_sdiv(int32_t inArg0, int32_t inArg1);
+
+/**
+ * @brief a · b, rounded to nearest (libfixmath fix16_smul: exact 64-bit
+ *        product, ties away from zero), saturated to [NUM_MIN, NUM_MAX].
+ *        Error ≤ 0.5 LSB when in range.
+ */
+static inline num_t num_mul(num_t a, num_t b) { return fix16_smul(a, b); }
+
+/**
+ * @brief a / b, rounded to nearest (libfixmath fix16_sdiv), saturated to
+ *        [NUM_MIN, NUM_MAX]. Error ≤ 0.56 LSB when in range (measured,
+ *        docs/numerics.md: libfixmath's first estimate for |b| >= 16 costs a
+ *        little over the 0.5 of rounding).
+ *        b == 0 gives NUM_MAX for a >= 0 and NUM_MIN for a < 0.
+ */
+static inline num_t num_div(num_t a, num_t b) { return fix16_sdiv(a, b); }
+
+/**
+ * @brief Square root, rounded to nearest: error ≤ 0.5 LSB over the whole
+ *        range (exact integer square root of a·2^16). Negative input gives 0.
+ *        Range of the result: [0, 181.02].
+ */
+num_t num_sqrt(num_t a);
+
+/**
+ * @brief sqrt(x² + y²), rounded to nearest (error ≤ 0.5 LSB), from the exact
+ *        64-bit sum of squares: no intermediate overflow for any inputs. The
+ *        result saturates to NUM_MAX only when the true value exceeds it
+ *        (e.g. |x| = |y| > 23170), far outside a 100 m × 100 m field, whose
+ *        largest distance is 141.5.
+ */
+num_t num_hypot(num_t x, num_t y);
+
+/**
+ * @brief Sine, any input. The argument is reduced by the nearest multiple
+ *        of π/2 (held to 2^-32), then a polynomial is evaluated in Q2.30.
+ *        Error ≤ 0.52 LSB for |a| ≤ 4π, ≤ 0.6 LSB at |a| = 32768
+ *        (docs/numerics.md). Result in [−1, 1].
+ */
+num_t num_sin(num_t a);
+
+/** @brief Cosine; as num_sin(). */
+num_t num_cos(num_t a);
+
+/**
+ * @brief atan2(y, x) in [−NUM_PI, NUM_PI] (within (−π, π]), any inputs: the
+ *        ratio min/max is formed to 32 bits after normalisation, so nothing
+ *        overflows and small vectors lose nothing. Error ≤ 0.52 LSB.
+ *        atan2(0, 0) = 0; atan2(0, x < 0) = NUM_PI.
+ */
+num_t num_atan2(num_t y, num_t x);
+
+/** @brief Always true: every Q16.16 value is finite. */
+static inline bool num_is_finite(num_t a)
+{
+    (void)a;
+    return true;
+}
+
+/**
+ * @brief Angle wrapped into (−π, π] as float mode does it: the result lies in
+ *        (−NUM_PI, NUM_PI], the codes −205886 … 205887.
+ *
+ * Identity on (−NUM_PI, NUM_PI]. Otherwise the real value a/2^16 is reduced
+ * by the multiple of 2π (held to 2^-32) that brings it into (−π, π] and
+ * rounded to the nearest code: error modulo 2π ≤ 0.5 LSB (+ 0.04 LSB at
+ * |a| = 32768). The seam: −NUM_PI (−π + 0.42 LSB) is returned as NUM_PI
+ * (π − 0.42 LSB), like float mode's wrap(−NUM_PI) = NUM_PI, so num.h's range
+ * is the same in both modes; for the inputs that reduce to within 0.92 LSB
+ * above −π, this costs up to 1.33 LSB modulo 2π (docs/numerics.md).
+ * Constant time: no loop over periods.
+ */
+num_t num_wrap(num_t a);
+
+/**
+ * @brief Conversion from float: round to nearest (ties away from zero),
+ *        saturated to [NUM_MIN, NUM_MAX]; ±inf saturates, NaN gives 0.
+ *        The controllers never call it (float arithmetic: soft float on a
+ *        Cortex-M3); the host side, the tests and parameter updates do.
+ */
+static inline num_t num_from_float(float f)
+{
+    if (!(f == f)) {
+        return NUM_ZERO; /* NaN */
+    }
+    if (f >= 32768.0f) {
+        return NUM_MAX;
+    }
+    if (f < -32768.0f) {
+        return NUM_MIN;
+    }
+    /* f·2^16 is exact in float (a power-of-two scale) and lies in
+     * [−2^31, 2^31); so do i and v − i. Adding 0.5f to v instead would round
+     * twice for |v| >= 2^23. */
+    const float v = f * 65536.0f;
+    int32_t i = (int32_t)v; /* truncates toward zero */
+    const float frac = v - (float)i;
+    if (frac >= 0.5f) {
+        i++;
+    } else if (frac <= -0.5f) {
+        i--;
+    }
+    return i;
+}
+
+/**
+ * @brief Conversion to float: a / 2^16 rounded to float's 24-bit significand
+ *        (exact for |a| < 256).
+ */
+static inline float num_to_float(num_t a) { return (float)a * (1.0f / 65536.0f); }
+
+/** @brief Conversion from an integer, saturated to [−32768, 32767]. */
+static inline num_t num_from_int(int32_t i)
+{
+    if (i > 32767) {
+        return NUM_MAX;
+    }
+    if (i < -32768) {
+        return NUM_MIN;
+    }
+    return (num_t)(i * 65536);
+}
+
+#endif /* MSTC_NUM_FIXED_H */

@@ -1,0 +1,66 @@
+# make bench: instructions of one control step on Cortex-M (QEMU mps2 boards,
+# counted with SysTick under -icount) and nanoseconds per step on the host,
+# over a recorded closed loop of the paper's scenarios; prints a table and
+# writes it into docs/performance.md (tools/bench/report.py). Results are
+# cached in build/bench/*.txt and remade when their image or program changes.
+# Uses from the Makefile: CC, CSTD, OPT, WARN, PY, STAMP, the venv rule; from
+# mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the libraries.
+
+BENCH_DIR := build/bench
+BENCH_SCENARIOS := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
+QEMU_ARM ?= qemu-system-arm
+QEMU_MACHINE_m4f := mps2-an386
+QEMU_MACHINE_m3 := mps2-an385
+BENCH_TARGET_SRCS := tools/bench/startup.c tools/bench/bench_core.c tools/bench/bench_target.c
+BENCH_HOST_SRCS := tools/bench/bench_core.c tools/bench/bench_host.c
+# ctl_step's sources: the control core (no protocol, no application).
+BENCH_CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*.c))
+
+$(BENCH_DIR)/scenarios.h: tools/bench/gen_scenarios.py $(BENCH_SCENARIOS) | .venv/.requirements.sha256
+	@mkdir -p $(@D)
+	$(PY) tools/bench/gen_scenarios.py $@ $(BENCH_SCENARIOS)
+
+# Cortex-M images. $(1): config <cpu>-<mode> of mk/cross.mk; $(2): cpu.
+define BENCH_IMAGE_RULES
+$(BENCH_DIR)/$(1).elf: $(BENCH_TARGET_SRCS) tools/bench/bench.h tools/bench/link.ld \
+    $(BENCH_DIR)/scenarios.h build/cross/$(1)/libmstc_fw.a
+	$$(CROSS_CC) $$(CROSS_FLAGS_$(1)) $$(WARN) -Itools/bench -I$(BENCH_DIR) \
+	  -DBENCH_CONFIG='"$(1)"' $(BENCH_TARGET_SRCS) build/cross/$(1)/libmstc_fw.a \
+	  --specs=rdimon.specs -T tools/bench/link.ld -Wl,--gc-sections -lm -o $$@
+$(BENCH_DIR)/$(1).txt: $(BENCH_DIR)/$(1).elf | $$(STAMP)/apt-test
+	timeout 600 $$(QEMU_ARM) -M $$(QEMU_MACHINE_$(2)) -nographic -monitor none -serial none \
+	  -semihosting-config enable=on,target=native -icount shift=0 -kernel $$< > $$@.tmp
+	@grep -q '^done$$$$' $$@.tmp || { cat $$@.tmp; echo "error: $$< did not finish" >&2; exit 1; }
+	@mv $$@.tmp $$@
+endef
+$(eval $(call BENCH_IMAGE_RULES,m4f-float,m4f))
+$(eval $(call BENCH_IMAGE_RULES,m3-fixed,m3))
+$(eval $(call BENCH_IMAGE_RULES,m3-float,m3))
+
+# Host programs, one per numeric mode. $(1): mode.
+BENCH_HOST_WARN := $(WARN)
+define BENCH_HOST_RULES
+BENCH_HOST_OBJS_$(1) := $$(patsubst %.c,$(BENCH_DIR)/host-$(1)/obj/%.o,$$(BENCH_CORE_SRCS) $$(NUM_SRCS_$(1)))
+$(BENCH_DIR)/host-$(1)/obj/%.o: %.c $$(NUM_DEPS_$(1)) | $$(STAMP)/apt-sim
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$(CSTD) $$(OPT) $$(BENCH_HOST_WARN) -Ifirmware -Ihal/include $$(NUM_CFLAGS_$(1)) \
+	  -MMD -MP -c $$< -o $$@
+$(BENCH_DIR)/host-$(1)/obj/$$(LIBFIXMATH_DIR)/%.o: BENCH_HOST_WARN := $$(LIBFIXMATH_WARN)
+-include $$(BENCH_HOST_OBJS_$(1):.o=.d)
+$(BENCH_DIR)/host-$(1)/bench: $(BENCH_HOST_SRCS) tools/bench/bench.h $(BENCH_DIR)/scenarios.h \
+    $$(BENCH_HOST_OBJS_$(1))
+	$$(CC) $$(CSTD) $$(OPT) $$(WARN) -Ifirmware -Ihal/include -Itools/bench -I$(BENCH_DIR) \
+	  $$(NUM_CFLAGS_$(1)) $(BENCH_HOST_SRCS) $$(BENCH_HOST_OBJS_$(1)) -lm -o $$@
+$(BENCH_DIR)/host-$(1).txt: $(BENCH_DIR)/host-$(1)/bench
+	$$< > $$@.tmp
+	@mv $$@.tmp $$@
+endef
+$(eval $(call BENCH_HOST_RULES,float))
+$(eval $(call BENCH_HOST_RULES,fixed))
+
+BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) \
+                 $(BENCH_DIR)/host-float.txt $(BENCH_DIR)/host-fixed.txt
+
+.PHONY: bench
+bench: $(BENCH_RESULTS) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU) and ns on the host: docs/performance.md
+	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)

@@ -1,0 +1,210 @@
+/*
+ * Unity tests of the board-independent computations of the STM32 ports
+ * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, reset cause, SysTick) and
+ * of the wheel-speed-to-motor-command glue (hal/stm32/wheel_cmd.c), in both
+ * numeric modes.
+ *
+ * The sources are included, not linked: the host test build links the
+ * firmware objects only, and these files are pure (no register access).
+ * Expected values are derived by hand beside each case from the reference
+ * manuals' formulas (RM0090 §21.3.3 IWDG, §18.3.1 timer time base).
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+
+#include "../../hal/stm32/stm32_calc.c"
+#include "../../hal/stm32/wheel_cmd.c"
+#include "unity.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+/* ---------------------------------------------------------------- IWDG */
+
+static void expect_iwdg(uint32_t ms, uint32_t lsi, unsigned pr, unsigned rlr)
+{
+    stm32_iwdg_t c;
+    TEST_ASSERT_EQUAL_INT(0, stm32_iwdg_config(ms, lsi, &c));
+    TEST_ASSERT_EQUAL_UINT(pr, c.pr);
+    TEST_ASSERT_EQUAL_UINT(rlr, c.rlr);
+}
+
+/* timeout = 4 · 2^pr · (rlr + 1) / f_LSI. */
+static void test_stm32_iwdg_hand_values(void)
+{
+    /* F4 board: 100 ms at 32 kHz = 3200 LSI clocks = 800 × 4: pr 0, rlr 799. */
+    expect_iwdg(100, 32000, 0, 799);
+    /* F1 board: 100 ms at 40 kHz = 4000 clocks = 1000 × 4: pr 0, rlr 999. */
+    expect_iwdg(100, 40000, 0, 999);
+    /* 1 s at 32 kHz = 32000 clocks: / 4 = 8000 > 4096; / 8 = 4000: pr 1, rlr 3999. */
+    expect_iwdg(1000, 32000, 1, 3999);
+    /* 3 ms at 30 kHz = 90 clocks / 4 = 22.5, rounded up to 23: never shorter. */
+    expect_iwdg(3, 30000, 0, 22);
+    /* The longest: 4096 × 256 / 32 kHz = 32.768 s: pr 6, rlr 4095. */
+    expect_iwdg(32768, 32000, 6, 4095);
+}
+
+static void test_stm32_iwdg_rejects_out_of_range(void)
+{
+    stm32_iwdg_t c;
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_iwdg_config(32769, 32000, &c));
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_iwdg_config(0, 32000, &c));
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_iwdg_config(100, 0, &c));
+}
+
+/* Property: the timeout is never shorter than asked, and within one reload
+ * step (4 · 2^pr clocks) of it. */
+static void test_stm32_iwdg_timeout_never_shorter(void)
+{
+    for (uint32_t ms = 1; ms <= 30000; ms += 37) {
+        stm32_iwdg_t c;
+        TEST_ASSERT_EQUAL_INT(0, stm32_iwdg_config(ms, 32000, &c));
+        const double step_ms = 4.0 * (double)(1u << c.pr) / 32.0;
+        const double got_ms = step_ms * (c.rlr + 1.0);
+        TEST_ASSERT_TRUE(got_ms >= (double)ms);
+        TEST_ASSERT_TRUE(got_ms < (double)ms + step_ms);
+    }
+}
+
+/* -------------------------------------------------------------- timers */
+
+static void expect_timer(uint32_t clk, uint32_t us, unsigned psc, unsigned arr, int32_t ppm)
+{
+    stm32_timer_t t;
+    int32_t err = 99;
+    TEST_ASSERT_EQUAL_INT(0, stm32_timer_period(clk, us, &t, &err));
+    TEST_ASSERT_EQUAL_UINT(psc, t.psc);
+    TEST_ASSERT_EQUAL_UINT(arr, t.arr);
+    TEST_ASSERT_EQUAL_INT32(ppm, err);
+}
+
+static void test_stm32_timer_control_period(void)
+{
+    /* F4: TIM2 at 84 MHz, 20 ms = 1 680 000 clocks; the prescaler must be
+     * >= 1680000 / 65536 = 25.6; 26 and 27 do not divide it, 28 does:
+     * 60 000 counts. psc 27, arr 59999. */
+    expect_timer(84000000, 20000, 27, 59999, 0);
+    /* F1: 72 MHz, 1 440 000 clocks, >= 21.97: 22, 23 no, 24 gives 60 000. */
+    expect_timer(72000000, 20000, 23, 59999, 0);
+    /* HSI fallbacks: 16 MHz: 320 000 clocks, >= 4.88: 5 gives 64 000. */
+    expect_timer(16000000, 20000, 4, 63999, 0);
+    /* 8 MHz: 160 000, >= 2.44: 3 no, 4 gives 40 000. */
+    expect_timer(8000000, 20000, 3, 39999, 0);
+    /* 1 ms at 72 MHz: 72 000 clocks, >= 1.1: 2 gives 36 000. */
+    expect_timer(72000000, 1000, 1, 35999, 0);
+}
+
+/* Not exact: 1 000 003 Hz × 0.1 s = 100 000.3 clocks; prescaler 2, reload
+ * round(50 000.15) = 50 000: 100 000 clocks, (100000 - 100000.3) / 100000.3
+ * = -3.0 ppm. */
+static void test_stm32_timer_inexact_reports_error(void)
+{
+    expect_timer(1000003, 100000, 1, 49999, -3);
+}
+
+static void test_stm32_timer_rejects_out_of_range(void)
+{
+    stm32_timer_t t;
+    int32_t err;
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_timer_period(0, 20000, &t, &err));
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_timer_period(84000000, 0, &t, &err));
+    /* 2^32 · 84 MHz^-1 = 51.1 s is the longest period. */
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_timer_period(84000000, 60000000, &t, &err));
+}
+
+/* ----------------------------------------------------------------- PWM */
+
+static void test_stm32_pwm_compare(void)
+{
+    /* 84 MHz / 20 kHz: arr 4199, 4200 counts per period. */
+    TEST_ASSERT_EQUAL_UINT32(0, stm32_pwm_compare(0, 10000, 4199));
+    TEST_ASSERT_EQUAL_UINT32(2100, stm32_pwm_compare(5000, 10000, 4199));
+    TEST_ASSERT_EQUAL_UINT32(1050, stm32_pwm_compare(-2500, 10000, 4199));
+    TEST_ASSERT_EQUAL_UINT32(4200, stm32_pwm_compare(10000, 10000, 4199)); /* always high */
+    TEST_ASSERT_EQUAL_UINT32(4200, stm32_pwm_compare(-32768, 10000, 4199));
+    /* 1 → 0.42 counts → 0; 2 → 0.84 → 1; 3 → 1.26 → 1 (nearest). */
+    TEST_ASSERT_EQUAL_UINT32(0, stm32_pwm_compare(1, 10000, 4199));
+    TEST_ASSERT_EQUAL_UINT32(1, stm32_pwm_compare(2, 10000, 4199));
+    TEST_ASSERT_EQUAL_UINT32(1, stm32_pwm_compare(3, 10000, 4199));
+    /* 72 MHz / 20 kHz: arr 3599; 3333 → 1199.88 → 1200. */
+    TEST_ASSERT_EQUAL_UINT32(1200, stm32_pwm_compare(3333, 10000, 3599));
+    TEST_ASSERT_EQUAL_UINT32(0, stm32_pwm_compare(5000, 0, 3599));
+}
+
+/* --------------------------------------------------------- reset cause */
+
+static void test_stm32_reset_cause_most_specific_flag_wins(void)
+{
+    const uint32_t pin = STM32_RCC_CSR_PINRSTF;
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_POWER_ON,
+                          stm32_reset_cause(STM32_RCC_CSR_PORRSTF | STM32_RCC_CSR_BORRSTF | pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_POWER_ON, stm32_reset_cause(STM32_RCC_CSR_BORRSTF | pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_WATCHDOG, stm32_reset_cause(STM32_RCC_CSR_IWDGRSTF | pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_WATCHDOG, stm32_reset_cause(STM32_RCC_CSR_WWDGRSTF | pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_SOFTWARE, stm32_reset_cause(STM32_RCC_CSR_SFTRSTF | pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_OTHER, stm32_reset_cause(STM32_RCC_CSR_LPWRRSTF | pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_PIN, stm32_reset_cause(pin));
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_OTHER, stm32_reset_cause(0));
+    /* The other CSR bits (LSION, LSIRDY, RMVF) do not matter. */
+    TEST_ASSERT_EQUAL_INT(HAL_RESET_PIN, stm32_reset_cause(pin | 0x01000003u));
+}
+
+static void test_stm32_systick_reload(void)
+{
+    TEST_ASSERT_EQUAL_UINT32(167999, stm32_systick_reload(168000000));
+    TEST_ASSERT_EQUAL_UINT32(71999, stm32_systick_reload(72000000));
+    TEST_ASSERT_EQUAL_UINT32(15999, stm32_systick_reload(16000000));
+}
+
+/* ------------------------------------------------------- wheel command */
+
+static num_t n(double x) { return num_from_float((float)x); }
+
+static void test_wheel_cmd_scales_to_full_scale(void)
+{
+    /* 3 / 8 = 0.375 exactly in both modes: 3750. */
+    TEST_ASSERT_EQUAL_INT16(3750, wheel_cmd_from_speed(n(3.0), n(8.0)));
+    TEST_ASSERT_EQUAL_INT16(-3750, wheel_cmd_from_speed(n(-3.0), n(8.0)));
+    /* 12.345 / 40 = 0.308625 → 3086.25 → 3086 (fixed: 12.345 is
+     * 809042 / 65536 = 12.3450012, still 3086). */
+    TEST_ASSERT_EQUAL_INT16(3086, wheel_cmd_from_speed(n(12.345), n(40.0)));
+    /* Below half a step: 1/1024 / 20.48 · 10000 = 0.477 → 0, either sign. */
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(n(1.0 / 1024.0), n(20.48)));
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(n(-1.0 / 1024.0), n(20.48)));
+    /* 1/512 / 20.48 · 10000 = 0.954 → 1. */
+    TEST_ASSERT_EQUAL_INT16(1, wheel_cmd_from_speed(n(1.0 / 512.0), n(20.48)));
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(NUM_ZERO, n(8.0)));
+}
+
+static void test_wheel_cmd_clamps_and_guards(void)
+{
+    TEST_ASSERT_EQUAL_INT16(10000, wheel_cmd_from_speed(n(100.0), n(100.0)));
+    TEST_ASSERT_EQUAL_INT16(10000, wheel_cmd_from_speed(n(150.0), n(100.0)));
+    TEST_ASSERT_EQUAL_INT16(-10000, wheel_cmd_from_speed(n(-1000.0), n(100.0)));
+    /* A limit of 0 or below commands nothing. */
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(n(5.0), NUM_ZERO));
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(n(5.0), n(-10.0)));
+#ifndef NUM_FIXED
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(NAN, n(10.0)));
+    TEST_ASSERT_EQUAL_INT16(0, wheel_cmd_from_speed(n(1.0), NAN));
+    TEST_ASSERT_EQUAL_INT16(10000, wheel_cmd_from_speed(INFINITY, n(10.0)));
+#endif
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_stm32_iwdg_hand_values);
+    RUN_TEST(test_stm32_iwdg_rejects_out_of_range);
+    RUN_TEST(test_stm32_iwdg_timeout_never_shorter);
+    RUN_TEST(test_stm32_timer_control_period);
+    RUN_TEST(test_stm32_timer_inexact_reports_error);
+    RUN_TEST(test_stm32_timer_rejects_out_of_range);
+    RUN_TEST(test_stm32_pwm_compare);
+    RUN_TEST(test_stm32_reset_cause_most_specific_flag_wins);
+    RUN_TEST(test_stm32_systick_reload);
+    RUN_TEST(test_wheel_cmd_scales_to_full_scale);
+    RUN_TEST(test_wheel_cmd_clamps_and_guards);
+    return UNITY_END();
+}

@@ -1,0 +1,219 @@
+/* The benchmark on a Cortex-M under QEMU (make bench): instructions of
+ * ctl_step, counted with SysTick under `-icount shift=0`, where the counter
+ * (processor clock, 25 MHz) advances once per 40 executed instructions, the
+ * same every run. Prints `key value` lines for tools/bench/report.py on the
+ * semihosting console, then exits QEMU. */
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "bench.h"
+#include "scenarios.h"
+
+#if defined(NUM_FIXED)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#include "fix16.h"
+#pragma GCC diagnostic pop
+#endif
+
+#ifndef BENCH_CONFIG
+#define BENCH_CONFIG "unknown"
+#endif
+
+#define SYST_CSR (*(volatile uint32_t *)0xE000E010u)
+#define SYST_RVR (*(volatile uint32_t *)0xE000E014u)
+#define SYST_CVR (*(volatile uint32_t *)0xE000E018u)
+
+static uint32_t systick_last;
+static uint64_t systick_high;
+
+/* SysTick as a 64-bit up counter; calls must come less than 2^24 ticks apart. */
+static uint64_t ticks(void)
+{
+    const uint32_t cur = SYST_CVR & 0xFFFFFFu; /* counts down */
+    if (cur > systick_last) {
+        systick_high += UINT64_C(1) << 24;
+    }
+    systick_last = cur;
+    return systick_high + (0xFFFFFFu - cur);
+}
+
+static void systick_start(void)
+{
+    SYST_RVR = 0xFFFFFFu;
+    SYST_CVR = 0u;
+    SYST_CSR = 0x5u; /* ENABLE, CLKSOURCE = processor clock, no interrupt */
+    while ((SYST_CVR & 0xFFFFFFu) == 0u) {
+    }
+    systick_last = SYST_CVR & 0xFFFFFFu;
+    systick_high = 0u;
+}
+
+/* 2·n instructions (+ a handful): the calibration of ticks to instructions. */
+static void spin(uint32_t n)
+{
+    __asm volatile("1: subs %0, %0, #1\n\t"
+                   "bne 1b"
+                   : "+r"(n)
+                   :
+                   : "cc");
+}
+
+static bench_step_t steps[BENCH_TOTAL_STEPS];
+
+/* ------------------------------------------------- primitive micro-benchmarks */
+
+#define N_ARGS 256u
+#define N_REPS 4u
+static volatile num_t arg_a[N_ARGS];
+static volatile num_t arg_b[N_ARGS];
+static volatile num_t sink;
+static double ips; /* instructions per tick */
+
+static uint32_t lcg_state = 12345u;
+static double lcg_uniform(double lo, double hi)
+{
+    lcg_state = lcg_state * 1664525u + 1013904223u;
+    return lo + (hi - lo) * ((double)(lcg_state >> 8) / 16777216.0);
+}
+
+static void fill(double a_lo, double a_hi, double b_lo, double b_hi, int b_any_sign)
+{
+    lcg_state = 12345u;
+    for (unsigned i = 0; i < N_ARGS; i++) {
+        arg_a[i] = bench_num(lcg_uniform(a_lo, a_hi));
+        double b = lcg_uniform(b_lo, b_hi);
+        if (b_any_sign && lcg_uniform(0.0, 1.0) < 0.5) {
+            b = -b;
+        }
+        arg_b[i] = bench_num(b);
+    }
+}
+
+/* Instructions per evaluation of EXPR (over a and b), less the loop's own
+ * (the same loop storing a). */
+#define PRIM(NAME, DOMAIN, EXPR)                                                       \
+    do {                                                                               \
+        uint64_t t_op = 0;                                                             \
+        uint64_t t_base = 0;                                                           \
+        for (unsigned rep = 0; rep < N_REPS; rep++) {                                  \
+            uint64_t t0 = ticks();                                                     \
+            for (unsigned i = 0; i < N_ARGS; i++) {                                    \
+                const num_t a = arg_a[i];                                              \
+                const num_t b = arg_b[i];                                              \
+                (void)b;                                                               \
+                sink = (EXPR);                                                         \
+            }                                                                          \
+            t_op += ticks() - t0;                                                      \
+            t0 = ticks();                                                              \
+            for (unsigned i = 0; i < N_ARGS; i++) {                                    \
+                const num_t a = arg_a[i];                                              \
+                const num_t b = arg_b[i];                                              \
+                (void)b;                                                               \
+                sink = a;                                                              \
+            }                                                                          \
+            t_base += ticks() - t0;                                                    \
+        }                                                                              \
+        printf("prim %s %.1f %s\n", NAME,                                              \
+               ((double)t_op - (double)t_base) * ips / (double)(N_ARGS * N_REPS), DOMAIN); \
+    } while (0)
+
+static void primitives(void)
+{
+    fill(-10.0, 10.0, -10.0, 10.0, 0);
+    PRIM("num_add", "a, b in [-10, 10]", num_add(a, b));
+    PRIM("num_mul", "a, b in [-10, 10]", num_mul(a, b));
+    fill(-10.0, 10.0, 0.1, 10.0, 1);
+    PRIM("num_div", "a in [-10, 10], |b| in [0.1, 10]", num_div(a, b));
+    fill(0.0, 100.0, 0.0, 1.0, 0);
+    PRIM("num_sqrt", "a in [0, 100]", num_sqrt(a));
+#if defined(NUM_FIXED)
+    PRIM("fix16_sqrt", "a in [0, 100]", fix16_sqrt(a));
+#endif
+    fill(-10.0, 10.0, -10.0, 10.0, 0);
+    PRIM("num_hypot", "x, y in [-10, 10]", num_hypot(a, b));
+    PRIM("num_atan2", "x, y in [-10, 10]", num_atan2(b, a));
+#if defined(NUM_FIXED)
+    PRIM("fix16_atan2", "x, y in [-10, 10]", fix16_atan2(b, a));
+#endif
+    fill(-4.0, 4.0, 0.0, 1.0, 0);
+    PRIM("num_sin", "a in [-4, 4]", num_sin(a));
+    PRIM("num_cos", "a in [-4, 4]", num_cos(a));
+#if defined(NUM_FIXED)
+    PRIM("fix16_sin", "a in [-4, 4]", fix16_sin(a));
+#endif
+    fill(-8.0, 8.0, 0.0, 1.0, 0);
+    PRIM("num_wrap", "a in [-8, 8] (60 % outside (-pi, pi])", num_wrap(a));
+}
+
+/* ------------------------------------------------------------------ main */
+
+int main(void)
+{
+    systick_start();
+    const uint32_t spins = 1000000u;
+    const uint64_t t0 = ticks();
+    spin(spins);
+    const uint64_t cal = ticks() - t0;
+    ips = 2.0 * (double)spins / (double)cal;
+    printf("config %s\nmode %s\nips %.3f\n", BENCH_CONFIG, NUM_MODE_NAME, ips);
+
+    /* Record the closed loop of every scenario, then check the replay
+     * reproduces it. */
+    size_t offset[BENCH_N_SCENARIOS];
+    size_t count[BENCH_N_SCENARIOS];
+    size_t total = 0;
+    for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
+        bench_run_t run;
+        offset[s] = total;
+        bench_record(&bench_scenarios[s], &steps[total], &run);
+        count[s] = run.n_steps;
+        total += run.n_steps;
+        const size_t differ = bench_verify(&steps[offset[s]], count[s]);
+        printf("scenario %s steps %u events_match %d replay_differs %u min_distance", bench_scenarios[s].name,
+               (unsigned)run.n_steps, run.events_match, (unsigned)differ);
+        for (unsigned i = 0; i < bench_scenarios[s].n_obs; i++) {
+            printf(" %.4f", run.min_distance[i]);
+        }
+        printf("\nevents %s", bench_scenarios[s].name);
+        for (size_t i = 0; i < run.n_events; i++) {
+            const sup_event_t *e = &run.events[i];
+            printf(" %.2f:%u:%u:%d", (double)e->t_us * 1e-6, e->kind, e->obstacle, e->side);
+        }
+        printf("\n");
+    }
+
+    printf("checksum %08lx\n", (unsigned long)bench_checksum(steps, total));
+
+    /* Whole replays: ctl_step, and the same loop calling an empty step. */
+    uint64_t t_step = 0;
+    uint64_t t_empty = 0;
+    for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
+        t_step += bench_replay(&steps[offset[s]], count[s], bench_ctl_step, ticks);
+        t_empty += bench_replay(&steps[offset[s]], count[s], bench_empty_step, ticks);
+    }
+    printf("steps %u\n", (unsigned)total);
+    printf("instr_per_step %.1f\n", ((double)t_step - (double)t_empty) * ips / (double)total);
+
+    /* Step by step, by mode (each figure ±1 tick = ±40 instructions). */
+    uint64_t sum[3] = {0}, cnt[3] = {0}, max[3] = {0};
+    uint64_t esum[3] = {0}, ecnt[3] = {0}, emax[3] = {0};
+    for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
+        bench_replay_each(&steps[offset[s]], count[s], bench_ctl_step, ticks, sum, cnt, max);
+        bench_replay_each(&steps[offset[s]], count[s], bench_empty_step, ticks, esum, ecnt, emax);
+    }
+    const double base = (double)(esum[0] + esum[1] + esum[2]) / (double)total;
+    static const char *const names[3] = {"track", "avoid", "stop"};
+    for (unsigned m = 0; m < 3u; m++) {
+        if (cnt[m] == 0u) {
+            continue;
+        }
+        printf("by_mode %s steps %u mean %.0f max %.0f\n", names[m], (unsigned)cnt[m],
+               ((double)sum[m] / (double)cnt[m] - base) * ips, ((double)max[m] - base) * ips);
+    }
+
+    primitives();
+    printf("done\n");
+    return 0;
+}

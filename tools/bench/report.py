@@ -1,0 +1,284 @@
+#!/usr/bin/env python3
+"""Turn the benchmark's raw results into the table `make bench` prints and
+writes into docs/performance.md.
+
+Inputs are the `key value` lines of tools/bench/bench_target.c (one file per
+Cortex-M image, run under QEMU) and tools/bench/bench_host.c (one per numeric
+mode). The section between the markers below is replaced in the document, so
+other sections (later benchmarks) are kept. Figures and ratios are reported
+against the targets of the issue; nothing here fails on a figure: only
+missing or malformed results are errors.
+
+Usage: report.py --doc docs/performance.md RESULT.txt...
+"""
+
+import argparse
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+BEGIN = "<!-- bench:ctl_step:begin (written by make bench, tools/bench/report.py) -->"
+END = "<!-- bench:ctl_step:end -->"
+
+# Cortex-M builds: config -> (label, QEMU machine, instruction target).
+TARGETS = {
+    "m4f-float": ("Cortex-M4F, float (FPU)", "mps2-an386", 1500),
+    "m3-fixed": ("Cortex-M3, fixed Q16.16", "mps2-an385", 2500),
+    "m3-float": ("Cortex-M3, float (soft float)", "mps2-an385", None),
+}
+RATIO_TARGET = 4.0  # M3: soft float / fixed
+
+
+def parse(path: Path) -> dict:
+    """One result file: scalars by key, and the repeated keys as lists."""
+    r: dict = {"scenario": [], "events": [], "by_mode": {}, "prim": {}}
+    for line in path.read_text().splitlines():
+        key, _, rest = line.partition(" ")
+        if key == "scenario":
+            f = rest.split()
+            r["scenario"].append(
+                {
+                    "name": f[0],
+                    "steps": int(f[2]),
+                    "events_match": f[4] == "1",
+                    "replay_differs": int(f[6]),
+                    "min_distance": [float(x) for x in f[8:]],
+                }
+            )
+        elif key == "events":
+            name, *ev = rest.split()
+            r["events"].append((name, ev))
+        elif key == "by_mode":
+            f = rest.split()
+            r["by_mode"][f[0]] = {"steps": int(f[2]), "mean": float(f[4]), "max": float(f[6])}
+        elif key == "prim":
+            name, value, domain = rest.split(" ", 2)
+            r["prim"][name] = (float(value), domain)
+        elif key:
+            r[key] = rest
+    return r
+
+
+def tool_version(cmd: list[str]) -> str:
+    """First line of a tool's version output, or '?'."""
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, check=False).stdout
+    except OSError:
+        return "?"
+    return out.splitlines()[0].strip() if out else "?"
+
+
+def host_cpu() -> str:
+    """The host CPU's model name."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "?"
+
+
+def fmt_int(x: float) -> str:
+    return f"{x:,.0f}"
+
+
+def section(results: dict) -> str:
+    """The Markdown section."""
+    out = []
+    w = out.append
+    w("## Control step: instructions on Cortex-M, time on the host\n")
+    w(
+        "One full control step, `ctl_step` (input check, supervisor, the active "
+        "controller, kinematics and saturation, distances for telemetry), replayed over "
+        "a recorded closed loop of the paper's two scenarios "
+        "(sim/scenarios/paper-line.toml and paper-circle.toml: forward-Euler unicycle, "
+        "0.02 s period, Table 1 parameters; tools/bench/bench_core.c). Each build records "
+        "its own closed loop, checks that the replay reproduces it and that the events "
+        "are the paper's, then replays it timed. Instructions are counted on the target "
+        "ISA under `qemu-system-arm -icount shift=0`, where SysTick (processor clock) "
+        "advances once per 40 executed instructions; the loop around the call is "
+        "measured the same way with an empty step and subtracted. A benchmark, not a "
+        "test: nothing fails on these figures.\n"
+    )
+    any_cfg = next(iter(results.values()))
+    n_steps = int(any_cfg["steps"])
+    modes = any_cfg["by_mode"]
+    words = {"track": "tracking", "avoid": "avoiding", "stop": "stopped"}
+    w(
+        f"Input sequence: {n_steps} steps, "
+        + ", ".join(f"{v['steps']} {words.get(k, k)}" for k, v in modes.items())
+        + ".\n"
+    )
+    w(
+        "| build | QEMU machine | instructions/step (mean) | mean over tracking steps "
+        "| mean over avoiding steps | largest step (±40) | target | paper events reproduced |"
+    )
+    w("|---|---|---:|---:|---:|---:|---|---|")
+    for cfg, (label, machine, target) in TARGETS.items():
+        r = results.get(cfg)
+        if r is None:
+            continue
+        ips = float(r["instr_per_step"])
+        bm = r["by_mode"]
+        largest = max(v["max"] for v in bm.values())
+        events = all(s["events_match"] and s["replay_differs"] == 0 for s in r["scenario"])
+        if target is None:
+            tgt = "—"
+        else:
+            tgt = f"≤ {target:,}: {'met' if ips <= target else '**missed**'}"
+        w(
+            f"| {label} (`{cfg}`) | {machine} | **{fmt_int(ips)}** "
+            f"| {fmt_int(bm['track']['mean']) if 'track' in bm else '—'} "
+            f"| {fmt_int(bm['avoid']['mean']) if 'avoid' in bm else '—'} "
+            f"| {fmt_int(largest)} | {tgt} | {'yes' if events else '**no**'} |"
+        )
+    w("")
+    if "m3-fixed" in results and "m3-float" in results:
+        fixed = float(results["m3-fixed"]["instr_per_step"])
+        soft = float(results["m3-float"]["instr_per_step"])
+        ratio = soft / fixed
+        verdict = "met" if ratio >= RATIO_TARGET else "**missed**"
+        w(
+            f"- Cortex-M3, soft float / fixed: **{ratio:.2f}×** fewer instructions in fixed "
+            f"point (target ≥ {RATIO_TARGET:.0f}×: {verdict})."
+        )
+    for mode, cfg in (("fixed", "m3-fixed"), ("float", "m4f-float"), ("float", "m3-float")):
+        host = results.get(f"host-{mode}")
+        if host is not None and cfg in results:
+            same = host.get("checksum") == results[cfg].get("checksum")
+            w(
+                f"- `{cfg}` and the host's {mode} build ran the closed loop "
+                + (
+                    "bit for bit alike"
+                    if same
+                    else "with different bits (float results depend on the libm and the "
+                    "FPU, and the double-precision plant on the libm)"
+                )
+                + f" (hash of every pose and wheel command: {results[cfg].get('checksum')}"
+                + ("" if same else f" against {host.get('checksum')}")
+                + ")."
+            )
+    if "m3-fixed" in results and "m4f-float" in results:
+        fixed = float(results["m3-fixed"]["instr_per_step"])
+        m4f = float(results["m4f-float"]["instr_per_step"])
+        w(f"- Cortex-M3 fixed / Cortex-M4F float: {fixed / m4f:.2f}× the instructions.")
+    w(
+        "- Instructions are not cycles: a Cortex-M4F VDIV.F32 or VSQRT.F32 is one "
+        "instruction of 14 cycles, a Cortex-M3 UDIV one of 2–12, SMULL/UMULL 3–5."
+    )
+    w("")
+
+    hosts = {m: results[f"host-{m}"] for m in ("float", "fixed") if f"host-{m}" in results}
+    if hosts:
+        w(
+            f"Host ({host_cpu()}, {tool_version(['cc', '--version'])}, -O2): time per step, "
+            f"thread CPU time, median of {next(iter(hosts.values()))['host_runs']} replays of "
+            "the whole sequence, less the empty loop.\n"
+        )
+        w("| mode | ns/step (median) | ns/step (fastest replay) |")
+        w("|---|---:|---:|")
+        for m, r in hosts.items():
+            median, fastest = float(r["host_ns_per_step"]), float(r["host_ns_per_step_min"])
+            w(f"| {m} | {median:.0f} | {fastest:.0f} |")
+        w("")
+
+    prim_names: list[str] = []
+    for r in results.values():
+        for name in r["prim"]:
+            if name not in prim_names:
+                prim_names.append(name)
+    cfgs = [c for c in TARGETS if c in results]
+    if prim_names:
+        w("### Primitives: instructions per call\n")
+        w(
+            "firmware/num's primitives as the controllers call them (inlined where they are "
+            "inline), over 1024 calls with arguments spread over the domain given, less the "
+            "same loop without the call. `fix16_*` are libfixmath's, measured for "
+            "comparison; the firmware does not use them (docs/numerics.md gives their "
+            "accuracy).\n"
+        )
+        w("| primitive | arguments | " + " | ".join(f"`{c}`" for c in cfgs) + " |")
+        w("|---|---|" + "---:|" * len(cfgs))
+        for name in prim_names:
+            domain = next(r["prim"][name][1] for r in results.values() if name in r["prim"])
+            cells = [
+                f"{results[c]['prim'][name][0]:.0f}" if name in results[c]["prim"] else "—"
+                for c in cfgs
+            ]
+            w(f"| `{name}` | {domain.replace('|', chr(92) + '|')} | " + " | ".join(cells) + " |")
+        w("")
+
+    w("### Events and distances each build produced\n")
+    w("| build | scenario | events (t [s]: kind, obstacle, side) | min distance [m] |")
+    w("|---|---|---|---|")
+    kinds = {"1": "detect", "2": "activate", "3": "complete"}
+    sides = {"1": " left", "-1": " right", "0": ""}
+    for cfg in cfgs:
+        r = results[cfg]
+        for s, (name, ev) in zip(r["scenario"], r["events"], strict=True):
+            evs = []
+            for e in ev:
+                t, k, o, side = e.split(":")
+                evs.append(f"{t} {kinds.get(k, k)} O{o}{sides.get(side, side)}")
+            w(
+                f"| `{cfg}` | {name} | {'; '.join(evs)} | "
+                + ", ".join(f"{d:.4f}" for d in s["min_distance"])
+                + " |"
+            )
+    w("")
+    w(
+        "Tools: "
+        + tool_version(["arm-none-eabi-gcc", "--version"])
+        + " (-O2, firmware/*/*.c and libfixmath as `make cross` builds them); "
+        + tool_version(["qemu-system-arm", "--version"])
+        + ". Reproduce: `make bench` (results cached in build/bench/; delete them to "
+        "measure again)."
+    )
+    return "\n".join(out) + "\n"
+
+
+def update_doc(doc: Path, body: str) -> bool:
+    """Replace (or add) the section in the document; True when it changed."""
+    block = f"{BEGIN}\n{body}{END}\n"
+    if doc.exists():
+        text = doc.read_text()
+        if BEGIN in text and END in text:
+            pre, rest = text.split(BEGIN, 1)
+            _, post = rest.split(END, 1)
+            new = pre + block + post.lstrip("\n")
+        else:
+            new = text.rstrip("\n") + "\n\n" + block
+    else:
+        new = (
+            "# Performance\n\n"
+            "Measured figures of the firmware, written by `make bench` (sections between "
+            "markers are generated; do not edit them by hand).\n\n" + block
+        )
+    if doc.exists() and doc.read_text() == new:
+        return False
+    doc.parent.mkdir(parents=True, exist_ok=True)
+    doc.write_text(new)
+    return True
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--doc", type=Path, required=True)
+    ap.add_argument("results", type=Path, nargs="+")
+    a = ap.parse_args()
+    results = {}
+    for p in a.results:
+        r = parse(p)
+        if "config" not in r or "steps" not in r:
+            sys.exit(f"error: {p}: not a benchmark result")
+        results[r["config"]] = r
+    body = section(results)
+    print(body)
+    changed = update_doc(a.doc, body)
+    print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+
+
+if __name__ == "__main__":
+    main()
