@@ -51,7 +51,17 @@ deps/unity/.sha256: tools/deps/sources.lock $(STAMP)/apt-sim
 deps/libfixmath/.sha256: tools/deps/sources.lock $(STAMP)/apt-sim
 	@tools/deps/fetch-source libfixmath
 deps-sim: $(STAMP)/apt-sim venv $(NUM_DEPS)
-deps-test: $(STAMP)/apt-test deps-sim deps/unity/.sha256
+# HIL over vcan (docs/hil.md): QEMU and a Debian kernel with vcan, for hosts
+# whose kernel has no CAN.
+.PHONY: deps-hil
+$(STAMP)/apt-hil: tools/deps/debian-sim.txt tools/deps/debian-hil.txt | $(STAMP)
+	@tools/deps/apt-install $^
+	@touch $@
+deps/vm-kernel/.stamp: tools/vm/fetch-kernel $(STAMP)/apt-hil
+	@tools/vm/fetch-kernel
+	@touch $@
+deps-hil: deps-sim $(STAMP)/apt-hil deps/vm-kernel/.stamp
+deps-test: $(STAMP)/apt-test deps-sim deps-hil deps/unity/.sha256
 
 # ------------------------------------------------------------ host libraries
 FW_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(FW_SRCS) $(NUM_SRCS))
@@ -69,6 +79,7 @@ lib: $(B)/libmstc_sil.so  ## build the firmware as a shared library (SIL)
 
 # The firmware as a Linux process on SocketCAN (hal/linux).
 LINUX_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(sort $(wildcard hal/linux/*.c)))
+-include $(SIL_OBJS:.o=.d) $(LINUX_OBJS:.o=.d)
 $(B)/mstc-fw: $(FW_OBJS) $(LINUX_OBJS)
 	$(CC) -o $@ $^ -lm
 build/host/mstc-fw: $(B)/mstc-fw
@@ -82,6 +93,15 @@ BUS ?= sil
 .PHONY: sim
 sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
 	$(PY) -m mstc_sim run --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
+
+# ----------------------------------------------------------------------- hil
+# The firmware as its own process (mstc-fw) on vcan0, the plant on python-can's
+# socketcan interface; inside a VM where the host kernel has no CAN.
+HIL_TIMEOUT ?= 1800
+.PHONY: hil
+hil: deps-hil build/host/mstc-fw  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/)
+	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(PY) -m mstc_sim run --bus socketcan \
+	  --channel vcan0 --fw build/host/mstc-fw --no-figures --out build/hil $(SCENARIO)
 
 # ---------------------------------------------------------------------- test
 UNIT_TESTS := $(patsubst tests/unit/%.c,%,$(sort $(wildcard tests/unit/test_*.c)))
@@ -97,13 +117,28 @@ $(B)/tests/%: tests/unit/%.c $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) $(wildcard tes
 	$(CC) $(CFLAGS_HOST) $(NUM_CFLAGS) -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake \
 	  $< $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) -lm -o $@
 
-.PHONY: test test-unit test-python
-test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module
+.PHONY: test test-unit test-python lint
+test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module (in NUMERIC mode)
 	@tools/run-unit-tests $(UNIT_BINS)
-test-python: deps-test $(B)/libmstc_sil.so build/host/mstc-fw  ## pytest
-	MSTC_SIL_LIB=$(B)/libmstc_sil.so MSTC_FW=build/host/mstc-fw $(PY) -m pytest -q tests/python
-test: test-unit test-python  ## every test
-
+.PHONY: libs-both
+libs-both:
+	@$(MAKE) --no-print-directory NUMERIC=float lib
+	@$(MAKE) --no-print-directory NUMERIC=fixed lib
+test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric modes' libraries)
+	MSTC_SIL_LIB=$(B)/libmstc_sil.so MSTC_SIL_LIB_FLOAT=build/host/float/libmstc_sil.so \
+	  MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/mstc-fw \
+	  $(PY) -m pytest -q tests/python
+# Directories (their *.py) and the Python tools without an extension.
+PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
+           tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke
+lint: deps-sim  ## ruff (lint and format) over the Python code
+	$(PY) -m ruff check $(PY_LINT)
+	$(PY) -m ruff format --check $(PY_LINT)
+test: deps-test  ## every test: lint, generated files, cross builds, Unity in both modes, pytest
+	@$(MAKE) --no-print-directory lint check-protocol cross
+	@$(MAKE) --no-print-directory NUMERIC=fixed test-unit
+	@$(MAKE) --no-print-directory NUMERIC=float test-unit
+	@$(MAKE) --no-print-directory NUMERIC=float test-python
 include mk/comm.mk
 include mk/firmware.mk
 include mk/cross.mk

@@ -2,6 +2,8 @@
 
 import argparse
 import os
+import select
+import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -87,6 +89,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="SocketCAN interface for --bus socketcan (default: %(default)s)",
     )
     run.add_argument(
+        "--fw",
+        metavar="PATH",
+        type=Path,
+        help="with --bus socketcan: start this firmware executable (mstc-fw) on --channel "
+        "before each scenario and stop it after, so each runs on a fresh firmware",
+    )
+    run.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="write events.json, trace.csv and bus.log but not the figures",
+    )
+    run.add_argument(
         "--out",
         metavar="DIR",
         type=Path,
@@ -143,7 +157,7 @@ def run_command(args: argparse.Namespace) -> int:
     print(f"firmware: {firmware}")
     for result, log in results:
         try:
-            folder = write_outputs(result, args.out, log)
+            folder = write_outputs(result, args.out, log, figures=not args.no_figures)
         except OSError as exc:
             _error(f"cannot write the outputs of {result.scenario.path}: {exc}")
             return EXIT_FAILED
@@ -152,6 +166,37 @@ def run_command(args: argparse.Namespace) -> int:
         if log is not None:
             print(f"  bus           {log.describe()}")
     return EXIT_OK
+
+
+def start_firmware(exe: Path, channel: str, timeout: float = 30.0) -> subprocess.Popen[str]:
+    """Start ``exe --can channel`` and wait until it is on the bus (its first
+    line on stderr says so).
+
+    :raises FirmwareError: it exited or said nothing in @p timeout seconds.
+    """
+    if not exe.is_file():
+        raise FirmwareError(f"--fw {exe}: no such file (make fw builds build/host/mstc-fw)")
+    proc = subprocess.Popen(
+        [str(exe), "--can", channel], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True
+    )
+    assert proc.stderr is not None
+    ready, _, _ = select.select([proc.stderr], [], [], timeout)
+    line = proc.stderr.readline() if ready else ""
+    if " mode on " not in line:
+        proc.kill()
+        said = (line + proc.stderr.read()).strip() or "no answer"
+        raise FirmwareError(f"{exe} did not start on {channel}: {said}")
+    return proc
+
+
+def stop_firmware(proc: subprocess.Popen[str]) -> None:
+    """Stop a firmware process started by :func:`start_firmware`."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
 
 
 def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog | None]:
@@ -164,11 +209,14 @@ def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResu
         bus = can.Bus(interface="mstc-sil", channel="sil0", lib=lib)
     else:
         bus = can.Bus(interface="socketcan", channel=args.channel)
+    firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
     try:
         ctl = CanController(bus, scenario.params, sim_time_stamps=args.bus == "sil")
         result = simulate(scenario, ctl)
     finally:
         bus.shutdown()
+        if firmware is not None:
+            stop_firmware(firmware)
     log = BusLog(args.channel if args.bus == "socketcan" else "sil0", ctl)
     return bus.channel_info, result, log
 

@@ -8,7 +8,6 @@ from typing import TYPE_CHECKING
 
 from mstc_sim.buslog import write_candump
 from mstc_sim.controller import Event
-from mstc_sim.plots import plot_all
 from mstc_sim.run import TRACE_COLUMNS, RunResult
 
 if TYPE_CHECKING:
@@ -77,7 +76,9 @@ def write_trace(result: RunResult, path: Path) -> None:
             writer.writerow([*row[:m], str(mode), *row[m:], *(repr(float(d)) for d in dist)])
 
 
-def write_outputs(result: RunResult, out_dir: Path, bus_log: BusLog | None = None) -> Path:
+def write_outputs(
+    result: RunResult, out_dir: Path, bus_log: BusLog | None = None, *, figures: bool = True
+) -> Path:
     """Write every output of a run into ``out_dir/<scenario name>/``, with
     bus.log when the run went through CAN.
 
@@ -90,5 +91,8 @@ def write_outputs(result: RunResult, out_dir: Path, bus_log: BusLog | None = Non
     if bus_log is not None:
         frames = [m for m, _ in bus_log.controller.traffic.frames]
         write_candump(folder / "bus.log", frames, bus_log.channel)
-    plot_all(result, folder)
+    if figures:
+        from mstc_sim.plots import plot_all  # matplotlib: slow to import, so only when drawing
+
+        plot_all(result, folder)
     return folder

@@ -80,3 +80,15 @@ def write_scenario(tmp_path: Path) -> Callable[[Mapping[str, object], str], Path
         return path
 
     return write
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    """Print what tests collected for the reader (float vs fixed comparison)."""
+    try:
+        from test_numeric_modes import REPORT
+    except ImportError:
+        return
+    if REPORT:
+        terminalreporter.section("float vs fixed")
+        for line in REPORT:
+            terminalreporter.write_line(line)

@@ -103,7 +103,8 @@ def test_firmware_defaults_are_table_1(sil_lib: Path) -> None:
     fw = SilController.defaults(sil_lib)
     py = Params()
     for name in ("r_m", "r_ob", "d_det", "d_act", "d_s", "wheel_radius", "track_width"):
-        assert getattr(fw, name) == pytest.approx(getattr(py, name), rel=1e-6), name
+        # float: 6e-8 relative; Q16.16: half an lsb, 2^-17 (0.2 is 0.1999969).
+        assert getattr(fw, name) == pytest.approx(getattr(py, name), rel=1e-6, abs=2**-17), name
     assert fw.tracking_gains == py.tracking_gains
     assert fw.avoidance_gains == py.avoidance_gains
     assert fw.max_wheel_speed == py.max_wheel_speed

@@ -14,8 +14,10 @@ import pytest
 def mstc_fw() -> Path:
     value = os.environ.get("MSTC_FW")
     if not value or not Path(value).is_file():
-        pytest.fail(f"MSTC_FW={value!r}: run `make test-python` (it builds build/host/mstc-fw)",
-                    pytrace=False)
+        pytest.fail(
+            f"MSTC_FW={value!r}: run `make test-python` (it builds build/host/mstc-fw)",
+            pytrace=False,
+        )
     return Path(value)
 
 
