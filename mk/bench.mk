@@ -61,6 +61,20 @@ $(eval $(call BENCH_HOST_RULES,fixed))
 BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) \
                  $(BENCH_DIR)/host-float.txt $(BENCH_DIR)/host-fixed.txt
 
+# CAN: steps per second through frames in process, and lock-step round trips
+# over vcan (in the VM where the host has no CAN) beside a bare round trip to
+# a C echo built on hal/linux, all measured in one run (tools/bench/can_bench.py).
+$(BENCH_DIR)/can_echo: tools/bench/can_echo.c hal/linux/hal_can_socketcan.c | $(STAMP)/apt-sim
+	@mkdir -p $(@D)
+	$(CC) $(CSTD) $(OPT) $(WARN) -Ihal/include $^ -o $@
+$(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so tools/bench/can_bench.py | .venv/.requirements.sha256
+	$(PY) tools/bench/can_bench.py sil --lib $< --out $@
+$(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/can_bench.py | deps-hil
+	tools/vm/with-vcan --timeout 1200 -- $(PY) tools/bench/can_bench.py hil \
+	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
+BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
+
 .PHONY: bench
-bench: $(BENCH_RESULTS) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU) and ns on the host: docs/performance.md
+bench: $(BENCH_RESULTS) $(BENCH_CAN) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput: docs/performance.md
 	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)
+	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)

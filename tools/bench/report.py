@@ -239,14 +239,15 @@ def section(results: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def update_doc(doc: Path, body: str) -> bool:
-    """Replace (or add) the section in the document; True when it changed."""
-    block = f"{BEGIN}\n{body}{END}\n"
+def update_doc(doc: Path, body: str, begin: str = BEGIN, end: str = END) -> bool:
+    """Replace (or add) the section between @p begin and @p end in the
+    document; True when it changed. Other tools' sections are left alone."""
+    block = f"{begin}\n{body}{end}\n"
     if doc.exists():
         text = doc.read_text()
-        if BEGIN in text and END in text:
-            pre, rest = text.split(BEGIN, 1)
-            _, post = rest.split(END, 1)
+        if begin in text and end in text:
+            pre, rest = text.split(begin, 1)
+            _, post = rest.split(end, 1)
             new = pre + block + post.lstrip("\n")
         else:
             new = text.rstrip("\n") + "\n\n" + block
