@@ -130,20 +130,28 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 	  $(PY) -m pytest -q tests/python
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
-           tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke
-lint: deps-sim  ## ruff (lint and format) over the Python code
+           tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke \
+           tools/replay tools/logplot
+# C: every tracked source but the generated codec (.clang-format).
+C_FORMAT = $(filter-out firmware/comm/mstc_dbc.%,$(shell git ls-files '*.c' '*.h'))
+lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code
 	$(PY) -m ruff check $(PY_LINT)
 	$(PY) -m ruff format --check $(PY_LINT)
-test: deps-test  ## every test: lint, generated files, cross builds, Unity in both modes, pytest
-	@$(MAKE) --no-print-directory lint check-protocol cross
+	@clang-format --dry-run --Werror $(C_FORMAT) && echo "clang-format: $(words $(C_FORMAT)) files ok"
+test: deps-test  ## every test: lint, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
+	@$(MAKE) --no-print-directory lint check-protocol quality cross
+	@$(MAKE) --no-print-directory coverage
+	@$(MAKE) --no-print-directory fuzz
 	@$(MAKE) --no-print-directory NUMERIC=fixed test-unit
 	@$(MAKE) --no-print-directory NUMERIC=float test-unit
 	@$(MAKE) --no-print-directory NUMERIC=float test-python
 include mk/comm.mk
+include mk/replay.mk
 include mk/firmware.mk
 include mk/cross.mk
 include mk/bench.mk
 include mk/numerics.mk
+include mk/quality.mk
 
 .PHONY: clean help
 clean:  ## remove build outputs (keeps .venv and deps/)

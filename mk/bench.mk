@@ -78,3 +78,4 @@ BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 bench: $(BENCH_RESULTS) $(BENCH_CAN) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput: docs/performance.md
 	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)
 	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
+	@$(MAKE) --no-print-directory replay-bench

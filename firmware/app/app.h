@@ -11,8 +11,19 @@
  * Real-time (boards): inputs arrive at their own pace; app_control_tick() runs
  * the control step on the caller's timer with the latest inputs.
  *
- * Until each of odometry (both frames) and the reference (both frames) has
- * been received, a control step commands zero wheel speed (mode STOP).
+ * Safety supervisor (docs/safety.md): the wheels follow the controller only
+ * while the application is armed and every input the step needs is valid:
+ * odometry (ODOM_XY, ODOM_THETA) and reference (REF_XY, REF_MOTION), and in
+ * lock-step the STEP frame; valid means its E2E window state machine is VALID
+ * (comm.h) and an accepted frame arrived within the last APP_TIMEOUT_PERIODS
+ * control steps and APP_TIMEOUT_US. Otherwise, and on CAN bus-off, the
+ * application halts: it stops running the controller, ramps the wheel speeds
+ * down to zero at max_wheel_decel, and reports the reason in STATUS_halt.
+ * The halt latches until re-armed (PARAM_SET index COMM_PARAM_ARM, value 1),
+ * which is accepted only while odometry and reference are valid and each of
+ * their frames had APP_REARM_FRAMES good frames in a row. It starts halted
+ * (COMM_HALT_NOT_ARMED). The time base is the STEP time in lock-step and the
+ * caller's now_us in real-time mode.
  */
 #ifndef MSTC_APP_H
 #define MSTC_APP_H
@@ -26,36 +37,69 @@
 /** @brief Period of HEARTBEAT and STATUS_COUNTERS [µs] (their DBC cycle time). */
 #define APP_HOUSEKEEPING_PERIOD_US 100000u
 
+/** @brief Nominal control period [µs]: the DBC cycle time of the inputs. */
+#define APP_PERIOD_US               20000u
+/** @brief An input not received for this many control steps halts the robot. */
+#define APP_TIMEOUT_PERIODS         3u
+/** @brief ... or for this long [µs]: APP_TIMEOUT_PERIODS nominal periods,
+ *         whichever comes first. */
+#define APP_TIMEOUT_US              60000u
+/** @brief Good frames in a row each input frame needs before a re-arm. */
+#define APP_REARM_FRAMES            5u
+/** @brief Default deceleration of the wheels in a halt [rad/s²]: 5 m/s² with
+ *         the default 0.05 m wheels. */
+#define APP_DEFAULT_MAX_WHEEL_DECEL 100.0f
+/** @brief Largest accepted max_wheel_decel [rad/s²]. */
+#define APP_MAX_WHEEL_DECEL_LIMIT   10000.0f
+/** @brief Longest step interval the ramp uses [µs]; a longer one (a time
+ *         jump) ramps as this one, and a shorter steps the robot down faster
+ *         in time, never slower. */
+#define APP_MAX_DT_US               1000000u
+
+/** @brief Inputs watched by the safety supervisor, in the order of app_t::in. */
+enum {
+    APP_IN_ODOM_XY = 0,
+    APP_IN_ODOM_THETA,
+    APP_IN_REF_XY,
+    APP_IN_REF_MOTION,
+    APP_IN_STEP,
+    APP_N_IN,
+};
+
+/** @brief Freshness of one input frame. */
+typedef struct {
+    uint8_t missed;   /**< control steps since the last one with an accepted frame (saturating) */
+    bool ever;        /**< an accepted frame was seen at a control step */
+    uint64_t last_us; /**< time of the last control step with an accepted frame */
+} app_input_t;
+
 /** @brief Application state. */
 typedef struct {
     ctl_t ctl;
     comm_t comm;
-    pose_t odom;     /**< latest robot pose */
-    pose_t ref;      /**< latest reference pose */
-    num_t v_r;       /**< latest reference velocities */
+    pose_t odom; /**< latest robot pose */
+    pose_t ref;  /**< latest reference pose */
+    num_t v_r;   /**< latest reference velocities */
     num_t w_r;
-    uint8_t have;    /**< APP_HAVE_* bits of the inputs received so far */
     sup_obstacle_t reports[SUP_MAX_OBSTACLES]; /**< obstacles reported since the last step */
     uint8_t n_reports;
-    uint16_t step;          /**< step of the last control step */
-    uint32_t time_raw;      /**< last STEP time [µs], as sent (wraps at 2^32) */
-    uint32_t time_wraps;    /**< wraps of time_raw seen, for a 64-bit time */
+    uint16_t step;       /**< step of the last control step */
+    uint32_t time_raw;   /**< last STEP time [µs], as sent (wraps at 2^32) */
+    uint32_t time_wraps; /**< wraps of time_raw seen, for a 64-bit time */
     bool time_valid;
-    bool frame_dropped;     /**< a received frame was dropped since the last STATUS */
+    bool frame_dropped; /**< a received frame was dropped since the last STATUS */
     comm_state_t state;
     uint64_t next_housekeeping_us;
-    uint32_t steps;         /**< control steps run */
-    kin_wheels_t wheels;    /**< wheel speeds of the last control step [rad/s]; 0 before the first */
+    uint32_t steps;      /**< control steps run */
+    kin_wheels_t wheels; /**< wheel speeds of the last control step [rad/s]; 0 before the first */
+    uint8_t halt;        /**< comm_halt_t: latched reason, COMM_HALT_NONE while running */
+    num_t max_decel;     /**< wheel deceleration of a halt [rad/s²] */
+    app_input_t in[APP_N_IN];
+    uint64_t last_step_us;  /**< time of the last control step */
+    bool stepped;           /**< a control step has run */
+    bool bus_off_known;     /**< bus_off_count holds a reading */
+    uint32_t bus_off_count; /**< hal_can_status() bus_off at the last look */
 } app_t;
-
-/** @brief Bits of app_t::have. */
-enum {
-    APP_HAVE_ODOM_XY = 1u << 0,
-    APP_HAVE_ODOM_THETA = 1u << 1,
-    APP_HAVE_REF_XY = 1u << 2,
-    APP_HAVE_REF_MOTION = 1u << 3,
-    APP_HAVE_ALL = 0x0Fu,
-};
 
 /**
  * @brief Initialise with parameters @p p (NULL: Table 1 defaults).
@@ -79,7 +123,8 @@ unsigned app_poll(app_t *a, uint32_t timeout_us);
 
 /**
  * @brief Real-time mode: one control step at time @p now_us on the latest
- *        inputs; sends EVENT×n, STATUS, STATUS_TRK, WHEEL_CMD.
+ *        inputs; sends EVENT×n, STATUS, STATUS_TRK, WHEEL_CMD. STEP frames
+ *        are not needed in this mode.
  */
 void app_control_tick(app_t *a, uint64_t now_us);
 
@@ -97,5 +142,20 @@ void app_housekeeping(app_t *a, uint64_t now_us);
  *        step's WHEEL_CMD, before the frame's scaling.
  */
 static inline const kin_wheels_t *app_last_wheels(const app_t *a) { return &a->wheels; }
+
+/**
+ * @brief Re-arm (@p arm true) or disarm. Disarming halts (COMM_HALT_NOT_ARMED,
+ *        ramped) unless already halted. Re-arming clears the halt when
+ *        app_ready() holds.
+ * @retval 0 done. @retval -EAGAIN re-arm refused: not ready; nothing changes.
+ */
+int app_arm(app_t *a, bool arm);
+
+/**
+ * @brief Whether a re-arm would be accepted now: odometry and reference
+ *        frames each VALID with at least APP_REARM_FRAMES good frames in a
+ *        row, and the CAN controller not bus-off.
+ */
+bool app_ready(const app_t *a);
 
 #endif /* MSTC_APP_H */

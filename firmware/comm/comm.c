@@ -33,8 +33,17 @@ _Static_assert(COMM_ID_HEARTBEAT == MSTC_DBC_HEARTBEAT_FRAME_ID, "HEARTBEAT id")
 _Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
 /* So are the enumerations that go on the wire unchanged. */
 _Static_assert(COMM_PARAM_MAX_WHEEL_SPEED ==
-                   MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE,
+                       MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE &&
+                   COMM_PARAM_MAX_WHEEL_DECEL ==
+                       MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_DECEL_CHOICE &&
+                   COMM_PARAM_ARM == MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_ARM_CHOICE,
                "parameter indices");
+_Static_assert(COMM_HALT_NOT_ARMED == MSTC_DBC_STATUS_STATUS_HALT_NOT_ARMED_CHOICE &&
+                   COMM_HALT_ODOMETRY == MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_CHOICE &&
+                   COMM_HALT_REFERENCE == MSTC_DBC_STATUS_STATUS_HALT_REFERENCE_CHOICE &&
+                   COMM_HALT_STEP == MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE &&
+                   COMM_HALT_BUS_OFF == MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE,
+               "halt reasons");
 _Static_assert(COMM_PARAM_REJECTED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE,
                "parameter results");
 _Static_assert(COMM_STATE_FAULT == MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE,
@@ -60,21 +69,14 @@ typedef struct {
 
 /* Indexed like comm_t's counter arrays. */
 static const frame_t frames[COMM_N_FRAMES] = {
-    {COMM_ID_ODOM_XY, 0x1100u, true},
-    {COMM_ID_ODOM_THETA, 0x1101u, true},
-    {COMM_ID_REF_XY, 0x1102u, true},
-    {COMM_ID_REF_MOTION, 0x1103u, true},
-    {COMM_ID_STEP, 0x1104u, true},
-    {COMM_ID_OBSTACLE, 0x1110u, true},
-    {COMM_ID_PARAM_SET, 0x1120u, true},
-    {COMM_ID_PARAM_GET, 0x1121u, true},
-    {COMM_ID_WHEEL_CMD, 0x1180u, false},
-    {COMM_ID_STATUS, 0x1181u, false},
-    {COMM_ID_STATUS_TRK, 0x1182u, false},
-    {COMM_ID_STATUS_COUNTERS, 0x1183u, false},
-    {COMM_ID_EVENT, 0x1184u, false},
-    {COMM_ID_HEARTBEAT, 0x1185u, false},
-    {COMM_ID_PARAM_VALUE, 0x1190u, false},
+    { COMM_ID_ODOM_XY, 0x1100u, true },      { COMM_ID_ODOM_THETA, 0x1101u, true },
+    { COMM_ID_REF_XY, 0x1102u, true },       { COMM_ID_REF_MOTION, 0x1103u, true },
+    { COMM_ID_STEP, 0x1104u, true },         { COMM_ID_OBSTACLE, 0x1110u, true },
+    { COMM_ID_PARAM_SET, 0x1120u, true },    { COMM_ID_PARAM_GET, 0x1121u, true },
+    { COMM_ID_WHEEL_CMD, 0x1180u, false },   { COMM_ID_STATUS, 0x1181u, false },
+    { COMM_ID_STATUS_TRK, 0x1182u, false },  { COMM_ID_STATUS_COUNTERS, 0x1183u, false },
+    { COMM_ID_EVENT, 0x1184u, false },       { COMM_ID_HEARTBEAT, 0x1185u, false },
+    { COMM_ID_PARAM_VALUE, 0x1190u, false },
 };
 
 /* Index of @p id in frames[], or COMM_N_FRAMES when it is not a protocol frame. */
@@ -111,7 +113,8 @@ uint8_t comm_crc8h2f(const uint8_t *data, size_t len)
     for (size_t i = 0; i < len; i++) {
         crc ^= data[i];
         for (unsigned b = 0; b < 8u; b++) {
-            crc = (crc & 0x80u) != 0u ? (uint8_t)((crc << 1) ^ 0x2Fu) : (uint8_t)(crc << 1);
+            crc = (crc & 0x80u) != 0u ? (uint8_t)(((unsigned)crc << 1) ^ 0x2Fu)
+                                      : (uint8_t)((unsigned)crc << 1);
         }
     }
     return (uint8_t)(crc ^ 0xFFu);
@@ -148,7 +151,7 @@ static void count_drop(uint16_t *n)
     }
 }
 
-void comm_init(comm_t *c) { *c = (comm_t){0}; }
+void comm_init(comm_t *c) { *c = (comm_t){ 0 }; }
 
 /* ------------------------------------------------------------------ scaling */
 
@@ -159,17 +162,20 @@ typedef struct {
     int32_t lo, hi;
 } scale_t;
 
-#define SIGNED_BITS(frac, bits) {(frac), -(INT32_C(1) << ((bits) - 1)), (INT32_C(1) << ((bits) - 1)) - 1}
+#define SIGNED_BITS(frac, bits)                                                                    \
+    {                                                                                              \
+        (frac), -(INT32_C(1) << ((bits)-1)), (INT32_C(1) << ((bits)-1)) - 1                        \
+    }
 
-static const scale_t s_pos = SIGNED_BITS(16, 24);      /* ODOM_XY, REF_XY x, y [m] */
-static const scale_t s_theta = SIGNED_BITS(16, 20);    /* ODOM_THETA [rad] */
+static const scale_t s_pos = SIGNED_BITS(16, 24);       /* ODOM_XY, REF_XY x, y [m] */
+static const scale_t s_theta = SIGNED_BITS(16, 20);     /* ODOM_THETA [rad] */
 static const scale_t s_ref_theta = SIGNED_BITS(15, 18); /* REF_MOTION theta [rad] */
-static const scale_t s_ref_vw = SIGNED_BITS(12, 17);   /* REF_MOTION v [m/s], w [rad/s] */
-static const scale_t s_obs_xy = SIGNED_BITS(12, 20);   /* OBSTACLE x, y [m] */
-static const scale_t s_wheel = SIGNED_BITS(10, 18);    /* WHEEL_CMD [rad/s] */
-static const scale_t s_angle13 = SIGNED_BITS(13, 16);  /* STATUS e, STATUS_TRK e3 [rad] */
-static const scale_t s_err = SIGNED_BITS(10, 16);      /* STATUS_TRK e1, e2 [m] */
-static const scale_t s_distance = {10, 0, 65535};      /* STATUS distance [m] */
+static const scale_t s_ref_vw = SIGNED_BITS(12, 17);    /* REF_MOTION v [m/s], w [rad/s] */
+static const scale_t s_obs_xy = SIGNED_BITS(12, 20);    /* OBSTACLE x, y [m] */
+static const scale_t s_wheel = SIGNED_BITS(10, 18);     /* WHEEL_CMD [rad/s] */
+static const scale_t s_angle13 = SIGNED_BITS(13, 16);   /* STATUS e, STATUS_TRK e3 [rad] */
+static const scale_t s_err = SIGNED_BITS(10, 16);       /* STATUS_TRK e1, e2 [m] */
+static const scale_t s_distance = { 10, 0, 65535 };     /* STATUS distance [m] */
 
 #ifdef NUM_FIXED
 
@@ -217,20 +223,22 @@ static num_t num_from_raw(int32_t raw, const scale_t *s)
 
 static int32_t raw_from_num(num_t v, const scale_t *s)
 {
-    const float y = ldexpf(num_to_float(v), (int)s->frac_bits); /* exact, or ±inf */
-    /* Compare in float before converting: converting an out-of-range float
-     * to an integer is undefined. lo and hi have at most 24 bits, so they
-     * are exact in float. */
-    if (isnan(y)) {
+    const float x = num_to_float(v);
+    /* Saturate before scaling: ldexpf() of a value beyond the range could
+     * overflow (FE_OVERFLOW), and converting an out-of-range float to an
+     * integer is undefined. lo and hi have at most 24 bits, so they and their
+     * scaled values are exact in float; isnan() raises nothing, and after it
+     * the comparisons are ordered. */
+    if (isnan(x) != 0) {
         return 0;
     }
-    if (y <= (float)s->lo) {
+    if (x <= ldexpf((float)s->lo, -(int)s->frac_bits)) {
         return s->lo;
     }
-    if (y >= (float)s->hi) {
+    if (x >= ldexpf((float)s->hi, -(int)s->frac_bits)) {
         return s->hi;
     }
-    return (int32_t)roundf(y);
+    return (int32_t)roundf(ldexpf(x, (int)s->frac_bits)); /* exact scaling */
 }
 
 #endif
@@ -326,6 +334,97 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
     m->id = id;
 }
 
+/* ------------------------------------------------- E2E receiver, per identifier */
+
+/* ok and err of a status in the window (comm.h: NO_NEW_DATA, REPEATED and
+ * WRONG_SEQUENCE are neither). */
+static bool status_ok(uint8_t st) { return st <= (uint8_t)COMM_E2E_OK_SOME_LOST; }
+static bool status_err(uint8_t st)
+{
+    return st == (uint8_t)COMM_E2E_ERROR || st == (uint8_t)COMM_E2E_LENGTH;
+}
+
+/* The state a window leads to from INIT, VALID or INVALID (docs/safety.md). */
+static uint8_t sm_next(const comm_rx_t *r)
+{
+    unsigned ok = 0u;
+    unsigned err = 0u;
+    for (unsigned k = 0u; k < r->n; k++) {
+        ok += status_ok(r->window[k]) ? 1u : 0u;
+        err += status_err(r->window[k]) ? 1u : 0u;
+    }
+    uint8_t next;
+    if (r->state == (uint8_t)COMM_SM_INIT) {
+        if (err > COMM_SM_MAX_ERR_INIT) {
+            next = (uint8_t)COMM_SM_INVALID;
+        } else {
+            next = ok >= COMM_SM_MIN_OK_INIT ? (uint8_t)COMM_SM_VALID : (uint8_t)COMM_SM_INIT;
+        }
+    } else if (r->state == (uint8_t)COMM_SM_VALID) {
+        next = (err <= COMM_SM_MAX_ERR_VALID && ok >= COMM_SM_MIN_OK_VALID)
+                   ? (uint8_t)COMM_SM_VALID
+                   : (uint8_t)COMM_SM_INVALID;
+    } else { /* COMM_SM_INVALID */
+        /* cppcheck-suppress unsignedLessThanZero ; a configuration constant, 0 today */
+        next = (err <= COMM_SM_MAX_ERR_INVALID && ok >= COMM_SM_MIN_OK_INVALID)
+                   ? (uint8_t)COMM_SM_VALID
+                   : (uint8_t)COMM_SM_INVALID;
+    }
+    return next;
+}
+
+/* Feed one status to an identifier's state machine. */
+static void sm_feed(comm_rx_t *r, comm_e2e_status_t status)
+{
+    const uint8_t st = (uint8_t)status;
+    r->status = st;
+    if (status_ok(st)) {
+        r->ok_run = (uint8_t)(r->ok_run < UINT8_MAX ? r->ok_run + 1u : UINT8_MAX);
+    } else {
+        r->ok_run = 0u;
+    }
+    if (r->state == (uint8_t)COMM_SM_NODATA) {
+        /* As AUTOSAR's E2E_SMCheck: a status other than ERROR, LENGTH and
+         * NO_NEW_DATA (a frame with a good CRC) starts the machine, in INIT
+         * with an empty window; the window judges from the next status on. */
+        if (st != (uint8_t)COMM_E2E_ERROR && st != (uint8_t)COMM_E2E_LENGTH &&
+            st != (uint8_t)COMM_E2E_NO_NEW_DATA) {
+            r->n = 0u;
+            r->head = 0u;
+            r->state = (uint8_t)COMM_SM_INIT;
+        }
+        return;
+    }
+    r->window[r->head] = st;
+    r->head = (uint8_t)((r->head + 1u) % COMM_SM_WINDOW);
+    if (r->n < COMM_SM_WINDOW) {
+        r->n++;
+    }
+    r->state = sm_next(r);
+}
+
+/* The sequence check of a frame with a good CRC. The counter is genuine, so
+ * the sequence follows it whether or not the frame is accepted: one lost
+ * burst costs one frame, not a stream. */
+static comm_e2e_status_t sequence(comm_rx_t *r, uint8_t counter)
+{
+    const uint8_t delta = (uint8_t)((counter - r->counter) & COUNTER_MASK);
+    const bool first = r->seen == 0u;
+    r->counter = counter;
+    r->seen = 1u;
+    comm_e2e_status_t st;
+    if (first || delta == 1u) {
+        st = COMM_E2E_OK;
+    } else if (delta == 0u) {
+        st = COMM_E2E_REPEATED;
+    } else if (delta <= COMM_MAX_COUNTER_JUMP) {
+        st = COMM_E2E_OK_SOME_LOST;
+    } else {
+        st = COMM_E2E_WRONG_SEQUENCE;
+    }
+    return st;
+}
+
 int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg)
 {
     const size_t i = frame_index(f->id);
@@ -333,32 +432,55 @@ int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg)
         count_drop(&c->drops.unknown);
         return -ENOENT;
     }
+    comm_rx_t *r = &c->rx[i];
+    r->frames = (uint8_t)(r->frames < UINT8_MAX ? r->frames + 1u : UINT8_MAX);
+    comm_e2e_status_t st;
+    int rc = 0;
     if (f->dlc != FRAME_LEN) {
         count_drop(&c->drops.len);
-        return -EMSGSIZE;
-    }
-    if (f->data[0] != frame_crc(frames[i].data_id, f->data)) {
+        st = COMM_E2E_LENGTH;
+        rc = -EMSGSIZE;
+    } else if (f->data[0] != frame_crc(frames[i].data_id, f->data)) {
         count_drop(&c->drops.crc);
-        return -EBADMSG;
+        st = COMM_E2E_ERROR;
+        rc = -EBADMSG;
+    } else {
+        st = sequence(r, (uint8_t)(f->data[1] & COUNTER_MASK));
+        if (st == COMM_E2E_REPEATED) {
+            count_drop(&c->drops.seq);
+            rc = -EALREADY;
+        } else if (st == COMM_E2E_WRONG_SEQUENCE) {
+            count_drop(&c->drops.seq);
+            rc = -ERANGE;
+        } else {
+            r->accepted = (uint8_t)(r->accepted < UINT8_MAX ? r->accepted + 1u : UINT8_MAX);
+            decode_payload(f->id, f->data, msg);
+        }
     }
-    /* A good CRC: the counter is genuine, so the sequence follows it whether
-     * or not the frame is accepted; one lost burst costs one frame, not a
-     * stream. */
-    const uint8_t counter = (uint8_t)(f->data[1] & COUNTER_MASK);
-    const uint8_t delta = (uint8_t)((counter - c->rx_counter[i]) & COUNTER_MASK);
-    const bool first = c->rx_seen[i] == 0u;
-    c->rx_counter[i] = counter;
-    c->rx_seen[i] = 1u;
-    if (!first && delta == 0u) {
-        count_drop(&c->drops.seq);
-        return -EALREADY;
+    sm_feed(r, st);
+    return rc;
+}
+
+bool comm_e2e_cycle(comm_t *c, uint32_t id)
+{
+    const size_t i = frame_index(id);
+    if (i == COMM_N_FRAMES || !frames[i].rx) {
+        return false;
     }
-    if (!first && delta > COMM_MAX_COUNTER_JUMP) {
-        count_drop(&c->drops.seq);
-        return -ERANGE;
+    comm_rx_t *r = &c->rx[i];
+    if (r->frames == 0u) {
+        sm_feed(r, COMM_E2E_NO_NEW_DATA);
     }
-    decode_payload(f->id, f->data, msg);
-    return 0;
+    const bool accepted = r->accepted != 0u;
+    r->frames = 0u;
+    r->accepted = 0u;
+    return accepted;
+}
+
+const comm_rx_t *comm_rx(const comm_t *c, uint32_t id)
+{
+    const size_t i = frame_index(id);
+    return (i == COMM_N_FRAMES || !frames[i].rx) ? NULL : &c->rx[i];
 }
 
 /* ------------------------------------------------------------------ encoders */
@@ -381,6 +503,7 @@ static num_t status_distance(const ctl_status_t *st)
 {
     num_t nearest = NUM_MAX;
     const size_t n = st->n_obstacles < SUP_MAX_OBSTACLES ? st->n_obstacles : SUP_MAX_OBSTACLES;
+    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n is up to 16 */
     for (size_t i = 0; i < n; i++) {
         if (st->active_obstacle != 0u && st->obstacle_id[i] == st->active_obstacle) {
             return st->distance[i];
@@ -391,12 +514,12 @@ static num_t status_distance(const ctl_status_t *st)
 }
 
 int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
-                       hal_can_frame_t *f)
+                       uint8_t halt, hal_can_frame_t *f)
 {
     /* Bit 3 is this layer's; the controller's own bits are 0..2. */
-    const uint8_t ctl_faults = (uint8_t)(st->faults & (CTL_FAULT_INPUT_NONFINITE |
-                                                       CTL_FAULT_OBSTACLE_DROPPED |
-                                                       CTL_FAULT_SATURATED));
+    const uint8_t ctl_faults =
+        (uint8_t)(st->faults &
+                  (CTL_FAULT_INPUT_NONFINITE | CTL_FAULT_OBSTACLE_DROPPED | CTL_FAULT_SATURATED));
     const struct mstc_dbc_status_t s = {
         .status_mode = sat_u8((uint32_t)st->mode, MSTC_DBC_STATUS_STATUS_MODE_STOP_CHOICE),
         .status_side = side_to_wire(st->side),
@@ -404,7 +527,8 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
         .status_faults = (uint8_t)(ctl_faults | (frame_faults ? 0x08u : 0u)),
         .status_e = (int16_t)raw_from_num(st->e, &s_angle13),
         .status_distance = (uint16_t)raw_from_num(status_distance(st), &s_distance),
-        .status_step = (uint8_t)(step & 0xFFu),
+        .status_step = (uint8_t)(step & 0x0Fu),
+        .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_BUS_OFF),
     };
     (void)mstc_dbc_status_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_STATUS), f);
@@ -465,7 +589,8 @@ int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result
 {
     const struct mstc_dbc_param_value_t s = {
         .param_value_index = index, /* echoed as received (comm.h) */
-        .param_value_result = sat_u8((uint32_t)result, MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE),
+        .param_value_result =
+            sat_u8((uint32_t)result, MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE),
         .param_value_value = value,
     };
     (void)mstc_dbc_param_value_pack(f->data, &s, FRAME_LEN);

@@ -72,8 +72,22 @@ typedef enum {
     COMM_PARAM_WHEEL_RADIUS,
     COMM_PARAM_TRACK_WIDTH,
     COMM_PARAM_MAX_WHEEL_SPEED,
-    COMM_PARAM_COUNT
+    COMM_PARAM_MAX_WHEEL_DECEL, /**< ramp of a safety stop [rad/s²] (app.h) */
+    COMM_PARAM_COUNT,
+    /** A command, not a parameter: PARAM_SET value 1 re-arms, 0 disarms;
+     *  PARAM_GET answers 1 while armed (app.h, docs/safety.md). */
+    COMM_PARAM_ARM = 128,
 } comm_param_t;
+
+/** @brief Why the wheels are held at zero: STATUS_halt (mstc.dbc). */
+typedef enum {
+    COMM_HALT_NONE = 0,      /**< running */
+    COMM_HALT_NOT_ARMED = 1, /**< start-up, or disarmed by command */
+    COMM_HALT_ODOMETRY = 2,  /**< ODOM_XY or ODOM_THETA not valid or timed out */
+    COMM_HALT_REFERENCE = 3, /**< REF_XY or REF_MOTION not valid or timed out */
+    COMM_HALT_STEP = 4,      /**< STEP not valid (lock-step) */
+    COMM_HALT_BUS_OFF = 5,   /**< the CAN controller went bus-off */
+} comm_halt_t;
 
 /** @brief Results in PARAM_VALUE. */
 typedef enum {
@@ -107,21 +121,79 @@ typedef struct {
 typedef struct {
     uint32_t id; /**< COMM_ID_* */
     union {
-        struct { num_t x, y; } xy;                     /**< ODOM_XY, REF_XY [m] */
-        num_t theta;                                   /**< ODOM_THETA [rad] */
-        struct { num_t theta, v, w; } ref_motion;      /**< REF_MOTION */
-        struct { uint16_t step; uint32_t time_us; } step; /**< STEP */
-        sup_obstacle_t obstacle;                       /**< OBSTACLE */
-        struct { uint8_t index; float value; } param_set; /**< PARAM_SET */
-        uint8_t param_get;                             /**< PARAM_GET index */
+        struct {
+            num_t x, y;
+        } xy;        /**< ODOM_XY, REF_XY [m] */
+        num_t theta; /**< ODOM_THETA [rad] */
+        struct {
+            num_t theta, v, w;
+        } ref_motion; /**< REF_MOTION */
+        struct {
+            uint16_t step;
+            uint32_t time_us;
+        } step;                  /**< STEP */
+        sup_obstacle_t obstacle; /**< OBSTACLE */
+        struct {
+            uint8_t index;
+            float value;
+        } param_set;       /**< PARAM_SET */
+        uint8_t param_get; /**< PARAM_GET index */
     } u;
 } comm_msg_t;
 
-/** @brief Protocol state: alive counters per frame, drop counters. */
+/**
+ * @brief E2E check status of one received frame, or of a check cycle that
+ *        received none (AUTOSAR E2E profile statuses; docs/safety.md).
+ */
+typedef enum {
+    COMM_E2E_OK = 0,             /**< counter advanced by 1, or the identifier's first frame */
+    COMM_E2E_OK_SOME_LOST = 1,   /**< advanced by 2..COMM_MAX_COUNTER_JUMP: frames were lost */
+    COMM_E2E_REPEATED = 2,       /**< same counter as the last frame with a good CRC */
+    COMM_E2E_WRONG_SEQUENCE = 3, /**< advanced by more than COMM_MAX_COUNTER_JUMP */
+    COMM_E2E_ERROR = 4,          /**< CRC mismatch */
+    COMM_E2E_LENGTH = 5,         /**< DLC other than 8 */
+    COMM_E2E_NO_NEW_DATA = 6,    /**< no frame of the identifier in a check cycle */
+} comm_e2e_status_t;
+
+/** @brief State of an identifier's window state machine (AUTOSAR E2E SM). */
+typedef enum {
+    COMM_SM_NODATA = 0,  /**< no usable frame since comm_init() */
+    COMM_SM_INIT = 1,    /**< frames arrive; not yet enough good ones */
+    COMM_SM_VALID = 2,   /**< the data may be used */
+    COMM_SM_INVALID = 3, /**< too many errors or too few good frames in the window */
+} comm_sm_state_t;
+
+/** @name Window state machine configuration (docs/safety.md, E2E).
+ * Over the last COMM_SM_WINDOW statuses of an identifier, ok counts OK and
+ * OK_SOME_LOST, err counts ERROR and LENGTH; REPEATED, WRONG_SEQUENCE and
+ * NO_NEW_DATA count as neither (too many of them starve ok). @{ */
+#define COMM_SM_WINDOW          4u
+#define COMM_SM_MIN_OK_INIT     1u
+#define COMM_SM_MAX_ERR_INIT    0u
+#define COMM_SM_MIN_OK_VALID    2u
+#define COMM_SM_MAX_ERR_VALID   1u
+#define COMM_SM_MIN_OK_INVALID  3u
+#define COMM_SM_MAX_ERR_INVALID 0u
+/** @} */
+
+/** @brief Receive side of one identifier: sequence, window state machine. */
+typedef struct {
+    uint8_t counter;                /**< alive counter of the last frame with a good CRC */
+    uint8_t seen;                   /**< 1 once a frame with a good CRC arrived */
+    uint8_t state;                  /**< comm_sm_state_t */
+    uint8_t status;                 /**< comm_e2e_status_t of the last status fed */
+    uint8_t window[COMM_SM_WINDOW]; /**< the last statuses, a ring */
+    uint8_t n;                      /**< statuses in the window */
+    uint8_t head;                   /**< next slot of the ring */
+    uint8_t ok_run;                 /**< consecutive OK / OK_SOME_LOST, saturating at 255 */
+    uint8_t frames;                 /**< frames (any status) since the last check cycle */
+    uint8_t accepted;               /**< of which accepted */
+} comm_rx_t;
+
+/** @brief Protocol state: alive counters per frame, receivers, drop counters. */
 typedef struct {
     uint8_t tx_counter[COMM_N_FRAMES];
-    uint8_t rx_counter[COMM_N_FRAMES];
-    uint8_t rx_seen[COMM_N_FRAMES];
+    comm_rx_t rx[COMM_N_FRAMES];
     comm_counters_t drops;
 } comm_t;
 
@@ -154,6 +226,10 @@ uint8_t comm_crc8h2f(const uint8_t *data, size_t len);
  * jump is accepted again; the first frame of an identifier after comm_init()
  * is accepted). A dropped frame is counted in c->drops, once, under the first
  * check it fails, and leaves @p msg unchanged.
+ *
+ * For a known identifier the firmware receives, the frame's E2E status
+ * (LENGTH, ERROR, REPEATED, WRONG_SEQUENCE, OK or OK_SOME_LOST) is fed to the
+ * identifier's window state machine (comm_rx()).
  * @param c   protocol state.
  * @param f   the received frame.
  * @param[out] msg the decoded frame.
@@ -168,6 +244,21 @@ int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg);
 /** @brief Largest accepted alive-counter increment (1 = no frame lost). */
 #define COMM_MAX_COUNTER_JUMP 3u
 
+/**
+ * @brief Close the check cycle of identifier @p id (once per control step for
+ *        each input the step needs): when no frame of @p id arrived since the
+ *        previous call, NO_NEW_DATA is fed to its state machine.
+ * @retval true at least one frame of @p id was accepted since the previous call.
+ * @retval false none was, or @p id is not a frame the firmware receives.
+ */
+bool comm_e2e_cycle(comm_t *c, uint32_t id);
+
+/**
+ * @brief Receive state of identifier @p id (its state machine, last status,
+ *        run of good frames), or NULL when the firmware does not receive @p id.
+ */
+const comm_rx_t *comm_rx(const comm_t *c, uint32_t id);
+
 /* Encoders for the frames the firmware sends. Each fills @p f (id, dlc 8,
  * payload with CRC and the next alive counter) and returns 0. Values outside a
  * signal's range saturate; so do ids and enumerations beyond their largest
@@ -181,11 +272,13 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
  * faults = st->faults bits 0..2 (CTL_FAULT_*), bit 3 = @p frame_faults; e;
  * distance = centre distance to the active obstacle, else to the nearest one
- * remembered, else the signal's maximum (63.999 m); the low byte of @p step.
+ * remembered, else the signal's maximum (63.999 m); the low 4 bits of @p step;
+ * halt = @p halt (saturated at COMM_HALT_BUS_OFF).
  * @param frame_faults a received frame was dropped since the last STATUS.
+ * @param halt comm_halt_t: why the wheels are held at zero.
  */
 int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
-                       hal_can_frame_t *f);
+                       uint8_t halt, hal_can_frame_t *f);
 /** @brief STATUS_TRK: e1, e2, e3. */
 int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f);
 /** @brief STATUS_COUNTERS from c->drops. */

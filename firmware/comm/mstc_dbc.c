@@ -1146,7 +1146,8 @@ int mstc_dbc_status_pack(
     dst_p[4] |= pack_right_shift_u16(status_e, 8u, 0xffu);
     dst_p[5] |= pack_left_shift_u16(src_p->status_distance, 0u, 0xffu);
     dst_p[6] |= pack_right_shift_u16(src_p->status_distance, 8u, 0xffu);
-    dst_p[7] |= pack_left_shift_u8(src_p->status_step, 0u, 0xffu);
+    dst_p[7] |= pack_left_shift_u8(src_p->status_step, 0u, 0x0fu);
+    dst_p[7] |= pack_left_shift_u8(src_p->status_halt, 4u, 0xf0u);
 
     return (8);
 }
@@ -1173,7 +1174,8 @@ int mstc_dbc_status_unpack(
     dst_p->status_e = (int16_t)status_e;
     dst_p->status_distance = unpack_right_shift_u16(src_p[5], 0u, 0xffu);
     dst_p->status_distance |= unpack_left_shift_u16(src_p[6], 8u, 0xffu);
-    dst_p->status_step = unpack_right_shift_u8(src_p[7], 0u, 0xffu);
+    dst_p->status_step = unpack_right_shift_u8(src_p[7], 0u, 0x0fu);
+    dst_p->status_halt = unpack_right_shift_u8(src_p[7], 4u, 0xf0u);
 
     return (0);
 }
@@ -1275,14 +1277,22 @@ bool mstc_dbc_status_status_distance_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_step_is_in_range(uint8_t value)
 {
-    (void)value;
-
-    return (true);
+    return (value <= 15u);
 }
 
 bool mstc_dbc_status_status_step_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 255.0f));
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_status_status_halt_is_in_range(uint8_t value)
+{
+    return (value <= 5u);
+}
+
+bool mstc_dbc_status_status_halt_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 5.0f));
 }
 
 int mstc_dbc_status_trk_pack(

@@ -122,6 +122,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RADIUS_CHOICE (10u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_TRACK_WIDTH_CHOICE (11u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_R_M_CHOICE (0u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_R_OB_CHOICE (1u)
@@ -136,6 +138,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RADIUS_CHOICE (10u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_TRACK_WIDTH_CHOICE (11u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE (0u)
 #define MSTC_DBC_STATUS_STATUS_MODE_AVOID_CHOICE (1u)
@@ -144,6 +148,13 @@ extern "C" {
 #define MSTC_DBC_STATUS_STATUS_SIDE_NONE_CHOICE (0u)
 #define MSTC_DBC_STATUS_STATUS_SIDE_LEFT_CHOICE (1u)
 #define MSTC_DBC_STATUS_STATUS_SIDE_RIGHT_CHOICE (2u)
+
+#define MSTC_DBC_STATUS_STATUS_HALT_NONE_CHOICE (0u)
+#define MSTC_DBC_STATUS_STATUS_HALT_NOT_ARMED_CHOICE (1u)
+#define MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_CHOICE (2u)
+#define MSTC_DBC_STATUS_STATUS_HALT_REFERENCE_CHOICE (3u)
+#define MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE (4u)
+#define MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE (5u)
 
 #define MSTC_DBC_EVENT_EVENT_KIND_DETECT_CHOICE (1u)
 #define MSTC_DBC_EVENT_EVENT_KIND_ACTIVATE_CHOICE (2u)
@@ -172,6 +183,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RADIUS_CHOICE (10u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_TRACK_WIDTH_CHOICE (11u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_OK_CHOICE (0u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_UNKNOWN_INDEX_CHOICE (1u)
@@ -243,6 +256,7 @@ extern "C" {
 #define MSTC_DBC_STATUS_STATUS_E_NAME "STATUS_e"
 #define MSTC_DBC_STATUS_STATUS_DISTANCE_NAME "STATUS_distance"
 #define MSTC_DBC_STATUS_STATUS_STEP_NAME "STATUS_step"
+#define MSTC_DBC_STATUS_STATUS_HALT_NAME "STATUS_halt"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_CRC_NAME "STATUS_TRK_CRC"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_COUNTER_NAME "STATUS_TRK_Counter"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_E1_NAME "STATUS_TRK_e1"
@@ -510,7 +524,7 @@ struct mstc_dbc_obstacle_t {
 /**
  * Signals in message PARAM_SET.
  *
- * Set a parameter (see the value table of PARAM_SET_index); the firmware answers PARAM_VALUE.
+ * Set a parameter (see the value table of PARAM_SET_index); the firmware answers PARAM_VALUE. Index arm (128) is a command: value 1 re-arms (result rejected unless odometry and reference are valid and their last 5 frames each arrived in sequence), value 0 disarms (ramped stop).
  *
  * All signal values are as on the CAN bus.
  */
@@ -687,13 +701,22 @@ struct mstc_dbc_status_t {
     uint16_t status_distance;
 
     /**
-     * Low byte of the step of the last control step.
+     * Low 4 bits of the step of the last control step.
      *
-     * Range: 0..255 (0..255 -)
+     * Range: 0..15 (0..15 -)
      * Scale: 1
      * Offset: 0
      */
     uint8_t status_step;
+
+    /**
+     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off. Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
+     *
+     * Range: 0..5 (0..5 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t status_halt;
 };
 
 /**
@@ -2319,6 +2342,28 @@ bool mstc_dbc_status_status_step_is_in_range(uint8_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_status_status_step_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_status_status_halt_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_status_status_halt_is_in_phys_range(float value);
 
 /**
  * Pack message STATUS_TRK.

@@ -29,9 +29,9 @@ typedef struct {
 
 /** @brief Desired direction of motion and its rate, eq. (9)-(22). */
 typedef struct {
-    num_t beta;      /**< β = atan2(u_y, u_x) [rad], eq. (14) */
-    num_t beta_dot;  /**< β̇ [rad/s], eq. (22) with the corrected (15) */
-    num_t u_norm;    /**< |u| [m], u = u_p + u_f, eq. (13) */
+    num_t beta;     /**< β = atan2(u_y, u_x) [rad], eq. (14) */
+    num_t beta_dot; /**< β̇ [rad/s], eq. (22) with the corrected (15) */
+    num_t u_norm;   /**< |u| [m], u = u_p + u_f, eq. (13) */
 } avd_dir_t;
 
 /**

@@ -11,24 +11,41 @@ void ctl_params_default(ctl_params_t *p)
     p->d_det = NUM_C(3.5);
     p->d_act = NUM_C(0.5);
     p->d_s = NUM_C(0.35);
-    p->trk = (trk_gains_t){.k1 = NUM_C(3.0), .k2 = NUM_C(12.0), .k3 = NUM_C(6.0)};
-    p->avd = (avd_gains_t){.k1 = NUM_C(3.0), .k2 = NUM_C(6.0)};
+    p->trk = (trk_gains_t){ .k1 = NUM_C(3.0), .k2 = NUM_C(12.0), .k3 = NUM_C(6.0) };
+    p->avd = (avd_gains_t){ .k1 = NUM_C(3.0), .k2 = NUM_C(6.0) };
     /* Not in the paper: a small robot whose wheels never saturate in its
      * scenarios (they peak near 32 rad/s). */
-    p->kin = (kin_params_t){
-        .wheel_radius = NUM_C(0.05), .track_width = NUM_C(0.3), .max_wheel_speed = NUM_C(100.0)};
+    p->kin = (kin_params_t){ .wheel_radius = NUM_C(0.05),
+                             .track_width = NUM_C(0.3),
+                             .max_wheel_speed = NUM_C(100.0) };
 }
 
-static bool positive(num_t x) { return num_is_finite(x) && x > NUM_ZERO; }
+/* |x| <= lim, for a finite x only: num_is_finite() first, since an ordered
+ * comparison with NaN raises FE_INVALID. */
+static bool within(num_t x, num_t lim) { return num_is_finite(x) && num_abs(x) <= lim; }
+
+static bool in_param_range(num_t x)
+{
+    return num_is_finite(x) && x >= CTL_PARAM_MIN && x <= CTL_PARAM_MAX;
+}
 
 int ctl_params_check(const ctl_params_t *p)
 {
-    const num_t all[] = {p->r_m,    p->r_ob,   p->d_det,  p->d_act,
-                         p->d_s,    p->trk.k1, p->trk.k2, p->trk.k3,
-                         p->avd.k1, p->avd.k2, p->kin.wheel_radius, p->kin.track_width,
-                         p->kin.max_wheel_speed};
+    const num_t all[] = { p->r_m,
+                          p->r_ob,
+                          p->d_det,
+                          p->d_act,
+                          p->d_s,
+                          p->trk.k1,
+                          p->trk.k2,
+                          p->trk.k3,
+                          p->avd.k1,
+                          p->avd.k2,
+                          p->kin.wheel_radius,
+                          p->kin.track_width,
+                          p->kin.max_wheel_speed };
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) {
-        if (!positive(all[i])) {
+        if (!in_param_range(all[i])) {
             return -EINVAL;
         }
     }
@@ -42,7 +59,7 @@ int ctl_params_check(const ctl_params_t *p)
 
 static sup_params_t sup_params_of(const ctl_params_t *p)
 {
-    return (sup_params_t){.r_ob = p->r_ob, .d_det = p->d_det, .d_act = p->d_act, .d_s = p->d_s};
+    return (sup_params_t){ .r_ob = p->r_ob, .d_det = p->d_det, .d_act = p->d_act, .d_s = p->d_s };
 }
 
 int ctl_init(ctl_t *c, const ctl_params_t *p)
@@ -71,16 +88,21 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
 
 void ctl_reset(ctl_t *c) { sup_reset(&c->sup); }
 
-static bool inputs_finite(const ctl_input_t *in)
+static bool inputs_in_range(const ctl_input_t *in)
 {
-    const num_t v[] = {in->robot.x, in->robot.y, in->robot.theta, in->ref.x, in->ref.y,
-                       in->ref.theta, in->v_r, in->w_r};
-    for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
-        if (!num_is_finite(v[i])) {
-            return false;
-        }
-    }
-    return true;
+    return within(in->robot.x, CTL_MAX_ABS_POSITION) && within(in->robot.y, CTL_MAX_ABS_POSITION) &&
+           within(in->robot.theta, CTL_MAX_ABS_ANGLE) && within(in->ref.x, CTL_MAX_ABS_POSITION) &&
+           within(in->ref.y, CTL_MAX_ABS_POSITION) && within(in->ref.theta, CTL_MAX_ABS_ANGLE) &&
+           within(in->v_r, CTL_MAX_ABS_SPEED) && within(in->w_r, CTL_MAX_ABS_SPEED);
+}
+
+/* A report the supervisor may compute with; the others reach it as id 0 with
+ * zero values, which it drops and counts without touching them. */
+static sup_obstacle_t screened(const sup_obstacle_t *o)
+{
+    const bool ok = within(o->x, CTL_MAX_ABS_POSITION) && within(o->y, CTL_MAX_ABS_POSITION) &&
+                    within(o->radius, CTL_MAX_RADIUS);
+    return ok ? *o : (sup_obstacle_t){ .id = 0u };
 }
 
 static void fill_distances(const ctl_t *c, const pose_t *robot, ctl_status_t *st)
@@ -96,22 +118,29 @@ static void fill_distances(const ctl_t *c, const pose_t *robot, ctl_status_t *st
 void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
-    *st = (ctl_status_t){.mode = SUP_MODE_STOP, .side = AVD_SIDE_NONE};
+    *st = (ctl_status_t){ .mode = SUP_MODE_STOP, .side = AVD_SIDE_NONE };
     out->n_events = 0;
-    out->wheels = (kin_wheels_t){NUM_ZERO, NUM_ZERO};
+    out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
 
-    if (!inputs_finite(in)) {
+    if (!inputs_in_range(in)) {
         /* Bad data from outside: stop, and leave the supervisor as it was. */
         st->faults = CTL_FAULT_INPUT_NONFINITE;
         return;
     }
 
+    sup_obstacle_t reports[SUP_MAX_OBSTACLES];
+    const size_t n_reports =
+        in->n_obstacles < SUP_MAX_OBSTACLES ? in->n_obstacles : SUP_MAX_OBSTACLES;
+    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
+    for (size_t i = 0; i < n_reports; i++) {
+        reports[i] = screened(&in->obstacles[i]);
+    }
     const uint16_t dropped_before = c->sup.dropped;
     sup_decision_t d;
-    sup_step(&c->sup, &in->robot, &in->ref, in->v_r, in->w_r, in->obstacles, in->n_obstacles,
-             in->t_us, out->events, &d);
+    sup_step(&c->sup, &in->robot, &in->ref, in->v_r, in->w_r, reports, n_reports, in->t_us,
+             out->events, &d);
     out->n_events = d.n_events;
-    if (c->sup.dropped != dropped_before) {
+    if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
         st->faults |= CTL_FAULT_OBSTACLE_DROPPED;
     }
 
@@ -125,7 +154,7 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     }
     if (d.mode == SUP_MODE_TRACK) {
         trk_control(&c->p.trk, &st->err, in->v_r, in->w_r, &v, &w);
-    } else if (d.mode == SUP_MODE_AVOID) {
+    } else if (d.mode == SUP_MODE_AVOID && d.active != NULL) { /* sup_step sets both */
         avd_control(&c->p.avd, &in->robot, &st->err, in->v_r, d.active->o.x, d.active->o.y,
                     d.active->d_s, d.side, &v, &w, &st->e);
     } /* SUP_MODE_STOP, p3: v = ω = 0. */
@@ -133,6 +162,12 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     kin_wheels_from_vw(&c->p.kin, v, w, &out->wheels);
     if (kin_saturate(&c->p.kin, &out->wheels)) {
         st->faults |= CTL_FAULT_SATURATED;
+    }
+    if (!within(out->wheels.left, c->p.kin.max_wheel_speed) ||
+        !within(out->wheels.right, c->p.kin.max_wheel_speed)) {
+        /* The last defence of the output range (ctl.h). */
+        out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
+        st->faults |= CTL_FAULT_OUTPUT_INVALID;
     }
     kin_vw_from_wheels(&c->p.kin, &out->wheels, &st->v, &st->w);
     fill_distances(c, &in->robot, st);

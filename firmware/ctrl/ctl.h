@@ -30,20 +30,38 @@ typedef struct {
 
 /** @brief Status bits in ctl_status_t::faults. */
 enum {
-    CTL_FAULT_INPUT_NONFINITE = 1u << 0, /**< a pose or velocity was NaN or inf: robot stopped */
+    CTL_FAULT_INPUT_NONFINITE = 1u << 0,  /**< a pose or velocity was NaN, inf or out of
+                                               range: robot stopped */
     CTL_FAULT_OBSTACLE_DROPPED = 1u << 1, /**< an obstacle report was rejected (see sup_step) */
-    CTL_FAULT_SATURATED = 1u << 2,       /**< wheel speeds were scaled to the limit */
+    CTL_FAULT_SATURATED = 1u << 2,        /**< wheel speeds were scaled to the limit */
+    CTL_FAULT_OUTPUT_INVALID = 1u << 3,   /**< the wheel speeds came out non-finite or beyond
+                                               the limit: zero instead (a defence that the
+                                               ranges below should make unreachable; not
+                                               on the wire) */
 };
+
+/** @name Ranges of the step's inputs and parameters (docs/safety.md). Within
+ * them no intermediate of the control laws overflows a float, so every
+ * output is finite; outside them a step stops (CTL_FAULT_INPUT_NONFINITE), an
+ * obstacle report is dropped, a parameter is rejected. All are within
+ * Q16.16's range too. @{ */
+#define CTL_MAX_ABS_POSITION NUM_C(10000.0) /**< |x|, |y| of poses and obstacles [m] */
+#define CTL_MAX_ABS_ANGLE    NUM_C(1000.0)  /**< |θ| [rad], wrapped by the controllers */
+#define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s] */
+#define CTL_MAX_RADIUS       NUM_C(100.0)   /**< obstacle radius [m] */
+#define CTL_PARAM_MIN        NUM_C(0.001)   /**< smallest value of every parameter */
+#define CTL_PARAM_MAX        NUM_C(10000.0) /**< largest value of every parameter */
+/** @} */
 
 /** @brief Inputs of one step. */
 typedef struct {
-    pose_t robot;                     /**< measured robot pose */
-    pose_t ref;                       /**< reference pose */
-    num_t v_r;                        /**< reference linear velocity [m/s] */
-    num_t w_r;                        /**< reference angular velocity [rad/s] */
-    const sup_obstacle_t *obstacles;  /**< obstacles the sensor reports now */
+    pose_t robot;                    /**< measured robot pose */
+    pose_t ref;                      /**< reference pose */
+    num_t v_r;                       /**< reference linear velocity [m/s] */
+    num_t w_r;                       /**< reference angular velocity [rad/s] */
+    const sup_obstacle_t *obstacles; /**< obstacles the sensor reports now */
     size_t n_obstacles;
-    uint64_t t_us;                    /**< step time [µs] */
+    uint64_t t_us; /**< step time [µs] */
 } ctl_input_t;
 
 /** @brief What the step did, for telemetry. */
@@ -80,8 +98,8 @@ typedef struct {
 void ctl_params_default(ctl_params_t *p);
 
 /**
- * @brief Check parameters: every value finite and > 0, D_s >= R_m,
- *        D_s < D_act <= D_det.
+ * @brief Check parameters: every value finite and within [CTL_PARAM_MIN,
+ *        CTL_PARAM_MAX], D_s >= R_m, D_s < D_act <= D_det.
  * @retval 0       valid.
  * @retval -EINVAL a value is out of range.
  */
@@ -107,9 +125,13 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p);
 void ctl_reset(ctl_t *c);
 
 /**
- * @brief One control step. Total: never fails. A non-finite pose or velocity
- *        gives zero wheel speeds, mode STOP and CTL_FAULT_INPUT_NONFINITE,
- *        and leaves the supervisor untouched.
+ * @brief One control step. Total: never fails, and the wheel speeds are
+ *        always finite and within ±max_wheel_speed. A non-finite or
+ *        out-of-range pose or velocity gives zero wheel speeds, mode STOP and
+ *        CTL_FAULT_INPUT_NONFINITE, and leaves the supervisor untouched. An
+ *        obstacle report with a non-finite or out-of-range value is dropped
+ *        (counted by the supervisor, CTL_FAULT_OBSTACLE_DROPPED); reports
+ *        beyond SUP_MAX_OBSTACLES are dropped too.
  */
 void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
 

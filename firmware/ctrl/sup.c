@@ -8,8 +8,7 @@ bool sup_p1(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_
     const num_t u1y = num_sub(robot->y, oy);
     const num_t u2x = num_sub(ref->x, ox);
     const num_t u2y = num_sub(ref->y, oy);
-    return num_hypot(u2x, u2y) > d_act &&
-           num_add(num_mul(u1x, u2x), num_mul(u1y, u2y)) > NUM_ZERO;
+    return num_hypot(u2x, u2y) > d_act && num_add(num_mul(u1x, u2x), num_mul(u1y, u2y)) > NUM_ZERO;
 }
 
 bool sup_p2(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_act)
@@ -48,8 +47,8 @@ void sup_set_params(sup_t *s, const sup_params_t *p)
 
 static bool report_valid(const sup_obstacle_t *o)
 {
-    return o->id != 0 && num_is_finite(o->x) && num_is_finite(o->y) &&
-           num_is_finite(o->radius) && o->radius > NUM_ZERO;
+    return o->id != 0 && num_is_finite(o->x) && num_is_finite(o->y) && num_is_finite(o->radius) &&
+           o->radius > NUM_ZERO;
 }
 
 static sup_entry_t *find(sup_t *s, uint8_t id)
@@ -62,11 +61,11 @@ static sup_entry_t *find(sup_t *s, uint8_t id)
     return NULL;
 }
 
-static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t kind,
-                 uint8_t id, avd_side_t side)
+static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t kind, uint8_t id,
+                 avd_side_t side)
 {
-    events[*n] = (sup_event_t){
-        .t_us = t_us, .kind = (uint8_t)kind, .obstacle = id, .side = (int8_t)side};
+    events[*n] =
+        (sup_event_t){ .t_us = t_us, .kind = (uint8_t)kind, .obstacle = id, .side = (int8_t)side };
     (*n)++;
 }
 
@@ -110,8 +109,8 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
 }
 
 void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
-              const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us,
-              sup_event_t *events, sup_decision_t *d)
+              const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us, sup_event_t *events,
+              sup_decision_t *d)
 {
     size_t n_ev = 0;
     take_reports(s, robot, reports, n_reports, t_us, events, &n_ev);

@@ -26,7 +26,7 @@
 #define SUP_MAX_OBSTACLES 16u
 /** @brief Most events one step can emit: a detect per new obstacle, a
  *         complete and an activate. */
-#define SUP_MAX_EVENTS (SUP_MAX_OBSTACLES + 2u)
+#define SUP_MAX_EVENTS    (SUP_MAX_OBSTACLES + 2u)
 
 /** @brief Which controller runs. */
 typedef enum {
@@ -141,7 +141,7 @@ void sup_reset(sup_t *s);
  * @param[out] d   the decision.
  */
 void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
-              const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us,
-              sup_event_t *events, sup_decision_t *d);
+              const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us, sup_event_t *events,
+              sup_decision_t *d);
 
 #endif /* MSTC_SUP_H */

@@ -40,10 +40,7 @@ static inline uint32_t uabs32(int32_t a) { return a < 0 ? 0u - (uint32_t)a : (ui
 
 /* Signed product of two Q2.30 values, in Q2.30, truncated toward −inf
  * (an arithmetic shift; GCC defines >> on negative values so). */
-static inline int32_t mul_q30(int32_t a, int32_t b)
-{
-    return (int32_t)(((int64_t)a * b) >> 30);
-}
+static inline int32_t mul_q30(int32_t a, int32_t b) { return (int32_t)(((int64_t)a * b) >> 30); }
 
 /* Q2.30 (or any Q.30 in int64) to Q16.16, rounded to nearest. */
 static inline int32_t q30_to_q16(int32_t a) { return (int32_t)(((int64_t)a + (1 << 13)) >> 14); }
@@ -131,18 +128,18 @@ num_t num_hypot(num_t x, num_t y)
 /* ------------------------------------------------------------ trigonometry */
 
 /* π/2 in Q32.32 (6746518852.26…), 2/π in Q0.32 (2734261102.37…). */
-#define HALF_PI_Q32 INT64_C(6746518852)
+#define HALF_PI_Q32     INT64_C(6746518852)
 #define TWO_OVER_PI_Q32 INT64_C(2734261102)
 
 /* Taylor coefficients in Q2.30 for |r| ≤ π/4 (+ a little): the first omitted
  * terms are r⁹/9! ≤ 3.1e-7 and r¹⁰/10! ≤ 2.5e-8, below 0.02 LSB. */
-#define SIN_C3 (-178956971) /* −1/6 */
-#define SIN_C5 8947849      /* 1/120 */
-#define SIN_C7 (-213045)    /* −1/5040 */
-#define COS_C2 (-536870912) /* −1/2 */
-#define COS_C4 44739243     /* 1/24 */
-#define COS_C6 (-1491308)   /* −1/720 */
-#define COS_C8 26631        /* 1/40320 */
+#define SIN_C3  (-178956971) /* −1/6 */
+#define SIN_C5  8947849      /* 1/120 */
+#define SIN_C7  (-213045)    /* −1/5040 */
+#define COS_C2  (-536870912) /* −1/2 */
+#define COS_C4  44739243     /* 1/24 */
+#define COS_C6  (-1491308)   /* −1/720 */
+#define COS_C8  26631        /* 1/40320 */
 #define ONE_Q30 (1 << 30)
 
 /*
@@ -156,7 +153,7 @@ static int32_t sincos_q30(num_t a, unsigned cos_shift)
      * off by one at a boundary; r is then just past π/4, still accurate. */
     const int32_t q = (int32_t)(((int64_t)a * TWO_OVER_PI_Q32 + (INT64_C(1) << 47)) >> 48);
     /* r = a − q·π/2 in Q32.32, exact but for π/2's 2^-33 rounding times q. */
-    const int64_t r32 = ((int64_t)a << 16) - (int64_t)q * HALF_PI_Q32;
+    const int64_t r32 = ((int64_t)a * 65536) - (int64_t)q * HALF_PI_Q32;
     const int32_t r = (int32_t)((r32 + 2) >> 2); /* Q2.30, |r| < 0.8 */
     const int32_t z = mul_q30(r, r);
 
@@ -220,17 +217,17 @@ static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
 /* Coefficients of atan(t) ≈ t·(A1 + A3·t² + … + A13·t¹²) on [0, 1], in
  * Q2.30: a minimax fit (tools/numerics/fit_atan.py), max error 2.48e-7 rad
  * (0.016 LSB) with the coefficients rounded as here. */
-#define ATAN_A1 1073737649
-#define ATAN_A3 (-357742515)
-#define ATAN_A5 212684800
-#define ATAN_A7 (-142091928)
-#define ATAN_A9 85495265
-#define ATAN_A11 (-36082255)
-#define ATAN_A13 7314107
+#define ATAN_A1        1073737649
+#define ATAN_A3        (-357742515)
+#define ATAN_A5        212684800
+#define ATAN_A7        (-142091928)
+#define ATAN_A9        85495265
+#define ATAN_A11       (-36082255)
+#define ATAN_A13       7314107
 /* π/4, π/2 and π in Q2.30 as unsigned (π·2^30 needs 32 bits). */
 #define QUARTER_PI_U30 843314857u
-#define HALF_PI_U30 1686629713u
-#define PI_U30 3373259426u
+#define HALF_PI_U30    1686629713u
+#define PI_U30         3373259426u
 
 num_t num_atan2(num_t y, num_t x)
 {
@@ -273,8 +270,8 @@ num_t num_atan2(num_t y, num_t x)
 /* ------------------------------------------------------------- angle wrap */
 
 /* 2π and π in Q32.32; 1/(2π) in Q0.32 (683565275.58…). */
-#define TWO_PI_Q32 INT64_C(26986075409)
-#define PI_Q32 INT64_C(13493037705)
+#define TWO_PI_Q32     INT64_C(26986075409)
+#define PI_Q32         INT64_C(13493037705)
 #define INV_TWO_PI_Q32 INT64_C(683565276)
 
 num_t num_wrap(num_t a)
@@ -286,7 +283,7 @@ num_t num_wrap(num_t a)
      * w = a − k·2π in Q32.32, exact but for 2π's rounding (2^-33) times
      * |k| ≤ 5216, i.e. ≤ 6e-7 = 0.04 LSB. */
     const int64_t k = ((int64_t)a * INV_TWO_PI_Q32 + (INT64_C(1) << 47)) >> 48;
-    int64_t w = ((int64_t)a << 16) - k * TWO_PI_Q32;
+    int64_t w = ((int64_t)a * 65536) - k * TWO_PI_Q32;
     /* k may be off by one at the seam: bring w into (−π, π]. */
     if (w > PI_Q32) {
         w -= TWO_PI_Q32;

@@ -24,11 +24,10 @@
  *
  * libfixmath configuration (mk/numeric.mk, the same for every build):
  * FIXMATH_NO_CACHE (its sin and atan2 caches take 80 KiB of RAM, and make
- * the time of a call depend on the calls before it); rounding on (FIXMATH_NO_ROUNDING unset: mul and
- * div round to nearest); overflow detection on (FIXMATH_NO_OVERFLOW unset:
- * needed by the saturating fix16_smul/fix16_sdiv); 64-bit multiply
- * (FIXMATH_NO_64BIT unset: a Cortex-M3 has SMULL); FIXMATH_FAST_SIN and
- * FIXMATH_SIN_LUT unset (their sin is not used).
+ * the time of a call depend on the calls before it); rounding on (FIXMATH_NO_ROUNDING unset: mul
+ * and div round to nearest); overflow detection on (FIXMATH_NO_OVERFLOW unset: needed by the
+ * saturating fix16_smul/fix16_sdiv); 64-bit multiply (FIXMATH_NO_64BIT unset: a Cortex-M3 has
+ * SMULL); FIXMATH_FAST_SIN and FIXMATH_SIN_LUT unset (their sin is not used).
  */
 #ifndef MSTC_NUM_FIXED_H
 #define MSTC_NUM_FIXED_H
@@ -51,23 +50,23 @@ typedef int32_t num_t;
  *        saturated to [NUM_MIN, NUM_MAX]. The double arithmetic is folded by
  *        the compiler; no double reaches the code.
  */
-#define NUM_C(x)                                                                     \
-    ((num_t)((x) >= 32767.9999847412109375                                          \
-                 ? 2147483647.0                                                      \
-                 : ((x) <= -32768.0 ? -2147483648.0                                  \
-                                    : ((x) >= 0 ? (x) * 65536.0 + 0.5 : (x) * 65536.0 - 0.5))))
+#define NUM_C(x)                                                                                   \
+    ((num_t)((x) >= 32767.9999847412109375                                                         \
+                 ? 2147483647.0                                                                    \
+                 : ((x) <= -32768.0 ? -2147483648.0                                                \
+                                    : ((x) >= 0 ? (x)*65536.0 + 0.5 : (x)*65536.0 - 0.5))))
 
-#define NUM_ZERO ((num_t)0)
-#define NUM_ONE ((num_t)65536)
+#define NUM_ZERO   ((num_t)0)
+#define NUM_ONE    ((num_t)65536)
 /** @brief round(π·2^16) = 205887 = 3.14158630, 6.35e-6 (0.42 LSB) below π:
  *         the largest Q16.16 value <= π. −NUM_PI is likewise above −π. */
-#define NUM_PI ((num_t)205887)
+#define NUM_PI     ((num_t)205887)
 /** @brief round(2π·2^16) = 411775 = 6.28318787, 2.56e-6 (0.17 LSB) above 2π. */
 #define NUM_TWO_PI ((num_t)411775)
 /** @brief Largest value, 32768 − 2^-16. */
-#define NUM_MAX ((num_t)INT32_MAX)
+#define NUM_MAX    ((num_t)INT32_MAX)
 /** @brief Smallest value, −32768. */
-#define NUM_MIN ((num_t)INT32_MIN)
+#define NUM_MIN    ((num_t)INT32_MIN)
 
 /**
  * @brief a + b, saturated to [NUM_MIN, NUM_MAX]. Exact when in range.

@@ -22,13 +22,13 @@ typedef float num_t;
 /** @brief A compile-time constant from a literal or constant expression. */
 #define NUM_C(x) ((num_t)(x))
 
-#define NUM_ZERO NUM_C(0.0)
-#define NUM_ONE NUM_C(1.0)
+#define NUM_ZERO   NUM_C(0.0)
+#define NUM_ONE    NUM_C(1.0)
 /** @brief float(π): 3.14159274, just above π. */
-#define NUM_PI NUM_C(3.14159265358979323846)
+#define NUM_PI     NUM_C(3.14159265358979323846)
 #define NUM_TWO_PI NUM_C(6.28318530717958647692)
 /** @brief Largest finite value. */
-#define NUM_MAX NUM_C(3.40282347e+38)
+#define NUM_MAX    NUM_C(3.40282347e+38)
 
 static inline num_t num_add(num_t a, num_t b) { return a + b; }
 static inline num_t num_sub(num_t a, num_t b) { return a - b; }

@@ -18,17 +18,17 @@
 typedef struct {
     hal_can_frame_t sent[HAL_FAKE_MAX_FRAMES]; /**< frames passed to hal_can_send() */
     unsigned n_sent;
-    int send_rc;                               /**< returned by hal_can_send() (0) */
-    hal_can_frame_t rx[HAL_FAKE_MAX_FRAMES];   /**< scripted frames for hal_can_recv() */
+    int send_rc;                             /**< returned by hal_can_send() (0) */
+    hal_can_frame_t rx[HAL_FAKE_MAX_FRAMES]; /**< scripted frames for hal_can_recv() */
     unsigned rx_head;
     unsigned n_rx;
     unsigned n_recv_calls;
-    uint32_t last_timeout_us;                  /**< timeout of the last hal_can_recv() */
-    uint64_t now_us;                           /**< returned by hal_time_now_us() */
-    unsigned kicks;                            /**< hal_sys_watchdog_kick() calls */
+    uint32_t last_timeout_us; /**< timeout of the last hal_can_recv() */
+    uint64_t now_us;          /**< returned by hal_time_now_us() */
+    unsigned kicks;           /**< hal_sys_watchdog_kick() calls */
     hal_reset_cause_t reset_cause;
-    hal_can_status_t can_status;               /**< returned by hal_can_status() */
-    int can_status_rc;                         /**< its return value (0) */
+    hal_can_status_t can_status; /**< returned by hal_can_status() */
+    int can_status_rc;           /**< its return value (0) */
 } hal_fake_t;
 
 extern hal_fake_t hal_fake;

@@ -27,7 +27,7 @@ int hal_can_open(const char *iface)
         close(s);
         return -ENODEV;
     }
-    struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)idx};
+    struct sockaddr_can addr = { .can_family = AF_CAN, .can_ifindex = (int)idx };
     if (bind(s, (struct sockaddr *)&addr, sizeof addr) != 0) {
         const int e = errno;
         close(s);
@@ -74,7 +74,7 @@ int hal_can_send(const hal_can_frame_t *frame)
 
 int hal_can_recv(hal_can_frame_t *frame, uint32_t timeout_us)
 {
-    struct pollfd p = {.fd = sock, .events = POLLIN};
+    struct pollfd p = { .fd = sock, .events = POLLIN };
     /* Round the timeout up to whole milliseconds so a short wait still waits. */
     const int ms = (int)((timeout_us + 999u) / 1000u);
     const int r = poll(&p, 1, ms);

@@ -14,8 +14,8 @@ uint64_t hal_time_now_us(void)
 
 void hal_time_sleep_until_us(uint64_t t_us)
 {
-    const struct timespec ts = {.tv_sec = (time_t)(t_us / 1000000u),
-                                .tv_nsec = (long)(t_us % 1000000u) * 1000L};
+    const struct timespec ts = { .tv_sec = (time_t)(t_us / 1000000u),
+                                 .tv_nsec = (long)(t_us % 1000000u) * 1000L };
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
     }
 }

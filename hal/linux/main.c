@@ -20,19 +20,18 @@ static void on_signal(int sig)
 
 static void usage(FILE *out)
 {
-    fprintf(out,
-            "usage: mstc-fw --can IFACE [--realtime] [--period-ms MS]\n"
-            "\n"
-            "Run the mstc firmware on a SocketCAN interface (e.g. vcan0) until\n"
-            "SIGINT or SIGTERM. The protocol is firmware/comm/mstc.dbc.\n"
-            "\n"
-            "  --can IFACE     SocketCAN interface to use (required)\n"
-            "  --realtime      step on this process's own timer every --period-ms,\n"
-            "                  with the latest inputs, as on a board; without it the\n"
-            "                  firmware runs lock-step: one control step per STEP\n"
-            "                  frame, stamped with the frame's time\n"
-            "  --period-ms MS  control period in real-time mode, 1..1000 (default 20)\n"
-            "  --help          this text\n");
+    fprintf(out, "usage: mstc-fw --can IFACE [--realtime] [--period-ms MS]\n"
+                 "\n"
+                 "Run the mstc firmware on a SocketCAN interface (e.g. vcan0) until\n"
+                 "SIGINT or SIGTERM. The protocol is firmware/comm/mstc.dbc.\n"
+                 "\n"
+                 "  --can IFACE     SocketCAN interface to use (required)\n"
+                 "  --realtime      step on this process's own timer every --period-ms,\n"
+                 "                  with the latest inputs, as on a board; without it the\n"
+                 "                  firmware runs lock-step: one control step per STEP\n"
+                 "                  frame, stamped with the frame's time\n"
+                 "  --period-ms MS  control period in real-time mode, 1..1000 (default 20)\n"
+                 "  --help          this text\n");
 }
 
 int main(int argc, char **argv)
@@ -94,7 +93,8 @@ int main(int argc, char **argv)
     }
     hal_can_close();
     const comm_counters_t *d = &app.comm.drops;
-    fprintf(stderr, "mstc-fw: %u steps; dropped frames: crc %u, sequence %u, length %u, unknown id %u\n",
+    fprintf(stderr,
+            "mstc-fw: %u steps; dropped frames: crc %u, sequence %u, length %u, unknown id %u\n",
             (unsigned)app.steps, d->crc, d->seq, d->len, d->unknown);
     return 0;
 }

@@ -8,8 +8,8 @@
 #include <stddef.h>
 #include <string.h>
 
-#include "ctrl/ctl.h"
 #include "app/app.h"
+#include "ctrl/ctl.h"
 #include "hal/hal_can.h"
 #include "hal_sil.h"
 
@@ -53,8 +53,8 @@ static double to_d(num_t n) { return (double)n / 65536.0; }
  * CTL_FAULT_INPUT_NONFINITE, supervisor untouched); fixed mode checks here. */
 static bool input_finite(const mstc_sil_input_t *in)
 {
-    const double v[] = {in->robot[0], in->robot[1], in->robot[2], in->ref[0],
-                        in->ref[1],   in->ref[2],   in->v_r,      in->w_r};
+    const double v[] = { in->robot[0], in->robot[1], in->robot[2], in->ref[0],
+                         in->ref[1],   in->ref[2],   in->v_r,      in->w_r };
     for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
         if (!isfinite(v[i])) {
             return false;
@@ -96,8 +96,8 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
         .d_det = to_d(c.d_det),
         .d_act = to_d(c.d_act),
         .d_s = to_d(c.d_s),
-        .trk_k = {to_d(c.trk.k1), to_d(c.trk.k2), to_d(c.trk.k3)},
-        .avd_k = {to_d(c.avd.k1), to_d(c.avd.k2)},
+        .trk_k = { to_d(c.trk.k1), to_d(c.trk.k2), to_d(c.trk.k3) },
+        .avd_k = { to_d(c.avd.k1), to_d(c.avd.k2) },
         .wheel_radius = to_d(c.kin.wheel_radius),
         .track_width = to_d(c.kin.track_width),
         .max_wheel_speed = to_d(c.kin.max_wheel_speed),
@@ -112,9 +112,9 @@ static ctl_params_t params_from(const mstc_sil_params_t *p)
         .d_det = from_d(p->d_det),
         .d_act = from_d(p->d_act),
         .d_s = from_d(p->d_s),
-        .trk = {from_d(p->trk_k[0]), from_d(p->trk_k[1]), from_d(p->trk_k[2])},
-        .avd = {from_d(p->avd_k[0]), from_d(p->avd_k[1])},
-        .kin = {from_d(p->wheel_radius), from_d(p->track_width), from_d(p->max_wheel_speed)},
+        .trk = { from_d(p->trk_k[0]), from_d(p->trk_k[1]), from_d(p->trk_k[2]) },
+        .avd = { from_d(p->avd_k[0]), from_d(p->avd_k[1]) },
+        .kin = { from_d(p->wheel_radius), from_d(p->track_width), from_d(p->max_wheel_speed) },
     };
 }
 
@@ -142,7 +142,7 @@ int mstc_sil_fw_send(const mstc_sil_frame_t *f)
     if (f == NULL) {
         return -EINVAL;
     }
-    hal_can_frame_t hf = {.id = f->id, .dlc = f->dlc};
+    hal_can_frame_t hf = { .id = f->id, .dlc = f->dlc };
     memcpy(hf.data, f->data, sizeof hf.data);
     const int rc = hal_sil_to_fw(&hf);
     if (rc == 0) {
@@ -159,7 +159,7 @@ int mstc_sil_fw_recv(mstc_sil_frame_t *f)
     hal_can_frame_t hf;
     const int rc = hal_sil_from_fw(&hf);
     if (rc == 0) {
-        *f = (mstc_sil_frame_t){.id = hf.id, .dlc = hf.dlc};
+        *f = (mstc_sil_frame_t){ .id = hf.id, .dlc = hf.dlc };
         memcpy(f->data, hf.data, sizeof f->data);
     }
     return rc;
@@ -173,22 +173,21 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     }
 #if defined(NUM_FIXED)
     if (!input_finite(in)) {
-        *out = (mstc_sil_output_t){.mode = (int32_t)SUP_MODE_STOP,
-                                   .faults = CTL_FAULT_INPUT_NONFINITE};
+        *out = (mstc_sil_output_t){ .mode = (int32_t)SUP_MODE_STOP,
+                                    .faults = CTL_FAULT_INPUT_NONFINITE };
         return 0;
     }
 #endif
     sup_obstacle_t obs[MSTC_SIL_MAX_OBSTACLES];
     for (uint32_t i = 0; i < in->n_obstacles; i++) {
         const mstc_sil_obstacle_t *o = &in->obstacles[i];
-        obs[i] = (sup_obstacle_t){.id = obstacle_id(o),
-                                  .x = from_d(o->x),
-                                  .y = from_d(o->y),
-                                  .radius = from_d(o->radius)};
+        obs[i] = (sup_obstacle_t){
+            .id = obstacle_id(o), .x = from_d(o->x), .y = from_d(o->y), .radius = from_d(o->radius)
+        };
     }
     const ctl_input_t ci = {
-        .robot = {from_d(in->robot[0]), from_d(in->robot[1]), from_d(in->robot[2])},
-        .ref = {from_d(in->ref[0]), from_d(in->ref[1]), from_d(in->ref[2])},
+        .robot = { from_d(in->robot[0]), from_d(in->robot[1]), from_d(in->robot[2]) },
+        .ref = { from_d(in->ref[0]), from_d(in->ref[1]), from_d(in->ref[2]) },
         .v_r = from_d(in->v_r),
         .w_r = from_d(in->w_r),
         .obstacles = obs,
@@ -220,7 +219,8 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     for (size_t i = 0; i < co.n_events; i++) {
         const sup_event_t *e = &co.events[i];
         out->events[i] = (mstc_sil_event_t){
-            .t_us = e->t_us, .kind = e->kind, .obstacle = e->obstacle, .side = e->side};
+            .t_us = e->t_us, .kind = e->kind, .obstacle = e->obstacle, .side = e->side
+        };
     }
     return 0;
 }

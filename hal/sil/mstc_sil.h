@@ -22,7 +22,7 @@
 #include <stdint.h>
 
 #define MSTC_SIL_MAX_OBSTACLES 16
-#define MSTC_SIL_MAX_EVENTS 18
+#define MSTC_SIL_MAX_EVENTS    18
 
 /** @brief Parameters, SI units (see ctl_params_t). */
 typedef struct {
@@ -96,8 +96,8 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 
 /** @brief A classic CAN frame (same layout as hal_can_frame_t). */
 typedef struct {
-    uint32_t id;     /**< 11-bit identifier */
-    uint8_t dlc;     /**< 0..8 */
+    uint32_t id; /**< 11-bit identifier */
+    uint8_t dlc; /**< 0..8 */
     uint8_t data[8];
 } mstc_sil_frame_t;
 

@@ -17,8 +17,8 @@
 
 /* Interrupt priorities (0 most urgent): receive first, as the hardware FIFO
  * holds only three frames; the control timer and SysTick last. */
-#define PRIO_CAN_RX 1u
-#define PRIO_CAN_TX 2u
+#define PRIO_CAN_RX  1u
+#define PRIO_CAN_TX  2u
 #define PRIO_CAN_SCE 2u
 
 /* Time-outs of the mode changes. Entering initialisation takes a bit time or
@@ -94,8 +94,8 @@ int hal_can_open(const char *iface)
      * TXFP: mailboxes go out in request order, so WHEEL_CMD stays last.
      * Automatic retransmission on; RFLM off: an overrun keeps the newest.
      * DBF (reset value 1 on the F4): CAN frozen while a debugger halts. */
-    CAN->MCR = CAN_MCR_INRQ_Msk | CAN_MCR_ABOM_Msk | CAN_MCR_TXFP_Msk |
-               (CAN->MCR & CAN_MCR_DBF_Msk);
+    CAN->MCR =
+        CAN_MCR_INRQ_Msk | CAN_MCR_ABOM_Msk | CAN_MCR_TXFP_Msk | (CAN->MCR & CAN_MCR_DBF_Msk);
     CAN->BTR = bxcan_btr(&t);
 
     bxcan_bank_t all;

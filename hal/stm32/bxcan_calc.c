@@ -5,18 +5,18 @@
 #include <stddef.h>
 
 /* Register encodings (RM0090 §32.9.2-3 [RM0008 §24.9.2-3]). */
-#define BTR_BRP_POS 0u
-#define BTR_TS1_POS 16u
-#define BTR_TS2_POS 20u
-#define BTR_SJW_POS 24u
-#define IR_STID_POS 21u
-#define IR_IDE (1u << 2)
-#define IR_RTR (1u << 1)
+#define BTR_BRP_POS  0u
+#define BTR_TS1_POS  16u
+#define BTR_TS2_POS  20u
+#define BTR_SJW_POS  24u
+#define IR_STID_POS  21u
+#define IR_IDE       (1u << 2)
+#define IR_RTR       (1u << 1)
 /* A 16-bit filter entry: STID[10:0] in 15:5, RTR in 4, IDE in 3, EXID[17:15]
  * in 2:0 (RM0090 Figure 342 [RM0008 Figure 230]). */
 #define F16_STID_POS 5u
-#define F16_RTR (1u << 4)
-#define F16_IDE (1u << 3)
+#define F16_RTR      (1u << 4)
+#define F16_IDE      (1u << 3)
 
 #define MIN_TQ 8u
 #define MAX_TQ 25u
@@ -30,7 +30,7 @@ int bxcan_timing(uint32_t pclk_hz, uint32_t bitrate, uint16_t sample_point_permi
     }
     bool found = false;
     uint32_t best_err = 0u;
-    bxcan_timing_t best = {0};
+    bxcan_timing_t best = { 0 };
     /* From the most quanta down and the shortest ts2 up: a tie keeps the
      * larger N, then the later sample point. */
     for (uint32_t n = MAX_TQ; n >= MIN_TQ; n--) {
@@ -56,10 +56,10 @@ int bxcan_timing(uint32_t pclk_hz, uint32_t bitrate, uint16_t sample_point_permi
             if (!found || (uint64_t)diff * best_n < (uint64_t)best_err * n) {
                 found = true;
                 best_err = diff;
-                best = (bxcan_timing_t){.brp = (uint16_t)brp,
-                                        .ts1 = (uint8_t)ts1,
-                                        .ts2 = (uint8_t)ts2,
-                                        .sjw = (uint8_t)(ts2 < 4u ? ts2 : 4u)};
+                best = (bxcan_timing_t){ .brp = (uint16_t)brp,
+                                         .ts1 = (uint8_t)ts1,
+                                         .ts2 = (uint8_t)ts2,
+                                         .sjw = (uint8_t)(ts2 < 4u ? ts2 : 4u) };
             }
         }
     }
@@ -103,7 +103,7 @@ int bxcan_filter_banks(const hal_can_filter_t *filters, unsigned n, bxcan_bank_t
             return -EINVAL;
         }
         const uint32_t pair = (f16_mask(0u) << 16) | f16_id(0u);
-        banks[0] = (bxcan_bank_t){.list = false, .fr1 = pair, .fr2 = pair};
+        banks[0] = (bxcan_bank_t){ .list = false, .fr1 = pair, .fr2 = pair };
         *n_banks = 1u;
         return 0;
     }
@@ -134,9 +134,9 @@ int bxcan_filter_banks(const hal_can_filter_t *filters, unsigned n, bxcan_bank_t
             for (unsigned j = k; j < 4u; j++) {
                 slot[j] = slot[k - 1u];
             }
-            banks[b++] = (bxcan_bank_t){.list = true,
-                                        .fr1 = (slot[1] << 16) | slot[0],
-                                        .fr2 = (slot[3] << 16) | slot[2]};
+            banks[b++] = (bxcan_bank_t){ .list = true,
+                                         .fr1 = (slot[1] << 16) | slot[0],
+                                         .fr2 = (slot[3] << 16) | slot[2] };
             k = 0u;
         }
         if (i < n && filters[i].mask == HAL_CAN_MAX_STD_ID) {
@@ -153,7 +153,7 @@ int bxcan_filter_banks(const hal_can_filter_t *filters, unsigned n, bxcan_bank_t
             if (k == 1u) {
                 pair[1] = pair[0];
             }
-            banks[b++] = (bxcan_bank_t){.list = false, .fr1 = pair[0], .fr2 = pair[1]};
+            banks[b++] = (bxcan_bank_t){ .list = false, .fr1 = pair[0], .fr2 = pair[1] };
             k = 0u;
         }
         if (i < n && filters[i].mask != HAL_CAN_MAX_STD_ID) {

@@ -35,9 +35,9 @@ _Static_assert((CAN_RING_SIZE & (CAN_RING_SIZE - 1u)) == 0u, "CAN_RING_SIZE: pow
 /** @brief The queue. Zero-initialised (static storage) is empty. */
 typedef struct {
     hal_can_frame_t slot[CAN_RING_SIZE];
-    atomic_uint head;  /**< frames pushed; written by the producer only */
-    atomic_uint tail;  /**< frames popped; written by the consumer only */
-    uint32_t dropped;  /**< frames refused because full; producer only */
+    atomic_uint head; /**< frames pushed; written by the producer only */
+    atomic_uint tail; /**< frames popped; written by the consumer only */
+    uint32_t dropped; /**< frames refused because full; producer only */
 } can_ring_t;
 
 /** @brief Empty the queue. Only while neither side runs (before enabling the

@@ -14,28 +14,28 @@
 #define CM_REG(addr) (*(volatile uint32_t *)(addr))
 
 /* System Control Block (B3.2.2). */
-#define CM_SCB_ICSR CM_REG(0xE000ED04u)  /**< Interrupt Control and State */
-#define CM_SCB_VTOR CM_REG(0xE000ED08u)  /**< Vector Table Offset */
-#define CM_SCB_AIRCR CM_REG(0xE000ED0Cu) /**< Application Interrupt and Reset Control */
-#define CM_SCB_SHPR3 CM_REG(0xE000ED20u) /**< System Handler Priority 3 (PendSV, SysTick) */
-#define CM_SCB_CPACR CM_REG(0xE000ED88u) /**< Coprocessor Access Control */
-#define CM_ICSR_PENDSTSET (1u << 26)      /**< SysTick exception pending */
-#define CM_AIRCR_VECTKEY (0x05FAu << 16)
-#define CM_AIRCR_SYSRESETREQ (1u << 2)
+#define CM_SCB_ICSR             CM_REG(0xE000ED04u) /**< Interrupt Control and State */
+#define CM_SCB_VTOR             CM_REG(0xE000ED08u) /**< Vector Table Offset */
+#define CM_SCB_AIRCR            CM_REG(0xE000ED0Cu) /**< Application Interrupt and Reset Control */
+#define CM_SCB_SHPR3            CM_REG(0xE000ED20u) /**< System Handler Priority 3 (PendSV, SysTick) */
+#define CM_SCB_CPACR            CM_REG(0xE000ED88u) /**< Coprocessor Access Control */
+#define CM_ICSR_PENDSTSET       (1u << 26)          /**< SysTick exception pending */
+#define CM_AIRCR_VECTKEY        (0x05FAu << 16)
+#define CM_AIRCR_SYSRESETREQ    (1u << 2)
 #define CM_CPACR_CP10_CP11_FULL (0xFu << 20) /**< FPU (CP10, CP11): full access */
 
 /* SysTick (B3.3.2). */
-#define CM_SYST_CSR CM_REG(0xE000E010u)
-#define CM_SYST_RVR CM_REG(0xE000E014u)
-#define CM_SYST_CVR CM_REG(0xE000E018u)
-#define CM_SYST_CSR_ENABLE (1u << 0)
-#define CM_SYST_CSR_TICKINT (1u << 1)
+#define CM_SYST_CSR           CM_REG(0xE000E010u)
+#define CM_SYST_RVR           CM_REG(0xE000E014u)
+#define CM_SYST_CVR           CM_REG(0xE000E018u)
+#define CM_SYST_CSR_ENABLE    (1u << 0)
+#define CM_SYST_CSR_TICKINT   (1u << 1)
 #define CM_SYST_CSR_CLKSOURCE (1u << 2) /**< processor clock */
 
 /* NVIC (B3.4.3): 32 interrupts per word; priority bytes. */
-#define CM_NVIC_ISER(n) CM_REG(0xE000E100u + 4u * (n))
-#define CM_NVIC_ICER(n) CM_REG(0xE000E180u + 4u * (n))
-#define CM_NVIC_ISPR(n) CM_REG(0xE000E200u + 4u * (n))
+#define CM_NVIC_ISER(n)   CM_REG(0xE000E100u + 4u * (n))
+#define CM_NVIC_ICER(n)   CM_REG(0xE000E180u + 4u * (n))
+#define CM_NVIC_ISPR(n)   CM_REG(0xE000E200u + 4u * (n))
 #define CM_NVIC_IPR8(irq) (*(volatile uint8_t *)(0xE000E400u + (irq)))
 
 /** @brief Priority bits the STM32 implement (the upper nibble of each byte). */

@@ -17,8 +17,8 @@ typedef void (*stm32_handler_t)(void);
 /** @brief The vector table (ARMv7-M ARM B1.5.3): initial SP, then handlers. */
 typedef struct {
     const void *initial_sp;
-    stm32_handler_t system[15];             /**< Reset .. SysTick (exceptions 1..15) */
-    stm32_handler_t irq[STM32_IRQ_COUNT];   /**< exceptions 16.. */
+    stm32_handler_t system[15];           /**< Reset .. SysTick (exceptions 1..15) */
+    stm32_handler_t irq[STM32_IRQ_COUNT]; /**< exceptions 16.. */
 } stm32_vector_table_t;
 
 extern const stm32_vector_table_t stm32_vectors;

@@ -9,7 +9,7 @@
 /* IWDG_KR keys (RM0090 §21.4.1). */
 #define KEY_RELOAD 0xAAAAu
 #define KEY_ACCESS 0x5555u
-#define KEY_START 0xCCCCu
+#define KEY_START  0xCCCCu
 
 /* Bounded wait for the prescaler and reload to reach the LSI domain: up to 5
  * LSI periods after each write (~160 µs); a loop count keeps this free of

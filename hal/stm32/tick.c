@@ -11,9 +11,9 @@
 
 #define PRIO_TICK 3u
 
-static volatile uint32_t ticks;    /* written by the ISR only */
-static uint32_t ticks_taken;       /* main loop only */
-static uint32_t overruns;          /* main loop only */
+static volatile uint32_t ticks; /* written by the ISR only */
+static uint32_t ticks_taken;    /* main loop only */
+static uint32_t overruns;       /* main loop only */
 
 int stm32_tick_start(uint32_t period_us)
 {

@@ -9,14 +9,14 @@
 /* PLL (RM0008 §7.2, §7.3.2): HSE (not divided) × 9 = 72 MHz. AHB /1 = 72 MHz;
  * APB1 /2 = 36 MHz (max 36); APB2 /1 = 72 MHz; ADC /6 = 12 MHz (max 14).
  * Timers on the divided APB1 run at twice its clock: 72 MHz. */
-#define PLL_MUL 9u
+#define PLL_MUL   9u
 #define SYSCLK_HZ (BOARD_HSE_HZ * PLL_MUL)
 _Static_assert(SYSCLK_HZ == 72000000u, "SYSCLK 72 MHz");
-#define CFGR_PLLMUL(m) (((m) - 2u) << RCC_CFGR_PLLMUL_Pos)
-#define CFGR_PPRE_DIV2 4u
+#define CFGR_PLLMUL(m)   (((m)-2u) << RCC_CFGR_PLLMUL_Pos)
+#define CFGR_PPRE_DIV2   4u
 #define CFGR_ADCPRE_DIV6 2u
-#define CFGR_SW_HSI 0u
-#define CFGR_SW_PLL 2u
+#define CFGR_SW_HSI      0u
+#define CFGR_SW_PLL      2u
 
 /* Flash: 2 wait states for 48 < SYSCLK <= 72 MHz, prefetch on (RM0008 §3.3.3,
  * PM0075 §3.1). */
@@ -27,7 +27,8 @@ _Static_assert(SYSCLK_HZ == 72000000u, "SYSCLK 72 MHz");
 #define CLOCK_SPINS 200000u
 
 static board_clocks_t clocks = {
-    .sysclk_hz = 8000000u, .apb1_hz = 8000000u, .apb1_tim_hz = 8000000u, .hse = false};
+    .sysclk_hz = 8000000u, .apb1_hz = 8000000u, .apb1_tim_hz = 8000000u, .hse = false
+};
 
 static bool wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t want)
 {
@@ -76,10 +77,10 @@ const board_clocks_t *board_clocks(void) { return &clocks; }
 
 /* GPIO (RM0008 §9.2.1): four bits per pin in CRL (0..7) / CRH (8..15):
  * MODE[1:0] (00 input, 10 output 2 MHz, 11 output 50 MHz), CNF[1:0]. */
-#define CFG_OUT_PP_2MHZ 0x2u   /* general-purpose push-pull */
-#define CFG_AF_PP_2MHZ 0xAu    /* alternate push-pull, 2 MHz (20 kHz PWM) */
-#define CFG_AF_PP_50MHZ 0xBu   /* alternate push-pull, 50 MHz (CAN TX) */
-#define CFG_IN_PULL 0x8u       /* input with pull-up/down, chosen by ODR */
+#define CFG_OUT_PP_2MHZ 0x2u /* general-purpose push-pull */
+#define CFG_AF_PP_2MHZ  0xAu /* alternate push-pull, 2 MHz (20 kHz PWM) */
+#define CFG_AF_PP_50MHZ 0xBu /* alternate push-pull, 50 MHz (CAN TX) */
+#define CFG_IN_PULL     0x8u /* input with pull-up/down, chosen by ODR */
 
 static void pin_cfg(GPIO_TypeDef *port, unsigned pin, uint32_t cfg)
 {
@@ -115,8 +116,8 @@ void board_gpio_init(void)
     pin_cfg(GPIOA, 6u, CFG_AF_PP_2MHZ);
     pin_cfg(GPIOA, 7u, CFG_AF_PP_2MHZ);
     /* MAPR's SWJ_CFG bits read as 0 and writing 0 keeps SWD/JTAG on. */
-    AFIO->MAPR = (AFIO->MAPR & ~AFIO_MAPR_CAN_REMAP_Msk) |
-                 (CAN_REMAP_PB8_PB9 << AFIO_MAPR_CAN_REMAP_Pos);
+    AFIO->MAPR =
+        (AFIO->MAPR & ~AFIO_MAPR_CAN_REMAP_Msk) | (CAN_REMAP_PB8_PB9 << AFIO_MAPR_CAN_REMAP_Pos);
     pin_write(GPIOB, 8u, true); /* pull-up: RX idles recessive */
     pin_cfg(GPIOB, 8u, CFG_IN_PULL);
     pin_cfg(GPIOB, 9u, CFG_AF_PP_50MHZ);
@@ -136,7 +137,10 @@ void board_timers_enable(void)
 
 void board_led(bool on) { pin_write(GPIOC, 13u, !on); }
 
-void board_motor_dir(unsigned wheel, bool forward) { pin_write(GPIOB, wheel == 0u ? 0u : 1u, forward); }
+void board_motor_dir(unsigned wheel, bool forward)
+{
+    pin_write(GPIOB, wheel == 0u ? 0u : 1u, forward);
+}
 
 void board_motor_enable(bool on) { pin_write(GPIOB, 12u, on); }
 

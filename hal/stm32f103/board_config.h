@@ -50,16 +50,16 @@
 
 /* ST's F1 SVD names the controller CAN; the generator makes it CAN1. IRQ 19
  * and 20 are shared with USB (USB_HP_CAN_TX, USB_LP_CAN_RX0); USB is unused. */
-#define BOARD_CAN CAN1
-#define BOARD_CAN_TX_IRQn CAN1_TX_IRQn
-#define BOARD_CAN_RX0_IRQn CAN1_RX0_IRQn
-#define BOARD_CAN_SCE_IRQn CAN1_SCE_IRQn
-#define BOARD_CAN_TX_IRQHandler CAN1_TX_IRQHandler
+#define BOARD_CAN                CAN1
+#define BOARD_CAN_TX_IRQn        CAN1_TX_IRQn
+#define BOARD_CAN_RX0_IRQn       CAN1_RX0_IRQn
+#define BOARD_CAN_SCE_IRQn       CAN1_SCE_IRQn
+#define BOARD_CAN_TX_IRQHandler  CAN1_TX_IRQHandler
 #define BOARD_CAN_RX0_IRQHandler CAN1_RX0_IRQHandler
 #define BOARD_CAN_SCE_IRQHandler CAN1_SCE_IRQHandler
 
-#define BOARD_TICK_TIM TIM2
-#define BOARD_TICK_IRQn TIM2_IRQn
+#define BOARD_TICK_TIM        TIM2
+#define BOARD_TICK_IRQn       TIM2_IRQn
 #define BOARD_TICK_IRQHandler TIM2_IRQHandler
 
 #define BOARD_PWM_TIM TIM3

@@ -9,10 +9,10 @@
 /* PLL (RM0090 §7.2.3, §7.3.2): VCO input HSE / M = 2 MHz (the value RM0090
  * recommends to limit jitter), VCO = 2 MHz × N = 336 MHz (100..432), SYSCLK =
  * VCO / P = 168 MHz, 48 MHz clock = VCO / Q = 48 MHz (USB, SDIO, RNG). */
-#define PLL_M 4u
-#define PLL_N 168u
-#define PLL_P 2u
-#define PLL_Q 7u
+#define PLL_M     4u
+#define PLL_N     168u
+#define PLL_P     2u
+#define PLL_Q     7u
 #define SYSCLK_HZ (BOARD_HSE_HZ / PLL_M * PLL_N / PLL_P)
 _Static_assert(BOARD_HSE_HZ / PLL_M == 2000000u, "VCO input 2 MHz");
 _Static_assert(SYSCLK_HZ == 168000000u, "SYSCLK 168 MHz");
@@ -23,8 +23,8 @@ _Static_assert(BOARD_HSE_HZ / PLL_M * PLL_N / PLL_Q == 48000000u, "48 MHz clock"
 #define CFGR_HPRE_DIV1 0u
 #define CFGR_PPRE_DIV2 4u
 #define CFGR_PPRE_DIV4 5u
-#define CFGR_SW_HSI 0u
-#define CFGR_SW_PLL 2u
+#define CFGR_SW_HSI    0u
+#define CFGR_SW_PLL    2u
 
 /* Flash wait states at 168 MHz and 2.7..3.6 V: 5 (RM0090 §3.5.1, Table 10). */
 #define FLASH_LATENCY_168MHZ 5u
@@ -35,7 +35,8 @@ _Static_assert(BOARD_HSE_HZ / PLL_M * PLL_N / PLL_Q == 48000000u, "48 MHz clock"
 #define CLOCK_SPINS 200000u
 
 static board_clocks_t clocks = {
-    .sysclk_hz = 16000000u, .apb1_hz = 16000000u, .apb1_tim_hz = 16000000u, .hse = false};
+    .sysclk_hz = 16000000u, .apb1_hz = 16000000u, .apb1_tim_hz = 16000000u, .hse = false
+};
 
 static bool wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t want)
 {
@@ -161,7 +162,10 @@ void board_timers_enable(void)
 
 void board_led(bool on) { pin_write(GPIOB, 5u, on); }
 
-void board_motor_dir(unsigned wheel, bool forward) { pin_write(GPIOB, wheel == 0u ? 0u : 1u, forward); }
+void board_motor_dir(unsigned wheel, bool forward)
+{
+    pin_write(GPIOB, wheel == 0u ? 0u : 1u, forward);
+}
 
 void board_motor_enable(bool on) { pin_write(GPIOB, 12u, on); }
 

@@ -48,16 +48,16 @@
 /** @brief Motor PWM frequency [Hz]: above hearing. */
 #define BOARD_PWM_HZ 20000u
 
-#define BOARD_CAN CAN1
-#define BOARD_CAN_TX_IRQn CAN1_TX_IRQn
-#define BOARD_CAN_RX0_IRQn CAN1_RX0_IRQn
-#define BOARD_CAN_SCE_IRQn CAN1_SCE_IRQn
-#define BOARD_CAN_TX_IRQHandler CAN1_TX_IRQHandler
+#define BOARD_CAN                CAN1
+#define BOARD_CAN_TX_IRQn        CAN1_TX_IRQn
+#define BOARD_CAN_RX0_IRQn       CAN1_RX0_IRQn
+#define BOARD_CAN_SCE_IRQn       CAN1_SCE_IRQn
+#define BOARD_CAN_TX_IRQHandler  CAN1_TX_IRQHandler
 #define BOARD_CAN_RX0_IRQHandler CAN1_RX0_IRQHandler
 #define BOARD_CAN_SCE_IRQHandler CAN1_SCE_IRQHandler
 
-#define BOARD_TICK_TIM TIM2
-#define BOARD_TICK_IRQn TIM2_IRQn
+#define BOARD_TICK_TIM        TIM2
+#define BOARD_TICK_IRQn       TIM2_IRQn
 #define BOARD_TICK_IRQHandler TIM2_IRQHandler
 
 #define BOARD_PWM_TIM TIM3

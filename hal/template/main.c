@@ -13,7 +13,7 @@
 /* TODO: the control period [µs] and the watchdog time-out [ms] (several
  * periods, at the watchdog oscillator's fastest tolerance). */
 #define CONTROL_PERIOD_US 20000u
-#define WATCHDOG_MS 100u
+#define WATCHDOG_MS       100u
 
 static app_t app; /* static: no heap, and its size shows in the RAM budget */
 

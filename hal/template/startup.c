@@ -26,8 +26,8 @@ typedef struct {
 
 __attribute__((section(".isr_vector"), used)) const vector_table_t template_vectors = {
     .initial_sp = &__stack_top,
-    .system = {Reset_Handler, template_fault, template_fault, template_fault, template_fault,
-               template_fault},
+    .system = { Reset_Handler, template_fault, template_fault, template_fault, template_fault,
+                template_fault },
 };
 
 void Reset_Handler(void)

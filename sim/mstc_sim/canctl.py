@@ -46,6 +46,11 @@ PARAM_INDEX = {
     "max_wheel_speed": 12,
 }
 """PARAM_SET / PARAM_GET indices (the DBC's value table)."""
+ARM_INDEX = 128
+"""PARAM_SET index of the arm command (value 1 arms, 0 disarms; docs/safety.md)."""
+REARM_FRAMES = 5
+"""Good frames in a row each input needs before the firmware accepts the arm
+command (APP_REARM_FRAMES in firmware/app/app.h)."""
 
 
 class ControllerError(RuntimeError):
@@ -111,6 +116,7 @@ class CanController:
         self.traffic = Traffic()
         self._now = 0.0
         self._steps = 0
+        self._armed = False
         self._configure()
 
     # ------------------------------------------------------------ the bus
@@ -158,6 +164,30 @@ class CanController:
                 raise ControllerError(f"the firmware rejects the parameters {sorted(rejected)}")
             pending = rejected
 
+    def _send_inputs(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
+        enc = self.proto.encode
+        self._send(enc("ODOM_XY", x=robot.x, y=robot.y))
+        self._send(enc("ODOM_THETA", theta=wrap_angle(robot.theta)))
+        self._send(enc("REF_XY", x=ref.x, y=ref.y))
+        self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+
+    def _arm(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
+        """Arm the firmware before the first step (docs/safety.md): it starts
+        halted and accepts the arm command once each input has arrived
+        REARM_FRAMES times in a row. No STEP is sent, so no control step runs
+        and the run's first step is still step 0 at its own time."""
+        for _ in range(REARM_FRAMES):
+            self._send_inputs(robot, ref, v_r, w_r)
+        self._send(self.proto.encode("PARAM_SET", index=ARM_INDEX, value=1.0))
+        answer = self._await(
+            lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == ARM_INDEX, "PARAM_VALUE arm"
+        )
+        if answer.signals["result"] != 0:
+            raise ControllerError(
+                f"the firmware refuses to arm (result {answer.signals['result']})"
+            )
+        self._armed = True
+
     def _await(self, match: Callable[[Frame], bool], what: str) -> Frame:
         deadline = time.monotonic() + self.timeout
         while (frame := self._recv(deadline)) is not None:
@@ -178,13 +208,12 @@ class CanController:
     ) -> StepResult:
         """One lock-step exchange (see :meth:`Controller.step`)."""
         self._now = t_us / 1e6
+        if not self._armed:
+            self._arm(robot, ref, v_r, w_r)
         step = self._steps % STEP_MODULO
         self._steps += 1
         enc = self.proto.encode
-        self._send(enc("ODOM_XY", x=robot.x, y=robot.y))
-        self._send(enc("ODOM_THETA", theta=wrap_angle(robot.theta)))
-        self._send(enc("REF_XY", x=ref.x, y=ref.y))
-        self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+        self._send_inputs(robot, ref, v_r, w_r)
         for o in obstacles:
             self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
         self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))

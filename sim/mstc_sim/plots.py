@@ -7,6 +7,7 @@ pyplot state, so runs can make figures from any thread or process.
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -15,8 +16,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
-from mstc_sim.controller import EventKind
-from mstc_sim.run import RunResult, world_obstacles
+from mstc_sim.controller import Event, EventKind
+from mstc_sim.params import Params
+from mstc_sim.run import RunResult, Trace, world_obstacles
+from mstc_sim.sensor import Obstacle
 
 _ROBOT = "tab:blue"
 _REFERENCE = "0.35"
@@ -32,6 +35,38 @@ def _obstacle_color(obstacle: int) -> str:
 
 
 @dataclass(frozen=True)
+class PlotData:
+    """What the figures draw: a run's trace and events, the parameters, and the
+    obstacles of the distance columns. Made from a simulation by
+    :meth:`from_run`, or from a bus log (mstc_sim.logdecode), so that both are
+    drawn alike."""
+
+    name: str
+    """Names the figures (the scenario's or the log's file stem)."""
+    title: str
+    """Title of overview.png."""
+    trace: Trace
+    events: tuple[Event, ...]
+    params: Params
+    """For D_s and D_act."""
+    obstacles: tuple[Obstacle, ...]
+    """One per column of ``trace.distance``, with the id events refer to."""
+
+    @classmethod
+    def from_run(cls, result: RunResult) -> Self:
+        """The figures of a simulated run."""
+        scenario = result.scenario
+        return cls(
+            name=scenario.name,
+            title=f"{scenario.name} ({scenario.sim.integrator}, dt = {scenario.sim.dt:g} s)",
+            trace=result.trace,
+            events=result.events,
+            params=scenario.params,
+            obstacles=world_obstacles(scenario),
+        )
+
+
+@dataclass(frozen=True)
 class _Interval:
     """A stretch of avoidance: activation to completion (or the end) [s]."""
 
@@ -40,7 +75,7 @@ class _Interval:
     obstacle: int
 
 
-def _avoid_intervals(result: RunResult) -> list[_Interval]:
+def _avoid_intervals(result: PlotData) -> list[_Interval]:
     intervals = []
     start: tuple[float, int] | None = None
     for event in result.events:
@@ -54,7 +89,7 @@ def _avoid_intervals(result: RunResult) -> list[_Interval]:
     return intervals
 
 
-def _shade_avoidance(ax: Axes, result: RunResult) -> None:
+def _shade_avoidance(ax: Axes, result: PlotData) -> None:
     """Shade the avoidance intervals of a time plot, labelled once per obstacle."""
     labelled: set[int] = set()
     for iv in _avoid_intervals(result):
@@ -63,7 +98,7 @@ def _shade_avoidance(ax: Axes, result: RunResult) -> None:
         ax.axvspan(iv.start, iv.end, color=_obstacle_color(iv.obstacle), alpha=0.12, label=label)
 
 
-def _time_axes(ax: Axes, result: RunResult, ylabel: str) -> None:
+def _time_axes(ax: Axes, result: PlotData, ylabel: str) -> None:
     _shade_avoidance(ax, result)
     ax.set_xlabel("t [s]")
     ax.set_ylabel(ylabel)
@@ -73,11 +108,11 @@ def _time_axes(ax: Axes, result: RunResult, ylabel: str) -> None:
         ax.legend(loc="best", fontsize="small")
 
 
-def draw_path(ax: Axes, result: RunResult) -> None:
+def draw_path(ax: Axes, result: PlotData) -> None:
     """(a) robot and reference paths, obstacles with their D_s and D_act
     circles, and the switching events on the robot's path."""
     trace = result.trace
-    p = result.scenario.params
+    p = result.params
     x, y = trace["x"], trace["y"]
     ax.plot(trace["x_r"], trace["y_r"], "--", color=_REFERENCE, lw=1.2, label="reference")
     ax.plot(x, y, color=_ROBOT, lw=1.5, label="robot")
@@ -95,7 +130,7 @@ def draw_path(ax: Axes, result: RunResult) -> None:
     ax.plot(x[0], y[0], "o", color=_ROBOT, ms=5)
     ax.plot(trace["x_r"][0], trace["y_r"][0], "o", color=_REFERENCE, ms=5)
 
-    for o in world_obstacles(result.scenario):
+    for o in result.obstacles:
         color = _obstacle_color(o.id)
         d_s, d_act = p.safe_distance(o.radius), p.activation_distance(o.radius)
         ax.add_patch(Circle((o.x, o.y), o.radius, color=color, alpha=0.85))
@@ -112,10 +147,11 @@ def draw_path(ax: Axes, result: RunResult) -> None:
             color=color,
         )
 
-    dt_us = result.scenario.sim.dt_us
     labelled_times: set[int] = set()
+    t = trace["t"]
     for event in result.events:
-        k = event.t_us // dt_us
+        # The row of the step that emitted it (a log's steps need not be regular).
+        k = min(int(np.searchsorted(t, event.t)), len(t) - 1)
         ax.plot(
             x[k],
             y[k],
@@ -163,7 +199,7 @@ def draw_path(ax: Axes, result: RunResult) -> None:
     ax.grid(True, alpha=0.3)
 
 
-def draw_position_error(ax: Axes, result: RunResult) -> None:
+def draw_position_error(ax: Axes, result: PlotData) -> None:
     """(b) position tracking errors e1, e2, eq. (1)."""
     t = result.trace["t"]
     ax.plot(t, result.trace["e1"], label="$e_1$")
@@ -171,7 +207,7 @@ def draw_position_error(ax: Axes, result: RunResult) -> None:
     _time_axes(ax, result, "position error [m]")
 
 
-def draw_angle_error(ax: Axes, result: RunResult) -> None:
+def draw_angle_error(ax: Axes, result: PlotData) -> None:
     """(c) heading error e3, eq. (1), and the avoidance error e, eq. (21),
     while avoiding."""
     t = result.trace["t"]
@@ -181,7 +217,7 @@ def draw_angle_error(ax: Axes, result: RunResult) -> None:
     _time_axes(ax, result, "angle error [rad]")
 
 
-def draw_v(ax: Axes, result: RunResult) -> None:
+def draw_v(ax: Axes, result: PlotData) -> None:
     """(d) robot linear velocity v against the reference's v_r."""
     t = result.trace["t"]
     ax.plot(t, result.trace["v"], color=_ROBOT, label="$v$")
@@ -189,7 +225,7 @@ def draw_v(ax: Axes, result: RunResult) -> None:
     _time_axes(ax, result, "linear velocity [m/s]")
 
 
-def draw_w(ax: Axes, result: RunResult) -> None:
+def draw_w(ax: Axes, result: PlotData) -> None:
     """(e) robot angular velocity ω against the reference's ω_r."""
     t = result.trace["t"]
     ax.plot(t, result.trace["w"], color=_ROBOT, label=r"$\omega$")
@@ -197,11 +233,11 @@ def draw_w(ax: Axes, result: RunResult) -> None:
     _time_axes(ax, result, "angular velocity [rad/s]")
 
 
-def draw_distance(ax: Axes, result: RunResult) -> None:
+def draw_distance(ax: Axes, result: PlotData) -> None:
     """(f) centre distance to each obstacle, with its D_s and the minimum."""
     t = result.trace["t"]
-    p = result.scenario.params
-    obstacles = world_obstacles(result.scenario)
+    p = result.params
+    obstacles = result.obstacles
     safe = {o.id: p.safe_distance(o.radius) for o in obstacles}
     one_line = len(set(safe.values())) <= 1
     for i, o in enumerate(obstacles):
@@ -232,7 +268,7 @@ def draw_distance(ax: Axes, result: RunResult) -> None:
     _time_axes(ax, result, "distance to obstacle [m]")
 
 
-_Draw = Callable[[Axes, RunResult], None]
+_Draw = Callable[[Axes, PlotData], None]
 PANELS: tuple[tuple[str, str, _Draw], ...] = (
     ("path", "path", draw_path),
     ("position_error", "position error", draw_position_error),
@@ -249,12 +285,14 @@ def _save(fig: Figure, path: Path, dpi: int) -> None:
     fig.savefig(path, dpi=dpi)
 
 
-def plot_all(result: RunResult, folder: Path) -> list[Path]:
+def plot_all(run: RunResult | PlotData, folder: Path) -> list[Path]:
     """Write one PNG per panel and overview.png with all six, (a)-(f).
 
+    :param run: a simulated run, or the data of one (e.g. from a bus log).
     :returns: The files written.
     """
-    name = result.scenario.name
+    result = run if isinstance(run, PlotData) else PlotData.from_run(run)
+    name = result.name
     written = []
     for stem, title, draw in PANELS:
         fig = Figure(figsize=(7.0, 5.0), layout="constrained")
@@ -268,7 +306,7 @@ def plot_all(result: RunResult, folder: Path) -> list[Path]:
     for ax, letter, (_, title, draw) in zip(fig.subplots(2, 3).flat, "abcdef", PANELS, strict=True):
         draw(ax, result)
         ax.set_title(f"({letter}) {title}")
-    fig.suptitle(f"{name} ({result.scenario.sim.integrator}, dt = {result.scenario.sim.dt:g} s)")
+    fig.suptitle(result.title)
     written.append(folder / "overview.png")
     _save(fig, written[-1], dpi=100)
     return written

@@ -37,26 +37,35 @@ typedef struct {
     int (*unpack)(void *dst, const uint8_t *src);
 } msg_t;
 
-#define KIND_OF(expr)                                                                          \
-    _Generic((expr), uint8_t: K_U8, uint16_t: K_U16, uint32_t: K_U32, int16_t: K_I16,          \
-             int32_t: K_I32, float: K_F32)
-#define FIELD(msg, member)                                                                     \
-    {#member, offsetof(struct mstc_dbc_##msg##_t, member),                                     \
-     KIND_OF(((struct mstc_dbc_##msg##_t *)0)->member)}
-/* One message: its fields in DBC order, and pack/unpack wrappers of one type. */
-#define MSG(msg, ...)                                                                          \
-    static const field_t msg##_fields[] = {__VA_ARGS__};                                       \
-    static int msg##_pack(uint8_t *dst, const void *src)                                       \
-    {                                                                                          \
-        return mstc_dbc_##msg##_pack(dst, src, 8);                                             \
-    }                                                                                          \
-    static int msg##_unpack(void *dst, const uint8_t *src)                                     \
-    {                                                                                          \
-        return mstc_dbc_##msg##_unpack(dst, src, 8);                                           \
+#define KIND_OF(expr)                                                                              \
+    _Generic((expr), uint8_t                                                                       \
+             : K_U8, uint16_t                                                                      \
+             : K_U16, uint32_t                                                                     \
+             : K_U32, int16_t                                                                      \
+             : K_I16, int32_t                                                                      \
+             : K_I32, float                                                                        \
+             : K_F32)
+#define FIELD(msg, member)                                                                         \
+    {                                                                                              \
+#member, offsetof(struct mstc_dbc_##msg##_t, member),                                      \
+            KIND_OF(((struct mstc_dbc_##msg##_t *)0)->member)                                      \
     }
-#define ENTRY(msg, MSG_UPPER)                                                                  \
-    {MSTC_DBC_##MSG_UPPER##_FRAME_ID, sizeof(struct mstc_dbc_##msg##_t), msg##_fields,          \
-     sizeof msg##_fields / sizeof msg##_fields[0], msg##_pack, msg##_unpack}
+/* One message: its fields in DBC order, and pack/unpack wrappers of one type. */
+#define MSG(msg, ...)                                                                              \
+    static const field_t msg##_fields[] = { __VA_ARGS__ };                                         \
+    static int msg##_pack(uint8_t *dst, const void *src)                                           \
+    {                                                                                              \
+        return mstc_dbc_##msg##_pack(dst, src, 8);                                                 \
+    }                                                                                              \
+    static int msg##_unpack(void *dst, const uint8_t *src)                                         \
+    {                                                                                              \
+        return mstc_dbc_##msg##_unpack(dst, src, 8);                                               \
+    }
+#define ENTRY(msg, MSG_UPPER)                                                                      \
+    {                                                                                              \
+        MSTC_DBC_##MSG_UPPER##_FRAME_ID, sizeof(struct mstc_dbc_##msg##_t), msg##_fields,          \
+            sizeof msg##_fields / sizeof msg##_fields[0], msg##_pack, msg##_unpack                 \
+    }
 
 MSG(odom_xy, FIELD(odom_xy, odom_xy_crc), FIELD(odom_xy, odom_xy_counter),
     FIELD(odom_xy, odom_xy_x), FIELD(odom_xy, odom_xy_y))
@@ -81,7 +90,8 @@ MSG(wheel_cmd, FIELD(wheel_cmd, wheel_cmd_crc), FIELD(wheel_cmd, wheel_cmd_count
     FIELD(wheel_cmd, wheel_cmd_right))
 MSG(status, FIELD(status, status_crc), FIELD(status, status_counter), FIELD(status, status_mode),
     FIELD(status, status_side), FIELD(status, status_obstacle), FIELD(status, status_faults),
-    FIELD(status, status_e), FIELD(status, status_distance), FIELD(status, status_step))
+    FIELD(status, status_e), FIELD(status, status_distance), FIELD(status, status_step),
+    FIELD(status, status_halt))
 MSG(status_trk, FIELD(status_trk, status_trk_crc), FIELD(status_trk, status_trk_counter),
     FIELD(status_trk, status_trk_e1), FIELD(status_trk, status_trk_e2),
     FIELD(status_trk, status_trk_e3))
@@ -164,11 +174,11 @@ int shim_pack(uint32_t id, const double *values, uint8_t *out)
         const double v = values[i];
         switch (m->fields[i].kind) {
         case K_U8: *(uint8_t *)p = (uint8_t)v; break;
-        case K_U16: memcpy(p, &(uint16_t){(uint16_t)v}, 2); break;
-        case K_U32: memcpy(p, &(uint32_t){(uint32_t)v}, 4); break;
-        case K_I16: memcpy(p, &(int16_t){(int16_t)v}, 2); break;
-        case K_I32: memcpy(p, &(int32_t){(int32_t)v}, 4); break;
-        case K_F32: memcpy(p, &(float){(float)v}, 4); break;
+        case K_U16: memcpy(p, &(uint16_t){ (uint16_t)v }, 2); break;
+        case K_U32: memcpy(p, &(uint32_t){ (uint32_t)v }, 4); break;
+        case K_I16: memcpy(p, &(int16_t){ (int16_t)v }, 2); break;
+        case K_I32: memcpy(p, &(int32_t){ (int32_t)v }, 4); break;
+        case K_F32: memcpy(p, &(float){ (float)v }, 4); break;
         }
     }
     return m->pack(out, &s);
@@ -188,11 +198,36 @@ int shim_unpack(uint32_t id, const uint8_t *in, double *values)
         const unsigned char *p = s.bytes + m->fields[i].offset;
         switch (m->fields[i].kind) {
         case K_U8: values[i] = (double)*p; break;
-        case K_U16: { uint16_t v; memcpy(&v, p, 2); values[i] = (double)v; break; }
-        case K_U32: { uint32_t v; memcpy(&v, p, 4); values[i] = (double)v; break; }
-        case K_I16: { int16_t v; memcpy(&v, p, 2); values[i] = (double)v; break; }
-        case K_I32: { int32_t v; memcpy(&v, p, 4); values[i] = (double)v; break; }
-        case K_F32: { float v; memcpy(&v, p, 4); values[i] = (double)v; break; }
+        case K_U16: {
+            uint16_t v;
+            memcpy(&v, p, 2);
+            values[i] = (double)v;
+            break;
+        }
+        case K_U32: {
+            uint32_t v;
+            memcpy(&v, p, 4);
+            values[i] = (double)v;
+            break;
+        }
+        case K_I16: {
+            int16_t v;
+            memcpy(&v, p, 2);
+            values[i] = (double)v;
+            break;
+        }
+        case K_I32: {
+            int32_t v;
+            memcpy(&v, p, 4);
+            values[i] = (double)v;
+            break;
+        }
+        case K_F32: {
+            float v;
+            memcpy(&v, p, 4);
+            values[i] = (double)v;
+            break;
+        }
         }
     }
     return rc;
@@ -229,7 +264,7 @@ static num_t num(double v) { return num_from_float((float)v); }
  *   WHEEL_CMD       step, left, right
  *   STATUS          mode, side (avd_side_t), active obstacle, ctl faults, e,
  *                   distance (of the only obstacle remembered, id max(active, 1)),
- *                   step, frame_faults
+ *                   step, frame_faults, halt
  *   STATUS_TRK      e1, e2, e3
  *   STATUS_COUNTERS crc, seq, len, unknown (set as the drop counts)
  *   EVENT           kind, side (avd_side_t), obstacle, t_us
@@ -243,7 +278,7 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
     int rc;
     switch (id) {
     case COMM_ID_WHEEL_CMD: {
-        const kin_wheels_t w = {num(in[1]), num(in[2])};
+        const kin_wheels_t w = { num(in[1]), num(in[2]) };
         rc = comm_encode_wheel_cmd(&comm, (uint16_t)in[0], &w, &f);
         break;
     }
@@ -258,34 +293,33 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
         st.n_obstacles = 1;
         st.obstacle_id[0] = st.active_obstacle != 0u ? st.active_obstacle : 1u;
         st.distance[0] = num(in[5]);
-        rc = comm_encode_status(&comm, &st, (uint16_t)in[6], in[7] != 0.0, &f);
+        rc = comm_encode_status(&comm, &st, (uint16_t)in[6], in[7] != 0.0, (uint8_t)in[8], &f);
         break;
     }
     case COMM_ID_STATUS_TRK: {
-        const trk_err_t e = {num(in[0]), num(in[1]), num(in[2])};
+        const trk_err_t e = { num(in[0]), num(in[1]), num(in[2]) };
         rc = comm_encode_status_trk(&comm, &e, &f);
         break;
     }
     case COMM_ID_STATUS_COUNTERS:
-        comm.drops = (comm_counters_t){(uint16_t)in[0], (uint16_t)in[1], (uint16_t)in[2],
-                                       (uint16_t)in[3]};
+        comm.drops =
+            (comm_counters_t){ (uint16_t)in[0], (uint16_t)in[1], (uint16_t)in[2], (uint16_t)in[3] };
         rc = comm_encode_counters(&comm, &f);
         break;
     case COMM_ID_EVENT: {
-        const sup_event_t e = {.kind = (uint8_t)in[0], .side = (int8_t)in[1],
-                               .obstacle = (uint8_t)in[2], .t_us = (uint64_t)in[3]};
+        const sup_event_t e = { .kind = (uint8_t)in[0],
+                                .side = (int8_t)in[1],
+                                .obstacle = (uint8_t)in[2],
+                                .t_us = (uint64_t)in[3] };
         rc = comm_encode_event(&comm, &e, &f);
         break;
     }
-    case COMM_ID_HEARTBEAT:
-        rc = comm_encode_heartbeat(&comm, (comm_state_t)in[0], &f);
-        break;
+    case COMM_ID_HEARTBEAT: rc = comm_encode_heartbeat(&comm, (comm_state_t)in[0], &f); break;
     case COMM_ID_PARAM_VALUE:
         rc = comm_encode_param_value(&comm, (uint8_t)in[0], (comm_param_result_t)in[1],
                                      (float)in[2], &f);
         break;
-    default:
-        return -ENOENT;
+    default: return -ENOENT;
     }
     if (f.id != id || f.dlc != 8u) {
         return -EPROTO;
@@ -303,7 +337,7 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
  */
 int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
 {
-    hal_can_frame_t f = {.id = id, .dlc = dlc};
+    hal_can_frame_t f = { .id = id, .dlc = dlc };
     memcpy(f.data, data, dlc <= 8u ? dlc : 8u);
     comm_msg_t m;
     const int rc = comm_decode(&comm, &f, &m);

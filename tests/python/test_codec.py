@@ -271,7 +271,8 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     mode, side, active = rng.randint(0, 2), rng.choice([-1, 0, 1]), rng.randint(0, 20)
     faults, frame_faults = rng.randint(0, 255), rng.randint(0, 1)
     e, distance, step = _f32(rng.uniform(-5, 5)), _f32(rng.uniform(-2, 70)), rng.randint(0, 65535)
-    inputs = [mode, side, active, faults, e, distance, step, frame_faults]
+    halt = rng.randint(0, 9)
+    inputs = [mode, side, active, faults, e, distance, step, frame_faults, halt]
     wire = {
         "mode": mode,
         "side": {0: 0, 1: 1, -1: 2}[side],
@@ -279,7 +280,8 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
         "faults": (faults & 0x7) | (frame_faults << 3),
         "e": e,
         "distance": distance,
-        "step": step & 0xFF,
+        "step": step & 0xF,
+        "halt": min(halt, 5),
     }
     return inputs, wire
 

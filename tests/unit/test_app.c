@@ -42,10 +42,10 @@ static hal_can_frame_t seal(uint32_t id, uint8_t payload[8])
     TEST_ASSERT_EQUAL_INT(0, comm_data_id(id, &data_id));
     payload[1] = (uint8_t)((payload[1] & 0xF0u) | (counters[id] & 0x0Fu));
     counters[id]++;
-    uint8_t buf[9] = {(uint8_t)(data_id & 0xFFu), (uint8_t)(data_id >> 8)};
+    uint8_t buf[9] = { (uint8_t)(data_id & 0xFFu), (uint8_t)(data_id >> 8) };
     memcpy(&buf[2], &payload[1], 7);
     payload[0] = comm_crc8h2f(buf, sizeof buf);
-    hal_can_frame_t f = {.id = id, .dlc = 8};
+    hal_can_frame_t f = { .id = id, .dlc = 8 };
     memcpy(f.data, payload, 8);
     return f;
 }
@@ -54,59 +54,78 @@ static void feed(hal_can_frame_t f) { TEST_ASSERT_EQUAL_INT(0, app_on_frame(&app
 
 static void send_odom(double x, double y, double theta)
 {
-    uint8_t p[8] = {0};
-    const struct mstc_dbc_odom_xy_t xy = {.odom_xy_x = (int32_t)lround(x * 65536.0),
-                                          .odom_xy_y = (int32_t)lround(y * 65536.0)};
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_odom_xy_t xy = { .odom_xy_x = (int32_t)lround(x * 65536.0),
+                                           .odom_xy_y = (int32_t)lround(y * 65536.0) };
     mstc_dbc_odom_xy_pack(p, &xy, 8);
     feed(seal(COMM_ID_ODOM_XY, p));
     memset(p, 0, sizeof p);
-    const struct mstc_dbc_odom_theta_t th = {.odom_theta_theta = (int32_t)lround(theta * 65536.0)};
+    const struct mstc_dbc_odom_theta_t th = { .odom_theta_theta =
+                                                  (int32_t)lround(theta * 65536.0) };
     mstc_dbc_odom_theta_pack(p, &th, 8);
     feed(seal(COMM_ID_ODOM_THETA, p));
 }
 
 static void send_ref(double x, double y, double theta, double v, double w)
 {
-    uint8_t p[8] = {0};
-    const struct mstc_dbc_ref_xy_t xy = {.ref_xy_x = (int32_t)lround(x * 65536.0),
-                                         .ref_xy_y = (int32_t)lround(y * 65536.0)};
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_ref_xy_t xy = { .ref_xy_x = (int32_t)lround(x * 65536.0),
+                                          .ref_xy_y = (int32_t)lround(y * 65536.0) };
     mstc_dbc_ref_xy_pack(p, &xy, 8);
     feed(seal(COMM_ID_REF_XY, p));
     memset(p, 0, sizeof p);
-    const struct mstc_dbc_ref_motion_t m = {.ref_motion_theta = (int32_t)lround(theta * 32768.0),
-                                            .ref_motion_v = (int32_t)lround(v * 4096.0),
-                                            .ref_motion_w = (int32_t)lround(w * 4096.0)};
+    const struct mstc_dbc_ref_motion_t m = { .ref_motion_theta = (int32_t)lround(theta * 32768.0),
+                                             .ref_motion_v = (int32_t)lround(v * 4096.0),
+                                             .ref_motion_w = (int32_t)lround(w * 4096.0) };
     mstc_dbc_ref_motion_pack(p, &m, 8);
     feed(seal(COMM_ID_REF_MOTION, p));
 }
 
 static void send_obstacle(uint8_t id, double x, double y, uint8_t radius_cm)
 {
-    uint8_t p[8] = {0};
-    const struct mstc_dbc_obstacle_t o = {.obstacle_id = id,
-                                          .obstacle_x = (int32_t)lround(x * 4096.0),
-                                          .obstacle_y = (int32_t)lround(y * 4096.0),
-                                          .obstacle_radius = radius_cm};
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_obstacle_t o = { .obstacle_id = id,
+                                           .obstacle_x = (int32_t)lround(x * 4096.0),
+                                           .obstacle_y = (int32_t)lround(y * 4096.0),
+                                           .obstacle_radius = radius_cm };
     mstc_dbc_obstacle_pack(p, &o, 8);
     feed(seal(COMM_ID_OBSTACLE, p));
 }
 
+static void send_param(uint32_t id, uint8_t index, float value);
+
+/* Arm the application as the plant does at the start of a run
+ * (docs/safety.md): APP_REARM_FRAMES rounds of the inputs, then the arm
+ * command, which must be accepted. No STEP: no control step runs. */
+static void arm_at(double x, double y, double theta, double rx, double ry, double rtheta, double v,
+                   double w)
+{
+    for (unsigned k = 0; k < APP_REARM_FRAMES; k++) {
+        send_odom(x, y, theta);
+        send_ref(rx, ry, rtheta, v, w);
+    }
+    send_param(COMM_ID_PARAM_SET, COMM_PARAM_ARM, 1.0f);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, app.halt);
+    hal_fake.n_sent = 0; /* forget the PARAM_VALUE answer */
+}
+
 static void send_step(uint16_t step, uint32_t time_us)
 {
-    uint8_t p[8] = {0};
-    const struct mstc_dbc_step_t s = {.step_step = step, .step_time = time_us};
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_step_t s = { .step_step = step, .step_time = time_us };
     mstc_dbc_step_pack(p, &s, 8);
     feed(seal(COMM_ID_STEP, p));
 }
 
 static void send_param(uint32_t id, uint8_t index, float value)
 {
-    uint8_t p[8] = {0};
+    uint8_t p[8] = { 0 };
     if (id == COMM_ID_PARAM_SET) {
-        const struct mstc_dbc_param_set_t s = {.param_set_index = index, .param_set_value = value};
+        const struct mstc_dbc_param_set_t s = { .param_set_index = index,
+                                                .param_set_value = value };
         mstc_dbc_param_set_pack(p, &s, 8);
     } else {
-        const struct mstc_dbc_param_get_t g = {.param_get_index = index};
+        const struct mstc_dbc_param_get_t g = { .param_get_index = index };
         mstc_dbc_param_get_pack(p, &g, 8);
     }
     feed(seal(id, p));
@@ -141,12 +160,14 @@ static struct mstc_dbc_status_t last_status(void)
 static struct mstc_dbc_param_value_t last_param(void)
 {
     struct mstc_dbc_param_value_t v;
-    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_param_value_unpack(&v, last_sent(COMM_ID_PARAM_VALUE)->data, 8));
+    TEST_ASSERT_EQUAL_INT(0,
+                          mstc_dbc_param_value_unpack(&v, last_sent(COMM_ID_PARAM_VALUE)->data, 8));
     return v;
 }
 
 static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(void)
 {
+    arm_at(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0);
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent); /* inputs alone send nothing */
@@ -166,6 +187,7 @@ static void test_app_step_drives_the_wheels_by_eq_2_and_3(void)
     /* Robot at the origin heading east, reference 1 m ahead: e1 = 1, e2 = 0,
      * e3 = 0, so v = 0.5 + 3·1 = 3.5 m/s, ω = 0; both wheels 3.5/0.05 =
      * 70 rad/s = 71680 lsb of 2^-10 rad/s. */
+    arm_at(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0);
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     send_step(0, 0u);
@@ -204,6 +226,7 @@ static void test_app_stands_still_until_every_input_has_arrived(void)
 static void test_app_reports_events_before_the_wheel_command(void)
 {
     /* An obstacle 2 m ahead is within D_det = 3.5 m: detected at this step. */
+    arm_at(0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.5, 0.0);
     send_odom(0.0, 0.0, 0.0);
     send_ref(0.1, 0.0, 0.0, 0.5, 0.0);
     send_obstacle(5, 2.0, 0.0, 10);
@@ -255,7 +278,7 @@ static void test_app_reports_a_dropped_frame_in_the_next_status_only(void)
 {
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
-    uint8_t p[8] = {0};
+    uint8_t p[8] = { 0 };
     hal_can_frame_t bad = seal(COMM_ID_ODOM_XY, p);
     bad.data[4] ^= 0x10u; /* one flipped bit */
     TEST_ASSERT_EQUAL_INT(-EBADMSG, app_on_frame(&app, &bad));
@@ -270,7 +293,7 @@ static void test_app_housekeeping_runs_every_100_ms_of_step_time(void)
 {
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
-    unsigned heartbeats[6] = {0};
+    unsigned heartbeats[6] = { 0 };
     for (uint16_t k = 0; k < 6; k++) {
         const unsigned before = hal_fake.n_sent;
         send_step(k, (uint32_t)k * 20000u); /* 50 Hz */
@@ -279,7 +302,7 @@ static void test_app_housekeeping_runs_every_100_ms_of_step_time(void)
         }
     }
     /* At t = 0 and t = 100 ms (k = 5), nowhere between. */
-    const unsigned want[6] = {1, 0, 0, 0, 0, 1};
+    const unsigned want[6] = { 1, 0, 0, 0, 0, 1 };
     TEST_ASSERT_EQUAL_UINT_ARRAY(want, heartbeats, 6);
 }
 
@@ -293,8 +316,8 @@ static void test_app_extends_the_step_time_past_its_32_bit_wrap(void)
 
 static void test_app_poll_drains_the_queue_waiting_only_for_the_first_frame(void)
 {
-    hal_fake_push_rx(&(hal_can_frame_t){.id = 0x7FF, .dlc = 8});
-    hal_fake_push_rx(&(hal_can_frame_t){.id = 0x7FE, .dlc = 8});
+    hal_fake_push_rx(&(hal_can_frame_t){ .id = 0x7FF, .dlc = 8 });
+    hal_fake_push_rx(&(hal_can_frame_t){ .id = 0x7FE, .dlc = 8 });
     TEST_ASSERT_EQUAL_UINT(2, app_poll(&app, 5000u));
     TEST_ASSERT_EQUAL_UINT(3, hal_fake.n_recv_calls);
     TEST_ASSERT_EQUAL_UINT32(0, hal_fake.last_timeout_us); /* only the first waits */

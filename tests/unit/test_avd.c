@@ -25,24 +25,24 @@
  * atan2f within 2 ulp, and u = u_p + u_f rounded on values ≤ 3 (2.4e-7),
  * divided by |u| ≥ 0.2: ≤ 2e-6; fixed: atan2 error ~1e-4 rad (issue 3
  * target) plus Q16.16 rounding of u (≈ 3e-5 m) over |u| ≥ 0.2 m. */
-#define TOL_BETA TU_TOL(3e-6, 3e-4)
+#define TOL_BETA        TU_TOL(3e-6, 3e-4)
 /* |u| [m]. float: a few roundings of values ≤ 3 (2.4e-7 each); fixed:
  * Q16.16 rounding of the components and of the root, 1.5e-5 each. */
-#define TOL_UNORM TU_TOL(1e-6, 1e-4)
+#define TOL_UNORM       TU_TOL(1e-6, 1e-4)
 /* β̇ [rad/s] against the double formula, |β̇| ≤ 3, |u| ≥ 0.2. float: ~20
  * roundings of values ≤ 3 (≤ 1.8e-7 each) divided by |u| ≥ 0.2 → 2e-5;
  * fixed: cos/sin/atan2 errors 1e-4 times terms ≤ 3, plus Q16.16 products,
  * divided by |u| ≥ 0.2. */
-#define TOL_BETA_DOT TU_TOL(2e-5, 3e-3)
+#define TOL_BETA_DOT    TU_TOL(2e-5, 3e-3)
 /* Half step of the finite difference [s]. float: 0.01 s (5 mm at 0.5 m/s)
  * keeps truncation small; fixed: 0.02 s, so that the β quantisation noise
  * divided by 2h stays below the tolerance. */
-#define FD_H TU_TOL(0.01, 0.02)
+#define FD_H            TU_TOL(0.01, 0.02)
 /* Finite difference of β against β̇ [rad/s]. Truncation h²/6·|β'''| was
  * measured in double at these points: ≤ 2e-4 (h = 0.01) and ≤ 8e-4
  * (h = 0.02). float: plus β's rounding 2·2e-6/(2h) = 2e-4 → 1e-3; fixed:
  * plus β's error 2·3e-4/(2h) = 1.5e-2 → 2e-2. */
-#define TOL_FD TU_TOL(1e-3, 2e-2)
+#define TOL_FD          TU_TOL(1e-3, 2e-2)
 /* By how much the misprinted eq. (15) must miss the finite difference for
  * the test to call it wrong: ten times the tolerance. At the points used the
  * miss is ≥ 0.46 rad/s (computed in double). */
@@ -50,12 +50,12 @@
 /* ω and v of eq. (23)-(24), |ω| ≤ 15. float: β̇ error 2e-5 plus k2 = 5 times
  * e's error 1e-6, and roundings of 15 (ulp/2 = 1e-6); fixed: β̇'s 3e-3 plus
  * k2 times e's 3e-4. */
-#define TOL_OMEGA TU_TOL(5e-5, 6e-3)
-#define TOL_V TU_TOL(1e-6, 1e-3)
+#define TOL_OMEGA       TU_TOL(5e-5, 6e-3)
+#define TOL_V           TU_TOL(1e-6, 1e-3)
 
 /* Table 1 safe distance, and a typical speed. */
 #define DS 0.35
-#define V 0.5
+#define V  0.5
 
 void setUp(void) {}
 void tearDown(void) {}
@@ -81,8 +81,8 @@ static double ref_beta(double x, double y, double ox, double oy, double ds, int 
  * corrected in notes.md or as the paper prints it (misprint = true):
  *   corrected: u̇_p = (D_s/r − 1) q̇ − (D_s/r)(ẋ cos φ + ẏ sin φ) û
  *   misprint:  u̇_p = (D_s/r − 1) q̇ + D_s (ẋ cos φ + ẏ sin φ) u_mo      */
-static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy,
-                           double ds, int side, bool misprint)
+static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy, double ds,
+                           int side, bool misprint)
 {
     const double s = (double)side;
     const double mx = ox - x, my = oy - y, r = hypot(mx, my);
@@ -180,7 +180,7 @@ static void test_avd_beta_on_the_safe_circle_is_phi_plus_or_minus_half_pi(void)
 {
     /* |u_mo| = D_s → u_p = 0, u = u_f = R(α) u_mo: β = φ + α, |u| = D_s.
      * Several φ, including ones where φ ± π/2 crosses the seam. */
-    const double phis[] = {0.0, TU_PI / 2, 2.5, -2.0, 3.0, -TU_PI / 2};
+    const double phis[] = { 0.0, TU_PI / 2, 2.5, -2.0, 3.0, -TU_PI / 2 };
     const double x = 1.0, y = -2.0;
     char msg[96];
     for (size_t i = 0; i < sizeof phis / sizeof phis[0]; i++) {
@@ -224,9 +224,9 @@ static void test_avd_beta_off_the_safe_circle(void)
 
     /* General positions against eq. (9)-(14) in double, two of them at the
      * corners of a 100 m field. */
-    const double c[][4] = {{1.7, 1.3, 2.0, 1.0},     {2.3, 0.6, 2.0, 1.0},
-                           {-0.4, 3.1, 0.1, 2.9},    {5.0, -1.0, 4.5, -0.6},
-                           {98.4, 97.0, 98.8, 97.3}, {-99.0, 99.5, -99.3, 99.9}};
+    const double c[][4] = { { 1.7, 1.3, 2.0, 1.0 },     { 2.3, 0.6, 2.0, 1.0 },
+                            { -0.4, 3.1, 0.1, 2.9 },    { 5.0, -1.0, 4.5, -0.6 },
+                            { 98.4, 97.0, 98.8, 97.3 }, { -99.0, 99.5, -99.3, 99.9 } };
     char msg[96];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         for (int side = -1; side <= 1; side += 2) {
@@ -284,10 +284,12 @@ static void test_avd_beta_dot_matches_corrected_eq15_at_many_points(void)
 {
     /* Poses around an obstacle at (2, 1), inside and outside the safe circle,
      * both sides, speeds of both signs. */
-    const double c[][4] = {/* x, y, θ, v */
-                           {1.6, 1.0, 0.3, 0.5},   {2.0, 0.55, 1.2, 0.5},  {2.3, 1.35, -2.5, 0.5},
-                           {1.7, 1.3, 2.8, 0.5},   {1.75, 0.8, 0.9, 0.4},  {2.45, 1.1, 2.6, 0.6},
-                           {1.8, 1.0, -0.4, 0.5},  {2.2, 1.5, 3.1, -0.3},  {1.5, 0.9, -3.0, 0.45}};
+    const double c[][4] = {
+        /* x, y, θ, v */
+        { 1.6, 1.0, 0.3, 0.5 },  { 2.0, 0.55, 1.2, 0.5 }, { 2.3, 1.35, -2.5, 0.5 },
+        { 1.7, 1.3, 2.8, 0.5 },  { 1.75, 0.8, 0.9, 0.4 }, { 2.45, 1.1, 2.6, 0.6 },
+        { 1.8, 1.0, -0.4, 0.5 }, { 2.2, 1.5, 3.1, -0.3 }, { 1.5, 0.9, -3.0, 0.45 }
+    };
     char msg[96];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         for (int side = -1; side <= 1; side += 2) {
@@ -297,8 +299,8 @@ static void test_avd_beta_dot_matches_corrected_eq15_at_many_points(void)
                           tu_num(c[i][3]), &dir);
             const double expected = ref_beta_dot(tu_q(c[i][0]), tu_q(c[i][1]), tu_q(c[i][2]),
                                                  tu_q(c[i][3]), 2.0, 1.0, tu_q(DS), side, false);
-            snprintf(msg, sizeof msg, "pose (%g, %g, %g) v %g side %d", c[i][0], c[i][1],
-                     c[i][2], c[i][3], side);
+            snprintf(msg, sizeof msg, "pose (%g, %g, %g) v %g side %d", c[i][0], c[i][1], c[i][2],
+                     c[i][3], side);
             TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_BETA_DOT, expected, dir.beta_dot, msg);
         }
     }
@@ -315,9 +317,9 @@ typedef struct {
 } fd_line_t;
 
 static const fd_line_t k_lines[] = {
-    {1.2, 0.75, 0.25, AVD_SIDE_LEFT, {0.4, 0.8, 1.2, 2.4}, 4},
-    {1.3, 1.45, -0.3, AVD_SIDE_RIGHT, {0.4, 0.8, 1.2, 2.0, 2.4}, 5},
-    {2.6, 0.4, 2.3, AVD_SIDE_LEFT, {0.4, 0.8, 1.2, 2.4}, 4},
+    { 1.2, 0.75, 0.25, AVD_SIDE_LEFT, { 0.4, 0.8, 1.2, 2.4 }, 4 },
+    { 1.3, 1.45, -0.3, AVD_SIDE_RIGHT, { 0.4, 0.8, 1.2, 2.0, 2.4 }, 5 },
+    { 2.6, 0.4, 2.3, AVD_SIDE_LEFT, { 0.4, 0.8, 1.2, 2.4 }, 4 },
 };
 
 /* β of avd_direction() at time t on a line. */
@@ -365,8 +367,8 @@ static void test_avd_misprinted_eq15_fails_the_finite_difference(void)
             const double th = tu_q(l->th);
             const double good = ref_beta_dot(x, y, th, V, 2.0, 1.0, tu_q(DS), (int)l->side, false);
             const double bad = ref_beta_dot(x, y, th, V, 2.0, 1.0, tu_q(DS), (int)l->side, true);
-            snprintf(msg, sizeof msg, "line %zu t = %g: fd %.6f corrected %.6f misprint %.6f", k,
-                     t, fd, good, bad);
+            snprintf(msg, sizeof msg, "line %zu t = %g: fd %.6f corrected %.6f misprint %.6f", k, t,
+                     fd, good, bad);
             TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(TOL_FD, fd, good, msg);
             TEST_ASSERT_TRUE_MESSAGE(fabs(bad - fd) > MISPRINT_MARGIN, msg);
         }
@@ -391,8 +393,8 @@ static void test_avd_robot_at_obstacle_centre_commands_no_turn(void)
 
     /* The law then commands ω = 0 + k2·wrap(θ − θ) = 0 and e = 0, whatever
      * the gains; v = v_r cos e3 + k1 e1 = 0.5 (e = 0). */
-    avd_gains_t g = {tu_num(3.0), tu_num(6.0)};
-    trk_err_t err = {NUM_ZERO, NUM_ZERO, NUM_ZERO};
+    avd_gains_t g = { tu_num(3.0), tu_num(6.0) };
+    trk_err_t err = { NUM_ZERO, NUM_ZERO, NUM_ZERO };
     num_t v, w, e;
     robot = tu_pose(1.0, 1.0, 0.7);
     avd_control(&g, &robot, &err, tu_num(0.5), tu_num(1.0), tu_num(1.0), tu_num(DS), AVD_SIDE_LEFT,
@@ -416,8 +418,8 @@ static void test_avd_control_wraps_e_and_adds_beta_dot(void)
      * β̇ = −u̇_x/D_s = v (cos θ − sin θ)/D_s = 0.5(−0.8011436 + 0.5984721)/0.35
      * = −0.2895307. ω = β̇ + 5 e = −0.2895307 − 11.0619449 = −11.3514756.
      * v = 0.5 cos 0 + 2·0 = 0.5. */
-    avd_gains_t g = {tu_num(2.0), tu_num(5.0)};
-    trk_err_t err = {NUM_ZERO, tu_num(0.1), NUM_ZERO};
+    avd_gains_t g = { tu_num(2.0), tu_num(5.0) };
+    trk_err_t err = { NUM_ZERO, tu_num(0.1), NUM_ZERO };
     pose_t robot = tu_pose(0.0, 0.0, -2.5);
     num_t v, w, e;
     avd_control(&g, &robot, &err, tu_num(0.5), tu_num(DS), NUM_ZERO, tu_num(DS), AVD_SIDE_LEFT, &v,
@@ -438,10 +440,13 @@ static void test_avd_control_heading_error_and_omega_general(void)
 {
     /* Off the circle, against the double reference: e = wrap(β − θ),
      * ω = β̇ + k2 e, with e1 = e3 = 0 so that the speed in β̇ is v_r. */
-    const double c[][4] = {/* x, y, θ, v_r */
-                           {1.6, 1.0, 0.3, 0.5}, {2.3, 1.35, -2.5, 0.4}, {1.7, 1.3, 2.8, 0.5}};
-    avd_gains_t g = {tu_num(3.0), tu_num(6.0)};
-    trk_err_t err = {NUM_ZERO, NUM_ZERO, NUM_ZERO};
+    const double c[][4] = { /* x, y, θ, v_r */
+                            { 1.6, 1.0, 0.3, 0.5 },
+                            { 2.3, 1.35, -2.5, 0.4 },
+                            { 1.7, 1.3, 2.8, 0.5 }
+    };
+    avd_gains_t g = { tu_num(3.0), tu_num(6.0) };
+    trk_err_t err = { NUM_ZERO, NUM_ZERO, NUM_ZERO };
     char msg[96];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         for (int side = -1; side <= 1; side += 2) {
@@ -452,7 +457,8 @@ static void test_avd_control_heading_error_and_omega_general(void)
             const double x = tu_q(c[i][0]), y = tu_q(c[i][1]), th = tu_q(c[i][2]);
             const double b = ref_beta(x, y, 2.0, 1.0, tu_q(DS), side, NULL);
             const double e_exp = tu_wrap(b - th);
-            const double bd = ref_beta_dot(x, y, th, tu_q(c[i][3]), 2.0, 1.0, tu_q(DS), side, false);
+            const double bd =
+                ref_beta_dot(x, y, th, tu_q(c[i][3]), 2.0, 1.0, tu_q(DS), side, false);
             snprintf(msg, sizeof msg, "pose (%g, %g, %g) side %d", c[i][0], c[i][1], c[i][2], side);
             TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_BETA, e_exp, e, msg);
             TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(e, msg);
@@ -466,8 +472,8 @@ static void test_avd_control_linear_speed_is_eq23(void)
 {
     /* v = v_r cos e3 + k1 e1 (eq. (23), the same as eq. (2)): e1 = 0.1,
      * e3 = 0.2, v_r = 0.5, k1 = 3: v = 0.5·0.9800666 + 0.3 = 0.7900333. */
-    avd_gains_t g = {tu_num(3.0), tu_num(6.0)};
-    trk_err_t err = {tu_num(0.1), tu_num(-0.4), tu_num(0.2)};
+    avd_gains_t g = { tu_num(3.0), tu_num(6.0) };
+    trk_err_t err = { tu_num(0.1), tu_num(-0.4), tu_num(0.2) };
     pose_t robot = tu_pose(1.6, 1.0, 0.3);
     num_t v, w, e;
     avd_control(&g, &robot, &err, tu_num(0.5), tu_num(2.0), tu_num(1.0), tu_num(DS), AVD_SIDE_LEFT,

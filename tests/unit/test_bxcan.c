@@ -28,8 +28,8 @@ void tearDown(void) {}
 
 /* ------------------------------------------------------------ bit timing */
 
-static void expect_timing(uint32_t pclk, uint32_t bitrate, unsigned brp, unsigned ts1,
-                          unsigned ts2, unsigned sjw, uint32_t btr, unsigned sp_permille)
+static void expect_timing(uint32_t pclk, uint32_t bitrate, unsigned brp, unsigned ts1, unsigned ts2,
+                          unsigned sjw, uint32_t btr, unsigned sp_permille)
 {
     bxcan_timing_t t;
     TEST_ASSERT_EQUAL_INT(0, bxcan_timing(pclk, bitrate, BXCAN_SAMPLE_POINT_CIA, &t));
@@ -85,7 +85,7 @@ static void test_bxcan_timing_hsi_fallback_prefers_more_quanta(void)
 
 static void test_bxcan_timing_rejects_inexact_and_bad_arguments(void)
 {
-    bxcan_timing_t t = {0};
+    bxcan_timing_t t = { 0 };
     /* 42 MHz / 800 kbit/s = 52.5 clocks per bit. */
     TEST_ASSERT_EQUAL_INT(-EINVAL, bxcan_timing(42000000u, 800000u, 875, &t));
     /* 4 MHz at 1 Mbit/s: 4 clocks per bit, fewer than 8 quanta. */
@@ -100,10 +100,10 @@ static void test_bxcan_timing_rejects_inexact_and_bad_arguments(void)
  * TS1 4 bits, TS2 3 bits, SJW 2 bits) and the exact bit rate. */
 static void test_bxcan_timing_results_respect_register_limits(void)
 {
-    static const uint32_t clocks[] = {8000000u, 16000000u, 24000000u, 36000000u, 42000000u,
-                                      45000000u, 48000000u, 54000000u};
-    static const uint32_t rates[] = {10000u, 20000u, 50000u, 125000u, 250000u, 500000u,
-                                     800000u, 1000000u};
+    static const uint32_t clocks[] = { 8000000u,  16000000u, 24000000u, 36000000u,
+                                       42000000u, 45000000u, 48000000u, 54000000u };
+    static const uint32_t rates[] = { 10000u,  20000u,  50000u,  125000u,
+                                      250000u, 500000u, 800000u, 1000000u };
     for (size_t i = 0; i < sizeof clocks / sizeof clocks[0]; i++) {
         for (size_t j = 0; j < sizeof rates / sizeof rates[0]; j++) {
             bxcan_timing_t t;
@@ -122,7 +122,7 @@ static void test_bxcan_timing_results_respect_register_limits(void)
 /* ----------------------------------------------------------- filter banks */
 
 /* The receive identifiers of the protocol (comm.h). */
-static const uint32_t rx_ids[] = {0x100, 0x101, 0x102, 0x103, 0x104, 0x110, 0x120, 0x121};
+static const uint32_t rx_ids[] = { 0x100, 0x101, 0x102, 0x103, 0x104, 0x110, 0x120, 0x121 };
 
 /* Independent model of the hardware (RM0090 §32.7.4, Figure 342): does a
  * frame with 11-bit @p id, @p ide and @p rtr pass bank @p b? A 16-bit entry
@@ -130,7 +130,7 @@ static const uint32_t rx_ids[] = {0x100, 0x101, 0x102, 0x103, 0x104, 0x110, 0x12
 static bool model_accepts(const bxcan_bank_t *b, uint32_t id, bool ide, bool rtr)
 {
     const uint32_t frame = (id << 5) | (rtr ? 1u << 4 : 0u) | (ide ? 1u << 3 : 0u);
-    const uint32_t e[4] = {b->fr1 & 0xFFFFu, b->fr1 >> 16, b->fr2 & 0xFFFFu, b->fr2 >> 16};
+    const uint32_t e[4] = { b->fr1 & 0xFFFFu, b->fr1 >> 16, b->fr2 & 0xFFFFu, b->fr2 >> 16 };
     if (b->list) {
         return frame == e[0] || frame == e[1] || frame == e[2] || frame == e[3];
     }
@@ -182,7 +182,7 @@ static void test_bxcan_filters_protocol_ids_use_two_list_banks(void)
 {
     hal_can_filter_t f[8];
     for (unsigned i = 0; i < 8; i++) {
-        f[i] = (hal_can_filter_t){.id = rx_ids[i], .mask = HAL_CAN_MAX_STD_ID};
+        f[i] = (hal_can_filter_t){ .id = rx_ids[i], .mask = HAL_CAN_MAX_STD_ID };
     }
     bxcan_bank_t banks[BXCAN_MAX_BANKS];
     unsigned nb = 0;
@@ -215,7 +215,7 @@ static void test_bxcan_filters_none_accepts_all_standard_data_frames(void)
  * 0x18 = 0xFE18, id entry 0x2000; alone in its bank, the pair repeats. */
 static void test_bxcan_filters_mask_pairs(void)
 {
-    const hal_can_filter_t f[] = {{.id = 0x100, .mask = 0x7F0}};
+    const hal_can_filter_t f[] = { { .id = 0x100, .mask = 0x7F0 } };
     bxcan_bank_t banks[BXCAN_MAX_BANKS];
     unsigned nb = 0;
     TEST_ASSERT_EQUAL_INT(0, bxcan_filter_banks(f, 1, banks, BXCAN_MAX_BANKS, &nb));
@@ -231,9 +231,10 @@ static void test_bxcan_filters_mask_pairs(void)
 static void test_bxcan_filters_mixed(void)
 {
     const hal_can_filter_t f[] = {
-        {.id = 0x7FF, .mask = 0x7FF}, {.id = 0x000, .mask = 0x7FF}, {.id = 0x123, .mask = 0x7FF},
-        {.id = 0x2FF, .mask = 0x700}, {.id = 0x456, .mask = 0x7FF}, {.id = 0x555, .mask = 0x000},
-        {.id = 0x001, .mask = 0x7FF}, {.id = 0x180, .mask = 0x7C0},
+        { .id = 0x7FF, .mask = 0x7FF }, { .id = 0x000, .mask = 0x7FF },
+        { .id = 0x123, .mask = 0x7FF }, { .id = 0x2FF, .mask = 0x700 },
+        { .id = 0x456, .mask = 0x7FF }, { .id = 0x555, .mask = 0x000 },
+        { .id = 0x001, .mask = 0x7FF }, { .id = 0x180, .mask = 0x7C0 },
     };
     bxcan_bank_t banks[BXCAN_MAX_BANKS];
     unsigned nb = 0;
@@ -255,7 +256,7 @@ static void test_bxcan_filters_sixteen_masks_fit(void)
 {
     hal_can_filter_t f[16];
     for (unsigned i = 0; i < 16; i++) {
-        f[i] = (hal_can_filter_t){.id = 0x40u * i, .mask = 0x7C0};
+        f[i] = (hal_can_filter_t){ .id = 0x40u * i, .mask = 0x7C0 };
     }
     bxcan_bank_t banks[BXCAN_MAX_BANKS];
     unsigned nb = 0;
@@ -268,14 +269,14 @@ static void test_bxcan_filters_reject_bad_input(void)
 {
     hal_can_filter_t f[17];
     for (unsigned i = 0; i < 17; i++) {
-        f[i] = (hal_can_filter_t){.id = i, .mask = HAL_CAN_MAX_STD_ID};
+        f[i] = (hal_can_filter_t){ .id = i, .mask = HAL_CAN_MAX_STD_ID };
     }
     bxcan_bank_t banks[BXCAN_MAX_BANKS];
     unsigned nb = 0;
     TEST_ASSERT_EQUAL_INT(-EINVAL, bxcan_filter_banks(f, 17, banks, BXCAN_MAX_BANKS, &nb));
-    const hal_can_filter_t wide_id[] = {{.id = 0x800, .mask = 0x7FF}};
+    const hal_can_filter_t wide_id[] = { { .id = 0x800, .mask = 0x7FF } };
     TEST_ASSERT_EQUAL_INT(-EINVAL, bxcan_filter_banks(wide_id, 1, banks, BXCAN_MAX_BANKS, &nb));
-    const hal_can_filter_t wide_mask[] = {{.id = 0x100, .mask = 0xFFF}};
+    const hal_can_filter_t wide_mask[] = { { .id = 0x100, .mask = 0xFFF } };
     TEST_ASSERT_EQUAL_INT(-EINVAL, bxcan_filter_banks(wide_mask, 1, banks, BXCAN_MAX_BANKS, &nb));
     /* Eight exact ids need two banks. */
     TEST_ASSERT_EQUAL_INT(-EINVAL, bxcan_filter_banks(f, 8, banks, 1, &nb));
@@ -287,7 +288,7 @@ static void test_bxcan_filters_reject_bad_input(void)
  * end first in TDLR/TDHR. */
 static void test_bxcan_mailbox_packing(void)
 {
-    const hal_can_frame_t f = {.id = 0x123, .dlc = 6, .data = {1, 2, 3, 4, 5, 6, 0, 0}};
+    const hal_can_frame_t f = { .id = 0x123, .dlc = 6, .data = { 1, 2, 3, 4, 5, 6, 0, 0 } };
     bxcan_mailbox_t mb;
     bxcan_mailbox_from_frame(&f, &mb);
     TEST_ASSERT_EQUAL_HEX32(0x24600000u, mb.ir);
@@ -309,24 +310,26 @@ static void test_bxcan_mailbox_receive_edge_cases(void)
     memset(&f, 0x55, sizeof f);
     /* Extended (IDE, bit 2) and remote (RTR, bit 1) frames are refused and
      * leave the frame untouched. */
-    const bxcan_mailbox_t ext = {.ir = 0x24600000u | 4u, .dtr = 8, .dlr = 1, .dhr = 2};
-    const bxcan_mailbox_t rtr = {.ir = 0x24600000u | 2u, .dtr = 0, .dlr = 0, .dhr = 0};
+    const bxcan_mailbox_t ext = { .ir = 0x24600000u | 4u, .dtr = 8, .dlr = 1, .dhr = 2 };
+    const bxcan_mailbox_t rtr = { .ir = 0x24600000u | 2u, .dtr = 0, .dlr = 0, .dhr = 0 };
     TEST_ASSERT_FALSE(bxcan_frame_from_mailbox(&ext, &f));
     TEST_ASSERT_FALSE(bxcan_frame_from_mailbox(&rtr, &f));
     TEST_ASSERT_EQUAL_HEX8(0x55, f.dlc);
     /* DLC 9..15 means 8 bytes; bytes past the DLC read 0 whatever the
      * register holds (the FMI and time stamp bits of RDTR are ignored). */
-    const bxcan_mailbox_t long_dlc = {.ir = 0x7FFu << 21, .dtr = 0xFFFF000Cu, .dlr = 0x44332211u,
-                                      .dhr = 0x88776655u};
+    const bxcan_mailbox_t long_dlc = {
+        .ir = 0x7FFu << 21, .dtr = 0xFFFF000Cu, .dlr = 0x44332211u, .dhr = 0x88776655u
+    };
     TEST_ASSERT_TRUE(bxcan_frame_from_mailbox(&long_dlc, &f));
     TEST_ASSERT_EQUAL_UINT32(0x7FFu, f.id);
     TEST_ASSERT_EQUAL_UINT8(8u, f.dlc);
-    const uint8_t all[8] = {0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88};
+    const uint8_t all[8] = { 0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88 };
     TEST_ASSERT_EQUAL_UINT8_ARRAY(all, f.data, 8);
-    const bxcan_mailbox_t short_dlc = {.ir = 0x100u << 21, .dtr = 2, .dlr = 0x44332211u,
-                                       .dhr = 0x88776655u};
+    const bxcan_mailbox_t short_dlc = {
+        .ir = 0x100u << 21, .dtr = 2, .dlr = 0x44332211u, .dhr = 0x88776655u
+    };
     TEST_ASSERT_TRUE(bxcan_frame_from_mailbox(&short_dlc, &f));
-    const uint8_t two[8] = {0x11, 0x22, 0, 0, 0, 0, 0, 0};
+    const uint8_t two[8] = { 0x11, 0x22, 0, 0, 0, 0, 0, 0 };
     TEST_ASSERT_EQUAL_UINT8_ARRAY(two, f.data, 8);
 }
 
@@ -336,7 +339,7 @@ static can_ring_t ring;
 
 static hal_can_frame_t frame(uint32_t id)
 {
-    return (hal_can_frame_t){.id = id, .dlc = 1, .data = {(uint8_t)id}};
+    return (hal_can_frame_t){ .id = id, .dlc = 1, .data = { (uint8_t)id } };
 }
 
 static void test_can_ring_fifo_order(void)

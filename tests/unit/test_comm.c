@@ -21,7 +21,7 @@
 
 /* Decoding is exact in both modes: every DBC resolution is 2^-k with k <= 16
  * and every raw value has at most 24 bits, so it is a float and a Q16.16. */
-#define TOL_EXACT 0.0
+#define TOL_EXACT  0.0
 /* The obstacle radius is in centimetres (not a power of two): 2.55 m is
  * float(2.55), 5e-8 from 2.55 (float), or rounded to the nearest Q16.16 lsb,
  * within 2^-17 = 7.6e-6 (fixed). 0.1 and 0.25 m are exact in both, as the
@@ -75,27 +75,31 @@ static void set_field(uint8_t *d, unsigned start, unsigned len, int64_t value)
     for (unsigned b = 0; b < len; b++) {
         const unsigned pos = start + b;
         const uint8_t m = (uint8_t)(1u << (pos % 8u));
-        d[pos / 8u] = ((v >> b) & 1u) != 0u ? (uint8_t)(d[pos / 8u] | m) : (uint8_t)(d[pos / 8u] & ~m);
+        d[pos / 8u] =
+            ((v >> b) & 1u) != 0u ? (uint8_t)(d[pos / 8u] | m) : (uint8_t)(d[pos / 8u] & ~m);
     }
 }
 
 /* A frame with alive counter @p counter and a correct CRC for @p id. */
 static hal_can_frame_t sealed(uint32_t id, const uint8_t payload[8], uint8_t counter)
 {
-    hal_can_frame_t f = {.id = id, .dlc = 8};
+    hal_can_frame_t f = { .id = id, .dlc = 8 };
     memcpy(f.data, payload, 8);
     set_field(f.data, 8, 4, counter);
     const uint16_t did = data_id_of(id);
-    uint8_t buf[9] = {(uint8_t)(did & 0xFFu), (uint8_t)(did >> 8)};
+    uint8_t buf[9] = { (uint8_t)(did & 0xFFu), (uint8_t)(did >> 8) };
     memcpy(&buf[2], &f.data[1], 7);
     f.data[0] = ref_crc(buf, sizeof buf);
     return f;
 }
 
-static const uint8_t zeros[8] = {0};
+static const uint8_t zeros[8] = { 0 };
 
 /* A valid PARAM_GET frame, the smallest frame the firmware receives. */
-static hal_can_frame_t get_frame(uint8_t counter) { return sealed(COMM_ID_PARAM_GET, zeros, counter); }
+static hal_can_frame_t get_frame(uint8_t counter)
+{
+    return sealed(COMM_ID_PARAM_GET, zeros, counter);
+}
 
 static void assert_frame(const uint8_t expected[8], uint32_t id, const hal_can_frame_t *f)
 {
@@ -127,13 +131,13 @@ static void test_comm_crc8h2f_autosar_vectors(void)
         size_t n;
         uint8_t crc;
     } v[] = {
-        {{0x00, 0x00, 0x00, 0x00}, 4, 0x12},
-        {{0xF2, 0x01, 0x83}, 3, 0xC2},
-        {{0x0F, 0xAA, 0x00, 0x55}, 4, 0xC6},
-        {{0x00, 0xFF, 0x55, 0x11}, 4, 0x77},
-        {{0x33, 0x22, 0x55, 0xAA, 0xBB, 0xCC, 0xDD, 0xEE, 0xFF}, 9, 0x11},
-        {{0x92, 0x6B, 0x55}, 3, 0x33},
-        {{0xFF, 0xFF, 0xFF, 0xFF}, 4, 0x6C},
+        { { 0x00, 0x00, 0x00, 0x00 }, 4, 0x12 },
+        { { 0xF2, 0x01, 0x83 }, 3, 0xC2 },
+        { { 0x0F, 0xAA, 0x00, 0x55 }, 4, 0xC6 },
+        { { 0x00, 0xFF, 0x55, 0x11 }, 4, 0x77 },
+        { { 0x33, 0x22, 0x55, 0xAA, 0xBB, 0xCC, 0xDD, 0xEE, 0xFF }, 9, 0x11 },
+        { { 0x92, 0x6B, 0x55 }, 3, 0x33 },
+        { { 0xFF, 0xFF, 0xFF, 0xFF }, 4, 0x6C },
     };
     for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
         TEST_ASSERT_EQUAL_HEX8_MESSAGE(v[i].crc, comm_crc8h2f(v[i].d, v[i].n), "comm_crc8h2f");
@@ -151,9 +155,9 @@ static void test_comm_crc8h2f_of_nothing_is_init_xor_final(void)
 static void test_comm_data_ids_are_the_dbc_attribute(void)
 {
     static const uint32_t ids[] = {
-        COMM_ID_ODOM_XY,   COMM_ID_ODOM_THETA, COMM_ID_REF_XY,          COMM_ID_REF_MOTION,
-        COMM_ID_STEP,      COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,       COMM_ID_PARAM_GET,
-        COMM_ID_WHEEL_CMD, COMM_ID_STATUS,     COMM_ID_STATUS_TRK,      COMM_ID_STATUS_COUNTERS,
+        COMM_ID_ODOM_XY,   COMM_ID_ODOM_THETA, COMM_ID_REF_XY,      COMM_ID_REF_MOTION,
+        COMM_ID_STEP,      COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,   COMM_ID_PARAM_GET,
+        COMM_ID_WHEEL_CMD, COMM_ID_STATUS,     COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS,
         COMM_ID_EVENT,     COMM_ID_HEARTBEAT,  COMM_ID_PARAM_VALUE,
     };
     TEST_ASSERT_EQUAL_UINT(COMM_N_FRAMES, sizeof ids / sizeof ids[0]);
@@ -172,7 +176,7 @@ static void test_comm_data_ids_are_the_dbc_attribute(void)
 static void test_comm_encode_protects_counter_then_crc(void)
 {
     /* HEARTBEAT ready, counter 0: CRC over 85 11 | 00 01 00 00 00 00 00. */
-    static const uint8_t golden[8] = {0x6C, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00};
+    static const uint8_t golden[8] = { 0x6C, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00 };
     hal_can_frame_t f;
     memset(&f, 0xA5, sizeof f);
     TEST_ASSERT_EQUAL_INT(0, comm_encode_heartbeat(&c, COMM_STATE_READY, &f));
@@ -185,10 +189,11 @@ static void test_comm_encode_counter_counts_per_identifier_and_wraps(void)
     for (unsigned n = 0; n < 20u; n++) {
         comm_encode_heartbeat(&c, COMM_STATE_RUNNING, &f);
         TEST_ASSERT_EQUAL_UINT8(n % 16u, f.data[1] & 0x0Fu);
-        TEST_ASSERT_EQUAL_HEX8(ref_crc((const uint8_t[]){0x85, 0x11, f.data[1], f.data[2], f.data[3],
-                                                         f.data[4], f.data[5], f.data[6], f.data[7]},
-                                       9),
-                               f.data[0]);
+        TEST_ASSERT_EQUAL_HEX8(
+            ref_crc((const uint8_t[]){ 0x85, 0x11, f.data[1], f.data[2], f.data[3], f.data[4],
+                                       f.data[5], f.data[6], f.data[7] },
+                    9),
+            f.data[0]);
     }
     /* Another identifier has its own counter, still at 0. */
     comm_encode_counters(&c, &f);
@@ -218,9 +223,9 @@ static void test_comm_decode_drops_an_unknown_identifier(void)
 
 static void test_comm_decode_drops_a_frame_the_firmware_sends(void)
 {
-    static const uint32_t sent[] = {COMM_ID_WHEEL_CMD, COMM_ID_STATUS,    COMM_ID_STATUS_TRK,
-                                    COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT, COMM_ID_HEARTBEAT,
-                                    COMM_ID_PARAM_VALUE};
+    static const uint32_t sent[] = { COMM_ID_WHEEL_CMD,       COMM_ID_STATUS, COMM_ID_STATUS_TRK,
+                                     COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,  COMM_ID_HEARTBEAT,
+                                     COMM_ID_PARAM_VALUE };
     comm_msg_t m;
     for (size_t i = 0; i < sizeof sent / sizeof sent[0]; i++) {
         hal_can_frame_t f = sealed(sent[i], zeros, 0);
@@ -233,7 +238,7 @@ static void test_comm_decode_drops_a_wrong_length(void)
 {
     comm_msg_t m;
     hal_can_frame_t f = get_frame(0);
-    const uint8_t bad[] = {0, 1, 7};
+    const uint8_t bad[] = { 0, 1, 7 };
     for (size_t i = 0; i < sizeof bad; i++) {
         f.dlc = bad[i];
         TEST_ASSERT_EQUAL_INT(-EMSGSIZE, comm_decode(&c, &f, &m));
@@ -279,7 +284,7 @@ static void test_comm_decode_drops_a_repeated_counter(void)
 static void test_comm_decode_accepts_jumps_up_to_three(void)
 {
     comm_msg_t m;
-    const uint8_t counters[] = {0, 1, 3, 6};
+    const uint8_t counters[] = { 0, 1, 3, 6 };
     for (size_t i = 0; i < sizeof counters; i++) {
         hal_can_frame_t f = get_frame(counters[i]);
         TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -387,7 +392,7 @@ static void test_comm_init_forgets_sequences_and_counts(void)
 
 static hal_can_frame_t golden_in(uint32_t id, const uint8_t g[8])
 {
-    hal_can_frame_t f = {.id = id, .dlc = 8};
+    hal_can_frame_t f = { .id = id, .dlc = 8 };
     memcpy(f.data, g, 8);
     return f;
 }
@@ -396,7 +401,7 @@ static void test_comm_decode_odom_xy(void)
 {
     /* x = 3.0 m: raw 3·2^16 = 196608 = 0x030000 in bytes 2..4; y = -1.5 m:
      * raw -98304 = 0xFE8000 in bytes 5..7. Counter 0. */
-    static const uint8_t g[8] = {0xBD, 0x00, 0x00, 0x00, 0x03, 0x00, 0x80, 0xFE};
+    static const uint8_t g[8] = { 0xBD, 0x00, 0x00, 0x00, 0x03, 0x00, 0x80, 0xFE };
     hal_can_frame_t f = golden_in(COMM_ID_ODOM_XY, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -408,7 +413,7 @@ static void test_comm_decode_odom_xy(void)
 static void test_comm_decode_odom_theta(void)
 {
     /* θ = -0.5 rad: raw -32768, 20 bits 0xF8000 at bits 16..35. Counter 1. */
-    static const uint8_t g[8] = {0x91, 0x01, 0x00, 0x80, 0x0F, 0x00, 0x00, 0x00};
+    static const uint8_t g[8] = { 0x91, 0x01, 0x00, 0x80, 0x0F, 0x00, 0x00, 0x00 };
     hal_can_frame_t f = golden_in(COMM_ID_ODOM_THETA, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -418,7 +423,7 @@ static void test_comm_decode_odom_theta(void)
 static void test_comm_decode_ref_xy(void)
 {
     /* x = -127 m: raw -127·2^16 = 0x810000; y = 99.5 m: raw 0x638000. */
-    static const uint8_t g[8] = {0x25, 0x02, 0x00, 0x00, 0x81, 0x00, 0x80, 0x63};
+    static const uint8_t g[8] = { 0x25, 0x02, 0x00, 0x00, 0x81, 0x00, 0x80, 0x63 };
     hal_can_frame_t f = golden_in(COMM_ID_REF_XY, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -431,7 +436,7 @@ static void test_comm_decode_ref_motion(void)
 {
     /* θ = 1 rad: raw 2^15 at bits 12..29; v = 0.5 m/s: raw 2^11 at bits
      * 30..46; ω = -0.25 rad/s: raw -2^10 at bits 47..63. Counter 5. */
-    static const uint8_t g[8] = {0x83, 0x05, 0x00, 0x08, 0x00, 0x02, 0x00, 0xFE};
+    static const uint8_t g[8] = { 0x83, 0x05, 0x00, 0x08, 0x00, 0x02, 0x00, 0xFE };
     hal_can_frame_t f = golden_in(COMM_ID_REF_MOTION, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -443,7 +448,7 @@ static void test_comm_decode_ref_motion(void)
 static void test_comm_decode_step(void)
 {
     /* step 0xBEEF; time 12.345678 s: raw 12345678 µs = 0x00BC614E. */
-    static const uint8_t g[8] = {0x22, 0x03, 0xEF, 0xBE, 0x4E, 0x61, 0xBC, 0x00};
+    static const uint8_t g[8] = { 0x22, 0x03, 0xEF, 0xBE, 0x4E, 0x61, 0xBC, 0x00 };
     hal_can_frame_t f = golden_in(COMM_ID_STEP, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -455,7 +460,7 @@ static void test_comm_decode_obstacle(void)
 {
     /* id 2 at bits 12..15; x = 1.25 m: raw 5120 at 16..35; y = -2.5 m: raw
      * -10240 at 36..55; radius 0.25 m: 25 cm in byte 7. Counter 4. */
-    static const uint8_t g[8] = {0xBE, 0x24, 0x00, 0x14, 0x00, 0x80, 0xFD, 0x19};
+    static const uint8_t g[8] = { 0xBE, 0x24, 0x00, 0x14, 0x00, 0x80, 0xFD, 0x19 };
     hal_can_frame_t f = golden_in(COMM_ID_OBSTACLE, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -468,9 +473,9 @@ static void test_comm_decode_obstacle(void)
 static void test_comm_decode_param_set_and_get(void)
 {
     /* PARAM_SET index 5, value 3.0f = 0x40400000 at bytes 3..6. */
-    static const uint8_t set[8] = {0xBC, 0x06, 0x05, 0x00, 0x00, 0x40, 0x40, 0x00};
+    static const uint8_t set[8] = { 0xBC, 0x06, 0x05, 0x00, 0x00, 0x40, 0x40, 0x00 };
     /* PARAM_GET index 12. */
-    static const uint8_t get[8] = {0xAE, 0x07, 0x0C, 0x00, 0x00, 0x00, 0x00, 0x00};
+    static const uint8_t get[8] = { 0xAE, 0x07, 0x0C, 0x00, 0x00, 0x00, 0x00, 0x00 };
     comm_msg_t m;
     hal_can_frame_t f = golden_in(COMM_ID_PARAM_SET, set);
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -485,7 +490,7 @@ static void test_comm_decode_param_set_and_get(void)
 /* Decode a frame with field [start, start+len) of @p id set to @p raw. */
 static comm_msg_t decode_field(uint32_t id, unsigned start, unsigned len, int64_t raw)
 {
-    uint8_t payload[8] = {0};
+    uint8_t payload[8] = { 0 };
     set_field(payload, start, len, raw);
     comm_init(&c);
     hal_can_frame_t f = sealed(id, payload, 0);
@@ -497,12 +502,14 @@ static comm_msg_t decode_field(uint32_t id, unsigned start, unsigned len, int64_
 static void test_comm_decode_range_ends_are_exact(void)
 {
     /* Pose: 24 bits at 2^-16 m: [-128, 128 - 2^-16]. */
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -128.0, decode_field(COMM_ID_ODOM_XY, 16, 24, -8388608).u.xy.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -128.0,
+                           decode_field(COMM_ID_ODOM_XY, 16, 24, -8388608).u.xy.x);
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 127.9999847412109375,
                            decode_field(COMM_ID_ODOM_XY, 40, 24, 8388607).u.xy.y);
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0x1p-16, decode_field(COMM_ID_REF_XY, 16, 24, 1).u.xy.x);
     /* θ: 20 bits at 2^-16 rad: [-8, 8 - 2^-16]. */
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -8.0, decode_field(COMM_ID_ODOM_THETA, 16, 20, -524288).u.theta);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -8.0,
+                           decode_field(COMM_ID_ODOM_THETA, 16, 20, -524288).u.theta);
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 7.9999847412109375,
                            decode_field(COMM_ID_ODOM_THETA, 16, 20, 524287).u.theta);
     /* Reference: θ 18 bits at 2^-15, v and ω 17 bits at 2^-12. */
@@ -520,7 +527,8 @@ static void test_comm_decode_range_ends_are_exact(void)
     TEST_ASSERT_NUM_WITHIN(TOL_RADIUS, 2.55,
                            decode_field(COMM_ID_OBSTACLE, 56, 8, 255).u.obstacle.radius);
     /* STEP time: the full 32 bits. */
-    TEST_ASSERT_EQUAL_UINT32(UINT32_MAX, decode_field(COMM_ID_STEP, 32, 32, UINT32_MAX).u.step.time_us);
+    TEST_ASSERT_EQUAL_UINT32(UINT32_MAX,
+                             decode_field(COMM_ID_STEP, 32, 32, UINT32_MAX).u.step.time_us);
 }
 
 static void test_comm_decode_radius_0_1_m_equals_the_r_ob_constant(void)
@@ -548,8 +556,8 @@ static void test_comm_encode_wheel_cmd(void)
 {
     /* step 0x1234 at bits 12..27; left 10.5 rad/s: raw 10752 at 28..45;
      * right -2^-10 rad/s: raw -1 at 46..63. */
-    static const uint8_t golden[8] = {0x83, 0x40, 0x23, 0x01, 0xA0, 0xC2, 0xFF, 0xFF};
-    const kin_wheels_t w = {tu_num(10.5), tu_num(-0x1p-10)};
+    static const uint8_t golden[8] = { 0x83, 0x40, 0x23, 0x01, 0xA0, 0xC2, 0xFF, 0xFF };
+    const kin_wheels_t w = { tu_num(10.5), tu_num(-0x1p-10) };
     hal_can_frame_t f;
     TEST_ASSERT_EQUAL_INT(0, comm_encode_wheel_cmd(&c, 0x1234, &w, &f));
     assert_frame(golden, COMM_ID_WHEEL_CMD, &f);
@@ -560,8 +568,9 @@ static void test_comm_encode_status(void)
     /* mode avoid, side right (2), obstacle 2, faults 0b1010 (obstacle
      * dropped, frame dropped), e = 0.5 rad: raw 4096; distance to the active
      * obstacle 2, 1.25 m: raw 1280, although obstacle 5 is nearer; step
-     * 0x1234: low byte 0x34. */
-    static const uint8_t golden[8] = {0x04, 0x90, 0xA2, 0x00, 0x10, 0x00, 0x05, 0x34};
+     * 0x1234: low 4 bits 0x4 (bits 56..59); halt 3, reference (bits 60..63):
+     * byte 7 is 0x34. */
+    static const uint8_t golden[8] = { 0x04, 0x90, 0xA2, 0x00, 0x10, 0x00, 0x05, 0x34 };
     ctl_status_t st;
     memset(&st, 0, sizeof st);
     st.mode = SUP_MODE_AVOID;
@@ -575,7 +584,7 @@ static void test_comm_encode_status(void)
     st.obstacle_id[1] = 2;
     st.distance[1] = tu_num(1.25);
     hal_can_frame_t f;
-    TEST_ASSERT_EQUAL_INT(0, comm_encode_status(&c, &st, 0x1234, true, &f));
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_status(&c, &st, 0x1234, true, COMM_HALT_REFERENCE, &f));
     assert_frame(golden, COMM_ID_STATUS, &f);
 }
 
@@ -591,7 +600,7 @@ static ctl_status_t tracking_status(void)
 static int64_t status_distance_raw(const ctl_status_t *st)
 {
     hal_can_frame_t f;
-    comm_encode_status(&c, st, 0, false, &f);
+    comm_encode_status(&c, st, 0, false, COMM_HALT_NONE, &f);
     return get_field(f.data, 40, 16, false);
 }
 
@@ -625,19 +634,20 @@ static void test_comm_status_saturates_enumerations_and_ids(void)
     st.active_obstacle = 200;
     st.faults = 0xFF; /* only the controller's bits 0..2 are taken */
     hal_can_frame_t f;
-    comm_encode_status(&c, &st, 0x00FF, false, &f);
+    comm_encode_status(&c, &st, 0x00FF, false, 200, &f);
     TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 12, 2, false));
     TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 14, 2, false));
     TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
     TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 20, 4, false));
-    TEST_ASSERT_EQUAL_INT64(0xFF, get_field(f.data, 56, 8, false));
+    TEST_ASSERT_EQUAL_INT64(0xF, get_field(f.data, 56, 4, false));
+    TEST_ASSERT_EQUAL_INT64(COMM_HALT_BUS_OFF, get_field(f.data, 60, 4, false)); /* saturated */
 }
 
 static void test_comm_encode_status_trk(void)
 {
     /* e1 = 0.75 m: raw 768; e2 = -0.125 m: raw -128; e3 = -1 rad: raw -8192. */
-    static const uint8_t golden[8] = {0xE1, 0x00, 0x00, 0x03, 0x80, 0xFF, 0x00, 0xE0};
-    const trk_err_t e = {tu_num(0.75), tu_num(-0.125), tu_num(-1.0)};
+    static const uint8_t golden[8] = { 0xE1, 0x00, 0x00, 0x03, 0x80, 0xFF, 0x00, 0xE0 };
+    const trk_err_t e = { tu_num(0.75), tu_num(-0.125), tu_num(-1.0) };
     hal_can_frame_t f;
     TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &e, &f));
     assert_frame(golden, COMM_ID_STATUS_TRK, &f);
@@ -645,8 +655,8 @@ static void test_comm_encode_status_trk(void)
 
 static void test_comm_encode_counters(void)
 {
-    static const uint8_t golden[8] = {0x81, 0x00, 0x01, 0x20, 0x00, 0x03, 0x40, 0x00};
-    c.drops = (comm_counters_t){.crc = 1, .seq = 2, .len = 3, .unknown = 4};
+    static const uint8_t golden[8] = { 0x81, 0x00, 0x01, 0x20, 0x00, 0x03, 0x40, 0x00 };
+    c.drops = (comm_counters_t){ .crc = 1, .seq = 2, .len = 3, .unknown = 4 };
     hal_can_frame_t f;
     TEST_ASSERT_EQUAL_INT(0, comm_encode_counters(&c, &f));
     assert_frame(golden, COMM_ID_STATUS_COUNTERS, &f);
@@ -655,9 +665,10 @@ static void test_comm_encode_counters(void)
 static void test_comm_encode_event(void)
 {
     /* activate (2), side right (2), obstacle 3, time 2.5 s: raw 2500000 µs. */
-    static const uint8_t golden[8] = {0xEB, 0xA0, 0x03, 0xA0, 0x25, 0x26, 0x00, 0x00};
-    const sup_event_t e = {.t_us = 2500000u, .kind = SUP_EVENT_ACTIVATE, .obstacle = 3,
-                           .side = AVD_SIDE_RIGHT};
+    static const uint8_t golden[8] = { 0xEB, 0xA0, 0x03, 0xA0, 0x25, 0x26, 0x00, 0x00 };
+    const sup_event_t e = {
+        .t_us = 2500000u, .kind = SUP_EVENT_ACTIVATE, .obstacle = 3, .side = AVD_SIDE_RIGHT
+    };
     hal_can_frame_t f;
     TEST_ASSERT_EQUAL_INT(0, comm_encode_event(&c, &e, &f));
     assert_frame(golden, COMM_ID_EVENT, &f);
@@ -665,8 +676,10 @@ static void test_comm_encode_event(void)
 
 static void test_comm_event_time_is_the_low_32_bits_and_the_id_saturates(void)
 {
-    const sup_event_t e = {.t_us = (UINT64_C(1) << 32) + 5u, .kind = SUP_EVENT_DETECT,
-                           .obstacle = 99, .side = AVD_SIDE_NONE};
+    const sup_event_t e = { .t_us = (UINT64_C(1) << 32) + 5u,
+                            .kind = SUP_EVENT_DETECT,
+                            .obstacle = 99,
+                            .side = AVD_SIDE_NONE };
     hal_can_frame_t f;
     comm_encode_event(&c, &e, &f);
     TEST_ASSERT_EQUAL_INT64(5, get_field(f.data, 24, 32, false));
@@ -685,7 +698,7 @@ static void test_comm_encode_heartbeat_saturates_the_state(void)
 static void test_comm_encode_param_value(void)
 {
     /* index 7, result out_of_range (2), value -0.25f = 0xBE800000. */
-    static const uint8_t golden[8] = {0x01, 0x00, 0x07, 0x02, 0x00, 0x00, 0x80, 0xBE};
+    static const uint8_t golden[8] = { 0x01, 0x00, 0x07, 0x02, 0x00, 0x00, 0x80, 0xBE };
     hal_can_frame_t f;
     TEST_ASSERT_EQUAL_INT(0, comm_encode_param_value(&c, 7, COMM_PARAM_OUT_OF_RANGE, -0.25f, &f));
     assert_frame(golden, COMM_ID_PARAM_VALUE, &f);
@@ -699,7 +712,7 @@ static void test_comm_encode_param_value(void)
 /* Raw left and right wheel speeds sent for @p left, @p right [rad/s]. */
 static void wheel_raw(num_t left, num_t right, int64_t *raw_l, int64_t *raw_r)
 {
-    const kin_wheels_t w = {left, right};
+    const kin_wheels_t w = { left, right };
     hal_can_frame_t f;
     comm_encode_wheel_cmd(&c, 0, &w, &f);
     *raw_l = get_field(f.data, 28, 18, true);
@@ -709,7 +722,9 @@ static void wheel_raw(num_t left, num_t right, int64_t *raw_l, int64_t *raw_r)
 static void test_comm_wheel_speeds_round_trip(void)
 {
     /* 2^-10 rad/s resolution: hand-picked values on the grid come back exact. */
-    static const double v[] = {0.0, 1.0, -1.0, 0.0009765625, 33.3330078125, -99.5, 127.9990234375};
+    static const double v[] = {
+        0.0, 1.0, -1.0, 0.0009765625, 33.3330078125, -99.5, 127.9990234375
+    };
     for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
         int64_t l, r;
         wheel_raw(tu_num(v[i]), tu_num(-v[i]), &l, &r);
@@ -738,20 +753,21 @@ static void test_comm_wheel_speeds_saturate_never_wrap(void)
     wheel_raw(tu_num(1000.0), tu_num(-1000.0), &l, &r); /* raw ±1024000 would wrap to 16384 */
     TEST_ASSERT_EQUAL_INT64(131071, l);
     TEST_ASSERT_EQUAL_INT64(-131072, r);
-    wheel_raw(tu_num(127.99951171875), tu_num(-128.00048828125), &l, &r); /* round across the ends */
+    wheel_raw(tu_num(127.99951171875), tu_num(-128.00048828125), &l,
+              &r); /* round across the ends */
     TEST_ASSERT_EQUAL_INT64(131071, l);
     TEST_ASSERT_EQUAL_INT64(-131072, r);
 }
 
 static void test_comm_tracking_errors_saturate_at_both_ends(void)
 {
-    const trk_err_t e = {tu_num(40.0), tu_num(-40.0), tu_num(5.0)};
+    const trk_err_t e = { tu_num(40.0), tu_num(-40.0), tu_num(5.0) };
     hal_can_frame_t f;
     comm_encode_status_trk(&c, &e, &f);
     TEST_ASSERT_EQUAL_INT64(32767, get_field(f.data, 16, 16, true));
     TEST_ASSERT_EQUAL_INT64(-32768, get_field(f.data, 32, 16, true));
     TEST_ASSERT_EQUAL_INT64(32767, get_field(f.data, 48, 16, true));
-    const trk_err_t e2 = {tu_num(-32.0), tu_num(31.9990234375), tu_num(-5.0)};
+    const trk_err_t e2 = { tu_num(-32.0), tu_num(31.9990234375), tu_num(-5.0) };
     comm_encode_status_trk(&c, &e2, &f);
     TEST_ASSERT_EQUAL_INT64(-32768, get_field(f.data, 16, 16, true));
     TEST_ASSERT_EQUAL_INT64(32767, get_field(f.data, 32, 16, true));
@@ -762,13 +778,13 @@ static void test_comm_angles_of_pi_round_in_both_modes(void)
 {
     /* e3 = π at 2^-13 rad: π·8192 = 25735.93 → 25736 (float(π)·8192 and the
      * Q16.16 π 205887 >> 3 with rounding give the same). */
-    const trk_err_t e = {NUM_ZERO, NUM_ZERO, NUM_PI};
+    const trk_err_t e = { NUM_ZERO, NUM_ZERO, NUM_PI };
     hal_can_frame_t f;
     comm_encode_status_trk(&c, &e, &f);
     TEST_ASSERT_EQUAL_INT64(25736, get_field(f.data, 48, 16, true));
     ctl_status_t st = tracking_status();
     st.e = num_neg(NUM_PI);
-    comm_encode_status(&c, &st, 0, false, &f);
+    comm_encode_status(&c, &st, 0, false, COMM_HALT_NONE, &f);
     TEST_ASSERT_EQUAL_INT64(-25736, get_field(f.data, 24, 16, true));
 }
 

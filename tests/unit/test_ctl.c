@@ -19,18 +19,18 @@
 
 /* Parameters as stored [m, gains]: conversion of values ≤ 100. float: the
  * literal to float, 1 ulp relative; fixed: half a Q16.16 lsb. */
-#define TOL_PARAM TU_TOL(1e-5, 1e-5)
+#define TOL_PARAM     TU_TOL(1e-5, 1e-5)
 /* e1, e2 [m], e3 [rad] for differences ≤ 0.2 m. float: a few roundings of
  * values ≤ 0.2 (7.5e-9) and sin/cos of 0.1 (7.5e-9); fixed: sin/cos error
  * 1e-4 times 0.2 m plus Q16.16 roundings, and 2e-5 for e3. */
-#define TOL_ERR TU_TOL(1e-6, 1e-4)
+#define TOL_ERR       TU_TOL(1e-6, 1e-4)
 /* v [m/s], ω [rad/s] ≤ 9 in tracking: float: ~10 roundings of values ≤ 1
  * (6e-8) → 1e-6; fixed: cos/sin error 1e-4 times k3·v_r = 3 → 3e-4, plus
  * products. */
-#define TOL_VW TU_TOL(2e-6, 1e-3)
+#define TOL_VW        TU_TOL(2e-6, 1e-3)
 /* Wheel speeds [rad/s] ≤ 40: v and ω errors above divided by r = 0.05
  * (×20, ×3 for ω·L/2r). float: 8e-5 → 1e-4; fixed: 1e-3·(20 + 3) → 2.5e-2. */
-#define TOL_WHEEL TU_TOL(1e-4, 2.5e-2)
+#define TOL_WHEEL     TU_TOL(1e-4, 2.5e-2)
 /* Avoidance ω [rad/s] ≤ 9: β̇ (|u| = 0.35) and k2 = 6 times e. float:
  * β̇ 2e-5 plus 6·1e-6; fixed: β̇ 3e-3 plus 6·3e-4. */
 #define TOL_OMEGA_AVD TU_TOL(5e-5, 6e-3)
@@ -40,16 +40,16 @@
 /* Heading error e [rad] with |u| ≥ 0.35. float: atan2f and a subtraction
  * (≤ 5e-7); fixed: atan2 error ~1e-4 plus Q16.16 rounding of u ≈ 3e-5 over
  * |u| ≥ 0.35. */
-#define TOL_E TU_TOL(1e-6, 3e-4)
+#define TOL_E         TU_TOL(1e-6, 3e-4)
 /* Distances [m] ≤ 1 in the status: float: hypotf, 1 ulp (1.2e-7); fixed:
  * Q16.16 root, 2 lsb. */
-#define TOL_DIST TU_TOL(5e-7, 4e-5)
+#define TOL_DIST      TU_TOL(5e-7, 4e-5)
 
 static ctl_t c;
 static ctl_output_t out;
 
 /* Geometry of ctl.h's defaults. */
-#define R_WHEEL 0.05
+#define R_WHEEL    0.05
 #define HALF_TRACK 0.15
 
 void setUp(void)
@@ -113,12 +113,12 @@ static void test_ctl_defaults_are_table_1(void)
 }
 
 /* Apply one change to the defaults and expect ctl_params_check's verdict. */
-#define EXPECT_CHECK(expected, change)                                                   \
-    do {                                                                                 \
-        ctl_params_t p_;                                                                 \
-        ctl_params_default(&p_);                                                         \
-        change;                                                                          \
-        TEST_ASSERT_EQUAL_INT_MESSAGE((expected), ctl_params_check(&p_), #change);       \
+#define EXPECT_CHECK(expected, change)                                                             \
+    do {                                                                                           \
+        ctl_params_t p_;                                                                           \
+        ctl_params_default(&p_);                                                                   \
+        change;                                                                                    \
+        TEST_ASSERT_EQUAL_INT_MESSAGE((expected), ctl_params_check(&p_), #change);                 \
     } while (0)
 
 static void test_ctl_params_check_rejects_each_bad_parameter(void)
@@ -307,14 +307,38 @@ static void test_ctl_non_finite_input_stops_the_robot(void)
         ctl_input_t in = input(robot, ref, 0.5, 0.1, NULL, 0, 0);
         const char *what = "";
         switch (k) {
-        case 0: in.robot.x = q_nan; what = "robot.x NaN"; break;
-        case 1: in.robot.y = q_inf; what = "robot.y inf"; break;
-        case 2: in.robot.theta = q_nan; what = "robot.theta NaN"; break;
-        case 3: in.ref.x = num_neg(q_inf); what = "ref.x -inf"; break;
-        case 4: in.ref.y = q_nan; what = "ref.y NaN"; break;
-        case 5: in.ref.theta = q_inf; what = "ref.theta inf"; break;
-        case 6: in.v_r = q_inf; what = "v_r inf"; break;
-        default: in.w_r = q_nan; what = "w_r NaN"; break;
+        case 0:
+            in.robot.x = q_nan;
+            what = "robot.x NaN";
+            break;
+        case 1:
+            in.robot.y = q_inf;
+            what = "robot.y inf";
+            break;
+        case 2:
+            in.robot.theta = q_nan;
+            what = "robot.theta NaN";
+            break;
+        case 3:
+            in.ref.x = num_neg(q_inf);
+            what = "ref.x -inf";
+            break;
+        case 4:
+            in.ref.y = q_nan;
+            what = "ref.y NaN";
+            break;
+        case 5:
+            in.ref.theta = q_inf;
+            what = "ref.theta inf";
+            break;
+        case 6:
+            in.v_r = q_inf;
+            what = "v_r inf";
+            break;
+        default:
+            in.w_r = q_nan;
+            what = "w_r NaN";
+            break;
         }
         ctl_step(&c, &in, &out);
         TEST_ASSERT_EQUAL_INT_MESSAGE(SUP_MODE_STOP, out.status.mode, what);
@@ -328,7 +352,7 @@ static void test_ctl_non_finite_input_leaves_the_supervisor_untouched(void)
     /* Step 1: obstacle 1 detected 2 m away. Step 2: NaN pose, and a new
      * obstacle 2 reported: no event, the table unchanged. Step 3: valid
      * again: obstacle 2 is new, so it is detected now. */
-    sup_obstacle_t o[2] = {obstacle(1, 2.0, 0.0, 0.1), obstacle(2, 0.0, 2.0, 0.1)};
+    sup_obstacle_t o[2] = { obstacle(1, 2.0, 0.0, 0.1), obstacle(2, 0.0, 2.0, 0.1) };
     ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, o, 1, 0);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_size_t(1, out.n_events);
@@ -387,8 +411,8 @@ static void test_ctl_avoidance_step_on_the_safe_circle(void)
     const double t = tu_q(th);
     const double e = TU_PI / 2 - t;
     const double w = 0.5 * (cos(t) - sin(t)) / 0.35 + 6.0 * e;
-    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 8.5673727, 0.5 * (cos(0.3) - sin(0.3)) / 0.35 +
-                                                   6.0 * (TU_PI / 2 - 0.3));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 8.5673727,
+                              0.5 * (cos(0.3) - sin(0.3)) / 0.35 + 6.0 * (TU_PI / 2 - 0.3));
     TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.0, out.status.err.e1);
     TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.1, out.status.err.e2);
     TEST_ASSERT_NUM_WITHIN(TOL_ERR, 0.0, out.status.err.e3);
@@ -418,8 +442,8 @@ static void test_ctl_avoidance_uses_the_obstacle_own_safe_distance(void)
     const double t = tu_q(th);
     const double e = TU_PI / 2 - t;
     const double w = 0.5 * (cos(t) - sin(t)) / 0.55 + 6.0 * e;
-    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 8.2246110, 0.5 * (cos(0.3) - sin(0.3)) / 0.55 +
-                                                   6.0 * (TU_PI / 2 - 0.3));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 8.2246110,
+                              0.5 * (cos(0.3) - sin(0.3)) / 0.55 + 6.0 * (TU_PI / 2 - 0.3));
     TEST_ASSERT_NUM_WITHIN(TOL_E, e, out.status.e);
     TEST_ASSERT_NUM_WITHIN(TOL_OMEGA_AVD, w, out.status.w);
 }
@@ -446,7 +470,8 @@ static void test_ctl_reports_dropped_obstacles(void)
 static void test_ctl_reset_forgets_obstacles(void)
 {
     sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
-    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
+    ctl_input_t in =
+        input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
     ctl_reset(&c);
@@ -463,7 +488,8 @@ static void test_ctl_set_params_rejects_bad_values_and_changes_nothing(void)
     /* Avoiding obstacle 6 (as in the safe-circle case); then a bad set
      * (D_s = D_act) is rejected and changes neither parameters nor state. */
     sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
-    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
+    ctl_input_t in =
+        input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
     ctl_params_t p;
@@ -484,7 +510,8 @@ static void test_ctl_set_params_applies_and_keeps_the_supervisor_state(void)
      * is applied, the obstacle and the avoidance with its side are kept, and
      * the obstacle's thresholds follow (radius 0.1 = R_ob: 0.3, 0.6). */
     sup_obstacle_t o = obstacle(6, 0.35, 0.0, 0.1);
-    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
+    ctl_input_t in =
+        input(tu_pose(0.0, 0.0, 0.3), tu_pose(-0.0296, 0.0955, 0.3), 0.5, 0.0, &o, 1, 0);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.status.side);
     ctl_params_t p;

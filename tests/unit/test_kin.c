@@ -17,11 +17,11 @@
 /* Wheel speeds [rad/s] ≤ 40 from (v, ω). float: two roundings on values ≤ 40
  * (ulp/2 = 1.9e-6) and one on ωL/2; fixed: Q16.16 products and the division
  * by r = 0.05 (×20) of a 1.5e-5 rounding → 3e-4, with margin. */
-#define TOL_WHEEL TU_TOL(1e-5, 1e-3)
+#define TOL_WHEEL  TU_TOL(1e-5, 1e-3)
 /* v [m/s] and ω [rad/s] back from wheels, values ≤ 8, absolute part.
  * float: a few roundings of values ≤ 2 (1.2e-7 each); fixed: Q16.16 products
  * and the division by L = 0.3 of a 1.5e-5 rounding. */
-#define TOL_VW TU_TOL(1e-6, 2e-4)
+#define TOL_VW     TU_TOL(1e-6, 2e-4)
 /* Relative part for a round trip. float: a few roundings of values ≤ 8
  * (6e-8 relative each); fixed: L/2 = 0.15 in Q16.16 is held to 7.6e-6, 5e-5
  * relative, and a round trip that uses L/2 one way and L the other way keeps
@@ -34,11 +34,11 @@
 /* Ratio of the wheels and curvature ω/v after scaling. float: two scaled
  * values each off by 1.2e-7 relative; fixed: each wheel off by 1e-3 on values
  * ≥ 2, i.e. 5e-4 relative. */
-#define TOL_RATIO TU_TOL(1e-6, 2e-3)
+#define TOL_RATIO  TU_TOL(1e-6, 2e-3)
 
 /* Geometry of the brief and of ctl.h's defaults. */
 #define R_WHEEL 0.05
-#define TRACK 0.3
+#define TRACK   0.3
 
 static kin_params_t params(double max_wheel_speed)
 {
@@ -89,7 +89,7 @@ static void test_kin_wheels_from_vw_other_geometry(void)
 {
     /* r = 0.1, L = 0.5, v = 1, ω = 2: ω_R = (1 + 0.5)/0.1 = 15,
      * ω_L = (1 − 0.5)/0.1 = 5. Catches r and L swapped or L used for L/2. */
-    kin_params_t p = {tu_num(0.1), tu_num(0.5), tu_num(100.0)};
+    kin_params_t p = { tu_num(0.1), tu_num(0.5), tu_num(100.0) };
     kin_wheels_t w;
     kin_wheels_from_vw(&p, tu_num(1.0), tu_num(2.0), &w);
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 15.0, w.right);
@@ -115,8 +115,8 @@ static void test_kin_vw_from_wheels_hand_values(void)
 static void test_kin_round_trip_recovers_v_and_omega(void)
 {
     /* (v, ω) → wheels → (v, ω) for speeds of both signs and pure rotation. */
-    const double c[][2] = {{0.5, 1.0},  {0.5, 0.0},   {0.0, 2.0},  {-0.3, 0.7},
-                           {1.2, -3.0}, {-0.8, -1.5}, {0.02, 8.0}, {0.0, 0.0}};
+    const double c[][2] = { { 0.5, 1.0 },  { 0.5, 0.0 },   { 0.0, 2.0 },  { -0.3, 0.7 },
+                            { 1.2, -3.0 }, { -0.8, -1.5 }, { 0.02, 8.0 }, { 0.0, 0.0 } };
     kin_params_t p = params(100.0);
     char msg[64];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
@@ -215,7 +215,7 @@ static void test_kin_saturation_never_exceeds_the_limit(void)
      * value is not exact in binary: after saturation |wheel| ≤ max exactly
      * (compared in num_t, no tolerance), the larger one at the limit, and the
      * ratio kept. Expected values: the pair times max/|larger| in double. */
-    const double limits[] = {7.3, 9.7, 12.345};
+    const double limits[] = { 7.3, 9.7, 12.345 };
     char msg[96];
     for (size_t k = 0; k < sizeof limits / sizeof limits[0]; k++) {
         kin_params_t p = params(limits[k]);
@@ -247,7 +247,7 @@ static void test_kin_saturation_equal_magnitudes_both_end_at_the_limit(void)
      * (compared in num_t, no tolerance), and the ratio ±1 is kept. Sweep of
      * magnitudes 1.05 … 2.4 times limits that are not powers of two, where
      * w·(max/w) need not round back to max. */
-    const double limits[] = {7.3, 9.7, 12.345};
+    const double limits[] = { 7.3, 9.7, 12.345 };
     char msg[96];
     for (size_t k = 0; k < sizeof limits / sizeof limits[0]; k++) {
         kin_params_t p = params(limits[k]);

@@ -16,7 +16,7 @@
 
 /* Values that must come back unchanged (in-range wrap, min/max/clamp): exact
  * in both modes, the functions only select or return their input. */
-#define TOL_EXACT TU_TOL(0.0, 0.0)
+#define TOL_EXACT    TU_TOL(0.0, 0.0)
 /* An angle of magnitude ≤ 2π after one reduction step. float: float(π) is
  * 8.7e-8 above π and the result rounds to ulp(π)/2 = 1.2e-7; fixed: Q16.16
  * π and 2π are within 2^-17 = 7.6e-6 and the result within one lsb 1.5e-5. */
@@ -29,7 +29,7 @@
 /* atan2, sin, cos results ≤ π. float: libm float versions are within 1-2 ulp
  * of values ≤ π (2.4e-7 each); fixed: the trig error target of issue 3 is
  * about 1e-4 rad (libfixmath), doubled for margin. */
-#define TOL_TRIG TU_TOL(5e-7, 2e-4)
+#define TOL_TRIG     TU_TOL(5e-7, 2e-4)
 /* hypot and sqrt, absolute part. float: unused (relative part dominates);
  * fixed: inputs rounded to 7.6e-6 each plus the root rounded to 1.5e-5. */
 #define TOL_ROOT_ABS TU_TOL(0.0, 6e-5)
@@ -39,10 +39,10 @@
 #define TOL_ROOT_REL TU_TOL(3e-7, 1e-5)
 /* One multiply or divide of values ≤ 4. float: one rounding, ulp(4)/2 =
  * 2.4e-7; fixed: one Q16.16 rounding, 1.5e-5. */
-#define TOL_ARITH TU_TOL(2.4e-7, 1.6e-5)
+#define TOL_ARITH    TU_TOL(2.4e-7, 1.6e-5)
 /* Conversion of a value ≤ 20000 from float and back. float: exact; fixed:
  * rounding to the Q16.16 grid, half an lsb = 7.6e-6. */
-#define TOL_CONVERT TU_TOL(0.0, 7.7e-6)
+#define TOL_CONVERT  TU_TOL(0.0, 7.7e-6)
 
 static double tol_wrap(double a) { return TOL_WRAP_ABS + TOL_WRAP_REL * fabs(a); }
 
@@ -54,7 +54,7 @@ void tearDown(void) {}
 static void test_num_wrap_leaves_interior_angles_unchanged(void)
 {
     /* Already in (-π, π]: returned as they are. */
-    const double in[] = {0.0, 1.0, -1.0, 3.0, -3.0, 3.14, -3.14, 1e-3};
+    const double in[] = { 0.0, 1.0, -1.0, 3.0, -3.0, 3.14, -3.14, 1e-3 };
     for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
         num_t a = tu_num(in[i]);
         TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_dbl(a), num_wrap(a));
@@ -88,7 +88,7 @@ static void test_num_wrap_odd_multiples_of_pi_land_on_the_seam(void)
     /* ±3π ≡ π. The inputs hold 3π only to within rounding, so the exact
      * answer is π or -π + ε (both the seam); check the angle modulo 2π and
      * the range. */
-    const double in[] = {3.0 * TU_PI, -3.0 * TU_PI, 5.0 * TU_PI, -7.0 * TU_PI};
+    const double in[] = { 3.0 * TU_PI, -3.0 * TU_PI, 5.0 * TU_PI, -7.0 * TU_PI };
     for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
         num_t r = num_wrap(tu_num(in[i]));
         TEST_ASSERT_ANGLE_WITHIN(tol_wrap(in[i]), TU_PI, r);
@@ -102,15 +102,15 @@ static void test_num_wrap_reduces_by_whole_turns(void)
     const struct {
         double in, expected;
     } c[] = {
-        {TU_TWO_PI, 0.0},                  /* 2π − 2π */
-        {-TU_TWO_PI, 0.0},                 /* −2π + 2π */
-        {TU_TWO_PI + 0.5, 0.5},            /* one turn */
-        {-2.0 * TU_TWO_PI - 0.5, -0.5},    /* two turns */
-        {7.0, 7.0 - TU_TWO_PI},            /* 0.7168147 */
-        {-7.0, -7.0 + TU_TWO_PI},          /* −0.7168147 */
-        {3.2, 3.2 - TU_TWO_PI},            /* just past π: −3.0831853 */
-        {-3.2, -3.2 + TU_TWO_PI},          /* just past −π: 3.0831853 */
-        {4.0 * TU_PI + 1.0, 1.0},          /* two turns */
+        { TU_TWO_PI, 0.0 },               /* 2π − 2π */
+        { -TU_TWO_PI, 0.0 },              /* −2π + 2π */
+        { TU_TWO_PI + 0.5, 0.5 },         /* one turn */
+        { -2.0 * TU_TWO_PI - 0.5, -0.5 }, /* two turns */
+        { 7.0, 7.0 - TU_TWO_PI },         /* 0.7168147 */
+        { -7.0, -7.0 + TU_TWO_PI },       /* −0.7168147 */
+        { 3.2, 3.2 - TU_TWO_PI },         /* just past π: −3.0831853 */
+        { -3.2, -3.2 + TU_TWO_PI },       /* just past −π: 3.0831853 */
+        { 4.0 * TU_PI + 1.0, 1.0 },       /* two turns */
     };
     char msg[64];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
@@ -126,7 +126,7 @@ static void test_num_wrap_large_angles(void)
     /* Expected: libm remainder() in double of the value the input holds.
      * Hand check: 100 − 16·2π = −0.5309649; −1000 + 159·2π = −0.9735362;
      * 20000 − 3183·2π = 0.6211928 (Q16.16 holds up to 32767). */
-    const double in[] = {100.0, -1000.0, 20000.0, -20000.0};
+    const double in[] = { 100.0, -1000.0, 20000.0, -20000.0 };
     char msg[64];
     for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
         snprintf(msg, sizeof msg, "input %.9g", in[i]);
@@ -208,7 +208,9 @@ static void test_num_atan2_four_quadrants(void)
     TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -3.0 * TU_PI / 4.0, num_atan2(tu_num(-1.0), tu_num(-1.0)));
     TEST_ASSERT_NUM_WITHIN(TOL_TRIG, -TU_PI / 4.0, num_atan2(tu_num(-1.0), tu_num(1.0)));
     /* Off the diagonals, libm atan2 in double: (3, 4) → 0.6435011. */
-    const double yx[][2] = {{3.0, 4.0}, {4.0, -3.0}, {-0.05, -0.02}, {-100.0, 250.0}, {0.2, 7.0}};
+    const double yx[][2] = {
+        { 3.0, 4.0 }, { 4.0, -3.0 }, { -0.05, -0.02 }, { -100.0, 250.0 }, { 0.2, 7.0 }
+    };
     char msg[64];
     for (size_t i = 0; i < sizeof yx / sizeof yx[0]; i++) {
         snprintf(msg, sizeof msg, "atan2(%g, %g)", yx[i][0], yx[i][1]);
@@ -234,8 +236,8 @@ static void test_num_hypot_known_triangles(void)
 {
     /* Hand values: 3-4-5 triangles at several scales, signs, the axes. */
     const double c[][3] = {
-        {3.0, 4.0, 5.0},       {-3.0, 4.0, 5.0},   {-3.0, -4.0, 5.0},  {0.0, -2.5, 2.5},
-        {0.003, 0.004, 0.005}, {0.0, 0.0, 0.0},    {-60.0, 80.0, 100.0},
+        { 3.0, 4.0, 5.0 },       { -3.0, 4.0, 5.0 }, { -3.0, -4.0, 5.0 },    { 0.0, -2.5, 2.5 },
+        { 0.003, 0.004, 0.005 }, { 0.0, 0.0, 0.0 },  { -60.0, 80.0, 100.0 },
     };
     char msg[64];
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
@@ -283,11 +285,11 @@ static void test_num_min_max_pick_the_right_operand(void)
 static void test_num_clamp_limits_and_passes_through(void)
 {
     const num_t lo = tu_num(-1.0), hi = tu_num(2.0);
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.0, num_clamp(tu_num(5.0), lo, hi));   /* above */
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.0, num_clamp(tu_num(-5.0), lo, hi)); /* below */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.0, num_clamp(tu_num(5.0), lo, hi));       /* above */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.0, num_clamp(tu_num(-5.0), lo, hi));     /* below */
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, tu_q(0.3), num_clamp(tu_num(0.3), lo, hi)); /* inside */
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.0, num_clamp(tu_num(2.0), lo, hi));   /* on hi */
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.0, num_clamp(tu_num(-1.0), lo, hi)); /* on lo */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 2.0, num_clamp(tu_num(2.0), lo, hi));       /* on hi */
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.0, num_clamp(tu_num(-1.0), lo, hi));     /* on lo */
     /* lo == hi: everything becomes that value. */
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.5, num_clamp(tu_num(-3.0), tu_num(0.5), tu_num(0.5)));
 }
@@ -321,12 +323,12 @@ static void test_num_sin_cos_hand_values(void)
 
 static void test_num_conversions_round_trip(void)
 {
-    const double in[] = {0.0, 1.5, -0.1, 0.35, -12345.5, 20000.25};
+    const double in[] = { 0.0, 1.5, -0.1, 0.35, -12345.5, 20000.25 };
     char msg[64];
     for (size_t i = 0; i < sizeof in / sizeof in[0]; i++) {
         snprintf(msg, sizeof msg, "value %g", in[i]);
-        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(TOL_CONVERT + fabs(in[i]) * (double)FLT_EPSILON,
-                                          in[i], tu_q(in[i]), msg);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(TOL_CONVERT + fabs(in[i]) * (double)FLT_EPSILON, in[i],
+                                          tu_q(in[i]), msg);
     }
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -7.0, num_from_int(-7));
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 1000.0, num_from_int(1000));

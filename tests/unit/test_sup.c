@@ -344,7 +344,7 @@ static void test_sup_skips_a_nearer_obstacle_for_which_p1_holds(void)
      * u2 = (0.6, −0.1), |u2| = 0.61 > 0.5 but dot = −0.24 + 0.01 < 0 →
      * p1 false → p2. Activated: 2; φ = atan2(0.1, 0.4) = 0.245,
      * wrap(0 − 0.245) < 0 → RIGHT. */
-    sup_obstacle_t r[2] = {obstacle(1, -0.3, 0.0, 0.1), obstacle(2, 0.4, 0.1, 0.1)};
+    sup_obstacle_t r[2] = { obstacle(1, -0.3, 0.0, 0.1), obstacle(2, 0.4, 0.1, 0.1) };
     step(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), r, 2, 100);
     TEST_ASSERT_EQUAL_size_t(3, d.n_events);
     expect_event(2, SUP_EVENT_ACTIVATE, 2, AVD_SIDE_RIGHT, 100);
@@ -355,7 +355,7 @@ static void test_sup_completes_one_and_activates_another_in_the_same_step(void)
 {
     /* Step 1 (t = 1 s): robot (0, 0, 0.1), ref (0.2, 0.1); A = 1 at (0.45, 0),
      * B = 2 at (1.2, 0.6) (1.34 away). A activated: φ = 0, θ = 0.1 → LEFT. */
-    sup_obstacle_t r[2] = {obstacle(1, 0.45, 0.0, 0.1), obstacle(2, 1.2, 0.6, 0.1)};
+    sup_obstacle_t r[2] = { obstacle(1, 0.45, 0.0, 0.1), obstacle(2, 1.2, 0.6, 0.1) };
     step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.2, 0.1, 0.0), r, 2, 1000000);
     TEST_ASSERT_EQUAL_size_t(3, d.n_events);
     expect_event(2, SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT, 1000000);
@@ -383,7 +383,7 @@ static void test_sup_does_not_switch_obstacles_while_avoiding(void)
      * (0.3, 0.3, 0.5), ref (0.5, 0.3): A: u1 = (−0.15, 0.3), u2 = (0.05, 0.3),
      * |u2| = 0.30 < 0.5 → no completion. B at (0.5, 0.65): |u1| = 0.40 <
      * 0.5, u2 = (0, −0.35) → p2 would hold, but A is active. */
-    sup_obstacle_t r[2] = {obstacle(1, 0.45, 0.0, 0.1), obstacle(2, 0.5, 0.65, 0.1)};
+    sup_obstacle_t r[2] = { obstacle(1, 0.45, 0.0, 0.1), obstacle(2, 0.5, 0.65, 0.1) };
     step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.2, 0.1, 0.0), r, 2, 0);
     expect_avoiding(1, AVD_SIDE_LEFT);
     step(tu_pose(0.3, 0.3, 0.5), tu_pose(0.5, 0.3, 0.0), r, 2, 20000);
@@ -424,8 +424,8 @@ static void test_sup_counts_bad_reports_as_dropped(void)
 {
     /* id 0, radius 0 and radius < 0 are rejected and counted; the good one
      * (id 4, 2 m away) is detected. */
-    sup_obstacle_t r[4] = {obstacle(0, 1.0, 0.0, 0.1), obstacle(2, 1.0, 0.5, 0.0),
-                           obstacle(3, 1.0, -0.5, -0.1), obstacle(4, 2.0, 0.0, 0.1)};
+    sup_obstacle_t r[4] = { obstacle(0, 1.0, 0.0, 0.1), obstacle(2, 1.0, 0.5, 0.0),
+                            obstacle(3, 1.0, -0.5, -0.1), obstacle(4, 2.0, 0.0, 0.1) };
     step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 4, 50);
     TEST_ASSERT_EQUAL_UINT16(3, s.dropped);
     TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
@@ -443,9 +443,9 @@ static void test_sup_counts_bad_reports_as_dropped(void)
  * be built in fixed mode. */
 static void test_sup_drops_non_finite_reports(void)
 {
-    sup_obstacle_t r[5] = {obstacle(4, 2.0, 0.0, 0.1), obstacle(5, 1.0, 0.0, 0.1),
-                           obstacle(6, 1.0, 0.5, 0.1), obstacle(7, 1.0, -0.5, 0.1),
-                           obstacle(8, 1.5, 0.0, 0.1)};
+    sup_obstacle_t r[5] = { obstacle(4, 2.0, 0.0, 0.1), obstacle(5, 1.0, 0.0, 0.1),
+                            obstacle(6, 1.0, 0.5, 0.1), obstacle(7, 1.0, -0.5, 0.1),
+                            obstacle(8, 1.5, 0.0, 0.1) };
     r[1].x = num_from_float(NAN);
     r[2].y = num_from_float(INFINITY);
     r[3].radius = num_from_float(NAN);
@@ -493,8 +493,8 @@ static void test_sup_thresholds_move_out_with_the_obstacle_radius(void)
     /* sup.h: D_s and D_act move out by (R − R_ob). R = 0.3: +0.2 →
      * D_s 0.55, D_act 0.7. R = 0.05: −0.05 → D_s 0.30, D_act 0.45. R = 0.1:
      * unchanged. */
-    sup_obstacle_t r[3] = {obstacle(1, 3.0, 0.0, 0.3), obstacle(2, 0.0, 3.0, 0.05),
-                           obstacle(3, -3.0, 0.0, 0.1)};
+    sup_obstacle_t r[3] = { obstacle(1, 3.0, 0.0, 0.3), obstacle(2, 0.0, 3.0, 0.05),
+                            obstacle(3, -3.0, 0.0, 0.1) };
     step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, 3, 0);
     TEST_ASSERT_EQUAL_UINT8(3, s.n_obs);
     TEST_ASSERT_NUM_WITHIN(TOL_M, 0.55, s.obs[0].d_s);
@@ -591,7 +591,7 @@ static void test_sup_set_params_recomputes_thresholds_and_keeps_state(void)
      * obstacle 4 (radius 0.1) remembered. New thresholds D_act 0.6, D_s 0.4:
      * 9 → D_s 0.4 + 0.2 = 0.6, D_act 0.6 + 0.2 = 0.8; 4 → 0.4, 0.6. The
      * table, the avoidance and its side are kept (sup.h). */
-    sup_obstacle_t r[2] = {obstacle(9, 0.65, 0.0, 0.3), obstacle(4, 2.0, 2.0, 0.1)};
+    sup_obstacle_t r[2] = { obstacle(9, 0.65, 0.0, 0.3), obstacle(4, 2.0, 2.0, 0.1) };
     step(tu_pose(0.0, 0.0, 0.1), tu_pose(0.3, 0.3, 0.0), r, 2, 0);
     expect_avoiding(9, AVD_SIDE_LEFT); /* 0.65 < 0.7, φ = 0, θ = 0.1 → LEFT */
     sup_params_t p = s.p;

@@ -17,11 +17,11 @@
 /* e1, e2 [m] for position differences ≤ 4 m. float: eq. (1) rounds ~5 times
  * on values ≤ 4 (ulp/2 = 2.4e-7 each); fixed: sin/cos error ≤ 1e-4 times
  * |Δ| ≤ 4 m in each of two terms, plus Q16.16 rounding. */
-#define TOL_E12 TU_TOL(2e-6, 1e-3)
+#define TOL_E12      TU_TOL(2e-6, 1e-3)
 /* e3 [rad]: one subtraction and one wrap of angles ≤ 2π. float: ulp(2π)/2
  * = 2.4e-7 twice plus float(2π)'s error; fixed: Q16.16 2π off by ≤ 7.6e-6
  * and two roundings of 1.5e-5. */
-#define TOL_E3 TU_TOL(1e-6, 5e-5)
+#define TOL_E3       TU_TOL(1e-6, 5e-5)
 /* e3 for a heading given as θ + 3 turns (≈ 19 rad). float: ulp(19)/2 =
  * 9.5e-7 on the input, and the wrap's reduction of 3 turns; fixed: 3 turns of
  * the 2π error (2.3e-5) plus roundings. */
@@ -29,7 +29,7 @@
 /* v [m/s] and ω [rad/s] of eq. (2)-(3) for gains ≤ 12, speeds ≤ 2, errors
  * ≤ 0.5. float: ~8 roundings of values ≤ 4 (2.4e-7 each); fixed: cos/sin
  * error 1e-4 times k3·v_r ≤ 6, plus Q16.16 products (1.5e-5 each). */
-#define TOL_VW TU_TOL(3e-6, 1e-3)
+#define TOL_VW       TU_TOL(3e-6, 1e-3)
 
 void setUp(void) {}
 void tearDown(void) {}
@@ -165,8 +165,8 @@ static void test_trk_e3_of_opposite_headings_is_plus_pi(void)
 static void test_trk_control_zero_error_follows_the_reference(void)
 {
     /* e = 0: v = v_r·cos 0 + 0 = v_r, ω = ω_r + 0 + 0 = ω_r. */
-    trk_gains_t g = {tu_num(3.0), tu_num(12.0), tu_num(6.0)};
-    trk_err_t err = {NUM_ZERO, NUM_ZERO, NUM_ZERO};
+    trk_gains_t g = { tu_num(3.0), tu_num(12.0), tu_num(6.0) };
+    trk_err_t err = { NUM_ZERO, NUM_ZERO, NUM_ZERO };
     num_t v, w;
     trk_control(&g, &err, tu_num(0.48), tu_num(-0.3), &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.48, v);
@@ -175,25 +175,25 @@ static void test_trk_control_zero_error_follows_the_reference(void)
 
 static void test_trk_control_hand_values(void)
 {
-    trk_gains_t g = {tu_num(3.0), tu_num(12.0), tu_num(6.0)};
+    trk_gains_t g = { tu_num(3.0), tu_num(12.0), tu_num(6.0) };
     num_t v, w;
     /* e1 = 0.2, e2 = 0.1, e3 = 0, v_r = 1, ω_r = 0:
      * v = 1·1 + 3·0.2 = 1.6; ω = 0 + 12·1·0.1 + 6·1·0 = 1.2. */
-    trk_err_t err = {tu_num(0.2), tu_num(0.1), NUM_ZERO};
+    trk_err_t err = { tu_num(0.2), tu_num(0.1), NUM_ZERO };
     trk_control(&g, &err, tu_num(1.0), NUM_ZERO, &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 1.6, v);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 1.2, w);
 
     /* e3 = π/2 (cos 0, sin 1), e1 = e2 = 0, v_r = 0.5, ω_r = 0.2:
      * v = 0; ω = 0.2 + 0 + 6·0.5·1 = 3.2. */
-    err = (trk_err_t){NUM_ZERO, NUM_ZERO, tu_num(TU_PI / 2.0)};
+    err = (trk_err_t){ NUM_ZERO, NUM_ZERO, tu_num(TU_PI / 2.0) };
     trk_control(&g, &err, tu_num(0.5), tu_num(0.2), &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, v);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 3.2, w);
 
     /* v_r = ω_r = 0, e1 = 0.2, e2 = 0.1, e3 = 0.3: every ω term has a factor
      * v_r or is ω_r, so ω = 0; v = 0·cos 0.3 + 3·0.2 = 0.6. */
-    err = (trk_err_t){tu_num(0.2), tu_num(0.1), tu_num(0.3)};
+    err = (trk_err_t){ tu_num(0.2), tu_num(0.1), tu_num(0.3) };
     trk_control(&g, &err, NUM_ZERO, NUM_ZERO, &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.6, v);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, w);
@@ -204,8 +204,8 @@ static void test_trk_control_general_values(void)
     /* Table 1 gains; e1 = 0.1, e2 = −0.2, e3 = 0.3, v_r = 0.5, ω_r = 0.1.
      * v = 0.5 cos 0.3 + 0.3 = 0.7776682, ω = 0.1 − 1.2 + 3 sin 0.3 = −0.2134394
      * (eq. (2)-(3) in double below). */
-    trk_gains_t g = {tu_num(3.0), tu_num(12.0), tu_num(6.0)};
-    trk_err_t err = {tu_num(0.1), tu_num(-0.2), tu_num(0.3)};
+    trk_gains_t g = { tu_num(3.0), tu_num(12.0), tu_num(6.0) };
+    trk_err_t err = { tu_num(0.1), tu_num(-0.2), tu_num(0.3) };
     num_t v, w;
     trk_control(&g, &err, tu_num(0.5), tu_num(0.1), &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.5 * cos(tu_q(0.3)) + 3.0 * tu_q(0.1), v);
@@ -221,8 +221,8 @@ static void test_trk_control_uses_each_gain_in_its_place(void)
      * e3 = 0.5, v_r = 2, ω_r = −0.5:
      * v = 2 cos 0.5 + 1·0.1 = 1.8551651;
      * ω = −0.5 + 2·2·0.2 + 3·2·sin 0.5 = −0.5 + 0.8 + 2.8765534 = 3.1765534. */
-    trk_gains_t g = {tu_num(1.0), tu_num(2.0), tu_num(3.0)};
-    trk_err_t err = {tu_num(0.1), tu_num(0.2), tu_num(0.5)};
+    trk_gains_t g = { tu_num(1.0), tu_num(2.0), tu_num(3.0) };
+    trk_err_t err = { tu_num(0.1), tu_num(0.2), tu_num(0.5) };
     num_t v, w;
     trk_control(&g, &err, tu_num(2.0), tu_num(-0.5), &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 2.0 * cos(0.5) + tu_q(0.1), v);
@@ -238,14 +238,13 @@ static void test_trk_control_reverse_reference(void)
      * v = −0.4 cos(−0.2) − 0.3 = −0.6920266;
      * ω = 0.25 + 12(−0.4)(0.05) + 6(−0.4) sin(−0.2) = 0.25 − 0.24 + 0.4768064
      *   = 0.4868064. */
-    trk_gains_t g = {tu_num(3.0), tu_num(12.0), tu_num(6.0)};
-    trk_err_t err = {tu_num(-0.1), tu_num(0.05), tu_num(-0.2)};
+    trk_gains_t g = { tu_num(3.0), tu_num(12.0), tu_num(6.0) };
+    trk_err_t err = { tu_num(-0.1), tu_num(0.05), tu_num(-0.2) };
     num_t v, w;
     trk_control(&g, &err, tu_num(-0.4), tu_num(0.25), &v, &w);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, -0.4 * cos(tu_q(-0.2)) + 3.0 * tu_q(-0.1), v);
-    TEST_ASSERT_NUM_WITHIN(TOL_VW,
-                           0.25 + 12.0 * tu_q(-0.4) * tu_q(0.05) + 6.0 * tu_q(-0.4) * sin(tu_q(-0.2)),
-                           w);
+    TEST_ASSERT_NUM_WITHIN(
+        TOL_VW, 0.25 + 12.0 * tu_q(-0.4) * tu_q(0.05) + 6.0 * tu_q(-0.4) * sin(tu_q(-0.2)), w);
     TEST_ASSERT_DOUBLE_WITHIN(1e-6, -0.6920266, -0.4 * cos(-0.2) - 0.3);
     TEST_ASSERT_DOUBLE_WITHIN(1e-6, 0.4868064, 0.25 - 0.24 - 2.4 * sin(-0.2));
 }

@@ -14,6 +14,7 @@
 #ifndef MSTC_TEST_UTIL_H
 #define MSTC_TEST_UTIL_H
 
+#include <fenv.h>
 #include <math.h>
 #include <stdint.h>
 
@@ -21,8 +22,27 @@
 #include "num/num.h"
 #include "unity.h"
 
+/* glibc's feenableexcept() is a GNU extension, hidden by the -std=c11 the
+ * tests build with; declared here rather than defining _GNU_SOURCE for every
+ * file that includes this header. */
+extern int feenableexcept(int excepts);
+extern int fedisableexcept(int excepts);
+
+/**
+ * @brief Trap the floating-point exceptions that mean a computation went
+ *        wrong (invalid operation, division by zero, overflow), before main()
+ *        runs, in every test binary that includes this header: the firmware
+ *        must never raise them (docs/safety.md). A trapped one ends the test
+ *        binary with SIGFPE, which tools/run-unit-tests reports as a failure.
+ *        Underflow and inexact are normal and stay untrapped.
+ */
+__attribute__((constructor, used)) static void tu_trap_fp_exceptions(void)
+{
+    (void)feenableexcept(FE_INVALID | FE_DIVBYZERO | FE_OVERFLOW);
+}
+
 /** @brief π and 2π in double, for the tests' own reference computations. */
-#define TU_PI 3.14159265358979323846
+#define TU_PI     3.14159265358979323846
 #define TU_TWO_PI 6.28318530717958647692
 
 /** @brief A tolerance with one value per numeric mode. */
@@ -69,9 +89,9 @@ static inline double tu_wrap(double a)
  * @brief Assert that num_t @p actual equals double @p expected within @p tol.
  *        A NaN or infinite @p actual always fails.
  */
-#define TEST_ASSERT_NUM_WITHIN(tol, expected, actual)                                    \
+#define TEST_ASSERT_NUM_WITHIN(tol, expected, actual)                                              \
     TEST_ASSERT_DOUBLE_WITHIN((double)(tol), (double)(expected), tu_dbl(actual))
-#define TEST_ASSERT_NUM_WITHIN_MESSAGE(tol, expected, actual, msg)                       \
+#define TEST_ASSERT_NUM_WITHIN_MESSAGE(tol, expected, actual, msg)                                 \
     TEST_ASSERT_DOUBLE_WITHIN_MESSAGE((double)(tol), (double)(expected), tu_dbl(actual), (msg))
 
 /**
@@ -79,16 +99,16 @@ static inline double tu_wrap(double a)
  *        modulo 2π within @p tol: for results that may legitimately come out
  *        as π or -π (the seam), or that any multiple of 2π would satisfy.
  */
-#define TEST_ASSERT_ANGLE_WITHIN(tol, expected, actual)                                  \
+#define TEST_ASSERT_ANGLE_WITHIN(tol, expected, actual)                                            \
     TEST_ASSERT_DOUBLE_WITHIN((double)(tol), 0.0, tu_wrap(tu_dbl(actual) - (double)(expected)))
-#define TEST_ASSERT_ANGLE_WITHIN_MESSAGE(tol, expected, actual, msg)                     \
-    TEST_ASSERT_DOUBLE_WITHIN_MESSAGE((double)(tol), 0.0,                                \
+#define TEST_ASSERT_ANGLE_WITHIN_MESSAGE(tol, expected, actual, msg)                               \
+    TEST_ASSERT_DOUBLE_WITHIN_MESSAGE((double)(tol), 0.0,                                          \
                                       tu_wrap(tu_dbl(actual) - (double)(expected)), (msg))
 
 /** @brief Assert that angle @p a (num_t) lies in (-π, π] as num.h defines it. */
-#define TEST_ASSERT_NUM_ANGLE_IN_RANGE(a)                                                \
+#define TEST_ASSERT_NUM_ANGLE_IN_RANGE(a)                                                          \
     TEST_ASSERT_TRUE_MESSAGE((a) > num_neg(NUM_PI) && (a) <= NUM_PI, "angle outside (-pi, pi]")
-#define TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(a, msg)                                   \
+#define TEST_ASSERT_NUM_ANGLE_IN_RANGE_MESSAGE(a, msg)                                             \
     TEST_ASSERT_TRUE_MESSAGE((a) > num_neg(NUM_PI) && (a) <= NUM_PI, (msg))
 
 #endif /* MSTC_TEST_UTIL_H */

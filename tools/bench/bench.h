@@ -18,9 +18,9 @@
 
 #include "ctrl/ctl.h"
 
-#define BENCH_MAX_OBS 4u
+#define BENCH_MAX_OBS      4u
 #define BENCH_MAX_EXPECTED 8u
-#define BENCH_MAX_EVENTS 16u
+#define BENCH_MAX_EVENTS   16u
 
 /** @brief A scenario (sim/scenarios/<name>.toml). */
 typedef struct {
@@ -40,10 +40,10 @@ typedef struct {
 
 /** @brief One recorded control step. */
 typedef struct {
-    ctl_input_t in;                    /**< in.obstacles points into obs */
+    ctl_input_t in; /**< in.obstacles points into obs */
     sup_obstacle_t obs[BENCH_MAX_OBS];
-    kin_wheels_t wheels;               /**< what ctl_step answered when recorded */
-    uint8_t mode;                      /**< sup_mode_t it ran in */
+    kin_wheels_t wheels; /**< what ctl_step answered when recorded */
+    uint8_t mode;        /**< sup_mode_t it ran in */
 } bench_step_t;
 
 /** @brief What a closed-loop run produced. */

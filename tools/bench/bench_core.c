@@ -95,15 +95,15 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
             const double d = hypot(s->obs[i][0] - x, s->obs[i][1] - y);
             run->min_distance[i] = fmin(run->min_distance[i], d);
             if (d <= d_det) {
-                st->obs[m++] = (sup_obstacle_t){.id = (uint8_t)(i + 1u),
-                                                .x = bench_num(s->obs[i][0]),
-                                                .y = bench_num(s->obs[i][1]),
-                                                .radius = bench_num(s->obs[i][2])};
+                st->obs[m++] = (sup_obstacle_t){ .id = (uint8_t)(i + 1u),
+                                                 .x = bench_num(s->obs[i][0]),
+                                                 .y = bench_num(s->obs[i][1]),
+                                                 .radius = bench_num(s->obs[i][2]) };
             }
         }
         st->in = (ctl_input_t){
-            .robot = {bench_num(x), bench_num(y), bench_num(th)},
-            .ref = {bench_num(xr), bench_num(yr), bench_num(thr)},
+            .robot = { bench_num(x), bench_num(y), bench_num(th) },
+            .ref = { bench_num(xr), bench_num(yr), bench_num(thr) },
             .v_r = bench_num(s->v_r),
             .w_r = bench_num(s->w_r),
             .obstacles = st->obs,
@@ -174,8 +174,8 @@ size_t bench_verify(const bench_step_t *steps, size_t n)
     size_t differ = 0;
     for (size_t k = 0; k < n; k++) {
         ctl_step(&c, &steps[k].in, &out);
-        differ += out.wheels.left != steps[k].wheels.left ||
-                  out.wheels.right != steps[k].wheels.right;
+        differ +=
+            out.wheels.left != steps[k].wheels.left || out.wheels.right != steps[k].wheels.right;
     }
     return differ;
 }
@@ -193,8 +193,8 @@ uint32_t bench_checksum(const bench_step_t *steps, size_t n)
 {
     uint32_t h = 2166136261u;
     for (size_t k = 0; k < n; k++) {
-        const num_t v[5] = {steps[k].in.robot.x, steps[k].in.robot.y, steps[k].in.robot.theta,
-                            steps[k].wheels.left, steps[k].wheels.right};
+        const num_t v[5] = { steps[k].in.robot.x, steps[k].in.robot.y, steps[k].in.robot.theta,
+                             steps[k].wheels.left, steps[k].wheels.right };
         uint32_t bits[5];
         _Static_assert(sizeof v == sizeof bits, "num_t is 32 bits in both modes");
         memcpy(bits, v, sizeof bits);

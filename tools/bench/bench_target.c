@@ -93,30 +93,30 @@ static void fill(double a_lo, double a_hi, double b_lo, double b_hi, int b_any_s
 
 /* Instructions per evaluation of EXPR (over a and b), less the loop's own
  * (the same loop storing a). */
-#define PRIM(NAME, DOMAIN, EXPR)                                                       \
-    do {                                                                               \
-        uint64_t t_op = 0;                                                             \
-        uint64_t t_base = 0;                                                           \
-        for (unsigned rep = 0; rep < N_REPS; rep++) {                                  \
-            uint64_t t0 = ticks();                                                     \
-            for (unsigned i = 0; i < N_ARGS; i++) {                                    \
-                const num_t a = arg_a[i];                                              \
-                const num_t b = arg_b[i];                                              \
-                (void)b;                                                               \
-                sink = (EXPR);                                                         \
-            }                                                                          \
-            t_op += ticks() - t0;                                                      \
-            t0 = ticks();                                                              \
-            for (unsigned i = 0; i < N_ARGS; i++) {                                    \
-                const num_t a = arg_a[i];                                              \
-                const num_t b = arg_b[i];                                              \
-                (void)b;                                                               \
-                sink = a;                                                              \
-            }                                                                          \
-            t_base += ticks() - t0;                                                    \
-        }                                                                              \
-        printf("prim %s %.1f %s\n", NAME,                                              \
-               ((double)t_op - (double)t_base) * ips / (double)(N_ARGS * N_REPS), DOMAIN); \
+#define PRIM(NAME, DOMAIN, EXPR)                                                                   \
+    do {                                                                                           \
+        uint64_t t_op = 0;                                                                         \
+        uint64_t t_base = 0;                                                                       \
+        for (unsigned rep = 0; rep < N_REPS; rep++) {                                              \
+            uint64_t t0 = ticks();                                                                 \
+            for (unsigned i = 0; i < N_ARGS; i++) {                                                \
+                const num_t a = arg_a[i];                                                          \
+                const num_t b = arg_b[i];                                                          \
+                (void)b;                                                                           \
+                sink = (EXPR);                                                                     \
+            }                                                                                      \
+            t_op += ticks() - t0;                                                                  \
+            t0 = ticks();                                                                          \
+            for (unsigned i = 0; i < N_ARGS; i++) {                                                \
+                const num_t a = arg_a[i];                                                          \
+                const num_t b = arg_b[i];                                                          \
+                (void)b;                                                                           \
+                sink = a;                                                                          \
+            }                                                                                      \
+            t_base += ticks() - t0;                                                                \
+        }                                                                                          \
+        printf("prim %s %.1f %s\n", NAME,                                                          \
+               ((double)t_op - (double)t_base) * ips / (double)(N_ARGS * N_REPS), DOMAIN);         \
     } while (0)
 
 static void primitives(void)
@@ -171,8 +171,8 @@ int main(void)
         count[s] = run.n_steps;
         total += run.n_steps;
         const size_t differ = bench_verify(&steps[offset[s]], count[s]);
-        printf("scenario %s steps %u events_match %d replay_differs %u min_distance", bench_scenarios[s].name,
-               (unsigned)run.n_steps, run.events_match, (unsigned)differ);
+        printf("scenario %s steps %u events_match %d replay_differs %u min_distance",
+               bench_scenarios[s].name, (unsigned)run.n_steps, run.events_match, (unsigned)differ);
         for (unsigned i = 0; i < bench_scenarios[s].n_obs; i++) {
             printf(" %.4f", run.min_distance[i]);
         }
@@ -197,14 +197,14 @@ int main(void)
     printf("instr_per_step %.1f\n", ((double)t_step - (double)t_empty) * ips / (double)total);
 
     /* Step by step, by mode (each figure ±1 tick = ±40 instructions). */
-    uint64_t sum[3] = {0}, cnt[3] = {0}, max[3] = {0};
-    uint64_t esum[3] = {0}, ecnt[3] = {0}, emax[3] = {0};
+    uint64_t sum[3] = { 0 }, cnt[3] = { 0 }, max[3] = { 0 };
+    uint64_t esum[3] = { 0 }, ecnt[3] = { 0 }, emax[3] = { 0 };
     for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
         bench_replay_each(&steps[offset[s]], count[s], bench_ctl_step, ticks, sum, cnt, max);
         bench_replay_each(&steps[offset[s]], count[s], bench_empty_step, ticks, esum, ecnt, emax);
     }
     const double base = (double)(esum[0] + esum[1] + esum[2]) / (double)total;
-    static const char *const names[3] = {"track", "avoid", "stop"};
+    static const char *const names[3] = { "track", "avoid", "stop" };
     for (unsigned m = 0; m < 3u; m++) {
         if (cnt[m] == 0u) {
             continue;

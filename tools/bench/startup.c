@@ -16,7 +16,8 @@ void Fault_Handler(void)
 {
     __asm volatile("mov r0, #0x18\n\t"
                    "ldr r1, =0x20023\n\t"
-                   "bkpt 0xab" ::: "r0", "r1", "memory");
+                   "bkpt 0xab" ::
+                       : "r0", "r1", "memory");
     for (;;) {
     }
 }
@@ -34,17 +35,20 @@ void Reset_Handler(void)
 }
 
 __attribute__((section(".vectors"), used)) static const uintptr_t vectors[16] = {
-    (uintptr_t)&__stack_top,   /* initial SP */
-    (uintptr_t)Reset_Handler,  /* reset */
-    (uintptr_t)Fault_Handler,  /* NMI */
-    (uintptr_t)Fault_Handler,  /* HardFault */
-    (uintptr_t)Fault_Handler,  /* MemManage */
-    (uintptr_t)Fault_Handler,  /* BusFault */
-    (uintptr_t)Fault_Handler,  /* UsageFault */
-    0, 0, 0, 0,
-    (uintptr_t)Fault_Handler,  /* SVCall */
-    (uintptr_t)Fault_Handler,  /* DebugMonitor */
+    (uintptr_t)&__stack_top,  /* initial SP */
+    (uintptr_t)Reset_Handler, /* reset */
+    (uintptr_t)Fault_Handler, /* NMI */
+    (uintptr_t)Fault_Handler, /* HardFault */
+    (uintptr_t)Fault_Handler, /* MemManage */
+    (uintptr_t)Fault_Handler, /* BusFault */
+    (uintptr_t)Fault_Handler, /* UsageFault */
     0,
-    (uintptr_t)Fault_Handler,  /* PendSV */
-    (uintptr_t)Fault_Handler,  /* SysTick (its interrupt stays disabled) */
+    0,
+    0,
+    0,
+    (uintptr_t)Fault_Handler, /* SVCall */
+    (uintptr_t)Fault_Handler, /* DebugMonitor */
+    0,
+    (uintptr_t)Fault_Handler, /* PendSV */
+    (uintptr_t)Fault_Handler, /* SysTick (its interrupt stays disabled) */
 };

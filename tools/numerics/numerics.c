@@ -27,8 +27,8 @@
 #include "fix16.h"
 #pragma GCC diagnostic pop
 
-#define LSB (1.0 / 65536.0)
-#define PI 3.14159265358979323846
+#define LSB    (1.0 / 65536.0)
+#define PI     3.14159265358979323846
 #define TWO_PI 6.28318530717958647692
 
 /* ------------------------------------------------------------- sampling */
@@ -211,8 +211,9 @@ static void measure_trig(const char *name, fn1_t ours, fix1_t theirs, double (*r
     stat_t *s = row(name, "num_fixed.c (reduction mod π/2, polynomial in Q2.30)",
                     "every code in [-4π, 4π]", "");
     /* "sin" / "cos": the comparison rows are not num_sin / num_cos. */
-    stat_t *l = row(name + 4, theirs == fix_sin ? "libfixmath fix16_sin (not used)"
-                                                : "libfixmath fix16_cos (not used)",
+    stat_t *l = row(name + 4,
+                    theirs == fix_sin ? "libfixmath fix16_sin (not used)"
+                                      : "libfixmath fix16_cos (not used)",
                     "the same", "");
     stat_t *f = row(name + 4, "float mode: sinf/cosf (reference)", "the same", "");
     stat_t *w = row(name, "num_fixed.c", "random codes over the whole range ±32768", "");
@@ -272,8 +273,8 @@ static void measure_wrap(void)
                     "error modulo 2π against the exact value; checked: every result in "
                     "(−NUM_PI, NUM_PI], identity there; the largest errors are at the seam, "
                     "where −NUM_PI is returned as NUM_PI");
-    stat_t *v = row("num_wrap", "num_fixed.c", "the same, results other than NUM_PI",
-                    "away from the seam");
+    stat_t *v =
+        row("num_wrap", "num_fixed.c", "the same, results other than NUM_PI", "away from the seam");
     stat_t *w = row("num_wrap", "num_fixed.c", "random codes over the whole range ±32768",
                     "error modulo 2π");
     unsigned bad_range = 0;
@@ -302,7 +303,8 @@ static void measure_wrap(void)
         stat_add(w, angle_diff(val(r), val(a)), val(a), 0.0);
     }
     if (bad_range != 0u || bad_identity != 0u) {
-        fprintf(stderr, "numerics: num_wrap: %u results out of (-NUM_PI, NUM_PI], %u not identity\n",
+        fprintf(stderr,
+                "numerics: num_wrap: %u results out of (-NUM_PI, NUM_PI], %u not identity\n",
                 bad_range, bad_identity);
         exit(1);
     }
@@ -312,8 +314,7 @@ static void measure_conversions(void)
 {
     stat_t *s = row("num_from_float", "num_fixed.h", "floats uniform in [-32768, 32767]",
                     "round to nearest");
-    stat_t *t = row("num_to_float", "num_fixed.h", "every code in [-256, 256]",
-                    "exact below 256");
+    stat_t *t = row("num_to_float", "num_fixed.h", "every code in [-256, 256]", "exact below 256");
     stat_t *u = row("num_to_float", "num_fixed.h", "random codes over the whole range",
                     "rounded to float's 24 bits");
     stat_t *v = row("num_from_int", "num_fixed.h", "every integer in [-32768, 32767]", "exact");
@@ -342,31 +343,32 @@ static void saturation_checks(void)
         const char *what;
         num_t got, want;
     } c[] = {
-        {"num_add(NUM_MAX, 1 LSB)", num_add(NUM_MAX, 1), NUM_MAX},
-        {"num_add(NUM_MIN, −1 LSB)", num_add(NUM_MIN, -1), NUM_MIN},
-        {"num_sub(NUM_MIN, 1 LSB)", num_sub(NUM_MIN, 1), NUM_MIN},
-        {"num_sub(NUM_MAX, −1 LSB)", num_sub(NUM_MAX, -1), NUM_MAX},
-        {"num_neg(NUM_MIN)", num_neg(NUM_MIN), NUM_MAX},
-        {"num_abs(NUM_MIN)", num_abs(NUM_MIN), NUM_MAX},
-        {"num_mul(200, 200)", num_mul(NUM_C(200), NUM_C(200)), NUM_MAX},
-        {"num_mul(−200, 200)", num_mul(NUM_C(-200), NUM_C(200)), NUM_MIN},
-        {"num_div(1000, 0.001)", num_div(NUM_C(1000), NUM_C(0.001)), NUM_MAX},
-        {"num_div(1, 0)", num_div(NUM_ONE, NUM_ZERO), NUM_MAX},
-        {"num_div(−1, 0)", num_div(-NUM_ONE, NUM_ZERO), NUM_MIN},
-        {"num_hypot(NUM_MIN, NUM_MIN)", num_hypot(NUM_MIN, NUM_MIN), NUM_MAX},
-        {"num_hypot(30000, 30000)", num_hypot(NUM_C(30000), NUM_C(30000)), NUM_MAX},
-        {"num_sqrt(−1)", num_sqrt(-NUM_ONE), NUM_ZERO},
-        {"num_from_float(1e9)", num_from_float(1e9f), NUM_MAX},
-        {"num_from_float(−1e9)", num_from_float(-1e9f), NUM_MIN},
-        {"num_from_int(40000)", num_from_int(40000), NUM_MAX},
-        {"num_wrap(NUM_PI)", num_wrap(NUM_PI), NUM_PI},
-        {"num_wrap(−NUM_PI)", num_wrap(-NUM_PI), NUM_PI},
-        {"num_wrap(NUM_PI + 1 LSB)", num_wrap(NUM_PI + 1), NUM_PI},
-        {"num_wrap(NUM_PI + 2 LSB)", num_wrap(NUM_PI + 2), -NUM_PI + 1},
-        {"num_wrap(NUM_TWO_PI)", num_wrap(NUM_TWO_PI), NUM_ZERO},
-        {"num_wrap(NUM_MIN)", num_wrap(NUM_MIN), NUM_C(-32768.0 + 5215.0 * 6.28318530717958647692)},
-        {"num_atan2(0, −1)", num_atan2(NUM_ZERO, -NUM_ONE), NUM_PI},
-        {"num_atan2(0, 0)", num_atan2(NUM_ZERO, NUM_ZERO), NUM_ZERO},
+        { "num_add(NUM_MAX, 1 LSB)", num_add(NUM_MAX, 1), NUM_MAX },
+        { "num_add(NUM_MIN, −1 LSB)", num_add(NUM_MIN, -1), NUM_MIN },
+        { "num_sub(NUM_MIN, 1 LSB)", num_sub(NUM_MIN, 1), NUM_MIN },
+        { "num_sub(NUM_MAX, −1 LSB)", num_sub(NUM_MAX, -1), NUM_MAX },
+        { "num_neg(NUM_MIN)", num_neg(NUM_MIN), NUM_MAX },
+        { "num_abs(NUM_MIN)", num_abs(NUM_MIN), NUM_MAX },
+        { "num_mul(200, 200)", num_mul(NUM_C(200), NUM_C(200)), NUM_MAX },
+        { "num_mul(−200, 200)", num_mul(NUM_C(-200), NUM_C(200)), NUM_MIN },
+        { "num_div(1000, 0.001)", num_div(NUM_C(1000), NUM_C(0.001)), NUM_MAX },
+        { "num_div(1, 0)", num_div(NUM_ONE, NUM_ZERO), NUM_MAX },
+        { "num_div(−1, 0)", num_div(-NUM_ONE, NUM_ZERO), NUM_MIN },
+        { "num_hypot(NUM_MIN, NUM_MIN)", num_hypot(NUM_MIN, NUM_MIN), NUM_MAX },
+        { "num_hypot(30000, 30000)", num_hypot(NUM_C(30000), NUM_C(30000)), NUM_MAX },
+        { "num_sqrt(−1)", num_sqrt(-NUM_ONE), NUM_ZERO },
+        { "num_from_float(1e9)", num_from_float(1e9f), NUM_MAX },
+        { "num_from_float(−1e9)", num_from_float(-1e9f), NUM_MIN },
+        { "num_from_int(40000)", num_from_int(40000), NUM_MAX },
+        { "num_wrap(NUM_PI)", num_wrap(NUM_PI), NUM_PI },
+        { "num_wrap(−NUM_PI)", num_wrap(-NUM_PI), NUM_PI },
+        { "num_wrap(NUM_PI + 1 LSB)", num_wrap(NUM_PI + 1), NUM_PI },
+        { "num_wrap(NUM_PI + 2 LSB)", num_wrap(NUM_PI + 2), -NUM_PI + 1 },
+        { "num_wrap(NUM_TWO_PI)", num_wrap(NUM_TWO_PI), NUM_ZERO },
+        { "num_wrap(NUM_MIN)", num_wrap(NUM_MIN),
+          NUM_C(-32768.0 + 5215.0 * 6.28318530717958647692) },
+        { "num_atan2(0, −1)", num_atan2(NUM_ZERO, -NUM_ONE), NUM_PI },
+        { "num_atan2(0, 0)", num_atan2(NUM_ZERO, NUM_ZERO), NUM_ZERO },
     };
     unsigned failed = 0;
     printf("## Saturation and edge cases (exact)\n\n");

@@ -12,7 +12,7 @@
 #include <stdint.h>
 
 /** @brief Largest classic CAN payload. */
-#define HAL_CAN_MAX_DLC 8u
+#define HAL_CAN_MAX_DLC    8u
 /** @brief Largest 11-bit identifier. */
 #define HAL_CAN_MAX_STD_ID 0x7FFu
 

@@ -1,0 +1,78 @@
+/*
+ * libFuzzer harness: arbitrary traffic into the application (docs/safety.md):
+ * frames through comm_decode() and app_on_frame() (the E2E receiver and the
+ * safety supervisor), control ticks in real-time mode, STEP frames in
+ * lock-step, and the CAN controller's state, in any order.
+ *
+ * Input: records of 12 bytes, [op, id, dlc, b0..b7, arg].
+ *   op & 3  0 raw frame: identifier from id (a protocol frame for id < 0xF0,
+ *           else 0x100 + id), DLC dlc & 15, bytes b0..b7 as given;
+ *           1 the same with alive counter and CRC made right (so the fuzzer
+ *           reaches past the E2E checks);
+ *           2 a real-time control tick, arg·1 ms after the previous time;
+ *           3 the bus: state (arg % 5) and bus-off count += (b0 & 1), or
+ *             hal_can_status() -ENOTSUP when arg is 0xFF.
+ * After every record: the wheel speeds are finite and within
+ * ±max_wheel_speed, and the application is either running or halted with a
+ * reason; otherwise abort() (a finding).
+ */
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "app/app.h"
+#include "hal_fake.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static const uint32_t ids[] = {
+    COMM_ID_ODOM_XY,   COMM_ID_ODOM_THETA, COMM_ID_REF_XY,          COMM_ID_REF_MOTION,
+    COMM_ID_STEP,      COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,       COMM_ID_PARAM_GET,
+    COMM_ID_WHEEL_CMD, COMM_ID_STATUS,     COMM_ID_STATUS_COUNTERS, COMM_ID_HEARTBEAT,
+};
+
+static app_t app;
+static uint8_t counters[16];
+
+static bool wheel_ok(num_t w, num_t max) { return num_is_finite(w) && num_abs(w) <= max; }
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    hal_fake_reset();
+    memset(counters, 0, sizeof counters);
+    (void)app_init(&app, NULL);
+    uint64_t now = 0;
+    for (size_t at = 0; at + 12u <= size; at += 12u) {
+        const uint8_t *r = &data[at];
+        const uint8_t op = r[0] & 3u;
+        hal_fake.n_sent = 0; /* the fake keeps the first 128 only */
+        if (op <= 1u) {
+            const size_t k = r[1] % (sizeof ids / sizeof ids[0] + 1u);
+            hal_can_frame_t f = { .id = k < sizeof ids / sizeof ids[0] ? ids[k] : 0x100u + r[1],
+                                  .dlc = (uint8_t)(r[2] & 15u) };
+            memcpy(f.data, &r[3], 8);
+            uint16_t did;
+            if (op == 1u && comm_data_id(f.id, &did) == 0) {
+                f.data[1] = (uint8_t)((f.data[1] & 0xF0u) | (counters[k & 15u]++ & 0x0Fu));
+                uint8_t buf[9] = { (uint8_t)(did & 0xFFu), (uint8_t)(did >> 8) };
+                memcpy(&buf[2], &f.data[1], 7);
+                f.data[0] = comm_crc8h2f(buf, sizeof buf);
+            }
+            (void)app_on_frame(&app, &f);
+        } else if (op == 2u) {
+            now += (uint64_t)r[11] * 1000u;
+            app_control_tick(&app, now);
+        } else {
+            hal_fake.can_status_rc = r[11] == 0xFFu ? -95 /* -ENOTSUP */ : 0;
+            hal_fake.can_status.state = (hal_can_state_t)(r[11] % 5u);
+            hal_fake.can_status.bus_off += r[3] & 1u;
+        }
+        const kin_wheels_t *w = app_last_wheels(&app);
+        const num_t max = app.ctl.p.kin.max_wheel_speed;
+        if (!wheel_ok(w->left, max) || !wheel_ok(w->right, max) || app.halt > COMM_HALT_BUS_OFF) {
+            abort();
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,127 @@
+/**
+ * @file test_frames.h
+ * @brief Frames as a sender builds them, for the E2E and safety tests: the
+ *        payload packed by the generated codec (checked bit-exact against
+ *        cantools by tests/python/test_codec.py), then the alive counter and
+ *        a CRC-8H2F computed here from its definition, independently of
+ *        comm.c (test_comm.c checks both against AUTOSAR's vectors).
+ */
+#ifndef MSTC_TEST_FRAMES_H
+#define MSTC_TEST_FRAMES_H
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "comm/comm.h"
+#include "comm/mstc_dbc.h"
+#include "hal/hal_can.h"
+
+/** @brief Next alive counter per identifier (a sender's). */
+static uint8_t tf_counters[0x800];
+
+/** @brief CRC-8H2F from its definition: MSB first, poly 0x2F, init and xorout 0xFF. */
+static inline uint8_t tf_crc(const uint8_t *d, size_t n)
+{
+    unsigned crc = 0xFFu;
+    for (size_t i = 0; i < n; i++) {
+        for (int bit = 7; bit >= 0; bit--) {
+            const unsigned in = ((unsigned)d[i] >> bit) & 1u;
+            const unsigned top = (crc >> 7) & 1u;
+            crc = (crc << 1) & 0xFFu;
+            if ((top ^ in) != 0u) {
+                crc ^= 0x2Fu;
+            }
+        }
+    }
+    return (uint8_t)(crc ^ 0xFFu);
+}
+
+/** @brief The E2E CRC byte of a payload under @p id: data ID 0x1000 + id (the DBC). */
+static inline uint8_t tf_frame_crc(uint32_t id, const uint8_t data[8])
+{
+    const uint16_t did = (uint16_t)(0x1000u + id);
+    uint8_t buf[9] = { (uint8_t)(did & 0xFFu), (uint8_t)(did >> 8) };
+    memcpy(&buf[2], &data[1], 7);
+    return tf_crc(buf, sizeof buf);
+}
+
+/** @brief A frame with alive counter @p counter and a correct CRC. */
+static inline hal_can_frame_t tf_seal_with(uint32_t id, const uint8_t payload[8], uint8_t counter)
+{
+    hal_can_frame_t f = { .id = id, .dlc = 8 };
+    memcpy(f.data, payload, 8);
+    f.data[1] = (uint8_t)((f.data[1] & 0xF0u) | (counter & 0x0Fu));
+    f.data[0] = tf_frame_crc(id, f.data);
+    return f;
+}
+
+/** @brief A frame with the identifier's next alive counter. */
+static inline hal_can_frame_t tf_seal(uint32_t id, const uint8_t payload[8])
+{
+    const uint8_t counter = tf_counters[id & 0x7FFu];
+    tf_counters[id & 0x7FFu] = (uint8_t)((counter + 1u) & 0x0Fu);
+    return tf_seal_with(id, payload, counter);
+}
+
+static inline hal_can_frame_t tf_odom_xy(double x, double y)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_odom_xy_t s = { .odom_xy_x = (int32_t)lround(x * 65536.0),
+                                          .odom_xy_y = (int32_t)lround(y * 65536.0) };
+    (void)mstc_dbc_odom_xy_pack(p, &s, 8);
+    return tf_seal(COMM_ID_ODOM_XY, p);
+}
+
+static inline hal_can_frame_t tf_odom_theta(double theta)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_odom_theta_t s = { .odom_theta_theta = (int32_t)lround(theta * 65536.0) };
+    (void)mstc_dbc_odom_theta_pack(p, &s, 8);
+    return tf_seal(COMM_ID_ODOM_THETA, p);
+}
+
+static inline hal_can_frame_t tf_ref_xy(double x, double y)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_ref_xy_t s = { .ref_xy_x = (int32_t)lround(x * 65536.0),
+                                         .ref_xy_y = (int32_t)lround(y * 65536.0) };
+    (void)mstc_dbc_ref_xy_pack(p, &s, 8);
+    return tf_seal(COMM_ID_REF_XY, p);
+}
+
+static inline hal_can_frame_t tf_ref_motion(double theta, double v, double w)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_ref_motion_t s = { .ref_motion_theta = (int32_t)lround(theta * 32768.0),
+                                             .ref_motion_v = (int32_t)lround(v * 4096.0),
+                                             .ref_motion_w = (int32_t)lround(w * 4096.0) };
+    (void)mstc_dbc_ref_motion_pack(p, &s, 8);
+    return tf_seal(COMM_ID_REF_MOTION, p);
+}
+
+static inline hal_can_frame_t tf_step(uint16_t step, uint32_t time_us)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_step_t s = { .step_step = step, .step_time = time_us };
+    (void)mstc_dbc_step_pack(p, &s, 8);
+    return tf_seal(COMM_ID_STEP, p);
+}
+
+static inline hal_can_frame_t tf_param_set(uint8_t index, float value)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_param_set_t s = { .param_set_index = index, .param_set_value = value };
+    (void)mstc_dbc_param_set_pack(p, &s, 8);
+    return tf_seal(COMM_ID_PARAM_SET, p);
+}
+
+static inline hal_can_frame_t tf_param_get(uint8_t index)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_param_get_t s = { .param_get_index = index };
+    (void)mstc_dbc_param_get_pack(p, &s, 8);
+    return tf_seal(COMM_ID_PARAM_GET, p);
+}
+
+#endif /* MSTC_TEST_FRAMES_H */
