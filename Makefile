@@ -61,7 +61,7 @@ deps/vm-kernel/.stamp: tools/vm/fetch-kernel $(STAMP)/apt-hil
 	@tools/vm/fetch-kernel
 	@touch $@
 deps-hil: deps-sim $(STAMP)/apt-hil deps/vm-kernel/.stamp
-deps-test: $(STAMP)/apt-test deps-sim deps-hil deps/unity/.sha256
+deps-test: $(STAMP)/apt-test deps-sim deps-hil deps/unity/.sha256 deps/libfixmath/.sha256
 
 # ------------------------------------------------------------ host libraries
 FW_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(FW_SRCS) $(NUM_SRCS))

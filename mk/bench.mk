@@ -79,3 +79,7 @@ bench: $(BENCH_RESULTS) $(BENCH_CAN) | .venv/.requirements.sha256  ## instructio
 	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)
 	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
 	@$(MAKE) --no-print-directory replay-bench
+	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt
+	@$(PY) tools/bench/report.py --doc docs/performance.md \
+	  --text "boards:Board images: flash, RAM and stack against the budgets (make firmware-budget)" \
+	  < $(BENCH_DIR)/boards.txt

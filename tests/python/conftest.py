@@ -2,6 +2,8 @@
 
 import math
 import os
+import shutil
+import subprocess
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -15,6 +17,37 @@ SCENARIOS = ROOT / "sim" / "scenarios"
 # `make test-python` sets PYTHONPATH=sim; this lets a bare `pytest` work too.
 if str(ROOT / "sim") not in sys.path:
     sys.path.insert(0, str(ROOT / "sim"))
+
+
+FIRMWARE_CFLAGS = [
+    "-std=c11",
+    "-D_DEFAULT_SOURCE",
+    "-O2",
+    "-Wall",
+    "-Wextra",
+    "-Wconversion",
+    "-Wdouble-promotion",
+    "-Wshadow",
+    "-Wstrict-prototypes",
+    "-Wmissing-prototypes",
+    "-Wundef",
+    "-Wcast-align",
+    "-Werror",
+]
+"""The Makefile's compile flags (CSTD, WARN) for firmware sources."""
+
+
+def build_shim(sources: list[str], out: Path, what: str) -> Path:
+    """Compile @p sources (paths from the repository) with the firmware's flags
+    into the shared library @p out; fail the test, loudly, when it cannot."""
+    cc = os.environ.get("CC", "cc")
+    if shutil.which(cc) is None:
+        pytest.fail(f"C compiler {cc!r} not found: the {what} tests need one (Debian: gcc)")
+    cmd = [cc, *FIRMWARE_CFLAGS, "-shared", "-fPIC", "-Ifirmware", "-Ihal/include", *sources]
+    done = subprocess.run([*cmd, "-lm", "-o", str(out)], cwd=ROOT, capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.fail(f"building the {what} shim failed:\n{' '.join(cmd)}\n{done.stderr}")
+    return out
 
 
 @pytest.fixture(scope="session")

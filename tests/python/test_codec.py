@@ -20,11 +20,8 @@ from __future__ import annotations
 import ctypes
 import errno
 import math
-import os
 import random
-import shutil
 import struct
-import subprocess
 from collections.abc import Callable
 from pathlib import Path
 
@@ -33,28 +30,13 @@ import pytest
 from cantools.database.can import Message, Signal
 from cantools.database.can.c_source import camel_to_snake_case
 
+from conftest import build_shim
 from mstc_sim.protocol import DLC, DropReason, FrameDropped, Protocol, load_database
 
 ROOT = Path(__file__).resolve().parents[2]
 SEED = 4
 N_RANDOM = 400
 """Random cases per message and property."""
-# The Makefile's compile flags (CSTD, WARN) for the firmware.
-CFLAGS = [
-    "-std=c11",
-    "-D_DEFAULT_SOURCE",
-    "-O2",
-    "-Wall",
-    "-Wextra",
-    "-Wconversion",
-    "-Wdouble-promotion",
-    "-Wshadow",
-    "-Wstrict-prototypes",
-    "-Wmissing-prototypes",
-    "-Wundef",
-    "-Wcast-align",
-    "-Werror",
-]
 SOURCES = ["tests/codec/codec_shim.c", "firmware/comm/comm.c", "firmware/comm/mstc_dbc.c"]
 
 DB = load_database()
@@ -140,16 +122,7 @@ class Shim:
 @pytest.fixture(scope="session")
 def shim(tmp_path_factory: pytest.TempPathFactory) -> Shim:
     """The shim, compiled once per session with the project's warnings."""
-    cc = os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        pytest.fail(f"C compiler {cc!r} not found: the codec tests need one (Debian: gcc)")
-    lib = tmp_path_factory.mktemp("codec") / "libcodec_shim.so"
-    cmd = [cc, *CFLAGS, "-shared", "-fPIC", "-Ifirmware", "-Ihal/include", *SOURCES]
-    done = subprocess.run(
-        [*cmd, "-lm", "-o", str(lib)], cwd=ROOT, capture_output=True, text=True, check=False
-    )
-    if done.returncode != 0:
-        pytest.fail(f"building the codec shim failed:\n{' '.join(cmd)}\n{done.stderr}")
+    lib = build_shim(SOURCES, tmp_path_factory.mktemp("codec") / "libcodec_shim.so", "codec")
     return Shim(lib)
 
 

@@ -18,34 +18,17 @@ from __future__ import annotations
 
 import ctypes
 import enum
-import os
 import random
-import shutil
-import subprocess
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
 
+from conftest import build_shim
 from mstc_sim.protocol import e2e_crc
 
 ROOT = Path(__file__).resolve().parents[2]
-CFLAGS = [
-    "-std=c11",
-    "-D_DEFAULT_SOURCE",
-    "-O2",
-    "-Wall",
-    "-Wextra",
-    "-Wconversion",
-    "-Wdouble-promotion",
-    "-Wshadow",
-    "-Wstrict-prototypes",
-    "-Wmissing-prototypes",
-    "-Wundef",
-    "-Wcast-align",
-    "-Werror",
-]
 SOURCES = ["tests/codec/e2e_shim.c", "firmware/comm/comm.c", "firmware/comm/mstc_dbc.c"]
 FRAME_ID = 0x100
 """ODOM_XY: any frame the firmware receives has the same receiver."""
@@ -175,15 +158,7 @@ class Firmware:
 
 @pytest.fixture(scope="module")
 def lib(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    cc = os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        pytest.fail(f"C compiler {cc!r} not found: the E2E model tests need one (Debian: gcc)")
-    path = tmp_path_factory.mktemp("e2e") / "libe2e_shim.so"
-    cmd = [cc, *CFLAGS, "-shared", "-fPIC", "-Ifirmware", "-Ihal/include", *SOURCES, "-lm"]
-    done = subprocess.run([*cmd, "-o", str(path)], cwd=ROOT, capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.fail(f"building the E2E shim failed:\n{' '.join(cmd)}\n{done.stderr}")
-    return path
+    return build_shim(SOURCES, tmp_path_factory.mktemp("e2e") / "libe2e_shim.so", "E2E")
 
 
 # ------------------------------------------------------------ event streams

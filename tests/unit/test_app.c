@@ -3,10 +3,10 @@
  * drop reporting and housekeeping. The HAL is hal/fake: received frames are
  * scripted, sent frames recorded.
  *
- * Frames are built and read with the generated codec (mstc_dbc.c, checked
- * bit-exact against cantools by tests/python/test_codec.py) and the CRC of
- * comm.c (checked against the AUTOSAR vectors by test_comm.c); the expected
- * values are derived by hand from the DBC's resolutions and eq. (1)-(3).
+ * Frames are built and read by test_frames.h: the generated codec (mstc_dbc.c,
+ * checked bit-exact against cantools by tests/python/test_codec.py) and a
+ * CRC computed there from its definition, not comm.c's; the expected values
+ * are derived by hand from the DBC's resolutions and eq. (1)-(3).
  */
 #include <errno.h>
 #include <string.h>
@@ -14,10 +14,10 @@
 #include "app/app.h"
 #include "comm/mstc_dbc.h"
 #include "hal_fake.h"
+#include "test_frames.h"
 #include "test_util.h"
 
 static app_t app;
-static uint8_t counters[0x800];
 
 /* Wheel speeds are sent at 2^-10 rad/s. float: exact up to the last
  * rounding of the raw value (1 lsb). fixed: Q16.16 r = 0.05 is 3277/65536,
@@ -28,57 +28,24 @@ static uint8_t counters[0x800];
 void setUp(void)
 {
     hal_fake_reset();
-    memset(counters, 0, sizeof counters);
+    memset(tf_counters, 0, sizeof tf_counters);
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
 }
 
 void tearDown(void) {}
 
-/* E2E-protect a payload as a sender would: the next alive counter of the
- * identifier in bits 8..11, then the CRC over the data ID and bytes 1..7. */
-static hal_can_frame_t seal(uint32_t id, uint8_t payload[8])
-{
-    uint16_t data_id = 0;
-    TEST_ASSERT_EQUAL_INT(0, comm_data_id(id, &data_id));
-    payload[1] = (uint8_t)((payload[1] & 0xF0u) | (counters[id] & 0x0Fu));
-    counters[id]++;
-    uint8_t buf[9] = { (uint8_t)(data_id & 0xFFu), (uint8_t)(data_id >> 8) };
-    memcpy(&buf[2], &payload[1], 7);
-    payload[0] = comm_crc8h2f(buf, sizeof buf);
-    hal_can_frame_t f = { .id = id, .dlc = 8 };
-    memcpy(f.data, payload, 8);
-    return f;
-}
-
 static void feed(hal_can_frame_t f) { TEST_ASSERT_EQUAL_INT(0, app_on_frame(&app, &f)); }
 
 static void send_odom(double x, double y, double theta)
 {
-    uint8_t p[8] = { 0 };
-    const struct mstc_dbc_odom_xy_t xy = { .odom_xy_x = (int32_t)lround(x * 65536.0),
-                                           .odom_xy_y = (int32_t)lround(y * 65536.0) };
-    mstc_dbc_odom_xy_pack(p, &xy, 8);
-    feed(seal(COMM_ID_ODOM_XY, p));
-    memset(p, 0, sizeof p);
-    const struct mstc_dbc_odom_theta_t th = { .odom_theta_theta =
-                                                  (int32_t)lround(theta * 65536.0) };
-    mstc_dbc_odom_theta_pack(p, &th, 8);
-    feed(seal(COMM_ID_ODOM_THETA, p));
+    feed(tf_odom_xy(x, y));
+    feed(tf_odom_theta(theta));
 }
 
 static void send_ref(double x, double y, double theta, double v, double w)
 {
-    uint8_t p[8] = { 0 };
-    const struct mstc_dbc_ref_xy_t xy = { .ref_xy_x = (int32_t)lround(x * 65536.0),
-                                          .ref_xy_y = (int32_t)lround(y * 65536.0) };
-    mstc_dbc_ref_xy_pack(p, &xy, 8);
-    feed(seal(COMM_ID_REF_XY, p));
-    memset(p, 0, sizeof p);
-    const struct mstc_dbc_ref_motion_t m = { .ref_motion_theta = (int32_t)lround(theta * 32768.0),
-                                             .ref_motion_v = (int32_t)lround(v * 4096.0),
-                                             .ref_motion_w = (int32_t)lround(w * 4096.0) };
-    mstc_dbc_ref_motion_pack(p, &m, 8);
-    feed(seal(COMM_ID_REF_MOTION, p));
+    feed(tf_ref_xy(x, y));
+    feed(tf_ref_motion(theta, v, w));
 }
 
 static void send_obstacle(uint8_t id, double x, double y, uint8_t radius_cm)
@@ -89,7 +56,7 @@ static void send_obstacle(uint8_t id, double x, double y, uint8_t radius_cm)
                                            .obstacle_y = (int32_t)lround(y * 4096.0),
                                            .obstacle_radius = radius_cm };
     mstc_dbc_obstacle_pack(p, &o, 8);
-    feed(seal(COMM_ID_OBSTACLE, p));
+    feed(tf_seal(COMM_ID_OBSTACLE, p));
 }
 
 static void send_param(uint32_t id, uint8_t index, float value);
@@ -109,60 +76,11 @@ static void arm_at(double x, double y, double theta, double rx, double ry, doubl
     hal_fake.n_sent = 0; /* forget the PARAM_VALUE answer */
 }
 
-static void send_step(uint16_t step, uint32_t time_us)
-{
-    uint8_t p[8] = { 0 };
-    const struct mstc_dbc_step_t s = { .step_step = step, .step_time = time_us };
-    mstc_dbc_step_pack(p, &s, 8);
-    feed(seal(COMM_ID_STEP, p));
-}
+static void send_step(uint16_t step, uint32_t time_us) { feed(tf_step(step, time_us)); }
 
 static void send_param(uint32_t id, uint8_t index, float value)
 {
-    uint8_t p[8] = { 0 };
-    if (id == COMM_ID_PARAM_SET) {
-        const struct mstc_dbc_param_set_t s = { .param_set_index = index,
-                                                .param_set_value = value };
-        mstc_dbc_param_set_pack(p, &s, 8);
-    } else {
-        const struct mstc_dbc_param_get_t g = { .param_get_index = index };
-        mstc_dbc_param_get_pack(p, &g, 8);
-    }
-    feed(seal(id, p));
-}
-
-/* The last frame with @p id that the firmware sent, or fail. */
-static const hal_can_frame_t *last_sent(uint32_t id)
-{
-    for (unsigned i = hal_fake.n_sent; i-- > 0;) {
-        if (hal_fake.sent[i].id == id) {
-            return &hal_fake.sent[i];
-        }
-    }
-    TEST_FAIL_MESSAGE("frame not sent");
-    return NULL;
-}
-
-static struct mstc_dbc_wheel_cmd_t last_wheels(void)
-{
-    struct mstc_dbc_wheel_cmd_t w;
-    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_wheel_cmd_unpack(&w, last_sent(COMM_ID_WHEEL_CMD)->data, 8));
-    return w;
-}
-
-static struct mstc_dbc_status_t last_status(void)
-{
-    struct mstc_dbc_status_t s;
-    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_status_unpack(&s, last_sent(COMM_ID_STATUS)->data, 8));
-    return s;
-}
-
-static struct mstc_dbc_param_value_t last_param(void)
-{
-    struct mstc_dbc_param_value_t v;
-    TEST_ASSERT_EQUAL_INT(0,
-                          mstc_dbc_param_value_unpack(&v, last_sent(COMM_ID_PARAM_VALUE)->data, 8));
-    return v;
+    feed(id == COMM_ID_PARAM_SET ? tf_param_set(index, value) : tf_param_get(index));
 }
 
 static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(void)
@@ -179,7 +97,7 @@ static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(v
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS, hal_fake.sent[2].id);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_TRK, hal_fake.sent[3].id);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_CMD, hal_fake.sent[4].id);
-    TEST_ASSERT_EQUAL_UINT16(7, last_wheels().wheel_cmd_step);
+    TEST_ASSERT_EQUAL_UINT16(7, tf_last_wheels().wheel_cmd_step);
 }
 
 static void test_app_step_drives_the_wheels_by_eq_2_and_3(void)
@@ -191,10 +109,10 @@ static void test_app_step_drives_the_wheels_by_eq_2_and_3(void)
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     send_step(0, 0u);
-    struct mstc_dbc_wheel_cmd_t w = last_wheels();
+    struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, w.wheel_cmd_left);
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, w.wheel_cmd_right);
-    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_TRACK, last_status().status_mode);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_TRACK, tf_last_status().status_mode);
 
     /* Reference 1 m to the left: e1 = 0, e2 = 1, e3 = 0, so v = 0.5,
      * ω = 12·0.5·1 = 6 rad/s; ω_R = (0.5 + 6·0.15)/0.05 = 28 rad/s (28672
@@ -202,7 +120,7 @@ static void test_app_step_drives_the_wheels_by_eq_2_and_3(void)
     send_odom(0.0, 0.0, 0.0);
     send_ref(0.0, 1.0, 0.0, 0.5, 0.0);
     send_step(1, 20000u);
-    w = last_wheels();
+    w = tf_last_wheels();
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 28672, w.wheel_cmd_right);
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, -8192, w.wheel_cmd_left);
 }
@@ -213,14 +131,14 @@ static void test_app_stands_still_until_every_input_has_arrived(void)
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     /* A fresh application that has only the odometry. */
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
-    memset(counters, 0, sizeof counters);
+    memset(tf_counters, 0, sizeof tf_counters);
     send_odom(0.0, 0.0, 0.0);
     send_step(3, 0u);
-    const struct mstc_dbc_wheel_cmd_t w = last_wheels();
+    const struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
     TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_left);
     TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_right);
     TEST_ASSERT_EQUAL_UINT16(3, w.wheel_cmd_step);
-    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, last_status().status_mode);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
 }
 
 static void test_app_reports_events_before_the_wheel_command(void)
@@ -231,13 +149,13 @@ static void test_app_reports_events_before_the_wheel_command(void)
     send_ref(0.1, 0.0, 0.0, 0.5, 0.0);
     send_obstacle(5, 2.0, 0.0, 10);
     send_step(0, 1234567u);
-    const hal_can_frame_t *ev = last_sent(COMM_ID_EVENT);
+    const hal_can_frame_t *ev = tf_last_sent(COMM_ID_EVENT);
     struct mstc_dbc_event_t e;
     TEST_ASSERT_EQUAL_INT(0, mstc_dbc_event_unpack(&e, ev->data, 8));
     TEST_ASSERT_EQUAL_UINT8(SUP_EVENT_DETECT, e.event_kind);
     TEST_ASSERT_EQUAL_UINT8(5, e.event_obstacle);
     TEST_ASSERT_EQUAL_UINT32(1234567u, e.event_time);
-    TEST_ASSERT_TRUE(ev < last_sent(COMM_ID_WHEEL_CMD));
+    TEST_ASSERT_TRUE(ev < tf_last_sent(COMM_ID_WHEEL_CMD));
     /* Reported once per step only: the next step has no new detection. */
     const unsigned before = hal_fake.n_sent;
     send_odom(0.0, 0.0, 0.0);
@@ -252,24 +170,24 @@ static void test_app_reports_events_before_the_wheel_command(void)
 static void test_app_sets_and_gets_parameters_over_the_bus(void)
 {
     send_param(COMM_ID_PARAM_GET, COMM_PARAM_D_S, 0.0f);
-    struct mstc_dbc_param_value_t v = last_param();
+    struct mstc_dbc_param_value_t v = tf_last_param_value();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_D_S, v.param_value_index);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
     TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.35f, v.param_value_value); /* Table 1 */
 
     send_param(COMM_ID_PARAM_SET, COMM_PARAM_D_S, 0.4f);
-    v = last_param();
+    v = tf_last_param_value();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
     TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, v.param_value_value);
 
     /* D_s = 0.6 would not be < D_act = 0.5 (Definition 4): rejected, kept. */
     send_param(COMM_ID_PARAM_SET, COMM_PARAM_D_S, 0.6f);
-    v = last_param();
+    v = tf_last_param_value();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, v.param_value_result);
     TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, v.param_value_value);
 
     send_param(COMM_ID_PARAM_SET, 200, 1.0f);
-    v = last_param();
+    v = tf_last_param_value();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, v.param_value_result);
     TEST_ASSERT_EQUAL_UINT8(200, v.param_value_index);
 }
@@ -279,14 +197,14 @@ static void test_app_reports_a_dropped_frame_in_the_next_status_only(void)
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     uint8_t p[8] = { 0 };
-    hal_can_frame_t bad = seal(COMM_ID_ODOM_XY, p);
+    hal_can_frame_t bad = tf_seal(COMM_ID_ODOM_XY, p);
     bad.data[4] ^= 0x10u; /* one flipped bit */
     TEST_ASSERT_EQUAL_INT(-EBADMSG, app_on_frame(&app, &bad));
     send_step(0, 0u);
-    TEST_ASSERT_EQUAL_UINT8(8u, last_status().status_faults & 8u);
+    TEST_ASSERT_EQUAL_UINT8(8u, tf_last_status().status_faults & 8u);
     TEST_ASSERT_EQUAL_UINT16(1, app.comm.drops.crc);
     send_step(1, 20000u);
-    TEST_ASSERT_EQUAL_UINT8(0u, last_status().status_faults & 8u);
+    TEST_ASSERT_EQUAL_UINT8(0u, tf_last_status().status_faults & 8u);
 }
 
 static void test_app_housekeeping_runs_every_100_ms_of_step_time(void)

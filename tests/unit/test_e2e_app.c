@@ -53,44 +53,10 @@ static void ref(void)
     feed(tf_ref_motion(0.0, 0.5, 0.0));
 }
 
-/* The last frame with @p id that the firmware sent, or fail. */
-static const hal_can_frame_t *last_sent(uint32_t id)
-{
-    for (unsigned i = hal_fake.n_sent; i-- > 0;) {
-        if (hal_fake.sent[i].id == id) {
-            return &hal_fake.sent[i];
-        }
-    }
-    TEST_FAIL_MESSAGE("frame not sent");
-    return NULL;
-}
-
-static struct mstc_dbc_wheel_cmd_t wheels(void)
-{
-    struct mstc_dbc_wheel_cmd_t w;
-    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_wheel_cmd_unpack(&w, last_sent(COMM_ID_WHEEL_CMD)->data, 8));
-    return w;
-}
-
-static struct mstc_dbc_status_t status(void)
-{
-    struct mstc_dbc_status_t s;
-    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_status_unpack(&s, last_sent(COMM_ID_STATUS)->data, 8));
-    return s;
-}
-
-static struct mstc_dbc_param_value_t param_answer(void)
-{
-    struct mstc_dbc_param_value_t v;
-    TEST_ASSERT_EQUAL_INT(0,
-                          mstc_dbc_param_value_unpack(&v, last_sent(COMM_ID_PARAM_VALUE)->data, 8));
-    return v;
-}
-
 static uint8_t arm_cmd(float value)
 {
     feed(tf_param_set(COMM_PARAM_ARM, value));
-    return param_answer().param_value_result;
+    return tf_last_param_value().param_value_result;
 }
 
 static uint16_t k_step;
@@ -131,8 +97,8 @@ static void drive(unsigned steps)
     arm();
     for (unsigned k = 0; k < steps; k++) {
         full_step();
-        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
-        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_left);
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
     }
 }
 
@@ -141,10 +107,10 @@ static void drive(unsigned steps)
 static void test_e2e_app_starts_halted_not_armed_and_stands_still(void)
 {
     full_step();
-    TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_left);
-    TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_right);
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, status().status_halt);
-    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, status().status_mode);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_right);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
 }
 
 static void test_e2e_app_arm_needs_five_good_frames_of_every_input(void)
@@ -154,14 +120,14 @@ static void test_e2e_app_arm_needs_five_good_frames_of_every_input(void)
         ref();
     }
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f));
-    TEST_ASSERT_EQUAL_FLOAT(0.0f, param_answer().param_value_value);
+    TEST_ASSERT_EQUAL_FLOAT(0.0f, tf_last_param_value().param_value_value);
     odom();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f)); /* reference still 4 */
     ref();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
-    TEST_ASSERT_EQUAL_FLOAT(1.0f, param_answer().param_value_value);
+    TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     full_step();
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_right);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_right);
 }
 
 static void test_e2e_app_arm_command_other_values_and_get(void)
@@ -169,11 +135,11 @@ static void test_e2e_app_arm_command_other_values_and_get(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, arm_cmd(2.0f));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, arm_cmd(NAN));
     feed(tf_param_get(COMM_PARAM_ARM));
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, param_answer().param_value_result);
-    TEST_ASSERT_EQUAL_FLOAT(0.0f, param_answer().param_value_value);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(0.0f, tf_last_param_value().param_value_value);
     arm();
     feed(tf_param_get(COMM_PARAM_ARM));
-    TEST_ASSERT_EQUAL_FLOAT(1.0f, param_answer().param_value_value);
+    TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
 }
 
 static void test_e2e_app_disarm_halts_with_a_ramp(void)
@@ -181,8 +147,8 @@ static void test_e2e_app_disarm_halts_with_a_ramp(void)
     drive(2);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     full_step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
     /* Disarming again keeps the reason. */
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
@@ -192,7 +158,8 @@ static void test_e2e_app_heartbeat_says_ready_when_not_armed_and_fault_when_halt
 {
     full_step(); /* t = 0: housekeeping */
     struct mstc_dbc_heartbeat_t h;
-    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_heartbeat_unpack(&h, last_sent(COMM_ID_HEARTBEAT)->data, 8));
+    TEST_ASSERT_EQUAL_INT(0,
+                          mstc_dbc_heartbeat_unpack(&h, tf_last_sent(COMM_ID_HEARTBEAT)->data, 8));
     TEST_ASSERT_EQUAL_UINT8(COMM_STATE_INIT + 1u,
                             h.heartbeat_state); /* READY before the first step */
     TEST_ASSERT_EQUAL_INT(COMM_STATE_READY, app.state);
@@ -213,17 +180,17 @@ static void test_e2e_app_odometry_lost_halts_at_the_third_step(void)
      * full step k; steps k+1 and k+2 still use it, k+3 halts. */
     ref();
     step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
     ref();
     step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
     ref();
     step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, status().status_halt);
-    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, status().status_mode);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, wheels().wheel_cmd_left);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, wheels().wheel_cmd_right);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_right);
 }
 
 static void test_e2e_app_reference_lost_halts_with_its_reason(void)
@@ -233,7 +200,7 @@ static void test_e2e_app_reference_lost_halts_with_its_reason(void)
         odom();
         step();
     }
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, tf_last_status().status_halt);
 }
 
 static void test_e2e_app_one_theta_frame_lost_is_enough(void)
@@ -244,7 +211,7 @@ static void test_e2e_app_one_theta_frame_lost_is_enough(void)
         ref();
         step();
     }
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
 }
 
 static void test_e2e_app_timeout_counts_time_too(void)
@@ -254,11 +221,11 @@ static void test_e2e_app_timeout_counts_time_too(void)
     t_us += DT_US; /* the next step comes 40 ms after the last */
     ref();
     step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt); /* 40 ms */
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt); /* 40 ms */
     t_us += DT_US;
     ref();
     step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, status().status_halt); /* 80 ms */
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt); /* 80 ms */
 }
 
 static void test_e2e_app_ramp_keeps_the_curvature_and_ends_at_zero(void)
@@ -270,15 +237,15 @@ static void test_e2e_app_ramp_keeps_the_curvature_and_ends_at_zero(void)
     feed(tf_ref_xy(0.0, 1.0));
     feed(tf_ref_motion(0.0, 0.5, 0.0));
     step();
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 28672, wheels().wheel_cmd_right);
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, -8192, wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 28672, tf_last_wheels().wheel_cmd_right);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, -8192, tf_last_wheels().wheel_cmd_left);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     /* The larger wheel loses 2 rad/s a step, the other keeps the ratio
      * -8/28; 28 rad/s takes 14 steps. */
     int32_t prev_r = 28672;
     for (unsigned k = 1; k <= 14u; k++) {
         step();
-        const struct mstc_dbc_wheel_cmd_t w = wheels();
+        const struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
         const double want_r = 28672.0 - 2048.0 * k;
         TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, (int32_t)want_r, w.wheel_cmd_right);
         TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, (int32_t)(-want_r * 8.0 / 28.0),
@@ -288,30 +255,30 @@ static void test_e2e_app_ramp_keeps_the_curvature_and_ends_at_zero(void)
     }
     for (unsigned k = 0; k < 2u; k++) { /* zero, and it stays there */
         step();
-        TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_right);
-        TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_left);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_right);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
     }
 }
 
 static void test_e2e_app_deceleration_is_a_parameter(void)
 {
     feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, param_answer().param_value_result);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     const float bad[] = { 0.0f, -1.0f, NAN, INFINITY, 10001.0f };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
-        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, param_answer().param_value_result);
-        TEST_ASSERT_EQUAL_FLOAT(1000.0f, param_answer().param_value_value);
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
     }
     feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
-    TEST_ASSERT_EQUAL_FLOAT(1000.0f, param_answer().param_value_value);
+    TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
     /* 1000 rad/s² over 20 ms: 20 rad/s a step, from 70: 50, 30, 10, 0. */
     drive(1);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     const int32_t want[] = { 51200, 30720, 10240, 0 };
     for (size_t i = 0; i < 4u; i++) {
         full_step();
-        TEST_ASSERT_INT32_WITHIN(TU_TOL(2, 40), want[i], wheels().wheel_cmd_left);
+        TEST_ASSERT_INT32_WITHIN(TU_TOL(2, 40), want[i], tf_last_wheels().wheel_cmd_left);
     }
 }
 
@@ -327,12 +294,12 @@ static void test_e2e_app_halt_latches_until_rearmed_after_five_good_frames(void)
     for (unsigned k = 0; k < 40u; k++) {
         full_step();
     }
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, status().status_halt);
-    TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
     full_step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
 }
 
 static void test_e2e_app_rearm_refused_until_the_inputs_ran_five_steps(void)
@@ -366,8 +333,8 @@ static void test_e2e_app_corrupted_frames_are_never_used(void)
     TEST_ASSERT_EQUAL_INT(-EBADMSG, feed_rc(bad));
     ref();
     step();
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_left);
-    TEST_ASSERT_EQUAL_UINT8(8u, status().status_faults & 8u);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(8u, tf_last_status().status_faults & 8u);
 }
 
 static void test_e2e_app_two_corrupted_frames_in_the_window_halt_at_once(void)
@@ -382,7 +349,7 @@ static void test_e2e_app_two_corrupted_frames_in_the_window_halt_at_once(void)
         step();
     }
     /* The second step: window [OK OK ERR ERR], INVALID before any timeout. */
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
 }
 
 static void test_e2e_app_duplicated_frames_are_tolerated(void)
@@ -395,7 +362,7 @@ static void test_e2e_app_duplicated_frames_are_tolerated(void)
         feed(tf_odom_theta(0.0));
         ref();
         step();
-        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
     }
 }
 
@@ -408,7 +375,7 @@ static void test_e2e_app_a_step_with_a_bad_step_history_halts(void)
         TEST_ASSERT_EQUAL_INT(-EBADMSG, feed_rc(bad)); /* no step runs */
     }
     full_step(); /* [OK OK ERR ERR OK] → window [ERR ERR OK …]: INVALID */
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_STEP, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_STEP, tf_last_status().status_halt);
 }
 
 static void test_e2e_app_replayed_step_runs_no_step(void)
@@ -433,11 +400,11 @@ static void test_e2e_app_step_time_going_back_times_the_inputs_out(void)
     t_us = 0u;
     full_step();
     TEST_ASSERT_EQUAL_UINT32(1, app.time_wraps);
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     t_us = 0xFFFFFFF0u; /* a huge step forward: the ramp saturates at 1 s: 100 rad/s */
     full_step();
-    TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
 }
 
 /* ------------------------------------------------------------------ bus-off */
@@ -450,8 +417,8 @@ static void test_e2e_app_bus_off_halts_and_blocks_the_rearm(void)
     hal_fake.can_status.state = HAL_CAN_STATE_BUS_OFF;
     hal_fake.can_status.bus_off = 1;
     full_step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
     for (unsigned k = 0; k < 5u; k++) {
         full_step();
     }
@@ -459,7 +426,7 @@ static void test_e2e_app_bus_off_halts_and_blocks_the_rearm(void)
     hal_fake.can_status.state = HAL_CAN_STATE_ERROR_ACTIVE; /* recovered */
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
     full_step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
 }
 
 static void test_e2e_app_a_bus_off_between_steps_halts_too(void)
@@ -471,7 +438,7 @@ static void test_e2e_app_a_bus_off_between_steps_halts_too(void)
     drive(3);
     hal_fake.can_status.bus_off = 8;
     full_step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, tf_last_status().status_halt);
 }
 
 /* ------------------------------------------------------------ parameters */
@@ -483,11 +450,11 @@ static void test_e2e_app_every_parameter_reads_back_its_default(void)
                                            6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f };
     for (uint8_t i = 0; i < COMM_PARAM_MAX_WHEEL_DECEL; i++) {
         feed(tf_param_get(i));
-        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, param_answer().param_value_result);
-        TEST_ASSERT_FLOAT_WITHIN(1e-4f, want[i], param_answer().param_value_value);
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+        TEST_ASSERT_FLOAT_WITHIN(1e-4f, want[i], tf_last_param_value().param_value_value);
     }
     feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
-    TEST_ASSERT_EQUAL_FLOAT(APP_DEFAULT_MAX_WHEEL_DECEL, param_answer().param_value_value);
+    TEST_ASSERT_EQUAL_FLOAT(APP_DEFAULT_MAX_WHEEL_DECEL, tf_last_param_value().param_value_value);
 }
 
 static void test_e2e_app_an_obstacle_reported_twice_in_a_step_counts_once(void)
@@ -546,8 +513,8 @@ static void test_e2e_app_standing_reference_is_stop_not_a_halt(void)
     feed(tf_ref_xy(1.0, 0.0));
     feed(tf_ref_motion(0.0, 0.0, 0.0));
     step();
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
-    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, status().status_mode);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
     TEST_ASSERT_EQUAL_INT(COMM_STATE_STOPPED, app.state);
 }
 
@@ -559,7 +526,7 @@ static void test_e2e_app_ref_motion_alone_lost_is_a_reference_halt(void)
         feed(tf_ref_xy(1.0, 0.0));
         step();
     }
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, tf_last_status().status_halt);
 }
 
 static void test_e2e_app_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate(void)
@@ -568,12 +535,12 @@ static void test_e2e_app_a_step_at_the_same_time_ramps_nothing_and_long_halts_sa
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     t_us -= DT_US; /* the same time as the last step: dt = 0 */
     full_step();
-    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
     for (unsigned k = 0; k < 300u; k++) { /* no inputs: the miss counts saturate */
         step();
     }
     TEST_ASSERT_EQUAL_UINT8(UINT8_MAX, app.in[APP_IN_ODOM_XY].missed);
-    TEST_ASSERT_EQUAL_INT32(0, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
 }
 
 /* ------------------------------------------------------------- real time */
@@ -588,16 +555,16 @@ static void test_e2e_app_real_time_mode_needs_no_step_and_times_out(void)
         hal_fake.n_sent = 0;
         app_control_tick(&app, now);
         now += DT_US;
-        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, status().status_halt);
-        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, wheels().wheel_cmd_left);
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
     }
     for (unsigned k = 0; k < 3u; k++) {
         hal_fake.n_sent = 0;
         app_control_tick(&app, now);
         now += DT_US;
     }
-    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-3, 1e-2), 70.0 - 2.0, app_last_wheels(&app)->left);
 }
 

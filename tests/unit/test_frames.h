@@ -1,6 +1,8 @@
 /**
  * @file test_frames.h
- * @brief Frames as a sender builds them, for the E2E and safety tests: the
+ * @brief Frames as a sender builds them, and the firmware's answers as the
+ *        recording HAL fake saw them, for the application, E2E and safety
+ *        tests. Sent frames: the
  *        payload packed by the generated codec (checked bit-exact against
  *        cantools by tests/python/test_codec.py), then the alive counter and
  *        a CRC-8H2F computed here from its definition, independently of
@@ -16,6 +18,8 @@
 #include "comm/comm.h"
 #include "comm/mstc_dbc.h"
 #include "hal/hal_can.h"
+#include "hal_fake.h"
+#include "unity.h"
 
 /** @brief Next alive counter per identifier (a sender's). */
 static uint8_t tf_counters[0x800];
@@ -122,6 +126,44 @@ static inline hal_can_frame_t tf_param_get(uint8_t index)
     const struct mstc_dbc_param_get_t s = { .param_get_index = index };
     (void)mstc_dbc_param_get_pack(p, &s, 8);
     return tf_seal(COMM_ID_PARAM_GET, p);
+}
+
+/** @brief The last frame with @p id that the firmware sent, or fail the test. */
+static inline const hal_can_frame_t *tf_last_sent(uint32_t id)
+{
+    for (unsigned i = hal_fake.n_sent; i-- > 0;) {
+        if (hal_fake.sent[i].id == id) {
+            return &hal_fake.sent[i];
+        }
+    }
+    TEST_FAIL_MESSAGE("frame not sent");
+    return NULL;
+}
+
+/** @brief The last WHEEL_CMD the firmware sent, unpacked. */
+static inline struct mstc_dbc_wheel_cmd_t tf_last_wheels(void)
+{
+    struct mstc_dbc_wheel_cmd_t w;
+    TEST_ASSERT_EQUAL_INT(0,
+                          mstc_dbc_wheel_cmd_unpack(&w, tf_last_sent(COMM_ID_WHEEL_CMD)->data, 8));
+    return w;
+}
+
+/** @brief The last STATUS the firmware sent, unpacked. */
+static inline struct mstc_dbc_status_t tf_last_status(void)
+{
+    struct mstc_dbc_status_t s;
+    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_status_unpack(&s, tf_last_sent(COMM_ID_STATUS)->data, 8));
+    return s;
+}
+
+/** @brief The last PARAM_VALUE the firmware sent, unpacked. */
+static inline struct mstc_dbc_param_value_t tf_last_param_value(void)
+{
+    struct mstc_dbc_param_value_t v;
+    TEST_ASSERT_EQUAL_INT(
+        0, mstc_dbc_param_value_unpack(&v, tf_last_sent(COMM_ID_PARAM_VALUE)->data, 8));
+    return v;
 }
 
 #endif /* MSTC_TEST_FRAMES_H */

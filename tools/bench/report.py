@@ -267,8 +267,23 @@ def update_doc(doc: Path, body: str, begin: str = BEGIN, end: str = END) -> bool
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--doc", type=Path, required=True)
-    ap.add_argument("results", type=Path, nargs="+")
+    ap.add_argument(
+        "--text",
+        metavar="NAME:TITLE",
+        help="instead: put standard input, as preformatted text under ## TITLE, into the "
+        "document's section NAME (another tool's printed report)",
+    )
+    ap.add_argument("results", type=Path, nargs="*")
     a = ap.parse_args()
+    if a.text:
+        name, _, title = a.text.partition(":")
+        body = f"## {title}\n\n```\n{sys.stdin.read().rstrip()}\n```\n"
+        begin = f"<!-- bench:{name}:begin (written by make bench) -->"
+        changed = update_doc(a.doc, body, begin, f"<!-- bench:{name}:end -->")
+        print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+        return
+    if not a.results:
+        ap.error("no results")
     results = {}
     for p in a.results:
         r = parse(p)
