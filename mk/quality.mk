@@ -95,7 +95,7 @@ $(SA_DIR)/cppcheck.ok: $(SA_SRCS) $(FW_HDRS) tools/quality/misra.json \
 	cppcheck $(CPPCHECK_FLAGS) -DNUM_FIXED $(SA_SRCS)
 	@touch $@
 
-$(SA_DIR)/clang-tidy.ok: $(SA_SRCS) $(FW_HDRS) .clang-tidy | $(STAMP)/apt-test
+$(SA_DIR)/clang-tidy.ok: $(SA_SRCS) $(FW_HDRS) .clang-tidy $(NUM_DEPS_fixed) | $(STAMP)/apt-test
 	@mkdir -p $(@D)
 	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) -Ifirmware -Ihal/include
 	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) -DNUM_FIXED -Ifirmware -Ihal/include -I$(LIBFIXMATH_DIR)
