@@ -1,7 +1,7 @@
 # mstc: top-level build. `make help` lists the targets.
 #
 # The two commands a newcomer runs: `make sim` and `make test`. Both install
-# what they need first (tools/deps/): Debian packages (as root), .venv from
+# what they need first (tools/setup/): Debian packages (as root), .venv from
 # requirements.txt, third-party C sources into deps/. Re-runs are quick: every
 # step is guarded by a stamp or by make's own timestamps.
 
@@ -37,25 +37,25 @@ $(STAMP):
 
 # ---------------------------------------------------------------- dependencies
 .PHONY: deps-sim deps-test venv
-$(STAMP)/apt-sim: tools/deps/debian-sim.txt | $(STAMP)
-	@tools/deps/apt-install $^
+$(STAMP)/apt-sim: tools/setup/debian-sim.txt | $(STAMP)
+	@tools/setup/apt-install $^
 	@touch $@
-$(STAMP)/apt-test: tools/deps/debian-sim.txt tools/deps/debian-test.txt | $(STAMP)
-	@tools/deps/apt-install $^
+$(STAMP)/apt-test: tools/setup/debian-sim.txt tools/setup/debian-test.txt | $(STAMP)
+	@tools/setup/apt-install $^
 	@touch $@
 .venv/.requirements.sha256: requirements.txt $(STAMP)/apt-sim
-	@tools/deps/venv
+	@tools/setup/venv
 venv: .venv/.requirements.sha256
-deps/unity/.sha256: tools/deps/sources.lock $(STAMP)/apt-sim
-	@tools/deps/fetch-source unity
-deps/libfixmath/.sha256: tools/deps/sources.lock $(STAMP)/apt-sim
-	@tools/deps/fetch-source libfixmath
+deps/unity/.sha256: tools/setup/sources.lock $(STAMP)/apt-sim
+	@tools/setup/fetch-source unity
+deps/libfixmath/.sha256: tools/setup/sources.lock $(STAMP)/apt-sim
+	@tools/setup/fetch-source libfixmath
 deps-sim: $(STAMP)/apt-sim venv $(NUM_DEPS)
 # HIL over vcan (docs/hil.md): QEMU and a Debian kernel with vcan, for hosts
 # whose kernel has no CAN.
 .PHONY: deps-hil
-$(STAMP)/apt-hil: tools/deps/debian-sim.txt tools/deps/debian-hil.txt | $(STAMP)
-	@tools/deps/apt-install $^
+$(STAMP)/apt-hil: tools/setup/debian-sim.txt tools/setup/debian-hil.txt | $(STAMP)
+	@tools/setup/apt-install $^
 	@touch $@
 deps/vm-kernel/.stamp: tools/vm/fetch-kernel $(STAMP)/apt-hil
 	@tools/vm/fetch-kernel

@@ -122,7 +122,7 @@ firmware-smoke: img-stm32f405 img-stm32f103  ## run both board images under QEMU
 FLASH_TOOL ?= openocd
 flash: img-$(BOARD)  ## flash BOARD's image (FLASH_TOOL=openocd|st-flash|pyocd; FLASH_DRY_RUN=1: print only)
 ifeq ($(FLASH_DRY_RUN),)
-	@tools/deps/apt-install tools/deps/debian-flash.txt
+	@tools/setup/apt-install tools/setup/debian-flash.txt
 endif
 	@$(PY) tools/flash --board $(BOARD) --tool $(FLASH_TOOL) $(if $(FLASH_DRY_RUN),--dry-run) \
 	  $(FLASH_ARGS) build/firmware/$(BOARD)/mstc.elf

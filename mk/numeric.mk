@@ -8,7 +8,7 @@
 # both modes at once).
 #
 # Fixed mode uses libfixmath (mul, div) built from its Debian source package
-# (tools/deps/sources.lock) with one configuration, LIBFIXMATH_CONFIG, for the
+# (tools/setup/sources.lock) with one configuration, LIBFIXMATH_CONFIG, for the
 # host and for the cross builds alike, so that they compute the same numbers
 # (firmware/num/num_fixed.h says why each macro is set or not).
 

@@ -4,7 +4,7 @@ stack within its reservation), the blank port links, and both images run
 their control loop under QEMU (tools/bench/qemu_smoke says what that covers
 and what QEMU cannot: no RCC, no bxCAN).
 
-Needs the cross toolchain and qemu-system-arm (tools/deps/debian-test.txt)
+Needs the cross toolchain and qemu-system-arm (tools/setup/debian-test.txt)
 and PyPI for the vendor SVD files (tools/svd/fetch): without them these fail,
 loudly."""
 

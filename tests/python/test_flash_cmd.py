@@ -147,7 +147,7 @@ def test_flash_without_image_says_how_to_build_it(tmp_path: Path) -> None:
 def test_make_flash_dry_run_builds_the_image_and_prints_the_command() -> None:
     """End to end through the Makefile: the image is built (cross compiler,
     warnings as errors), then the command names it. Needs the cross
-    toolchain (tools/deps/debian-test.txt): without it this fails, loudly."""
+    toolchain (tools/setup/debian-test.txt): without it this fails, loudly."""
     r = subprocess.run(
         [
             "make",

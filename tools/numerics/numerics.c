@@ -460,7 +460,7 @@ int main(void)
            "below and compared with libm in double precision, evaluated on the exact real "
            "values of the Q16.16 inputs. 0.5 LSB (7.6e-6) is the error of rounding an exact "
            "result to Q16.16, the least any primitive can have.\n\n");
-    printf("libfixmath (Debian source package, `tools/deps/sources.lock`) is built with "
+    printf("libfixmath (Debian source package, `tools/setup/sources.lock`) is built with "
            "`FIXMATH_NO_CACHE`, rounding and overflow detection on, 64-bit multiply, for the "
            "host and the cross builds alike (mk/numeric.mk). The firmware uses its saturating "
            "mul and div; its sqrt, sin, cos and atan2 are measured here for comparison only "
