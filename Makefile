@@ -139,9 +139,8 @@ lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, c
 	$(PY) -m ruff format --check $(PY_LINT)
 	@clang-format --dry-run --Werror $(C_FORMAT) && echo "clang-format: $(words $(C_FORMAT)) files ok"
 test: deps-test  ## every test: lint, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
-	@$(MAKE) --no-print-directory lint check-protocol quality cross
-	@$(MAKE) --no-print-directory coverage
-	@$(MAKE) --no-print-directory fuzz
+	@$(MAKE) --no-print-directory lint check-protocol
+	@$(MAKE) --no-print-directory -j2 --output-sync=target quality cross coverage fuzz
 	@$(MAKE) --no-print-directory NUMERIC=fixed test-unit
 	@$(MAKE) --no-print-directory NUMERIC=float test-unit
 	@$(MAKE) --no-print-directory NUMERIC=float test-python

@@ -109,8 +109,31 @@ def _round_trips(bus: can.BusABC, proto: Protocol, last_id: int, count: int) -> 
     return count / (time.perf_counter() - t0)
 
 
+def _peer_rate(cmd: list[str], last_id: int, firmware: bool, channel: str, count: int) -> float:
+    """Start a peer, measure @p count round trips to it, stop it."""
+    proc = _start(cmd)
+    try:
+        with can.Bus(interface="socketcan", channel=channel) as bus:
+            proto = Protocol()
+            if firmware:  # inputs once; every STEP then steps on them
+                for frame, values in (
+                    ("ODOM_XY", {"x": 0.0, "y": 2.5}),
+                    ("ODOM_THETA", {"theta": 0.5}),
+                    ("REF_XY", {"x": 0.1, "y": 2.6}),
+                    ("REF_MOTION", {"theta": 0.7, "v": 0.5, "w": 0.0}),
+                ):
+                    bus.send(proto.encode(frame, values))
+            _round_trips(bus, proto, last_id, 50)  # warm up
+            return _round_trips(bus, proto, last_id, count)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=5)
+
+
 def bench_hil(fw: Path, echo: Path, channel: str, runs: int, count: int) -> dict[str, object]:
-    """Round trips per second over @p channel: bare, same traffic, firmware."""
+    """Round trips per second over @p channel: bare, same traffic, firmware.
+    The peers take turns run by run, so that a drift of the machine's speed
+    (the VM's, above all) cannot favour one of them."""
     out: dict[str, object] = {
         "kind": "hil",
         "channel": channel,
@@ -122,28 +145,13 @@ def bench_hil(fw: Path, echo: Path, channel: str, runs: int, count: int) -> dict
         "same_traffic": ([str(echo), channel, "3"], 0x182),
         "firmware": ([str(fw), "--can", channel], WHEEL_CMD),
     }
-    for name, (cmd, last_id) in peers.items():
-        proc = _start(cmd)
-        try:
-            with can.Bus(interface="socketcan", channel=channel) as bus:
-                proto = Protocol()
-                if name == "firmware":  # inputs once; every STEP then steps on them
-                    for frame, values in (
-                        ("ODOM_XY", {"x": 0.0, "y": 2.5}),
-                        ("ODOM_THETA", {"theta": 0.5}),
-                        ("REF_XY", {"x": 0.1, "y": 2.6}),
-                        ("REF_MOTION", {"theta": 0.7, "v": 0.5, "w": 0.0}),
-                    ):
-                        bus.send(proto.encode(frame, values))
-                _round_trips(bus, proto, last_id, 50)  # warm up
-                median, rates = _median_rate(
-                    runs, lambda b=bus, p=proto, n=last_id: _round_trips(b, p, n, count)
-                )
-        finally:
-            proc.terminate()
-            proc.wait(timeout=5)
-        out[f"{name}_per_s"] = median
-        out[f"{name}_runs"] = rates
+    rates: dict[str, list[float]] = {name: [] for name in peers}
+    for _ in range(runs):
+        for name, (cmd, last_id) in peers.items():
+            rates[name].append(_peer_rate(cmd, last_id, name == "firmware", channel, count))
+    for name, values in rates.items():
+        out[f"{name}_per_s"] = statistics.median(values)
+        out[f"{name}_runs"] = values
     return out
 
 
@@ -174,7 +182,7 @@ def section(results: list[dict[str, object]]) -> str:
                     else "the host's vcan"
                 )
                 + f"), {r['count']} per run, median of {len(r['firmware_runs'])} runs, "  # type: ignore[arg-type]
-                "all measured in the same run:\n",
+                "all measured in the same run, the peers taking turns run by run:\n",
                 "| peer answering each STEP frame | round trips per second |",
                 "|---|---|",
                 f"| bare: a C echo, one frame back | {b:,.0f} |",
