@@ -337,7 +337,8 @@ def _play(
 # ------------------------------------------------------------------ logplot
 
 _LOGPLOT_EPILOG = """\
-Writes DIR/<log file stem>/: events.json and trace.csv in the formats of
+Writes DIR/<log file stem>/ (for a run's bus.log, its folder's name):
+events.json and trace.csv in the formats of
 make sim (docs/scenarios.md), status.csv (one row per control step: the
 inputs, the wheel speeds and v, w, every STATUS and STATUS_TRK signal, the
 distance to each obstacle), and the figures of the paper's Figures 5 and 6:
@@ -373,7 +374,8 @@ def build_logplot_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         type=Path,
         default=Path("build/logplot"),
-        help="output folder; writes DIR/<log stem>/ (default: %(default)s)",
+        help="output folder; writes DIR/<log stem>/, or DIR/<folder>/ for a bus.log "
+        "(default: %(default)s)",
     )
     parser.add_argument(
         "--scenario",

@@ -115,8 +115,10 @@ class DecodedLog:
 
     @property
     def name(self) -> str:
-        """The log's file stem."""
-        return self.log.path.stem
+        """The log's file stem; for a run's ``bus.log``, its folder's name
+        (``build/hil/paper-line/bus.log`` is ``paper-line``)."""
+        path = self.log.path
+        return path.parent.name if path.stem == "bus" and path.parent.name else path.stem
 
     def plot_data(self) -> PlotData:
         """The figures' input, as a simulation's."""
