@@ -25,6 +25,7 @@ CFLAGS_HOST := $(CSTD) $(OPT) $(WARN) -fPIC -Ifirmware -Ihal/include
 # Firmware: the portable control core (num, ctrl, kin), the protocol (comm)
 # and the application (app). No platform headers; app reaches the outside
 # through hal/include/hal/*.h only.
+# The control core alone (ctl_step), for the benchmark (mk/bench.mk).
 CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*.c))
 FW_SRCS := $(sort $(wildcard firmware/*/*.c))
 SIL_SRCS := hal/sil/mstc_sil.c hal/sil/hal_sil.c

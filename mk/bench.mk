@@ -3,7 +3,8 @@
 # over a recorded closed loop of the paper's scenarios; prints a table and
 # writes it into docs/performance.md (tools/bench/report.py). Results are
 # cached in build/bench/*.txt and remade when their image or program changes.
-# Uses from the Makefile: CC, CSTD, OPT, WARN, PY, STAMP, the venv rule; from
+# Uses from the Makefile: CC, CSTD, OPT, WARN, PY, STAMP, CORE_SRCS (ctl_step's
+# sources: no protocol, no application), the venv rule; from
 # mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the libraries.
 
 BENCH_DIR := build/bench
@@ -13,8 +14,6 @@ QEMU_MACHINE_m4f := mps2-an386
 QEMU_MACHINE_m3 := mps2-an385
 BENCH_TARGET_SRCS := tools/bench/startup.c tools/bench/bench_core.c tools/bench/bench_target.c
 BENCH_HOST_SRCS := tools/bench/bench_core.c tools/bench/bench_host.c
-# ctl_step's sources: the control core (no protocol, no application).
-BENCH_CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*.c))
 
 $(BENCH_DIR)/scenarios.h: tools/bench/gen_scenarios.py $(BENCH_SCENARIOS) | .venv/.requirements.sha256
 	@mkdir -p $(@D)
@@ -40,7 +39,7 @@ $(eval $(call BENCH_IMAGE_RULES,m3-float,m3))
 # Host programs, one per numeric mode. $(1): mode.
 BENCH_HOST_WARN := $(WARN)
 define BENCH_HOST_RULES
-BENCH_HOST_OBJS_$(1) := $$(patsubst %.c,$(BENCH_DIR)/host-$(1)/obj/%.o,$$(BENCH_CORE_SRCS) $$(NUM_SRCS_$(1)))
+BENCH_HOST_OBJS_$(1) := $$(patsubst %.c,$(BENCH_DIR)/host-$(1)/obj/%.o,$$(CORE_SRCS) $$(NUM_SRCS_$(1)))
 $(BENCH_DIR)/host-$(1)/obj/%.o: %.c $$(NUM_DEPS_$(1)) | $$(STAMP)/apt-sim
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$(CSTD) $$(OPT) $$(BENCH_HOST_WARN) -Ifirmware -Ihal/include $$(NUM_CFLAGS_$(1)) \
