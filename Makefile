@@ -13,6 +13,7 @@ endif
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 PY := .venv/bin/python
+MSTC := .venv/bin/mstc
 B := build/host/$(NUMERIC)
 
 CC ?= cc
@@ -93,7 +94,7 @@ SCENARIO ?= sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 BUS ?= sil
 .PHONY: sim
 sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
-	$(PY) -m mstc_sim run --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
+	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
 
 # ----------------------------------------------------------------------- hil
 # The firmware as its own process (mstc-fw) on vcan0, the plant on python-can's
@@ -101,7 +102,7 @@ sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in p
 HIL_TIMEOUT ?= 1800
 .PHONY: hil
 hil: deps-hil build/host/mstc-fw  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/)
-	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(PY) -m mstc_sim run --bus socketcan \
+	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(MSTC) hil \
 	  --channel vcan0 --fw build/host/mstc-fw --no-figures --out build/hil $(SCENARIO)
 
 # ---------------------------------------------------------------------- test
@@ -131,8 +132,7 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 	  $(PY) -m pytest -q tests/python
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
-           tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke \
-           tools/replay tools/logplot
+           tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke
 # C: every tracked source but the generated codec (.clang-format).
 C_FORMAT = $(filter-out firmware/comm/mstc_dbc.%,$(shell git ls-files '*.c' '*.h'))
 lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code

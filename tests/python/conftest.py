@@ -4,7 +4,6 @@ import math
 import os
 import shutil
 import subprocess
-import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -14,9 +13,8 @@ ROOT = Path(__file__).resolve().parents[2]
 """The repository."""
 SCENARIOS = ROOT / "sim" / "scenarios"
 
-# `make test-python` sets PYTHONPATH=sim; this lets a bare `pytest` work too.
-if str(ROOT / "sim") not in sys.path:
-    sys.path.insert(0, str(ROOT / "sim"))
+# Fixtures of the bus-log tests (tests/python/logfiles.py).
+pytest_plugins = ["logfiles"]
 
 
 FIRMWARE_CFLAGS = [

@@ -31,7 +31,7 @@ from cantools.database.can import Message, Signal
 from cantools.database.can.c_source import camel_to_snake_case
 
 from conftest import build_shim
-from mstc_sim.protocol import DLC, DropReason, FrameDropped, Protocol, load_database
+from mstc.can.protocol import DLC, DropReason, FrameDropped, Protocol, load_database
 
 ROOT = Path(__file__).resolve().parents[2]
 SEED = 4

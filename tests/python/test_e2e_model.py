@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 from conftest import build_shim
-from mstc_sim.protocol import e2e_crc
+from mstc.can.protocol import e2e_crc
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = ["tests/codec/e2e_shim.c", "firmware/comm/comm.c", "firmware/comm/mstc_dbc.c"]

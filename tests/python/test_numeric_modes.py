@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from conftest import to_toml
-from mstc_sim.firmware import SilController
-from mstc_sim.run import RunResult, simulate
-from mstc_sim.scenario import load_scenario
+from mstc.firmware import SilController
+from mstc.sim.run import RunResult, simulate
+from mstc.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"

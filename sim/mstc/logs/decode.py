@@ -33,17 +33,17 @@ from pathlib import Path
 import numpy as np
 from cantools.database.can import Database, Message
 
-from mstc_sim.controller import Event, EventKind, Fault, Mode, Side
-from mstc_sim.logread import FrameLog, LogProblem, ProblemKind
-from mstc_sim.output import event_record
-from mstc_sim.params import Params
-from mstc_sim.plots import PlotData
-from mstc_sim.progress import Progress
-from mstc_sim.protocol import e2e_crc
-from mstc_sim.report import match_events
-from mstc_sim.run import TRACE_COLUMNS, Trace
-from mstc_sim.scenario import ExpectedEvent
-from mstc_sim.sensor import Obstacle
+from mstc.can.protocol import e2e_crc
+from mstc.controller import Event, EventKind, Fault, Mode, Side
+from mstc.logs.read import FrameLog, LogProblem, ProblemKind
+from mstc.params import Params
+from mstc.report.outputs import event_record
+from mstc.report.plots import PlotData
+from mstc.report.progress import Progress
+from mstc.report.table import match_events
+from mstc.sim.run import TRACE_COLUMNS, Trace
+from mstc.sim.scenario import ExpectedEvent
+from mstc.sim.sensor import Obstacle
 
 TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here."""

@@ -1,7 +1,7 @@
 """What the run loop needs from the firmware, independent of how it is reached.
 
 The loop talks to a :class:`Controller`: one call per control period, plain
-Python values in and out. :class:`mstc_sim.firmware.SilController` implements
+Python values in and out. :class:`mstc.firmware.SilController` implements
 it by calling the firmware's step in-process; a CAN transport implements the
 same protocol with frames, and the loop does not change.
 """
@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from enum import IntFlag, StrEnum
 from typing import Protocol
 
-from mstc_sim.plant import Pose
-from mstc_sim.sensor import Obstacle
+from mstc.sim.plant import Pose
+from mstc.sim.sensor import Obstacle
 
 
 class Mode(StrEnum):
@@ -38,7 +38,7 @@ class EventKind(StrEnum):
 
 
 class Side(StrEnum):
-    """Side of the avoidance, the sign of α in eq. (10)-(12) (notes.md)."""
+    """Side of the avoidance, the sign of α in eq. (10)-(12) (docs/equations.md, side naming)."""
 
     LEFT = "left"
     """α = +π/2: the robot turns to its left, the obstacle on its right."""

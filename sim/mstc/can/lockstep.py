@@ -1,6 +1,6 @@
 """The firmware behind a python-can bus, in lock-step (docs/protocol.md).
 
-:class:`CanController` implements :class:`mstc_sim.controller.Controller` with
+:class:`CanController` implements :class:`mstc.controller.Controller` with
 frames: each call sends the robot's odometry, the reference, the obstacles the
 sensor reports and a STEP frame, then reads the firmware's answers up to the
 WHEEL_CMD that echoes the step. The same code drives the in-process firmware
@@ -15,11 +15,12 @@ from dataclasses import dataclass, field
 
 import can
 
-from mstc_sim.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
-from mstc_sim.params import Params
-from mstc_sim.plant import Pose, wrap_angle
-from mstc_sim.protocol import Frame, FrameDropped, Protocol
-from mstc_sim.sensor import Obstacle
+from mstc.can.protocol import Frame, FrameDropped, Protocol
+from mstc.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
+from mstc.errors import ControllerError
+from mstc.params import Params
+from mstc.sim.plant import Pose, wrap_angle
+from mstc.sim.sensor import Obstacle
 
 STEP_MODULO = 1 << 16
 """The STEP and WHEEL_CMD step counter wraps here."""
@@ -51,10 +52,6 @@ ARM_INDEX = 128
 REARM_FRAMES = 5
 """Good frames in a row each input needs before the firmware accepts the arm
 command (APP_REARM_FRAMES in firmware/app/app.h)."""
-
-
-class ControllerError(RuntimeError):
-    """The firmware did not answer as the protocol says."""
 
 
 def param_values(p: Params) -> dict[str, float]:

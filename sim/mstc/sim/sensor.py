@@ -4,7 +4,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from mstc_sim.plant import Pose
+from mstc.sim.plant import Pose
 
 
 @dataclass(frozen=True)

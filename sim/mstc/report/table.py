@@ -3,9 +3,9 @@
 from dataclasses import dataclass
 from pathlib import Path
 
-from mstc_sim.controller import Event, EventKind, Fault
-from mstc_sim.run import RunResult
-from mstc_sim.scenario import ExpectedEvent
+from mstc.controller import Event, EventKind, Fault
+from mstc.sim.run import RunResult
+from mstc.sim.scenario import ExpectedEvent
 
 _NONE = "—"
 _FAULT_NAMES = {

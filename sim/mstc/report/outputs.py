@@ -6,12 +6,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mstc_sim.buslog import write_candump
-from mstc_sim.controller import Event
-from mstc_sim.run import TRACE_COLUMNS, RunResult
+from mstc.controller import Event
+from mstc.logs.candump import write_candump
+from mstc.sim.run import TRACE_COLUMNS, RunResult
 
 if TYPE_CHECKING:
-    from mstc_sim.canctl import CanController
+    from mstc.can.lockstep import CanController
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,7 @@ def write_outputs(
         frames = [m for m, _ in bus_log.controller.traffic.frames]
         write_candump(folder / "bus.log", frames, bus_log.channel)
     if figures:
-        from mstc_sim.plots import plot_all  # matplotlib: slow to import, so only when drawing
+        from mstc.report.plots import plot_all  # matplotlib: slow to import, so only when drawing
 
         plot_all(result, folder)
     return folder

@@ -45,6 +45,8 @@ import numpy as np
 from cantools.database.can import Database
 from numpy.lib.stride_tricks import sliding_window_view
 
+from mstc.errors import LogError
+
 FORMATS = ("candump", "asc", "blf")
 """Log formats :func:`read_log` reads."""
 EXTENSIONS = {".log": "candump", ".asc": "asc", ".blf": "blf"}
@@ -56,10 +58,6 @@ CAN_ERR_FLAG = 0x20000000
 """In candump's identifier: an error frame."""
 MAX_DATA = 8
 """Data bytes of a classic frame."""
-
-
-class LogError(Exception):
-    """A log that cannot be used at all (fatal: nothing is replayed)."""
 
 
 class ProblemKind(enum.Enum):

@@ -15,29 +15,13 @@ from datetime import date, datetime, time
 from pathlib import Path
 from typing import Any
 
-from mstc_sim.controller import EventKind, Side
-from mstc_sim.params import Params
-from mstc_sim.plant import Integrator, Pose
+from mstc.controller import EventKind, Side
+from mstc.errors import ScenarioError
+from mstc.params import Params
+from mstc.sim.plant import Integrator, Pose
 
 MAX_OBSTACLES = 16
 """Obstacles one scenario may hold (MSTC_SIL_MAX_OBSTACLES)."""
-
-
-class ScenarioError(ValueError):
-    """A scenario file that cannot be used.
-
-    :param path: the file, as the user named it.
-    :param key: dotted path of the offending key, or None for the whole file.
-    :param problem: what is wrong.
-    """
-
-    def __init__(self, path: str, key: str | None, problem: str) -> None:
-        self.path = path
-        self.key = key
-        self.problem = problem
-        where = f"{path}: {key}" if key else path
-        # One line, whatever the file name, key or parser message hold.
-        super().__init__(" ".join(f"{where}: {problem}".split()))
 
 
 @dataclass(frozen=True)

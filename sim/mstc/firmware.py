@@ -11,10 +11,11 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from mstc_sim.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
-from mstc_sim.params import Params
-from mstc_sim.plant import Pose, wrap_angle
-from mstc_sim.sensor import Obstacle
+from mstc.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
+from mstc.errors import FirmwareError
+from mstc.params import Params
+from mstc.sim.plant import Pose, wrap_angle
+from mstc.sim.sensor import Obstacle
 
 LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no path is given."""
@@ -29,10 +30,6 @@ _ALIGN = 16
 _MODES = {0: Mode.TRACK, 1: Mode.AVOID, 2: Mode.STOP}
 _KINDS = {1: EventKind.DETECT, 2: EventKind.ACTIVATE, 3: EventKind.COMPLETE}
 _SIDES = {0: None, 1: Side.LEFT, -1: Side.RIGHT}
-
-
-class FirmwareError(RuntimeError):
-    """The library cannot be loaded, rejects its parameters or a step fails."""
 
 
 class _Params(ctypes.Structure):
@@ -151,7 +148,7 @@ def _c_params(p: Params) -> _Params:
 
 
 class SilController:
-    """The firmware's control step in this process (a :class:`~mstc_sim.controller.Controller`).
+    """The firmware's control step in this process (a :class:`~mstc.controller.Controller`).
 
     Each instance owns one controller's memory, so several can run side by side.
 
@@ -212,7 +209,7 @@ class SilController:
         obstacles: Sequence[Obstacle],
         t_us: int,
     ) -> StepResult:
-        """One control step (see :meth:`mstc_sim.controller.Controller.step`).
+        """One control step (see :meth:`mstc.controller.Controller.step`).
 
         :raises FirmwareError: more than MAX_OBSTACLES obstacles, or the library
             refused the step or returned a value outside its ABI.

@@ -1,7 +1,7 @@
 """The virtual reference robot of the paper (section 3.1): a unicycle moving at
 constant (v_r, ω_r), integrated with the same scheme as the robot."""
 
-from mstc_sim.plant import Integrator, Pose, integrate
+from mstc.sim.plant import Integrator, Pose, integrate
 
 
 class ReferenceRobot:

@@ -39,9 +39,10 @@ import can
 import numpy as np
 from cantools.database.can import Database, Message
 
-from mstc_sim.logread import FrameLog, LogFrame
-from mstc_sim.progress import Progress
-from mstc_sim.silbus import SilBus
+from mstc.can.silbus import SilBus
+from mstc.errors import FirmwareError
+from mstc.logs.read import FrameLog, LogFrame
+from mstc.report.progress import Progress
 
 FW_NODE = "FW"
 """The firmware's node in the DBC."""
@@ -92,15 +93,11 @@ def pack_frames(log: FrameLog, rows: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------ firmware
 
 
-class FirmwareError(Exception):
-    """The firmware library cannot be loaded or run."""
-
-
 class SilFirmware:
     """A fresh instance of the in-process firmware, fed raw frames.
 
     The instance is restarted, and the library checked, by opening a
-    :class:`~mstc_sim.silbus.SilBus` on it; frames then go through the same C
+    :class:`~mstc.can.silbus.SilBus` on it; frames then go through the same C
     entry points (``mstc_sil_fw_send`` / ``mstc_sil_fw_recv``, one firmware per
     loaded library) without a :class:`can.Message` per frame.
 
@@ -473,7 +470,7 @@ def replay(
     """Replay @p log through a fresh instance of the firmware in @p lib and
     compare what it sends with what the log recorded.
 
-    :param log: the log (:func:`mstc_sim.logread.read_log`).
+    :param log: the log (:func:`mstc.logs.read.read_log`).
     :param db: the DBC: which identifiers are inputs and outputs, and decoding.
     :param lib: ``libmstc_sil.so`` of the build to check.
     :param progress: makes a :class:`Progress` for a number of input frames.

@@ -29,7 +29,9 @@ import can
 import cantools
 from cantools.database.can import Database, Message, Signal
 
-DBC_PATH = Path(__file__).resolve().parents[2] / "firmware" / "comm" / "mstc.dbc"
+from mstc.errors import MstcError
+
+DBC_PATH = Path(__file__).resolve().parents[3] / "firmware" / "comm" / "mstc.dbc"
 """The protocol's DBC, found from this file's place in the repository."""
 
 DLC = 8
@@ -77,7 +79,7 @@ class DropReason(enum.Enum):
     """Alive counter repeated, or advanced by more than MAX_COUNTER_JUMP."""
 
 
-class FrameDropped(Exception):
+class FrameDropped(MstcError):
     """A received frame failed a check; it has been counted in :attr:`Protocol.drops`."""
 
     def __init__(self, reason: DropReason, frame_id: int, detail: str) -> None:

@@ -16,10 +16,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
-from mstc_sim.controller import Event, EventKind
-from mstc_sim.params import Params
-from mstc_sim.run import RunResult, Trace, world_obstacles
-from mstc_sim.sensor import Obstacle
+from mstc.controller import Event, EventKind
+from mstc.params import Params
+from mstc.sim.run import RunResult, Trace, world_obstacles
+from mstc.sim.sensor import Obstacle
 
 _ROBOT = "tab:blue"
 _REFERENCE = "0.35"
@@ -38,7 +38,7 @@ def _obstacle_color(obstacle: int) -> str:
 class PlotData:
     """What the figures draw: a run's trace and events, the parameters, and the
     obstacles of the distance columns. Made from a simulation by
-    :meth:`from_run`, or from a bus log (mstc_sim.logdecode), so that both are
+    :meth:`from_run`, or from a bus log (mstc.logs.decode), so that both are
     drawn alike."""
 
     name: str

@@ -24,8 +24,9 @@ from dataclasses import dataclass
 import can
 from cantools.database.can import Database
 
-from mstc_sim.logread import FrameLog
-from mstc_sim.progress import Progress
+from mstc.errors import SendError
+from mstc.logs.read import FrameLog
+from mstc.report.progress import Progress
 
 SEND_TIMEOUT_S = 1.0
 """How long one send may wait for room in the interface's queue [s]."""
@@ -121,14 +122,6 @@ class PlayStats:
     """Largest delay of a send behind its time on the scaled time line [s]."""
     seconds: float = 0.0
     """Wall time [s]."""
-
-
-class SendError(Exception):
-    """A frame could not be sent; :attr:`stats` says how far the play came."""
-
-    def __init__(self, message: str, stats: PlayStats) -> None:
-        super().__init__(message)
-        self.stats = stats
 
 
 class Player:

@@ -4,11 +4,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mstc_sim.controller import Controller, Event, Fault, Mode
-from mstc_sim.plant import UnicyclePlant
-from mstc_sim.reference import ReferenceRobot
-from mstc_sim.scenario import Scenario
-from mstc_sim.sensor import Obstacle, RangeSensor
+from mstc.controller import Controller, Event, Fault, Mode
+from mstc.sim.plant import UnicyclePlant
+from mstc.sim.reference import ReferenceRobot
+from mstc.sim.scenario import Scenario
+from mstc.sim.sensor import Obstacle, RangeSensor
 
 TRACE_COLUMNS = (
     "t",

@@ -1,0 +1,1 @@
+"""What a run leaves behind: outputs on disk, report tables, figures, progress."""

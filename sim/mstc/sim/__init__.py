@@ -1,0 +1,2 @@
+"""The kinematic plant, the reference robot, the range sensor, scenario files
+and the closed loop."""
