@@ -168,13 +168,15 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
            tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke \
-           tools/replay tools/logplot
+           tools/replay tools/logplot tools/quality/spdx tools/quality/coverage_check \
+           tools/quality/fuzz_seeds
 # C: every tracked source but the generated codec (.clang-format).
 C_FORMAT = $(filter-out firmware/comm/mstc_dbc.%,$(shell git ls-files '*.c' '*.h'))
-lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code
+lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code, SPDX lines
 	$(PY) -m ruff check $(PY_LINT)
 	$(PY) -m ruff format --check $(PY_LINT)
 	@clang-format --dry-run --Werror $(C_FORMAT) && echo "clang-format: $(words $(C_FORMAT)) files ok"
+	@$(PY) tools/quality/spdx
 test: deps-test  ## every test: lint, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
 	@$(MAKE) --no-print-directory lint check-protocol
 	@$(MAKE) --no-print-directory -j2 --output-sync=target quality cross coverage fuzz
