@@ -195,4 +195,4 @@ include mk/quality.mk
 clean:  ## remove build outputs (keeps .venv and deps/)
 	rm -rf build
 help:  ## this list
-	@grep -hE '^[a-z][a-zA-Z_-]*:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | sort | expand -t 16
+	@grep -hE '^[a-z][a-zA-Z_.-]*:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | sort | expand -t 16
