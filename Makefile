@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # mstc: top-level build. `make help` lists the targets.
 #
 # The two commands a newcomer runs: `make sim` and `make test`. Both install

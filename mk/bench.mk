@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # make bench: instructions of one control step on Cortex-M (QEMU mps2 boards,
 # counted with SysTick under -icount) and nanoseconds per step on the host,
 # over a recorded closed loop of the paper's scenarios; prints a table and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # How a C source of the project becomes an object, said once for every build
 # (host, unit tests, cross, board images, coverage, fuzzing, benchmark,
 # numerics), and compile_commands.json written from the same words. Included

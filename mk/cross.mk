@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cross builds of the firmware (firmware/*/*.c, and libfixmath in fixed mode)
 # for Cortex-M with arm-none-eabi-gcc (Debian gcc-arm-none-eabi), warnings as
 # errors, into build/cross/<config>/libmstc_fw.a:

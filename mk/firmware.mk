@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Board images: the firmware cross-compiled and linked for a board
 # (hal/<board>/), with its start-up, drivers and main loop; each board is a
 # build of mk/compile.mk (img-<board>). Included by the top Makefile after

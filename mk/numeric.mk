@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Numeric mode: float (default, single precision) or fixed (Q16.16).
 # Defines, for the Makefile and for mk/cross.mk, mk/firmware.mk, mk/bench.mk,
 # mk/numerics.mk, mk/quality.mk:

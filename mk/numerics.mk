@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # make numerics: docs/numerics.md, the error of every fixed-point primitive
 # against libm in double precision (tools/numerics/numerics.c). The tool is
 # built in fixed mode whatever NUMERIC is; the document is remade when the

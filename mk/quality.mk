@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Quality checks of the firmware (docs/safety.md): fuzzing, coverage, static
 # analysis, the strict warning set on every compiler. Included by the top
 # Makefile after mk/compile.mk; fuzzing and coverage are builds of it. Uses

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Obstacle avoidance by boundary following, paper eq. (9)-(24), with eq. (15)
  * as corrected in docs/equations.md. */
 #include "ctrl/avd.h"

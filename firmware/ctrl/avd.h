@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file avd.h
  * @brief Obstacle avoidance by boundary following, paper eq. (9)-(24) with

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Switch strategy, paper section 4, with the choices of docs/equations.md. */
 #include "ctrl/sup.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file sup.h
  * @brief Supervisor: the switch strategy of section 4 of the paper.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Trajectory tracking, paper eq. (1)-(3) (Kanayama et al. 1990). */
 #include "ctrl/trk.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file trk.h
  * @brief Trajectory tracking (Kanayama et al.), paper eq. (1)-(3).

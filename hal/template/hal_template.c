@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * The blank port: every HAL service (the headers in hal/include/hal) with what to fill
  * in. It compiles and links (`make firmware BOARD=template`), and does

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """mstc_sim: the kinematic plant of mstc.
 
 A differential-drive robot (:mod:`~mstc_sim.plant`), the paper's virtual

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Command line: ``python -m mstc_sim run SCENARIO.toml...``."""
 
 import argparse

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Command lines of the bus-log tools: ``tools/replay`` and ``tools/logplot``.
 
 Both read a log with :mod:`mstc_sim.logread` and print its problems as

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Shared fixtures: the firmware library, and scenario files written from dicts."""
 
 import math

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Bus logs: replay through the firmware, canplayer-like playing, decoding and
 figures (issue: CAN trace replay, decoding and plots from bus logs).
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the application's safety supervisor (app.h, docs/safety.md):
  * arming, the input timeouts in control steps and in time, the ramped stop

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/avd: the side of eq. (11)-(12) on the wrapped
  * difference, the blending vector's direction β of eq. (9)-(14), its rate β̇

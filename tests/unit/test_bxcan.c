@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the board-independent part of the bxCAN driver
  * (hal/stm32/bxcan_calc.c: bit timing, filter banks, mailbox packing) and of

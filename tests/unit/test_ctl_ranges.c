@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the range checks at the control step's boundary (ctl.h,
  * docs/safety.md): a non-finite or out-of-range input, obstacle report or

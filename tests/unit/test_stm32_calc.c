@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the board-independent computations of the STM32 ports
  * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, reset cause, SysTick) and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/sup: the switch strategy of section 4 of the
  * paper (p1, p2, p3), detection (Definition 1), the held side, several
