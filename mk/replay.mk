@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Bus logs: replay through the firmware, decode and plot (docs/replay.md).
 #
 #   make replay LOG=path [REPLAY_ARGS=...]  feed a log's input frames through the

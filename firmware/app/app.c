@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The firmware application: frames in, safety supervisor, control step,
  * frames out (app.h; docs/safety.md). */
 #include "app/app.h"

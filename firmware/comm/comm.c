@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * The CAN protocol for the firmware (comm.h): E2E protection and checks,
  * scaling between raw signals and num_t, dispatch by identifier. Bit packing

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file comm.h
  * @brief The CAN protocol of mstc (mstc.dbc) for the firmware: E2E

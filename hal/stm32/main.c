@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The main loop of the STM32 boards: real-time mode. A timer counts control
  * periods; this loop drains received frames into the application, runs one
  * control step per period with the time of that period, sends the wheel

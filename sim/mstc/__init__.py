@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """mstc: the plant, the CAN harness and the log tools of the mstc firmware.
 
 Laid out by job:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """What the run loop needs from the firmware, independent of how it is reached.
 
 The loop talks to a :class:`Controller`: one call per control period, plain

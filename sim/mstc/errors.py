@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The errors of mstc, in one place.
 
 Every error the package raises on purpose derives from :class:`MstcError`,

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The firmware's control step, called in-process through its C ABI.
 
 Binds ``libmstc_sil.so`` (``make lib``; the ABI is ``hal/sil/mstc_sil.h``) with

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Controller parameters: Table 1 of the paper and the wheel geometry."""
 
 from dataclasses import dataclass

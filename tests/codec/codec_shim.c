@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * A plain C ABI over the generated codec (mstc_dbc.c) and the protocol
  * adapter (comm.c), for tests/python/test_codec.py, which builds it as a

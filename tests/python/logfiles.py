@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Fixtures and helpers of the bus-log tests (test_log_*.py, test_replay.py):
 the committed logs, the DBC, and the ``mstc replay`` / ``mstc play`` commands
 run in process. Loaded as a pytest plugin by conftest.py."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The plant and the firmware through CAN frames (issue: CAN between plant and
 firmware): the in-process firmware behind the python-can interface "mstc-sil"
 must give the same events as the in-memory step, and every run's bus.log must

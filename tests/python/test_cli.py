@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The command line and what a run writes, through the real library."""
 
 import csv

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The C codec and protocol adapter against cantools and the plant's protocol.py.
 
 - The generated C codec (firmware/comm/mstc_dbc.c) packs and unpacks every

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The firmware's E2E receiver (firmware/comm/comm.c) against an independent
 model of its specification (docs/safety.md, "E2E receiver").
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Closed loop through a faulty link: the plant and the firmware in lock-step
 over the in-process bus ("mstc-sil"), with the plant's frames cut, corrupted,
 delayed and duplicated (docs/safety.md, "Tests").

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """HIL over vcan (issue: CAN between plant and firmware): mstc-fw as its own
 process on vcan0 and the plant on python-can's socketcan interface, inside the
 vcan VM where the host kernel has no CAN (tools/vm/with-vcan). Never skipped:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Decoding bus logs (mstc.logs.decode, ``mstc plot``): events, status,
 traces and figures from the frames alone.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Playing a log onto a bus (mstc.logs.play, ``mstc play``): the time line,
 the rate, the selection of frames, and errors opening a bus.
 

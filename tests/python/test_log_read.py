@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Reading bus logs (mstc.logs.read): every problem reported as path:line:
 problem, skipped or kept as documented, never a crash.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Float and Q16.16 builds of the same controller source agree in closed loop
 (issue: fixed point). Both libraries run the same scenarios in memory; the
 robot paths may differ by at most 1 mm, and the events should not differ at

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Both examples of the paper's section 5, end to end through the firmware.
 
 The expected times and sides are the paper's (section 5; docs/equations.md),

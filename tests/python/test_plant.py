@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Plant, reference robot and sensor against closed-form motion."""
 
 import math

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Progress of long runs (mstc.report.progress): a bar with an ETA on a
 terminal, plain lines otherwise and in CI."""
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """``mstc replay``: the committed logs replay bit-exact, and the first difference
 is found and shown with its signals.
 

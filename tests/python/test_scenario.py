@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Scenario loader: valid files, every kind of bad file, and what the CLI does
 with a bad file (one error line, exit 2, nothing written)."""
 

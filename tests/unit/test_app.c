@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unity tests of the application layer (firmware/app): the lock-step
  * exchange, the safe stop before inputs arrive, parameters over the bus,
  * drop reporting and housekeeping. The HAL is hal/fake: received frames are

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/comm: CRC-8H2F, E2E protection and checks (every
  * drop reason), scaling and saturation of every frame, in both numeric modes.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The benchmark's closed loop, recording and replay (bench.h). The same
  * source runs on the Cortex-M images and on the host. */
 #include "bench.h"

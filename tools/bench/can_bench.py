@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """CAN benchmark of mstc (make bench): steps per second through frames in
 process (SIL), and lock-step round trips per second over SocketCAN (HIL)
 beside a bare round trip measured in the same run.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """replay_bench: replay throughput on a 10-minute recorded log.
 
 Times, in one run and on the same file, the median of N runs (5 by default,

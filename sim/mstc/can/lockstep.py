@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The firmware behind a python-can bus, in lock-step (docs/protocol.md).
 
 :class:`CanController` implements :class:`mstc.controller.Controller` with

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The CAN protocol of mstc (``firmware/comm/mstc.dbc``) for the plant and tools.
 
 The Python counterpart of ``firmware/comm/comm.c``: every frame is classic CAN

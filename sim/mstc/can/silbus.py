@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """python-can interface ``mstc-sil``: the firmware in process, behind CAN frames.
 
 Registered through the ``can.interface`` entry point, so the plant reaches the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The ``mstc`` command: one subcommand per job, each with ``--help``.
 
 Each subcommand is a module of this package with ``NAME``, ``HELP``,

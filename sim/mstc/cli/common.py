@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """What every subcommand of ``mstc`` shares: exit statuses, the error line,
 the firmware library's default, and loading scenario files."""
 

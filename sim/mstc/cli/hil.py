@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """``mstc hil``: scenario files over a real CAN bus, against ``mstc-fw`` or a board."""
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """``mstc play``: a bus log onto a bus with its timing, like canplayer."""
 
 from __future__ import annotations

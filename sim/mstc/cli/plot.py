@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """``mstc plot``: events, status and the paper's figures from a bus log alone."""
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """``mstc replay``: a bus log through the firmware, compared bit for bit."""
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """``mstc sim``: scenario files in closed loop against the firmware in process."""
 
 from __future__ import annotations

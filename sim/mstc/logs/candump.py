@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Bus logs in ``candump -L`` format, byte for byte.
 
 One frame a line: ``(1700000000.123456) vcan0 123#0011223344556677``: the time

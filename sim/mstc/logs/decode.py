@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Decode a bus log into what a simulation reports: events, status, trace, figures.
 
 From the frames alone, with the DBC through cantools, so that a run recorded

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Play a bus log onto a bus with its original timing, like can-utils' canplayer.
 
 Frames are sent at the log's time line, scaled by a rate factor: frame i goes

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Reading recorded bus logs: ``candump -L``, and ASC and BLF through python-can.
 
 A log becomes a :class:`FrameLog`: the frames in file order, column by column

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Replay a bus log through the in-process firmware and compare what it sends.
 
 The firmware is deterministic in lock-step: what it sends depends only on the

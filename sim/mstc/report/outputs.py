@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """What a run leaves on disk: events.json, trace.csv and the figures."""
 
 import csv

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Figures of a run, like the paper's Figures 5 and 6.
 
 Drawn with matplotlib's object API on the Agg canvas: no display and no

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Progress of long runs on stderr, without a dependency.
 
 On a terminal, a bar redrawn in place with the share done and an estimate of

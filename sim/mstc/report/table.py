@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The text report of a run: its events beside the expected ones."""
 
 from dataclasses import dataclass

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Kinematic plant: a differential-drive robot moving as a unicycle.
 
 The robot is driven by the angular speeds of its two wheels. They give the body

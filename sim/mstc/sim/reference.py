@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The virtual reference robot of the paper (section 3.1): a unicycle moving at
 constant (v_r, ω_r), integrated with the same scheme as the robot."""
 

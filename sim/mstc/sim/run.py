@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The closed loop: plant, reference and sensor around a controller."""
 
 from dataclasses import dataclass

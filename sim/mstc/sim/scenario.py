@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Scenario files: TOML, validated strictly (format: docs/scenarios.md).
 
 Every problem with a file raises :class:`ScenarioError`, whose text is one

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Range sensor: which obstacles the robot sees (Definition 1 of the paper)."""
 
 import math

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the application's safety supervisor (app.h, docs/safety.md):
  * arming, the input timeouts in control steps and in time, the ramped stop
@@ -104,7 +105,7 @@ static void drive(unsigned steps)
 
 /* ------------------------------------------------------------------ arming */
 
-static void test_e2e_app_starts_halted_not_armed_and_stands_still(void)
+static void test_app_safety_starts_halted_not_armed_and_stands_still(void)
 {
     full_step();
     TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
@@ -113,7 +114,7 @@ static void test_e2e_app_starts_halted_not_armed_and_stands_still(void)
     TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
 }
 
-static void test_e2e_app_arm_needs_five_good_frames_of_every_input(void)
+static void test_app_safety_arm_needs_five_good_frames_of_every_input(void)
 {
     for (unsigned k = 0; k + 1u < APP_REARM_FRAMES; k++) {
         odom();
@@ -130,7 +131,7 @@ static void test_e2e_app_arm_needs_five_good_frames_of_every_input(void)
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_right);
 }
 
-static void test_e2e_app_arm_command_other_values_and_get(void)
+static void test_app_safety_arm_command_other_values_and_get(void)
 {
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, arm_cmd(2.0f));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, arm_cmd(NAN));
@@ -142,7 +143,7 @@ static void test_e2e_app_arm_command_other_values_and_get(void)
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
 }
 
-static void test_e2e_app_disarm_halts_with_a_ramp(void)
+static void test_app_safety_disarm_halts_with_a_ramp(void)
 {
     drive(2);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
@@ -154,7 +155,7 @@ static void test_e2e_app_disarm_halts_with_a_ramp(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
 }
 
-static void test_e2e_app_heartbeat_says_ready_when_not_armed_and_fault_when_halted(void)
+static void test_app_safety_heartbeat_says_ready_when_not_armed_and_fault_when_halted(void)
 {
     full_step(); /* t = 0: housekeeping */
     struct mstc_dbc_heartbeat_t h;
@@ -173,7 +174,7 @@ static void test_e2e_app_heartbeat_says_ready_when_not_armed_and_fault_when_halt
 
 /* ---------------------------------------------------------------- timeouts */
 
-static void test_e2e_app_odometry_lost_halts_at_the_third_step(void)
+static void test_app_safety_odometry_lost_halts_at_the_third_step(void)
 {
     drive(5);
     /* Only the reference from now on: the last odometry came with the last
@@ -193,7 +194,7 @@ static void test_e2e_app_odometry_lost_halts_at_the_third_step(void)
     TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_right);
 }
 
-static void test_e2e_app_reference_lost_halts_with_its_reason(void)
+static void test_app_safety_reference_lost_halts_with_its_reason(void)
 {
     drive(5);
     for (unsigned k = 0; k < 3u; k++) {
@@ -203,7 +204,7 @@ static void test_e2e_app_reference_lost_halts_with_its_reason(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, tf_last_status().status_halt);
 }
 
-static void test_e2e_app_one_theta_frame_lost_is_enough(void)
+static void test_app_safety_one_theta_frame_lost_is_enough(void)
 {
     drive(5);
     for (unsigned k = 0; k < 3u; k++) {
@@ -214,7 +215,7 @@ static void test_e2e_app_one_theta_frame_lost_is_enough(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
 }
 
-static void test_e2e_app_timeout_counts_time_too(void)
+static void test_app_safety_timeout_counts_time_too(void)
 {
     /* Steps 40 ms apart: two periods without odometry are 80 ms >= 60 ms. */
     drive(5);
@@ -228,7 +229,7 @@ static void test_e2e_app_timeout_counts_time_too(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt); /* 80 ms */
 }
 
-static void test_e2e_app_ramp_keeps_the_curvature_and_ends_at_zero(void)
+static void test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero(void)
 {
     /* Reference to the left: wheels 28 and -8 rad/s (test_app.c). */
     arm();
@@ -260,7 +261,7 @@ static void test_e2e_app_ramp_keeps_the_curvature_and_ends_at_zero(void)
     }
 }
 
-static void test_e2e_app_deceleration_is_a_parameter(void)
+static void test_app_safety_deceleration_is_a_parameter(void)
 {
     feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
@@ -282,7 +283,7 @@ static void test_e2e_app_deceleration_is_a_parameter(void)
     }
 }
 
-static void test_e2e_app_halt_latches_until_rearmed_after_five_good_frames(void)
+static void test_app_safety_halt_latches_until_rearmed_after_five_good_frames(void)
 {
     drive(5);
     for (unsigned k = 0; k < 3u; k++) {
@@ -302,7 +303,7 @@ static void test_e2e_app_halt_latches_until_rearmed_after_five_good_frames(void)
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
 }
 
-static void test_e2e_app_rearm_refused_until_the_inputs_ran_five_steps(void)
+static void test_app_safety_rearm_refused_until_the_inputs_ran_five_steps(void)
 {
     drive(5);
     for (unsigned k = 0; k < 3u; k++) {
@@ -321,7 +322,7 @@ static void test_e2e_app_rearm_refused_until_the_inputs_ran_five_steps(void)
 
 /* -------------------------------------------------- corrupted and hostile */
 
-static void test_e2e_app_corrupted_frames_are_never_used(void)
+static void test_app_safety_corrupted_frames_are_never_used(void)
 {
     drive(3);
     /* An odometry frame that says the robot is 1 m further, with one bit of
@@ -337,7 +338,7 @@ static void test_e2e_app_corrupted_frames_are_never_used(void)
     TEST_ASSERT_EQUAL_UINT8(8u, tf_last_status().status_faults & 8u);
 }
 
-static void test_e2e_app_two_corrupted_frames_in_the_window_halt_at_once(void)
+static void test_app_safety_two_corrupted_frames_in_the_window_halt_at_once(void)
 {
     drive(5);
     for (unsigned k = 0; k < 2u; k++) {
@@ -352,7 +353,7 @@ static void test_e2e_app_two_corrupted_frames_in_the_window_halt_at_once(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
 }
 
-static void test_e2e_app_duplicated_frames_are_tolerated(void)
+static void test_app_safety_duplicated_frames_are_tolerated(void)
 {
     drive(2);
     for (unsigned k = 0; k < 10u; k++) {
@@ -366,7 +367,7 @@ static void test_e2e_app_duplicated_frames_are_tolerated(void)
     }
 }
 
-static void test_e2e_app_a_step_with_a_bad_step_history_halts(void)
+static void test_app_safety_a_step_with_a_bad_step_history_halts(void)
 {
     drive(5);
     for (unsigned k = 0; k < 2u; k++) {
@@ -378,7 +379,7 @@ static void test_e2e_app_a_step_with_a_bad_step_history_halts(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_STEP, tf_last_status().status_halt);
 }
 
-static void test_e2e_app_replayed_step_runs_no_step(void)
+static void test_app_safety_replayed_step_runs_no_step(void)
 {
     drive(2);
     const uint32_t steps = app.steps;
@@ -390,7 +391,7 @@ static void test_e2e_app_replayed_step_runs_no_step(void)
     TEST_ASSERT_EQUAL_UINT32(steps + 1u, app.steps);
 }
 
-static void test_e2e_app_step_time_going_back_times_the_inputs_out(void)
+static void test_app_safety_step_time_going_back_times_the_inputs_out(void)
 {
     drive(5);
     /* A STEP whose time goes back is a wrap: 71.6 min later for the
@@ -409,7 +410,7 @@ static void test_e2e_app_step_time_going_back_times_the_inputs_out(void)
 
 /* ------------------------------------------------------------------ bus-off */
 
-static void test_e2e_app_bus_off_halts_and_blocks_the_rearm(void)
+static void test_app_safety_bus_off_halts_and_blocks_the_rearm(void)
 {
     hal_fake.can_status_rc = 0;
     hal_fake.can_status.state = HAL_CAN_STATE_ERROR_ACTIVE;
@@ -429,7 +430,7 @@ static void test_e2e_app_bus_off_halts_and_blocks_the_rearm(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
 }
 
-static void test_e2e_app_a_bus_off_between_steps_halts_too(void)
+static void test_app_safety_a_bus_off_between_steps_halts_too(void)
 {
     /* Bus-off and automatic recovery between two looks: the count moved. */
     hal_fake.can_status_rc = 0;
@@ -443,7 +444,7 @@ static void test_e2e_app_a_bus_off_between_steps_halts_too(void)
 
 /* ------------------------------------------------------------ parameters */
 
-static void test_e2e_app_every_parameter_reads_back_its_default(void)
+static void test_app_safety_every_parameter_reads_back_its_default(void)
 {
     /* Table 1 and the default geometry (ctl.h), in index order. */
     const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,  12.0f,
@@ -457,7 +458,7 @@ static void test_e2e_app_every_parameter_reads_back_its_default(void)
     TEST_ASSERT_EQUAL_FLOAT(APP_DEFAULT_MAX_WHEEL_DECEL, tf_last_param_value().param_value_value);
 }
 
-static void test_e2e_app_an_obstacle_reported_twice_in_a_step_counts_once(void)
+static void test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once(void)
 {
     arm();
     odom();
@@ -474,7 +475,7 @@ static void test_e2e_app_an_obstacle_reported_twice_in_a_step_counts_once(void)
     TEST_ASSERT_EQUAL_UINT8(1, app.ctl.sup.n_obs);
 }
 
-static void test_e2e_app_at_most_sixteen_obstacles_a_step(void)
+static void test_app_safety_at_most_sixteen_obstacles_a_step(void)
 {
     arm();
     odom();
@@ -504,7 +505,7 @@ static void test_e2e_app_at_most_sixteen_obstacles_a_step(void)
     TEST_ASSERT_EQUAL_UINT8(115, app.reports[SUP_MAX_OBSTACLES - 1u].id);
 }
 
-static void test_e2e_app_standing_reference_is_stop_not_a_halt(void)
+static void test_app_safety_standing_reference_is_stop_not_a_halt(void)
 {
     /* v_r = ω_r = 0: the supervisor's p3, mode STOP, heartbeat STOPPED. */
     arm();
@@ -518,7 +519,7 @@ static void test_e2e_app_standing_reference_is_stop_not_a_halt(void)
     TEST_ASSERT_EQUAL_INT(COMM_STATE_STOPPED, app.state);
 }
 
-static void test_e2e_app_ref_motion_alone_lost_is_a_reference_halt(void)
+static void test_app_safety_ref_motion_alone_lost_is_a_reference_halt(void)
 {
     drive(5);
     for (unsigned k = 0; k < 3u; k++) {
@@ -529,7 +530,7 @@ static void test_e2e_app_ref_motion_alone_lost_is_a_reference_halt(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, tf_last_status().status_halt);
 }
 
-static void test_e2e_app_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate(void)
+static void test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate(void)
 {
     drive(3);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
@@ -545,7 +546,7 @@ static void test_e2e_app_a_step_at_the_same_time_ramps_nothing_and_long_halts_sa
 
 /* ------------------------------------------------------------- real time */
 
-static void test_e2e_app_real_time_mode_needs_no_step_and_times_out(void)
+static void test_app_safety_real_time_mode_needs_no_step_and_times_out(void)
 {
     arm();
     uint64_t now = 1000000u;
@@ -571,33 +572,33 @@ static void test_e2e_app_real_time_mode_needs_no_step_and_times_out(void)
 int main(void)
 {
     UNITY_BEGIN();
-    RUN_TEST(test_e2e_app_starts_halted_not_armed_and_stands_still);
-    RUN_TEST(test_e2e_app_arm_needs_five_good_frames_of_every_input);
-    RUN_TEST(test_e2e_app_arm_command_other_values_and_get);
-    RUN_TEST(test_e2e_app_disarm_halts_with_a_ramp);
-    RUN_TEST(test_e2e_app_heartbeat_says_ready_when_not_armed_and_fault_when_halted);
-    RUN_TEST(test_e2e_app_odometry_lost_halts_at_the_third_step);
-    RUN_TEST(test_e2e_app_reference_lost_halts_with_its_reason);
-    RUN_TEST(test_e2e_app_one_theta_frame_lost_is_enough);
-    RUN_TEST(test_e2e_app_timeout_counts_time_too);
-    RUN_TEST(test_e2e_app_ramp_keeps_the_curvature_and_ends_at_zero);
-    RUN_TEST(test_e2e_app_deceleration_is_a_parameter);
-    RUN_TEST(test_e2e_app_halt_latches_until_rearmed_after_five_good_frames);
-    RUN_TEST(test_e2e_app_rearm_refused_until_the_inputs_ran_five_steps);
-    RUN_TEST(test_e2e_app_corrupted_frames_are_never_used);
-    RUN_TEST(test_e2e_app_two_corrupted_frames_in_the_window_halt_at_once);
-    RUN_TEST(test_e2e_app_duplicated_frames_are_tolerated);
-    RUN_TEST(test_e2e_app_a_step_with_a_bad_step_history_halts);
-    RUN_TEST(test_e2e_app_replayed_step_runs_no_step);
-    RUN_TEST(test_e2e_app_step_time_going_back_times_the_inputs_out);
-    RUN_TEST(test_e2e_app_bus_off_halts_and_blocks_the_rearm);
-    RUN_TEST(test_e2e_app_a_bus_off_between_steps_halts_too);
-    RUN_TEST(test_e2e_app_every_parameter_reads_back_its_default);
-    RUN_TEST(test_e2e_app_an_obstacle_reported_twice_in_a_step_counts_once);
-    RUN_TEST(test_e2e_app_at_most_sixteen_obstacles_a_step);
-    RUN_TEST(test_e2e_app_standing_reference_is_stop_not_a_halt);
-    RUN_TEST(test_e2e_app_ref_motion_alone_lost_is_a_reference_halt);
-    RUN_TEST(test_e2e_app_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
-    RUN_TEST(test_e2e_app_real_time_mode_needs_no_step_and_times_out);
+    RUN_TEST(test_app_safety_starts_halted_not_armed_and_stands_still);
+    RUN_TEST(test_app_safety_arm_needs_five_good_frames_of_every_input);
+    RUN_TEST(test_app_safety_arm_command_other_values_and_get);
+    RUN_TEST(test_app_safety_disarm_halts_with_a_ramp);
+    RUN_TEST(test_app_safety_heartbeat_says_ready_when_not_armed_and_fault_when_halted);
+    RUN_TEST(test_app_safety_odometry_lost_halts_at_the_third_step);
+    RUN_TEST(test_app_safety_reference_lost_halts_with_its_reason);
+    RUN_TEST(test_app_safety_one_theta_frame_lost_is_enough);
+    RUN_TEST(test_app_safety_timeout_counts_time_too);
+    RUN_TEST(test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero);
+    RUN_TEST(test_app_safety_deceleration_is_a_parameter);
+    RUN_TEST(test_app_safety_halt_latches_until_rearmed_after_five_good_frames);
+    RUN_TEST(test_app_safety_rearm_refused_until_the_inputs_ran_five_steps);
+    RUN_TEST(test_app_safety_corrupted_frames_are_never_used);
+    RUN_TEST(test_app_safety_two_corrupted_frames_in_the_window_halt_at_once);
+    RUN_TEST(test_app_safety_duplicated_frames_are_tolerated);
+    RUN_TEST(test_app_safety_a_step_with_a_bad_step_history_halts);
+    RUN_TEST(test_app_safety_replayed_step_runs_no_step);
+    RUN_TEST(test_app_safety_step_time_going_back_times_the_inputs_out);
+    RUN_TEST(test_app_safety_bus_off_halts_and_blocks_the_rearm);
+    RUN_TEST(test_app_safety_a_bus_off_between_steps_halts_too);
+    RUN_TEST(test_app_safety_every_parameter_reads_back_its_default);
+    RUN_TEST(test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once);
+    RUN_TEST(test_app_safety_at_most_sixteen_obstacles_a_step);
+    RUN_TEST(test_app_safety_standing_reference_is_stop_not_a_halt);
+    RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
+    RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
+    RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
     return UNITY_END();
 }

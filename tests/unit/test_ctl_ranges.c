@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the range checks at the control step's boundary (ctl.h,
  * docs/safety.md): a non-finite or out-of-range input, obstacle report or
@@ -45,7 +46,7 @@ static void assert_stopped_for_input(void)
     TEST_ASSERT_TRUE(out.wheels.left == NUM_ZERO && out.wheels.right == NUM_ZERO);
 }
 
-static void test_ranges_each_input_beyond_its_range_stops_the_step(void)
+static void test_ctl_ranges_each_input_beyond_its_range_stops_the_step(void)
 {
     const num_t far = tu_num(10001.0);
     for (int field = 0; field < 8; field++) {
@@ -68,7 +69,7 @@ static void test_ranges_each_input_beyond_its_range_stops_the_step(void)
     assert_wheels_in_range();
 }
 
-static void test_ranges_extreme_inputs_in_range_give_outputs_in_range(void)
+static void test_ctl_ranges_extreme_inputs_in_range_give_outputs_in_range(void)
 {
     /* Corners of the input box, every sign: wheels saturated, finite. */
     const num_t P = CTL_MAX_ABS_POSITION;
@@ -90,7 +91,7 @@ static void test_ranges_extreme_inputs_in_range_give_outputs_in_range(void)
     }
 }
 
-static void test_ranges_bad_obstacle_reports_are_dropped_not_used(void)
+static void test_ctl_ranges_bad_obstacle_reports_are_dropped_not_used(void)
 {
     const sup_obstacle_t bad[] = {
         { .id = 1, .x = tu_num(10001.0), .y = NUM_ZERO, .radius = tu_num(0.1) },
@@ -110,7 +111,7 @@ static void test_ranges_bad_obstacle_reports_are_dropped_not_used(void)
     }
 }
 
-static void test_ranges_reports_beyond_the_table_are_dropped(void)
+static void test_ctl_ranges_reports_beyond_the_table_are_dropped(void)
 {
     sup_obstacle_t many[SUP_MAX_OBSTACLES + 1u];
     for (size_t i = 0; i < SUP_MAX_OBSTACLES + 1u; i++) {
@@ -136,7 +137,7 @@ static void test_ranges_reports_beyond_the_table_are_dropped(void)
         TEST_ASSERT_EQUAL_INT_MESSAGE((expected), ctl_params_check(&p_), #field);                  \
     } while (0)
 
-static void test_ranges_parameters_beyond_their_range_are_rejected(void)
+static void test_ctl_ranges_parameters_beyond_their_range_are_rejected(void)
 {
     EXPECT_PARAM(-EINVAL, trk.k1, tu_num(10001.0));
     EXPECT_PARAM(-EINVAL, kin.max_wheel_speed, tu_num(10001.0));
@@ -147,7 +148,7 @@ static void test_ranges_parameters_beyond_their_range_are_rejected(void)
     EXPECT_PARAM(0, kin.wheel_radius, CTL_PARAM_MIN);
 }
 
-static void test_ranges_extreme_parameters_give_outputs_in_range(void)
+static void test_ctl_ranges_extreme_parameters_give_outputs_in_range(void)
 {
     /* Gains and speed limit at their largest, wheels at their smallest, the
      * inputs at the corner: still finite and within the limit. */
@@ -166,7 +167,7 @@ static void test_ranges_extreme_parameters_give_outputs_in_range(void)
 }
 
 #ifndef NUM_FIXED
-static void test_ranges_non_finite_inputs_stop_without_a_fp_exception(void)
+static void test_ctl_ranges_non_finite_inputs_stop_without_a_fp_exception(void)
 {
     const float bad[] = { NAN, INFINITY, -INFINITY };
     for (size_t i = 0; i < 3u; i++) {
@@ -185,7 +186,7 @@ static void test_ranges_non_finite_inputs_stop_without_a_fp_exception(void)
     }
 }
 
-static void test_ranges_an_invalid_output_is_replaced_by_zero(void)
+static void test_ctl_ranges_an_invalid_output_is_replaced_by_zero(void)
 {
     /* Only reachable with parameters ctl_params_check would refuse: a NaN
      * speed limit set behind its back makes the saturation give NaN. The
@@ -204,15 +205,15 @@ static void test_ranges_an_invalid_output_is_replaced_by_zero(void)
 int main(void)
 {
     UNITY_BEGIN();
-    RUN_TEST(test_ranges_each_input_beyond_its_range_stops_the_step);
-    RUN_TEST(test_ranges_extreme_inputs_in_range_give_outputs_in_range);
-    RUN_TEST(test_ranges_bad_obstacle_reports_are_dropped_not_used);
-    RUN_TEST(test_ranges_reports_beyond_the_table_are_dropped);
-    RUN_TEST(test_ranges_parameters_beyond_their_range_are_rejected);
-    RUN_TEST(test_ranges_extreme_parameters_give_outputs_in_range);
+    RUN_TEST(test_ctl_ranges_each_input_beyond_its_range_stops_the_step);
+    RUN_TEST(test_ctl_ranges_extreme_inputs_in_range_give_outputs_in_range);
+    RUN_TEST(test_ctl_ranges_bad_obstacle_reports_are_dropped_not_used);
+    RUN_TEST(test_ctl_ranges_reports_beyond_the_table_are_dropped);
+    RUN_TEST(test_ctl_ranges_parameters_beyond_their_range_are_rejected);
+    RUN_TEST(test_ctl_ranges_extreme_parameters_give_outputs_in_range);
 #ifndef NUM_FIXED
-    RUN_TEST(test_ranges_non_finite_inputs_stop_without_a_fp_exception);
-    RUN_TEST(test_ranges_an_invalid_output_is_replaced_by_zero);
+    RUN_TEST(test_ctl_ranges_non_finite_inputs_stop_without_a_fp_exception);
+    RUN_TEST(test_ctl_ranges_an_invalid_output_is_replaced_by_zero);
 #endif
     return UNITY_END();
 }
