@@ -473,6 +473,21 @@ static void test_comm_decode_obstacle(void)
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.25, m.u.obstacle.radius);
 }
 
+static void test_comm_decode_obstacle_velocity(void)
+{
+    /* id 3 at bits 12..15; vx = 0.5 m/s: raw 512 (2^-10 m/s) at 16..31;
+     * vy = -1.25 m/s: raw -1280 at 32..47. Counter 2. CRC-8H2F over data ID
+     * 0x1111 and bytes 1..7: 0x62 (crccheck's Crc8Autosar). */
+    static const uint8_t g[8] = { 0x62, 0x32, 0x00, 0x02, 0x00, 0xFB, 0x00, 0x00 };
+    hal_can_frame_t f = golden_in(COMM_ID_OBSTACLE_VEL, g);
+    comm_msg_t m;
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_OBSTACLE_VEL, m.id);
+    TEST_ASSERT_EQUAL_UINT8(3, m.u.obstacle_vel.id);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.5, m.u.obstacle_vel.vx);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.25, m.u.obstacle_vel.vy);
+}
+
 static void test_comm_decode_param_set_and_get(void)
 {
     /* PARAM_SET index 5, value 3.0f = 0x40400000 at bytes 3..6. */
@@ -841,6 +856,7 @@ int main(void)
     RUN_TEST(test_comm_decode_step);
     RUN_TEST(test_comm_decode_obstacle);
     RUN_TEST(test_comm_decode_radius_0_1_m_equals_the_r_ob_constant);
+    RUN_TEST(test_comm_decode_obstacle_velocity);
     RUN_TEST(test_comm_decode_param_set_and_get);
     RUN_TEST(test_comm_decode_range_ends_are_exact);
     RUN_TEST(test_comm_decode_passes_invalid_reports_on);
