@@ -27,13 +27,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import can
-import cantools
-from cantools.database.can import Database, Message, Signal
+from cantools.database.can import Message, Signal
 
+from mstc.can.dbc import DBC_PATH as DBC_PATH
+from mstc.can.dbc import Tables, tables
+from mstc.can.dbc import load_database as load_database
 from mstc.errors import MstcError
-
-DBC_PATH = Path(__file__).resolve().parents[3] / "firmware" / "comm" / "mstc.dbc"
-"""The protocol's DBC, found from this file's place in the repository."""
 
 DLC = 8
 """Length of every frame [bytes]."""
@@ -115,14 +114,6 @@ class _Counters:
     rx: dict[int, _RxState] = field(default_factory=dict)
 
 
-def load_database(path: Path = DBC_PATH) -> Database:
-    """Load the protocol's DBC, strictly (overlapping signals are an error)."""
-    db = cantools.database.load_file(path, strict=True)
-    if not isinstance(db, Database):
-        raise TypeError(f"{path} is not a CAN database")
-    return db
-
-
 def _field_range(signal: Signal) -> tuple[int, int]:
     """Raw values the signal's bits can hold."""
     if signal.is_signed:
@@ -173,7 +164,7 @@ class Protocol:
         frames it does not receive are dropped as unknown, as the firmware
         drops the frames it only sends. ``None`` accepts every frame of the
         DBC (log decoders, monitors).
-    :param dbc_path: the DBC; the repository's by default.
+    :param dbc_path: the DBC; the package's by default.
     """
 
     def __init__(self, node: str | None = None, dbc_path: Path = DBC_PATH) -> None:
@@ -187,6 +178,14 @@ class Protocol:
         self._counters = _Counters()
         self.drops: dict[DropReason, int] = dict.fromkeys(DropReason, 0)
         """Received frames dropped, by reason (saturating at DROP_COUNT_MAX)."""
+
+    @property
+    def tables(self) -> Tables:
+        """The DBC's value tables (parameter indexes, modes, ...; :mod:`mstc.can.dbc`).
+
+        :raises DbcError: the DBC lacks an entry the Python side names.
+        """
+        return tables(self.db)
 
     def reset(self) -> None:
         """Forget counters and drop counts, as comm_init() does."""

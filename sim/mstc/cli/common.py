@@ -13,8 +13,9 @@ from pathlib import Path
 
 from cantools.database.can import Database
 
+from mstc.can.dbc import tables
 from mstc.can.protocol import DBC_PATH, load_database
-from mstc.errors import FirmwareError, LogError, ScenarioError
+from mstc.errors import DbcError, FirmwareError, LogError, ScenarioError
 from mstc.firmware import LIB_ENV
 from mstc.logs.read import FORMATS, FrameLog, read_log
 from mstc.report.outputs import BusLog, write_outputs
@@ -138,7 +139,7 @@ def add_log_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PATH",
         type=Path,
         default=DBC_PATH,
-        help="the protocol's DBC (default: firmware/comm/mstc.dbc)",
+        help="the protocol's DBC (default: the one shipped in the package, firmware/comm/mstc.dbc)",
     )
     parser.add_argument(
         "--strict",
@@ -163,6 +164,11 @@ def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:
         db = load_database(args.dbc)
     except Exception as exc:  # cantools raises several kinds on a bad DBC
         error(f"cannot load the DBC {args.dbc}: {exc}")
+        return EXIT_USAGE
+    try:
+        tables(db)  # it names everything the Python side names (mstc.can.dbc)
+    except DbcError as exc:
+        error(str(exc))
         return EXIT_USAGE
     try:
         log = read_log(args.log, db, args.format)

@@ -28,16 +28,17 @@ import json
 import math
 import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from cantools.database.can import Database, Message
 
+from mstc.can.dbc import tables
 from mstc.can.protocol import e2e_crc
-from mstc.controller import Event, EventKind, Fault, Mode, Side
+from mstc.controller import Event, Fault, Mode
 from mstc.logs.read import FrameLog, LogProblem, ProblemKind
-from mstc.params import Params
+from mstc.params import PARAM_NAMES, Params, with_param_values
 from mstc.report.outputs import event_record
 from mstc.report.plots import PlotData
 from mstc.report.progress import Progress
@@ -49,28 +50,6 @@ from mstc.sim.sensor import Obstacle
 TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here."""
 
-_MODES = {0: Mode.TRACK, 1: Mode.AVOID, 2: Mode.STOP}
-_KINDS = {1: EventKind.DETECT, 2: EventKind.ACTIVATE, 3: EventKind.COMPLETE}
-_SIDES = {0: None, 1: Side.LEFT, 2: Side.RIGHT}
-
-_SCALAR_PARAMS = {
-    "R_m": "r_m",
-    "R_ob": "r_ob",
-    "D_det": "d_det",
-    "D_act": "d_act",
-    "D_s": "d_s",
-    "wheel_radius": "wheel_radius",
-    "track_width": "track_width",
-    "max_wheel_speed": "max_wheel_speed",
-}
-"""PARAM index names (the DBC's value table) of the scalar :class:`Params` fields."""
-_GAIN_PARAMS = {
-    "trk_k1": ("tracking_gains", 0),
-    "trk_k2": ("tracking_gains", 1),
-    "trk_k3": ("tracking_gains", 2),
-    "avd_k1": ("avoidance_gains", 0),
-    "avd_k2": ("avoidance_gains", 1),
-}
 _E2E = ("CRC", "Counter")
 _INPUT_COLUMNS = ("x", "y", "theta", "x_r", "y_r", "theta_r", "v_r", "w_r")
 _WHEEL_COLUMNS = ("wheel_left", "wheel_right", "v", "w")
@@ -141,6 +120,7 @@ class _Decoder:
     def __init__(self, log: FrameLog, db: Database) -> None:
         self.log = log
         self.db = db
+        self.tables = tables(db)
         self.messages: dict[int, Message] = {m.frame_id: m for m in db.messages}
         self.data_ids = {
             m.frame_id: int(m.dbc.attributes["E2EDataID"].value)
@@ -230,17 +210,16 @@ class _Decoder:
     # Outputs ---------------------------------------------------------------
 
     def on_param_value(self, row: int, s: dict[str, float | int]) -> None:
-        if int(s["result"]) != 0:
+        if int(s["result"]) != self.tables.param_ok:
             return
-        message = self.db.get_message_by_name("PARAM_VALUE")
-        signal = message.get_signal_by_name("PARAM_VALUE_index")
-        name = str((signal.choices or {}).get(int(s["index"]), s["index"]))
-        self.param_values[name] = _float32_value(float(s["value"]))
+        name = self.tables.param_index.name_of(int(s["index"]))
+        if name is not None:
+            self.param_values[name] = _float32_value(float(s["value"]))
 
     def on_event(self, row: int, s: dict[str, float | int]) -> None:
         raw = round(float(s["time"]) * 1e6)
         base = self.now_us - self.now_us % TIME_MODULO if self.now_us is not None else 0
-        kind = _KINDS.get(int(s["kind"]))
+        kind = self.tables.event_kind.get(int(s["kind"]))
         if kind is None:
             self.problems.append(
                 LogProblem(
@@ -251,7 +230,8 @@ class _Decoder:
                 )
             )
             return
-        self.events.append(Event(base + raw, kind, int(s["obstacle"]), _SIDES.get(int(s["side"]))))
+        side = self.tables.side.get(int(s["side"]))
+        self.events.append(Event(base + raw, kind, int(s["obstacle"]), side))
 
     def on_status_counters(self, row: int, s: dict[str, float | int]) -> None:
         self.latest["STATUS_COUNTERS"] = s
@@ -290,22 +270,9 @@ class _Decoder:
 
 
 def _params(values: dict[str, float]) -> tuple[Params, tuple[str, ...]]:
-    p = Params()
-    used = []
-    gains = {"tracking_gains": list(p.tracking_gains), "avoidance_gains": list(p.avoidance_gains)}
-    changes: dict[str, object] = {}
-    for name, value in values.items():
-        if name in _SCALAR_PARAMS:
-            changes[_SCALAR_PARAMS[name]] = value
-        elif name in _GAIN_PARAMS:
-            field_name, i = _GAIN_PARAMS[name]
-            gains[field_name][i] = value
-        else:
-            continue
-        used.append(name)
-    changes["tracking_gains"] = tuple(gains["tracking_gains"])
-    changes["avoidance_gains"] = tuple(gains["avoidance_gains"])
-    return replace(p, **changes), tuple(used)  # type: ignore[arg-type]
+    """Table 1 with the parameters of the log; the names of those used."""
+    used = tuple(name for name in values if name in PARAM_NAMES)
+    return with_param_values(Params(), values), used
 
 
 def _unwrap(a: np.ndarray) -> np.ndarray:
@@ -322,6 +289,7 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
 
     :param progress: told how many frames are done, now and then.
     :raises ValueError: the log has no WHEEL_CMD frame: no control step to show.
+    :raises DbcError: the DBC lacks an entry the decoder names (:mod:`mstc.can.dbc`).
     """
     dec = _Decoder(log, db)
     dec.run(progress)
@@ -364,7 +332,8 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
         return int(value) if math.isfinite(value) else default
 
     # A step without STATUS (none received yet) shows as stopped.
-    modes = tuple(_MODES.get(status_int(r, "mode", 2), Mode.STOP) for r in rows)
+    stop = next(raw for raw, mode in dec.tables.mode.items() if mode is Mode.STOP)
+    modes = tuple(dec.tables.mode.get(status_int(r, "mode", stop), Mode.STOP) for r in rows)
     theta, theta_r = _unwrap(col["theta"]), _unwrap(col["theta_r"])
     values = np.column_stack(
         [

@@ -42,6 +42,7 @@ from cantools.database.can import Database, Message
 
 from mstc.can.silbus import SilBus
 from mstc.errors import FirmwareError
+from mstc.firmware import FRAME_DATA, FrameStruct, Library
 from mstc.logs.read import FrameLog, LogFrame
 from mstc.report.progress import Progress
 
@@ -54,21 +55,15 @@ MAX_DECODED = 20_000
 """Differing frames decoded for the statistics by message (the rest are counted)."""
 
 
-class _Frame(ctypes.Structure):
-    """``mstc_sil_frame_t`` of hal/sil/mstc_sil.h."""
-
-    _fields_ = [
-        ("id", ctypes.c_uint32),
-        ("dlc", ctypes.c_uint8),
-        ("data", ctypes.c_uint8 * 8),
-    ]
-
-
-_SIZE = ctypes.sizeof(_Frame)
+_SIZE = ctypes.sizeof(FrameStruct)
 """Bytes of one frame in the C layout (16, with padding)."""
-_DATA = _Frame.data.offset
+_ID = FrameStruct.id.offset
+"""Offset of the identifier (a uint32 in the host's byte order)."""
+_DLC = FrameStruct.dlc.offset
+"""Offset of the length byte."""
+_DATA = FrameStruct.data.offset
 """Offset of the data bytes (5)."""
-_KEY = _DATA + 8
+_KEY = _DATA + FRAME_DATA
 """The bytes that matter: identifier, length, data; the padding after is undefined."""
 
 
@@ -85,8 +80,8 @@ def firmware_ids(db: Database) -> tuple[frozenset[int], frozenset[int]]:
 def pack_frames(log: FrameLog, rows: np.ndarray) -> np.ndarray:
     """Rows of @p log in the C layout of ``mstc_sil_frame_t``: (len(rows), 16) uint8."""
     out = np.zeros((len(rows), _SIZE), dtype=np.uint8)
-    out[:, 0:4] = log.frame_id[rows].astype(np.uint32).view(np.uint8).reshape(-1, 4)
-    out[:, 4] = log.dlc[rows]
+    out[:, _ID : _ID + 4] = log.frame_id[rows].astype(np.uint32).view(np.uint8).reshape(-1, 4)
+    out[:, _DLC] = log.dlc[rows]
     out[:, _DATA:_KEY] = log.data[rows]
     return out
 
@@ -113,13 +108,11 @@ class SilFirmware:
             raise FirmwareError(str(exc)) from exc
         self.lib = lib
         self.numeric = self.bus.numeric
-        # dlopen of the same file returns the library SilBus loaded: one instance.
-        dll = ctypes.CDLL(str(Path(lib).resolve()))
-        self._send = dll.mstc_sil_fw_send
-        self._recv = dll.mstc_sil_fw_recv
-        for fn in (self._send, self._recv):
-            fn.argtypes = [ctypes.c_void_p]
-            fn.restype = ctypes.c_int
+        # The library SilBus opened (one per process: one firmware instance),
+        # its entry points taking addresses into the frame buffers below.
+        library = Library.open(lib)
+        self._send = library.address_function("mstc_sil_fw_send")
+        self._recv = library.address_function("mstc_sil_fw_recv")
 
     def close(self) -> None:
         """Release the bus."""
@@ -280,12 +273,12 @@ def _windows(input_rows: np.ndarray, output_rows: np.ndarray) -> np.ndarray:
 
 
 def _ids(packed: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(packed[:, 0:4]).view(np.uint32).ravel().astype(np.int64)
+    return np.ascontiguousarray(packed[:, _ID : _ID + 4]).view(np.uint32).ravel().astype(np.int64)
 
 
 def _payload(packed_row: np.ndarray) -> tuple[int, bytes]:
-    frame_id = int(np.ascontiguousarray(packed_row[0:4]).view(np.uint32)[0])
-    return frame_id, packed_row[_DATA : _DATA + int(packed_row[4])].tobytes()
+    frame_id = int(np.ascontiguousarray(packed_row[_ID : _ID + 4]).view(np.uint32)[0])
+    return frame_id, packed_row[_DATA : _DATA + int(packed_row[_DLC])].tobytes()
 
 
 def decode_signals(
