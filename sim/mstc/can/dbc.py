@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import TypeVar
 
 import cantools
-from cantools.database.can import Database
+from cantools.database.can import Database, Message
 
 from mstc.controller import EventKind, Mode, Side
 from mstc.errors import DbcError
@@ -52,6 +52,49 @@ _SOURCES: weakref.WeakKeyDictionary[Database, str] = weakref.WeakKeyDictionary()
 """The file each database was loaded from, for error messages."""
 _TABLES: weakref.WeakKeyDictionary[Database, Tables] = weakref.WeakKeyDictionary()
 """The tables of each database, built once."""
+
+
+E2E_SIGNALS = ("CRC", "Counter")
+"""The E2E protection's signals of every message (short names)."""
+
+
+def short_name(message: Message, signal: str) -> str:
+    """A signal's name without its message prefix: ``x`` for ``ODOM_XY_x``."""
+    return signal.removeprefix(f"{message.name}_")
+
+
+def signal_values(
+    message: Message, data: bytes, *, choices: bool = False
+) -> dict[str, float | int | str]:
+    """The signals of a frame of @p message by short name, scaled; with
+    @p choices, value-table entries by name (a raw value outside the table
+    stays a number).
+
+    :raises Exception: cantools' errors for data it cannot decode.
+    """
+    values = message.decode(data, decode_choices=choices, scaling=True)
+    if not isinstance(values, dict):
+        raise TypeError(f"{message.name} is a container message, which mstc does not use")
+    return {
+        short_name(message, name): value if isinstance(value, int | float) else str(value)
+        for name, value in values.items()
+    }
+
+
+def numeric_values(message: Message, data: bytes) -> dict[str, float | int]:
+    """The signals of a frame of @p message by short name, scaled, value-table
+    entries as numbers (see :func:`signal_values`)."""
+    values = signal_values(message, data)
+    return {name: value for name, value in values.items() if not isinstance(value, str)}
+
+
+def e2e_data_ids(db: Database) -> dict[int, int]:
+    """The ``E2EDataID`` attribute of each message that has one, by identifier."""
+    return {
+        m.frame_id: int(m.dbc.attributes["E2EDataID"].value)
+        for m in db.messages
+        if m.dbc is not None and "E2EDataID" in m.dbc.attributes
+    }
 
 
 def load_database(path: Path = DBC_PATH) -> Database:

@@ -30,7 +30,7 @@ import can
 from cantools.database.can import Message, Signal
 
 from mstc.can.dbc import DBC_PATH as DBC_PATH
-from mstc.can.dbc import Tables, tables
+from mstc.can.dbc import E2E_SIGNALS, Tables, e2e_data_ids, numeric_values, short_name, tables
 from mstc.can.dbc import load_database as load_database
 from mstc.errors import MstcError
 
@@ -172,9 +172,7 @@ class Protocol:
         if node is not None and node not in {n.name for n in self.db.nodes}:
             raise ValueError(f"no node {node!r} in {dbc_path.name}")
         self.node = node
-        self._data_ids = {
-            m.frame_id: int(m.dbc.attributes["E2EDataID"].value) for m in self.db.messages
-        }
+        self._data_ids = e2e_data_ids(self.db)
         self._counters = _Counters()
         self.drops: dict[DropReason, int] = dict.fromkeys(DropReason, 0)
         """Received frames dropped, by reason (saturating at DROP_COUNT_MAX)."""
@@ -228,7 +226,7 @@ class Protocol:
         message = self.message(name)
         values = {**(signals or {}), **kwargs}
         prefix = f"{message.name}_"
-        wanted = {s.name.removeprefix(prefix) for s in message.signals} - {"CRC", "Counter"}
+        wanted = {short_name(message, s.name) for s in message.signals} - set(E2E_SIGNALS)
         if set(values) != wanted:
             raise KeyError(
                 f"{message.name}: missing {sorted(wanted - set(values))}, "
@@ -239,7 +237,9 @@ class Protocol:
             signal = message.get_signal_by_name(prefix + short)
             if raw:
                 lo, hi = _field_range(signal)
-                raw_values[signal.name] = value if signal.is_float else min(max(int(value), lo), hi)
+                raw_values[signal.name] = (
+                    float(value) if signal.is_float else min(max(int(value), lo), hi)
+                )
             else:
                 raw_values[signal.name] = to_raw(signal, value)
         data = bytearray(message.encode(raw_values, scaling=False, strict=False))
@@ -311,11 +311,6 @@ class Protocol:
         """
         counter = self.check(msg)
         message = self.message(msg.arbitration_id)
-        prefix = f"{message.name}_"
-        decoded = message.decode(bytes(msg.data), scaling=True, decode_choices=False)
-        signals = {
-            name.removeprefix(prefix): value
-            for name, value in decoded.items()
-            if name not in (f"{prefix}CRC", f"{prefix}Counter")
-        }
+        values = numeric_values(message, bytes(msg.data))
+        signals = {name: v for name, v in values.items() if name not in E2E_SIGNALS}
         return Frame(message.name, message.frame_id, counter, signals, msg.timestamp)

@@ -126,9 +126,11 @@ def run_scenarios(
 # -------------------------------------------------------------- bus logs
 
 
-def add_log_arguments(parser: argparse.ArgumentParser) -> None:
-    """The log and how to read it (``mstc replay``, ``play``, ``plot``)."""
-    parser.add_argument("log", metavar="LOG", type=Path, help="the bus log")
+def add_log_arguments(
+    parser: argparse.ArgumentParser, metavar: str = "LOG", what: str = "the bus log"
+) -> None:
+    """The log and how to read it (``mstc replay``, ``play``, ``plot``, ``export``)."""
+    parser.add_argument("log", metavar=metavar, type=Path, help=what)
     parser.add_argument(
         "--format",
         choices=FORMATS,

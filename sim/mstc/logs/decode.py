@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from cantools.database.can import Database, Message
 
-from mstc.can.dbc import tables
+from mstc.can.dbc import E2E_SIGNALS, e2e_data_ids, numeric_values, short_name, tables
 from mstc.can.protocol import e2e_crc
 from mstc.controller import Event, Fault, Mode
 from mstc.logs.read import FrameLog, LogProblem, ProblemKind
@@ -50,7 +50,6 @@ from mstc.sim.sensor import Obstacle
 TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here."""
 
-_E2E = ("CRC", "Counter")
 _INPUT_COLUMNS = ("x", "y", "theta", "x_r", "y_r", "theta_r", "v_r", "w_r")
 _WHEEL_COLUMNS = ("wheel_left", "wheel_right", "v", "w")
 
@@ -92,6 +91,8 @@ class DecodedLog:
     """Frames not used (bad CRC, wrong length, undecodable)."""
     dt: float = 0.0
     """The median control period [s] (0 with fewer than two steps)."""
+    stamps: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The log's time stamp of each row's WHEEL_CMD [s]."""
 
     @property
     def name(self) -> str:
@@ -122,11 +123,7 @@ class _Decoder:
         self.db = db
         self.tables = tables(db)
         self.messages: dict[int, Message] = {m.frame_id: m for m in db.messages}
-        self.data_ids = {
-            m.frame_id: int(m.dbc.attributes["E2EDataID"].value)
-            for m in db.messages
-            if m.dbc is not None and "E2EDataID" in m.dbc.attributes
-        }
+        self.data_ids = e2e_data_ids(db)
         self.latest: dict[str, dict[str, float | int]] = {}
         self.step_time: dict[int, int] = {}
         self.time_raw: int | None = None
@@ -159,18 +156,13 @@ class _Decoder:
             )
             return None
         try:
-            values = message.decode(data, decode_choices=False, scaling=True)
+            values = numeric_values(message, data)
         except Exception as exc:  # cantools raises several kinds on bad data
             self.problems.append(
                 LogProblem(where, line, ProblemKind.MALFORMED, f"{message.name}: {exc}")
             )
             return None
-        prefix = f"{message.name}_"
-        return {
-            k.removeprefix(prefix): v  # type: ignore[misc]
-            for k, v in values.items()
-            if k.removeprefix(prefix) not in _E2E
-        }
+        return {k: v for k, v in values.items() if k not in E2E_SIGNALS}
 
     def run(self, progress: Progress | None = None) -> None:
         log = self.log
@@ -252,6 +244,7 @@ class _Decoder:
         self.rows.append(
             {
                 "t_us": t_us,
+                "stamp": float(self.log.time[row]),
                 "step": step,
                 "x": float(odom_xy.get("x", nan)),
                 "y": float(odom_xy.get("y", nan)),
@@ -375,16 +368,16 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
 
     status_msg = db.get_message_by_name("STATUS")
     trk_msg = db.get_message_by_name("STATUS_TRK")
-    skip = {*_E2E, "step"}
-    status_signals = [s for s in status_msg.signals if _short(status_msg, s.name) not in skip]
-    trk_signals = [s for s in trk_msg.signals if _short(trk_msg, s.name) not in skip]
+    skip = {*E2E_SIGNALS, "step"}
+    status_signals = [s for s in status_msg.signals if short_name(status_msg, s.name) not in skip]
+    trk_signals = [s for s in trk_msg.signals if short_name(trk_msg, s.name) not in skip]
     columns = (
         "t",
         "step",
         *_INPUT_COLUMNS,
         *_WHEEL_COLUMNS,
-        *(_short(status_msg, s.name) for s in status_signals),
-        *(_short(trk_msg, s.name) for s in trk_signals),
+        *(short_name(status_msg, s.name) for s in status_signals),
+        *(short_name(trk_msg, s.name) for s in trk_signals),
         *(f"d{o.id}" for o in obstacles),
     )
     status_rows: list[list[object]] = []
@@ -399,7 +392,7 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
             values_of = r[frame]
             assert isinstance(values_of, dict)
             for s in signals:
-                value = values_of.get(_short(msg, s.name))
+                value = values_of.get(short_name(msg, s.name))
                 if value is not None and s.choices and int(value) in s.choices:
                     value = str(s.choices[int(value)])
                 cells.append("" if value is None else value)
@@ -425,11 +418,8 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
         counters=counters,
         problems=dec.problems,
         dt=round(dt, 6),
+        stamps=np.array([r["stamp"] for r in rows], dtype=float),
     )
-
-
-def _short(message: Message, name: str) -> str:
-    return name.removeprefix(f"{message.name}_")
 
 
 # ------------------------------------------------------------------ outputs
@@ -521,7 +511,7 @@ def format_events(
         label = "min distance" if i == 0 else ""
         lines.append(f"  {label:<13} O{o.id} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
     for fault, count in decoded.faults.items():
-        lines.append(f"  {'fault':<13} {fault.name.lower()} in {count} steps")
+        lines.append(f"  {'fault':<13} {str(fault.name).lower()} in {count} steps")
     modes = ", ".join(f"{mode} {n}" for mode, n in decoded.modes.items())
     lines.append(f"  {'steps':<13} {modes}")
     if decoded.counters:

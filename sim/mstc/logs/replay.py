@@ -40,6 +40,7 @@ import can
 import numpy as np
 from cantools.database.can import Database, Message
 
+from mstc.can.dbc import E2E_SIGNALS, short_name, signal_values
 from mstc.can.silbus import SilBus
 from mstc.errors import FirmwareError
 from mstc.firmware import FRAME_DATA, FrameStruct, Library
@@ -49,8 +50,6 @@ from mstc.report.progress import Progress
 FW_NODE = "FW"
 """The firmware's node in the DBC."""
 
-_E2E_SIGNALS = ("CRC", "Counter")
-"""Signals that differ whenever anything else does; left out of the statistics."""
 MAX_DECODED = 20_000
 """Differing frames decoded for the statistics by message (the rest are counted)."""
 
@@ -188,7 +187,9 @@ class SilFirmware:
                 if progress is not None:
                     progress.update(j)
         used = out - base
-        sent = np.frombuffer(sink, dtype=np.uint8, count=used).reshape(-1, _SIZE).copy()
+        # numpy's stubs omit ctypes arrays, which numpy reads as buffers.
+        flat = np.frombuffer(sink, dtype=np.uint8, count=used)  # type: ignore[call-overload]
+        sent = flat.reshape(-1, _SIZE).copy()
         return np.array(counts, dtype=np.int64), sent, refused
 
 
@@ -283,7 +284,7 @@ def _payload(packed_row: np.ndarray) -> tuple[int, bytes]:
 
 def decode_signals(
     db: Database, frame_id: int, data: bytes, *, choices: bool = True
-) -> dict[str, object] | str:
+) -> dict[str, float | int | str] | str:
     """A frame's signals by short name (without the message prefix), or why it
     cannot be decoded."""
     try:
@@ -291,11 +292,9 @@ def decode_signals(
     except KeyError:
         return f"identifier {frame_id:03X} is not in the DBC"
     try:
-        values = message.decode(data, decode_choices=choices, scaling=True)
+        return dict(signal_values(message, data, choices=choices))
     except Exception as exc:  # cantools raises several kinds on bad data
         return f"cannot decode: {exc}"
-    prefix = f"{message.name}_"
-    return {name.removeprefix(prefix): value for name, value in values.items()}
 
 
 def message_name(db: Database, frame_id: int) -> str:
@@ -413,9 +412,10 @@ def compare(
             continue
         for name, value in recorded.items():
             other = actual.get(name)
-            if name in _E2E_SIGNALS or other == value:
+            # The E2E fields differ whenever anything else does: left out.
+            if name in E2E_SIGNALS or other is None or other == value:
                 continue
-            delta = abs(float(other) - float(value))  # type: ignore[arg-type]
+            delta = abs(float(other) - float(value))
             s.max_delta[name] = max(s.max_delta.get(name, 0.0), delta)
     for p in np.flatnonzero(differ).tolist():
         entry(int(exp_id[pe[p]])).differing += 1
@@ -521,10 +521,9 @@ def _signal_table(
             lines.append(f"    ({label}: {col})")
     if message is None:
         return lines
-    prefix = f"{message.name}_"
     rows = [("signal", "recorded", "sent", "unit", "")]
     for signal in message.signals:
-        name = signal.name.removeprefix(prefix)
+        name = short_name(message, signal.name)
         cells = [
             _value_text(c[name]) if isinstance(c, dict) and name in c else "—" for c in columns
         ]
@@ -576,7 +575,11 @@ def format_difference(diff: Difference, log: FrameLog, db: Database) -> str:
     sent = diff.sent[1] if diff.sent is not None else None
     lines.append(f"  recorded  {_hex(recorded) if recorded is not None else '—'}")
     lines.append(f"  sent      {_hex(sent) if sent is not None else '—'}")
-    frame_id = diff.recorded.frame_id if diff.recorded is not None else diff.sent[0]  # type: ignore[index]
+    if diff.recorded is not None:
+        frame_id = diff.recorded.frame_id
+    else:
+        assert diff.sent is not None  # an extra frame: what was sent
+        frame_id = diff.sent[0]
     lines += _signal_table(db, frame_id, recorded, sent)
     return "\n".join(lines)
 
@@ -586,7 +589,7 @@ def _delta_text(db: Database, stats: MessageStats) -> str:
         return ""
     try:
         message = db.get_message_by_frame_id(stats.frame_id)
-        units = {s.name.removeprefix(f"{message.name}_"): s.unit or "" for s in message.signals}
+        units = {short_name(message, s.name): s.unit or "" for s in message.signals}
     except KeyError:
         units = {}
     parts = [
