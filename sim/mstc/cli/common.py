@@ -36,8 +36,14 @@ EXIT_INTERRUPTED = 130
 
 ROOT = Path(__file__).resolve().parents[3]
 """The repository, when the package runs from its source tree."""
-DEFAULT_LIB = ROOT / "build" / "host" / "float" / "libmstc_sil.so"
-"""The float build (``make lib``), when neither --lib nor $MSTC_SIL_LIB names one."""
+DEFAULT_LIB: Path | None = (
+    ROOT / "build" / "host" / "float" / "libmstc_sil.so"
+    if (ROOT / "hal" / "sil" / "mstc_sil.h").is_file()
+    else None
+)
+"""The float build (``make lib``), when neither --lib nor $MSTC_SIL_LIB names
+one; None when the package is installed outside its source tree (no build
+to default to)."""
 
 
 def error(message: str) -> None:
@@ -48,13 +54,19 @@ def error(message: str) -> None:
 def library(given: Path | None) -> Path:
     """The firmware library: @p given, else $MSTC_SIL_LIB, else :data:`DEFAULT_LIB`.
 
-    :raises FirmwareError: none given and the default does not exist.
+    :raises FirmwareError: none given and there is no default, or it does not exist.
     """
     if given is not None:
         return Path(given)
     env = os.environ.get(LIB_ENV)
     if env:
         return Path(env)
+    if DEFAULT_LIB is None:
+        raise FirmwareError(
+            "no firmware library: this mstc is installed outside its source tree, so there "
+            f"is no default build; name one with --lib PATH or {LIB_ENV} (`make lib` in the "
+            "source tree builds build/host/float/libmstc_sil.so)"
+        )
     if not DEFAULT_LIB.is_file():
         raise FirmwareError(
             f"no firmware library: {DEFAULT_LIB} does not exist; build it with `make lib`, "
