@@ -37,6 +37,11 @@ REARM_FRAMES = 5
 command (APP_REARM_FRAMES in firmware/app/app.h)."""
 
 
+def _param_value(index: int) -> Callable[[Frame], bool]:
+    """Matches the firmware's PARAM_VALUE answer about parameter @p index."""
+    return lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == index
+
+
 @dataclass
 class Traffic:
     """What crossed the bus, for bus.log and the report."""
@@ -105,7 +110,7 @@ class CanController:
             except FrameDropped:
                 continue  # counted in self.proto.drops
             if frame.name == "STATUS_COUNTERS":
-                self.traffic.firmware_drops = dict(frame.signals)
+                self.traffic.firmware_drops = {k: int(v) for k, v in frame.signals.items()}
             return frame
 
     def _configure(self) -> None:
@@ -118,10 +123,7 @@ class CanController:
             for name, value in pending.items():
                 index = self.tables.param_indexes[name]
                 self._send(self.proto.encode("PARAM_SET", index=index, value=value))
-                answer = self._await(
-                    lambda f, i=index: f.name == "PARAM_VALUE" and f.signals["index"] == i,
-                    f"PARAM_VALUE {name}",
-                )
+                answer = self._await(_param_value(index), f"PARAM_VALUE {name}")
                 if answer.signals["result"] != self.tables.param_ok:
                     rejected[name] = value
             if len(rejected) == len(pending):
@@ -144,9 +146,7 @@ class CanController:
             self._send_inputs(robot, ref, v_r, w_r)
         arm = self.tables.arm_index
         self._send(self.proto.encode("PARAM_SET", index=arm, value=1.0))
-        answer = self._await(
-            lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == arm, "PARAM_VALUE arm"
-        )
+        answer = self._await(_param_value(arm), "PARAM_VALUE arm")
         if answer.signals["result"] != self.tables.param_ok:
             raise ControllerError(
                 f"the firmware refuses to arm (result {answer.signals['result']})"

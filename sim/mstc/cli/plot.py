@@ -25,7 +25,7 @@ from mstc.logs.decode import (
 )
 from mstc.report.plots import plot_all
 from mstc.report.progress import Progress
-from mstc.sim.scenario import load_scenario
+from mstc.sim.scenario import ExpectedEvent, load_scenario
 
 NAME = "plot"
 HELP = "decode a bus log: events, status, trace and the paper's figures"
@@ -84,7 +84,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def run(args: argparse.Namespace) -> int:
     """Decode the log, write the tables and figures, print the events."""
-    expected = ()
+    expected: tuple[ExpectedEvent, ...] = ()
     if args.scenario is not None:
         try:
             expected = load_scenario(args.scenario).expected
