@@ -17,8 +17,10 @@ from mstc.can.dbc import tables
 from mstc.can.protocol import DBC_PATH, load_database
 from mstc.errors import DbcError, FirmwareError, LogError, ScenarioError
 from mstc.firmware import LIB_ENV
+from mstc.logs.decode import DecodedLog, decode_log
 from mstc.logs.read import FORMATS, FrameLog, read_log
 from mstc.report.outputs import BusLog, write_outputs
+from mstc.report.progress import Progress
 from mstc.report.table import format_report
 from mstc.sim.run import RunResult
 from mstc.sim.scenario import Scenario, load_scenario
@@ -170,6 +172,20 @@ def add_log_arguments(
     parser.add_argument(
         "-q", "--quiet", action="store_true", help="no progress display (long runs show one)"
     )
+
+
+def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog] | int:
+    """The DBC and the log, decoded (``mstc plot``, ``export``); or an exit status."""
+    loaded = load_log(args)
+    if isinstance(loaded, int):
+        return loaded
+    db, log = loaded
+    try:
+        bar = Progress(len(log), "decode", "frames", enabled=not args.quiet)
+        return db, decode_log(log, db, bar)
+    except ValueError as exc:
+        error(str(exc))
+        return EXIT_USAGE
 
 
 def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:

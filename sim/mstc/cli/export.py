@@ -6,10 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_log_arguments, error, load_log
-from mstc.logs.decode import decode_log
+from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_log_arguments, error, load_decoded
 from mstc.logs.export import export_mcap, format_summary
-from mstc.report.progress import Progress
 
 NAME = "export"
 HELP = "write a run or a bus log as an MCAP file (Foxglove: 3D path, plots, CAN signals)"
@@ -56,17 +54,10 @@ def run(args: argparse.Namespace) -> int:
         if not args.log.is_file():
             error(f"{source} is a folder without a bus.log: not a run folder")
             return EXIT_USAGE
-    loaded = load_log(args)
+    loaded = load_decoded(args)
     if isinstance(loaded, int):
         return loaded
-    db, log = loaded
-    try:
-        decoded = decode_log(
-            log, db, Progress(len(log), "decode", "frames", enabled=not args.quiet)
-        )
-    except ValueError as exc:
-        error(str(exc))
-        return EXIT_USAGE
+    db, decoded = loaded
     try:
         summary = export_mcap(decoded, db, args.mcap)
     except OSError as exc:

@@ -36,7 +36,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -212,6 +212,18 @@ def _circle(x: float, y: float, r: float) -> list[Point3]:
     ]
 
 
+def _line(points: Sequence[Point3 | Vector3], thickness: float, color: Color) -> LinePrimitive:
+    """A line strip through @p points in the world frame, @p thickness pixels wide."""
+    return LinePrimitive(
+        type=LinePrimitive.LINE_STRIP,
+        pose=Pose(orientation=Quaternion(w=1.0)),
+        thickness=thickness,
+        scale_invariant=True,
+        points=[Point3(x=p.x, y=p.y, z=p.z) for p in points],
+        color=color,
+    )
+
+
 def _scene(decoded: DecodedLog, ns: int, paths: dict[str, list[Pose]]) -> SceneUpdate:
     """Obstacles with their D_s circles, and the paths as line strips."""
     stamp = _stamp(ns)
@@ -235,16 +247,7 @@ def _scene(decoded: DecodedLog, ns: int, paths: dict[str, list[Pose]]) -> SceneU
                         color=_OBSTACLE_COLOR,
                     )
                 ],
-                lines=[
-                    LinePrimitive(
-                        type=LinePrimitive.LINE_STRIP,
-                        pose=Pose(orientation=Quaternion(w=1.0)),
-                        thickness=2.0,
-                        scale_invariant=True,
-                        points=_circle(o.x, o.y, d_s),
-                        color=_SAFE_COLOR,
-                    )
-                ],
+                lines=[_line(_circle(o.x, o.y, d_s), 2.0, _SAFE_COLOR)],
             )
         )
     for name, color in (("robot", _ROBOT_COLOR), ("reference", _REFERENCE_COLOR)):
@@ -253,16 +256,7 @@ def _scene(decoded: DecodedLog, ns: int, paths: dict[str, list[Pose]]) -> SceneU
                 timestamp=stamp,
                 frame_id=WORLD,
                 id=f"{name}-path",
-                lines=[
-                    LinePrimitive(
-                        type=LinePrimitive.LINE_STRIP,
-                        pose=Pose(orientation=Quaternion(w=1.0)),
-                        thickness=3.0,
-                        scale_invariant=True,
-                        points=[Point3(x=p.position.x, y=p.position.y, z=0.0) for p in paths[name]],
-                        color=color,
-                    )
-                ],
+                lines=[_line([p.position for p in paths[name]], 3.0, color)],
             )
         )
     return SceneUpdate(entities=entities)
