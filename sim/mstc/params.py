@@ -1,7 +1,24 @@
 # SPDX-License-Identifier: MIT
-"""Controller parameters: Table 1 of the paper and the wheel geometry."""
+"""Controller parameters: Table 1 of the paper, the wheel geometry and the
+switching strategy."""
 
 from dataclasses import dataclass
+from enum import StrEnum
+
+
+class Strategy(StrEnum):
+    """Which switching strategy the firmware runs (ctl_params_t.strategy; the
+    DBC's value table Strategy gives the wire values)."""
+
+    PAPER = "paper"
+    """The paper's switch strategy, exactly (section 4)."""
+    MSTC = "mstc"
+    """mstc's own strategy (issue 12; the firmware default)."""
+
+    @property
+    def wire(self) -> int:
+        """The value on the ABI and in PARAM_SET index 14: 0 paper, 1 mstc."""
+        return 0 if self is Strategy.PAPER else 1
 
 
 @dataclass(frozen=True)
@@ -32,6 +49,8 @@ class Params:
     """L, distance between the wheels [m]."""
     max_wheel_speed: float = 100.0
     """Largest |wheel angular speed| [rad/s]."""
+    strategy: Strategy = Strategy.MSTC
+    """Switching strategy; the paper's scenario files select ``paper``."""
 
     def safe_distance(self, radius: float) -> float:
         """D_s for an obstacle of ``radius`` [m]: moved out by (radius − R_ob),

@@ -14,7 +14,7 @@ from conftest import SCENARIOS
 from mstc.cli import main
 from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
-from mstc.params import Params
+from mstc.params import Params, Strategy
 from mstc.sim.plant import Integrator, Pose
 from mstc.sim.scenario import load_scenario
 
@@ -96,11 +96,11 @@ def test_obstacle_radius_defaults_to_the_overridden_r_ob(write_scenario: WriteSc
 def test_paper_scenarios_load() -> None:
     for name in ("paper-line", "paper-circle"):
         s = load_scenario(SCENARIOS / f"{name}.toml")
-        assert s.params == Params()
+        assert s.params == Params(strategy=Strategy.PAPER)
         assert (s.sim.dt, s.sim.integrator) == (0.02, Integrator.EULER)
 
 
-SEVENTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(17)]
+SIXTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(16)]
 
 # (document, key named in the message (None: the whole file), words of the problem)
 BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
@@ -198,7 +198,7 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
     "zero wheel limit": (edit("params.max_wheel_speed", 0.0), "params.max_wheel_speed", "> 0"),
     "unknown integrator": (edit("sim.integrator", "rk4"), "sim.integrator", 'got "rk4"'),
     "integrator not a string": (edit("sim.integrator", 1), "sim.integrator", "must be a string"),
-    "17 obstacles": (edit("obstacles", SEVENTEEN_OBSTACLES), "obstacles", "at most 16"),
+    "16 obstacles": (edit("obstacles", SIXTEEN_OBSTACLES), "obstacles", "at most 15"),
     "unknown event": (edit("expected[1].event", "collide"), "expected[1].event", "one of"),
     "side on detect": (edit("expected[1].side", "left"), "expected[1].side", "only activate"),
     "unknown side": (edit("expected[2].side", "up"), "expected[2].side", '"left", "right"'),

@@ -19,7 +19,7 @@ import can
 from mstc.can.protocol import Frame, FrameDropped, Protocol
 from mstc.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
 from mstc.errors import ControllerError
-from mstc.params import Params
+from mstc.params import Params, Strategy
 from mstc.sim.plant import Pose, wrap_angle
 from mstc.sim.sensor import Obstacle
 
@@ -46,8 +46,11 @@ PARAM_INDEX = {
     "wheel_radius": 10,
     "track_width": 11,
     "max_wheel_speed": 12,
+    "strategy": 14,
 }
 """PARAM_SET / PARAM_GET indices (the DBC's value table)."""
+UNKNOWN_INDEX = 1
+"""PARAM_VALUE_result of an index the firmware does not have."""
 ARM_INDEX = 128
 """PARAM_SET index of the arm command (value 1 arms, 0 disarms; docs/safety.md)."""
 REARM_FRAMES = 5
@@ -73,6 +76,7 @@ def param_values(p: Params) -> dict[str, float]:
         "wheel_radius": p.wheel_radius,
         "track_width": p.track_width,
         "max_wheel_speed": p.max_wheel_speed,
+        "strategy": float(Strategy(p.strategy).wire),
     }
 
 
@@ -115,6 +119,9 @@ class CanController:
         self._now = 0.0
         self._steps = 0
         self._armed = False
+        self.strategy_supported = True
+        """False when the firmware answered PARAM_SET strategy with "unknown
+        index": a build from before the strategies, which runs the paper's."""
         self._configure()
 
     # ------------------------------------------------------------ the bus
@@ -156,7 +163,12 @@ class CanController:
                     lambda f, i=index: f.name == "PARAM_VALUE" and f.signals["index"] == i,
                     f"PARAM_VALUE {name}",
                 )
-                if answer.signals["result"] != 0:
+                result = answer.signals["result"]
+                if name == "strategy" and result == UNKNOWN_INDEX:
+                    # A firmware without the strategy parameter runs the
+                    # paper's strategy, as the in-memory library does then.
+                    self.strategy_supported = False
+                elif result != 0:
                     rejected[name] = value
             if len(rejected) == len(pending):
                 raise ControllerError(f"the firmware rejects the parameters {sorted(rejected)}")
@@ -214,6 +226,10 @@ class CanController:
         self._send_inputs(robot, ref, v_r, w_r)
         for o in obstacles:
             self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
+            # Right after its OBSTACLE frame, for a moving obstacle only
+            # (docs/protocol.md); the firmware keeps 0 for the others.
+            if o.vx or o.vy:
+                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
         self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
 
         events: list[Event] = []
