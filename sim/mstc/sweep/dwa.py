@@ -30,10 +30,12 @@ What is PythonRobotics' and what is adapted (docs/sweeps.md, "DWA"):
   (PythonRobotics' 1/d everywhere makes a robot that meets a cluster stop
   at its edge for good: every move costs more than standing);
 - moving goal: the goal is where the reference robot will be at the end of
-  the horizon (its motion is known: constant v_r, ω_r); the heading cost is
-  PythonRobotics' angle to that goal from the trajectory's end, and the
-  speed cost |v_goal − v| with v_goal the speed that reaches the goal over
-  the horizon (PythonRobotics' v_max − v drives past a moving goal);
+  the horizon (its motion is known: constant v_r, ω_r); the speed cost is
+  |v_goal − v| with v_goal the speed that reaches the goal over the horizon
+  (PythonRobotics' v_max − v drives past a moving goal); the heading cost is
+  PythonRobotics' angle from the trajectory's end to the reference one
+  horizon further on (to the goal itself, a trajectory ending on it gets a
+  random angle);
 - moving obstacles are predicted with their reported velocity.
 
 The mode it reports is ``avoid`` on the steps where the obstacles changed
@@ -147,7 +149,11 @@ class DwaController:
         w = np.tile(ws, len(vs))
 
         goal = _reference_ahead(ref, v_r, w_r, c.predict_time)
-        angle = np.arctan2(goal[1] - y[:, :, -1], goal[0] - x[:, :, -1])
+        # The heading is scored towards a carrot one horizon further on:
+        # towards ``goal`` itself, a trajectory that ends on it would get a
+        # random angle.
+        carrot = _reference_ahead(ref, v_r, w_r, 2.0 * c.predict_time)
+        angle = np.arctan2(carrot[1] - y[:, :, -1], carrot[0] - x[:, :, -1])
         diff = angle - theta[None, :, -1]
         heading_cost = np.abs(np.arctan2(np.sin(diff), np.cos(diff))).ravel()
         v_goal = min(
