@@ -232,8 +232,10 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USAGE
 
     try:
-        lib = str(library(args.lib))
-        firmware = f"{lib} ({SilController(Params(), lib).numeric})"
+        given = library(args.lib)
+        # Absolute: workers (and a cluster's) may run in another directory.
+        lib = str(given.resolve())
+        firmware = f"{given} ({SilController(Params(), lib).numeric})"
     except FirmwareError as exc:
         if set(strategies) != {"dwa"}:
             error(str(exc))

@@ -188,9 +188,7 @@ def run_batch(jobs: Sequence[Job], lib: str) -> list[Outcome]:
     outcomes = []
     for scene, strategy in jobs:
         if failure and strategy != "dwa":
-            row = {c: "" for c in ROW_COLUMNS}
-            row.update(scene=scene.name, family=scene.family, strategy=strategy, error=failure)
-            outcomes.append(Outcome(scene.name, strategy, row, None, sha))
+            outcomes.append(_crash_row((scene, strategy), failure))
             continue
         result, row = run_job(scene, strategy, path)
         events = events_json(result) if result is not None else None

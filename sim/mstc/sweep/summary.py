@@ -112,7 +112,7 @@ def _histograms(rows: Sequence[dict[str, str]], strategies: Sequence[str], out: 
         ax.set_xlabel(label)
         ax.set_ylabel("runs")
         ax.grid(True, alpha=0.3)
-        ax.legend()
+        ax.legend(loc="upper right")
         FigureCanvasAgg(fig)
         fig.savefig(out / f"{name}.png", dpi=100)
         written.append(f"{name}.png")
