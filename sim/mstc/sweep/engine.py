@@ -256,7 +256,8 @@ def run_local(jobs: Sequence[Job], lib: str, workers: int, emit: Emit) -> None:
     pending = list(jobs)
     while pending:
         done_ids: set[int] = set()
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+        try:
             futures = {pool.submit(run_batch, b, lib): b for b in batches(pending, workers)}
             broken = False
             while futures:
@@ -271,6 +272,12 @@ def run_local(jobs: Sequence[Job], lib: str, workers: int, emit: Emit) -> None:
                     for job, outcome in zip(batch, outcomes, strict=True):
                         done_ids.add(id(job))
                         emit(outcome)
+        except BaseException:
+            # Interrupted (Ctrl-C) or failed: drop the batches not started
+            # rather than wait for them; --resume runs them later.
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
         if not broken:
             return
         left = [j for j in pending if id(j) not in done_ids]

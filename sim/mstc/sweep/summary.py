@@ -10,6 +10,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.axes import Axes
 
 from mstc.sim.run import RunResult
 
@@ -119,6 +120,23 @@ def _histograms(rows: Sequence[dict[str, str]], strategies: Sequence[str], out: 
     return written
 
 
+def _zoom(ax: Axes, result: RunResult) -> None:
+    """Frame the obstacles (where they came closest), 1.5 m around them:
+    the whole path of a long run makes them specks."""
+    trace = result.trace
+    if not result.scenario.obstacles:
+        return
+    k = trace.distance.argmin(axis=0)
+    if trace.obstacle_xy is not None:
+        xy = trace.obstacle_xy[k, np.arange(len(k))]
+    else:
+        xy = np.array([(o.x, o.y) for o in result.scenario.obstacles])
+    (x0, y0), (x1, y1) = xy.min(axis=0) - 1.5, xy.max(axis=0) + 1.5
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+
+
 Rerun = Callable[[dict[str, str]], RunResult | None]
 """Runs a row's scene again (same scene, strategy and library) for its figure."""
 
@@ -148,6 +166,7 @@ def _gallery(
             fig = Figure(figsize=(9.0, 6.0), layout="constrained")
             ax = fig.add_subplot()
             draw_path(ax, PlotData.from_run(result))
+            _zoom(ax, result)
             ax.set_title(
                 f"{row['scene']} ({strategy}): min clearance {float(row['min_clearance']):.3f} m"
             )
