@@ -120,6 +120,17 @@ BUS ?= sil
 sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
 	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
 
+# --------------------------------------------------------------------- sweep
+# A scenario suite (or scenario files, folders) for several strategies on
+# every core, in memory: DIR/runs.csv, DIR/summary.md (docs/sweeps.md).
+SUITE ?= sim/suites/standard.toml
+STRATEGY ?= paper,mstc,dwa
+SWEEP_OUT ?= build/sweep/$(basename $(notdir $(firstword $(SUITE))))
+SWEEP_FLAGS ?=
+.PHONY: sweep
+sweep: deps-sim $(B)/libmstc_sil.so  ## run a scenario suite for several strategies on every core (SUITE=, STRATEGY=, SWEEP_FLAGS=--resume)
+	$(MSTC) sweep --lib $(B)/libmstc_sil.so --strategy $(STRATEGY) --out $(SWEEP_OUT) $(SWEEP_FLAGS) $(SUITE)
+
 # ----------------------------------------------------------------------- hil
 # The firmware as its own process (mstc-fw) on vcan0, the plant on python-can's
 # socketcan interface; inside a VM where the host kernel has no CAN.

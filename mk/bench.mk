@@ -85,10 +85,16 @@ $(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 
+# Sweeps: scene-steps per second in memory, 1,000 paper-like scenes on every
+# core, the same on a local Dask cluster (tools/bench/sweep_bench.py).
+$(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so tools/bench/sweep_bench.py | .venv/.requirements.sha256
+	$(PY) tools/bench/sweep_bench.py run --lib $< --out $@
+
 .PHONY: bench
-bench: $(BENCH_RESULTS) $(BENCH_CAN) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput: docs/performance.md
+bench: $(BENCH_RESULTS) $(BENCH_CAN) $(BENCH_DIR)/sweep.json | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN and sweep throughput: docs/performance.md
 	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)
 	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
+	@$(PY) tools/bench/sweep_bench.py report --doc docs/performance.md $(BENCH_DIR)/sweep.json
 	@$(MAKE) --no-print-directory replay-bench
 	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt
 	@$(PY) tools/bench/report.py --doc docs/performance.md \

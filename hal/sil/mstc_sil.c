@@ -102,9 +102,14 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
         .wheel_radius = to_d(c.kin.wheel_radius),
         .track_width = to_d(c.kin.track_width),
         .max_wheel_speed = to_d(c.kin.max_wheel_speed),
+        /* .strategy stays 0 (paper), the only strategy ctl_params_t runs
+         * until it carries its own strategy field (protocol 2). */
     };
 }
 
+/* p->strategy and the obstacles' vx, vy are carried by the ABI (protocol 2)
+ * but not passed on: the firmware's ctl_params_t and sup_obstacle_t gain the
+ * fields with the new strategy. */
 static ctl_params_t params_from(const mstc_sil_params_t *p)
 {
     return (ctl_params_t){
@@ -250,12 +255,15 @@ static const mstc_sil_layout_t layout[] = {
     LAYOUT_FIELD(mstc_sil_params_t, wheel_radius),
     LAYOUT_FIELD(mstc_sil_params_t, track_width),
     LAYOUT_FIELD(mstc_sil_params_t, max_wheel_speed),
+    LAYOUT_FIELD(mstc_sil_params_t, strategy),
 
     LAYOUT_STRUCT(mstc_sil_obstacle_t),
     LAYOUT_FIELD(mstc_sil_obstacle_t, id),
     LAYOUT_FIELD(mstc_sil_obstacle_t, x),
     LAYOUT_FIELD(mstc_sil_obstacle_t, y),
     LAYOUT_FIELD(mstc_sil_obstacle_t, radius),
+    LAYOUT_FIELD(mstc_sil_obstacle_t, vx),
+    LAYOUT_FIELD(mstc_sil_obstacle_t, vy),
 
     LAYOUT_STRUCT(mstc_sil_input_t),
     LAYOUT_FIELD(mstc_sil_input_t, robot),

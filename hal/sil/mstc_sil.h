@@ -31,12 +31,14 @@ typedef struct {
     double trk_k[3]; /**< tracking gains k1, k2, k3 */
     double avd_k[2]; /**< avoidance gains k1, k2 */
     double wheel_radius, track_width, max_wheel_speed;
+    uint32_t strategy; /**< 0 paper, 1 mstc (the DBC's value table Strategy) */
 } mstc_sil_params_t;
 
 /** @brief A reported obstacle. */
 typedef struct {
     uint32_t id; /**< 1..255 */
     double x, y, radius;
+    double vx, vy; /**< velocity [m/s], 0 for a static obstacle */
 } mstc_sil_obstacle_t;
 
 /** @brief Inputs of one step. */

@@ -72,3 +72,8 @@ class SendError(MstcError):
     def __init__(self, message: str, stats: PlayStats) -> None:
         super().__init__(message)
         self.stats = stats
+
+
+class SimulationError(MstcError):
+    """A closed-loop run that could not go on: the plant's state became
+    non-finite, or the loop raised."""

@@ -34,7 +34,7 @@ from typing import ClassVar
 from mstc.can.dbc import tables
 from mstc.controller import Event, Fault, Side, Status, StepResult
 from mstc.errors import FirmwareError
-from mstc.params import Params
+from mstc.params import Params, Strategy
 from mstc.sim.plant import Pose, wrap_angle
 from mstc.sim.sensor import Obstacle
 
@@ -75,6 +75,7 @@ class ParamsStruct(AbiStruct):
         ("wheel_radius", ctypes.c_double),
         ("track_width", ctypes.c_double),
         ("max_wheel_speed", ctypes.c_double),
+        ("strategy", ctypes.c_uint32),
     ]
 
 
@@ -87,6 +88,8 @@ class ObstacleStruct(AbiStruct):
         ("x", ctypes.c_double),
         ("y", ctypes.c_double),
         ("radius", ctypes.c_double),
+        ("vx", ctypes.c_double),
+        ("vy", ctypes.c_double),
     ]
 
 
@@ -343,7 +346,19 @@ def _c_params(p: Params) -> ParamsStruct:
         wheel_radius=p.wheel_radius,
         track_width=p.track_width,
         max_wheel_speed=p.max_wheel_speed,
+        strategy=tables().strategy.value(str(p.strategy)),
     )
+
+
+_FAULTS: dict[int, Fault] = {}
+
+
+def _fault(mask: int) -> Fault:
+    """Fault(mask), remembered: building an IntFlag costs more than a step."""
+    fault = _FAULTS.get(mask)
+    if fault is None:
+        fault = _FAULTS[mask] = Fault(mask)
+    return fault
 
 
 class SilController:
@@ -382,6 +397,12 @@ class SilController:
         self._out = OutputStruct()
         self._obstacles = (ObstacleStruct * MAX_OBSTACLES)()
         self._in.obstacles = self._obstacles
+        # Made once: byref and the attribute look-ups cost as much as the step.
+        self._in_ref = ctypes.byref(self._in)
+        self._out_ref = ctypes.byref(self._out)
+        self._step = self._lib.mstc_sil_step
+        self._robot = self._in.robot
+        self._ref = self._in.ref
 
     @staticmethod
     def defaults(lib_path: str | os.PathLike[str] | None = None) -> Params:
@@ -400,6 +421,7 @@ class SilController:
             wheel_radius=c.wheel_radius,
             track_width=c.track_width,
             max_wheel_speed=c.max_wheel_speed,
+            strategy=tables().strategy.members(Strategy)[c.strategy],
         )
 
     def step(
@@ -421,15 +443,24 @@ class SilController:
         inp = self._in
         # Headings cross the boundary wrapped, as a sensor reports them, so
         # float32 keeps its resolution on long runs.
-        inp.robot[:] = (robot.x, robot.y, wrap_angle(robot.theta))
-        inp.ref[:] = (ref.x, ref.y, wrap_angle(ref.theta))
+        r = self._robot
+        r[0], r[1], r[2] = robot.x, robot.y, wrap_angle(robot.theta)
+        r = self._ref
+        r[0], r[1], r[2] = ref.x, ref.y, wrap_angle(ref.theta)
         inp.v_r = v_r
         inp.w_r = w_r
         inp.t_us = t_us
         inp.n_obstacles = len(obstacles)
         for slot, o in zip(self._obstacles, obstacles, strict=False):
-            slot.id, slot.x, slot.y, slot.radius = o.id, o.x, o.y, o.radius
-        rc = self._lib.mstc_sil_step(self._state, ctypes.byref(inp), ctypes.byref(self._out))
+            slot.id, slot.x, slot.y, slot.radius, slot.vx, slot.vy = (
+                o.id,
+                o.x,
+                o.y,
+                o.radius,
+                o.vx,
+                o.vy,
+            )
+        rc = self._step(self._state, self._in_ref, self._out_ref)
         if rc != 0:
             raise FirmwareError(f"mstc_sil_step failed with {rc} at t_us={t_us}")
         return self._result()
@@ -442,7 +473,7 @@ class SilController:
                 mode=modes[out.mode],
                 active_obstacle=out.active_obstacle,
                 side=_SIDES[out.side],
-                faults=Fault(out.faults),
+                faults=_fault(out.faults),
                 e1=out.e1,
                 e2=out.e2,
                 e3=out.e3,
@@ -450,11 +481,16 @@ class SilController:
                 v=out.v,
                 w=out.w,
             )
-            if out.n_events > MAX_EVENTS:
-                raise KeyError(f"n_events {out.n_events}")
-            events = tuple(
-                Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
-                for ev in out.events[: out.n_events]
+            n_events = out.n_events
+            if n_events > MAX_EVENTS:
+                raise KeyError(f"n_events {n_events}")
+            events = (
+                tuple(
+                    Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
+                    for ev in out.events[:n_events]
+                )
+                if n_events
+                else ()
             )
         except (KeyError, ValueError) as exc:
             raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc

@@ -1,9 +1,22 @@
 # SPDX-License-Identifier: MIT
-"""Controller parameters: Table 1 of the paper and the wheel geometry."""
+"""Controller parameters: Table 1 of the paper, the wheel geometry and the
+switching strategy."""
 
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from typing import Any
+
+
+class Strategy(StrEnum):
+    """Which switching strategy the firmware runs (ctl_params_t.strategy). The
+    values are the names of the DBC's global value table Strategy, which gives
+    their numbers on the wire and the in-process ABI (:mod:`mstc.can.dbc`)."""
+
+    PAPER = "paper"
+    """The paper's switch strategy, exactly (section 4)."""
+    MSTC = "mstc"
+    """mstc's own strategy (docs/strategy.md; the firmware default)."""
 
 
 @dataclass(frozen=True)
@@ -34,6 +47,8 @@ class Params:
     """L, distance between the wheels [m]."""
     max_wheel_speed: float = 100.0
     """Largest |wheel angular speed| [rad/s]."""
+    strategy: Strategy = Strategy.MSTC
+    """Switching strategy; the paper's scenario files select ``paper``."""
 
     def safe_distance(self, radius: float) -> float:
         """D_s for an obstacle of ``radius`` [m]: moved out by (radius − R_ob),

@@ -184,3 +184,30 @@ def test_no_answer_is_a_clear_error(sil_lib: Path) -> None:
     scenario = load_scenario(SCENARIOS / "paper-line.toml")
     with pytest.raises(ControllerError, match="no PARAM_VALUE"):
         CanController(Silent(), scenario.params, timeout=0.05)
+
+
+def test_moving_obstacles_send_obstacle_vel_and_the_strategy_is_set(
+    sil_lib: Path, tmp_path: Path
+) -> None:
+    from mstc.params import Params, Strategy
+    from mstc.sim.plant import Pose
+    from mstc.sim.sensor import Obstacle
+
+    proto = Protocol(node=None)
+    with can.Bus(interface="mstc-sil", lib=str(sil_lib)) as bus:
+        ctl = CanController(bus, Params(strategy=Strategy.PAPER), sim_time_stamps=True)
+        obstacles = [Obstacle(1, 2.0, 0.0, 0.1), Obstacle(2, 3.0, 1.0, 0.1, vx=-0.5, vy=0.25)]
+        ctl.step(Pose(0.0, 0.0, 0.0), Pose(0.0, 0.0, 0.0), 0.5, 0.0, obstacles, 0)
+    sent = [proto.decode(m) for m, own in ctl.traffic.frames if own]
+    names = [f.name for f in sent]
+    param = [f for f in sent if f.name == "PARAM_SET" and f.signals["index"] == 14]
+    assert len(param) == 1 and param[0].signals["value"] == 0.0  # paper
+    # One OBSTACLE_VEL, right after the OBSTACLE of the moving obstacle (id 2).
+    step = names.index("STEP")
+    tail = sent[names.index("OBSTACLE") : step]
+    assert [(f.name, f.signals["id"]) for f in tail] == [
+        ("OBSTACLE", 1),
+        ("OBSTACLE", 2),
+        ("OBSTACLE_VEL", 2),
+    ]
+    assert tail[2].signals["vx"] == -0.5 and tail[2].signals["vy"] == 0.25

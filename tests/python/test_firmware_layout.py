@@ -45,15 +45,17 @@ def test_both_builds_export_every_struct_of_the_bindings(any_lib: Path) -> None:
 
 def test_the_exported_layout_is_the_c_layout(any_lib: Path) -> None:
     # By hand, from hal/sil/mstc_sil.h and the x86-64 / AArch64 System V ABI:
-    # uint32 id at 0, 4 bytes of padding, three doubles; uint32, uint8,
+    # uint32 id at 0, 4 bytes of padding, five doubles; uint32, uint8,
     # uint8[8] padded to a multiple of 4.
     layout = library_layout(Library.open(any_lib).dll)
     assert layout["mstc_sil_obstacle_t"] == {
-        None: (0, 32),
+        None: (0, 48),
         "id": (0, 4),
         "x": (8, 8),
         "y": (16, 8),
         "radius": (24, 8),
+        "vx": (32, 8),
+        "vy": (40, 8),
     }
     assert layout["mstc_sil_frame_t"] == {
         None: (0, 16),
@@ -73,9 +75,9 @@ class ObstacleFloatRadius(AbiStruct):
     ]
 
 
-class ObstacleWithVelocity(AbiStruct):
+class ObstacleWithAcceleration(AbiStruct):
     c_name = "mstc_sil_obstacle_t"
-    _fields_ = [*ObstacleStruct._fields_, ("vx", ctypes.c_double), ("vy", ctypes.c_double)]
+    _fields_ = [*ObstacleStruct._fields_, ("ax", ctypes.c_double), ("ay", ctypes.c_double)]
 
 
 class ObstacleWithoutRadius(AbiStruct):
@@ -92,8 +94,8 @@ class NotInTheLibrary(AbiStruct):
     ("struct", "named"),
     [
         (ObstacleFloatRadius, r"mstc_sil_obstacle_t\.radius: offset 24, size 8 in the library; "),
-        (ObstacleWithVelocity, r"mstc_sil_obstacle_t: 32 bytes in the library, 48 in the Python"),
-        (ObstacleWithVelocity, r"mstc_sil_obstacle_t\.vx: in the Python binding only"),
+        (ObstacleWithAcceleration, r"mstc_sil_obstacle_t: 48 bytes in the library, 64 in the Python"),
+        (ObstacleWithAcceleration, r"mstc_sil_obstacle_t\.ax: in the Python binding only"),
         (ObstacleWithoutRadius, r"mstc_sil_obstacle_t\.radius: in the library only"),
         (NotInTheLibrary, r"mstc_sil_wish_t: not in the library's layout table"),
     ],
@@ -115,9 +117,9 @@ def test_a_library_that_changed_a_struct_is_refused_at_load(
 
     copy = tmp_path / "libmstc_sil.so"  # not opened before in this process
     shutil.copyfile(sil_lib, copy)
-    more = tuple(ObstacleWithVelocity if s is ObstacleStruct else s for s in ABI_STRUCTS)
+    more = tuple(ObstacleWithAcceleration if s is ObstacleStruct else s for s in ABI_STRUCTS)
     monkeypatch.setattr(firmware, "ABI_STRUCTS", more)
-    with pytest.raises(FirmwareError, match=r"mstc_sil_obstacle_t\.vx: in the Python binding only"):
+    with pytest.raises(FirmwareError, match=r"mstc_sil_obstacle_t\.ax: in the Python binding only"):
         Library.open(copy)
 
 

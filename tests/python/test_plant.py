@@ -109,3 +109,43 @@ def test_sensor_reports_obstacles_within_range_inclusive_in_world_order() -> Non
     sensor = RangeSensor(obstacles, 5.0)
     assert [o.id for o in sensor.scan(Pose(0.0, 0.0, 0.0))] == [1, 3]
     assert sensor.scan(Pose(100.0, 0.0, 0.0)) == []
+
+
+def test_moving_obstacle_is_reported_where_it_is_at_the_step() -> None:
+    o = Obstacle(1, 1.0, 2.0, 0.1, vx=0.5, vy=-0.25)
+    sensor = RangeSensor([o], 10.0)
+    (seen,) = sensor.scan(Pose(0.0, 0.0, 0.0), 4.0)
+    # x = 1 + 0.5·4, y = 2 − 0.25·4, velocity reported as it is.
+    assert (seen.x, seen.y, seen.vx, seen.vy) == (3.0, 1.0, 0.5, -0.25)
+    assert sensor.scan(Pose(0.0, 0.0, 0.0), 0.0) == [o]  # where it starts at t = 0
+
+
+def test_moving_obstacle_leaves_the_range_as_it_moves() -> None:
+    sensor = RangeSensor([Obstacle(1, 0.0, 0.0, 0.1, vx=1.0)], 2.0)
+    assert len(sensor.scan(Pose(0.0, 0.0, 0.0), 2.0)) == 1  # at 2 m exactly: seen
+    assert sensor.scan(Pose(0.0, 0.0, 0.0), 2.5) == []
+
+
+def test_sensor_noise_and_dropout_follow_their_stream() -> None:
+    import numpy as np
+
+    obstacles = [Obstacle(i, float(i), 0.0, 0.1) for i in range(1, 4)]
+    sensor = RangeSensor(
+        obstacles, 10.0, noise=0.1, dropout=0.5, rng=np.random.Generator(np.random.PCG64(7))
+    )
+    got = [sensor.scan(Pose(0.0, 0.0, 0.0)) for _ in range(200)]
+    # The same draws, made here independently: noise (3, 2) then uniforms (3).
+    rng = np.random.Generator(np.random.PCG64(7))
+    for seen in got:
+        noise, keep = rng.standard_normal((3, 2)) * 0.1, rng.random(3) >= 0.5
+        want = [
+            (o.id, o.x + noise[i, 0], o.y + noise[i, 1]) for i, o in enumerate(obstacles) if keep[i]
+        ]
+        assert [(o.id, o.x, o.y) for o in seen] == want
+    kept = sum(len(s) for s in got) / (3 * len(got))
+    assert 0.4 < kept < 0.6
+
+
+def test_noisy_sensor_without_a_stream_is_refused() -> None:
+    with pytest.raises(ValueError, match="random stream"):
+        RangeSensor([], 3.5, noise=0.1)

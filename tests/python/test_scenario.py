@@ -14,7 +14,7 @@ from conftest import SCENARIOS
 from mstc.cli import main
 from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
-from mstc.params import Params
+from mstc.params import Params, Strategy
 from mstc.sim.plant import Integrator, Pose
 from mstc.sim.scenario import load_scenario
 
@@ -96,11 +96,11 @@ def test_obstacle_radius_defaults_to_the_overridden_r_ob(write_scenario: WriteSc
 def test_paper_scenarios_load() -> None:
     for name in ("paper-line", "paper-circle"):
         s = load_scenario(SCENARIOS / f"{name}.toml")
-        assert s.params == Params()
+        assert s.params == Params(strategy=Strategy.PAPER)
         assert (s.sim.dt, s.sim.integrator) == (0.02, Integrator.EULER)
 
 
-SEVENTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(17)]
+SIXTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(16)]
 
 # (document, key named in the message (None: the whole file), words of the problem)
 BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
@@ -198,7 +198,7 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
     "zero wheel limit": (edit("params.max_wheel_speed", 0.0), "params.max_wheel_speed", "> 0"),
     "unknown integrator": (edit("sim.integrator", "rk4"), "sim.integrator", 'got "rk4"'),
     "integrator not a string": (edit("sim.integrator", 1), "sim.integrator", "must be a string"),
-    "17 obstacles": (edit("obstacles", SEVENTEEN_OBSTACLES), "obstacles", "at most 16"),
+    "16 obstacles": (edit("obstacles", SIXTEEN_OBSTACLES), "obstacles", "at most 15"),
     "unknown event": (edit("expected[1].event", "collide"), "expected[1].event", "one of"),
     "side on detect": (edit("expected[1].side", "left"), "expected[1].side", "only activate"),
     "unknown side": (edit("expected[2].side", "up"), "expected[2].side", '"left", "right"'),
@@ -209,7 +209,79 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
         "must be an integer",
     ),
     "expected after the end": (edit("expected[1].t", 2.5), "expected[1].t", "within the run"),
+    "unknown strategy": (edit("params.strategy", "fast"), "params.strategy", '"paper", "mstc"'),
+    "velocity of 3": (
+        edit("obstacles[1].velocity", [1, 2, 3]),
+        "obstacles[1].velocity",
+        "2 elements [vx, vy]",
+    ),
+    "velocity not finite": (
+        edit("obstacles[1].velocity", [math.inf, 0.0]),
+        "obstacles[1].velocity",
+        "finite",
+    ),
+    "negative noise": (
+        edit("imperfections.position_noise", -0.1),
+        "imperfections.position_noise",
+        ">= 0",
+    ),
+    "dropout of 1": (edit("imperfections.dropout", 1.0), "imperfections.dropout", "< 1"),
+    "fractional delay": (edit("imperfections.delay", 1.5), "imperfections.delay", "integer"),
+    "negative delay": (edit("imperfections.delay", -1), "imperfections.delay", ">= 0"),
+    "zero sensor range": (
+        edit("imperfections.sensor_range", 0.0),
+        "imperfections.sensor_range",
+        "> 0",
+    ),
+    "misspelled imperfection": (
+        edit("imperfections.dropouts", 0.1),
+        "imperfections.dropouts",
+        "did you mean 'dropout'",
+    ),
+    "meta family not a string": (edit("meta.family", 3), "meta.family", "must be a string"),
 }
+
+
+def test_moving_obstacles_imperfections_strategy_and_meta_load(
+    write_scenario: WriteScenario,
+) -> None:
+    doc = edit("obstacles[2].velocity", [0.25, -0.5])
+    doc["params"]["strategy"] = "paper"
+    doc["imperfections"] = {
+        "seed": 4,
+        "position_noise": 0.01,
+        "heading_noise": 0.02,
+        "obstacle_noise": 0.03,
+        "sensor_range": 2.0,
+        "dropout": 0.1,
+        "delay": 2,
+    }
+    doc["meta"] = {"family": "cluster", "seed": 2000001, "index": 1}
+    s = load_scenario(write_scenario(doc, "full"))
+    assert [(o.vx, o.vy, o.moving) for o in s.obstacles] == [
+        (0.0, 0.0, False),
+        (0.25, -0.5, True),
+    ]
+    assert s.params.strategy is Strategy.PAPER
+    imp = s.imperfections
+    assert (imp.seed, imp.position_noise, imp.heading_noise, imp.obstacle_noise) == (
+        4,
+        0.01,
+        0.02,
+        0.03,
+    )
+    assert (imp.sensor_range, imp.dropout, imp.delay) == (2.0, 0.1, 2)
+    assert (s.meta.family, s.meta.seed, s.meta.index) == ("cluster", 2000001, 1)
+
+
+def test_without_the_new_keys_a_scene_is_ideal_static_and_mstc(
+    write_scenario: WriteScenario,
+) -> None:
+    s = load_scenario(write_scenario(VALID, "plain"))
+    assert not any(o.moving for o in s.obstacles)
+    assert s.params.strategy is Strategy.MSTC
+    imp = s.imperfections
+    assert not imp.noisy and imp.delay == 0 and imp.sensor_range is None
 
 
 @pytest.fixture(params=sorted(BAD))

@@ -20,7 +20,7 @@ from mstc.can.dbc import tables
 from mstc.can.protocol import Frame, FrameDropped, Protocol
 from mstc.controller import Event, Fault, Status, StepResult
 from mstc.errors import ControllerError
-from mstc.params import Params, param_values
+from mstc.params import Params, Strategy, param_values
 from mstc.sim.plant import Pose, wrap_angle
 from mstc.sim.sensor import Obstacle
 
@@ -86,6 +86,9 @@ class CanController:
         self._now = 0.0
         self._steps = 0
         self._armed = False
+        self.strategy_supported = True
+        """False when the firmware answered PARAM_SET strategy with "unknown
+        index": a build from before the strategies, which runs the paper's."""
         self._configure()
 
     # ------------------------------------------------------------ the bus
@@ -118,13 +121,20 @@ class CanController:
         because another one has not changed yet (D_s < D_act must hold at
         every moment)."""
         pending = param_values(self.params)
+        pending["strategy"] = float(self.tables.strategy.value(str(self.params.strategy)))
         while pending:
             rejected: dict[str, float] = {}
             for name, value in pending.items():
-                index = self.tables.param_indexes[name]
+                index = self.tables.param_index.value(name)
                 self._send(self.proto.encode("PARAM_SET", index=index, value=value))
                 answer = self._await(_param_value(index), f"PARAM_VALUE {name}")
-                if answer.signals["result"] != self.tables.param_ok:
+                result = answer.signals["result"]
+                unknown = result == self.tables.param_result.value("unknown_index")
+                if name == "strategy" and unknown and self.params.strategy is Strategy.PAPER:
+                    # A firmware built before the strategy parameter runs the
+                    # paper's strategy only: what was asked for.
+                    self.strategy_supported = False
+                elif result != self.tables.param_ok:
                     rejected[name] = value
             if len(rejected) == len(pending):
                 raise ControllerError(f"the firmware rejects the parameters {sorted(rejected)}")
@@ -181,6 +191,10 @@ class CanController:
         self._send_inputs(robot, ref, v_r, w_r)
         for o in obstacles:
             self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
+            # Right after its OBSTACLE frame, for a moving obstacle only
+            # (docs/protocol.md); the firmware keeps 0 for the others.
+            if o.vx or o.vy:
+                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
         self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
 
         events: list[Event] = []

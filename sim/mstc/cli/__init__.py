@@ -13,9 +13,9 @@ import sys
 from collections.abc import Sequence
 
 from mstc import __version__
-from mstc.cli import export, hil, play, plot, replay, sim
+from mstc.cli import export, hil, play, plot, replay, sim, sweep
 
-COMMANDS = (sim, hil, replay, play, plot, export)
+COMMANDS = (sim, hil, replay, play, plot, sweep, export)
 """The subcommands, in the order ``mstc --help`` lists them."""
 
 

@@ -51,8 +51,9 @@ def event_record(event: Event) -> dict[str, object]:
     return record
 
 
-def write_events(result: RunResult, path: Path) -> None:
-    """Write ``{"events": [...], "min_distance": [...]}``, one event a line.
+def events_json(result: RunResult) -> str:
+    """The text of events.json: ``{"events": [...], "min_distance": [...]}``,
+    one event a line.
 
     min_distance is in m, rounded to 4 decimals, one entry per obstacle in
     file order.
@@ -60,7 +61,12 @@ def write_events(result: RunResult, path: Path) -> None:
     lines = [json.dumps(event_record(e)) for e in result.events]
     events = "[\n" + ",\n".join(f"  {line}" for line in lines) + "\n]" if lines else "[]"
     min_distance = json.dumps([round(d, 4) for d in result.min_distance])
-    path.write_text(f'{{"events": {events}, "min_distance": {min_distance}}}\n')
+    return f'{{"events": {events}, "min_distance": {min_distance}}}\n'
+
+
+def write_events(result: RunResult, path: Path) -> None:
+    """Write events.json (:func:`events_json`)."""
+    path.write_text(events_json(result))
 
 
 def write_trace(result: RunResult, path: Path) -> None:

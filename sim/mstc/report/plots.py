@@ -111,7 +111,9 @@ def _time_axes(ax: Axes, result: PlotData, ylabel: str) -> None:
 
 def draw_path(ax: Axes, result: PlotData) -> None:
     """(a) robot and reference paths, obstacles with their D_s and D_act
-    circles, and the switching events on the robot's path."""
+    circles, and the switching events on the robot's path. A moving
+    obstacle is drawn with its track (dotted), faint where it started, and
+    with its circles where it came closest to the robot, at the time given."""
     trace = result.trace
     p = result.params
     x, y = trace["x"], trace["y"]
@@ -131,15 +133,34 @@ def draw_path(ax: Axes, result: PlotData) -> None:
     ax.plot(x[0], y[0], "o", color=_ROBOT, ms=5)
     ax.plot(trace["x_r"][0], trace["y_r"][0], "o", color=_REFERENCE, ms=5)
 
-    for o in result.obstacles:
+    track = trace.obstacle_xy
+    for i, o in enumerate(result.obstacles):
         color = _obstacle_color(o.id)
         d_s, d_act = p.safe_distance(o.radius), p.activation_distance(o.radius)
-        ax.add_patch(Circle((o.x, o.y), o.radius, color=color, alpha=0.85))
-        ax.add_patch(Circle((o.x, o.y), d_s, fill=False, ls="--", lw=1.0, ec=color))
-        ax.add_patch(Circle((o.x, o.y), d_act, fill=False, ls=":", lw=1.0, ec=color))
+        cx, cy = o.x, o.y
+        if track is not None and o.moving:
+            # A moving obstacle: its track, where it started (faint), and the
+            # obstacle with its circles where it came closest to the robot.
+            k = int(np.argmin(trace.distance[:, i]))
+            cx, cy = float(track[k, i, 0]), float(track[k, i, 1])
+            ax.plot(track[:, i, 0], track[:, i, 1], ":", color=color, lw=1.0)
+            ax.add_patch(Circle((o.x, o.y), o.radius, color=color, alpha=0.25))
+            ax.annotate(
+                f"t = {trace['t'][k]:.2f} s",
+                (cx, cy - d_act),
+                textcoords="offset points",
+                xytext=(0, -3),
+                ha="center",
+                va="top",
+                fontsize="x-small",
+                color=color,
+            )
+        ax.add_patch(Circle((cx, cy), o.radius, color=color, alpha=0.85))
+        ax.add_patch(Circle((cx, cy), d_s, fill=False, ls="--", lw=1.0, ec=color))
+        ax.add_patch(Circle((cx, cy), d_act, fill=False, ls=":", lw=1.0, ec=color))
         ax.annotate(
             f"O{o.id}",
-            (o.x, o.y + d_act),
+            (cx, cy + d_act),
             textcoords="offset points",
             xytext=(0, 3),
             ha="center",

@@ -1,12 +1,16 @@
 # SPDX-License-Identifier: MIT
 """The closed loop: plant, reference and sensor around a controller."""
 
+import math
+import time
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from mstc.controller import Controller, Event, Fault, Mode
-from mstc.sim.plant import UnicyclePlant
+from mstc.errors import SimulationError
+from mstc.sim.plant import Pose, UnicyclePlant
 from mstc.sim.reference import ReferenceRobot
 from mstc.sim.scenario import Scenario
 from mstc.sim.sensor import Obstacle, RangeSensor
@@ -42,7 +46,11 @@ class Trace:
     mode: tuple[Mode, ...]
     """The controller that ran at each step."""
     distance: np.ndarray
-    """(N+1, number of obstacles): centre distance to each obstacle [m]."""
+    """(N+1, number of obstacles): centre distance to each obstacle at the
+    same step [m]."""
+    obstacle_xy: np.ndarray | None = None
+    """(N+1, number of obstacles, 2): each obstacle's centre at each step
+    [m], when any obstacle moves; None when all stand still."""
 
     def __getitem__(self, column: str) -> np.ndarray:
         """One numeric column by name, e.g. ``trace["e1"]``."""
@@ -66,65 +74,151 @@ class RunResult:
     """Smallest centre distance to each obstacle over the run [m]."""
     faults: dict[Fault, int]
     """Steps that reported each fault bit (only bits that occurred)."""
+    step_time: float = 0.0
+    """Mean wall time of one controller step in this process [s] (the
+    controller's own work and the call into it; a measurement, so it
+    differs from run to run)."""
 
 
 def world_obstacles(scenario: Scenario) -> tuple[Obstacle, ...]:
-    """The scenario's obstacles, numbered from 1 in file order."""
-    return tuple(Obstacle(i, o.x, o.y, o.radius) for i, o in enumerate(scenario.obstacles, start=1))
+    """The scenario's obstacles at t = 0, numbered from 1 in file order."""
+    return tuple(
+        Obstacle(i, o.x, o.y, o.radius, o.vx, o.vy)
+        for i, o in enumerate(scenario.obstacles, start=1)
+    )
+
+
+def _streams(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
+    """Independent random streams of a scene (odometry, sensor), so that one
+    imperfection's draws do not move when another is switched on."""
+    odometry, sensor = np.random.SeedSequence(seed).spawn(2)
+    return np.random.Generator(np.random.PCG64(odometry)), np.random.Generator(
+        np.random.PCG64(sensor)
+    )
+
+
+def _fault_counts(masks: list[int]) -> dict[Fault, int]:
+    faults: dict[Fault, int] = {}
+    for mask in masks:
+        for bit in Fault:
+            if mask & bit.value:
+                faults[bit] = faults.get(bit, 0) + 1
+    return faults
 
 
 def simulate(scenario: Scenario, controller: Controller) -> RunResult:
     """Run a scenario in closed loop.
 
     For k = 0..N (N = round(duration/dt)), at t = k·dt: the sensor scans from
-    the robot's pose at the start of the period; the controller steps on that
-    pose, the reference pose and the scan; the row is recorded; then robot
-    and reference are integrated over dt with the wheel speeds held. The run
-    ends with the row of step N, so the trace spans t = 0 to the duration and
-    the minimum distances include the final state.
+    the robot's pose at the start of the period (obstacles where they are at
+    t); the controller steps on that pose (with odometry noise, when the
+    scenario has some), the reference pose and the scan; the row is
+    recorded; then robot and reference are integrated over dt, the robot with
+    the wheel speeds commanded ``delay`` periods earlier (standing still
+    before the first). The run ends with the row of step N, so the trace
+    spans t = 0 to the duration and the minimum distances include the final
+    state.
 
     :param scenario: the scenario.
     :param controller: a freshly initialised controller for its parameters.
 
     :returns: The trace, the events and the minimum distance to each obstacle.
+
+    :raises SimulationError: the plant's state became non-finite.
     """
     p = scenario.params
     sim = scenario.sim
+    imp = scenario.imperfections
     plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
     ref = ReferenceRobot(
         scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
     )
     obstacles = world_obstacles(scenario)
-    sensor = RangeSensor(obstacles, p.d_det)
+    odometry_rng, sensor_rng = _streams(imp.seed)
+    sensor = RangeSensor(
+        obstacles,
+        p.d_det if imp.sensor_range is None else imp.sensor_range,
+        noise=imp.obstacle_noise,
+        dropout=imp.dropout,
+        rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
+    )
+    moving = any(o.moving for o in obstacles)
     v_r, w_r = ref.v, ref.w
+    steps = sim.steps
+    odometry_noise = None
+    if imp.position_noise or imp.heading_noise:
+        sigma = np.array([imp.position_noise, imp.position_noise, imp.heading_noise])
+        odometry_noise = (odometry_rng.standard_normal((steps + 1, 3)) * sigma).tolist()
+    pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
 
     rows: list[tuple[float, ...]] = []
     modes: list[Mode] = []
-    distances: list[list[float]] = []
     events: list[Event] = []
-    faults: dict[Fault, int] = {}
-    for k in range(sim.steps + 1):
+    fault_masks: list[int] = []
+    clock = time.perf_counter_ns
+    spent = 0
+    step = controller.step
+    body_velocity = plant.body_velocity
+    for k in range(steps + 1):
         t_us = k * sim.dt_us
+        t = t_us / 1e6
         robot, reference = plant.pose, ref.pose
-        result = controller.step(robot, reference, v_r, w_r, sensor.scan(robot), t_us)
-        v, w = plant.body_velocity(result.wheel_left, result.wheel_right)
+        seen = sensor.scan(robot, t)
+        measured = robot
+        if odometry_noise is not None:
+            nx, ny, nt = odometry_noise[k]
+            measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
+        start = clock()
+        result = step(measured, reference, v_r, w_r, seen, t_us)
+        spent += clock() - start
+        left, right = result.wheel_left, result.wheel_right
+        v, w = body_velocity(left, right)
         s = result.status
-        rows.append((t_us / 1e6, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e))
+        rows.append((t, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e))
         modes.append(s.mode)
-        distances.append([o.distance(robot) for o in obstacles])
-        events.extend(result.events)
-        for bit in Fault:
-            if s.faults & bit:
-                faults[bit] = faults.get(bit, 0) + 1
-        if k < sim.steps:
-            plant.step(result.wheel_left, result.wheel_right, sim.dt)
+        if result.events:
+            events.extend(result.events)
+        if s.faults:
+            fault_masks.append(int(s.faults))
+        if k < steps:
+            if pending:
+                pending.append((left, right))
+                left, right = pending.popleft()
+            plant.step(left, right, sim.dt)
             ref.step(sim.dt)
 
-    distance = np.array(distances, dtype=float).reshape(len(rows), len(obstacles))
+    values = np.array(rows, dtype=float)
+    if not np.isfinite(values[:, 1:7]).all():
+        k = int(np.argmin(np.isfinite(values[:, 1:7]).all(axis=1)))
+        raise SimulationError(
+            f"{scenario.path}: the plant's state became non-finite at t = {values[k, 0]:g} s"
+        )
+    distance, obstacle_xy = _distances(values, obstacles, moving)
     return RunResult(
         scenario=scenario,
-        trace=Trace(np.array(rows, dtype=float), tuple(modes), distance),
+        trace=Trace(values, tuple(modes), distance, obstacle_xy),
         events=tuple(events),
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
-        faults=faults,
+        faults=_fault_counts(fault_masks),
+        step_time=spent / 1e9 / (steps + 1),
     )
+
+
+def _distances(
+    values: np.ndarray, obstacles: tuple[Obstacle, ...], moving: bool
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Centre distance from the robot to each obstacle at each step, and the
+    obstacles' track when any moves."""
+    t = values[:, 0]
+    x, y = values[:, 1], values[:, 2]
+    n = len(obstacles)
+    distance = np.empty((len(t), n))
+    track = np.empty((len(t), n, 2)) if moving else None
+    for i, o in enumerate(obstacles):
+        ox = o.x + o.vx * t if o.vx else np.full_like(t, o.x)
+        oy = o.y + o.vy * t if o.vy else np.full_like(t, o.y)
+        # math.hypot, as Obstacle.distance: the same bits as a step-by-step loop.
+        distance[:, i] = list(map(math.hypot, (ox - x).tolist(), (oy - y).tolist()))
+        if track is not None:
+            track[:, i, 0], track[:, i, 1] = ox, oy
+    return distance, track

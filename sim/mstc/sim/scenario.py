@@ -18,11 +18,12 @@ from typing import Any
 
 from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
-from mstc.params import PARAM_NAMES, Params
+from mstc.params import PARAM_NAMES, Params, Strategy
 from mstc.sim.plant import Integrator, Pose
 
-MAX_OBSTACLES = 16
-"""Obstacles one scenario may hold (MSTC_SIL_MAX_OBSTACLES)."""
+MAX_OBSTACLES = 15
+"""Obstacles one scenario may hold: the protocol's obstacle ids are 1..15
+(OBSTACLE_id is 4 bits, 0 means none)."""
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,57 @@ class ObstacleSpec:
     """Centre [m]."""
     radius: float
     """[m]."""
+    vx: float = 0.0
+    """Constant velocity [m/s]; the centre is at (x + vx t, y + vy t)."""
+    vy: float = 0.0
+    """[m/s]."""
+
+    @property
+    def moving(self) -> bool:
+        """Whether the obstacle moves."""
+        return self.vx != 0.0 or self.vy != 0.0
+
+
+@dataclass(frozen=True)
+class ImperfectionSpec:
+    """What a real robot adds to the ideal loop (``[imperfections]``). The
+    defaults are the ideal loop, bit for bit."""
+
+    seed: int = 0
+    """Seeds the noise and the dropouts of this scene."""
+    position_noise: float = 0.0
+    """Standard deviation of the Gaussian noise on the odometry's x and y [m]."""
+    heading_noise: float = 0.0
+    """Standard deviation of the Gaussian noise on the odometry's θ [rad]."""
+    obstacle_noise: float = 0.0
+    """Standard deviation of the Gaussian noise on each reported obstacle
+    centre's x and y [m]."""
+    sensor_range: float | None = None
+    """The sensor's real range [m]; None: params.D_det."""
+    dropout: float = 0.0
+    """Probability that a report of an obstacle in range is missed, per
+    obstacle and step, 0 <= p < 1."""
+    delay: int = 0
+    """Whole control periods between a command and the motion it causes."""
+
+    @property
+    def noisy(self) -> bool:
+        """Whether any random draw is needed."""
+        return bool(
+            self.position_noise or self.heading_noise or self.obstacle_noise or self.dropout
+        )
+
+
+@dataclass(frozen=True)
+class MetaSpec:
+    """Where a generated scene comes from (``[meta]``, informational)."""
+
+    family: str = ""
+    """Scene family of the suite ("" for a hand-written scene)."""
+    seed: int | None = None
+    """The seed the scene was drawn with."""
+    index: int | None = None
+    """The scene's number within its family."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +152,8 @@ class Scenario:
     sim: SimSpec
     params: Params
     expected: tuple[ExpectedEvent, ...]
+    imperfections: ImperfectionSpec = ImperfectionSpec()
+    meta: MetaSpec = MetaSpec()
 
     @property
     def name(self) -> str:
@@ -107,7 +161,16 @@ class Scenario:
         return self.path.stem
 
 
-_TOP_KEYS = ("robot", "reference", "obstacles", "sim", "params", "expected")
+_TOP_KEYS = (
+    "robot",
+    "reference",
+    "obstacles",
+    "sim",
+    "params",
+    "imperfections",
+    "meta",
+    "expected",
+)
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
 # File key -> Params attribute, for the scalar parameters: their names in the
@@ -175,6 +238,19 @@ class _Checker:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, f"must be a number, got {_type_name(value)}")
         return self._finite(value, key, "")
+
+    def integer(self, value: object, key: str, minimum: int = 0) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(key, f"must be an integer, got {_type_name(value)}")
+        if value < minimum:
+            raise self.fail(key, f"must be >= {minimum}, got {value}")
+        return value
+
+    def non_negative(self, value: object, key: str) -> float:
+        result = self.number(value, key)
+        if result < 0.0:
+            raise self.fail(key, f"must be >= 0, got {result:g}")
+        return result
 
     def positive(self, value: object, key: str) -> float:
         result = self.number(value, key)
@@ -290,13 +366,19 @@ def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
         sim=sim,
         params=params,
         expected=expected,
+        imperfections=_parse_imperfections(c, data.get("imperfections", {})),
+        meta=_parse_meta(c, data.get("meta", {})),
     )
 
 
 def _parse_params(c: _Checker, value: object) -> Params:
     table = c.table(value, "params")
-    c.keys(table, "params", (), (*_SCALAR_PARAMS, *_GAIN_PARAMS))
+    c.keys(table, "params", (), (*_SCALAR_PARAMS, *_GAIN_PARAMS, "strategy"))
     overrides: dict[str, Any] = {}
+    if "strategy" in table:
+        overrides["strategy"] = Strategy(
+            c.choice(table["strategy"], "params.strategy", tuple(Strategy))
+        )
     for key, attr in _SCALAR_PARAMS.items():
         if key in table:
             overrides[attr] = c.positive(table[key], f"params.{key}")
@@ -334,13 +416,54 @@ def _parse_obstacles(c: _Checker, value: object, params: Params) -> tuple[Obstac
     result = []
     for i, entry in enumerate(entries, start=1):
         prefix = f"obstacles[{i}]"
-        c.keys(entry, prefix, ("position",), ("position", "radius"))
+        c.keys(entry, prefix, ("position",), ("position", "radius", "velocity"))
         x, y = c.numbers(entry["position"], f"{prefix}.position", ("x", "y"))
         radius = params.r_ob
         if "radius" in entry:
             radius = c.positive(entry["radius"], f"{prefix}.radius")
-        result.append(ObstacleSpec(x, y, radius))
+        vx, vy = 0.0, 0.0
+        if "velocity" in entry:
+            vx, vy = c.numbers(entry["velocity"], f"{prefix}.velocity", ("vx", "vy"))
+        result.append(ObstacleSpec(x, y, radius, vx, vy))
     return tuple(result)
+
+
+_IMPERFECTION_NOISES = ("position_noise", "heading_noise", "obstacle_noise")
+
+
+def _parse_imperfections(c: _Checker, value: object) -> ImperfectionSpec:
+    table = c.table(value, "imperfections")
+    allowed = ("seed", *_IMPERFECTION_NOISES, "sensor_range", "dropout", "delay")
+    c.keys(table, "imperfections", (), allowed)
+    values: dict[str, Any] = {}
+    for key in _IMPERFECTION_NOISES:
+        if key in table:
+            values[key] = c.non_negative(table[key], f"imperfections.{key}")
+    if "seed" in table:
+        values["seed"] = c.integer(table["seed"], "imperfections.seed")
+    if "sensor_range" in table:
+        values["sensor_range"] = c.positive(table["sensor_range"], "imperfections.sensor_range")
+    if "dropout" in table:
+        p = c.non_negative(table["dropout"], "imperfections.dropout")
+        if p >= 1.0:
+            raise c.fail("imperfections.dropout", f"must be a probability < 1, got {p:g}")
+        values["dropout"] = p
+    if "delay" in table:
+        values["delay"] = c.integer(table["delay"], "imperfections.delay")
+    return ImperfectionSpec(**values)
+
+
+def _parse_meta(c: _Checker, value: object) -> MetaSpec:
+    table = c.table(value, "meta")
+    c.keys(table, "meta", (), ("family", "seed", "index"))
+    family = ""
+    if "family" in table:
+        if not isinstance(table["family"], str):
+            raise c.fail("meta.family", f"must be a string, got {_type_name(table['family'])}")
+        family = table["family"]
+    seed = c.integer(table["seed"], "meta.seed") if "seed" in table else None
+    index = c.integer(table["index"], "meta.index") if "index" in table else None
+    return MetaSpec(family, seed, index)
 
 
 def _parse_sim(c: _Checker, value: object) -> SimSpec:

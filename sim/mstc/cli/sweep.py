@@ -1,0 +1,335 @@
+# SPDX-License-Identifier: MIT
+"""``mstc sweep``: many scenes, several strategies, on every core or a Dask
+cluster (docs/sweeps.md)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, error, library
+from mstc.errors import FirmwareError, ScenarioError
+from mstc.firmware import LIB_ENV, SilController
+from mstc.params import Params
+from mstc.report.progress import Progress
+from mstc.sim.run import RunResult
+from mstc.sim.scenario import load_scenario
+from mstc.sweep.engine import STRATEGIES, Scene, run_job, run_sweep
+from mstc.sweep.suite import Family, Suite, generate, load_suite
+from mstc.sweep.summary import write_summary
+
+NAME = "sweep"
+HELP = "run scenario files or suites for several strategies, on all cores or a Dask cluster"
+
+_EPILOG = f"""\
+INPUT is a suite file (a TOML file with [family.<name>] tables: its scenes
+are generated into DIR/scenes/<family>/ first), a scenario file, or a folder
+of scenario files (every *.toml below it). Formats: docs/sweeps.md (suites),
+docs/scenarios.md (scenarios).
+
+Writes under DIR:
+  <strategy>/<scene>/events.json  exactly as `mstc sim` writes it
+  runs.csv                        one row per scene and strategy (columns:
+                                  docs/sweeps.md); appended as runs finish,
+                                  rewritten in order at the end
+  summary.md                      rates with 95 % Wilson intervals and
+                                  medians per family and strategy, histograms
+                                  (clearance.png, tracking_error.png) and the
+                                  runs of smallest clearance (gallery/)
+
+strategies:
+  paper   the paper's switch strategy in the firmware (in memory, C step)
+  mstc    mstc's own strategy in the firmware
+  dwa     the Dynamic Window Approach baseline (Python, mstc.sweep.dwa)
+
+A scene that fails (an exception, a non-finite state, a worker that dies) is
+a row with its error, never the end of the sweep. Interrupted, the sweep goes
+on where it stopped with --resume (same DIR and inputs).
+
+exit status: 0 done (error rows included); 1 the firmware library could not
+be loaded or differs between workers, or an output could not be written;
+2 bad arguments, a bad suite or scenario file.
+
+examples:
+  .venv/bin/mstc sweep --strategy paper,dwa --out build/sweep/standard \\
+      sim/suites/standard.toml
+  .venv/bin/mstc sweep --count 20 --family cluster sim/suites/standard.toml
+  .venv/bin/mstc sweep --scheduler tcp://10.0.0.5:8786 sim/suites/standard.toml
+
+The library is built by `make lib`; without --lib it is read from {LIB_ENV},
+else build/host/float/libmstc_sil.so. Every worker loads it itself (on a
+cluster: the same path, or the worker's own {LIB_ENV}; its contents must be
+the same, which the sweep checks).
+"""
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Register ``mstc sweep``."""
+    parser = commands.add_parser(
+        NAME,
+        help=HELP,
+        description="Run many scenes through the firmware's control step in memory (and the "
+        "DWA baseline), in parallel, and summarise how often each strategy touches an "
+        "obstacle, keeps D_s, rejoins its reference or is blocked.",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "inputs", metavar="INPUT", nargs="+", type=Path, help="suite, scenario or folder"
+    )
+    parser.add_argument(
+        "--strategy",
+        default=",".join(STRATEGIES),
+        help="comma-separated strategies to run each scene with (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        type=Path,
+        default=Path("build/sweep"),
+        help="output folder (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--lib",
+        metavar="PATH",
+        type=Path,
+        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
+    )
+    parser.add_argument(
+        "--jobs",
+        metavar="N",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="worker processes of the local pool (default: every core, %(default)s)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="run on the Dask cluster of this scheduler instead of the local pool",
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep DIR/runs.csv's finished runs and run only the rest",
+    )
+    parser.add_argument(
+        "--generate-only",
+        action="store_true",
+        help="write the suites' scene files into DIR/scenes/ and stop",
+    )
+    parser.add_argument(
+        "--family",
+        metavar="NAME",
+        action="append",
+        help="only this family of the suites (repeatable)",
+    )
+    parser.add_argument(
+        "--count", metavar="N", type=int, help="scenes per family instead of the suite's counts"
+    )
+    parser.add_argument(
+        "--gallery",
+        metavar="N",
+        type=int,
+        default=6,
+        help="path figures of the N runs of smallest clearance per strategy (default: %(default)s)",
+    )
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    parser.set_defaults(run=run)
+
+
+def _is_suite(path: Path) -> bool:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False  # the scenario loader says what is wrong
+    return "family" in data or "suite" in data
+
+
+def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]] | None:
+    """The scenario files to run (suites generated first), or None after an error."""
+    files: list[Path] = []
+    suites: list[Suite] = []
+    for path in args.inputs:
+        if path.is_dir():
+            found = sorted(p for p in path.rglob("*.toml") if p.is_file())
+            if not found:
+                error(f"{path}: no scenario files (*.toml) in this folder")
+                return None
+            files += found
+        elif path.is_file() and _is_suite(path):
+            suite = load_suite(path)
+            if args.count is not None:
+                suite = replace(
+                    suite, families=tuple(_with_count(f, args.count) for f in suite.families)
+                )
+            known = {f.name for f in suite.families}
+            for name in args.family or ():
+                if name not in known:
+                    error(f"{path}: no family {name!r} (families: {', '.join(sorted(known))})")
+                    return None
+            wanted = tuple(args.family) if args.family else None
+            files += [f.path for f in generate(suite, args.out / "scenes", wanted)]
+            suites.append(suite)
+        else:
+            files.append(path)
+    return files, suites
+
+
+def _with_count(family: Family, count: int) -> Family:
+    return replace(family, count=count)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Generate, validate, run, summarise."""
+    strategies = [s.strip() for s in args.strategy.split(",") if s.strip()]
+    unknown = [s for s in strategies if s not in STRATEGIES]
+    if unknown or not strategies:
+        error(
+            f"--strategy: unknown {', '.join(unknown) or '(none)'} (known: {', '.join(STRATEGIES)})"
+        )
+        return EXIT_USAGE
+    if args.jobs < 1:
+        error("--jobs must be at least 1")
+        return EXIT_USAGE
+    try:
+        found = _scene_files(args)
+    except ScenarioError as exc:
+        error(str(exc))
+        return EXIT_USAGE
+    except OSError as exc:
+        error(f"cannot write the scene files: {exc}")
+        return EXIT_FAILED
+    if found is None:
+        return EXIT_USAGE
+    files, suites = found
+    if args.generate_only:
+        print(f"{len(files)} scene files in {args.out / 'scenes'}/")
+        return EXIT_OK
+
+    # Every scene is validated here, before anything runs, like `mstc sim`.
+    scenes: list[Scene] = []
+    seen: dict[str, Path] = {}
+    ok = True
+    for path in files:
+        try:
+            load_scenario(path)
+            scene = Scene.from_file(path)
+        except (ScenarioError, OSError) as exc:
+            error(str(exc))
+            ok = False
+            continue
+        first = seen.setdefault(scene.name, path)
+        if first != path:
+            error(f"{first} and {path} would both write {args.out}/<strategy>/{scene.name}/")
+            ok = False
+        scenes.append(scene)
+    if not ok:
+        return EXIT_USAGE
+
+    try:
+        given = library(args.lib)
+        # Absolute: workers (and a cluster's) may run in another directory.
+        lib = str(given.resolve())
+        firmware = f"{given} ({SilController(Params(), lib).numeric})"
+    except FirmwareError as exc:
+        if set(strategies) != {"dwa"}:
+            error(str(exc))
+            return EXIT_FAILED
+        lib, firmware = str(args.lib or ""), "none (dwa only)"
+
+    where = args.scheduler or f"{args.jobs} local processes"
+    print(f"sweep: {len(scenes)} scenes × {', '.join(strategies)} on {where}; firmware {firmware}")
+    bar = Progress(
+        len(scenes) * len(strategies), "sweep", "runs", delay=0.5, enabled=not args.quiet
+    )
+    start = time.monotonic()
+    try:
+        result = run_sweep(
+            scenes,
+            strategies,
+            args.out,
+            lib,
+            workers=args.jobs,
+            scheduler=args.scheduler,
+            resume=args.resume,
+            progress=lambda done, total: bar.update(done),
+        )
+    except FirmwareError as exc:
+        bar.close()
+        error(str(exc))
+        return EXIT_FAILED
+    except OSError as exc:
+        bar.close()
+        error(f"cannot write the outputs: {exc}")
+        return EXIT_FAILED
+    bar.close()
+    elapsed = time.monotonic() - start
+
+    by_name = {s.name: s for s in scenes}
+
+    def rerun(row: dict[str, str]) -> RunResult | None:
+        return run_job(by_name[row["scene"]], row["strategy"], lib)[0]
+
+    title = ", ".join(s.name for s in suites) or ", ".join(str(p) for p in args.inputs)
+    try:
+        summary = write_summary(
+            result.rows,
+            strategies,
+            args.out,
+            title=title,
+            firmware=firmware,
+            gallery=args.gallery,
+            rerun=rerun,
+        )
+    except OSError as exc:
+        error(f"cannot write the summary: {exc}")
+        return EXIT_FAILED
+    _print_table(result.rows, strategies)
+    errors = sum(1 for r in result.rows if r["error"])
+    print(
+        f"{len(result.rows)} runs ({result.ran} run now, {len(result.rows) - result.ran} resumed) "
+        f"in {elapsed:.1f} s; {errors} error rows"
+    )
+    print(f"output: {args.out}/runs.csv, {summary}")
+    return EXIT_OK
+
+
+def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
+    families = list(dict.fromkeys(r["family"] or "(none)" for r in rows))
+    line = "  {:<16} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
+    print(
+        line.format(
+            "family", "strategy", "runs", "contact", "D_s kept", "rejoined", "blocked", "errors"
+        )
+    )
+    for family in families:
+        for strategy in strategies:
+            mine = [
+                r for r in rows if (r["family"] or "(none)") == family and r["strategy"] == strategy
+            ]
+            if not mine:
+                continue
+            ok = [r for r in mine if not r["error"]]
+
+            def count(column: str, rows: list[dict[str, str]] = ok) -> int:
+                return sum(1 for r in rows if r[column] == "1")
+
+            free = [r for r in ok if r["blocked"] == "0"]
+            print(
+                line.format(
+                    family,
+                    strategy,
+                    len(mine),
+                    count("contact"),
+                    count("ds_kept"),
+                    f"{count('rejoined', free)}/{len(free)}",
+                    count("blocked"),
+                    len(mine) - len(ok),
+                )
+            )
+    sys.stdout.flush()

@@ -1,0 +1,416 @@
+# SPDX-License-Identifier: MIT
+"""Running a sweep: many scenes, several strategies, on every core or on a
+Dask cluster, resumable.
+
+Work is cut into batches of (scene, strategy) jobs. A batch carries each
+scene's name and the text of its file, never a loaded object: every worker
+process loads the firmware library itself (ctypes handles do not travel),
+parses the scene, runs it and sends back one small row and the text of
+events.json per job. The client writes DIR/<strategy>/<scene>/events.json,
+then appends the row to DIR/runs.csv, so a row on disk always has its
+events.json and ``--resume`` can skip it. When all is done runs.csv is
+rewritten in plan order (scene order, then strategy order), the same
+whichever worker finished first.
+
+A scene that fails (an exception, a non-finite state) is a row with its
+error. A worker that dies (a crash in the library) takes its batch down:
+those jobs run again one at a time on a single worker, which names the one
+that kills it; that job becomes an error row and the rest go on.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import io
+import math
+import multiprocessing
+import os
+import tomllib
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+
+from mstc.controller import Controller
+from mstc.errors import FirmwareError
+from mstc.firmware import LIB_ENV, SilController
+from mstc.params import Strategy
+from mstc.report.outputs import events_json
+from mstc.sim.run import RunResult, simulate
+from mstc.sim.scenario import Scenario, parse_scenario
+from mstc.sweep.dwa import DwaController
+from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, evaluate
+
+STRATEGIES = ("paper", "mstc", "dwa")
+"""What --strategy takes: the firmware's two strategies, and the DWA baseline."""
+ROW_COLUMNS = ("scene", "family", "seed", "strategy", "steps", *METRIC_COLUMNS, "error")
+"""Columns of runs.csv, in order."""
+MEASURED_COLUMNS = ("step_us",)
+"""Columns that are measurements, different from run to run; every other
+column is the same for the same scenes, strategies and library."""
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scene as it travels to a worker: its name and its file's text."""
+
+    name: str
+    """File stem: names DIR/<strategy>/<scene>/."""
+    source: str
+    """The file, as the user named it (error messages)."""
+    text: str
+    family: str = ""
+    seed: int | None = None
+
+    @classmethod
+    def from_file(cls, path: Path) -> Scene:
+        """Read a scenario file (validated later, by the worker)."""
+        text = path.read_text(encoding="utf-8")
+        try:
+            meta = tomllib.loads(text).get("meta", {})
+        except tomllib.TOMLDecodeError:
+            meta = {}
+        family = meta.get("family", "") if isinstance(meta, dict) else ""
+        seed = meta.get("seed") if isinstance(meta, dict) else None
+        return cls(
+            path.stem,
+            str(path),
+            text,
+            family if isinstance(family, str) else "",
+            seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
+        )
+
+
+Job = tuple[Scene, str]
+"""A scene and a strategy."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a worker sends back for one job."""
+
+    scene: str
+    strategy: str
+    row: dict[str, str]
+    events: str | None
+    """events.json's text, None when the run failed."""
+    library: str
+    """sha256 of the firmware library the worker ran ("" for none)."""
+
+
+# ------------------------------------------------------------------ one job
+
+_LIBRARY_SHA: dict[str, str] = {}
+
+
+def library_sha256(path: str | os.PathLike[str]) -> str:
+    """sha256 of a file, remembered per process."""
+    key = os.fspath(path)
+    if key not in _LIBRARY_SHA:
+        _LIBRARY_SHA[key] = hashlib.sha256(Path(key).read_bytes()).hexdigest()
+    return _LIBRARY_SHA[key]
+
+
+def worker_library(lib: str) -> str:
+    """The library a worker runs: @p lib where that file exists on the
+    worker's machine, else the worker's own $MSTC_SIL_LIB."""
+    if Path(lib).is_file():
+        return lib
+    env = os.environ.get(LIB_ENV)
+    if env and Path(env).is_file():
+        return env
+    raise FirmwareError(
+        f"no firmware library on this worker: {lib} does not exist, {LIB_ENV} unset"
+    )
+
+
+def controller_for(scenario: Scenario, strategy: str, lib: str) -> tuple[Scenario, Controller]:
+    """The scenario with @p strategy applied, and its controller."""
+    if strategy == "dwa":
+        return scenario, DwaController(scenario.params)
+    params = dataclasses.replace(scenario.params, strategy=Strategy(strategy))
+    scenario = dataclasses.replace(scenario, params=params)
+    return scenario, SilController(params, lib)
+
+
+def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
+    """Run one scene with one strategy; the result (None on failure) and its row."""
+    row = {c: "" for c in ROW_COLUMNS}
+    row.update(scene=scene.name, family=scene.family, strategy=strategy)
+    row["seed"] = "" if scene.seed is None else str(scene.seed)
+    try:
+        data = tomllib.loads(scene.text)
+        scenario = parse_scenario(data, scene.source)
+        row["family"] = scenario.meta.family or scene.family
+        scenario, controller = controller_for(scenario, strategy, lib)
+        result = simulate(scenario, controller)
+        metrics = evaluate(result)
+    except Exception as exc:  # any failure of one scene is its row, not the sweep's end
+        row["error"] = _one_line(exc)
+        return None, row
+    row["steps"] = str(scenario.sim.steps + 1)
+    row.update(format_metrics(metrics))
+    return result, row
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(f"{type(exc).__name__}: {exc}".split())
+
+
+def _fmt(value: float | bool | int, measured: bool = False) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, int):
+        return str(value)
+    if math.isnan(value) or math.isinf(value):
+        return str(value)
+    return f"{value:.4g}" if measured else f"{value:.6g}"
+
+
+def format_metrics(m: Metrics) -> dict[str, str]:
+    """The metric columns as runs.csv writes them (6 significant digits)."""
+    return {name: _fmt(getattr(m, name), name in MEASURED_COLUMNS) for name in METRIC_COLUMNS}
+
+
+def run_batch(jobs: Sequence[Job], lib: str) -> list[Outcome]:
+    """Run a batch of jobs in this process (a pool's or a Dask worker's)."""
+    try:
+        path = worker_library(lib)
+        sha = library_sha256(path)
+    except (OSError, FirmwareError) as exc:
+        path, sha = lib, ""
+        failure = _one_line(exc)
+    else:
+        failure = ""
+    outcomes = []
+    for scene, strategy in jobs:
+        if failure and strategy != "dwa":
+            outcomes.append(_crash_row((scene, strategy), failure))
+            continue
+        result, row = run_job(scene, strategy, path)
+        events = events_json(result) if result is not None else None
+        outcomes.append(Outcome(scene.name, strategy, row, events, sha))
+    return outcomes
+
+
+# ------------------------------------------------------------------ runs.csv
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    """The complete rows of a runs.csv (a line cut short by an interruption
+    is left out)."""
+    if not path.is_file():
+        return []
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        if tuple(reader.fieldnames or ()) != ROW_COLUMNS:
+            return []
+        return [r for r in reader if None not in r.values() and None not in r]
+
+
+def _row_text(row: dict[str, str]) -> str:
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow([row[c] for c in ROW_COLUMNS])
+    return buf.getvalue()
+
+
+def write_rows(path: Path, rows: Iterable[dict[str, str]]) -> None:
+    """Write runs.csv whole (through a temporary file, then renamed)."""
+    tmp = path.with_suffix(".csv.tmp")
+    with tmp.open("w", newline="") as f:
+        f.write(",".join(ROW_COLUMNS) + "\n")
+        for row in rows:
+            f.write(_row_text(row))
+    tmp.replace(path)
+
+
+# ------------------------------------------------------------------ the sweep
+
+
+def batches(jobs: Sequence[Job], workers: int, most: int = 16) -> list[list[Job]]:
+    """Cut @p jobs into batches: about 8 a worker so the load evens out, at
+    most @p most jobs each."""
+    size = max(1, min(most, math.ceil(len(jobs) / max(1, workers * 8))))
+    return [list(jobs[i : i + size]) for i in range(0, len(jobs), size)]
+
+
+def _crash_row(job: Job, why: str) -> Outcome:
+    scene, strategy = job
+    row = {c: "" for c in ROW_COLUMNS}
+    row.update(scene=scene.name, family=scene.family, strategy=strategy, error=why)
+    row["seed"] = "" if scene.seed is None else str(scene.seed)
+    return Outcome(scene.name, strategy, row, None, "")
+
+
+Emit = Callable[[Outcome], None]
+
+
+def run_local(jobs: Sequence[Job], lib: str, workers: int, emit: Emit) -> None:
+    """Run @p jobs on a pool of @p workers processes, calling @p emit for each
+    outcome as it comes. Workers start fresh (spawn) and load the library
+    themselves."""
+    context = multiprocessing.get_context("spawn")
+    pending = list(jobs)
+    while pending:
+        done_ids: set[int] = set()
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+        try:
+            futures = {pool.submit(run_batch, b, lib): b for b in batches(pending, workers)}
+            broken = False
+            while futures:
+                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    batch = futures.pop(fut)
+                    try:
+                        outcomes = fut.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        continue
+                    for job, outcome in zip(batch, outcomes, strict=True):
+                        done_ids.add(id(job))
+                        emit(outcome)
+        except BaseException:
+            # Interrupted (Ctrl-C) or failed: drop the batches not started
+            # rather than wait for them; --resume runs them later.
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
+        if not broken:
+            return
+        left = [j for j in pending if id(j) not in done_ids]
+        pending = _isolate(left, lib, context, emit)
+
+
+def _isolate(
+    jobs: list[Job], lib: str, context: multiprocessing.context.BaseContext, emit: Emit
+) -> list[Job]:
+    """After a worker died: run @p jobs one by one on one worker until it dies
+    again; the job it died on becomes an error row. Returns the jobs not run."""
+    with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+        futures = [pool.submit(run_batch, [job], lib) for job in jobs]
+        for i, fut in enumerate(futures):
+            try:
+                (outcome,) = fut.result()
+            except BrokenProcessPool:
+                emit(_crash_row(jobs[i], "the worker process died running this scene"))
+                return jobs[i + 1 :]
+            emit(outcome)
+    return []
+
+
+def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
+    """Run @p jobs on the Dask cluster at @p scheduler (``tcp://host:port``).
+    Dask retries the tasks of a dead worker elsewhere; a batch that keeps
+    killing workers is run again job by job, and the job that still does
+    becomes an error row."""
+    # distributed ships no type information (no py.typed).
+    from distributed import Client, as_completed  # type: ignore[import-not-found]
+    from distributed.scheduler import KilledWorker  # type: ignore[import-not-found]
+
+    with Client(scheduler, timeout="30s") as client:
+        workers = max(1, len(client.scheduler_info()["workers"]))
+        todo = {client.submit(run_batch, b, lib, pure=False): b for b in batches(jobs, workers)}
+        queue = as_completed(list(todo))
+        for fut in queue:
+            batch = todo.pop(fut)
+            try:
+                outcomes = fut.result()
+            except KilledWorker:
+                if len(batch) == 1:
+                    emit(_crash_row(batch[0], "the worker process died running this scene"))
+                    continue
+                for job in batch:
+                    single = client.submit(run_batch, [job], lib, pure=False)
+                    todo[single] = [job]
+                    queue.add(single)
+                continue
+            for outcome in outcomes:
+                emit(outcome)
+
+
+# ------------------------------------------------------------------ orchestration
+
+
+@dataclass
+class SweepResult:
+    """What a sweep leaves: every row in plan order, and what this call ran."""
+
+    rows: list[dict[str, str]]
+    ran: int
+    """Jobs run by this call (the rest came from a previous, resumed one)."""
+
+
+def run_sweep(
+    scenes: Sequence[Scene],
+    strategies: Sequence[str],
+    out: Path,
+    lib: str,
+    *,
+    workers: int,
+    scheduler: str | None = None,
+    resume: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+) -> SweepResult:
+    """Run every scene with every strategy; write events.json and runs.csv
+    under @p out.
+
+    :param workers: processes of the local pool (ignored with @p scheduler).
+    :param scheduler: a Dask scheduler's address, or None for the local pool.
+    :param resume: keep the rows of DIR/runs.csv (and their events.json) and
+        run only the jobs it lacks; otherwise start afresh.
+    :param progress: called with (done, total) as jobs finish.
+
+    :raises FirmwareError: a worker ran another firmware library than @p lib
+        (different contents), so its rows would not be comparable.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    runs = out / "runs.csv"
+    plan: list[Job] = [(scene, strategy) for scene in scenes for strategy in strategies]
+    order = {(scene.name, strategy): i for i, (scene, strategy) in enumerate(plan)}
+    rows: dict[tuple[str, str], dict[str, str]] = {}
+    if resume:
+        for row in read_rows(runs):
+            key = (row["scene"], row["strategy"])
+            finished = (
+                bool(row["error"])
+                or (out / row["strategy"] / row["scene"] / "events.json").is_file()
+            )
+            if key in order and finished:
+                rows[key] = row
+    write_rows(runs, sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])]))
+    todo = [job for job in plan if (job[0].name, job[1]) not in rows]
+    local_sha = library_sha256(lib) if Path(lib).is_file() else ""
+    total, done = len(plan), len(rows)
+    if progress:
+        progress(done, total)
+
+    with runs.open("a", newline="") as log:
+
+        def emit(outcome: Outcome) -> None:
+            nonlocal done
+            if outcome.library and local_sha and outcome.library != local_sha:
+                raise FirmwareError(
+                    f"a worker ran a different firmware library (sha256 {outcome.library[:12]}…, "
+                    f"here {local_sha[:12]}…): build the same sources on every machine"
+                )
+            if outcome.events is not None:
+                folder = out / outcome.strategy / outcome.scene
+                folder.mkdir(parents=True, exist_ok=True)
+                (folder / "events.json").write_text(outcome.events)
+            log.write(_row_text(outcome.row))
+            log.flush()
+            rows[(outcome.scene, outcome.strategy)] = outcome.row
+            done += 1
+            if progress:
+                progress(done, total)
+
+        if todo and scheduler:
+            run_dask(todo, lib, scheduler, emit)
+        elif todo:
+            run_local(todo, lib, workers, emit)
+    ordered = sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])])
+    write_rows(runs, ordered)
+    return SweepResult(ordered, len(todo))

@@ -1,0 +1,259 @@
+# SPDX-License-Identifier: MIT
+"""`mstc sweep` end to end: the same inputs give the same files and rows; a
+crashing scene is an error row; --resume finishes an interrupted sweep
+without running again what was done; a Dask cluster (a real scheduler and
+two workers on the loopback interface) gives the local pool's rows, row for
+row. The expected events.json is what `mstc sim --bus memory` writes."""
+
+import csv
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from mstc.cli import main
+from mstc.sweep.engine import MEASURED_COLUMNS, ROW_COLUMNS
+
+SUITE = """\
+[suite]
+name = "tiny"
+
+[family.head_on]
+count = 2
+seed = 3
+duration = 8.0
+
+[family.cluster]
+count = 2
+seed = 2
+duration = 8.0
+along = [2.0, 2.5]
+"""
+# The reference runs at 1e308 m/s: its position overflows to inf mid-run.
+CRASH = """\
+[robot]
+pose = [0.0, 0.0, 0.0]
+[reference]
+pose = [0.0, 0.0, 0.0]
+v = 1e308
+w = 0.0
+[sim]
+duration = 3.0
+dt = 0.02
+integrator = "euler"
+"""
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    tmp = tmp_path_factory.mktemp("inputs")
+    (tmp / "tiny.toml").write_text(SUITE)
+    (tmp / "crash.toml").write_text(CRASH)
+    return tmp / "tiny.toml", tmp / "crash.toml"
+
+
+def sweep(
+    out: Path,
+    inputs: tuple[Path, Path],
+    lib: Path,
+    *extra: str,
+    capsys: pytest.CaptureFixture[str] | None = None,
+) -> str:
+    args = ["sweep", "--lib", str(lib), "--strategy", "paper,dwa", "--out", str(out), "-q"]
+    rc = main([*args, "--jobs", "2", "--gallery", "1", *extra, *map(str, inputs)])
+    text = capsys.readouterr().out if capsys is not None else ""
+    assert rc == 0, text
+    return text
+
+
+def rows(out: Path) -> list[dict[str, str]]:
+    with (out / "runs.csv").open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def reproducible(table: list[dict[str, str]]) -> list[dict[str, str]]:
+    """The rows without the measured columns (step cost)."""
+    return [{k: v for k, v in r.items() if k not in MEASURED_COLUMNS} for r in table]
+
+
+@pytest.fixture(scope="module")
+def first(
+    tmp_path_factory: pytest.TempPathFactory, inputs: tuple[Path, Path], sil_lib: Path
+) -> Path:
+    out = tmp_path_factory.mktemp("first")
+    sweep(out, inputs, sil_lib)
+    return out
+
+
+def test_rows_in_plan_order_with_every_column(first: Path) -> None:
+    table = rows(first)
+    assert list(table[0]) == list(ROW_COLUMNS)
+    names = [(r["scene"], r["strategy"]) for r in table]
+    scenes = ["head_on-0000", "head_on-0001", "cluster-0000", "cluster-0001", "crash"]
+    assert names == [(s, st) for s in scenes for st in ("paper", "dwa")]
+    assert {r["family"] for r in table} == {"head_on", "cluster", ""}
+    assert [r["seed"] for r in table[:4:2]] == ["3000000", "3000001"]
+
+
+def test_a_crashing_scene_is_an_error_row(first: Path) -> None:
+    crash = [r for r in rows(first) if r["scene"] == "crash"]
+    assert len(crash) == 2
+    for r in crash:
+        assert "non-finite" in r["error"] and r["contact"] == ""
+        assert not (first / r["strategy"] / "crash" / "events.json").exists()
+    assert all(not r["error"] for r in rows(first) if r["scene"] != "crash")
+
+
+def test_events_json_is_what_mstc_sim_writes(
+    first: Path, sil_lib: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = first / "scenes" / "cluster" / "cluster-0001.toml"
+    paper = tmp_path / "cluster-0001.toml"
+    paper.write_text(scene.read_text() + '\n[params]\nstrategy = "paper"\n')
+    rc = main(
+        [
+            "sim",
+            "--bus",
+            "memory",
+            "--lib",
+            str(sil_lib),
+            "--no-figures",
+            "--out",
+            str(tmp_path / "sim"),
+            str(paper),
+        ]
+    )
+    assert rc == 0
+    capsys.readouterr()
+    want = (tmp_path / "sim" / "cluster-0001" / "events.json").read_text()
+    assert (first / "paper" / "cluster-0001" / "events.json").read_text() == want
+
+
+def test_same_inputs_same_files_and_rows(
+    first: Path,
+    inputs: tuple[Path, Path],
+    sil_lib: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    sweep(tmp_path, inputs, sil_lib, capsys=capsys)
+    assert reproducible(rows(tmp_path)) == reproducible(rows(first))
+    for path in first.rglob("*.toml"):
+        assert (tmp_path / path.relative_to(first)).read_bytes() == path.read_bytes()
+    for path in first.rglob("events.json"):
+        assert (tmp_path / path.relative_to(first)).read_text() == path.read_text()
+
+
+def test_resume_runs_only_what_an_interruption_left(
+    first: Path,
+    inputs: tuple[Path, Path],
+    sil_lib: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    out = tmp_path / "out"
+    shutil.copytree(first, out)
+    # Interrupted after 3 rows, in the middle of writing the 4th.
+    lines = (out / "runs.csv").read_text().splitlines(keepends=True)
+    (out / "runs.csv").write_text("".join(lines[:4]) + lines[4][:20])
+    kept = [(r["strategy"], r["scene"]) for r in rows(first)[:3]]
+    stamps = {k: (out / k[0] / k[1] / "events.json").stat().st_mtime_ns for k in kept}
+    time.sleep(0.01)
+    text = sweep(out, inputs, sil_lib, "--resume", capsys=capsys)
+    assert "10 runs (7 run now, 3 resumed)" in text
+    assert {k: (out / k[0] / k[1] / "events.json").stat().st_mtime_ns for k in kept} == stamps
+    assert reproducible(rows(out)) == reproducible(rows(first))
+
+
+def test_summary_has_the_tables_figures_and_gallery(first: Path) -> None:
+    text = (first / "summary.md").read_text()
+    for family in ("head_on", "cluster"):
+        for strategy in ("paper", "dwa"):
+            assert f"| {family} | {strategy} | 2 | 0 |" in text
+    assert "| (none) | paper | 1 | 1 |" in text  # the crash scene: one run, one error
+    assert "Wilson" in text and "## Errors (2)" in text
+    for name in ("clearance.png", "tracking_error.png"):
+        assert (first / name).stat().st_size > 1000 and f"]({name})" in text
+    assert len(list((first / "gallery").rglob("*.png"))) == 2
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture
+def cluster(sil_lib: Path, tmp_path: Path) -> Iterator[str]:
+    """A Dask scheduler and two single-threaded workers on 127.0.0.1."""
+    dask = Path(sys.executable).with_name("dask")
+    if not dask.exists():
+        pytest.fail(f"{dask} not found: the Dask tests need distributed (requirements.txt)")
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "MSTC_SIL_LIB": str(sil_lib.resolve())}
+    log = (tmp_path / "dask.log").open("w")
+    common = ["--no-dashboard"]
+    procs = [
+        subprocess.Popen(
+            [str(dask), "scheduler", "--host", "127.0.0.1", "--port", str(port), *common],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            cwd=tmp_path,
+        )
+    ]
+    try:
+        from distributed import Client
+
+        for _ in range(2):
+            procs.append(
+                subprocess.Popen(
+                    [str(dask), "worker", address, "--nworkers", "1", "--nthreads", "1", *common],
+                    env=env,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    cwd=tmp_path,
+                )
+            )
+        deadline = time.monotonic() + 90
+        while True:
+            try:
+                with Client(address, timeout="5s") as client:
+                    client.wait_for_workers(2, timeout=60)
+                break
+            except OSError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.5)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        log.close()
+
+
+def test_dask_cluster_gives_the_local_rows(
+    first: Path,
+    inputs: tuple[Path, Path],
+    sil_lib: Path,
+    cluster: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    text = sweep(tmp_path, inputs, sil_lib, "--scheduler", cluster, capsys=capsys)
+    assert cluster in text
+    assert reproducible(rows(tmp_path)) == reproducible(rows(first))
+    for path in first.rglob("events.json"):
+        assert (tmp_path / path.relative_to(first)).read_text() == path.read_text()

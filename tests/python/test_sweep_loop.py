@@ -1,0 +1,192 @@
+# SPDX-License-Identifier: MIT
+"""The closed loop's new inputs (moving obstacles, imperfections, delay) and
+the sweep's metrics, on hand-made runs whose answers are worked out by hand.
+
+A scripted controller commands fixed wheel speeds, so every position, length
+and integral below follows from v, ω and dt alone.
+"""
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mstc.controller import Fault, Mode, Status, StepResult
+from mstc.errors import SimulationError
+from mstc.sim.plant import Pose
+from mstc.sim.run import simulate
+from mstc.sim.scenario import load_scenario
+from mstc.sim.sensor import Obstacle
+from mstc.sweep.metrics import evaluate
+
+WriteScenario = Callable[[Mapping[str, object], str], Path]
+R, L = 0.05, 0.3  # wheel radius, track width (Table 1)
+
+
+class Scripted:
+    """A controller that commands body velocity (v, ω) from a function of the
+    step, and records what it was given."""
+
+    def __init__(self, command: Callable[[int], tuple[float, float]]) -> None:
+        self.command = command
+        self.k = 0
+        self.seen: list[tuple[Pose, tuple[Obstacle, ...]]] = []
+
+    def step(
+        self,
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        obstacles: Sequence[Obstacle],
+        t_us: int,
+    ) -> StepResult:
+        v, w = self.command(self.k)
+        self.k += 1
+        self.seen.append((robot, tuple(obstacles)))
+        left, right = (v - w * L / 2) / R, (v + w * L / 2) / R
+        status = Status(Mode.TRACK, 0, None, Fault(0), 0.0, 0.0, 0.0, 0.0, v, w)
+        return StepResult(left, right, status, ())
+
+
+def scene(
+    write: WriteScenario,
+    *,
+    obstacles: list[dict[str, object]] | None = None,
+    ref_v: float = 0.5,
+    duration: float = 2.0,
+    extra: dict[str, object] | None = None,
+    name: str = "s",
+) -> Path:
+    doc: dict[str, object] = {
+        "robot": {"pose": [0.0, 0.0, 0.0]},
+        "reference": {"pose": [0.0, 0.0, 0.0], "v": ref_v, "w": 0.0},
+        "sim": {"duration": duration, "dt": 0.02, "integrator": "euler"},
+    }
+    if obstacles:
+        doc["obstacles"] = obstacles
+    doc.update(extra or {})
+    return write(doc, name)
+
+
+def test_trivial_run_path_length_and_integral_of_w(write_scenario: WriteScenario) -> None:
+    # v = 0.5 m/s, ω = 0.2 rad/s for 100 periods of 0.02 s: every Euler step
+    # is 0.01 m long, so the path is 1.0 m; ∫|ω|dt = 0.2 · 2 = 0.4 rad. The
+    # reference (0.25 m/s straight) runs 0.5 m: path ratio 2.
+    s = load_scenario(scene(write_scenario, ref_v=0.25))
+    m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.2))))
+    assert m.path_ratio == pytest.approx(2.0, rel=1e-12)
+    assert m.int_abs_w == pytest.approx(0.4, rel=1e-12)
+    assert (m.switches, m.avoid_time, m.max_activations) == (0, 0.0, 0)
+    assert m.min_clearance == math.inf and m.ds_kept and not m.contact
+
+
+def test_a_run_through_an_obstacle_touches(write_scenario: WriteScenario) -> None:
+    # Straight along y = 0 at 0.5 m/s over an obstacle centred on (1, 0):
+    # centre distance reaches ~0, clearance 0 − (0.2 + 0.1) = −0.3.
+    s = load_scenario(scene(write_scenario, obstacles=[{"position": [1.0, 0.0]}], duration=3.0))
+    m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.0))))
+    assert m.contact and not m.ds_kept
+    assert m.min_clearance == pytest.approx(-0.3, abs=1e-9)
+
+
+def test_passing_at_0_32_m_keeps_no_d_s_but_does_not_touch(write_scenario: WriteScenario) -> None:
+    # Lateral offset 0.32 m: clearance 0.32 − 0.3 = 0.02 m, below D_s = 0.35.
+    s = load_scenario(scene(write_scenario, obstacles=[{"position": [1.0, 0.32]}], duration=3.0))
+    m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.0))))
+    assert not m.contact and not m.ds_kept
+    assert m.min_clearance == pytest.approx(0.02, abs=1e-9)
+
+
+def test_a_robot_that_stands_does_not_rejoin_and_is_blocked(write_scenario: WriteScenario) -> None:
+    s = load_scenario(scene(write_scenario, duration=12.0))
+    m = evaluate(simulate(s, Scripted(lambda k: (0.0, 0.0))))
+    assert not m.rejoined and m.blocked
+    assert m.final_error == pytest.approx(6.0, rel=1e-9)  # the reference ran 0.5 · 12 m
+
+
+def test_rejoin_window_counts_from_the_last_obstacle(write_scenario: WriteScenario) -> None:
+    # The robot runs with the reference (error 0) except from t = 4 to 6 s
+    # where it stops; an obstacle 0.45 m beside the path is within D_act
+    # (0.5 m) from x = 0.8 to 1.2 m, left at t = 2.4 s. The error is back
+    # under 0.05 m... never: the robot stays 1 m behind after t = 6 s. A
+    # run whose error returns to 0 within the window rejoins.
+    behind = load_scenario(
+        scene(write_scenario, obstacles=[{"position": [1.0, 0.45]}], duration=20.0, name="b")
+    )
+    m = evaluate(simulate(behind, Scripted(lambda k: (0.0, 0.0) if 200 <= k < 300 else (0.5, 0.0))))
+    assert m.t_last == pytest.approx(2.4, abs=0.021)
+    assert not m.rejoined and not m.blocked
+
+    # Catching up at 1.0 m/s from t = 6 s closes the 1 m gap by t = 8 s,
+    # within 10 s of t_last: rejoined.
+    def catch_up(k: int) -> tuple[float, float]:
+        return (0.0, 0.0) if 200 <= k < 300 else (1.0, 0.0) if 300 <= k < 400 else (0.5, 0.0)
+
+    m = evaluate(simulate(behind, Scripted(catch_up)))
+    assert m.rejoined and m.final_error < 1e-9
+
+
+def test_moving_obstacle_distance_is_measured_at_the_same_step(
+    write_scenario: WriteScenario,
+) -> None:
+    # Robot stands at the origin; the obstacle starts at (2, 0) and comes at
+    # −0.5 m/s: at t = k·0.02 its centre is 2 − 0.01 k from the robot.
+    path = scene(
+        write_scenario,
+        obstacles=[{"position": [2.0, 0.0], "velocity": [-0.5, 0.0]}],
+        duration=2.0,
+        ref_v=0.0,
+    )
+    s = load_scenario(path)
+    ctl = Scripted(lambda k: (0.0, 0.0))
+    r = simulate(s, ctl)
+    k = np.arange(101)
+    assert r.trace.distance[:, 0] == pytest.approx(2.0 - 0.01 * k, abs=1e-12)
+    assert r.min_distance[0] == pytest.approx(1.0, abs=1e-12)
+    assert r.trace.obstacle_xy is not None
+    assert r.trace.obstacle_xy[-1, 0] == pytest.approx([1.0, 0.0])
+    # The controller was told where it was and how it moves, each step.
+    _, (seen,) = ctl.seen[50]
+    assert (seen.x, seen.y, seen.vx, seen.vy) == pytest.approx((1.5, 0.0, -0.5, 0.0))
+
+
+def test_delay_holds_the_robot_for_whole_periods(write_scenario: WriteScenario) -> None:
+    s = load_scenario(scene(write_scenario, extra={"imperfections": {"delay": 3}}))
+    r = simulate(s, Scripted(lambda k: (0.5, 0.0)))
+    x = r.trace["x"]
+    # Periods 0..2 run the zero commands queued before the start: x moves
+    # from step 4 on, 0.01 m a period.
+    assert list(x[:4]) == [0.0, 0.0, 0.0, 0.0]
+    assert x[4] == pytest.approx(0.01) and x[-1] == pytest.approx(0.01 * 97)
+
+
+def test_odometry_noise_reaches_the_controller_not_the_plant(write_scenario: WriteScenario) -> None:
+    extra = {"imperfections": {"seed": 3, "position_noise": 0.01, "heading_noise": 0.02}}
+    s = load_scenario(scene(write_scenario, extra=extra))
+    ctl = Scripted(lambda k: (0.5, 0.0))
+    r = simulate(s, ctl)
+    assert list(r.trace["y"]) == [0.0] * 101  # the plant runs straight
+    measured = np.array([p for p, _ in ctl.seen])
+    truth = r.trace.values[:, 1:4]
+    noise = measured - truth
+    # Independent: the odometry stream is the first child of SeedSequence(3).
+    child = np.random.SeedSequence(3).spawn(2)[0]
+    want = np.random.Generator(np.random.PCG64(child)).standard_normal((101, 3)) * [
+        0.01,
+        0.01,
+        0.02,
+    ]
+    assert noise == pytest.approx(want, abs=1e-12)
+    # The same scene runs the same again.
+    again = Scripted(lambda k: (0.5, 0.0))
+    simulate(s, again)
+    assert [p for p, _ in again.seen] == [p for p, _ in ctl.seen]
+
+
+def test_non_finite_state_is_a_simulation_error(write_scenario: WriteScenario) -> None:
+    s = load_scenario(scene(write_scenario))
+    with pytest.raises(SimulationError, match="non-finite"):
+        simulate(s, Scripted(lambda k: (math.inf, 0.0) if k == 10 else (0.5, 0.0)))
