@@ -94,7 +94,10 @@ class NotInTheLibrary(AbiStruct):
     ("struct", "named"),
     [
         (ObstacleFloatRadius, r"mstc_sil_obstacle_t\.radius: offset 24, size 8 in the library; "),
-        (ObstacleWithAcceleration, r"mstc_sil_obstacle_t: 48 bytes in the library, 64 in the Python"),
+        (
+            ObstacleWithAcceleration,
+            r"mstc_sil_obstacle_t: 48 bytes in the library, 64 in the Python",
+        ),
         (ObstacleWithAcceleration, r"mstc_sil_obstacle_t\.ax: in the Python binding only"),
         (ObstacleWithoutRadius, r"mstc_sil_obstacle_t\.radius: in the library only"),
         (NotInTheLibrary, r"mstc_sil_wish_t: not in the library's layout table"),

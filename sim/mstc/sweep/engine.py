@@ -306,9 +306,8 @@ def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
     Dask retries the tasks of a dead worker elsewhere; a batch that keeps
     killing workers is run again job by job, and the job that still does
     becomes an error row."""
-    # distributed ships no type information (no py.typed).
-    from distributed import Client, as_completed  # type: ignore[import-not-found]
-    from distributed.scheduler import KilledWorker  # type: ignore[import-not-found]
+    from distributed import Client, as_completed
+    from distributed.scheduler import KilledWorker
 
     with Client(scheduler, timeout="30s") as client:
         workers = max(1, len(client.scheduler_info()["workers"]))
