@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # mstc: top-level build. `make help` lists the targets.
 #
 # The two commands a newcomer runs: `make sim` and `make test`. Both install
@@ -13,6 +14,7 @@ endif
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 PY := .venv/bin/python
+MSTC := .venv/bin/mstc
 B := build/host/$(NUMERIC)
 
 CC ?= cc
@@ -20,7 +22,9 @@ WARN := -Wall -Wextra -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototyp
         -Wmissing-prototypes -Wundef -Wcast-align -Werror
 CSTD := -std=c11 -D_DEFAULT_SOURCE
 OPT ?= -O2 -g
-CFLAGS_HOST := $(CSTD) $(OPT) $(WARN) -fPIC -Ifirmware -Ihal/include
+# The include path of every firmware and HAL compile: firmware/ (its modules
+# include "ctrl/ctl.h", ...) and the HAL headers ("hal/hal_can.h", ...).
+FW_INC := -Ifirmware -Ihal/include
 
 # Firmware: the portable control core (num, ctrl, kin), the protocol (comm)
 # and the application (app). No platform headers; app reaches the outside
@@ -28,11 +32,17 @@ CFLAGS_HOST := $(CSTD) $(OPT) $(WARN) -fPIC -Ifirmware -Ihal/include
 # The control core alone (ctl_step), for the benchmark (mk/bench.mk).
 CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*.c))
 FW_SRCS := $(sort $(wildcard firmware/*/*.c))
-SIL_SRCS := hal/sil/mstc_sil.c hal/sil/hal_sil.c
+# The host ports: in process (the library), SocketCAN (mstc-fw), the fakes of
+# the unit tests.
+SIL_SRCS := $(sort $(wildcard hal/sil/*.c))
+LINUX_SRCS := $(sort $(wildcard hal/linux/*.c))
+FAKE_SRCS := $(sort $(wildcard hal/fake/*.c))
 # Numeric mode: NUM_CFLAGS, NUM_SRCS and NUM_DEPS per mode (mk/numeric.mk).
 include mk/numeric.mk
 
 STAMP := build/.stamps
+# The compile template (BUILD), compile_commands.json, print-cflags.
+include mk/compile.mk
 $(STAMP):
 	@mkdir -p $@
 
@@ -65,23 +75,38 @@ deps-hil: deps-sim $(STAMP)/apt-hil deps/vm-kernel/.stamp
 deps-test: $(STAMP)/apt-test deps-sim deps-hil deps/unity/.sha256 deps/libfixmath/.sha256
 
 # ------------------------------------------------------------ host libraries
-FW_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(FW_SRCS) $(NUM_SRCS))
-$(B)/obj/%.o: %.c $(NUM_DEPS) | $(STAMP)/apt-sim
-	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_HOST) $(NUM_CFLAGS) -MMD -MP -c $< -o $@
--include $(FW_OBJS:.o=.d)
+# The host build (NUMERIC's mode) compiles the firmware, the host ports, the
+# unit tests and the board code they test, and the pytest shims' sources
+# (tests/codec/, compiled by pytest with these flags: make print-cflags).
+UNIT_SRCS := $(sort $(wildcard tests/unit/test_*.c))
+UNIT_TESTS := $(patsubst tests/unit/%.c,%,$(UNIT_SRCS))
+# Board code a unit test tests, beyond the firmware and hal/fake, and the
+# include path its headers need: TEST_SRCS_<test>, SRC_CFLAGS_<test source>.
+TEST_SRCS_test_bxcan := hal/stm32/bxcan_calc.c
+TEST_SRCS_test_stm32_calc := hal/stm32/stm32_calc.c hal/stm32/wheel_cmd.c
+SRC_CFLAGS_tests/unit/test_bxcan.c := -Ihal/stm32
+SRC_CFLAGS_tests/unit/test_stm32_calc.c := -Ihal/stm32
+TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
+SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
-SIL_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(SIL_SRCS))
+BUILD_CC_host := $(CC)
+BUILD_CFLAGS_host := $(CSTD) $(OPT) -fPIC $(FW_INC) $(NUM_CFLAGS)
+BUILD_DIR_host := $(B)/obj
+BUILD_SRCS_host := $(FW_SRCS) $(NUM_SRCS) $(SIL_SRCS) $(LINUX_SRCS) $(FAKE_SRCS) \
+  $(UNIT_SRCS) $(TEST_SRCS) $(sort $(wildcard tests/codec/*.c))
+BUILD_DEPS_host := $(NUM_DEPS)
+BUILD_ORDER_host := $(STAMP)/apt-sim
+$(eval $(call BUILD,host))
+
+FW_OBJS := $(call build_objs,host,$(FW_SRCS) $(NUM_SRCS))
+SIL_OBJS := $(call build_objs,host,$(SIL_SRCS))
 $(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS)
 	$(CC) -shared -Wl,--no-undefined -o $@ $^ -lm
-$(SIL_OBJS): CFLAGS_HOST += -Ihal/sil
 .PHONY: lib
 lib: $(B)/libmstc_sil.so  ## build the firmware as a shared library (SIL)
 
 # The firmware as a Linux process on SocketCAN (hal/linux).
-LINUX_OBJS := $(patsubst %.c,$(B)/obj/%.o,$(sort $(wildcard hal/linux/*.c)))
--include $(SIL_OBJS:.o=.d) $(LINUX_OBJS:.o=.d)
-$(B)/mstc-fw: $(FW_OBJS) $(LINUX_OBJS)
+$(B)/mstc-fw: $(FW_OBJS) $(call build_objs,host,$(LINUX_SRCS))
 	$(CC) -o $@ $^ -lm
 build/host/mstc-fw: $(B)/mstc-fw
 	ln -sfn $(NUMERIC)/mstc-fw $@
@@ -93,7 +118,7 @@ SCENARIO ?= sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 BUS ?= sil
 .PHONY: sim
 sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
-	$(PY) -m mstc_sim run --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
+	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
 
 # ----------------------------------------------------------------------- hil
 # The firmware as its own process (mstc-fw) on vcan0, the plant on python-can's
@@ -101,25 +126,38 @@ sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in p
 HIL_TIMEOUT ?= 1800
 .PHONY: hil
 hil: deps-hil build/host/mstc-fw  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/)
-	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(PY) -m mstc_sim run --bus socketcan \
+	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(MSTC) hil \
 	  --channel vcan0 --fw build/host/mstc-fw --no-figures --out build/hil $(SCENARIO)
 
 # ---------------------------------------------------------------------- test
-UNIT_TESTS := $(patsubst tests/unit/%.c,%,$(sort $(wildcard tests/unit/test_*.c)))
-UNIT_BINS := $(addprefix $(B)/tests/,$(UNIT_TESTS))
+# Unity (third-party): its own flags, not the project's warning set.
 UNITY_OBJ := $(B)/obj/deps/unity/unity.o
 $(UNITY_OBJ): deps/unity/.sha256
 	@mkdir -p $(dir $@)
 	$(CC) -std=c11 -O1 -g -DUNITY_INCLUDE_DOUBLE -c deps/unity/unity.c -o $@
-FAKE_OBJS := $(B)/obj/hal/fake/hal_fake.o
-$(FAKE_OBJS): CFLAGS_HOST += -Ihal/fake
-$(B)/tests/%: tests/unit/%.c $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) $(wildcard tests/unit/*.h)
-	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_HOST) $(NUM_CFLAGS) -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake \
-	  $< $(FW_OBJS) $(FAKE_OBJS) $(UNITY_OBJ) -lm -o $@
+
+# One Unity binary per tests/unit/test_*.c, linked with the firmware, hal/fake,
+# Unity and its TEST_SRCS_<test>. $(1): build; $(2): where the binaries go;
+# $(3): the build's sources every test links; $(4): link flags.
+define UNIT_TEST_RULES
+$$(call build_objs,$(1),$$(UNIT_SRCS)): | deps/unity/.sha256
+$(2)/%: $$(BUILD_DIR_$(1))/tests/unit/%.o $$(call build_objs,$(1),$(3)) $$(UNITY_OBJ)
+	@mkdir -p $$(@D)
+	$$(BUILD_CC_$(1)) $(4) $$^ -lm -o $$@
+$$(foreach t,$$(UNIT_TESTS),$$(eval $(2)/$$(t): $$(call build_objs,$(1),$$(TEST_SRCS_$$(t)))))
+endef
+$(eval $(call UNIT_TEST_RULES,host,$(B)/tests,$(FW_SRCS) $(NUM_SRCS) $(FAKE_SRCS),))
+
+# make test-unit TEST=test_avd: one suite (or several, TEST="test_avd test_kin").
+ifneq ($(filter test-unit,$(MAKECMDGOALS)),)
+ifneq ($(filter-out $(UNIT_TESTS),$(TEST)),)
+$(error TEST=$(TEST): no such Unity suite; the suites are: $(UNIT_TESTS))
+endif
+endif
+UNIT_BINS := $(addprefix $(B)/tests/,$(or $(TEST),$(UNIT_TESTS)))
 
 .PHONY: test test-unit test-python lint
-test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module (in NUMERIC mode)
+test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module (in NUMERIC mode; TEST=test_avd: one)
 	@tools/run-unit-tests $(UNIT_BINS)
 .PHONY: libs-both
 libs-both:
@@ -132,13 +170,15 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
            tools/protocol-doc tools/flash tools/bench/board_budget tools/bench/qemu_smoke \
-           tools/replay tools/logplot
+           tools/quality/spdx tools/quality/coverage_check \
+           tools/quality/fuzz_seeds
 # C: every tracked source but the generated codec (.clang-format).
 C_FORMAT = $(filter-out firmware/comm/mstc_dbc.%,$(shell git ls-files '*.c' '*.h'))
-lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code
+lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code, SPDX lines
 	$(PY) -m ruff check $(PY_LINT)
 	$(PY) -m ruff format --check $(PY_LINT)
 	@clang-format --dry-run --Werror $(C_FORMAT) && echo "clang-format: $(words $(C_FORMAT)) files ok"
+	@$(PY) tools/quality/spdx
 test: deps-test  ## every test: lint, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
 	@$(MAKE) --no-print-directory lint check-protocol
 	@$(MAKE) --no-print-directory -j2 --output-sync=target quality cross coverage fuzz
@@ -157,4 +197,4 @@ include mk/quality.mk
 clean:  ## remove build outputs (keeps .venv and deps/)
 	rm -rf build
 help:  ## this list
-	@grep -hE '^[a-z][a-zA-Z_-]*:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | sort | expand -t 16
+	@grep -hE '^[a-z][a-zA-Z_.-]*:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | sort | expand -t 16

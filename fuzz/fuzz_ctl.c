@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * libFuzzer harness: the control step fed arbitrary bit patterns (ctl.h,
  * docs/safety.md). In float mode every num_t is a raw IEEE single (NaN,

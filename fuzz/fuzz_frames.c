@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * libFuzzer harness: arbitrary traffic into the application (docs/safety.md):
  * frames through comm_decode() and app_on_frame() (the E2E receiver and the

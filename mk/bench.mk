@@ -1,11 +1,13 @@
+# SPDX-License-Identifier: MIT
 # make bench: instructions of one control step on Cortex-M (QEMU mps2 boards,
 # counted with SysTick under -icount) and nanoseconds per step on the host,
 # over a recorded closed loop of the paper's scenarios; prints a table and
 # writes it into docs/performance.md (tools/bench/report.py). Results are
 # cached in build/bench/*.txt and remade when their image or program changes.
-# Uses from the Makefile: CC, CSTD, OPT, WARN, PY, STAMP, CORE_SRCS (ctl_step's
-# sources: no protocol, no application), the venv rule; from
-# mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the libraries.
+# Uses from the Makefile: CC, CSTD, OPT, FW_INC, PY, STAMP, CORE_SRCS
+# (ctl_step's sources: no protocol, no application), the venv rule; from
+# mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the libraries and
+# CROSS_FLAGS_<config>. Each program is a build of mk/compile.mk.
 
 BENCH_DIR := build/bench
 BENCH_SCENARIOS := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
@@ -14,18 +16,26 @@ QEMU_MACHINE_m4f := mps2-an386
 QEMU_MACHINE_m3 := mps2-an385
 BENCH_TARGET_SRCS := tools/bench/startup.c tools/bench/bench_core.c tools/bench/bench_target.c
 BENCH_HOST_SRCS := tools/bench/bench_core.c tools/bench/bench_host.c
+# The benchmark's sources include the scenarios generated into BENCH_DIR.
+SRC_CFLAGS_tools/bench := -Itools/bench -I$(BENCH_DIR)
 
 $(BENCH_DIR)/scenarios.h: tools/bench/gen_scenarios.py $(BENCH_SCENARIOS) | .venv/.requirements.sha256
 	@mkdir -p $(@D)
 	$(PY) tools/bench/gen_scenarios.py $@ $(BENCH_SCENARIOS)
 
-# Cortex-M images. $(1): config <cpu>-<mode> of mk/cross.mk; $(2): cpu.
+# Cortex-M images: the benchmark compiled as the cross build of the config,
+# linked with its library. $(1): config <cpu>-<mode> of mk/cross.mk; $(2): cpu.
 define BENCH_IMAGE_RULES
-$(BENCH_DIR)/$(1).elf: $(BENCH_TARGET_SRCS) tools/bench/bench.h tools/bench/link.ld \
-    $(BENCH_DIR)/scenarios.h build/cross/$(1)/libmstc_fw.a
-	$$(CROSS_CC) $$(CROSS_FLAGS_$(1)) $$(WARN) -Itools/bench -I$(BENCH_DIR) \
-	  -DBENCH_CONFIG='"$(1)"' $(BENCH_TARGET_SRCS) build/cross/$(1)/libmstc_fw.a \
-	  --specs=rdimon.specs -T tools/bench/link.ld -Wl,--gc-sections -lm -o $$@
+BUILD_CC_bench-$(1) := $$(CROSS_CC)
+BUILD_CFLAGS_bench-$(1) := $$(CROSS_FLAGS_$(1)) -DBENCH_CONFIG='"$(1)"'
+BUILD_DIR_bench-$(1) := $(BENCH_DIR)/$(1)/obj
+BUILD_SRCS_bench-$(1) := $(BENCH_TARGET_SRCS)
+BUILD_DEPS_bench-$(1) := $(BENCH_DIR)/scenarios.h $$(NUM_DEPS_$(lastword $(subst -, ,$(1))))
+BUILD_ORDER_bench-$(1) := $$(STAMP)/apt-test
+$$(eval $$(call BUILD,bench-$(1)))
+$(BENCH_DIR)/$(1).elf: $$(BUILD_OBJS_bench-$(1)) build/cross/$(1)/libmstc_fw.a tools/bench/link.ld
+	$$(CROSS_CC) $$(CROSS_CPU_$(2)) $$(filter %.o %.a,$$^) --specs=rdimon.specs \
+	  -T tools/bench/link.ld -Wl,--gc-sections -lm -o $$@
 $(BENCH_DIR)/$(1).txt: $(BENCH_DIR)/$(1).elf | $$(STAMP)/apt-test
 	timeout 600 $$(QEMU_ARM) -M $$(QEMU_MACHINE_$(2)) -nographic -monitor none -serial none \
 	  -semihosting-config enable=on,target=native -icount shift=0 -kernel $$< > $$@.tmp
@@ -36,26 +46,29 @@ $(eval $(call BENCH_IMAGE_RULES,m4f-float,m4f))
 $(eval $(call BENCH_IMAGE_RULES,m3-fixed,m3))
 $(eval $(call BENCH_IMAGE_RULES,m3-float,m3))
 
-# Host programs, one per numeric mode. $(1): mode.
-BENCH_HOST_WARN := $(WARN)
+# Host programs, one per numeric mode: the control core and the benchmark.
+# $(1): mode; $(2): more sources the build compiles.
 define BENCH_HOST_RULES
-BENCH_HOST_OBJS_$(1) := $$(patsubst %.c,$(BENCH_DIR)/host-$(1)/obj/%.o,$$(CORE_SRCS) $$(NUM_SRCS_$(1)))
-$(BENCH_DIR)/host-$(1)/obj/%.o: %.c $$(NUM_DEPS_$(1)) | $$(STAMP)/apt-sim
-	@mkdir -p $$(dir $$@)
-	$$(CC) $$(CSTD) $$(OPT) $$(BENCH_HOST_WARN) -Ifirmware -Ihal/include $$(NUM_CFLAGS_$(1)) \
-	  -MMD -MP -c $$< -o $$@
-$(BENCH_DIR)/host-$(1)/obj/$$(LIBFIXMATH_DIR)/%.o: BENCH_HOST_WARN := $$(LIBFIXMATH_WARN)
--include $$(BENCH_HOST_OBJS_$(1):.o=.d)
-$(BENCH_DIR)/host-$(1)/bench: $(BENCH_HOST_SRCS) tools/bench/bench.h $(BENCH_DIR)/scenarios.h \
-    $$(BENCH_HOST_OBJS_$(1))
-	$$(CC) $$(CSTD) $$(OPT) $$(WARN) -Ifirmware -Ihal/include -Itools/bench -I$(BENCH_DIR) \
-	  $$(NUM_CFLAGS_$(1)) $(BENCH_HOST_SRCS) $$(BENCH_HOST_OBJS_$(1)) -lm -o $$@
+BUILD_CC_bench-host-$(1) := $$(CC)
+BUILD_CFLAGS_bench-host-$(1) := $$(CSTD) $$(OPT) $$(FW_INC) $$(NUM_CFLAGS_$(1))
+BUILD_DIR_bench-host-$(1) := $(BENCH_DIR)/host-$(1)/obj
+BUILD_SRCS_bench-host-$(1) := $$(CORE_SRCS) $$(NUM_SRCS_$(1)) $(BENCH_HOST_SRCS) $(2)
+BUILD_DEPS_bench-host-$(1) := $$(NUM_DEPS_$(1))
+BUILD_ORDER_bench-host-$(1) := $$(STAMP)/apt-sim
+$$(eval $$(call BUILD,bench-host-$(1)))
+$$(call build_objs,bench-host-$(1),$(BENCH_HOST_SRCS)): $(BENCH_DIR)/scenarios.h
+$(BENCH_DIR)/host-$(1)/bench: $$(call build_objs,bench-host-$(1),$(BENCH_HOST_SRCS) $$(CORE_SRCS) \
+    $$(NUM_SRCS_$(1)))
+	$$(CC) $$^ -lm -o $$@
 $(BENCH_DIR)/host-$(1).txt: $(BENCH_DIR)/host-$(1)/bench
 	$$< > $$@.tmp
 	@mv $$@.tmp $$@
 endef
-$(eval $(call BENCH_HOST_RULES,float))
-$(eval $(call BENCH_HOST_RULES,fixed))
+# The CAN echo of the round-trip benchmark (below) is hal/linux's SocketCAN
+# driver behind a loop: compiled in the float host build.
+BENCH_ECHO_SRCS := tools/bench/can_echo.c hal/linux/hal_can_socketcan.c
+$(eval $(call BENCH_HOST_RULES,float,$(BENCH_ECHO_SRCS)))
+$(eval $(call BENCH_HOST_RULES,fixed,))
 
 BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) \
                  $(BENCH_DIR)/host-float.txt $(BENCH_DIR)/host-fixed.txt
@@ -63,9 +76,8 @@ BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) 
 # CAN: steps per second through frames in process, and lock-step round trips
 # over vcan (in the VM where the host has no CAN) beside a bare round trip to
 # a C echo built on hal/linux, all measured in one run (tools/bench/can_bench.py).
-$(BENCH_DIR)/can_echo: tools/bench/can_echo.c hal/linux/hal_can_socketcan.c | $(STAMP)/apt-sim
-	@mkdir -p $(@D)
-	$(CC) $(CSTD) $(OPT) $(WARN) -Ihal/include $^ -o $@
+$(BENCH_DIR)/can_echo: $(call build_objs,bench-host-float,$(BENCH_ECHO_SRCS))
+	$(CC) $^ -o $@
 $(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so tools/bench/can_bench.py | .venv/.requirements.sha256
 	$(PY) tools/bench/can_bench.py sil --lib $< --out $@
 $(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/can_bench.py | deps-hil

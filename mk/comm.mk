@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # The files generated from the CAN protocol's DBC (firmware/comm/mstc.dbc):
 # the C codec firmware/comm/mstc_dbc.[ch] (tools/gen-codec, cantools) and
 # docs/protocol.md (tools/protocol-doc). Both are committed; check-protocol

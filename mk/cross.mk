@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cross builds of the firmware (firmware/*/*.c, and libfixmath in fixed mode)
 # for Cortex-M with arm-none-eabi-gcc (Debian gcc-arm-none-eabi), warnings as
 # errors, into build/cross/<config>/libmstc_fw.a:
@@ -7,16 +8,15 @@
 #   m3-float   Cortex-M3, float in software (newlib's soft float): the
 #              comparison the fixed-point mode exists to beat (make bench)
 #
-# `make cross` builds all three whatever NUMERIC is. Uses from the Makefile:
-# CSTD, WARN, FW_SRCS, STAMP and mk/numeric.mk's NUM_*_<mode> variables.
+# `make cross` builds all three whatever NUMERIC is, each a build of
+# mk/compile.mk (cross-<config>). Uses from the Makefile: CSTD, FW_INC,
+# FW_SRCS, STAMP and mk/numeric.mk's NUM_*_<mode> variables.
 
 CROSS_COMPILE ?= arm-none-eabi-
 CROSS_CC ?= $(CROSS_COMPILE)gcc
 CROSS_AR ?= $(CROSS_COMPILE)ar
 CROSS_SIZE ?= $(CROSS_COMPILE)size
 CROSS_OPT ?= -O2 -g
-CROSS_CFLAGS := $(CSTD) $(CROSS_OPT) -ffunction-sections -fdata-sections -Ifirmware -Ihal/include
-CROSS_WARN := $(WARN)
 
 CROSS_CPU_m4f := -mcpu=cortex-m4 -mthumb -mfpu=fpv4-sp-d16 -mfloat-abi=hard
 CROSS_CPU_m3 := -mcpu=cortex-m3 -mthumb -mfloat-abi=soft
@@ -24,17 +24,18 @@ CROSS_CONFIGS := m4f-float m3-fixed m3-float
 
 # $(1): config name <cpu>-<mode>; $(2): cpu; $(3): numeric mode.
 define CROSS_CONFIG_RULES
-CROSS_SRCS_$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(3))
-CROSS_OBJS_$(1) := $$(patsubst %.c,build/cross/$(1)/obj/%.o,$$(CROSS_SRCS_$(1)))
-CROSS_FLAGS_$(1) := $$(CROSS_CPU_$(2)) $$(CROSS_CFLAGS) $$(NUM_CFLAGS_$(3))
-build/cross/$(1)/obj/%.o: %.c $$(NUM_DEPS_$(3)) | $$(STAMP)/apt-test
-	@mkdir -p $$(dir $$@)
-	$$(CROSS_CC) $$(CROSS_FLAGS_$(1)) $$(CROSS_WARN) -MMD -MP -c $$< -o $$@
-build/cross/$(1)/obj/$$(LIBFIXMATH_DIR)/%.o: CROSS_WARN := $$(LIBFIXMATH_WARN)
-build/cross/$(1)/libmstc_fw.a: $$(CROSS_OBJS_$(1))
+CROSS_FLAGS_$(1) := $$(CROSS_CPU_$(2)) $$(CSTD) $$(CROSS_OPT) -ffunction-sections -fdata-sections \
+  $$(FW_INC) $$(NUM_CFLAGS_$(3))
+BUILD_CC_cross-$(1) := $$(CROSS_CC)
+BUILD_CFLAGS_cross-$(1) := $$(CROSS_FLAGS_$(1))
+BUILD_DIR_cross-$(1) := build/cross/$(1)/obj
+BUILD_SRCS_cross-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(3))
+BUILD_DEPS_cross-$(1) := $$(NUM_DEPS_$(3))
+BUILD_ORDER_cross-$(1) := $$(STAMP)/apt-test
+$$(eval $$(call BUILD,cross-$(1)))
+build/cross/$(1)/libmstc_fw.a: $$(BUILD_OBJS_cross-$(1))
 	@rm -f $$@
 	$$(CROSS_AR) rcs $$@ $$^
--include $$(CROSS_OBJS_$(1):.o=.d)
 endef
 $(eval $(call CROSS_CONFIG_RULES,m4f-float,m4f,float))
 $(eval $(call CROSS_CONFIG_RULES,m3-fixed,m3,fixed))

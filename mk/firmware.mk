@@ -1,7 +1,9 @@
+# SPDX-License-Identifier: MIT
 # Board images: the firmware cross-compiled and linked for a board
-# (hal/<board>/), with its start-up, drivers and main loop. Included by the
-# top Makefile after mk/numeric.mk. Uses from the Makefile: WARN, PY, STAMP,
-# FW_SRCS, the venv rule; from mk/numeric.mk the NUM_*_<mode> variables.
+# (hal/<board>/), with its start-up, drivers and main loop; each board is a
+# build of mk/compile.mk (img-<board>). Included by the top Makefile after
+# mk/compile.mk. Uses from the Makefile: FW_INC, PY, STAMP, FW_SRCS, the venv
+# rule; from mk/numeric.mk the NUM_*_<mode> variables.
 #
 #   make firmware BOARD=stm32f405   Cortex-M4F, float   -> build/firmware/stm32f405/
 #   make firmware BOARD=stm32f103   Cortex-M3, fixed    -> build/firmware/stm32f103/
@@ -9,7 +11,7 @@
 #   make firmware BOARD=... CAN=slcan  the same image with CAN over a UART (slcan)
 #                                   -> build/firmware/<board>-slcan/ (docs/hil.md)
 #   make firmware-all               the three, then the budget check
-#   make firmware-budget            flash, RAM, stack of the four images vs. the budgets
+#   make firmware-budget            flash, RAM, stack of the four STM32 images vs. the budgets
 #   make firmware-smoke             both images under QEMU (tools/bench/qemu_smoke)
 #   make flash BOARD=... [FLASH_TOOL=openocd|st-flash|pyocd] [FLASH_DRY_RUN=1]
 #
@@ -26,7 +28,6 @@ IMG_CC := $(CROSS_COMPILE)gcc
 IMG_OBJCOPY := $(CROSS_COMPILE)objcopy
 # -Os: the images must fit 32 KB of flash (docs/porting.md, budgets).
 IMG_OPT ?= -Os -g3
-IMG_WARN := $(WARN)
 
 # CAN transport of the STM32 images, the only sources in which the two
 # variants of a board's image differ (docs/hil.md): bxCAN, the default, or
@@ -60,7 +61,7 @@ endef
 $(foreach b,$(IMG_BOARDS),$(eval $(call IMG_BOARD_LOAD,$(b))))
 
 # Image name of board $(1) with transport $(2): the board itself for its
-# first (default) transport or none, <board>-<can> for the others.
+# first (default) transport or when it has no choice, <board>-<can> else.
 img_name = $(1)$(if $(filter-out $(firstword $(IMG_CANS_$(1))),$(filter $(2),$(IMG_CANS_$(1)))),-$(2))
 
 # Rules of one image. $(1): image; $(2): its numeric mode; $(3): board;
@@ -72,19 +73,16 @@ IMG_DIR_$(1) := build/firmware/$(1)
 IMG_OBJ_$(1) := build/firmware/$(1)/obj-$(2)
 IMG_GEN_$(1) := build/firmware/$(3)/gen
 IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(3)),$$(IMG_GEN_$(1))/stm32_regs.h)
-IMG_CFLAGS_$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections -fdata-sections \
-  -fno-common -fstack-usage -Ifirmware -Ihal/include $$(IMG_INC_$(3)) \
+BUILD_CC_img-$(1) := $$(IMG_CC)
+BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections \
+  -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(3)) \
   $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2))
-IMG_OBJS_$(1) := $$(patsubst %.c,$$(IMG_OBJ_$(1))/%.o,$$(FW_SRCS) $$(NUM_SRCS_$(2)) \
-  $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))) \
-  $$(if $$(IMG_SVD_$(3)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
-
-$$(IMG_OBJ_$(1))/%.o: %.c $$(NUM_DEPS_$(2)) | $$(STAMP)/apt-test $$(IMG_GENH_$(1))
-	@mkdir -p $$(dir $$@)
-	$$(IMG_CC) $$(IMG_CFLAGS_$(1)) $$(IMG_WARN) -MMD -MP -c $$< -o $$@
-# libfixmath keeps its own warning set (mk/numeric.mk says why).
-$$(IMG_OBJ_$(1))/$$(LIBFIXMATH_DIR)/%.o: IMG_WARN := $$(LIBFIXMATH_WARN)
--include $$(IMG_OBJS_$(1):.o=.d)
+BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
+BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))
+BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2))
+BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
+$$(eval $$(call BUILD,img-$(1)))
+IMG_OBJS_$(1) := $$(BUILD_OBJS_img-$(1)) $$(if $$(IMG_SVD_$(3)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
 
 ifneq ($$(IMG_SVD_$(3)),)
 ifeq ($(1),$(3))
@@ -93,10 +91,13 @@ $$(IMG_GEN_$(1))/stm32_regs.h $$(IMG_GEN_$(1))/stm32_vectors.c &: $$(IMG_SVD_$(1
     tools/svd/svd2c.py deps/svd/.sha256 | .venv/.requirements.sha256
 	$$(PY) tools/svd/svd2c.py $$(IMG_SVD_$(1)) deps/svd $$(IMG_GEN_$(1))
 endif
+# The generated vector table: the board's compile, its object in gen/.
 $$(IMG_OBJ_$(1))/gen/stm32_vectors.o: $$(IMG_GEN_$(1))/stm32_vectors.c \
     $$(IMG_GEN_$(1))/stm32_regs.h | $$(STAMP)/apt-test
 	@mkdir -p $$(dir $$@)
-	$$(IMG_CC) $$(IMG_CFLAGS_$(1)) $$(IMG_WARN) -MMD -MP -c $$< -o $$@
+	$$(call build_cmd,img-$(1),$$<,$$@)
+-include $$(IMG_OBJ_$(1))/gen/stm32_vectors.d
+COMPILES += img-$(1)@$$(IMG_GEN_$(1))/stm32_vectors.c@$$(IMG_OBJ_$(1))/gen/stm32_vectors.o
 endif
 
 # Relink when the numeric mode changes (the objects live in obj-<numeric>/).

@@ -1,5 +1,7 @@
+# SPDX-License-Identifier: MIT
 # Numeric mode: float (default, single precision) or fixed (Q16.16).
-# Defines, for the Makefile and for mk/cross.mk, mk/bench.mk, mk/numerics.mk:
+# Defines, for the Makefile and for mk/cross.mk, mk/firmware.mk, mk/bench.mk,
+# mk/numerics.mk, mk/quality.mk:
 #   NUM_CFLAGS  flags of every firmware, SIL and test compile in this mode
 #   NUM_SRCS    extra C sources compiled into every build in this mode
 #   NUM_DEPS    a file that must exist before any of them is compiled
@@ -21,6 +23,7 @@ LIBFIXMATH_SRCS := $(addprefix $(LIBFIXMATH_DIR)/,fix16.c fix16_sqrt.c fix16_tri
 # libfixmath is not clean under -Wconversion (47 warnings: implicit sign and
 # width conversions that are deliberate there); it is clean under every other
 # warning of WARN, which stay errors. Our headers do not include its header.
+# Every build compiles its sources with these (mk/compile.mk).
 LIBFIXMATH_WARN := $(filter-out -Wconversion,$(WARN))
 
 NUM_CFLAGS_float :=
@@ -33,10 +36,6 @@ NUM_DEPS_fixed := $(LIBFIXMATH_DIR)/.sha256
 NUM_CFLAGS := $(NUM_CFLAGS_$(NUMERIC))
 NUM_SRCS := $(NUM_SRCS_$(NUMERIC))
 NUM_DEPS := $(NUM_DEPS_$(NUMERIC))
-
-# Host objects of libfixmath (the Makefile's pattern rule): the same flags
-# less -Wconversion.
-$(B)/obj/$(LIBFIXMATH_DIR)/%.o: CFLAGS_HOST := $(filter-out -Wconversion,$(CFLAGS_HOST))
 
 # The sources appear when the source package is fetched (NUM_DEPS's rule).
 $(LIBFIXMATH_SRCS): | $(LIBFIXMATH_DIR)/.sha256

@@ -1,20 +1,22 @@
+# SPDX-License-Identifier: MIT
 # make numerics: docs/numerics.md, the error of every fixed-point primitive
 # against libm in double precision (tools/numerics/numerics.c). The tool is
 # built in fixed mode whatever NUMERIC is; the document is remade when the
-# tool or the primitives change. Uses from the Makefile: CC, CSTD, OPT, WARN,
-# STAMP; from mk/numeric.mk: LIBFIXMATH_*, NUM_*_fixed.
+# tool or the primitives change. Uses from the Makefile: CC, CSTD, OPT, FW_INC,
+# STAMP; from mk/numeric.mk: LIBFIXMATH_*, NUM_*_fixed. A build of
+# mk/compile.mk (numerics).
 
 NUMERICS_DIR := build/numerics
-NUMERICS_FIX_OBJS := $(patsubst %.c,$(NUMERICS_DIR)/obj/%.o,$(LIBFIXMATH_SRCS))
+BUILD_CC_numerics := $(CC)
+BUILD_CFLAGS_numerics := $(CSTD) $(OPT) $(FW_INC) $(NUM_CFLAGS_fixed)
+BUILD_DIR_numerics := $(NUMERICS_DIR)/obj
+BUILD_SRCS_numerics := tools/numerics/numerics.c firmware/num/num_fixed.c $(LIBFIXMATH_SRCS)
+BUILD_DEPS_numerics := $(NUM_DEPS_fixed)
+BUILD_ORDER_numerics := $(STAMP)/apt-sim
+$(eval $(call BUILD,numerics))
 
-$(NUMERICS_DIR)/obj/%.o: %.c $(NUM_DEPS_fixed) | $(STAMP)/apt-sim
-	@mkdir -p $(@D)
-	$(CC) $(CSTD) $(OPT) $(LIBFIXMATH_WARN) $(NUM_CFLAGS_fixed) -c $< -o $@
-
-$(NUMERICS_DIR)/numerics: tools/numerics/numerics.c firmware/num/num_fixed.c \
-    firmware/num/num_fixed.h firmware/num/num.h $(NUMERICS_FIX_OBJS)
-	$(CC) $(CSTD) $(OPT) $(WARN) -Ifirmware $(NUM_CFLAGS_fixed) tools/numerics/numerics.c \
-	  firmware/num/num_fixed.c $(NUMERICS_FIX_OBJS) -lm -o $@
+$(NUMERICS_DIR)/numerics: $(BUILD_OBJS_numerics)
+	$(CC) $^ -lm -o $@
 
 docs/numerics.md: $(NUMERICS_DIR)/numerics
 	$< > $@.tmp

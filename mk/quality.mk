@@ -1,8 +1,10 @@
+# SPDX-License-Identifier: MIT
 # Quality checks of the firmware (docs/safety.md): fuzzing, coverage, static
 # analysis, the strict warning set on every compiler. Included by the top
-# Makefile after mk/numeric.mk. Uses from the Makefile: WARN, CSTD, PY, B,
-# STAMP, FW_SRCS, the venv and deps rules; from mk/numeric.mk the
-# NUM_*_<mode> variables and LIBFIXMATH_WARN.
+# Makefile after mk/compile.mk; fuzzing and coverage are builds of it. Uses
+# from the Makefile: WARN, CSTD, FW_INC, PY, B, STAMP, FW_SRCS, FAKE_SRCS,
+# UNIT_TESTS, UNITY_OBJ, UNIT_TEST_RULES, the venv and deps rules; from
+# mk/numeric.mk the NUM_*_<mode> variables and LIBFIXMATH_DIR.
 #
 #   make fuzz [FUZZ_SECONDS=60]  every libFuzzer harness (clang, ASan, UBSan)
 #                                for FUZZ_SECONDS each; corpus: fuzz/corpus/
@@ -16,21 +18,33 @@
 FUZZ_SECONDS ?= 60
 FUZZ_CC ?= clang
 FUZZ_DIR := build/fuzz
-FUZZ_FLAGS := -std=c11 -D_DEFAULT_SOURCE -g -O1 -fsanitize=fuzzer,address,undefined \
-  -fno-sanitize-recover=all -fno-omit-frame-pointer -Ifirmware -Ihal/include -Ihal/fake
+FUZZ_SANITIZE := -fsanitize=fuzzer,address,undefined
 # name:source:numeric mode
 FUZZ_HARNESSES := frames:fuzz/fuzz_frames.c:float ctl:fuzz/fuzz_ctl.c:float \
   ctl_fixed:fuzz/fuzz_ctl.c:fixed
 FUZZ_NAMES := $(foreach h,$(FUZZ_HARNESSES),$(word 1,$(subst :, ,$(h))))
 FW_HDRS := $(wildcard firmware/*/*.h)
 
+# One build per numeric mode (fuzz-<mode>): the firmware, hal/fake and the
+# harnesses of that mode.
+define FUZZ_BUILD
+BUILD_CC_fuzz-$(1) := $$(FUZZ_CC)
+BUILD_CFLAGS_fuzz-$(1) := $$(CSTD) -g -O1 $$(FUZZ_SANITIZE) -fno-sanitize-recover=all \
+  -fno-omit-frame-pointer $$(FW_INC) -Ihal/fake $$(NUM_CFLAGS_$(1))
+BUILD_DIR_fuzz-$(1) := $$(FUZZ_DIR)/obj-$(1)
+BUILD_SRCS_fuzz-$(1) := $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(1)) \
+  $$(sort $$(foreach h,$$(FUZZ_HARNESSES),$$(if $$(filter %:$(1),$$(h)),$$(word 2,$$(subst :, ,$$(h))))))
+BUILD_DEPS_fuzz-$(1) := $$(NUM_DEPS_$(1))
+BUILD_ORDER_fuzz-$(1) := $$(STAMP)/apt-test
+$$(eval $$(call BUILD,fuzz-$(1)))
+endef
+$(eval $(call FUZZ_BUILD,float))
+$(eval $(call FUZZ_BUILD,fixed))
+
+# $(1): name; $(2): harness source; $(3): numeric mode.
 define FUZZ_RULES
-$(FUZZ_DIR)/$(1): $(2) $(FW_SRCS) $(FW_HDRS) hal/fake/hal_fake.c $(NUM_DEPS_$(3)) \
-    | $(STAMP)/apt-test
-	@mkdir -p $$(@D)
-	$(FUZZ_CC) $(FUZZ_FLAGS) $(WARN) $(NUM_CFLAGS_$(3)) $(2) \
-	  $(FW_SRCS) hal/fake/hal_fake.c \
-	  $(if $(NUM_SRCS_$(3)),$(NUM_SRCS_$(3)) -Wno-conversion -Wno-sign-conversion) -lm -o $$@
+$(FUZZ_DIR)/$(1): $$(call build_objs,fuzz-$(3),$(2) $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(3)))
+	$$(FUZZ_CC) $$(FUZZ_SANITIZE) $$^ -lm -o $$@
 endef
 $(foreach h,$(FUZZ_HARNESSES),$(eval $(call FUZZ_RULES,$(word 1,$(subst :, ,$(h))),$(word 2,$(subst :, ,$(h))),$(word 3,$(subst :, ,$(h))))))
 
@@ -52,18 +66,14 @@ fuzz: fuzz-build  ## run every libFuzzer harness for FUZZ_SECONDS (default 60) e
 # The unit tests again, built with gcov at -O0 in build/coverage (float mode:
 # the mode whose branches include the non-finite checks), then gcovr.
 COV_DIR := build/coverage
-COV_CFLAGS := $(CSTD) -O0 -g --coverage $(WARN) -Ifirmware -Ihal/include -Ihal/fake
-COV_OBJS := $(patsubst %.c,$(COV_DIR)/obj/%.o,$(FW_SRCS) hal/fake/hal_fake.c)
+BUILD_CC_cov := $(CC)
+BUILD_CFLAGS_cov := $(CSTD) -O0 -g --coverage $(FW_INC)
+BUILD_DIR_cov := $(COV_DIR)/obj
+BUILD_SRCS_cov := $(FW_SRCS) $(FAKE_SRCS) $(UNIT_SRCS) $(TEST_SRCS)
+BUILD_ORDER_cov := $(STAMP)/apt-sim
+$(eval $(call BUILD,cov))
+$(eval $(call UNIT_TEST_RULES,cov,$(COV_DIR)/tests,$(FW_SRCS) $(FAKE_SRCS),--coverage))
 COV_TESTS := $(addprefix $(COV_DIR)/tests/,$(UNIT_TESTS))
-$(COV_DIR)/obj/%.o: %.c | $(STAMP)/apt-sim
-	@mkdir -p $(@D)
-	$(CC) $(COV_CFLAGS) -MMD -MP -c $< -o $@
-.SECONDARY: $(COV_OBJS)
--include $(COV_OBJS:.o=.d)
-$(COV_DIR)/tests/%: tests/unit/%.c $(COV_OBJS) $(UNITY_OBJ) $(wildcard tests/unit/*.h)
-	@mkdir -p $(@D)
-	$(CC) $(COV_CFLAGS) -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit $< $(COV_OBJS) \
-	  $(UNITY_OBJ) -lm -o $@
 
 .PHONY: coverage
 coverage: deps-test $(COV_TESTS)  ## unit tests under gcov; gcovr report, thresholds of docs/safety.md
@@ -85,7 +95,7 @@ SA_DIR := build/static-analysis
 CPPCHECK_FLAGS := --std=c11 --language=c --enable=warning,style,performance,portability \
   --inline-suppr --error-exitcode=1 --quiet --addon=tools/quality/misra.json \
   --suppressions-list=tools/quality/cppcheck-suppressions.txt \
-  --suppress=missingIncludeSystem -Ifirmware -Ihal/include \
+  --suppress=missingIncludeSystem $(FW_INC) \
   --cppcheck-build-dir=$(SA_DIR)/cppcheck
 
 $(SA_DIR)/cppcheck.ok: $(SA_SRCS) $(FW_HDRS) tools/quality/misra.json \
@@ -97,8 +107,8 @@ $(SA_DIR)/cppcheck.ok: $(SA_SRCS) $(FW_HDRS) tools/quality/misra.json \
 
 $(SA_DIR)/clang-tidy.ok: $(SA_SRCS) $(FW_HDRS) .clang-tidy $(NUM_DEPS_fixed) | $(STAMP)/apt-test
 	@mkdir -p $(@D)
-	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) -Ifirmware -Ihal/include
-	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) -DNUM_FIXED -Ifirmware -Ihal/include -I$(LIBFIXMATH_DIR)
+	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) $(FW_INC)
+	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) $(FW_INC) $(NUM_CFLAGS_fixed)
 	@touch $@
 
 .PHONY: static-analysis cppcheck clang-tidy
@@ -113,13 +123,12 @@ WARN_MODES := float fixed
 $(SA_DIR)/warnings.ok: $(FW_SRCS) $(FW_HDRS) $(NUM_DEPS_fixed) | $(STAMP)/apt-test
 	@mkdir -p $(@D)
 	@set -e; for m in $(WARN_MODES); do \
-	  flags="$(CSTD) $(WARN) -Ifirmware -Ihal/include"; \
+	  flags="$(CSTD) $(WARN) $(FW_INC)"; \
 	  [ $$m = fixed ] && flags="$$flags $(NUM_CFLAGS_fixed)"; \
 	  for f in $(FW_SRCS); do \
 	    clang $$flags -fsyntax-only $$f; \
-	    arm-none-eabi-gcc $$flags -mcpu=cortex-m3 -mthumb -fsyntax-only $$f; \
-	    arm-none-eabi-gcc $$flags -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 \
-	      -fsyntax-only $$f; \
+	    $(CROSS_CC) $$flags $(CROSS_CPU_m3) -fsyntax-only $$f; \
+	    $(CROSS_CC) $$flags $(CROSS_CPU_m4f) -fsyntax-only $$f; \
 	  done; \
 	  echo "warnings ($$m): clang, arm-none-eabi-gcc (M3, M4F): none"; \
 	done

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Bus logs: replay through the firmware, decode and plot (docs/replay.md).
 #
 #   make replay LOG=path [REPLAY_ARGS=...]  feed a log's input frames through the
@@ -14,26 +15,26 @@ REPLAY_LOGS := tests/data/paper-line.log tests/data/paper-circle.log
 .PHONY: replay replay-regress logplot replay-logs replay-bench
 replay: deps-sim $(B)/libmstc_sil.so  ## replay LOG=path through the firmware and compare (REPLAY_ARGS=...)
 	@test -n "$(LOG)" || { echo "usage: make replay LOG=path/to/bus.log [REPLAY_ARGS=--strict]" >&2; exit 2; }
-	$(PY) tools/replay --lib $(B)/libmstc_sil.so $(REPLAY_ARGS) $(LOG)
+	$(MSTC) replay --lib $(B)/libmstc_sil.so $(REPLAY_ARGS) $(LOG)
 
 # The committed logs were recorded from the float build: a fixed-point build
 # answers differently by design (make replay NUMERIC=fixed LOG=... shows how).
 replay-regress: deps-sim $(B)/libmstc_sil.so  ## replay the committed logs tests/data/*.log, bit-exact
 	@test "$(NUMERIC)" = float || { echo "error: replay-regress checks the float build (the logs' own); use make replay NUMERIC=$(NUMERIC) LOG=... to see the differences" >&2; exit 2; }
 	@for log in $(REPLAY_LOGS); do \
-	  echo "$(PY) tools/replay --strict --quiet --lib $(B)/libmstc_sil.so $$log"; \
-	  $(PY) tools/replay --strict --quiet --lib $(B)/libmstc_sil.so $$log || exit $$?; \
+	  echo "$(MSTC) replay --strict --quiet --lib $(B)/libmstc_sil.so $$log"; \
+	  $(MSTC) replay --strict --quiet --lib $(B)/libmstc_sil.so $$log || exit $$?; \
 	done
 
 logplot: deps-sim  ## events, status and the paper's figures from LOG=path, into build/logplot/
 	@test -n "$(LOG)" || { echo "usage: make logplot LOG=path/to/bus.log [LOGPLOT_ARGS=--scenario file.toml]" >&2; exit 2; }
-	$(PY) tools/logplot --out build/logplot $(LOGPLOT_ARGS) $(LOG)
+	$(MSTC) plot --out build/logplot $(LOGPLOT_ARGS) $(LOG)
 
 # After an intended change of what the firmware sends: the diff of the logs
 # shows what changed.
 replay-logs: deps-sim $(B)/libmstc_sil.so  ## re-record tests/data/*.log: make sim's bus.log of the paper scenarios
 	@test "$(NUMERIC)" = float || { echo "error: the regression logs are recorded from the float build" >&2; exit 2; }
-	$(PY) -m mstc_sim run --bus sil --lib $(B)/libmstc_sil.so --out build/replay-logs \
+	$(MSTC) sim --bus sil --lib $(B)/libmstc_sil.so --out build/replay-logs \
 	  sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml > /dev/null
 	@mkdir -p tests/data
 	cp build/replay-logs/paper-line/bus.log tests/data/paper-line.log

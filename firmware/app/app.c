@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The firmware application: frames in, safety supervisor, control step,
  * frames out (app.h; docs/safety.md). */
 #include "app/app.h"
@@ -322,6 +323,10 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
         a->w_r = m.u.ref_motion.w;
         break;
     case COMM_ID_OBSTACLE: on_obstacle(a, &m.u.obstacle); break;
+    case COMM_ID_OBSTACLE_VEL:
+        /* Accepted and counted by the E2E receiver; the velocity of moving
+         * obstacles is not used by the paper's strategy. */
+        break;
     case COMM_ID_STEP: {
         /* The simulator's time, extended past the 32-bit wrap (71.6 min). A
          * time that goes back is taken as a wrap: a jump forward, which times

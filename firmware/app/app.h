@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file app.h
  * @brief The firmware application: receives the protocol's frames through the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * The CAN protocol for the firmware (comm.h): E2E protection and checks,
  * scaling between raw signals and num_t, dispatch by identifier. Bit packing
@@ -22,6 +23,7 @@ _Static_assert(COMM_ID_REF_XY == MSTC_DBC_REF_XY_FRAME_ID, "REF_XY id");
 _Static_assert(COMM_ID_REF_MOTION == MSTC_DBC_REF_MOTION_FRAME_ID, "REF_MOTION id");
 _Static_assert(COMM_ID_STEP == MSTC_DBC_STEP_FRAME_ID, "STEP id");
 _Static_assert(COMM_ID_OBSTACLE == MSTC_DBC_OBSTACLE_FRAME_ID, "OBSTACLE id");
+_Static_assert(COMM_ID_OBSTACLE_VEL == MSTC_DBC_OBSTACLE_VEL_FRAME_ID, "OBSTACLE_VEL id");
 _Static_assert(COMM_ID_PARAM_SET == MSTC_DBC_PARAM_SET_FRAME_ID, "PARAM_SET id");
 _Static_assert(COMM_ID_PARAM_GET == MSTC_DBC_PARAM_GET_FRAME_ID, "PARAM_GET id");
 _Static_assert(COMM_ID_WHEEL_CMD == MSTC_DBC_WHEEL_CMD_FRAME_ID, "WHEEL_CMD id");
@@ -69,13 +71,21 @@ typedef struct {
 
 /* Indexed like comm_t's counter arrays. */
 static const frame_t frames[COMM_N_FRAMES] = {
-    { COMM_ID_ODOM_XY, 0x1100u, true },      { COMM_ID_ODOM_THETA, 0x1101u, true },
-    { COMM_ID_REF_XY, 0x1102u, true },       { COMM_ID_REF_MOTION, 0x1103u, true },
-    { COMM_ID_STEP, 0x1104u, true },         { COMM_ID_OBSTACLE, 0x1110u, true },
-    { COMM_ID_PARAM_SET, 0x1120u, true },    { COMM_ID_PARAM_GET, 0x1121u, true },
-    { COMM_ID_WHEEL_CMD, 0x1180u, false },   { COMM_ID_STATUS, 0x1181u, false },
-    { COMM_ID_STATUS_TRK, 0x1182u, false },  { COMM_ID_STATUS_COUNTERS, 0x1183u, false },
-    { COMM_ID_EVENT, 0x1184u, false },       { COMM_ID_HEARTBEAT, 0x1185u, false },
+    { COMM_ID_ODOM_XY, 0x1100u, true },
+    { COMM_ID_ODOM_THETA, 0x1101u, true },
+    { COMM_ID_REF_XY, 0x1102u, true },
+    { COMM_ID_REF_MOTION, 0x1103u, true },
+    { COMM_ID_STEP, 0x1104u, true },
+    { COMM_ID_OBSTACLE, 0x1110u, true },
+    { COMM_ID_OBSTACLE_VEL, 0x1111u, true },
+    { COMM_ID_PARAM_SET, 0x1120u, true },
+    { COMM_ID_PARAM_GET, 0x1121u, true },
+    { COMM_ID_WHEEL_CMD, 0x1180u, false },
+    { COMM_ID_STATUS, 0x1181u, false },
+    { COMM_ID_STATUS_TRK, 0x1182u, false },
+    { COMM_ID_STATUS_COUNTERS, 0x1183u, false },
+    { COMM_ID_EVENT, 0x1184u, false },
+    { COMM_ID_HEARTBEAT, 0x1185u, false },
     { COMM_ID_PARAM_VALUE, 0x1190u, false },
 };
 
@@ -172,6 +182,7 @@ static const scale_t s_theta = SIGNED_BITS(16, 20);     /* ODOM_THETA [rad] */
 static const scale_t s_ref_theta = SIGNED_BITS(15, 18); /* REF_MOTION theta [rad] */
 static const scale_t s_ref_vw = SIGNED_BITS(12, 17);    /* REF_MOTION v [m/s], w [rad/s] */
 static const scale_t s_obs_xy = SIGNED_BITS(12, 20);    /* OBSTACLE x, y [m] */
+static const scale_t s_obs_v = SIGNED_BITS(10, 16);     /* OBSTACLE_VEL vx, vy [m/s] */
 static const scale_t s_wheel = SIGNED_BITS(10, 18);     /* WHEEL_CMD [rad/s] */
 static const scale_t s_angle13 = SIGNED_BITS(13, 16);   /* STATUS e, STATUS_TRK e3 [rad] */
 static const scale_t s_err = SIGNED_BITS(10, 16);       /* STATUS_TRK e1, e2 [m] */
@@ -315,6 +326,14 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
         m->u.obstacle.x = num_from_raw(s.obstacle_x, &s_obs_xy);
         m->u.obstacle.y = num_from_raw(s.obstacle_y, &s_obs_xy);
         m->u.obstacle.radius = radius_from_cm(s.obstacle_radius);
+        break;
+    }
+    case COMM_ID_OBSTACLE_VEL: {
+        struct mstc_dbc_obstacle_vel_t s;
+        (void)mstc_dbc_obstacle_vel_unpack(&s, d, FRAME_LEN);
+        m->u.obstacle_vel.id = s.obstacle_vel_id;
+        m->u.obstacle_vel.vx = num_from_raw(s.obstacle_vel_vx, &s_obs_v);
+        m->u.obstacle_vel.vy = num_from_raw(s.obstacle_vel_vy, &s_obs_v);
         break;
     }
     case COMM_ID_PARAM_SET: {
@@ -521,13 +540,13 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
         (uint8_t)(st->faults &
                   (CTL_FAULT_INPUT_NONFINITE | CTL_FAULT_OBSTACLE_DROPPED | CTL_FAULT_SATURATED));
     const struct mstc_dbc_status_t s = {
-        .status_mode = sat_u8((uint32_t)st->mode, MSTC_DBC_STATUS_STATUS_MODE_STOP_CHOICE),
+        .status_mode = sat_u8((uint32_t)st->mode, MSTC_DBC_STATUS_STATUS_MODE_BLOCKED_CHOICE),
         .status_side = side_to_wire(st->side),
         .status_obstacle = sat_u8(st->active_obstacle, 15u),
         .status_faults = (uint8_t)(ctl_faults | (frame_faults ? 0x08u : 0u)),
         .status_e = (int16_t)raw_from_num(st->e, &s_angle13),
         .status_distance = (uint16_t)raw_from_num(status_distance(st), &s_distance),
-        .status_step = (uint8_t)(step & 0x0Fu),
+        .status_step = (uint8_t)(step & 0x07u),
         .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_BUS_OFF),
     };
     (void)mstc_dbc_status_pack(f->data, &s, FRAME_LEN);
@@ -563,7 +582,7 @@ int comm_encode_counters(comm_t *c, hal_can_frame_t *f)
 int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f)
 {
     const struct mstc_dbc_event_t s = {
-        .event_kind = sat_u8(e->kind, MSTC_DBC_EVENT_EVENT_KIND_COMPLETE_CHOICE),
+        .event_kind = sat_u8(e->kind, MSTC_DBC_EVENT_EVENT_KIND_FILTER_CHOICE),
         .event_side = side_to_wire(e->side),
         .event_obstacle = sat_u8(e->obstacle, 15u),
         /* A time stamp wraps with the STEP time it answers (comm.h). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file comm.h
  * @brief The CAN protocol of mstc (mstc.dbc) for the firmware: E2E
@@ -43,6 +44,7 @@ enum {
     COMM_ID_REF_MOTION = 0x103,
     COMM_ID_STEP = 0x104,
     COMM_ID_OBSTACLE = 0x110,
+    COMM_ID_OBSTACLE_VEL = 0x111,
     COMM_ID_PARAM_SET = 0x120,
     COMM_ID_PARAM_GET = 0x121,
     COMM_ID_WHEEL_CMD = 0x180,
@@ -55,7 +57,7 @@ enum {
 };
 
 /** @brief Number of distinct frames in the protocol. */
-#define COMM_N_FRAMES 15u
+#define COMM_N_FRAMES 16u
 
 /** @brief Parameter indices of PARAM_SET / PARAM_GET / PARAM_VALUE. */
 typedef enum {
@@ -133,6 +135,10 @@ typedef struct {
             uint32_t time_us;
         } step;                  /**< STEP */
         sup_obstacle_t obstacle; /**< OBSTACLE */
+        struct {
+            uint8_t id;
+            num_t vx, vy; /**< [m/s] */
+        } obstacle_vel;   /**< OBSTACLE_VEL */
         struct {
             uint8_t index;
             float value;
@@ -272,19 +278,19 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
  * faults = st->faults bits 0..2 (CTL_FAULT_*), bit 3 = @p frame_faults; e;
  * distance = centre distance to the active obstacle, else to the nearest one
- * remembered, else the signal's maximum (63.999 m); the low 4 bits of @p step;
+ * remembered, else the signal's maximum (63.999 m); the low 3 bits of @p step;
  * halt = @p halt (saturated at COMM_HALT_BUS_OFF).
  * @param frame_faults a received frame was dropped since the last STATUS.
  * @param halt comm_halt_t: why the wheels are held at zero.
  */
 int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
                        uint8_t halt, hal_can_frame_t *f);
-/** @brief STATUS_TRK: e1, e2, e3. */
+/** @brief STATUS_TRK: e1, e2, e3 (odom_counter 0). */
 int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f);
 /** @brief STATUS_COUNTERS from c->drops. */
 int comm_encode_counters(comm_t *c, hal_can_frame_t *f);
-/** @brief EVENT: kind, side, obstacle (saturated at 15) and the low 32 bits
- *         of e->t_us. */
+/** @brief EVENT: kind (saturated at the DBC's largest kind), side, obstacle
+ *         (saturated at 15) and the low 32 bits of e->t_us. */
 int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f);
 /** @brief HEARTBEAT. */
 int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f);

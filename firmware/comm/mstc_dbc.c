@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file mstc_dbc.c
  *
@@ -57,6 +58,14 @@ static inline uint8_t pack_left_shift_u32(
     return (uint8_t)((uint8_t)(value << shift) & mask);
 }
 
+static inline uint8_t pack_right_shift_u8(
+    uint8_t value,
+    uint8_t shift,
+    uint8_t mask)
+{
+    return (uint8_t)((uint8_t)(value >> shift) & mask);
+}
+
 static inline uint8_t pack_right_shift_u16(
     uint16_t value,
     uint8_t shift,
@@ -71,6 +80,14 @@ static inline uint8_t pack_right_shift_u32(
     uint8_t mask)
 {
     return (uint8_t)((uint8_t)(value >> shift) & mask);
+}
+
+static inline uint8_t unpack_left_shift_u8(
+    uint8_t value,
+    uint8_t shift,
+    uint8_t mask)
+{
+    return (uint8_t)((uint8_t)(value & mask) << shift);
 }
 
 static inline uint16_t unpack_left_shift_u16(
@@ -811,6 +828,123 @@ bool mstc_dbc_obstacle_obstacle_radius_is_in_phys_range(float value)
     return ((value >= 0.01f) && (value <= 2.55f));
 }
 
+int mstc_dbc_obstacle_vel_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_obstacle_vel_t *src_p,
+    size_t size)
+{
+    uint16_t obstacle_vel_vx;
+    uint16_t obstacle_vel_vy;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->obstacle_vel_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->obstacle_vel_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->obstacle_vel_id, 4u, 0xf0u);
+    obstacle_vel_vx = (uint16_t)src_p->obstacle_vel_vx;
+    dst_p[2] |= pack_left_shift_u16(obstacle_vel_vx, 0u, 0xffu);
+    dst_p[3] |= pack_right_shift_u16(obstacle_vel_vx, 8u, 0xffu);
+    obstacle_vel_vy = (uint16_t)src_p->obstacle_vel_vy;
+    dst_p[4] |= pack_left_shift_u16(obstacle_vel_vy, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u16(obstacle_vel_vy, 8u, 0xffu);
+
+    return (8);
+}
+
+int mstc_dbc_obstacle_vel_unpack(
+    struct mstc_dbc_obstacle_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint16_t obstacle_vel_vx;
+    uint16_t obstacle_vel_vy;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->obstacle_vel_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->obstacle_vel_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->obstacle_vel_id = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
+    obstacle_vel_vx = unpack_right_shift_u16(src_p[2], 0u, 0xffu);
+    obstacle_vel_vx |= unpack_left_shift_u16(src_p[3], 8u, 0xffu);
+    dst_p->obstacle_vel_vx = (int16_t)obstacle_vel_vx;
+    obstacle_vel_vy = unpack_right_shift_u16(src_p[4], 0u, 0xffu);
+    obstacle_vel_vy |= unpack_left_shift_u16(src_p[5], 8u, 0xffu);
+    dst_p->obstacle_vel_vy = (int16_t)obstacle_vel_vy;
+
+    return (0);
+}
+
+int mstc_dbc_obstacle_vel_init(struct mstc_dbc_obstacle_vel_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_obstacle_vel_t));
+
+    return 0;
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_id_is_in_range(uint8_t value)
+{
+    return ((value >= 1u) && (value <= 15u));
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_id_is_in_phys_range(float value)
+{
+    return ((value >= 1.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_vx_is_in_range(int16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_vx_is_in_phys_range(float value)
+{
+    return ((value >= -32.0f) && (value <= 31.9990234375f));
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_vy_is_in_range(int16_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_obstacle_vel_obstacle_vel_vy_is_in_phys_range(float value)
+{
+    return ((value >= -32.0f) && (value <= 31.9990234375f));
+}
+
 int mstc_dbc_param_set_pack(
     uint8_t *dst_p,
     const struct mstc_dbc_param_set_t *src_p,
@@ -1141,13 +1275,16 @@ int mstc_dbc_status_pack(
     dst_p[1] |= pack_left_shift_u8(src_p->status_side, 6u, 0xc0u);
     dst_p[2] |= pack_left_shift_u8(src_p->status_obstacle, 0u, 0x0fu);
     dst_p[2] |= pack_left_shift_u8(src_p->status_faults, 4u, 0xf0u);
+    dst_p[3] |= pack_right_shift_u8(src_p->status_faults, 4u, 0x03u);
     status_e = (uint16_t)src_p->status_e;
-    dst_p[3] |= pack_left_shift_u16(status_e, 0u, 0xffu);
-    dst_p[4] |= pack_right_shift_u16(status_e, 8u, 0xffu);
-    dst_p[5] |= pack_left_shift_u16(src_p->status_distance, 0u, 0xffu);
-    dst_p[6] |= pack_right_shift_u16(src_p->status_distance, 8u, 0xffu);
-    dst_p[7] |= pack_left_shift_u8(src_p->status_step, 0u, 0x0fu);
-    dst_p[7] |= pack_left_shift_u8(src_p->status_halt, 4u, 0xf0u);
+    dst_p[3] |= pack_left_shift_u16(status_e, 2u, 0xfcu);
+    dst_p[4] |= pack_right_shift_u16(status_e, 6u, 0xffu);
+    dst_p[5] |= pack_right_shift_u16(status_e, 14u, 0x03u);
+    dst_p[5] |= pack_left_shift_u16(src_p->status_distance, 2u, 0xfcu);
+    dst_p[6] |= pack_right_shift_u16(src_p->status_distance, 6u, 0xffu);
+    dst_p[7] |= pack_right_shift_u16(src_p->status_distance, 14u, 0x03u);
+    dst_p[7] |= pack_left_shift_u8(src_p->status_step, 2u, 0x1cu);
+    dst_p[7] |= pack_left_shift_u8(src_p->status_halt, 5u, 0xe0u);
 
     return (8);
 }
@@ -1169,13 +1306,16 @@ int mstc_dbc_status_unpack(
     dst_p->status_side = unpack_right_shift_u8(src_p[1], 6u, 0xc0u);
     dst_p->status_obstacle = unpack_right_shift_u8(src_p[2], 0u, 0x0fu);
     dst_p->status_faults = unpack_right_shift_u8(src_p[2], 4u, 0xf0u);
-    status_e = unpack_right_shift_u16(src_p[3], 0u, 0xffu);
-    status_e |= unpack_left_shift_u16(src_p[4], 8u, 0xffu);
+    dst_p->status_faults |= unpack_left_shift_u8(src_p[3], 4u, 0x03u);
+    status_e = unpack_right_shift_u16(src_p[3], 2u, 0xfcu);
+    status_e |= unpack_left_shift_u16(src_p[4], 6u, 0xffu);
+    status_e |= unpack_left_shift_u16(src_p[5], 14u, 0x03u);
     dst_p->status_e = (int16_t)status_e;
-    dst_p->status_distance = unpack_right_shift_u16(src_p[5], 0u, 0xffu);
-    dst_p->status_distance |= unpack_left_shift_u16(src_p[6], 8u, 0xffu);
-    dst_p->status_step = unpack_right_shift_u8(src_p[7], 0u, 0x0fu);
-    dst_p->status_halt = unpack_right_shift_u8(src_p[7], 4u, 0xf0u);
+    dst_p->status_distance = unpack_right_shift_u16(src_p[5], 2u, 0xfcu);
+    dst_p->status_distance |= unpack_left_shift_u16(src_p[6], 6u, 0xffu);
+    dst_p->status_distance |= unpack_left_shift_u16(src_p[7], 14u, 0x03u);
+    dst_p->status_step = unpack_right_shift_u8(src_p[7], 2u, 0x1cu);
+    dst_p->status_halt = unpack_right_shift_u8(src_p[7], 5u, 0xe0u);
 
     return (0);
 }
@@ -1213,12 +1353,12 @@ bool mstc_dbc_status_status_counter_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_mode_is_in_range(uint8_t value)
 {
-    return (value <= 2u);
+    return (value <= 3u);
 }
 
 bool mstc_dbc_status_status_mode_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 2.0f));
+    return ((value >= 0.0f) && (value <= 3.0f));
 }
 
 bool mstc_dbc_status_status_side_is_in_range(uint8_t value)
@@ -1243,12 +1383,12 @@ bool mstc_dbc_status_status_obstacle_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_faults_is_in_range(uint8_t value)
 {
-    return (value <= 15u);
+    return (value <= 63u);
 }
 
 bool mstc_dbc_status_status_faults_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 15.0f));
+    return ((value >= 0.0f) && (value <= 63.0f));
 }
 
 bool mstc_dbc_status_status_e_is_in_range(int16_t value)
@@ -1277,12 +1417,12 @@ bool mstc_dbc_status_status_distance_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_step_is_in_range(uint8_t value)
 {
-    return (value <= 15u);
+    return (value <= 7u);
 }
 
 bool mstc_dbc_status_status_step_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 15.0f));
+    return ((value >= 0.0f) && (value <= 7.0f));
 }
 
 bool mstc_dbc_status_status_halt_is_in_range(uint8_t value)
@@ -1312,6 +1452,7 @@ int mstc_dbc_status_trk_pack(
 
     dst_p[0] |= pack_left_shift_u8(src_p->status_trk_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->status_trk_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->status_trk_odom_counter, 4u, 0xf0u);
     status_trk_e1 = (uint16_t)src_p->status_trk_e1;
     dst_p[2] |= pack_left_shift_u16(status_trk_e1, 0u, 0xffu);
     dst_p[3] |= pack_right_shift_u16(status_trk_e1, 8u, 0xffu);
@@ -1340,6 +1481,7 @@ int mstc_dbc_status_trk_unpack(
 
     dst_p->status_trk_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->status_trk_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->status_trk_odom_counter = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
     status_trk_e1 = unpack_right_shift_u16(src_p[2], 0u, 0xffu);
     status_trk_e1 |= unpack_left_shift_u16(src_p[3], 8u, 0xffu);
     dst_p->status_trk_e1 = (int16_t)status_trk_e1;
@@ -1380,6 +1522,16 @@ bool mstc_dbc_status_trk_status_trk_counter_is_in_range(uint8_t value)
 }
 
 bool mstc_dbc_status_trk_status_trk_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_status_trk_status_trk_odom_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_status_trk_status_trk_odom_counter_is_in_phys_range(float value)
 {
     return ((value >= 0.0f) && (value <= 15.0f));
 }
@@ -1552,9 +1704,10 @@ int mstc_dbc_event_pack(
 
     dst_p[0] |= pack_left_shift_u8(src_p->event_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->event_counter, 0u, 0x0fu);
-    dst_p[1] |= pack_left_shift_u8(src_p->event_kind, 4u, 0x30u);
-    dst_p[1] |= pack_left_shift_u8(src_p->event_side, 6u, 0xc0u);
-    dst_p[2] |= pack_left_shift_u8(src_p->event_obstacle, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->event_kind, 4u, 0x70u);
+    dst_p[1] |= pack_left_shift_u8(src_p->event_side, 7u, 0x80u);
+    dst_p[2] |= pack_right_shift_u8(src_p->event_side, 1u, 0x01u);
+    dst_p[2] |= pack_left_shift_u8(src_p->event_obstacle, 1u, 0x1eu);
     dst_p[3] |= pack_left_shift_u32(src_p->event_time, 0u, 0xffu);
     dst_p[4] |= pack_right_shift_u32(src_p->event_time, 8u, 0xffu);
     dst_p[5] |= pack_right_shift_u32(src_p->event_time, 16u, 0xffu);
@@ -1574,9 +1727,10 @@ int mstc_dbc_event_unpack(
 
     dst_p->event_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->event_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
-    dst_p->event_kind = unpack_right_shift_u8(src_p[1], 4u, 0x30u);
-    dst_p->event_side = unpack_right_shift_u8(src_p[1], 6u, 0xc0u);
-    dst_p->event_obstacle = unpack_right_shift_u8(src_p[2], 0u, 0x0fu);
+    dst_p->event_kind = unpack_right_shift_u8(src_p[1], 4u, 0x70u);
+    dst_p->event_side = unpack_right_shift_u8(src_p[1], 7u, 0x80u);
+    dst_p->event_side |= unpack_left_shift_u8(src_p[2], 1u, 0x01u);
+    dst_p->event_obstacle = unpack_right_shift_u8(src_p[2], 1u, 0x1eu);
     dst_p->event_time = unpack_right_shift_u32(src_p[3], 0u, 0xffu);
     dst_p->event_time |= unpack_left_shift_u32(src_p[4], 8u, 0xffu);
     dst_p->event_time |= unpack_left_shift_u32(src_p[5], 16u, 0xffu);
@@ -1618,12 +1772,12 @@ bool mstc_dbc_event_event_counter_is_in_phys_range(float value)
 
 bool mstc_dbc_event_event_kind_is_in_range(uint8_t value)
 {
-    return ((value >= 1u) && (value <= 3u));
+    return ((value >= 1u) && (value <= 6u));
 }
 
 bool mstc_dbc_event_event_kind_is_in_phys_range(float value)
 {
-    return ((value >= 1.0f) && (value <= 3.0f));
+    return ((value >= 1.0f) && (value <= 6.0f));
 }
 
 bool mstc_dbc_event_event_side_is_in_range(uint8_t value)
@@ -1638,12 +1792,12 @@ bool mstc_dbc_event_event_side_is_in_phys_range(float value)
 
 bool mstc_dbc_event_event_obstacle_is_in_range(uint8_t value)
 {
-    return ((value >= 1u) && (value <= 15u));
+    return (value <= 15u);
 }
 
 bool mstc_dbc_event_event_obstacle_is_in_phys_range(float value)
 {
-    return ((value >= 1.0f) && (value <= 15.0f));
+    return ((value >= 0.0f) && (value <= 15.0f));
 }
 
 bool mstc_dbc_event_event_time_is_in_range(uint32_t value)

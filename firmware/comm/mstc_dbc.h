@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file mstc_dbc.h
  *
@@ -51,6 +52,7 @@ extern "C" {
 #define MSTC_DBC_REF_MOTION_FRAME_ID (0x103u)
 #define MSTC_DBC_STEP_FRAME_ID (0x104u)
 #define MSTC_DBC_OBSTACLE_FRAME_ID (0x110u)
+#define MSTC_DBC_OBSTACLE_VEL_FRAME_ID (0x111u)
 #define MSTC_DBC_PARAM_SET_FRAME_ID (0x120u)
 #define MSTC_DBC_PARAM_GET_FRAME_ID (0x121u)
 #define MSTC_DBC_WHEEL_CMD_FRAME_ID (0x180u)
@@ -68,6 +70,7 @@ extern "C" {
 #define MSTC_DBC_REF_MOTION_LENGTH (8u)
 #define MSTC_DBC_STEP_LENGTH (8u)
 #define MSTC_DBC_OBSTACLE_LENGTH (8u)
+#define MSTC_DBC_OBSTACLE_VEL_LENGTH (8u)
 #define MSTC_DBC_PARAM_SET_LENGTH (8u)
 #define MSTC_DBC_PARAM_GET_LENGTH (8u)
 #define MSTC_DBC_WHEEL_CMD_LENGTH (8u)
@@ -85,6 +88,7 @@ extern "C" {
 #define MSTC_DBC_REF_MOTION_IS_EXTENDED (0)
 #define MSTC_DBC_STEP_IS_EXTENDED (0)
 #define MSTC_DBC_OBSTACLE_IS_EXTENDED (0)
+#define MSTC_DBC_OBSTACLE_VEL_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_SET_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_GET_IS_EXTENDED (0)
 #define MSTC_DBC_WHEEL_CMD_IS_EXTENDED (0)
@@ -102,6 +106,7 @@ extern "C" {
 #define MSTC_DBC_REF_MOTION_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_STEP_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_OBSTACLE_CYCLE_TIME_MS (20u)
+#define MSTC_DBC_OBSTACLE_VEL_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_WHEEL_CMD_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_STATUS_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_STATUS_TRK_CYCLE_TIME_MS (20u)
@@ -123,6 +128,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_TRACK_WIDTH_CHOICE (11u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_STRATEGY_CHOICE (14u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_R_M_CHOICE (0u)
@@ -139,11 +145,13 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_TRACK_WIDTH_CHOICE (11u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_STRATEGY_CHOICE (14u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE (0u)
 #define MSTC_DBC_STATUS_STATUS_MODE_AVOID_CHOICE (1u)
 #define MSTC_DBC_STATUS_STATUS_MODE_STOP_CHOICE (2u)
+#define MSTC_DBC_STATUS_STATUS_MODE_BLOCKED_CHOICE (3u)
 
 #define MSTC_DBC_STATUS_STATUS_SIDE_NONE_CHOICE (0u)
 #define MSTC_DBC_STATUS_STATUS_SIDE_LEFT_CHOICE (1u)
@@ -159,6 +167,9 @@ extern "C" {
 #define MSTC_DBC_EVENT_EVENT_KIND_DETECT_CHOICE (1u)
 #define MSTC_DBC_EVENT_EVENT_KIND_ACTIVATE_CHOICE (2u)
 #define MSTC_DBC_EVENT_EVENT_KIND_COMPLETE_CHOICE (3u)
+#define MSTC_DBC_EVENT_EVENT_KIND_BLOCKED_CHOICE (4u)
+#define MSTC_DBC_EVENT_EVENT_KIND_RESUME_CHOICE (5u)
+#define MSTC_DBC_EVENT_EVENT_KIND_FILTER_CHOICE (6u)
 
 #define MSTC_DBC_EVENT_EVENT_SIDE_NONE_CHOICE (0u)
 #define MSTC_DBC_EVENT_EVENT_SIDE_LEFT_CHOICE (1u)
@@ -184,6 +195,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_TRACK_WIDTH_CHOICE (11u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_STRATEGY_CHOICE (14u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_OK_CHOICE (0u)
@@ -198,6 +210,7 @@ extern "C" {
 #define MSTC_DBC_REF_MOTION_NAME "REF_MOTION"
 #define MSTC_DBC_STEP_NAME "STEP"
 #define MSTC_DBC_OBSTACLE_NAME "OBSTACLE"
+#define MSTC_DBC_OBSTACLE_VEL_NAME "OBSTACLE_VEL"
 #define MSTC_DBC_PARAM_SET_NAME "PARAM_SET"
 #define MSTC_DBC_PARAM_GET_NAME "PARAM_GET"
 #define MSTC_DBC_WHEEL_CMD_NAME "WHEEL_CMD"
@@ -235,6 +248,11 @@ extern "C" {
 #define MSTC_DBC_OBSTACLE_OBSTACLE_X_NAME "OBSTACLE_x"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_Y_NAME "OBSTACLE_y"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_RADIUS_NAME "OBSTACLE_radius"
+#define MSTC_DBC_OBSTACLE_VEL_OBSTACLE_VEL_CRC_NAME "OBSTACLE_VEL_CRC"
+#define MSTC_DBC_OBSTACLE_VEL_OBSTACLE_VEL_COUNTER_NAME "OBSTACLE_VEL_Counter"
+#define MSTC_DBC_OBSTACLE_VEL_OBSTACLE_VEL_ID_NAME "OBSTACLE_VEL_id"
+#define MSTC_DBC_OBSTACLE_VEL_OBSTACLE_VEL_VX_NAME "OBSTACLE_VEL_vx"
+#define MSTC_DBC_OBSTACLE_VEL_OBSTACLE_VEL_VY_NAME "OBSTACLE_VEL_vy"
 #define MSTC_DBC_PARAM_SET_PARAM_SET_CRC_NAME "PARAM_SET_CRC"
 #define MSTC_DBC_PARAM_SET_PARAM_SET_COUNTER_NAME "PARAM_SET_Counter"
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_NAME "PARAM_SET_index"
@@ -259,6 +277,7 @@ extern "C" {
 #define MSTC_DBC_STATUS_STATUS_HALT_NAME "STATUS_halt"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_CRC_NAME "STATUS_TRK_CRC"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_COUNTER_NAME "STATUS_TRK_Counter"
+#define MSTC_DBC_STATUS_TRK_STATUS_TRK_ODOM_COUNTER_NAME "STATUS_TRK_odom_counter"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_E1_NAME "STATUS_TRK_e1"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_E2_NAME "STATUS_TRK_e2"
 #define MSTC_DBC_STATUS_TRK_STATUS_TRK_E3_NAME "STATUS_TRK_e3"
@@ -522,6 +541,50 @@ struct mstc_dbc_obstacle_t {
 };
 
 /**
+ * Signals in message OBSTACLE_VEL.
+ *
+ * Velocity of a moving obstacle, sent right after its OBSTACLE frame each step, for every obstacle whose velocity is not zero. The firmware keeps the last velocity received per id (zero until one arrives).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_obstacle_vel_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t obstacle_vel_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t obstacle_vel_counter;
+
+    /**
+     * Range: 1..15 (1..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t obstacle_vel_id;
+
+    /**
+     * Range: -32768..32767 (-32..31.99902 m/s)
+     * Scale: 0.0009765625
+     * Offset: 0
+     */
+    int16_t obstacle_vel_vx;
+
+    /**
+     * Range: -32768..32767 (-32..31.99902 m/s)
+     * Scale: 0.0009765625
+     * Offset: 0
+     */
+    int16_t obstacle_vel_vy;
+};
+
+/**
  * Signals in message PARAM_SET.
  *
  * Set a parameter (see the value table of PARAM_SET_index); the firmware answers PARAM_VALUE. Index arm (128) is a command: value 1 re-arms (result rejected unless odometry and reference are valid and their last 5 frames each arrived in sequence), value 0 disarms (ramped stop).
@@ -655,7 +718,7 @@ struct mstc_dbc_status_t {
     uint8_t status_counter;
 
     /**
-     * Range: 0..2 (0..2 -)
+     * Range: 0..3 (0..3 -)
      * Scale: 1
      * Offset: 0
      */
@@ -676,9 +739,9 @@ struct mstc_dbc_status_t {
     uint8_t status_obstacle;
 
     /**
-     * Bit 0 non-finite input, bit 1 obstacle report dropped, bit 2 wheel speeds saturated, bit 3 frame dropped.
+     * Bit 0 non-finite input, bit 1 obstacle report dropped, bit 2 wheel speeds saturated, bit 3 frame dropped, bit 4 the safety filter changed the command (strategy mstc), bit 5 a telemetry value was clipped to its field's range.
      *
-     * Range: 0..15 (0..15 -)
+     * Range: 0..63 (0..63 -)
      * Scale: 1
      * Offset: 0
      */
@@ -701,9 +764,9 @@ struct mstc_dbc_status_t {
     uint16_t status_distance;
 
     /**
-     * Low 4 bits of the step of the last control step.
+     * Low 3 bits of the step of the last control step.
      *
-     * Range: 0..15 (0..15 -)
+     * Range: 0..7 (0..7 -)
      * Scale: 1
      * Offset: 0
      */
@@ -740,6 +803,15 @@ struct mstc_dbc_status_trk_t {
      * Offset: 0
      */
     uint8_t status_trk_counter;
+
+    /**
+     * Alive counter of the ODOM_XY frame whose position the step used: the latency from odometry to wheel command is measured with it.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t status_trk_odom_counter;
 
     /**
      * Range: -32768..32767 (-32..31.99902 m)
@@ -837,7 +909,7 @@ struct mstc_dbc_event_t {
     uint8_t event_counter;
 
     /**
-     * Range: 1..3 (1..3 -)
+     * Range: 1..6 (1..6 -)
      * Scale: 1
      * Offset: 0
      */
@@ -851,7 +923,9 @@ struct mstc_dbc_event_t {
     uint8_t event_side;
 
     /**
-     * Range: 1..15 (1..15 -)
+     * Obstacle id; 0 when the event concerns none.
+     *
+     * Range: 0..15 (0..15 -)
      * Scale: 1
      * Offset: 0
      */
@@ -1734,6 +1808,153 @@ bool mstc_dbc_obstacle_obstacle_radius_is_in_range(uint8_t value);
 bool mstc_dbc_obstacle_obstacle_radius_is_in_phys_range(float value);
 
 /**
+ * Pack message OBSTACLE_VEL.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_obstacle_vel_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_obstacle_vel_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message OBSTACLE_VEL.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_obstacle_vel_unpack(
+    struct mstc_dbc_obstacle_vel_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from OBSTACLE_VEL.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_obstacle_vel_init(struct mstc_dbc_obstacle_vel_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_id_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_id_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_vx_is_in_range(int16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_vx_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_vy_is_in_range(int16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_obstacle_vel_obstacle_vel_vy_is_in_phys_range(float value);
+
+/**
  * Pack message PARAM_SET.
  *
  * @param[out] dst_p Buffer to pack the message into.
@@ -2445,6 +2666,28 @@ bool mstc_dbc_status_trk_status_trk_counter_is_in_range(uint8_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_status_trk_status_trk_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_status_trk_status_trk_odom_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_status_trk_status_trk_odom_counter_is_in_phys_range(float value);
 
 /**
  * Check that given signal is in allowed range.

@@ -1,5 +1,6 @@
+/* SPDX-License-Identifier: MIT */
 /* Obstacle avoidance by boundary following, paper eq. (9)-(24), with eq. (15)
- * as corrected in notes.md. */
+ * as corrected in docs/equations.md. */
 #include "ctrl/avd.h"
 
 /* Below this centre distance the direction to the obstacle is undefined. */
@@ -7,7 +8,7 @@
 
 avd_side_t avd_choose_side(const pose_t *robot, num_t ox, num_t oy)
 {
-    /* eq. (11)-(12), compared on the wrapped difference (notes.md erratum 2):
+    /* eq. (11)-(12), compared on the wrapped difference (docs/equations.md erratum 2):
      * α = +π/2 (left) when wrap(θ − φ) >= 0. */
     const num_t phi = num_atan2(num_sub(oy, robot->y), num_sub(ox, robot->x));
     return num_wrap(num_sub(robot->theta, phi)) >= NUM_ZERO ? AVD_SIDE_LEFT : AVD_SIDE_RIGHT;
@@ -76,7 +77,7 @@ void avd_control(const avd_gains_t *g, const pose_t *robot, const trk_err_t *err
     /* β̇ is evaluated for the velocity the robot is about to be given. */
     avd_dir_t dir;
     avd_direction(robot, ox, oy, d_s, side, *v, &dir);
-    /* eq. (21), wrapped (notes.md erratum 2), and eq. (24). */
+    /* eq. (21), wrapped (docs/equations.md erratum 2), and eq. (24). */
     *e = num_wrap(num_sub(dir.beta, robot->theta));
     *w = num_add(dir.beta_dot, num_mul(g->k2, *e));
 }

@@ -1,7 +1,8 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file avd.h
  * @brief Obstacle avoidance by boundary following, paper eq. (9)-(24) with
- *        eq. (15) as corrected in notes.md. Stateless: the side is chosen at
+ *        eq. (15) as corrected in docs/equations.md. Stateless: the side is chosen at
  *        activation by the supervisor and passed in.
  */
 #ifndef MSTC_AVD_H
@@ -13,7 +14,7 @@
 /**
  * @brief Side of the avoidance: the sign of α in eq. (10)-(12).
  * LEFT (α = +π/2) turns the robot to its left, keeping the obstacle on its
- * right; RIGHT (α = −π/2) the reverse (notes.md, "Side naming").
+ * right; RIGHT (α = −π/2) the reverse (docs/equations.md, "Side naming").
  */
 typedef enum {
     AVD_SIDE_NONE = 0,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The control step: supervisor, active controller, kinematics. */
 #include "ctrl/ctl.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file ctl.h
  * @brief The control step: supervisor, the active controller, kinematics.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file pose.h
  * @brief Planar pose, shared by the controllers.

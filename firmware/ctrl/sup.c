@@ -1,4 +1,5 @@
-/* Switch strategy, paper section 4, with the choices of notes.md. */
+/* SPDX-License-Identifier: MIT */
+/* Switch strategy, paper section 4, with the choices of docs/equations.md. */
 #include "ctrl/sup.h"
 
 bool sup_p1(const pose_t *robot, const pose_t *ref, num_t ox, num_t oy, num_t d_act)
@@ -115,7 +116,7 @@ void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t
     size_t n_ev = 0;
     take_reports(s, robot, reports, n_reports, t_us, events, &n_ev);
 
-    /* notes.md, several obstacles: completion of the active obstacle first. */
+    /* docs/equations.md, several obstacles: completion of the active obstacle first. */
     if (s->avoiding != 0) {
         const sup_entry_t *a = &s->obs[s->active];
         if (sup_p1(robot, ref, a->o.x, a->o.y, a->d_act)) {

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file sup.h
  * @brief Supervisor: the switch strategy of section 4 of the paper.
@@ -5,7 +6,7 @@
  * Keeps the table of detected obstacles (Definition 1), decides each step
  * which controller runs (p1 completion, p2 activation, p3 stop), holds the
  * side of eq. (11)-(12) chosen at activation, and emits events stamped with
- * the step time. With several obstacles (notes.md): completion of the active
+ * the step time. With several obstacles (docs/equations.md): completion of the active
  * obstacle is checked first; then, when tracking, the nearest obstacle that
  * satisfies p2 is activated, possibly in the same step.
  *

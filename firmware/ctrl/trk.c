@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Trajectory tracking, paper eq. (1)-(3) (Kanayama et al. 1990). */
 #include "ctrl/trk.h"
 
@@ -10,7 +11,7 @@ void trk_errors(const pose_t *robot, const pose_t *ref, trk_err_t *err)
     const num_t dy = num_sub(ref->y, robot->y);
     err->e1 = num_add(num_mul(c, dx), num_mul(s, dy));
     err->e2 = num_sub(num_mul(c, dy), num_mul(s, dx));
-    /* notes.md erratum 2: e3 only makes sense wrapped. */
+    /* docs/equations.md erratum 2: e3 only makes sense wrapped. */
     err->e3 = num_wrap(num_sub(ref->theta, robot->theta));
 }
 

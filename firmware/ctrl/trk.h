@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file trk.h
  * @brief Trajectory tracking (Kanayama et al.), paper eq. (1)-(3).
@@ -12,7 +13,7 @@
 typedef struct {
     num_t e1; /**< along the heading [m] */
     num_t e2; /**< to the left of the heading [m] */
-    num_t e3; /**< wrap(θ_r − θ) [rad], in (-π, π] (notes.md erratum 2) */
+    num_t e3; /**< wrap(θ_r − θ) [rad], in (-π, π] (docs/equations.md erratum 2) */
 } trk_err_t;
 
 /** @brief Gains of eq. (2)-(3), all > 0 (Table 1: 3, 12, 6). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Differential-drive kinematics. */
 #include "kin/kin.h"
 

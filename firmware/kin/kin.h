@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file kin.h
  * @brief Differential-drive kinematics: (v, ω) to wheel angular speeds and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file num.h
  * @brief The scalar type of every controller and kinematics module, and its

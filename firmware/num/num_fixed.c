@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Fixed mode of num.h: the Q16.16 primitives that are not inline (see
  * num_fixed.h for range, resolution and overflow of each). Every firmware
  * source is compiled in both modes, so in float mode this file is empty. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file num_fixed.h
  * @brief Fixed mode of num.h (`-DNUM_FIXED`): `num_t` is signed Q16.16.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file num_float.h
  * @brief Float mode of num.h: `num_t` is IEEE-754 single precision. Include

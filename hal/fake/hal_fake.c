@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Recording fakes of the HAL (hal_fake.h). */
 #include "hal_fake.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file hal_fake.h
  * @brief Recording fakes of every HAL service, for the Unity tests. Each test's

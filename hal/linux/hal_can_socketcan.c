@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL CAN on Linux SocketCAN (raw sockets). The only file of the project that
  * includes <linux/can.h>: everything else sees hal_can.h's plain types. */
 #include <errno.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL time and system services on Linux. */
 #include <errno.h>
 #include <time.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* mstc-fw: the firmware as a Linux process on a SocketCAN interface. */
 #include <errno.h>
 #include <signal.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL for the in-process SIL: CAN as two queues between the plant (through
  * mstc_sil.h) and the firmware, time from the frames, no watchdog. */
 #include <errno.h>

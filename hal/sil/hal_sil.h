@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file hal_sil.h
  * @brief The plant's side of the SIL HAL's CAN queues (used by mstc_sil.c).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The control step as a shared library with a plain C ABI (mstc_sil.h). The
  * numeric conversions of the host side live here, outside the firmware. */
 #include "mstc_sil.h"

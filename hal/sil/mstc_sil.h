@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file mstc_sil.h
  * @brief C ABI of the firmware as a shared library

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file board.h
  * @brief What each STM32 board (hal/stm32f405, hal/stm32f103) provides to the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL CAN on the STM32 ports: the bxCAN controller (RM0090 §32, RM0008 §24;
  * the same IP on the F1 and F4). Receive FIFO 0 is drained by its interrupt
  * into a lock-free queue that hal_can_recv() empties; hal_can_send() queues

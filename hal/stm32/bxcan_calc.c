@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* bxCAN: the board-independent computations (see bxcan_calc.h). */
 #include "bxcan_calc.h"
 

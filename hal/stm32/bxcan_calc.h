@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file bxcan_calc.h
  * @brief The board-independent part of the bxCAN driver: bit timing from the

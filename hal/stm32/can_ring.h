@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file can_ring.h
  * @brief Lock-free single-producer / single-consumer queue of CAN frames,

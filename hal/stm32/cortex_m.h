@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file cortex_m.h
  * @brief The few ARMv7-M core registers and instructions the STM32 ports use

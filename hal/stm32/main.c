@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The main loop of the STM32 boards. Real-time mode: a timer counts control
  * periods; this loop drains received frames into the application, runs one
  * control step per period with the time of that period, sends the wheel
@@ -34,10 +35,11 @@ volatile stm32_loop_stats_t stm32_loop_stats;
  * every other identifier in hardware, so the bus's other traffic (our own
  * telemetry echoed by nobody, other nodes) never reaches the queue. */
 static const hal_can_filter_t rx_filters[] = {
-    { COMM_ID_ODOM_XY, HAL_CAN_MAX_STD_ID },   { COMM_ID_ODOM_THETA, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_REF_XY, HAL_CAN_MAX_STD_ID },    { COMM_ID_REF_MOTION, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_STEP, HAL_CAN_MAX_STD_ID },      { COMM_ID_OBSTACLE, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_PARAM_SET, HAL_CAN_MAX_STD_ID }, { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_ODOM_XY, HAL_CAN_MAX_STD_ID },      { COMM_ID_ODOM_THETA, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_REF_XY, HAL_CAN_MAX_STD_ID },       { COMM_ID_REF_MOTION, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_STEP, HAL_CAN_MAX_STD_ID },         { COMM_ID_OBSTACLE, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_OBSTACLE_VEL, HAL_CAN_MAX_STD_ID }, { COMM_ID_PARAM_SET, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },
 };
 
 /* Status LED: toggles every LED_SLOW_MS while all is well, every LED_FAST_MS

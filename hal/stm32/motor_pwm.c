@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL motor on the STM32 ports: two sign-magnitude outputs, PWM on channels 1
  * and 2 of a general-purpose timer (BOARD_PWM_TIM, TIM3 on both boards) plus
  * a direction pin per wheel and a common driver-enable pin (board_config.h

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL CAN on the STM32 ports over a serial line (CAN=slcan): the board speaks
  * slcan, the Lawicel ASCII protocol of USB-CAN adapters, on a UART
  * (board_config.h: BOARD_SLCAN_UART, USART2 at 0x40004400 on the F1, F2 and

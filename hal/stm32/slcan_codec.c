@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* slcan (Lawicel) line protocol: the board-independent part (see slcan_codec.h). */
 #include "slcan_codec.h"
 

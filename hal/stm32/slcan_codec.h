@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file slcan_codec.h
  * @brief The board-independent part of the slcan transport (hal/stm32/slcan.c):

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Start-up of the STM32 ports: reset handler and the fault path. */
 #include "startup.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file startup.h
  * @brief Start-up of the STM32 ports: the vector table's type (the table

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* STM32 ports: board-independent computations (see stm32_calc.h). */
 #include "stm32_calc.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file stm32_calc.h
  * @brief Board-independent computations of the STM32 ports: watchdog and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file stm32_hal.h
  * @brief Internal interface between the shared STM32 drivers (hal/stm32)

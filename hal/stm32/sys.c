@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL system service on the STM32 ports: the independent watchdog (IWDG,
  * RM0090 §21, RM0008 §19; the same IP on the F1 and F4) and the reset cause. */
 #include <errno.h>

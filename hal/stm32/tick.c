@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The control-period timer of the STM32 ports: a general-purpose timer
  * (board_config.h: BOARD_TICK_TIM, TIM2 on both boards; RM0090 §18, RM0008
  * §15) whose update interrupt only counts. The main loop takes the count:

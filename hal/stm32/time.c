@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* HAL time on the STM32 ports: SysTick at 1 kHz from the core clock, read to
  * the microsecond. The same code runs on any ARMv7-M core. */
 #include <stdint.h>

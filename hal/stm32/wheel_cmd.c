@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Wheel speed to motor command (see wheel_cmd.h). */
 #include "wheel_cmd.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file wheel_cmd.h
  * @brief Wheel speed [rad/s] to hal_motor command: the glue between the

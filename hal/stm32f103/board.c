@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* STM32F103 board: clock tree, GPIO, clocks of the peripherals, reset flags.
  * RM0008 (STM32F101/102/103/105/107 reference manual, Rev 21) sections are
  * cited; register names come from the generated stm32_regs.h. */

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # STM32F103 board (included by mk/firmware.mk). Cortex-M3 without FPU: fixed
 # point (Q16.16), soft-float ABI for the little float left (parameters).
 BOARD_NUMERIC := fixed

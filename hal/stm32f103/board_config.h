@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file board_config.h
  * @brief STM32F103 board: clocks, pins and peripheral choices. Edit the pin

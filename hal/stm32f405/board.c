@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* STM32F405 board: clock tree, GPIO, clocks of the peripherals, reset flags.
  * RM0090 (STM32F405/415/407/417/427/437/429/439 reference manual, Rev 19)
  * sections are cited; register names come from the generated stm32_regs.h. */

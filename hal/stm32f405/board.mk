@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # STM32F405 board (included by mk/firmware.mk). Cortex-M4F: float mode, with
 # the single-precision FPU (hard-float ABI).
 BOARD_NUMERIC := float

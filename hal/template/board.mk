@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # The blank port (included by mk/firmware.mk for BOARD=template): compiles and
 # links against every HAL service, runs nowhere. Copy hal/template to
 # hal/<yourboard>, then change the four lines below (docs/porting.md).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * The blank port: every HAL service (the headers in hal/include/hal) with what to fill
  * in. It compiles and links (`make firmware BOARD=template`), and does
@@ -5,7 +6,7 @@
  * to hal/<yourboard> and replace each TODO; docs/porting.md walks through it
  * and hal/stm32 is a complete port to read beside it.
  *
- * Rules every port keeps (docs/porting.md, design.md):
+ * Rules every port keeps (docs/porting.md, docs/architecture.md):
  * - an interrupt handler only moves data (a frame into a queue, a count up);
  *   the main loop calls the firmware, never an ISR;
  * - no heap; queues are static, sized at compile time;

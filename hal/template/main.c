@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The blank port's main loop: the same shape as every board's (hal/stm32/
  * main.c is the complete one). Real-time mode: a timer counts control
  * periods, the loop runs the control step with the period's time, sends the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Blank port: start-up for a Cortex-M. TODO for another core: the reset
  * entry your toolchain and MCU expect. On a Cortex-M this is complete except
  * for the device's interrupt vectors: add one entry per interrupt the port

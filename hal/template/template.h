@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file template.h
  * @brief The board-specific functions the template's main loop calls: what a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * A plain C ABI over the generated codec (mstc_dbc.c) and the protocol
  * adapter (comm.c), for tests/python/test_codec.py, which builds it as a
@@ -81,6 +82,9 @@ MSG(step, FIELD(step, step_crc), FIELD(step, step_counter), FIELD(step, step_ste
 MSG(obstacle, FIELD(obstacle, obstacle_crc), FIELD(obstacle, obstacle_counter),
     FIELD(obstacle, obstacle_id), FIELD(obstacle, obstacle_x), FIELD(obstacle, obstacle_y),
     FIELD(obstacle, obstacle_radius))
+MSG(obstacle_vel, FIELD(obstacle_vel, obstacle_vel_crc), FIELD(obstacle_vel, obstacle_vel_counter),
+    FIELD(obstacle_vel, obstacle_vel_id), FIELD(obstacle_vel, obstacle_vel_vx),
+    FIELD(obstacle_vel, obstacle_vel_vy))
 MSG(param_set, FIELD(param_set, param_set_crc), FIELD(param_set, param_set_counter),
     FIELD(param_set, param_set_index), FIELD(param_set, param_set_value))
 MSG(param_get, FIELD(param_get, param_get_crc), FIELD(param_get, param_get_counter),
@@ -93,8 +97,8 @@ MSG(status, FIELD(status, status_crc), FIELD(status, status_counter), FIELD(stat
     FIELD(status, status_e), FIELD(status, status_distance), FIELD(status, status_step),
     FIELD(status, status_halt))
 MSG(status_trk, FIELD(status_trk, status_trk_crc), FIELD(status_trk, status_trk_counter),
-    FIELD(status_trk, status_trk_e1), FIELD(status_trk, status_trk_e2),
-    FIELD(status_trk, status_trk_e3))
+    FIELD(status_trk, status_trk_odom_counter), FIELD(status_trk, status_trk_e1),
+    FIELD(status_trk, status_trk_e2), FIELD(status_trk, status_trk_e3))
 MSG(status_counters, FIELD(status_counters, status_counters_crc),
     FIELD(status_counters, status_counters_counter),
     FIELD(status_counters, status_counters_crc_errors),
@@ -116,6 +120,7 @@ static const msg_t msgs[] = {
     ENTRY(ref_motion, REF_MOTION),
     ENTRY(step, STEP),
     ENTRY(obstacle, OBSTACLE),
+    ENTRY(obstacle_vel, OBSTACLE_VEL),
     ENTRY(param_set, PARAM_SET),
     ENTRY(param_get, PARAM_GET),
     ENTRY(wheel_cmd, WHEEL_CMD),
@@ -331,8 +336,8 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
 /**
  * comm_decode() of a frame; on success @p out holds:
  *   ODOM_XY, REF_XY x, y; ODOM_THETA theta; REF_MOTION theta, v, w;
- *   STEP step, time_us; OBSTACLE id, x, y, radius; PARAM_SET index, value;
- *   PARAM_GET index.
+ *   STEP step, time_us; OBSTACLE id, x, y, radius; OBSTACLE_VEL id, vx, vy;
+ *   PARAM_SET index, value; PARAM_GET index.
  * @retval comm_decode()'s result.
  */
 int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
@@ -365,6 +370,11 @@ int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
         out[1] = (double)num_to_float(m.u.obstacle.x);
         out[2] = (double)num_to_float(m.u.obstacle.y);
         out[3] = (double)num_to_float(m.u.obstacle.radius);
+        break;
+    case COMM_ID_OBSTACLE_VEL:
+        out[0] = (double)m.u.obstacle_vel.id;
+        out[1] = (double)num_to_float(m.u.obstacle_vel.vx);
+        out[2] = (double)num_to_float(m.u.obstacle_vel.vy);
         break;
     case COMM_ID_PARAM_SET:
         out[0] = (double)m.u.param_set.index;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * A plain C ABI over the E2E receiver of comm.c, for
  * tests/python/test_e2e_model.py, which builds it as a shared library with

@@ -1,10 +1,10 @@
+# SPDX-License-Identifier: MIT
 """Shared fixtures: the firmware library, and scenario files written from dicts."""
 
 import math
 import os
 import shutil
 import subprocess
-import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -14,27 +14,27 @@ ROOT = Path(__file__).resolve().parents[2]
 """The repository."""
 SCENARIOS = ROOT / "sim" / "scenarios"
 
-# `make test-python` sets PYTHONPATH=sim; this lets a bare `pytest` work too.
-if str(ROOT / "sim") not in sys.path:
-    sys.path.insert(0, str(ROOT / "sim"))
+# Fixtures of the bus-log tests (tests/python/logfiles.py).
+pytest_plugins = ["logfiles"]
 
 
-FIRMWARE_CFLAGS = [
-    "-std=c11",
-    "-D_DEFAULT_SOURCE",
-    "-O2",
-    "-Wall",
-    "-Wextra",
-    "-Wconversion",
-    "-Wdouble-promotion",
-    "-Wshadow",
-    "-Wstrict-prototypes",
-    "-Wmissing-prototypes",
-    "-Wundef",
-    "-Wcast-align",
-    "-Werror",
-]
-"""The Makefile's compile flags (CSTD, WARN) for firmware sources."""
+def firmware_cflags() -> list[str]:
+    """The host build's compile flags for firmware sources, from the Makefile
+    (`make print-cflags`, float mode: the shims link no libfixmath), so that
+    the shims compile exactly as the firmware does; fail the test, loudly,
+    when make cannot say them."""
+    make = shutil.which("make")
+    if make is None:
+        pytest.fail("make not found: the shims take their flags from the Makefile (Debian: make)")
+    # A clean environment for the inner make: without the outer make's
+    # MAKEFLAGS (jobserver) and MAKELEVEL, it prints only the flags.
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL")}
+    cmd = [make, "-s", "--no-print-directory", "NUMERIC=float", "print-cflags"]
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    if done.returncode != 0 or not done.stdout.strip():
+        pytest.fail(f"`{' '.join(cmd)}` failed:\n{done.stdout}{done.stderr}")
+    # Plain words: the host flags hold no quoting.
+    return done.stdout.split()
 
 
 def build_shim(sources: list[str], out: Path, what: str) -> Path:
@@ -43,7 +43,7 @@ def build_shim(sources: list[str], out: Path, what: str) -> Path:
     cc = os.environ.get("CC", "cc")
     if shutil.which(cc) is None:
         pytest.fail(f"C compiler {cc!r} not found: the {what} tests need one (Debian: gcc)")
-    cmd = [cc, *FIRMWARE_CFLAGS, "-shared", "-fPIC", "-Ifirmware", "-Ihal/include", *sources]
+    cmd = [cc, *firmware_cflags(), "-shared", *sources]
     done = subprocess.run([*cmd, "-lm", "-o", str(out)], cwd=ROOT, capture_output=True, text=True)
     if done.returncode != 0:
         pytest.fail(f"building the {what} shim failed:\n{' '.join(cmd)}\n{done.stderr}")

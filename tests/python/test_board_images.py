@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The board images (mk/firmware.mk): both build with the cross compiler and
 warnings as errors, fit the budgets (flash <= 32 KiB, RAM <= 8 KiB, worst-case
 stack within its reservation), the blank port links, and both images run

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The plant and the firmware through CAN frames (issue: CAN between plant and
 firmware): the in-process firmware behind the python-can interface "mstc-sil"
 must give the same events as the in-memory step, and every run's bus.log must
@@ -15,12 +16,13 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc_sim.canctl import CanController, ControllerError
-from mstc_sim.cli import main
-from mstc_sim.firmware import SilController
-from mstc_sim.protocol import Protocol
-from mstc_sim.run import RunResult, simulate
-from mstc_sim.scenario import load_scenario
+from mstc.can.lockstep import CanController
+from mstc.can.protocol import Protocol
+from mstc.cli import main
+from mstc.errors import ControllerError
+from mstc.firmware import SilController
+from mstc.sim.run import RunResult, simulate
+from mstc.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
@@ -69,7 +71,7 @@ def cli_run(tmp_path_factory: pytest.TempPathFactory, sil_lib: Path) -> Path:
     out = tmp_path_factory.mktemp("sil")
     rc = main(
         [
-            "run",
+            "sim",
             "--bus",
             "sil",
             "--lib",

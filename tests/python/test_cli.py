@@ -1,45 +1,48 @@
+# SPDX-License-Identifier: MIT
 """The command line and what a run writes, through the real library."""
 
 import csv
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, SCENARIOS
-from mstc_sim.cli import main
-from mstc_sim.firmware import FirmwareError, SilController
-from mstc_sim.params import Params
+from conftest import SCENARIOS
+from mstc.cli import main
+from mstc.errors import FirmwareError
+from mstc.firmware import SilController
+from mstc.params import Params
 
 TRACE_HEADER = "t,x,y,theta,x_r,y_r,theta_r,v,w,v_r,w_r,mode,e1,e2,e3,e,d1,d2".split(",")
 FIGURES = ("path", "position_error", "angle_error", "v", "w", "distance", "overview")
 
 
-def python_m(*args: str) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "sim")}
-    return subprocess.run(
-        [sys.executable, "-m", "mstc_sim", *args],
-        capture_output=True,
-        text=True,
-        env=env,
-        check=False,
-    )
+def mstc(*args: str) -> subprocess.CompletedProcess[str]:
+    """The installed ``mstc`` command, beside this interpreter (the .venv's)."""
+    exe = Path(sys.executable).parent / "mstc"
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, check=False)
 
 
-def test_help_describes_the_run_command() -> None:
-    top = python_m("--help")
+def test_help_describes_the_sim_command() -> None:
+    top = mstc("--help")
     assert top.returncode == 0
-    assert "run" in top.stdout
-    run = python_m("run", "--help")
+    for command in ("sim", "hil", "replay", "play", "plot"):
+        assert command in top.stdout
+    run = mstc("sim", "--help")
     assert run.returncode == 0
     for words in ("--lib", "--out", "events.json", "trace.csv", "exit status", "MSTC_SIL_LIB"):
         assert words in run.stdout
 
 
-@pytest.mark.parametrize("args", [["run", "--bogus", "x.toml"], ["run"], ["fly"], []])
+def test_version() -> None:
+    done = mstc("--version")
+    assert done.returncode == 0
+    assert done.stdout.strip() == "mstc 0.1.0"
+
+
+@pytest.mark.parametrize("args", [["sim", "--bogus", "x.toml"], ["sim"], ["fly"], []])
 def test_bad_arguments_exit_2(args: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(args)
@@ -51,7 +54,7 @@ def test_run_writes_events_trace_and_figures(
     sil_lib: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "sim"
-    rc = main(["run", "--lib", str(sil_lib), "--out", str(out), str(SCENARIOS / "paper-line.toml")])
+    rc = main(["sim", "--lib", str(sil_lib), "--out", str(out), str(SCENARIOS / "paper-line.toml")])
     report = capsys.readouterr().out
     assert rc == 0
     folder = out / "paper-line"
@@ -89,13 +92,16 @@ def test_missing_library_fails_before_writing(
 ) -> None:
     out = tmp_path / "out"
     scenario = str(SCENARIOS / "paper-line.toml")
-    rc = main(["run", "--lib", str(tmp_path / "absent.so"), "--out", str(out), scenario])
+    rc = main(["sim", "--lib", str(tmp_path / "absent.so"), "--out", str(out), scenario])
     assert rc == 1
     assert "cannot load firmware library" in capsys.readouterr().err
+    # Neither --lib nor MSTC_SIL_LIB, and no default build: the error says how to get one.
     monkeypatch.delenv("MSTC_SIL_LIB", raising=False)
-    rc = main(["run", "--out", str(out), scenario])
+    monkeypatch.setattr("mstc.cli.common.DEFAULT_LIB", tmp_path / "not-built.so")
+    rc = main(["sim", "--out", str(out), scenario])
     assert rc == 1
-    assert "MSTC_SIL_LIB" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "MSTC_SIL_LIB" in err and "make lib" in err and "--lib" in err
     assert not out.exists()
 
 

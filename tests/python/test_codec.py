@@ -1,10 +1,11 @@
+# SPDX-License-Identifier: MIT
 """The C codec and protocol adapter against cantools and the plant's protocol.py.
 
 - The generated C codec (firmware/comm/mstc_dbc.c) packs and unpacks every
   message of mstc.dbc bit-exactly as cantools' Python encode and decode do, on
   seeded random raw values and random payloads.
 - The firmware's adapter (firmware/comm/comm.c) and the plant's
-  (sim/mstc_sim/protocol.py) agree: same bytes for the same values (scaling,
+  (sim/mstc/can/protocol.py) agree: same bytes for the same values (scaling,
   rounding, saturation, alive counter, CRC), and the firmware decodes the
   plant's frames to the values cantools reads from them; both drop the same
   frames for the same reasons.
@@ -31,7 +32,7 @@ from cantools.database.can import Message, Signal
 from cantools.database.can.c_source import camel_to_snake_case
 
 from conftest import build_shim
-from mstc_sim.protocol import DLC, DropReason, FrameDropped, Protocol, load_database
+from mstc.can.protocol import DLC, DropReason, FrameDropped, Protocol, load_database
 
 ROOT = Path(__file__).resolve().parents[2]
 SEED = 4
@@ -241,30 +242,30 @@ def test_comm_receives_exactly_the_frames_the_dbc_sends_it(shim: Shim) -> None:
 
 
 def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
-    mode, side, active = rng.randint(0, 2), rng.choice([-1, 0, 1]), rng.randint(0, 20)
+    mode, side, active = rng.randint(0, 5), rng.choice([-1, 0, 1]), rng.randint(0, 20)
     faults, frame_faults = rng.randint(0, 255), rng.randint(0, 1)
     e, distance, step = _f32(rng.uniform(-5, 5)), _f32(rng.uniform(-2, 70)), rng.randint(0, 65535)
     halt = rng.randint(0, 9)
     inputs = [mode, side, active, faults, e, distance, step, frame_faults, halt]
     wire = {
-        "mode": mode,
+        "mode": min(mode, 3),
         "side": {0: 0, 1: 1, -1: 2}[side],
         "obstacle": min(active, 15),
         "faults": (faults & 0x7) | (frame_faults << 3),
         "e": e,
         "distance": distance,
-        "step": step & 0xF,
+        "step": step & 0x7,
         "halt": min(halt, 5),
     }
     return inputs, wire
 
 
 def _event(rng: random.Random) -> tuple[list[float], dict[str, float]]:
-    kind, side, obstacle = rng.randint(1, 3), rng.choice([-1, 0, 1]), rng.randint(1, 20)
+    kind, side, obstacle = rng.randint(1, 9), rng.choice([-1, 0, 1]), rng.randint(0, 20)
     t_us = rng.choice([0, rng.randint(0, 2**32 - 1), 2**32 - 1])
     inputs = [kind, side, obstacle, t_us]
     wire = {
-        "kind": kind,
+        "kind": min(kind, 6),
         "side": {0: 0, 1: 1, -1: 2}[side],
         "obstacle": min(obstacle, 15),
         "time": t_us * 1e-6,
@@ -282,7 +283,8 @@ def _wheel_cmd(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 def _status_trk(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     m = DB.get_message_by_name("STATUS_TRK")
     e = [_random_phys(rng, m.get_signal_by_name(f"STATUS_TRK_e{i}")) for i in (1, 2, 3)]
-    return e, {"e1": e[0], "e2": e[1], "e3": e[2]}
+    # odom_counter is 0 until the firmware fills it (comm_encode_status_trk).
+    return e, {"odom_counter": 0, "e1": e[0], "e2": e[1], "e3": e[2]}
 
 
 def _counters(rng: random.Random) -> tuple[list[float], dict[str, float]]:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The firmware's E2E receiver (firmware/comm/comm.c) against an independent
 model of its specification (docs/safety.md, "E2E receiver").
 
@@ -26,7 +27,7 @@ from pathlib import Path
 import pytest
 
 from conftest import build_shim
-from mstc_sim.protocol import e2e_crc
+from mstc.can.protocol import e2e_crc
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = ["tests/codec/e2e_shim.c", "firmware/comm/comm.c", "firmware/comm/mstc_dbc.c"]

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Closed loop through a faulty link: the plant and the firmware in lock-step
 over the in-process bus ("mstc-sil"), with the plant's frames cut, corrupted,
 delayed and duplicated (docs/safety.md, "Tests").
@@ -35,13 +36,13 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc_sim.canctl import ARM_INDEX, CanController
-from mstc_sim.plant import UnicyclePlant, wrap_angle
-from mstc_sim.protocol import Frame, FrameDropped, Protocol
-from mstc_sim.reference import ReferenceRobot
-from mstc_sim.run import world_obstacles
-from mstc_sim.scenario import Scenario, load_scenario
-from mstc_sim.sensor import RangeSensor
+from mstc.can.lockstep import ARM_INDEX, CanController
+from mstc.can.protocol import Frame, FrameDropped, Protocol
+from mstc.sim.plant import UnicyclePlant, wrap_angle
+from mstc.sim.reference import ReferenceRobot
+from mstc.sim.run import world_obstacles
+from mstc.sim.scenario import Scenario, load_scenario
+from mstc.sim.sensor import RangeSensor
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "sim" / "scenarios" / "paper-line.toml"

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """`make flash` and tools/flash build the right command (no probe is attached
 here, so the command is checked, not run: --dry-run / FLASH_DRY_RUN=1)."""
 

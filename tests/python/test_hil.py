@@ -1,10 +1,11 @@
+# SPDX-License-Identifier: MIT
 """HIL over vcan (issue: CAN between plant and firmware): mstc-fw as its own
 process on vcan0 and the plant on python-can's socketcan interface, inside the
 vcan VM where the host kernel has no CAN (tools/vm/with-vcan). Never skipped:
 without a vcan the test fails and says why.
 
 Expected values: the paper's events (via the scenario files' [[expected]]
-times, which test_paper.py checks against notes.md) and the in-memory loop.
+times, which test_paper.py checks against the paper's) and the in-memory loop.
 """
 
 import json
@@ -16,10 +17,10 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc_sim.firmware import SilController
-from mstc_sim.output import event_record
-from mstc_sim.run import simulate
-from mstc_sim.scenario import load_scenario
+from mstc.firmware import SilController
+from mstc.report.outputs import event_record
+from mstc.sim.run import simulate
+from mstc.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
@@ -39,12 +40,8 @@ def hil_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
         "--timeout",
         "900",
         "--",
-        sys.executable,
-        "-m",
-        "mstc_sim",
-        "run",
-        "--bus",
-        "socketcan",
+        str(Path(sys.executable).parent / "mstc"),
+        "hil",
         "--channel",
         "vcan0",
         "--fw",

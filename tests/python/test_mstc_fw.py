@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """mstc-fw, the firmware as a Linux process (hal/linux): its command line.
 
 The CAN exchange itself is tested over vcan by tests/python/test_hil.py.

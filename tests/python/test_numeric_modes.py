@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Float and Q16.16 builds of the same controller source agree in closed loop
 (issue: fixed point). Both libraries run the same scenarios in memory; the
 robot paths may differ by at most 1 mm, and the events should not differ at
@@ -17,9 +18,9 @@ import numpy as np
 import pytest
 
 from conftest import to_toml
-from mstc_sim.firmware import SilController
-from mstc_sim.run import RunResult, simulate
-from mstc_sim.scenario import load_scenario
+from mstc.firmware import SilController
+from mstc.sim.run import RunResult, simulate
+from mstc.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"

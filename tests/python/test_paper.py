@@ -1,6 +1,7 @@
+# SPDX-License-Identifier: MIT
 """Both examples of the paper's section 5, end to end through the firmware.
 
-The expected times and sides are the paper's (table in paper/notes.md),
+The expected times and sides are the paper's (section 5; docs/equations.md),
 written here rather than read from the scenario files, so that an edit of a
 file cannot move the target.
 """
@@ -11,12 +12,12 @@ from pathlib import Path
 import pytest
 
 from conftest import SCENARIOS
-from mstc_sim.controller import EventKind
-from mstc_sim.firmware import SilController
-from mstc_sim.run import RunResult, simulate
-from mstc_sim.scenario import Scenario, load_scenario
+from mstc.controller import EventKind
+from mstc.firmware import SilController
+from mstc.sim.run import RunResult, simulate
+from mstc.sim.scenario import Scenario, load_scenario
 
-# (t [s], event, obstacle, side), paper section 5 and notes.md.
+# (t [s], event, obstacle, side), paper section 5 (docs/equations.md).
 PAPER = {
     "paper-line": [
         (0.82, "detect", 1, None),
@@ -105,7 +106,7 @@ def test_euler_keeps_the_safe_distance_to_every_obstacle(
     _, result = euler_run
     assert len(result.min_distance) == 2
     assert all(d >= D_S for d in result.min_distance)
-    # notes.md: about 0.362 m.
+    # docs/equations.md: about 0.362 m.
     assert result.min_distance == pytest.approx((0.362, 0.362), abs=0.002)
     assert result.faults == {}
 

@@ -1,12 +1,13 @@
+# SPDX-License-Identifier: MIT
 """Plant, reference robot and sensor against closed-form motion."""
 
 import math
 
 import pytest
 
-from mstc_sim.plant import Integrator, Pose, UnicyclePlant, body_velocity, integrate
-from mstc_sim.reference import ReferenceRobot
-from mstc_sim.sensor import Obstacle, RangeSensor
+from mstc.sim.plant import Integrator, Pose, UnicyclePlant, body_velocity, integrate
+from mstc.sim.reference import ReferenceRobot
+from mstc.sim.sensor import Obstacle, RangeSensor
 
 
 def run(pose: Pose, v: float, w: float, dt: float, steps: int, integrator: Integrator) -> Pose:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Scenario loader: valid files, every kind of bad file, and what the CLI does
 with a bad file (one error line, exit 2, nothing written)."""
 
@@ -10,11 +11,12 @@ from typing import Any
 import pytest
 
 from conftest import SCENARIOS
-from mstc_sim.cli import main
-from mstc_sim.controller import EventKind, Side
-from mstc_sim.params import Params
-from mstc_sim.plant import Integrator, Pose
-from mstc_sim.scenario import ScenarioError, load_scenario
+from mstc.cli import main
+from mstc.controller import EventKind, Side
+from mstc.errors import ScenarioError
+from mstc.params import Params
+from mstc.sim.plant import Integrator, Pose
+from mstc.sim.scenario import load_scenario
 
 WriteScenario = Callable[[Mapping[str, object], str], Path]
 
@@ -260,7 +262,7 @@ def run_cli(tmp_path: Path, *scenarios: Path) -> tuple[int, Path]:
     """`run` into tmp_path/out with a library that does not exist: a bad file
     must be caught before the library is even looked at."""
     out = tmp_path / "out"
-    args = ["run", "--lib", str(tmp_path / "never-loaded.so"), "--out", str(out)]
+    args = ["sim", "--lib", str(tmp_path / "never-loaded.so"), "--out", str(out)]
     return main([*args, *map(str, scenarios)]), out
 
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """tools/vm/with-vcan gives a command a working vcan0, on the host or in a VM.
 
 Where the host kernel has no CAN (this project's build and CI machines), the

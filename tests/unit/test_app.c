@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Unity tests of the application layer (firmware/app): the lock-step
  * exchange, the safe stop before inputs arrive, parameters over the bus,
  * drop reporting and housekeeping. The HAL is hal/fake: received frames are
@@ -207,6 +208,25 @@ static void test_app_reports_a_dropped_frame_in_the_next_status_only(void)
     TEST_ASSERT_EQUAL_UINT8(0u, tf_last_status().status_faults & 8u);
 }
 
+static void test_app_takes_an_obstacle_velocity_frame_without_a_drop(void)
+{
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_obstacle_vel_t v = { .obstacle_vel_id = 1,
+                                               .obstacle_vel_vx = 256, /* 0.25 m/s */
+                                               .obstacle_vel_vy = 0 };
+    mstc_dbc_obstacle_vel_pack(p, &v, 8);
+    const unsigned before = hal_fake.n_sent;
+    feed(tf_seal(COMM_ID_OBSTACLE_VEL, p)); /* app_on_frame() returns 0 */
+    /* Accepted: not a PARAM_GET (no PARAM_VALUE answer), nothing dropped. */
+    TEST_ASSERT_EQUAL_UINT(before, hal_fake.n_sent);
+    TEST_ASSERT_EQUAL_UINT16(0, app.comm.drops.unknown);
+    TEST_ASSERT_EQUAL_UINT16(0, app.comm.drops.crc);
+    send_step(0, 0u);
+    TEST_ASSERT_EQUAL_UINT8(0u, tf_last_status().status_faults & 8u);
+}
+
 static void test_app_housekeeping_runs_every_100_ms_of_step_time(void)
 {
     send_odom(0.0, 0.0, 0.0);
@@ -260,6 +280,7 @@ int main(void)
     RUN_TEST(test_app_reports_events_before_the_wheel_command);
     RUN_TEST(test_app_sets_and_gets_parameters_over_the_bus);
     RUN_TEST(test_app_reports_a_dropped_frame_in_the_next_status_only);
+    RUN_TEST(test_app_takes_an_obstacle_velocity_frame_without_a_drop);
     RUN_TEST(test_app_housekeeping_runs_every_100_ms_of_step_time);
     RUN_TEST(test_app_extends_the_step_time_past_its_32_bit_wrap);
     RUN_TEST(test_app_poll_drains_the_queue_waiting_only_for_the_first_frame);

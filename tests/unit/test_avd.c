@@ -1,13 +1,14 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/avd: the side of eq. (11)-(12) on the wrapped
  * difference, the blending vector's direction β of eq. (9)-(14), its rate β̇
- * of eq. (22) with eq. (15) as corrected in notes.md, and the control law of
+ * of eq. (22) with eq. (15) as corrected in docs/equations.md, and the control law of
  * eq. (21)-(24).
  *
  * Expected values: hand derivations written beside them, and three
  * independent computations in double inside this file:
  *  - ref_beta: eq. (9)-(14) with libm;
- *  - ref_beta_dot: eq. (15) corrected (notes.md erratum 1), (16), (17), (22);
+ *  - ref_beta_dot: eq. (15) corrected (docs/equations.md, erratum 1), (16), (17), (22);
  *  - ref_beta_dot with misprint = true: the paper's printed eq. (15),
  *    "+ D_s (ẋ cos φ + ẏ sin φ) u_mo", kept to show that it is wrong;
  * and a finite difference of β along straight-line motion, with β taken from
@@ -78,7 +79,7 @@ static double ref_beta(double x, double y, double ox, double oy, double ds, int 
 }
 
 /* Eq. (22) with u̇ = u̇_p + u̇_f, eq. (16) u̇_f = −R q̇, and eq. (15) either as
- * corrected in notes.md or as the paper prints it (misprint = true):
+ * corrected in docs/equations.md or as the paper prints it (misprint = true):
  *   corrected: u̇_p = (D_s/r − 1) q̇ − (D_s/r)(ẋ cos φ + ẏ sin φ) û
  *   misprint:  u̇_p = (D_s/r − 1) q̇ + D_s (ẋ cos φ + ẏ sin φ) u_mo      */
 static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy, double ds,

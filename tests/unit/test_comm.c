@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/comm: CRC-8H2F, E2E protection and checks (every
  * drop reason), scaling and saturation of every frame, in both numeric modes.
@@ -155,10 +156,12 @@ static void test_comm_crc8h2f_of_nothing_is_init_xor_final(void)
 static void test_comm_data_ids_are_the_dbc_attribute(void)
 {
     static const uint32_t ids[] = {
-        COMM_ID_ODOM_XY,   COMM_ID_ODOM_THETA, COMM_ID_REF_XY,      COMM_ID_REF_MOTION,
-        COMM_ID_STEP,      COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,   COMM_ID_PARAM_GET,
-        COMM_ID_WHEEL_CMD, COMM_ID_STATUS,     COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS,
-        COMM_ID_EVENT,     COMM_ID_HEARTBEAT,  COMM_ID_PARAM_VALUE,
+        COMM_ID_ODOM_XY,         COMM_ID_ODOM_THETA, COMM_ID_REF_XY,
+        COMM_ID_REF_MOTION,      COMM_ID_STEP,       COMM_ID_OBSTACLE,
+        COMM_ID_OBSTACLE_VEL,    COMM_ID_PARAM_SET,  COMM_ID_PARAM_GET,
+        COMM_ID_WHEEL_CMD,       COMM_ID_STATUS,     COMM_ID_STATUS_TRK,
+        COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,      COMM_ID_HEARTBEAT,
+        COMM_ID_PARAM_VALUE,
     };
     TEST_ASSERT_EQUAL_UINT(COMM_N_FRAMES, sizeof ids / sizeof ids[0]);
     for (size_t i = 0; i < COMM_N_FRAMES; i++) {
@@ -470,6 +473,21 @@ static void test_comm_decode_obstacle(void)
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.25, m.u.obstacle.radius);
 }
 
+static void test_comm_decode_obstacle_velocity(void)
+{
+    /* id 3 at bits 12..15; vx = 0.5 m/s: raw 512 (2^-10 m/s) at 16..31;
+     * vy = -1.25 m/s: raw -1280 at 32..47. Counter 2. CRC-8H2F over data ID
+     * 0x1111 and bytes 1..7: 0x62 (crccheck's Crc8Autosar). */
+    static const uint8_t g[8] = { 0x62, 0x32, 0x00, 0x02, 0x00, 0xFB, 0x00, 0x00 };
+    hal_can_frame_t f = golden_in(COMM_ID_OBSTACLE_VEL, g);
+    comm_msg_t m;
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_OBSTACLE_VEL, m.id);
+    TEST_ASSERT_EQUAL_UINT8(3, m.u.obstacle_vel.id);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.5, m.u.obstacle_vel.vx);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.25, m.u.obstacle_vel.vy);
+}
+
 static void test_comm_decode_param_set_and_get(void)
 {
     /* PARAM_SET index 5, value 3.0f = 0x40400000 at bytes 3..6. */
@@ -565,12 +583,14 @@ static void test_comm_encode_wheel_cmd(void)
 
 static void test_comm_encode_status(void)
 {
-    /* mode avoid, side right (2), obstacle 2, faults 0b1010 (obstacle
-     * dropped, frame dropped), e = 0.5 rad: raw 4096; distance to the active
-     * obstacle 2, 1.25 m: raw 1280, although obstacle 5 is nearer; step
-     * 0x1234: low 4 bits 0x4 (bits 56..59); halt 3, reference (bits 60..63):
-     * byte 7 is 0x34. */
-    static const uint8_t golden[8] = { 0x04, 0x90, 0xA2, 0x00, 0x10, 0x00, 0x05, 0x34 };
+    /* mode avoid (bits 12..13), side right (2, bits 14..15), obstacle 2
+     * (16..19), faults 0b001010 (obstacle dropped, frame dropped; 20..25),
+     * e = 0.5 rad: raw 4096 (26..41); distance to the active obstacle 2,
+     * 1.25 m: raw 1280 (42..57), although obstacle 5 is nearer; step 0x1234:
+     * low 3 bits 4 (58..60); halt 3, reference (61..63): byte 7 is
+     * 4 << 2 | 3 << 5 = 0x70. CRC-8H2F over data ID 0x1181 and bytes 1..7:
+     * 0x13 (crccheck's Crc8Autosar). */
+    static const uint8_t golden[8] = { 0x13, 0x90, 0xA2, 0x00, 0x40, 0x00, 0x14, 0x70 };
     ctl_status_t st;
     memset(&st, 0, sizeof st);
     st.mode = SUP_MODE_AVOID;
@@ -601,7 +621,7 @@ static int64_t status_distance_raw(const ctl_status_t *st)
 {
     hal_can_frame_t f;
     comm_encode_status(&c, st, 0, false, COMM_HALT_NONE, &f);
-    return get_field(f.data, 40, 16, false);
+    return get_field(f.data, 42, 16, false);
 }
 
 static void test_comm_status_distance_is_the_nearest_when_tracking(void)
@@ -630,17 +650,18 @@ static void test_comm_status_distance_saturates_and_says_none(void)
 static void test_comm_status_saturates_enumerations_and_ids(void)
 {
     ctl_status_t st = tracking_status();
+    st.mode = (sup_mode_t)7; /* beyond blocked (3): saturated */
     st.side = AVD_SIDE_LEFT;
     st.active_obstacle = 200;
     st.faults = 0xFF; /* only the controller's bits 0..2 are taken */
     hal_can_frame_t f;
     comm_encode_status(&c, &st, 0x00FF, false, 200, &f);
-    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 12, 2, false));
+    TEST_ASSERT_EQUAL_INT64(3, get_field(f.data, 12, 2, false));
     TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 14, 2, false));
     TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
-    TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 20, 4, false));
-    TEST_ASSERT_EQUAL_INT64(0xF, get_field(f.data, 56, 4, false));
-    TEST_ASSERT_EQUAL_INT64(COMM_HALT_BUS_OFF, get_field(f.data, 60, 4, false)); /* saturated */
+    TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 20, 6, false));
+    TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 58, 3, false)); /* low 3 bits of the step */
+    TEST_ASSERT_EQUAL_INT64(COMM_HALT_BUS_OFF, get_field(f.data, 61, 3, false)); /* saturated */
 }
 
 static void test_comm_encode_status_trk(void)
@@ -664,8 +685,10 @@ static void test_comm_encode_counters(void)
 
 static void test_comm_encode_event(void)
 {
-    /* activate (2), side right (2), obstacle 3, time 2.5 s: raw 2500000 µs. */
-    static const uint8_t golden[8] = { 0xEB, 0xA0, 0x03, 0xA0, 0x25, 0x26, 0x00, 0x00 };
+    /* activate (2, bits 12..14), side right (2, bits 15..16), obstacle 3
+     * (17..20), time 2.5 s: raw 2500000 µs (24..55); CRC-8H2F over data ID
+     * 0x1184 and bytes 1..7: 0xA6 (crccheck's Crc8Autosar). */
+    static const uint8_t golden[8] = { 0xA6, 0x20, 0x07, 0xA0, 0x25, 0x26, 0x00, 0x00 };
     const sup_event_t e = {
         .t_us = 2500000u, .kind = SUP_EVENT_ACTIVATE, .obstacle = 3, .side = AVD_SIDE_RIGHT
     };
@@ -683,9 +706,9 @@ static void test_comm_event_time_is_the_low_32_bits_and_the_id_saturates(void)
     hal_can_frame_t f;
     comm_encode_event(&c, &e, &f);
     TEST_ASSERT_EQUAL_INT64(5, get_field(f.data, 24, 32, false));
-    TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
-    TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 12, 2, false));
-    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 14, 2, false));
+    TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 17, 4, false));
+    TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 12, 3, false));
+    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 15, 2, false));
 }
 
 static void test_comm_encode_heartbeat_saturates_the_state(void)
@@ -785,7 +808,7 @@ static void test_comm_angles_of_pi_round_in_both_modes(void)
     ctl_status_t st = tracking_status();
     st.e = num_neg(NUM_PI);
     comm_encode_status(&c, &st, 0, false, COMM_HALT_NONE, &f);
-    TEST_ASSERT_EQUAL_INT64(-25736, get_field(f.data, 24, 16, true));
+    TEST_ASSERT_EQUAL_INT64(-25736, get_field(f.data, 26, 16, true));
 }
 
 #ifndef NUM_FIXED
@@ -833,6 +856,7 @@ int main(void)
     RUN_TEST(test_comm_decode_step);
     RUN_TEST(test_comm_decode_obstacle);
     RUN_TEST(test_comm_decode_radius_0_1_m_equals_the_r_ob_constant);
+    RUN_TEST(test_comm_decode_obstacle_velocity);
     RUN_TEST(test_comm_decode_param_set_and_get);
     RUN_TEST(test_comm_decode_range_ends_are_exact);
     RUN_TEST(test_comm_decode_passes_invalid_reports_on);

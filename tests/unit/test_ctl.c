@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/ctl: parameters (Table 1 defaults and their
  * check), and the control step end to end (supervisor, active controller,

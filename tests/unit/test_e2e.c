@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the E2E receiver of firmware/comm (comm.h, docs/safety.md):
  * - every 1-, 2- and 3-bit flip of every frame the firmware receives, over

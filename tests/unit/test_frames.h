@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file test_frames.h
  * @brief Frames as a sender builds them, and the firmware's answers as the

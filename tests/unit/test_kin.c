@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/kin: differential-drive kinematics and the
  * saturation that keeps the curvature.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the slcan line codec (hal/stm32/slcan_codec.c): the Lawicel
  * commands a host sends, the channel state they change, the replies, and the

@@ -1,11 +1,12 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the board-independent computations of the STM32 ports
  * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, reset cause, SysTick, USART
  * baud rate) and of the wheel-speed-to-motor-command glue
  * (hal/stm32/wheel_cmd.c), in both numeric modes.
  *
- * The sources are included, not linked: the host test build links the
- * firmware objects only, and these files are pure (no register access).
+ * Both sources are pure (no register access), so the host test build compiles
+ * and links them (TEST_SRCS_test_stm32_calc in the Makefile).
  * Expected values are derived by hand beside each case from the reference
  * manuals' formulas (RM0090 §21.3.3 IWDG, §18.3.1 timer time base, §30.3.4
  * USART baud rate).
@@ -14,9 +15,9 @@
 #include <math.h>
 #include <stdint.h>
 
-#include "../../hal/stm32/stm32_calc.c"
-#include "../../hal/stm32/wheel_cmd.c"
+#include "stm32_calc.h"
 #include "unity.h"
+#include "wheel_cmd.h"
 
 void setUp(void) {}
 void tearDown(void) {}

@@ -1,7 +1,8 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/sup: the switch strategy of section 4 of the
  * paper (p1, p2, p3), detection (Definition 1), the held side, several
- * obstacles (notes.md), events, rejected reports, and the radius offset of
+ * obstacles (docs/equations.md), events, rejected reports, and the radius offset of
  * the thresholds (sup.h).
  *
  * Expected values are hand derivations, written beside each case: distances,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/trk: tracking errors, eq. (1), and the
  * Kanayama control law, eq. (2)-(3).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file test_util.h
  * @brief Helpers shared by the Unity tests of the firmware modules.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file bench.h
  * @brief The benchmark of the control step (make bench): the paper's

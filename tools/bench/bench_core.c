@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The benchmark's closed loop, recording and replay (bench.h). The same
  * source runs on the Cortex-M images and on the host. */
 #include "bench.h"
@@ -117,7 +118,7 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
         for (size_t j = 0; j < out.n_events && run->n_events < BENCH_MAX_EVENTS; j++) {
             run->events[run->n_events++] = out.events[j];
         }
-        /* Plant: differential drive, forward Euler (as sim/mstc_sim/plant.py). */
+        /* Plant: differential drive, forward Euler (as sim/mstc/sim/plant.py). */
         const double wl = bench_dbl(out.wheels.left);
         const double wr = bench_dbl(out.wheels.right);
         const double v = r * (wr + wl) / 2.0;

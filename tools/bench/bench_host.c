@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The benchmark on the host (make bench): nanoseconds per ctl_step over the
  * same closed-loop sequence as the Cortex-M images. Each replay of the whole
  * sequence is timed with the thread's CPU clock (time spent descheduled on a

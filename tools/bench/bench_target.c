@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* The benchmark on a Cortex-M under QEMU (make bench): instructions of
  * ctl_step, counted with SysTick under `-icount shift=0`, where the counter
  * (processor clock, 25 MHz) advances once per 40 executed instructions, the

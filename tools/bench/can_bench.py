@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """CAN benchmark of mstc (make bench): steps per second through frames in
 process (SIL), and lock-step round trips per second over SocketCAN (HIL)
 beside a bare round trip measured in the same run.
@@ -29,18 +30,15 @@ from collections.abc import Callable
 from pathlib import Path
 
 import can
+from report import update_doc  # tools/bench/report.py, beside this script
+
+from mstc.can.lockstep import CanController
+from mstc.can.protocol import Protocol
+from mstc.firmware import SilController
+from mstc.sim.run import simulate
+from mstc.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "sim"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from report import update_doc  # noqa: E402
-
-from mstc_sim.canctl import CanController  # noqa: E402
-from mstc_sim.firmware import SilController  # noqa: E402
-from mstc_sim.protocol import Protocol  # noqa: E402
-from mstc_sim.run import simulate  # noqa: E402
-from mstc_sim.scenario import load_scenario  # noqa: E402
 
 SCENARIO = ROOT / "sim" / "scenarios" / "paper-line.toml"
 BEGIN = "<!-- bench:can:begin (written by make bench, tools/bench/can_bench.py) -->"

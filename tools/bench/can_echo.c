@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* can_echo: the smallest possible peer for the CAN benchmark. It answers
  * every frame it receives with N frames at once (copies of the received
  * payload under IDs 0x180, 0x181, ...), so that a python-can round trip to it

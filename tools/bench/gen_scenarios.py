@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Write the benchmark's closed-loop scenarios as a C header.
 
 The benchmark (tools/bench) drives ctl_step with the inputs of a closed loop

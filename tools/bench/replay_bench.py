@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """replay_bench: replay throughput on a 10-minute recorded log.
 
 Times, in one run and on the same file, the median of N runs (5 by default,
@@ -6,7 +7,7 @@ interleaved) of:
 
 - python-can's ``LogReader`` reading the log;
 - ``LogReader`` and cantools decoding every frame (``db.decode_message``);
-- ``tools/replay``'s work: reading the log, feeding its input frames through
+- ``mstc replay``'s work: reading the log, feeding its input frames through
   the in-process firmware and comparing every frame the firmware sends;
 
 and prints a table of frames per second and the ratio of the replay to
@@ -17,10 +18,9 @@ The log is the paper's circle scenario run for 600 s through the in-process
 firmware, recorded once into build/replay-bench/ (not committed); --record
 makes it again, for instance after the firmware changed.
 
-    tools/bench/replay_bench.py [--lib PATH] [--runs N] [--record] [--check]
+    .venv/bin/python tools/bench/replay_bench.py [--lib PATH] [--runs N] [--record] [--check]
 
-Runs under the project's .venv (re-executing itself there when started with
-another interpreter).
+Needs the project's .venv (``make venv``), where the package mstc is installed.
 """
 
 from __future__ import annotations
@@ -35,27 +35,20 @@ from collections.abc import Callable
 from pathlib import Path
 
 TOP = Path(__file__).resolve().parent.parent.parent
-VENV = TOP / ".venv"
-if VENV.is_dir() and Path(sys.prefix).resolve() != VENV.resolve():
-    venv_python = VENV / "bin" / "python"
-    os.execv(venv_python, [str(venv_python), __file__, *sys.argv[1:]])
-
-sys.path.insert(0, str(TOP / "sim"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 try:
     import can
-    from report import update_doc
+    from report import update_doc  # tools/bench/report.py, beside this script
 
-    from mstc_sim.buslog import write_candump
-    from mstc_sim.canctl import CanController
-    from mstc_sim.logread import read_log
-    from mstc_sim.protocol import load_database
-    from mstc_sim.replay import replay
-    from mstc_sim.run import simulate
-    from mstc_sim.scenario import load_scenario
-    from mstc_sim.silbus import LIB_ENV
+    from mstc.can.lockstep import CanController
+    from mstc.can.protocol import load_database
+    from mstc.can.silbus import LIB_ENV
+    from mstc.logs.candump import write_candump
+    from mstc.logs.read import read_log
+    from mstc.logs.replay import replay
+    from mstc.sim.run import simulate
+    from mstc.sim.scenario import load_scenario
 except ImportError as e:
-    sys.exit(f"replay_bench: {e}; run `make venv` first")
+    sys.exit(f"replay_bench: {e}; run it with .venv/bin/python (make venv)")
 
 SCENARIO = TOP / "sim" / "scenarios" / "paper-circle.toml"
 DURATION_S = 600.0

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Turn the benchmark's raw results into the table `make bench` prints and
 writes into docs/performance.md.
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /* Reset and vector table of the benchmark images for QEMU's mps2 boards
  * (link.ld). Reset enables the FPU when the image is built for one, then
  * hands over to newlib's crt0 (_start: .bss, semihosting, main, exit). A

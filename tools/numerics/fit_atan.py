@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Fit the polynomial of num_atan2 (firmware/num/num_fixed.c).
 
 atan(t) ≈ t·(a1 + a3·t² + … + a13·t¹²) on [0, 1], minimising the largest

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /*
  * Measures the error of every fixed-point primitive of firmware/num against
  * libm in double precision, over the domain num_fixed.h documents, and prints

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """svd2c: register header and vector table for a board port, from a vendor SVD.
 
 Usage: svd2c.py CONFIG.json SVD_DIR OUT_DIR

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Bare python-can round trips over a SocketCAN interface, per second.
 
 Two ``socketcan`` buses on the same interface, both in this process: one sends

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file hal_can.h
  * @brief CAN service of the HAL: classic CAN, 11-bit identifiers.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file hal_motor.h
  * @brief Motor service of the HAL: the two wheel outputs of a board.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file hal_sys.h
  * @brief System service of the HAL: watchdog and reset cause.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: MIT */
 /**
  * @file hal_time.h
  * @brief Time service of the HAL: a monotonic microsecond clock and a wait.

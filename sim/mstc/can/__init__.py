@@ -1,0 +1,3 @@
+# SPDX-License-Identifier: MIT
+"""The CAN side: the protocol from the DBC, the python-can interface
+``mstc-sil`` and the lock-step controller."""

@@ -1,0 +1,322 @@
+# SPDX-License-Identifier: MIT
+"""The CAN protocol of mstc (``firmware/comm/mstc.dbc``) for the plant and tools.
+
+The Python counterpart of ``firmware/comm/comm.c``: every frame is classic CAN
+with an 11-bit identifier and 8 data bytes, protected in the style of AUTOSAR
+E2E. Byte 0 is the CRC-8H2F (polynomial 0x2F, init 0xFF, final xor 0xFF) over
+the frame's 16-bit data ID (low byte first; the DBC attribute ``E2EDataID``)
+followed by bytes 1..7; bits 8..11 are a 4-bit alive counter that the sender
+increments for every frame of that identifier.
+
+:class:`Protocol` encodes physical values into protected :class:`can.Message`
+objects and checks and decodes received ones, with the same rules as the
+firmware: values are rounded to the nearest raw value (halves away from zero)
+and saturated to the signal's range, never wrapped; a received frame with an
+unknown identifier, a wrong length, a bad CRC or a repeated or too far
+advanced counter is counted and dropped (:class:`FrameDropped`).
+
+Signals are named without their message prefix: ``x`` for ``ODOM_XY_x``.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import can
+import cantools
+from cantools.database.can import Database, Message, Signal
+
+from mstc.errors import MstcError
+
+DBC_PATH = Path(__file__).resolve().parents[3] / "firmware" / "comm" / "mstc.dbc"
+"""The protocol's DBC, found from this file's place in the repository."""
+
+DLC = 8
+"""Length of every frame [bytes]."""
+COUNTER_MODULO = 16
+"""The alive counter is 4 bits."""
+MAX_COUNTER_JUMP = 3
+"""Largest accepted counter increment (COMM_MAX_COUNTER_JUMP): up to two lost frames."""
+DROP_COUNT_MAX = 4095
+"""Drop counters saturate here, as in the firmware's STATUS_COUNTERS."""
+
+Value = float | int | str
+"""A signal value: a number in the signal's unit, or the name of one of its choices."""
+
+
+def crc8h2f(data: bytes | bytearray | memoryview, crc: int = 0xFF) -> int:
+    """CRC-8H2F (AUTOSAR ``Crc_CalculateCRC8H2F``): check value 0xDF for b"123456789".
+
+    :param data: the bytes.
+    :param crc: start value (0xFF, the init of CRC-8H2F).
+    :returns: the CRC, final xor applied.
+    """
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x2F) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc ^ 0xFF
+
+
+def e2e_crc(data_id: int, payload: bytes | bytearray) -> int:
+    """The CRC of a frame: over its data ID (low byte first) and payload bytes 1..7."""
+    return crc8h2f(bytes((data_id & 0xFF, data_id >> 8)) + bytes(payload[1:DLC]))
+
+
+class DropReason(enum.Enum):
+    """Why a received frame was dropped; the values are the firmware's counter names."""
+
+    UNKNOWN = "unknown"
+    """Identifier not in the DBC, or not received by this node."""
+    LENGTH = "len"
+    """DLC other than 8."""
+    CRC = "crc"
+    """CRC mismatch."""
+    SEQUENCE = "seq"
+    """Alive counter repeated, or advanced by more than MAX_COUNTER_JUMP."""
+
+
+class FrameDropped(MstcError):
+    """A received frame failed a check; it has been counted in :attr:`Protocol.drops`."""
+
+    def __init__(self, reason: DropReason, frame_id: int, detail: str) -> None:
+        super().__init__(f"frame 0x{frame_id:03X} dropped ({reason.value}): {detail}")
+        self.reason = reason
+        self.frame_id = frame_id
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A received frame that passed every check."""
+
+    name: str
+    """Message name in the DBC, e.g. ``"WHEEL_CMD"``."""
+    frame_id: int
+    counter: int
+    """Its alive counter."""
+    signals: dict[str, float | int]
+    """Physical values by short name (without CRC and counter); choices as numbers."""
+    timestamp: float = 0.0
+    """The received message's time stamp [s]."""
+
+
+@dataclass
+class _RxState:
+    counter: int | None = None
+
+
+@dataclass
+class _Counters:
+    tx: dict[int, int] = field(default_factory=dict)
+    rx: dict[int, _RxState] = field(default_factory=dict)
+
+
+def load_database(path: Path = DBC_PATH) -> Database:
+    """Load the protocol's DBC, strictly (overlapping signals are an error)."""
+    db = cantools.database.load_file(path, strict=True)
+    if not isinstance(db, Database):
+        raise TypeError(f"{path} is not a CAN database")
+    return db
+
+
+def _field_range(signal: Signal) -> tuple[int, int]:
+    """Raw values the signal's bits can hold."""
+    if signal.is_signed:
+        return -(1 << (signal.length - 1)), (1 << (signal.length - 1)) - 1
+    return 0, (1 << signal.length) - 1
+
+
+def raw_range(signal: Signal) -> tuple[int, int]:
+    """Raw range of an integer signal: its DBC [min|max] within what its bits hold."""
+    lo, hi = _field_range(signal)
+    if signal.minimum is not None:
+        lo = max(lo, math.ceil(round((signal.minimum - signal.offset) / signal.scale, 6)))
+    if signal.maximum is not None:
+        hi = min(hi, math.floor(round((signal.maximum - signal.offset) / signal.scale, 6)))
+    return lo, hi
+
+
+def to_raw(signal: Signal, value: Value) -> float | int:
+    """The raw value of @p value: rounded to nearest (halves away from zero) and
+    saturated to the signal's range, as comm.c does; NaN gives 0. IEEE float
+    signals (PARAM values) pass unchanged."""
+    if isinstance(value, str):
+        value = _choice_value(signal, value)
+    if signal.is_float:
+        return float(value)
+    x = (value - signal.offset) / signal.scale
+    lo, hi = raw_range(signal)
+    if math.isnan(x):
+        return min(max(0, lo), hi)
+    if x <= lo:
+        return lo
+    if x >= hi:
+        return hi
+    return int(math.copysign(math.floor(abs(x) + 0.5), x))
+
+
+def _choice_value(signal: Signal, name: str) -> int:
+    for number, choice in (signal.choices or {}).items():
+        if str(choice) == name:
+            return int(number)
+    raise ValueError(f"{signal.name} has no choice {name!r}")
+
+
+class Protocol:
+    """One node's side of the protocol: E2E counters, encoding and checked decoding.
+
+    :param node: the node this side plays (``"PLANT"``, ``"FW"`` or ``"TOOL"``);
+        frames it does not receive are dropped as unknown, as the firmware
+        drops the frames it only sends. ``None`` accepts every frame of the
+        DBC (log decoders, monitors).
+    :param dbc_path: the DBC; the repository's by default.
+    """
+
+    def __init__(self, node: str | None = None, dbc_path: Path = DBC_PATH) -> None:
+        self.db = load_database(dbc_path)
+        if node is not None and node not in {n.name for n in self.db.nodes}:
+            raise ValueError(f"no node {node!r} in {dbc_path.name}")
+        self.node = node
+        self._data_ids = {
+            m.frame_id: int(m.dbc.attributes["E2EDataID"].value) for m in self.db.messages
+        }
+        self._counters = _Counters()
+        self.drops: dict[DropReason, int] = dict.fromkeys(DropReason, 0)
+        """Received frames dropped, by reason (saturating at DROP_COUNT_MAX)."""
+
+    def reset(self) -> None:
+        """Forget counters and drop counts, as comm_init() does."""
+        self._counters = _Counters()
+        self.drops = dict.fromkeys(DropReason, 0)
+
+    def data_id(self, frame_id: int) -> int:
+        """The E2E data ID of a frame (its ``E2EDataID`` attribute)."""
+        return self._data_ids[frame_id]
+
+    def message(self, name_or_id: str | int) -> Message:
+        """The DBC message of a name or identifier."""
+        if isinstance(name_or_id, str):
+            return self.db.get_message_by_name(name_or_id)
+        return self.db.get_message_by_frame_id(name_or_id)
+
+    # ------------------------------------------------------------- sending
+
+    def encode(
+        self,
+        name: str,
+        signals: Mapping[str, Value] | None = None,
+        *,
+        raw: bool = False,
+        timestamp: float = 0.0,
+        **kwargs: Value,
+    ) -> can.Message:
+        """A protected frame: signals scaled and saturated, the next alive
+        counter of its identifier, then the CRC.
+
+        :param name: message name, e.g. ``"ODOM_XY"``.
+        :param signals: values by short name; every signal but CRC and counter
+            is required. Keyword arguments add to them.
+        :param raw: the values are raw integers, saturated only to what the
+            signal's bits hold, so that a test can send values outside the
+            DBC range (an obstacle id 0, an unknown parameter index).
+        :param timestamp: the message's time stamp [s].
+        :raises KeyError: a signal is missing or unknown.
+        """
+        message = self.message(name)
+        values = {**(signals or {}), **kwargs}
+        prefix = f"{message.name}_"
+        wanted = {s.name.removeprefix(prefix) for s in message.signals} - {"CRC", "Counter"}
+        if set(values) != wanted:
+            raise KeyError(
+                f"{message.name}: missing {sorted(wanted - set(values))}, "
+                f"unknown {sorted(set(values) - wanted)}"
+            )
+        raw_values: dict[str, float | int] = {f"{prefix}CRC": 0, f"{prefix}Counter": 0}
+        for short, value in values.items():
+            signal = message.get_signal_by_name(prefix + short)
+            if raw:
+                lo, hi = _field_range(signal)
+                raw_values[signal.name] = value if signal.is_float else min(max(int(value), lo), hi)
+            else:
+                raw_values[signal.name] = to_raw(signal, value)
+        data = bytearray(message.encode(raw_values, scaling=False, strict=False))
+        self.protect(message.frame_id, data)
+        return can.Message(
+            arbitration_id=message.frame_id,
+            is_extended_id=False,
+            dlc=DLC,
+            data=data,
+            timestamp=timestamp,
+        )
+
+    def protect(self, frame_id: int, data: bytearray) -> None:
+        """Write the next alive counter of @p frame_id into bits 8..11 of
+        @p data, then the CRC into byte 0."""
+        counter = self._counters.tx.get(frame_id, 0)
+        self._counters.tx[frame_id] = (counter + 1) % COUNTER_MODULO
+        data[1] = (data[1] & 0xF0) | counter
+        data[0] = e2e_crc(self.data_id(frame_id), data)
+
+    # ----------------------------------------------------------- receiving
+
+    def _drop(self, reason: DropReason, frame_id: int, detail: str) -> FrameDropped:
+        self.drops[reason] = min(self.drops[reason] + 1, DROP_COUNT_MAX)
+        return FrameDropped(reason, frame_id, detail)
+
+    def check(self, msg: can.Message) -> int:
+        """E2E checks of a received frame, in the firmware's order: identifier
+        known (and received by this node), DLC 8, CRC, alive counter.
+
+        The counter follows every frame with a good CRC, accepted or not; the
+        first frame of an identifier is accepted whatever its counter.
+
+        :returns: the frame's alive counter.
+        :raises FrameDropped: a check failed; the drop is counted.
+        """
+        frame_id = msg.arbitration_id
+        try:
+            message = self.message(frame_id) if not msg.is_extended_id else None
+        except KeyError:
+            message = None
+        if message is None:
+            raise self._drop(DropReason.UNKNOWN, frame_id, "not in the DBC")
+        if self.node is not None and self.node not in message.receivers:
+            raise self._drop(DropReason.UNKNOWN, frame_id, f"{self.node} does not receive it")
+        if msg.dlc != DLC or len(msg.data) != DLC:
+            raise self._drop(DropReason.LENGTH, frame_id, f"DLC {msg.dlc}")
+        data = bytes(msg.data)
+        want = e2e_crc(self.data_id(frame_id), data)
+        if data[0] != want:
+            raise self._drop(DropReason.CRC, frame_id, f"CRC 0x{data[0]:02X}, want 0x{want:02X}")
+        counter = data[1] & 0x0F
+        state = self._counters.rx.setdefault(frame_id, _RxState())
+        last, state.counter = state.counter, counter
+        if last is not None:
+            delta = (counter - last) % COUNTER_MODULO
+            if delta == 0:
+                raise self._drop(DropReason.SEQUENCE, frame_id, f"counter {counter} repeated")
+            if delta > MAX_COUNTER_JUMP:
+                raise self._drop(
+                    DropReason.SEQUENCE, frame_id, f"counter {last} -> {counter}: jump {delta}"
+                )
+        return counter
+
+    def decode(self, msg: can.Message) -> Frame:
+        """Check (see :meth:`check`) and decode a received frame.
+
+        :raises FrameDropped: a check failed; the drop is counted.
+        """
+        counter = self.check(msg)
+        message = self.message(msg.arbitration_id)
+        prefix = f"{message.name}_"
+        decoded = message.decode(bytes(msg.data), scaling=True, decode_choices=False)
+        signals = {
+            name.removeprefix(prefix): value
+            for name, value in decoded.items()
+            if name not in (f"{prefix}CRC", f"{prefix}Counter")
+        }
+        return Frame(message.name, message.frame_id, counter, signals, msg.timestamp)

@@ -1,0 +1,121 @@
+# SPDX-License-Identifier: MIT
+"""``mstc plot``: events, status and the paper's figures from a bus log alone."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mstc.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    add_log_arguments,
+    error,
+    load_log,
+)
+from mstc.errors import ScenarioError
+from mstc.logs.decode import (
+    decode_log,
+    format_events,
+    write_events_json,
+    write_status_csv,
+    write_trace_csv,
+)
+from mstc.report.plots import plot_all
+from mstc.report.progress import Progress
+from mstc.sim.scenario import load_scenario
+
+NAME = "plot"
+HELP = "decode a bus log: events, status, trace and the paper's figures"
+
+_EPILOG = """\
+Writes DIR/<log file stem>/ (for a run's bus.log, its folder's name):
+events.json and trace.csv in the formats of make sim (docs/scenarios.md),
+status.csv (one row per control step: the inputs, the wheel speeds and v, w,
+every STATUS and STATUS_TRK signal, the distance to each obstacle), and the
+figures of the paper's Figures 5 and 6: path.png, position_error.png,
+angle_error.png, v.png, w.png, distance.png and overview.png. Prints the
+events table of make sim, beside the [[expected]] events of --scenario when
+given.
+
+Wheel radius and track width (for v and w), D_s and D_act come from the
+PARAM_VALUE frames in the log, else Table 1 of the paper; the obstacles from
+the OBSTACLE frames.
+
+exit status: 0 done; 1 an output could not be written; 2 bad arguments, a log
+that cannot be used (with --strict, any problem in it) or one without
+control steps.
+
+example:
+  .venv/bin/mstc plot --scenario sim/scenarios/paper-line.toml tests/data/paper-line.log
+"""
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Register ``mstc plot``."""
+    parser = commands.add_parser(
+        NAME,
+        help=HELP,
+        description="Decode a CAN bus log with the DBC: events, status over time, and the\n"
+        "figures of the paper's Figures 5 and 6, as mstc sim draws them.",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_log_arguments(parser)
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        type=Path,
+        default=Path("build/logplot"),
+        help="output folder; writes DIR/<log stem>/, or DIR/<folder>/ for a bus.log "
+        "(default: %(default)s)",
+    )
+    parser.add_argument(
+        "--scenario",
+        metavar="TOML",
+        type=Path,
+        help="a scenario file whose [[expected]] events the log's are compared with",
+    )
+    parser.add_argument("--no-figures", action="store_true", help="only the tables")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Decode the log, write the tables and figures, print the events."""
+    expected = ()
+    if args.scenario is not None:
+        try:
+            expected = load_scenario(args.scenario).expected
+        except ScenarioError as exc:
+            error(str(exc))
+            return EXIT_USAGE
+    loaded = load_log(args)
+    if isinstance(loaded, int):
+        return loaded
+    db, log = loaded
+    try:
+        bar = Progress(len(log), "decode", "frames", enabled=not args.quiet)
+        decoded = decode_log(log, db, bar)
+    except ValueError as exc:
+        error(str(exc))
+        return EXIT_USAGE
+    for problem in decoded.problems[: max(args.max_problems, 0)]:
+        print(problem, file=sys.stderr)
+    if decoded.problems and args.strict:
+        error(f"{args.log}: {len(decoded.problems)} frames not decoded (--strict)")
+        return EXIT_USAGE
+    folder = args.out / decoded.name
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        write_events_json(decoded, folder / "events.json")
+        write_trace_csv(decoded, folder / "trace.csv")
+        write_status_csv(decoded, folder / "status.csv")
+        if not args.no_figures:
+            plot_all(decoded.plot_data(), folder)
+    except OSError as exc:
+        error(f"cannot write the outputs into {folder}: {exc}")
+        return EXIT_FAILED
+    print(format_events(decoded, expected, folder))
+    return EXIT_OK

@@ -1,0 +1,565 @@
+# SPDX-License-Identifier: MIT
+"""Decode a bus log into what a simulation reports: events, status, trace, figures.
+
+From the frames alone, with the DBC through cantools, so that a run recorded
+on a real board is analysed exactly like a simulation:
+
+- one row per control step, at each WHEEL_CMD: the step's time (from the STEP
+  frame of the same step number; without STEP frames, the log's time stamp
+  from the first WHEEL_CMD on), the latest odometry (ODOM_XY, ODOM_THETA) and
+  reference (REF_XY, REF_MOTION) before it, the wheel speeds and from them the
+  body velocity v = r (ω_R + ω_L)/2, ω = r (ω_R − ω_L)/L, and the latest
+  STATUS and STATUS_TRK;
+- the events of the EVENT frames;
+- the obstacles of the OBSTACLE frames (each id at the mean of its reported
+  positions: the paper's obstacles are static), and the distance from the
+  robot to each at every step;
+- the parameters of the PARAM_VALUE answers in the log (the firmware's own
+  values), Table 1 of the paper for any not there.
+
+Frames with a bad E2E CRC or of the wrong length are reported and not used;
+alive counters are not checked (a log that lost frames still decodes).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import statistics
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+from cantools.database.can import Database, Message
+
+from mstc.can.protocol import e2e_crc
+from mstc.controller import Event, EventKind, Fault, Mode, Side
+from mstc.logs.read import FrameLog, LogProblem, ProblemKind
+from mstc.params import Params
+from mstc.report.outputs import event_record
+from mstc.report.plots import PlotData
+from mstc.report.progress import Progress
+from mstc.report.table import match_events
+from mstc.sim.run import TRACE_COLUMNS, Trace
+from mstc.sim.scenario import ExpectedEvent
+from mstc.sim.sensor import Obstacle
+
+TIME_MODULO = 1 << 32
+"""STEP and EVENT times [µs] wrap here."""
+
+_MODES = {0: Mode.TRACK, 1: Mode.AVOID, 2: Mode.STOP}
+_KINDS = {1: EventKind.DETECT, 2: EventKind.ACTIVATE, 3: EventKind.COMPLETE}
+_SIDES = {0: None, 1: Side.LEFT, 2: Side.RIGHT}
+
+_SCALAR_PARAMS = {
+    "R_m": "r_m",
+    "R_ob": "r_ob",
+    "D_det": "d_det",
+    "D_act": "d_act",
+    "D_s": "d_s",
+    "wheel_radius": "wheel_radius",
+    "track_width": "track_width",
+    "max_wheel_speed": "max_wheel_speed",
+}
+"""PARAM index names (the DBC's value table) of the scalar :class:`Params` fields."""
+_GAIN_PARAMS = {
+    "trk_k1": ("tracking_gains", 0),
+    "trk_k2": ("tracking_gains", 1),
+    "trk_k3": ("tracking_gains", 2),
+    "avd_k1": ("avoidance_gains", 0),
+    "avd_k2": ("avoidance_gains", 1),
+}
+_E2E = ("CRC", "Counter")
+_INPUT_COLUMNS = ("x", "y", "theta", "x_r", "y_r", "theta_r", "v_r", "w_r")
+_WHEEL_COLUMNS = ("wheel_left", "wheel_right", "v", "w")
+
+
+def _float32_value(value: float) -> float:
+    """The shortest decimal that is the same IEEE single: 0.2f gives 0.2."""
+    return float(str(np.float32(value)))
+
+
+@dataclass
+class DecodedLog:
+    """What a log says about a run."""
+
+    log: FrameLog
+    params: Params
+    """Parameters: the log's PARAM_VALUE answers over Table 1."""
+    params_from_log: tuple[str, ...]
+    """Names (DBC value table) of the parameters the log gave."""
+    obstacles: tuple[Obstacle, ...]
+    """Every obstacle reported, by id."""
+    trace: Trace
+    """One row per control step, like a simulation's."""
+    steps: np.ndarray
+    """The step number of each row (WHEEL_CMD's)."""
+    status_columns: tuple[str, ...]
+    """Columns of :attr:`status_rows`."""
+    status_rows: list[list[object]]
+    """One row per control step: inputs, wheels, every STATUS and STATUS_TRK signal."""
+    events: tuple[Event, ...]
+    min_distance: tuple[float, ...]
+    """Smallest centre distance to each obstacle over the rows [m]."""
+    faults: dict[Fault, int]
+    """Steps that reported each fault bit."""
+    modes: dict[Mode, int]
+    """Steps run in each mode."""
+    counters: dict[str, int] = field(default_factory=dict)
+    """The last STATUS_COUNTERS (frames the firmware dropped, by reason)."""
+    problems: list[LogProblem] = field(default_factory=list)
+    """Frames not used (bad CRC, wrong length, undecodable)."""
+    dt: float = 0.0
+    """The median control period [s] (0 with fewer than two steps)."""
+
+    @property
+    def name(self) -> str:
+        """The log's file stem; for a run's ``bus.log``, its folder's name
+        (``build/hil/paper-line/bus.log`` is ``paper-line``)."""
+        path = self.log.path
+        return path.parent.name if path.stem == "bus" and path.parent.name else path.stem
+
+    def plot_data(self) -> PlotData:
+        """The figures' input, as a simulation's."""
+        title = f"{self.name} (bus log, {len(self.steps)} steps"
+        title += f", dt = {self.dt:g} s)" if self.dt else ")"
+        return PlotData(
+            name=self.name,
+            title=title,
+            trace=self.trace,
+            events=self.events,
+            params=self.params,
+            obstacles=self.obstacles,
+        )
+
+
+class _Decoder:
+    """Walks a log's frames in order, keeping the latest of each input."""
+
+    def __init__(self, log: FrameLog, db: Database) -> None:
+        self.log = log
+        self.db = db
+        self.messages: dict[int, Message] = {m.frame_id: m for m in db.messages}
+        self.data_ids = {
+            m.frame_id: int(m.dbc.attributes["E2EDataID"].value)
+            for m in db.messages
+            if m.dbc is not None and "E2EDataID" in m.dbc.attributes
+        }
+        self.latest: dict[str, dict[str, float | int]] = {}
+        self.step_time: dict[int, int] = {}
+        self.time_raw: int | None = None
+        self.time_wraps = 0
+        self.now_us: int | None = None
+        self.obstacle_reports: dict[int, list[tuple[float, float, float]]] = {}
+        self.param_values: dict[str, float] = {}
+        self.events: list[Event] = []
+        self.rows: list[dict[str, object]] = []
+        self.problems: list[LogProblem] = []
+        self.first_wheel_time: float | None = None
+
+    def signals(self, row: int, message: Message) -> dict[str, float | int] | None:
+        """The frame's signals by short name, or None (a problem is recorded)."""
+        log = self.log
+        data = log.data[row, : int(log.dlc[row])].tobytes()
+        where, line = log.where(row), int(log.line[row])
+        if len(data) != message.length:
+            return None  # reported by read_log
+        data_id = self.data_ids.get(message.frame_id)
+        if data_id is not None and data[0] != e2e_crc(data_id, data):
+            self.problems.append(
+                LogProblem(
+                    where,
+                    line,
+                    ProblemKind.MALFORMED,
+                    f"{message.name}: bad E2E CRC 0x{data[0]:02X}, want "
+                    f"0x{e2e_crc(data_id, data):02X}: not used",
+                )
+            )
+            return None
+        try:
+            values = message.decode(data, decode_choices=False, scaling=True)
+        except Exception as exc:  # cantools raises several kinds on bad data
+            self.problems.append(
+                LogProblem(where, line, ProblemKind.MALFORMED, f"{message.name}: {exc}")
+            )
+            return None
+        prefix = f"{message.name}_"
+        return {
+            k.removeprefix(prefix): v  # type: ignore[misc]
+            for k, v in values.items()
+            if k.removeprefix(prefix) not in _E2E
+        }
+
+    def run(self, progress: Progress | None = None) -> None:
+        log = self.log
+        tick = max(len(log) // 200, 1)
+        for row in range(len(log)):
+            if progress is not None and row % tick == 0:
+                progress.update(row)
+            if log.extended[row]:
+                continue
+            message = self.messages.get(int(log.frame_id[row]))
+            if message is None:
+                continue
+            s = self.signals(row, message)
+            if s is None:
+                continue
+            handler = getattr(self, f"on_{message.name.lower()}", None)
+            if handler is not None:
+                handler(row, s)
+            else:
+                self.latest[message.name] = s
+
+    # Inputs ----------------------------------------------------------------
+
+    def on_step(self, row: int, s: dict[str, float | int]) -> None:
+        raw = round(float(s["time"]) * 1e6)
+        if self.time_raw is not None and raw < self.time_raw:
+            self.time_wraps += 1
+        self.time_raw = raw
+        self.now_us = (self.time_wraps << 32) | raw
+        self.step_time[int(s["step"])] = self.now_us
+        self.latest["STEP"] = s
+
+    def on_obstacle(self, row: int, s: dict[str, float | int]) -> None:
+        report = (float(s["x"]), float(s["y"]), float(s["radius"]))
+        self.obstacle_reports.setdefault(int(s["id"]), []).append(report)
+
+    # Outputs ---------------------------------------------------------------
+
+    def on_param_value(self, row: int, s: dict[str, float | int]) -> None:
+        if int(s["result"]) != 0:
+            return
+        message = self.db.get_message_by_name("PARAM_VALUE")
+        signal = message.get_signal_by_name("PARAM_VALUE_index")
+        name = str((signal.choices or {}).get(int(s["index"]), s["index"]))
+        self.param_values[name] = _float32_value(float(s["value"]))
+
+    def on_event(self, row: int, s: dict[str, float | int]) -> None:
+        raw = round(float(s["time"]) * 1e6)
+        base = self.now_us - self.now_us % TIME_MODULO if self.now_us is not None else 0
+        kind = _KINDS.get(int(s["kind"]))
+        if kind is None:
+            self.problems.append(
+                LogProblem(
+                    self.log.where(row),
+                    int(self.log.line[row]),
+                    ProblemKind.MALFORMED,
+                    f"EVENT of unknown kind {s['kind']}: not used",
+                )
+            )
+            return
+        self.events.append(Event(base + raw, kind, int(s["obstacle"]), _SIDES.get(int(s["side"]))))
+
+    def on_status_counters(self, row: int, s: dict[str, float | int]) -> None:
+        self.latest["STATUS_COUNTERS"] = s
+
+    def on_wheel_cmd(self, row: int, s: dict[str, float | int]) -> None:
+        step = int(s["step"])
+        t_us = self.step_time.get(step)
+        if t_us is None:  # no STEP frames: real-time mode, the log's clock
+            stamp = float(self.log.time[row])
+            if self.first_wheel_time is None:
+                self.first_wheel_time = stamp
+            t_us = round((stamp - self.first_wheel_time) * 1e6)
+        nan = math.nan
+        odom_xy = self.latest.get("ODOM_XY", {})
+        odom_theta = self.latest.get("ODOM_THETA", {})
+        ref_xy = self.latest.get("REF_XY", {})
+        ref_motion = self.latest.get("REF_MOTION", {})
+        self.rows.append(
+            {
+                "t_us": t_us,
+                "step": step,
+                "x": float(odom_xy.get("x", nan)),
+                "y": float(odom_xy.get("y", nan)),
+                "theta": float(odom_theta.get("theta", nan)),
+                "x_r": float(ref_xy.get("x", nan)),
+                "y_r": float(ref_xy.get("y", nan)),
+                "theta_r": float(ref_motion.get("theta", nan)),
+                "v_r": float(ref_motion.get("v", nan)),
+                "w_r": float(ref_motion.get("w", nan)),
+                "wheel_left": float(s["left"]),
+                "wheel_right": float(s["right"]),
+                "status": dict(self.latest.get("STATUS", {})),
+                "trk": dict(self.latest.get("STATUS_TRK", {})),
+            }
+        )
+
+
+def _params(values: dict[str, float]) -> tuple[Params, tuple[str, ...]]:
+    p = Params()
+    used = []
+    gains = {"tracking_gains": list(p.tracking_gains), "avoidance_gains": list(p.avoidance_gains)}
+    changes: dict[str, object] = {}
+    for name, value in values.items():
+        if name in _SCALAR_PARAMS:
+            changes[_SCALAR_PARAMS[name]] = value
+        elif name in _GAIN_PARAMS:
+            field_name, i = _GAIN_PARAMS[name]
+            gains[field_name][i] = value
+        else:
+            continue
+        used.append(name)
+    changes["tracking_gains"] = tuple(gains["tracking_gains"])
+    changes["avoidance_gains"] = tuple(gains["avoidance_gains"])
+    return replace(p, **changes), tuple(used)  # type: ignore[arg-type]
+
+
+def _unwrap(a: np.ndarray) -> np.ndarray:
+    """Unwrapped headings, NaN kept."""
+    out = a.copy()
+    ok = np.isfinite(a)
+    if ok.any():
+        out[ok] = np.unwrap(a[ok])
+    return out
+
+
+def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) -> DecodedLog:
+    """Decode @p log (see the module's description).
+
+    :param progress: told how many frames are done, now and then.
+    :raises ValueError: the log has no WHEEL_CMD frame: no control step to show.
+    """
+    dec = _Decoder(log, db)
+    dec.run(progress)
+    if progress is not None:
+        progress.close()
+    if not dec.rows:
+        raise ValueError(f"{log.path}: no WHEEL_CMD frame: no control step to decode")
+    params, used = _params(dec.param_values)
+    obstacles = tuple(
+        Obstacle(
+            i,
+            statistics.fmean(r[0] for r in reports),
+            statistics.fmean(r[1] for r in reports),
+            statistics.fmean(r[2] for r in reports),
+        )
+        for i, reports in sorted(dec.obstacle_reports.items())
+    )
+    rows = dec.rows
+    n = len(rows)
+    col = {name: np.array([r[name] for r in rows], dtype=float) for name in _INPUT_COLUMNS}
+    left = np.array([r["wheel_left"] for r in rows], dtype=float)
+    right = np.array([r["wheel_right"] for r in rows], dtype=float)
+    r_w, track = params.wheel_radius, params.track_width
+    v = r_w * (right + left) / 2
+    w = r_w * (right - left) / track
+    t = np.array([r["t_us"] for r in rows], dtype=float) / 1e6
+
+    def status_value(row: dict[str, object], frame: str, name: str) -> float:
+        values = row[frame]
+        assert isinstance(values, dict)
+        return float(values.get(name, math.nan))
+
+    e1 = np.array([status_value(r, "trk", "e1") for r in rows])
+    e2 = np.array([status_value(r, "trk", "e2") for r in rows])
+    e3 = np.array([status_value(r, "trk", "e3") for r in rows])
+    e = np.array([status_value(r, "status", "e") for r in rows])
+
+    def status_int(row: dict[str, object], name: str, default: int) -> int:
+        value = status_value(row, "status", name)
+        return int(value) if math.isfinite(value) else default
+
+    # A step without STATUS (none received yet) shows as stopped.
+    modes = tuple(_MODES.get(status_int(r, "mode", 2), Mode.STOP) for r in rows)
+    theta, theta_r = _unwrap(col["theta"]), _unwrap(col["theta_r"])
+    values = np.column_stack(
+        [
+            t,
+            col["x"],
+            col["y"],
+            theta,
+            col["x_r"],
+            col["y_r"],
+            theta_r,
+            v,
+            w,
+            col["v_r"],
+            col["w_r"],
+            e1,
+            e2,
+            e3,
+            e,
+        ]
+    )
+    assert values.shape[1] == len(TRACE_COLUMNS)
+    distance = np.array(
+        [
+            [math.hypot(o.x - x, o.y - y) for o in obstacles]
+            for x, y in zip(col["x"], col["y"], strict=True)
+        ],
+        dtype=float,
+    ).reshape(n, len(obstacles))
+    min_distance = tuple(float(d) for d in np.nanmin(distance, axis=0)) if obstacles else ()
+
+    faults: dict[Fault, int] = {}
+    mode_counts: dict[Mode, int] = {}
+    for r, mode in zip(rows, modes, strict=True):
+        bits = status_int(r, "faults", 0)
+        for bit in Fault:
+            if bits & bit:
+                faults[bit] = faults.get(bit, 0) + 1
+        mode_counts[mode] = mode_counts.get(mode, 0) + 1
+
+    status_msg = db.get_message_by_name("STATUS")
+    trk_msg = db.get_message_by_name("STATUS_TRK")
+    skip = {*_E2E, "step"}
+    status_signals = [s for s in status_msg.signals if _short(status_msg, s.name) not in skip]
+    trk_signals = [s for s in trk_msg.signals if _short(trk_msg, s.name) not in skip]
+    columns = (
+        "t",
+        "step",
+        *_INPUT_COLUMNS,
+        *_WHEEL_COLUMNS,
+        *(_short(status_msg, s.name) for s in status_signals),
+        *(_short(trk_msg, s.name) for s in trk_signals),
+        *(f"d{o.id}" for o in obstacles),
+    )
+    status_rows: list[list[object]] = []
+    for i, r in enumerate(rows):
+        cells: list[object] = [float(t[i]), r["step"]]
+        cells += [float(col[c][i]) for c in _INPUT_COLUMNS]
+        cells += [float(left[i]), float(right[i]), float(v[i]), float(w[i])]
+        for frame, msg, signals in (
+            ("status", status_msg, status_signals),
+            ("trk", trk_msg, trk_signals),
+        ):
+            values_of = r[frame]
+            assert isinstance(values_of, dict)
+            for s in signals:
+                value = values_of.get(_short(msg, s.name))
+                if value is not None and s.choices and int(value) in s.choices:
+                    value = str(s.choices[int(value)])
+                cells.append("" if value is None else value)
+        cells += [float(d) for d in distance[i]]
+        status_rows.append(cells)
+
+    periods = np.diff(t)
+    dt = float(np.median(periods)) if len(periods) else 0.0
+    counters = {k: int(v) for k, v in dec.latest.get("STATUS_COUNTERS", {}).items()}
+    return DecodedLog(
+        log=log,
+        params=params,
+        params_from_log=used,
+        obstacles=obstacles,
+        trace=Trace(values, modes, distance),
+        steps=np.array([r["step"] for r in rows], dtype=np.int64),
+        status_columns=columns,
+        status_rows=status_rows,
+        events=tuple(dec.events),
+        min_distance=min_distance,
+        faults=faults,
+        modes=mode_counts,
+        counters=counters,
+        problems=dec.problems,
+        dt=round(dt, 6),
+    )
+
+
+def _short(message: Message, name: str) -> str:
+    return name.removeprefix(f"{message.name}_")
+
+
+# ------------------------------------------------------------------ outputs
+
+
+def write_status_csv(decoded: DecodedLog, path: Path) -> None:
+    """status.csv: one row per control step (:attr:`DecodedLog.status_columns`)."""
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(decoded.status_columns)
+        for row in decoded.status_rows:
+            writer.writerow([repr(c) if isinstance(c, float) else c for c in row])
+
+
+def write_trace_csv(decoded: DecodedLog, path: Path) -> None:
+    """trace.csv in the format of a simulation's (docs/scenarios.md), with the
+    distance columns named by obstacle id."""
+    trace = decoded.trace
+    m = TRACE_COLUMNS.index("w_r") + 1
+    header = [
+        *TRACE_COLUMNS[:m],
+        "mode",
+        *TRACE_COLUMNS[m:],
+        *(f"d{o.id}" for o in decoded.obstacles),
+    ]
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(header)
+        for values, mode, dist in zip(trace.values, trace.mode, trace.distance, strict=True):
+            row = [repr(float(x)) for x in values]
+            writer.writerow([*row[:m], str(mode), *row[m:], *(repr(float(d)) for d in dist)])
+
+
+def write_events_json(decoded: DecodedLog, path: Path) -> None:
+    """events.json in the format of a simulation's; ``obstacles`` adds the ids
+    the ``min_distance`` entries belong to."""
+    lines = [json.dumps(event_record(e)) for e in decoded.events]
+    events = "[\n" + ",\n".join(f"  {line}" for line in lines) + "\n]" if lines else "[]"
+    min_distance = json.dumps([round(d, 4) for d in decoded.min_distance])
+    ids = json.dumps([o.id for o in decoded.obstacles])
+    path.write_text(f'{{"events": {events}, "min_distance": {min_distance}, "obstacles": {ids}}}\n')
+
+
+_NONE = "—"
+
+
+def format_events(
+    decoded: DecodedLog,
+    expected: Sequence[ExpectedEvent] = (),
+    folder: Path | None = None,
+) -> str:
+    """The table ``make sim`` prints, from the log: events (beside @p expected,
+    with the difference in control steps), minimum distances against D_s,
+    faults, modes, the firmware's drop counters."""
+    log = decoded.log
+    dt_us = round(decoded.dt * 1e6)
+    obstacles = {o.id: o for o in decoded.obstacles}
+    row = "  {:<9} {:<9} {:<6} {:>9}  {:>14}  {:>9}  {}"
+    span = float(decoded.trace["t"][-1] - decoded.trace["t"][0])
+    lines = [
+        f"{decoded.name}: {log.path} (bus log, {len(decoded.steps)} steps, {span:g} s"
+        + (f", dt {decoded.dt:g} s" if decoded.dt else "")
+        + f", {len(decoded.obstacles)} obstacles)",
+        row.format("event", "obstacle", "side", "t log [s]", "t expected [s]", "Δ [steps]", "note"),
+    ]
+    for m in match_events(decoded.events, tuple(expected)):
+        side = m.simulated.side if m.simulated else (m.expected.side if m.expected else None)
+        t_log = f"{m.simulated.t:.2f}" if m.simulated else _NONE
+        t_exp = f"{m.expected.t:.2f}" if m.expected else _NONE
+        steps = _NONE
+        if m.simulated and m.expected and dt_us:
+            d = (m.simulated.t_us - m.expected.t_us) / dt_us
+            steps = (f"{round(d):+d}" if d else "0") if d == round(d) else f"{d:+.1f}"
+        note = ""
+        if m.simulated is None:
+            note = "not reproduced"
+        elif m.expected is None:
+            note = "not expected" if expected else ""
+        elif m.expected.side != m.simulated.side:
+            note = f"side differs: expected {m.expected.side}"
+        cells = (m.kind, f"O{m.obstacle}", side or "", t_log, t_exp, steps, note)
+        lines.append(row.format(*cells).rstrip())
+    if not decoded.events and not expected:
+        lines.append("  (no events)")
+    p = decoded.params
+    for i, (o, d) in enumerate(zip(decoded.obstacles, decoded.min_distance, strict=True)):
+        d_s = p.safe_distance(obstacles[o.id].radius)
+        verdict = "ok" if d >= d_s else "BELOW D_s"
+        label = "min distance" if i == 0 else ""
+        lines.append(f"  {label:<13} O{o.id} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
+    for fault, count in decoded.faults.items():
+        lines.append(f"  {'fault':<13} {fault.name.lower()} in {count} steps")
+    modes = ", ".join(f"{mode} {n}" for mode, n in decoded.modes.items())
+    lines.append(f"  {'steps':<13} {modes}")
+    if decoded.counters:
+        counts = ", ".join(f"{k} {v}" for k, v in decoded.counters.items())
+        lines.append(f"  {'fw dropped':<13} {counts} (last STATUS_COUNTERS)")
+    from_log = ", ".join(decoded.params_from_log) or "none: Table 1 defaults"
+    lines.append(f"  {'params':<13} from the log: {from_log}")
+    if folder is not None:
+        lines.append(f"  {'output':<13} {folder}/")
+    return "\n".join(lines)

@@ -1,0 +1,313 @@
+# SPDX-License-Identifier: MIT
+"""Figures of a run, like the paper's Figures 5 and 6.
+
+Drawn with matplotlib's object API on the Agg canvas: no display and no
+pyplot state, so runs can make figures from any thread or process.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Self
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, Patch
+
+from mstc.controller import Event, EventKind
+from mstc.params import Params
+from mstc.sim.run import RunResult, Trace, world_obstacles
+from mstc.sim.sensor import Obstacle
+
+_ROBOT = "tab:blue"
+_REFERENCE = "0.35"
+_AVOIDING = "tab:orange"
+_OBSTACLE_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink")
+_LABEL_BOX = {"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5}
+"""Behind small labels, so lines under them do not hide them."""
+_MARKERS = {EventKind.DETECT: "o", EventKind.ACTIVATE: "^", EventKind.COMPLETE: "s"}
+
+
+def _obstacle_color(obstacle: int) -> str:
+    return _OBSTACLE_COLORS[(obstacle - 1) % len(_OBSTACLE_COLORS)]
+
+
+@dataclass(frozen=True)
+class PlotData:
+    """What the figures draw: a run's trace and events, the parameters, and the
+    obstacles of the distance columns. Made from a simulation by
+    :meth:`from_run`, or from a bus log (mstc.logs.decode), so that both are
+    drawn alike."""
+
+    name: str
+    """Names the figures (the scenario's or the log's file stem)."""
+    title: str
+    """Title of overview.png."""
+    trace: Trace
+    events: tuple[Event, ...]
+    params: Params
+    """For D_s and D_act."""
+    obstacles: tuple[Obstacle, ...]
+    """One per column of ``trace.distance``, with the id events refer to."""
+
+    @classmethod
+    def from_run(cls, result: RunResult) -> Self:
+        """The figures of a simulated run."""
+        scenario = result.scenario
+        return cls(
+            name=scenario.name,
+            title=f"{scenario.name} ({scenario.sim.integrator}, dt = {scenario.sim.dt:g} s)",
+            trace=result.trace,
+            events=result.events,
+            params=scenario.params,
+            obstacles=world_obstacles(scenario),
+        )
+
+
+@dataclass(frozen=True)
+class _Interval:
+    """A stretch of avoidance: activation to completion (or the end) [s]."""
+
+    start: float
+    end: float
+    obstacle: int
+
+
+def _avoid_intervals(result: PlotData) -> list[_Interval]:
+    intervals = []
+    start: tuple[float, int] | None = None
+    for event in result.events:
+        if event.kind is EventKind.ACTIVATE:
+            start = (event.t, event.obstacle)
+        elif event.kind is EventKind.COMPLETE and start is not None:
+            intervals.append(_Interval(start[0], event.t, start[1]))
+            start = None
+    if start is not None:
+        intervals.append(_Interval(start[0], float(result.trace["t"][-1]), start[1]))
+    return intervals
+
+
+def _shade_avoidance(ax: Axes, result: PlotData) -> None:
+    """Shade the avoidance intervals of a time plot, labelled once per obstacle."""
+    labelled: set[int] = set()
+    for iv in _avoid_intervals(result):
+        label = None if iv.obstacle in labelled else f"avoiding O{iv.obstacle}"
+        labelled.add(iv.obstacle)
+        ax.axvspan(iv.start, iv.end, color=_obstacle_color(iv.obstacle), alpha=0.12, label=label)
+
+
+def _time_axes(ax: Axes, result: PlotData, ylabel: str) -> None:
+    _shade_avoidance(ax, result)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    ax.set_xlim(0.0, float(result.trace["t"][-1]))
+    ax.grid(True, alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize="small")
+
+
+def draw_path(ax: Axes, result: PlotData) -> None:
+    """(a) robot and reference paths, obstacles with their D_s and D_act
+    circles, and the switching events on the robot's path."""
+    trace = result.trace
+    p = result.params
+    x, y = trace["x"], trace["y"]
+    ax.plot(trace["x_r"], trace["y_r"], "--", color=_REFERENCE, lw=1.2, label="reference")
+    ax.plot(x, y, color=_ROBOT, lw=1.5, label="robot")
+    # The avoiding stretches over the path, each including the step that ends it.
+    avoiding = trace.avoiding
+    mask = avoiding | np.concatenate(([False], avoiding[:-1]))
+    if mask.any():
+        ax.plot(
+            np.where(mask, x, np.nan),
+            np.where(mask, y, np.nan),
+            color=_AVOIDING,
+            lw=2.5,
+            label="robot, avoiding",
+        )
+    ax.plot(x[0], y[0], "o", color=_ROBOT, ms=5)
+    ax.plot(trace["x_r"][0], trace["y_r"][0], "o", color=_REFERENCE, ms=5)
+
+    for o in result.obstacles:
+        color = _obstacle_color(o.id)
+        d_s, d_act = p.safe_distance(o.radius), p.activation_distance(o.radius)
+        ax.add_patch(Circle((o.x, o.y), o.radius, color=color, alpha=0.85))
+        ax.add_patch(Circle((o.x, o.y), d_s, fill=False, ls="--", lw=1.0, ec=color))
+        ax.add_patch(Circle((o.x, o.y), d_act, fill=False, ls=":", lw=1.0, ec=color))
+        ax.annotate(
+            f"O{o.id}",
+            (o.x, o.y + d_act),
+            textcoords="offset points",
+            xytext=(0, 3),
+            ha="center",
+            va="bottom",
+            fontsize="small",
+            color=color,
+        )
+
+    labelled_times: set[int] = set()
+    t = trace["t"]
+    for event in result.events:
+        # The row of the step that emitted it (a log's steps need not be regular).
+        k = min(int(np.searchsorted(t, event.t)), len(t) - 1)
+        ax.plot(
+            x[k],
+            y[k],
+            _MARKERS[event.kind],
+            color=_obstacle_color(event.obstacle),
+            ms=7,
+            mfc="none" if event.kind is EventKind.DETECT else _obstacle_color(event.obstacle),
+            mec="black",
+            mew=0.6,
+        )
+        if event.t_us not in labelled_times:
+            labelled_times.add(event.t_us)
+            ax.annotate(
+                f"{event.t:.2f} s",
+                (x[k], y[k]),
+                textcoords="offset points",
+                xytext=(6, -10),
+                fontsize="x-small",
+                bbox=_LABEL_BOX,
+            )
+
+    handles, _ = ax.get_legend_handles_labels()
+    handles += [
+        Patch(fc="0.5", label="obstacle"),
+        Line2D([], [], ls="--", color="0.2", lw=1.0, label="$D_s$"),
+        Line2D([], [], ls=":", color="0.2", lw=1.0, label="$D_{act}$"),
+        *(
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker=m,
+                color="0.5",
+                mec="black",
+                label=str(kind),
+                mfc="none" if kind is EventKind.DETECT else "0.5",
+            )
+            for kind, m in _MARKERS.items()
+        ),
+    ]
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+
+
+def draw_position_error(ax: Axes, result: PlotData) -> None:
+    """(b) position tracking errors e1, e2, eq. (1)."""
+    t = result.trace["t"]
+    ax.plot(t, result.trace["e1"], label="$e_1$")
+    ax.plot(t, result.trace["e2"], label="$e_2$")
+    _time_axes(ax, result, "position error [m]")
+
+
+def draw_angle_error(ax: Axes, result: PlotData) -> None:
+    """(c) heading error e3, eq. (1), and the avoidance error e, eq. (21),
+    while avoiding."""
+    t = result.trace["t"]
+    ax.plot(t, result.trace["e3"], label="$e_3$")
+    e = np.where(result.trace.avoiding, result.trace["e"], np.nan)
+    ax.plot(t, e, color="tab:green", label="$e$ (avoiding)")
+    _time_axes(ax, result, "angle error [rad]")
+
+
+def draw_v(ax: Axes, result: PlotData) -> None:
+    """(d) robot linear velocity v against the reference's v_r."""
+    t = result.trace["t"]
+    ax.plot(t, result.trace["v"], color=_ROBOT, label="$v$")
+    ax.plot(t, result.trace["v_r"], "--", color=_REFERENCE, label="$v_r$")
+    _time_axes(ax, result, "linear velocity [m/s]")
+
+
+def draw_w(ax: Axes, result: PlotData) -> None:
+    """(e) robot angular velocity ω against the reference's ω_r."""
+    t = result.trace["t"]
+    ax.plot(t, result.trace["w"], color=_ROBOT, label=r"$\omega$")
+    ax.plot(t, result.trace["w_r"], "--", color=_REFERENCE, label=r"$\omega_r$")
+    _time_axes(ax, result, "angular velocity [rad/s]")
+
+
+def draw_distance(ax: Axes, result: PlotData) -> None:
+    """(f) centre distance to each obstacle, with its D_s and the minimum."""
+    t = result.trace["t"]
+    p = result.params
+    obstacles = result.obstacles
+    safe = {o.id: p.safe_distance(o.radius) for o in obstacles}
+    one_line = len(set(safe.values())) <= 1
+    for i, o in enumerate(obstacles):
+        color = _obstacle_color(o.id)
+        d = result.trace.distance[:, i]
+        ax.plot(t, d, color=color, label=f"$D_{{r{o.id}}}$")
+        if not one_line:
+            ax.axhline(safe[o.id], ls="--", lw=1.0, color=color, label=f"$D_s$ O{o.id}")
+        k = int(np.argmin(d))
+        ax.plot(t[k], d[k], "v", color=color, ms=6)
+        near_end = t[k] > 0.75 * t[-1]  # keep the label inside the axes
+        ax.annotate(
+            f"min O{o.id} {d[k]:.4f} m",
+            (t[k], d[k]),
+            textcoords="offset points",
+            xytext=(-4 if near_end else 4, 6 + 11 * i),
+            ha="right" if near_end else "left",
+            fontsize="x-small",
+            bbox=_LABEL_BOX,
+            color=color,
+        )
+    if not obstacles:
+        ax.text(0.5, 0.5, "no obstacles", transform=ax.transAxes, ha="center", va="center")
+    if one_line and safe:
+        d_s = next(iter(safe.values()))
+        ax.axhline(d_s, ls="--", lw=1.0, color="black", label=f"$D_s$ = {d_s:.3g} m")
+    ax.set_ylim(bottom=0.0)
+    _time_axes(ax, result, "distance to obstacle [m]")
+
+
+_Draw = Callable[[Axes, PlotData], None]
+PANELS: tuple[tuple[str, str, _Draw], ...] = (
+    ("path", "path", draw_path),
+    ("position_error", "position error", draw_position_error),
+    ("angle_error", "angle error", draw_angle_error),
+    ("v", "linear velocity", draw_v),
+    ("w", "angular velocity", draw_w),
+    ("distance", "distance to obstacles", draw_distance),
+)
+"""File stem, title and drawing function of each figure, in the paper's order."""
+
+
+def _save(fig: Figure, path: Path, dpi: int) -> None:
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=dpi)
+
+
+def plot_all(run: RunResult | PlotData, folder: Path) -> list[Path]:
+    """Write one PNG per panel and overview.png with all six, (a)-(f).
+
+    :param run: a simulated run, or the data of one (e.g. from a bus log).
+    :returns: The files written.
+    """
+    result = run if isinstance(run, PlotData) else PlotData.from_run(run)
+    name = result.name
+    written = []
+    for stem, title, draw in PANELS:
+        fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+        ax = fig.add_subplot()
+        draw(ax, result)
+        ax.set_title(f"{name}: {title}")
+        written.append(folder / f"{stem}.png")
+        _save(fig, written[-1], dpi=120)
+
+    fig = Figure(figsize=(19.0, 10.5), layout="constrained")
+    for ax, letter, (_, title, draw) in zip(fig.subplots(2, 3).flat, "abcdef", PANELS, strict=True):
+        draw(ax, result)
+        ax.set_title(f"({letter}) {title}")
+    fig.suptitle(result.title)
+    written.append(folder / "overview.png")
+    _save(fig, written[-1], dpi=100)
+    return written

@@ -1,0 +1,114 @@
+# SPDX-License-Identifier: MIT
+"""The text report of a run: its events beside the expected ones."""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from mstc.controller import Event, EventKind, Fault
+from mstc.sim.run import RunResult
+from mstc.sim.scenario import ExpectedEvent
+
+_NONE = "—"
+_FAULT_NAMES = {
+    Fault.INPUT_NONFINITE: "non-finite input",
+    Fault.OBSTACLE_DROPPED: "obstacle report dropped",
+    Fault.SATURATED: "wheel speeds saturated",
+}
+
+
+@dataclass(frozen=True)
+class Match:
+    """A simulated event and the expected one it corresponds to; either may be
+    missing."""
+
+    kind: EventKind
+    obstacle: int
+    simulated: Event | None
+    expected: ExpectedEvent | None
+
+    @property
+    def t(self) -> float:
+        """When it happened, or was expected to [s]."""
+        if self.simulated is not None:
+            return self.simulated.t
+        assert self.expected is not None
+        return self.expected.t
+
+
+def match_events(simulated: tuple[Event, ...], expected: tuple[ExpectedEvent, ...]) -> list[Match]:
+    """Pair the n-th simulated event of each (kind, obstacle) with the n-th
+    expected one; the result is in time order."""
+    pending: dict[tuple[EventKind, int], list[ExpectedEvent]] = {}
+    for exp in sorted(expected, key=lambda x: x.t):
+        pending.setdefault((exp.event, exp.obstacle), []).append(exp)
+    matches = []
+    for event in simulated:
+        queue = pending.get((event.kind, event.obstacle))
+        matches.append(Match(event.kind, event.obstacle, event, queue.pop(0) if queue else None))
+    matches += [
+        Match(exp.event, exp.obstacle, None, exp) for queue in pending.values() for exp in queue
+    ]
+    return sorted(matches, key=lambda m: m.t)
+
+
+def _steps(match: Match, dt_us: int) -> str:
+    """Simulated minus expected time, in control steps."""
+    if match.simulated is None or match.expected is None:
+        return _NONE
+    steps = (match.simulated.t_us - match.expected.t_us) / dt_us
+    if steps == round(steps):
+        return f"{round(steps):+d}" if steps else "0"
+    return f"{steps:+.1f}"
+
+
+def _note(match: Match, any_expected: bool) -> str:
+    if match.simulated is None:
+        return "not reproduced"
+    if match.expected is None:
+        return "not expected" if any_expected else ""
+    if match.expected.side != match.simulated.side:
+        return f"side differs: expected {match.expected.side}"
+    return ""
+
+
+def _decimals(t_us: int) -> int:
+    """Decimals that show a time in µs exactly in seconds."""
+    digits = 6
+    while digits and t_us % 10 == 0:
+        t_us //= 10
+        digits -= 1
+    return digits
+
+
+def format_report(result: RunResult, folder: Path) -> str:
+    """The table printed after a run: events (simulated, expected, difference
+    in control steps), minimum distance to each obstacle against its D_s,
+    faults, and where the outputs are."""
+    scenario = result.scenario
+    sim = scenario.sim
+    places = max([_decimals(sim.dt_us)] + [_decimals(e.t_us) for e in scenario.expected])
+    row = "  {:<9} {:<9} {:<6} {:>9}  {:>14}  {:>9}  {}"
+    lines = [
+        f"{scenario.name}: {scenario.path} ({sim.integrator}, dt {sim.dt:g} s, "
+        f"{sim.duration:g} s, {len(scenario.obstacles)} obstacles)",
+        row.format("event", "obstacle", "side", "t sim [s]", "t expected [s]", "Δ [steps]", "note"),
+    ]
+    for m in match_events(result.events, scenario.expected):
+        side = m.simulated.side if m.simulated else (m.expected.side if m.expected else None)
+        t_sim = f"{m.simulated.t:.{places}f}" if m.simulated else _NONE
+        t_exp = f"{m.expected.t:.{places}f}" if m.expected else _NONE
+        note = _note(m, bool(scenario.expected))
+        cells = (m.kind, f"O{m.obstacle}", side or "", t_sim, t_exp, _steps(m, sim.dt_us), note)
+        lines.append(row.format(*cells).rstrip())
+    if not result.events and not scenario.expected:
+        lines.append("  (no events)")
+    p = scenario.params
+    for i, (o, d) in enumerate(zip(scenario.obstacles, result.min_distance, strict=True)):
+        d_s = p.safe_distance(o.radius)
+        verdict = "ok" if d >= d_s else "BELOW D_s"
+        label = "min distance" if i == 0 else ""
+        lines.append(f"  {label:<13} O{i + 1} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
+    for fault, count in result.faults.items():
+        lines.append(f"  {'fault':<13} {_FAULT_NAMES.get(fault, str(fault))} in {count} steps")
+    lines.append(f"  {'output':<13} {folder}/")
+    return "\n".join(lines)

@@ -1,0 +1,120 @@
+# SPDX-License-Identifier: MIT
+"""Kinematic plant: a differential-drive robot moving as a unicycle.
+
+The robot is driven by the angular speeds of its two wheels. They give the body
+velocity (v, ω); the pose then follows the unicycle model
+ẋ = v cos θ, ẏ = v sin θ, θ̇ = ω, integrated over one control period with the
+wheel speeds held constant (zero-order hold). Everything here is in double
+precision, whatever the firmware's numeric mode.
+"""
+
+import math
+from enum import StrEnum
+from typing import NamedTuple
+
+
+class Pose(NamedTuple):
+    """Pose in the world frame."""
+
+    x: float
+    """[m]"""
+    y: float
+    """[m]"""
+    theta: float
+    """Heading [rad], not wrapped: it grows continuously as the robot turns."""
+
+
+def wrap_angle(a: float) -> float:
+    """Angle @p a wrapped into (-π, π], as a heading sensor reports it."""
+    w = math.remainder(a, math.tau)
+    return math.pi if w == -math.pi else w
+
+
+class Integrator(StrEnum):
+    """How a pose is advanced over one period of constant (v, ω)."""
+
+    EULER = "euler"
+    """Forward Euler: first order, the scheme of the paper's figures."""
+    EXACT = "exact"
+    """The exact arc (or straight line) of constant (v, ω)."""
+
+
+# Below this |ω dt| the series of sin(h)/h is exact to double precision.
+_SMALL_ANGLE = 1e-4
+
+
+def _sinc(h: float) -> float:
+    """sin(h) / h, continuous at h = 0."""
+    if abs(h) < _SMALL_ANGLE:
+        return 1.0 - h * h / 6.0
+    return math.sin(h) / h
+
+
+def integrate(pose: Pose, v: float, w: float, dt: float, integrator: Integrator) -> Pose:
+    """Advance a unicycle by ``dt`` with constant body velocity.
+
+    :param pose: pose at the start of the period.
+    :param v: linear velocity [m/s].
+    :param w: angular velocity [rad/s], positive counter-clockwise.
+    :param dt: period [s].
+    :param integrator: ``EULER``: x += v cos θ dt, y += v sin θ dt, θ += ω dt.
+        ``EXACT``: the arc x += v/ω (sin(θ+ω dt) − sin θ),
+        y −= v/ω (cos(θ+ω dt) − cos θ), θ += ω dt, evaluated in the
+        equivalent form v dt · sinc(ω dt/2) · (cos, sin)(θ + ω dt/2), which
+        has no cancellation for small ω and becomes the straight line at
+        ω = 0.
+
+    :returns: The pose at the end of the period.
+    """
+    x, y, theta = pose
+    if integrator is Integrator.EULER:
+        return Pose(x + v * math.cos(theta) * dt, y + v * math.sin(theta) * dt, theta + w * dt)
+    half = 0.5 * w * dt
+    chord = v * dt * _sinc(half)
+    mid = theta + half
+    return Pose(x + chord * math.cos(mid), y + chord * math.sin(mid), theta + w * dt)
+
+
+def body_velocity(
+    wheel_left: float, wheel_right: float, wheel_radius: float, track_width: float
+) -> tuple[float, float]:
+    """Body velocity of a differential drive.
+
+    :param wheel_left: left wheel angular speed ω_L [rad/s], positive forward.
+    :param wheel_right: right wheel angular speed ω_R [rad/s], positive forward.
+    :param wheel_radius: r [m].
+    :param track_width: L, distance between the wheels [m].
+
+    :returns: (v, ω): v = r (ω_R + ω_L)/2 [m/s], ω = r (ω_R − ω_L)/L [rad/s].
+    """
+    v = wheel_radius * (wheel_right + wheel_left) / 2.0
+    w = wheel_radius * (wheel_right - wheel_left) / track_width
+    return v, w
+
+
+class UnicyclePlant:
+    """The robot: a pose moved by wheel speeds.
+
+    :param pose: initial pose.
+    :param wheel_radius: r [m].
+    :param track_width: L [m].
+    :param integrator: scheme used by :meth:`step`.
+    """
+
+    def __init__(
+        self, pose: Pose, wheel_radius: float, track_width: float, integrator: Integrator
+    ) -> None:
+        self.pose = pose
+        self.wheel_radius = wheel_radius
+        self.track_width = track_width
+        self.integrator = integrator
+
+    def body_velocity(self, wheel_left: float, wheel_right: float) -> tuple[float, float]:
+        """(v, ω) for the given wheel speeds [rad/s], see :func:`body_velocity`."""
+        return body_velocity(wheel_left, wheel_right, self.wheel_radius, self.track_width)
+
+    def step(self, wheel_left: float, wheel_right: float, dt: float) -> Pose:
+        """Hold the wheel speeds [rad/s] for ``dt`` [s]; return the new pose."""
+        v, w = self.body_velocity(wheel_left, wheel_right)
+        self.pose = integrate(self.pose, v, w, dt, self.integrator)
+        return self.pose

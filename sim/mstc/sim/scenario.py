@@ -1,0 +1,395 @@
+# SPDX-License-Identifier: MIT
+"""Scenario files: TOML, validated strictly (format: docs/scenarios.md).
+
+Every problem with a file raises :class:`ScenarioError`, whose text is one
+line naming the file, the key (a dotted path such as ``params.D_s`` or
+``obstacles[2].position``, obstacles and expected events counted from 1 like
+O1, O2) and what is wrong with it.
+"""
+
+import difflib
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import date, datetime, time
+from pathlib import Path
+from typing import Any
+
+from mstc.controller import EventKind, Side
+from mstc.errors import ScenarioError
+from mstc.params import Params
+from mstc.sim.plant import Integrator, Pose
+
+MAX_OBSTACLES = 16
+"""Obstacles one scenario may hold (MSTC_SIL_MAX_OBSTACLES)."""
+
+
+@dataclass(frozen=True)
+class ObstacleSpec:
+    """An obstacle of the scenario."""
+
+    x: float
+    """Centre [m]."""
+    y: float
+    """Centre [m]."""
+    radius: float
+    """[m]."""
+
+
+@dataclass(frozen=True)
+class ReferenceSpec:
+    """The virtual reference robot."""
+
+    pose: Pose
+    """Initial pose q_r(0)."""
+    v: float
+    """v_r [m/s]."""
+    w: float
+    """ω_r [rad/s]."""
+
+
+@dataclass(frozen=True)
+class SimSpec:
+    """How the run is integrated."""
+
+    duration: float
+    """[s]."""
+    dt: float
+    """Control period [s], a whole number of microseconds."""
+    integrator: Integrator
+
+    @property
+    def steps(self) -> int:
+        """N: the run has control steps k = 0..N at t = k·dt."""
+        return round(self.duration / self.dt)
+
+    @property
+    def dt_us(self) -> int:
+        """Control period [µs]."""
+        return round(self.dt * 1e6)
+
+
+@dataclass(frozen=True)
+class ExpectedEvent:
+    """A reference result (e.g. the paper's time) to compare the run against."""
+
+    t: float
+    """[s]."""
+    event: EventKind
+    obstacle: int
+    """1-based obstacle number."""
+    side: Side | None
+    """Set on activate only."""
+
+    @property
+    def t_us(self) -> int:
+        """[µs]."""
+        return round(self.t * 1e6)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario file."""
+
+    path: Path
+    robot: Pose
+    """Initial robot pose."""
+    reference: ReferenceSpec
+    obstacles: tuple[ObstacleSpec, ...]
+    sim: SimSpec
+    params: Params
+    expected: tuple[ExpectedEvent, ...]
+
+    @property
+    def name(self) -> str:
+        """The file's stem: names the output folder."""
+        return self.path.stem
+
+
+_TOP_KEYS = ("robot", "reference", "obstacles", "sim", "params", "expected")
+_TOP_REQUIRED = ("robot", "reference", "sim")
+
+# File key -> Params attribute, for the scalar parameters.
+_SCALAR_PARAMS = {
+    "R_m": "r_m",
+    "R_ob": "r_ob",
+    "D_det": "d_det",
+    "D_act": "d_act",
+    "D_s": "d_s",
+    "wheel_radius": "wheel_radius",
+    "track_width": "track_width",
+    "max_wheel_speed": "max_wheel_speed",
+}
+_GAIN_PARAMS = {"tracking_gains": 3, "avoidance_gains": 2}
+
+
+def _type_name(value: object) -> str:
+    """The TOML name of a value's type."""
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "float"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, list):
+        return "array"
+    if isinstance(value, dict):
+        return "table"
+    if isinstance(value, datetime | date | time):
+        return "date/time"
+    return type(value).__name__
+
+
+class _Checker:
+    """Reads values out of the parsed TOML, raising ScenarioError on the first
+    problem."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+
+    def fail(self, key: str | None, problem: str) -> ScenarioError:
+        return ScenarioError(self.path, key, problem)
+
+    def table(self, value: object, key: str) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.fail(key, f"must be a table, got {_type_name(value)}")
+        return value
+
+    def keys(
+        self,
+        table: Mapping[str, object],
+        prefix: str,
+        required: tuple[str, ...],
+        allowed: tuple[str, ...],
+    ) -> None:
+        """Reject unknown keys (suggesting the closest known one), then
+        missing required ones."""
+        for key in table:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+                hint = (
+                    f"did you mean '{close[0]}'?" if close else "known keys: " + ", ".join(allowed)
+                )
+                raise self.fail(_join(prefix, key), f"unknown key ({hint})")
+        for key in required:
+            if key not in table:
+                what = "key" if prefix else f"table [{key}]"
+                raise self.fail(_join(prefix, key), f"missing required {what}")
+
+    def number(self, value: object, key: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(key, f"must be a number, got {_type_name(value)}")
+        return self._finite(value, key, "")
+
+    def positive(self, value: object, key: str) -> float:
+        result = self.number(value, key)
+        if result <= 0.0:
+            raise self.fail(key, f"must be > 0, got {result:g}")
+        return result
+
+    def numbers(self, value: object, key: str, names: tuple[str, ...]) -> tuple[float, ...]:
+        """An array of exactly len(names) numbers; names are used in messages."""
+        if not isinstance(value, list):
+            raise self.fail(
+                key,
+                f"must be an array of {len(names)} numbers [{', '.join(names)}], "
+                f"got {_type_name(value)}",
+            )
+        if len(value) != len(names):
+            raise self.fail(
+                key, f"must have {len(names)} elements [{', '.join(names)}], got {len(value)}"
+            )
+        result = []
+        for name, item in zip(names, value, strict=True):
+            if isinstance(item, bool) or not isinstance(item, int | float):
+                raise self.fail(key, f"element {name} must be a number, got {_type_name(item)}")
+            result.append(self._finite(item, key, f"element {name} "))
+        return tuple(result)
+
+    def _finite(self, value: int | float, key: str, what: str) -> float:
+        try:
+            result = float(value)
+        except OverflowError:  # an integer beyond the range of a double
+            result = math.inf
+        if not math.isfinite(result):
+            raise self.fail(key, f"{what}must be a finite number, got {result}")
+        return result
+
+    def choice(self, value: object, key: str, choices: tuple[str, ...]) -> str:
+        if not isinstance(value, str):
+            raise self.fail(key, f"must be a string, got {_type_name(value)}")
+        if value not in choices:
+            quoted = ", ".join(f'"{c}"' for c in choices)
+            raise self.fail(key, f'must be one of {quoted}, got "{value}"')
+        return value
+
+    def array_of_tables(self, value: object, key: str) -> list[dict[str, Any]]:
+        if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
+            raise self.fail(
+                key, f"must be an array of tables ([[{key}]] entries), got {_type_name(value)}"
+            )
+        return value
+
+
+def _join(prefix: str, key: str) -> str:
+    return f"{prefix}.{key}" if prefix else key
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file.
+
+    :param path: the TOML file; error messages name it as given.
+
+    :returns: The scenario.
+
+    :raises ScenarioError: the file cannot be read, is not TOML, or is not a valid
+        scenario.
+    """
+    name = str(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise ScenarioError(name, None, f"cannot read: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(name, None, f"not UTF-8 text: {exc.reason}") from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(name, None, f"TOML syntax error: {exc}") from exc
+    return parse_scenario(data, name)
+
+
+def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
+    """Validate parsed TOML as a scenario.
+
+    :param data: the parsed document.
+    :param path: the file it came from, for error messages and the output name.
+
+    :raises ScenarioError: the document is not a valid scenario.
+    """
+    c = _Checker(path)
+    c.keys(data, "", _TOP_REQUIRED, _TOP_KEYS)
+
+    params = _parse_params(c, data.get("params", {}))
+
+    robot = c.table(data["robot"], "robot")
+    c.keys(robot, "robot", ("pose",), ("pose",))
+    robot_pose = Pose(*c.numbers(robot["pose"], "robot.pose", ("x", "y", "θ")))
+
+    ref = c.table(data["reference"], "reference")
+    c.keys(ref, "reference", ("pose", "v", "w"), ("pose", "v", "w"))
+    reference = ReferenceSpec(
+        pose=Pose(*c.numbers(ref["pose"], "reference.pose", ("x", "y", "θ"))),
+        v=c.number(ref["v"], "reference.v"),
+        w=c.number(ref["w"], "reference.w"),
+    )
+
+    obstacles = _parse_obstacles(c, data.get("obstacles", []), params)
+    sim = _parse_sim(c, data["sim"])
+    expected = _parse_expected(c, data.get("expected", []), len(obstacles), sim)
+    return Scenario(
+        path=Path(path),
+        robot=robot_pose,
+        reference=reference,
+        obstacles=obstacles,
+        sim=sim,
+        params=params,
+        expected=expected,
+    )
+
+
+def _parse_params(c: _Checker, value: object) -> Params:
+    table = c.table(value, "params")
+    c.keys(table, "params", (), (*_SCALAR_PARAMS, *_GAIN_PARAMS))
+    overrides: dict[str, Any] = {}
+    for key, attr in _SCALAR_PARAMS.items():
+        if key in table:
+            overrides[attr] = c.positive(table[key], f"params.{key}")
+    for key, n in _GAIN_PARAMS.items():
+        if key in table:
+            gains = c.numbers(table[key], f"params.{key}", tuple(f"k{i + 1}" for i in range(n)))
+            for i, k in enumerate(gains):
+                if k <= 0.0:
+                    raise c.fail(f"params.{key}", f"gain k{i + 1} must be > 0, got {k:g}")
+            overrides[key] = gains
+    p = Params(**overrides)
+
+    def blame(*keys: str) -> str:
+        """The first of ``keys`` the file sets (the one to change), else the first."""
+        return "params." + next((k for k in keys if k in table), keys[0])
+
+    # The constraints of ctl_params_check: R_m <= D_s < D_act <= D_det.
+    if p.d_s < p.r_m:
+        raise c.fail(
+            blame("D_s", "R_m"), f"D_s ({p.d_s:g} m) must be >= R_m ({p.r_m:g} m), eq. (6)"
+        )
+    if p.d_s >= p.d_act:
+        raise c.fail(blame("D_s", "D_act"), f"D_s ({p.d_s:g} m) must be < D_act ({p.d_act:g} m)")
+    if p.d_act > p.d_det:
+        raise c.fail(
+            blame("D_act", "D_det"), f"D_act ({p.d_act:g} m) must be <= D_det ({p.d_det:g} m)"
+        )
+    return p
+
+
+def _parse_obstacles(c: _Checker, value: object, params: Params) -> tuple[ObstacleSpec, ...]:
+    entries = c.array_of_tables(value, "obstacles")
+    if len(entries) > MAX_OBSTACLES:
+        raise c.fail("obstacles", f"at most {MAX_OBSTACLES} obstacles, got {len(entries)}")
+    result = []
+    for i, entry in enumerate(entries, start=1):
+        prefix = f"obstacles[{i}]"
+        c.keys(entry, prefix, ("position",), ("position", "radius"))
+        x, y = c.numbers(entry["position"], f"{prefix}.position", ("x", "y"))
+        radius = params.r_ob
+        if "radius" in entry:
+            radius = c.positive(entry["radius"], f"{prefix}.radius")
+        result.append(ObstacleSpec(x, y, radius))
+    return tuple(result)
+
+
+def _parse_sim(c: _Checker, value: object) -> SimSpec:
+    table = c.table(value, "sim")
+    required = ("duration", "dt", "integrator")
+    c.keys(table, "sim", required, required)
+    duration = c.positive(table["duration"], "sim.duration")
+    dt = c.positive(table["dt"], "sim.dt")
+    dt_us = dt * 1e6
+    if dt_us < 0.5 or abs(dt_us - round(dt_us)) > 1e-6:
+        raise c.fail("sim.dt", f"must be a whole number of microseconds, got {dt:g} s")
+    integrator = c.choice(table["integrator"], "sim.integrator", tuple(Integrator))
+    return SimSpec(duration, dt, Integrator(integrator))
+
+
+def _parse_expected(
+    c: _Checker, value: object, n_obstacles: int, sim: SimSpec
+) -> tuple[ExpectedEvent, ...]:
+    entries = c.array_of_tables(value, "expected")
+    result = []
+    for i, entry in enumerate(entries, start=1):
+        prefix = f"expected[{i}]"
+        c.keys(entry, prefix, ("t", "event", "obstacle"), ("t", "event", "obstacle", "side"))
+        t = c.number(entry["t"], f"{prefix}.t")
+        if not 0.0 <= t <= sim.duration:
+            raise c.fail(
+                f"{prefix}.t", f"must be within the run, 0 to {sim.duration:g} s, got {t:g}"
+            )
+        event = EventKind(c.choice(entry["event"], f"{prefix}.event", tuple(EventKind)))
+        obstacle = entry["obstacle"]
+        if isinstance(obstacle, bool) or not isinstance(obstacle, int):
+            raise c.fail(f"{prefix}.obstacle", f"must be an integer, got {_type_name(obstacle)}")
+        if not 1 <= obstacle <= n_obstacles:
+            known = f"1 to {n_obstacles}" if n_obstacles else "the scenario has none"
+            raise c.fail(f"{prefix}.obstacle", f"no obstacle {obstacle} ({known})")
+        side = None
+        if event is EventKind.ACTIVATE:
+            if "side" not in entry:
+                raise c.fail(f"{prefix}.side", "missing required key (activate events have a side)")
+            side = Side(c.choice(entry["side"], f"{prefix}.side", tuple(Side)))
+        elif "side" in entry:
+            raise c.fail(f"{prefix}.side", f"only activate events have a side, not {event}")
+        result.append(ExpectedEvent(t, event, obstacle, side))
+    return tuple(result)

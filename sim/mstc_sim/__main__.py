@@ -1,5 +1,0 @@
-"""``python -m mstc_sim``: see :mod:`mstc_sim.cli`."""
-
-from mstc_sim.cli import main
-
-raise SystemExit(main())

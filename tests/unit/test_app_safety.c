@@ -1,0 +1,604 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Unity tests of the application's safety supervisor (app.h, docs/safety.md):
+ * arming, the input timeouts in control steps and in time, the ramped stop
+ * and its reason in STATUS, the latch and the re-arm, bus-off, corrupted,
+ * duplicated and hostile frames, parameters at their limits, in lock-step
+ * (STEP frames) and real-time (app_control_tick) modes. The HAL is hal/fake.
+ *
+ * Expected values: eq. (1)-(3) by hand for the wheel speeds, as in
+ * test_app.c (robot at the origin heading east, reference 1 m ahead at
+ * 0.5 m/s: both wheels 70 rad/s = 71680 lsb of 2^-10 rad/s); the ramp by
+ * hand: max_wheel_decel 100 rad/s² over 20 ms is 2 rad/s = 2048 lsb a step.
+ */
+#include <errno.h>
+#include <string.h>
+
+#include "app/app.h"
+#include "comm/mstc_dbc.h"
+#include "hal_fake.h"
+#include "test_frames.h"
+#include "test_util.h"
+
+static app_t app;
+
+/* Raw wheel speed tolerance [lsb of 2^-10 rad/s]: test_app.c says why. */
+#define TOL_WHEEL_RAW TU_TOL(1, 6)
+/* The ramp: float exact to the raw rounding; fixed: dt = 0.02 s is Q16.16
+ * 1311/65536 (5e-4 relative) times 100 rad/s², and the scaling factor's
+ * rounding: a few lsb a step. */
+#define TOL_RAMP_RAW  TU_TOL(2, 8)
+#define DT_US         20000u
+
+void setUp(void)
+{
+    hal_fake_reset();
+    hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
+    memset(tf_counters, 0, sizeof tf_counters);
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+}
+
+void tearDown(void) {}
+
+static int feed_rc(hal_can_frame_t f) { return app_on_frame(&app, &f); }
+static void feed(hal_can_frame_t f) { TEST_ASSERT_EQUAL_INT(0, feed_rc(f)); }
+
+static void odom(void)
+{
+    feed(tf_odom_xy(0.0, 0.0));
+    feed(tf_odom_theta(0.0));
+}
+static void ref(void)
+{
+    feed(tf_ref_xy(1.0, 0.0));
+    feed(tf_ref_motion(0.0, 0.5, 0.0));
+}
+
+static uint8_t arm_cmd(float value)
+{
+    feed(tf_param_set(COMM_PARAM_ARM, value));
+    return tf_last_param_value().param_value_result;
+}
+
+static uint16_t k_step;
+static uint32_t t_us;
+
+/* One lock-step control step at the next time (DT_US later). */
+static void step(void)
+{
+    hal_fake.n_sent = 0;
+    feed(tf_step(k_step++, t_us));
+    t_us += DT_US;
+}
+
+/* A full step: inputs, then STEP. */
+static void full_step(void)
+{
+    odom();
+    ref();
+    step();
+}
+
+/* Pre-roll and arm, as the plant does at the start of a run. */
+static void arm(void)
+{
+    k_step = 0;
+    t_us = 0;
+    for (unsigned k = 0; k < APP_REARM_FRAMES; k++) {
+        odom();
+        ref();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, app.halt);
+}
+
+/* Drive at 70 rad/s for a few steps (robot at the origin, reference ahead). */
+static void drive(unsigned steps)
+{
+    arm();
+    for (unsigned k = 0; k < steps; k++) {
+        full_step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    }
+}
+
+/* ------------------------------------------------------------------ arming */
+
+static void test_app_safety_starts_halted_not_armed_and_stands_still(void)
+{
+    full_step();
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_right);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
+}
+
+static void test_app_safety_arm_needs_five_good_frames_of_every_input(void)
+{
+    for (unsigned k = 0; k + 1u < APP_REARM_FRAMES; k++) {
+        odom();
+        ref();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f));
+    TEST_ASSERT_EQUAL_FLOAT(0.0f, tf_last_param_value().param_value_value);
+    odom();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f)); /* reference still 4 */
+    ref();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
+    full_step();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_right);
+}
+
+static void test_app_safety_arm_command_other_values_and_get(void)
+{
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, arm_cmd(2.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, arm_cmd(NAN));
+    feed(tf_param_get(COMM_PARAM_ARM));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(0.0f, tf_last_param_value().param_value_value);
+    arm();
+    feed(tf_param_get(COMM_PARAM_ARM));
+    TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
+}
+
+static void test_app_safety_disarm_halts_with_a_ramp(void)
+{
+    drive(2);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    /* Disarming again keeps the reason. */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+}
+
+static void test_app_safety_heartbeat_says_ready_when_not_armed_and_fault_when_halted(void)
+{
+    full_step(); /* t = 0: housekeeping */
+    struct mstc_dbc_heartbeat_t h;
+    TEST_ASSERT_EQUAL_INT(0,
+                          mstc_dbc_heartbeat_unpack(&h, tf_last_sent(COMM_ID_HEARTBEAT)->data, 8));
+    TEST_ASSERT_EQUAL_UINT8(COMM_STATE_INIT + 1u,
+                            h.heartbeat_state); /* READY before the first step */
+    TEST_ASSERT_EQUAL_INT(COMM_STATE_READY, app.state);
+    drive(1);
+    TEST_ASSERT_EQUAL_INT(COMM_STATE_RUNNING, app.state);
+    step(); /* no inputs: still within the timeout */
+    step();
+    step(); /* third step without them: halted */
+    TEST_ASSERT_EQUAL_INT(COMM_STATE_FAULT, app.state);
+}
+
+/* ---------------------------------------------------------------- timeouts */
+
+static void test_app_safety_odometry_lost_halts_at_the_third_step(void)
+{
+    drive(5);
+    /* Only the reference from now on: the last odometry came with the last
+     * full step k; steps k+1 and k+2 still use it, k+3 halts. */
+    ref();
+    step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    ref();
+    step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    ref();
+    step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_right);
+}
+
+static void test_app_safety_reference_lost_halts_with_its_reason(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 3u; k++) {
+        odom();
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, tf_last_status().status_halt);
+}
+
+static void test_app_safety_one_theta_frame_lost_is_enough(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        ref();
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+}
+
+static void test_app_safety_timeout_counts_time_too(void)
+{
+    /* Steps 40 ms apart: two periods without odometry are 80 ms >= 60 ms. */
+    drive(5);
+    t_us += DT_US; /* the next step comes 40 ms after the last */
+    ref();
+    step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt); /* 40 ms */
+    t_us += DT_US;
+    ref();
+    step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt); /* 80 ms */
+}
+
+static void test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero(void)
+{
+    /* Reference to the left: wheels 28 and -8 rad/s (test_app.c). */
+    arm();
+    feed(tf_odom_xy(0.0, 0.0));
+    feed(tf_odom_theta(0.0));
+    feed(tf_ref_xy(0.0, 1.0));
+    feed(tf_ref_motion(0.0, 0.5, 0.0));
+    step();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 28672, tf_last_wheels().wheel_cmd_right);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, -8192, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    /* The larger wheel loses 2 rad/s a step, the other keeps the ratio
+     * -8/28; 28 rad/s takes 14 steps. */
+    int32_t prev_r = 28672;
+    for (unsigned k = 1; k <= 14u; k++) {
+        step();
+        const struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
+        const double want_r = 28672.0 - 2048.0 * k;
+        TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, (int32_t)want_r, w.wheel_cmd_right);
+        TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, (int32_t)(-want_r * 8.0 / 28.0),
+                                 w.wheel_cmd_left);
+        TEST_ASSERT_TRUE(w.wheel_cmd_right <= prev_r);
+        prev_r = w.wheel_cmd_right;
+    }
+    for (unsigned k = 0; k < 2u; k++) { /* zero, and it stays there */
+        step();
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_right);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    }
+}
+
+static void test_app_safety_deceleration_is_a_parameter(void)
+{
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    const float bad[] = { 0.0f, -1.0f, NAN, INFINITY, 10001.0f };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
+    }
+    feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
+    TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
+    /* 1000 rad/s² over 20 ms: 20 rad/s a step, from 70: 50, 30, 10, 0. */
+    drive(1);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    const int32_t want[] = { 51200, 30720, 10240, 0 };
+    for (size_t i = 0; i < 4u; i++) {
+        full_step();
+        TEST_ASSERT_INT32_WITHIN(TU_TOL(2, 40), want[i], tf_last_wheels().wheel_cmd_left);
+    }
+}
+
+static void test_app_safety_halt_latches_until_rearmed_after_five_good_frames(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 3u; k++) {
+        ref();
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, app.halt);
+    /* Odometry is back: still halted, reason kept. */
+    for (unsigned k = 0; k < 40u; k++) {
+        full_step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+}
+
+static void test_app_safety_rearm_refused_until_the_inputs_ran_five_steps(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 3u; k++) {
+        ref();
+        step();
+    }
+    full_step(); /* odometry frames 1 */
+    full_step(); /* 2 */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f));
+    full_step();
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f)); /* 4 */
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f)); /* 5 */
+}
+
+/* -------------------------------------------------- corrupted and hostile */
+
+static void test_app_safety_corrupted_frames_are_never_used(void)
+{
+    drive(3);
+    /* An odometry frame that says the robot is 1 m further, with one bit of
+     * its CRC wrong: dropped; the step uses the last good pose (70 rad/s,
+     * not the 10 rad/s of e1 = 0). */
+    odom();
+    hal_can_frame_t bad = tf_odom_xy(1.0, 0.0);
+    bad.data[0] ^= 0x01u;
+    TEST_ASSERT_EQUAL_INT(-EBADMSG, feed_rc(bad));
+    ref();
+    step();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(8u, tf_last_status().status_faults & 8u);
+}
+
+static void test_app_safety_two_corrupted_frames_in_the_window_halt_at_once(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 2u; k++) {
+        hal_can_frame_t bad = tf_odom_xy(0.0, 0.0);
+        bad.data[6] ^= 0x20u;
+        TEST_ASSERT_EQUAL_INT(-EBADMSG, feed_rc(bad));
+        feed(tf_odom_theta(0.0));
+        ref();
+        step();
+    }
+    /* The second step: window [OK OK ERR ERR], INVALID before any timeout. */
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+}
+
+static void test_app_safety_duplicated_frames_are_tolerated(void)
+{
+    drive(2);
+    for (unsigned k = 0; k < 10u; k++) {
+        const hal_can_frame_t f = tf_odom_xy(0.0, 0.0);
+        feed(f);
+        TEST_ASSERT_EQUAL_INT(-EALREADY, feed_rc(f)); /* the duplicate */
+        feed(tf_odom_theta(0.0));
+        ref();
+        step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    }
+}
+
+static void test_app_safety_a_step_with_a_bad_step_history_halts(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 2u; k++) {
+        hal_can_frame_t bad = tf_step(99, t_us);
+        bad.data[7] ^= 0x02u;
+        TEST_ASSERT_EQUAL_INT(-EBADMSG, feed_rc(bad)); /* no step runs */
+    }
+    full_step(); /* [OK OK ERR ERR OK] → window [ERR ERR OK …]: INVALID */
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_STEP, tf_last_status().status_halt);
+}
+
+static void test_app_safety_replayed_step_runs_no_step(void)
+{
+    drive(2);
+    const uint32_t steps = app.steps;
+    odom();
+    ref();
+    const hal_can_frame_t s = tf_step(k_step, t_us);
+    feed(s);
+    TEST_ASSERT_EQUAL_INT(-EALREADY, feed_rc(s));
+    TEST_ASSERT_EQUAL_UINT32(steps + 1u, app.steps);
+}
+
+static void test_app_safety_step_time_going_back_times_the_inputs_out(void)
+{
+    drive(5);
+    /* A STEP whose time goes back is a wrap: 71.6 min later for the
+     * firmware. The inputs of this step are fresh, so it still runs; the
+     * ramp of a later halt uses at most APP_MAX_DT_US. */
+    full_step();
+    t_us = 0u;
+    full_step();
+    TEST_ASSERT_EQUAL_UINT32(1, app.time_wraps);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    t_us = 0xFFFFFFF0u; /* a huge step forward: the ramp saturates at 1 s: 100 rad/s */
+    full_step();
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+}
+
+/* ------------------------------------------------------------------ bus-off */
+
+static void test_app_safety_bus_off_halts_and_blocks_the_rearm(void)
+{
+    hal_fake.can_status_rc = 0;
+    hal_fake.can_status.state = HAL_CAN_STATE_ERROR_ACTIVE;
+    drive(3);
+    hal_fake.can_status.state = HAL_CAN_STATE_BUS_OFF;
+    hal_fake.can_status.bus_off = 1;
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    for (unsigned k = 0; k < 5u; k++) {
+        full_step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, arm_cmd(1.0f));
+    hal_fake.can_status.state = HAL_CAN_STATE_ERROR_ACTIVE; /* recovered */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+}
+
+static void test_app_safety_a_bus_off_between_steps_halts_too(void)
+{
+    /* Bus-off and automatic recovery between two looks: the count moved. */
+    hal_fake.can_status_rc = 0;
+    hal_fake.can_status.state = HAL_CAN_STATE_ERROR_ACTIVE;
+    hal_fake.can_status.bus_off = 7;
+    drive(3);
+    hal_fake.can_status.bus_off = 8;
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, tf_last_status().status_halt);
+}
+
+/* ------------------------------------------------------------ parameters */
+
+static void test_app_safety_every_parameter_reads_back_its_default(void)
+{
+    /* Table 1 and the default geometry (ctl.h), in index order. */
+    const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,  12.0f,
+                                           6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f };
+    for (uint8_t i = 0; i < COMM_PARAM_MAX_WHEEL_DECEL; i++) {
+        feed(tf_param_get(i));
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+        TEST_ASSERT_FLOAT_WITHIN(1e-4f, want[i], tf_last_param_value().param_value_value);
+    }
+    feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
+    TEST_ASSERT_EQUAL_FLOAT(APP_DEFAULT_MAX_WHEEL_DECEL, tf_last_param_value().param_value_value);
+}
+
+static void test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once(void)
+{
+    arm();
+    odom();
+    ref();
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_obstacle_t o = { .obstacle_id = 4,
+                                           .obstacle_x = 8192,
+                                           .obstacle_radius = 10 };
+    (void)mstc_dbc_obstacle_pack(p, &o, 8);
+    feed(tf_seal(COMM_ID_OBSTACLE, p));
+    feed(tf_seal(COMM_ID_OBSTACLE, p));
+    TEST_ASSERT_EQUAL_UINT8(1, app.n_reports);
+    step();
+    TEST_ASSERT_EQUAL_UINT8(1, app.ctl.sup.n_obs);
+}
+
+static void test_app_safety_at_most_sixteen_obstacles_a_step(void)
+{
+    arm();
+    odom();
+    ref();
+    for (uint8_t id = 1; id <= SUP_MAX_OBSTACLES + 1u; id++) {
+        uint8_t p[8] = { 0 };
+        const struct mstc_dbc_obstacle_t o = { .obstacle_id = (uint8_t)(id & 15u),
+                                               .obstacle_x = 8192 + id,
+                                               .obstacle_radius = (uint8_t)(10 + id) };
+        (void)mstc_dbc_obstacle_pack(p, &o, 8);
+        feed(tf_seal(COMM_ID_OBSTACLE, p));
+    }
+    /* ids 1..15 and 0 (16 & 15), then 1 again replaces the first. */
+    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, app.n_reports);
+    TEST_ASSERT_EQUAL_UINT8(10 + 17, (uint8_t)lround(tu_dbl(app.reports[0].radius) * 100.0));
+    /* Sixteen distinct ids are all a 4-bit OBSTACLE_id can carry; the guard
+     * against a seventeenth (a wider id in a later protocol) is checked by
+     * hand: a full table drops a new id. */
+    for (uint8_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
+        app.reports[i].id = (uint8_t)(100u + i);
+    }
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_obstacle_t o = { .obstacle_id = 3, .obstacle_radius = 10 };
+    (void)mstc_dbc_obstacle_pack(p, &o, 8);
+    feed(tf_seal(COMM_ID_OBSTACLE, p));
+    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, app.n_reports);
+    TEST_ASSERT_EQUAL_UINT8(115, app.reports[SUP_MAX_OBSTACLES - 1u].id);
+}
+
+static void test_app_safety_standing_reference_is_stop_not_a_halt(void)
+{
+    /* v_r = ω_r = 0: the supervisor's p3, mode STOP, heartbeat STOPPED. */
+    arm();
+    feed(tf_odom_xy(0.0, 0.0));
+    feed(tf_odom_theta(0.0));
+    feed(tf_ref_xy(1.0, 0.0));
+    feed(tf_ref_motion(0.0, 0.0, 0.0));
+    step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
+    TEST_ASSERT_EQUAL_INT(COMM_STATE_STOPPED, app.state);
+}
+
+static void test_app_safety_ref_motion_alone_lost_is_a_reference_halt(void)
+{
+    drive(5);
+    for (unsigned k = 0; k < 3u; k++) {
+        odom();
+        feed(tf_ref_xy(1.0, 0.0));
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_REFERENCE, tf_last_status().status_halt);
+}
+
+static void test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate(void)
+{
+    drive(3);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    t_us -= DT_US; /* the same time as the last step: dt = 0 */
+    full_step();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    for (unsigned k = 0; k < 300u; k++) { /* no inputs: the miss counts saturate */
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(UINT8_MAX, app.in[APP_IN_ODOM_XY].missed);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+}
+
+/* ------------------------------------------------------------- real time */
+
+static void test_app_safety_real_time_mode_needs_no_step_and_times_out(void)
+{
+    arm();
+    uint64_t now = 1000000u;
+    for (unsigned k = 0; k < 5u; k++) {
+        odom();
+        ref();
+        hal_fake.n_sent = 0;
+        app_control_tick(&app, now);
+        now += DT_US;
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    }
+    for (unsigned k = 0; k < 3u; k++) {
+        hal_fake.n_sent = 0;
+        app_control_tick(&app, now);
+        now += DT_US;
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-3, 1e-2), 70.0 - 2.0, app_last_wheels(&app)->left);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_app_safety_starts_halted_not_armed_and_stands_still);
+    RUN_TEST(test_app_safety_arm_needs_five_good_frames_of_every_input);
+    RUN_TEST(test_app_safety_arm_command_other_values_and_get);
+    RUN_TEST(test_app_safety_disarm_halts_with_a_ramp);
+    RUN_TEST(test_app_safety_heartbeat_says_ready_when_not_armed_and_fault_when_halted);
+    RUN_TEST(test_app_safety_odometry_lost_halts_at_the_third_step);
+    RUN_TEST(test_app_safety_reference_lost_halts_with_its_reason);
+    RUN_TEST(test_app_safety_one_theta_frame_lost_is_enough);
+    RUN_TEST(test_app_safety_timeout_counts_time_too);
+    RUN_TEST(test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero);
+    RUN_TEST(test_app_safety_deceleration_is_a_parameter);
+    RUN_TEST(test_app_safety_halt_latches_until_rearmed_after_five_good_frames);
+    RUN_TEST(test_app_safety_rearm_refused_until_the_inputs_ran_five_steps);
+    RUN_TEST(test_app_safety_corrupted_frames_are_never_used);
+    RUN_TEST(test_app_safety_two_corrupted_frames_in_the_window_halt_at_once);
+    RUN_TEST(test_app_safety_duplicated_frames_are_tolerated);
+    RUN_TEST(test_app_safety_a_step_with_a_bad_step_history_halts);
+    RUN_TEST(test_app_safety_replayed_step_runs_no_step);
+    RUN_TEST(test_app_safety_step_time_going_back_times_the_inputs_out);
+    RUN_TEST(test_app_safety_bus_off_halts_and_blocks_the_rearm);
+    RUN_TEST(test_app_safety_a_bus_off_between_steps_halts_too);
+    RUN_TEST(test_app_safety_every_parameter_reads_back_its_default);
+    RUN_TEST(test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once);
+    RUN_TEST(test_app_safety_at_most_sixteen_obstacles_a_step);
+    RUN_TEST(test_app_safety_standing_reference_is_stop_not_a_halt);
+    RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
+    RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
+    RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
+    return UNITY_END();
+}
