@@ -4,17 +4,17 @@
  * commands a host sends, the channel state they change, the replies, and the
  * lines of the frames the firmware sends.
  *
- * The source is included, not linked: the host test build links the firmware
- * objects only, and the codec is pure (no register access). Expected lines
- * and replies are written out by hand from the Lawicel CAN232/CANUSB command
- * list (slcan_codec.h); tests/python/test_slcan_codec.py checks the same code
- * against python-can's own slcan encoder and decoder.
+ * The codec is pure (no register access): the host build links it with this
+ * test (TEST_SRCS_test_slcan). Expected lines and replies are written out by
+ * hand from the Lawicel CAN232/CANUSB command list (slcan_codec.h);
+ * tests/python/test_slcan_codec.py checks the same code against python-can's
+ * own slcan encoder and decoder.
  */
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
 
-#include "../../hal/stm32/slcan_codec.c"
+#include "slcan_codec.h"
 #include "unity.h"
 
 void setUp(void) {}
