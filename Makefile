@@ -190,6 +190,7 @@ test: deps-test  ## every test: lint, generated files, static analysis, cross bu
 include mk/comm.mk
 include mk/replay.mk
 include mk/firmware.mk
+include mk/pil.mk
 include mk/cross.mk
 include mk/bench.mk
 include mk/numerics.mk
