@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 # make bench: instructions of one control step on Cortex-M (QEMU mps2 boards,
-# counted with SysTick under -icount) and nanoseconds per step on the host,
+# counted with SysTick under -icount; and on the board images in the loop,
+# mk/pil.mk) and nanoseconds per step on the host,
 # over a recorded closed loop of the paper's scenarios; prints a table and
 # writes it into docs/performance.md (tools/bench/report.py). Results are
 # cached in build/bench/*.txt and remade when their image or program changes.
@@ -86,8 +87,8 @@ $(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 
 .PHONY: bench
-bench: $(BENCH_RESULTS) $(BENCH_CAN) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput: docs/performance.md
-	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)
+bench: $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput: docs/performance.md
+	@$(PY) tools/bench/report.py --doc docs/performance.md --pil build/pil $(BENCH_RESULTS)
 	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
 	@$(MAKE) --no-print-directory replay-bench
 	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt

@@ -27,4 +27,14 @@ pil: deps-sim $(addprefix img-,$(addsuffix -slcan,$(PIL_BOARDS)))  ## the paper'
 	@set -e; for b in $(PIL_BOARDS); do \
 	  echo "== $$b: build/firmware/$$b-slcan under QEMU"; \
 	  $(MSTC) hil --qemu build/firmware/$$b-slcan --no-figures --out build/pil/$$b $(SCENARIO); \
+	  $(if $(filter-out $(SCENARIO),$(PIL_PAPER))$(filter-out $(PIL_PAPER),$(SCENARIO)),,touch build/pil/$$b/.paper;) \
 	done
+
+# The paper's scenarios on each board, once per change of its image or of the
+# harness, for `make bench` (instructions per control step in the loop).
+PIL_PAPER := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
+PIL_STAMPS := $(foreach b,$(PIL_ALL),build/pil/$(b)/.paper)
+build/pil/%/.paper: build/firmware/%-slcan/mstc.elf $(PIL_PAPER) sim/mstc/cli/hil.py \
+    sim/mstc/qemu.py sim/mstc/can/lockstep.py | .venv/.requirements.sha256
+	$(MSTC) hil --qemu build/firmware/$*-slcan --no-figures --out build/pil/$* $(PIL_PAPER)
+	@touch $@

@@ -36,6 +36,11 @@ and prints the table of `mstc sim`.
 On a host whose kernel has no CAN, `make hil` runs this inside a small VM
 with vcan (docs/hil.md).
 
+A board in the loop (--board) steps on its own timer until its first STEP
+frame: one STEP goes first, before the parameters and the arming, so that
+every step of the run is the plant's. A board on a USB-serial adapter
+(CAN=slcan images): --interface slcan --channel /dev/ttyUSB0@460800 --board.
+
 With --qemu, the firmware is a board image built with CAN=slcan, booted under
 qemu-system-arm for each scenario, and the plant reaches it through
 python-can's slcan interface on the image's USART2 (processor in the loop,
@@ -84,6 +89,12 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "and stop it after, so each runs on a fresh firmware (SocketCAN only)",
     )
     parser.add_argument(
+        "--board",
+        action="store_true",
+        help="the firmware is a board image, which steps on its own timer until its first "
+        "STEP frame: send one first (docs/hil.md); implied by --qemu",
+    )
+    parser.add_argument(
         "--qemu",
         metavar="IMAGE_DIR",
         type=Path,
@@ -129,7 +140,9 @@ def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResu
     bus = can.Bus(interface=args.interface, channel=args.channel)
     firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
     try:
+        primer = enter_lockstep(bus) if args.board else []
         ctl = CanController(bus, scenario.params, sim_time_stamps=False)
+        ctl.traffic.frames[:0] = primer
         result = simulate(scenario, ctl)
     finally:
         bus.shutdown()
