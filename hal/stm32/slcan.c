@@ -25,10 +25,10 @@
 #include <stddef.h>
 
 #include "board.h"
+#include "can_queue.h"
 #include "can_ring.h"
 #include "cortex_m.h"
 #include "hal/hal_can.h"
-#include "hal/hal_time.h"
 #include "slcan_codec.h"
 #include "stm32_calc.h"
 #include "stm32_hal.h"
@@ -201,44 +201,14 @@ int hal_can_set_filters(const hal_can_filter_t *f, unsigned n)
 
 int hal_can_send(const hal_can_frame_t *frame)
 {
-    if (frame == NULL || frame->id > HAL_CAN_MAX_STD_ID || frame->dlc > HAL_CAN_MAX_DLC) {
-        return -EINVAL;
-    }
-    if (!opened) {
-        return -ENODEV;
-    }
-    if (!channel_open) {
-        return -ENETDOWN; /* the host has not opened the channel */
-    }
-    if (!can_ring_push(&tx_ring, frame)) {
-        tx_refused = tx_refused + 1u;
-        return -EAGAIN;
-    }
-    /* The interrupt is the queue's only consumer: wake it. */
-    cm_nvic_set_pending(BOARD_SLCAN_IRQn);
-    return 0;
+    /* -ENETDOWN: the host has not opened the channel. */
+    const int down = !opened ? -ENODEV : (!channel_open ? -ENETDOWN : 0);
+    return can_queue_send(&tx_ring, BOARD_SLCAN_IRQn, frame, down, &tx_refused);
 }
 
 int hal_can_recv(hal_can_frame_t *frame, uint32_t timeout_us)
 {
-    if (frame == NULL) {
-        return -EINVAL;
-    }
-    const uint64_t end = timeout_us != 0u ? hal_time_now_us() + timeout_us : 0u;
-    for (;;) {
-        if (can_ring_pop(&rx_ring, frame)) {
-            return 0;
-        }
-        if (timeout_us == 0u || hal_time_now_us() >= end) {
-            return -EAGAIN;
-        }
-        /* Mask, check, sleep: a frame arriving in between still wakes us. */
-        const uint32_t primask = cm_irq_save();
-        if (can_ring_count(&rx_ring) == 0u) {
-            cm_wfi();
-        }
-        cm_irq_restore(primask);
-    }
+    return can_queue_recv(&rx_ring, frame, timeout_us, NULL);
 }
 
 void hal_can_close(void)

@@ -32,9 +32,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
-import subprocess
 import time
 from collections import deque
 from collections.abc import Callable
@@ -50,6 +48,7 @@ from mstc.qemu import BoardVm
 from mstc.report.outputs import write_events, write_trace
 from mstc.sim.run import simulate
 from mstc.sim.scenario import load_scenario
+from test_board_images import make
 from test_faults import _cut_trial
 from test_paper import D_S, PAPER
 
@@ -61,22 +60,6 @@ NAMES = sorted(PAPER)
 TRANSPORT = {"bxcan": {"bxcan.o", "bxcan_calc.o"}, "slcan": {"slcan.o", "slcan_codec.o"}}
 CUT_SEEDS = (100, 109)
 """test_faults' seeds of two odometry cuts (steps 79 and 148, phases 3 and 1)."""
-
-
-def _env() -> dict[str, str]:
-    """The environment without a parent make's flags."""
-    return {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL")}
-
-
-def make(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        ["make", "--no-print-directory", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=False,
-        env=_env(),
-    )
 
 
 @pytest.fixture(scope="module")
@@ -141,23 +124,24 @@ def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_f103_image_runs_the_closed_loop_bit_for_bit_as_the_host_fixed_build(
-    pil: str, libs: dict[str, Path], name: str, tmp_path: Path
-) -> None:
-    host = _host_run(libs["fixed"], name, tmp_path)
-    board = _folder("stm32f103", name)
-    for f in ("trace.csv", "events.json"):
-        assert _sha(board / f) == _sha(host / f), f
+# What each image must share with the host build of its numeric mode: the
+# F103 (Q16.16) every bit of the closed loop, the F405 (float on the FPU) the
+# events.
+HOST = {
+    "stm32f103": ("fixed", ("trace.csv", "events.json")),
+    "stm32f405": ("float", ("events.json",)),
+}
 
 
+@pytest.mark.parametrize("board", BOARDS)
 @pytest.mark.parametrize("name", NAMES)
-def test_f405_image_gives_the_host_float_builds_events(
-    pil: str, libs: dict[str, Path], name: str, tmp_path: Path
+def test_pil_closed_loop_is_the_host_builds_bit_for_bit_on_f103_in_events_on_f405(
+    pil: str, libs: dict[str, Path], board: str, name: str, tmp_path: Path
 ) -> None:
-    host = _host_run(libs["float"], name, tmp_path)
-    board = _folder("stm32f405", name)
-    assert (board / "events.json").read_text() == (host / "events.json").read_text()
+    mode, files = HOST[board]
+    host = _host_run(libs[mode], name, tmp_path)
+    for f in files:
+        assert _sha(_folder(board, name) / f) == _sha(host / f), f
 
 
 # ------------------------------------------------------------ comm loss
