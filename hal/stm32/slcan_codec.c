@@ -63,10 +63,10 @@ static int hex_value(char c)
 }
 
 /* @p n hexadecimal digits at @p p into @p out. */
-static bool hex_number(const char *p, unsigned n, uint32_t *out)
+static bool hex_number(const char *p, size_t n, uint32_t *out)
 {
     uint32_t v = 0u;
-    for (unsigned i = 0; i < n; i++) {
+    for (size_t i = 0; i < n; i++) {
         const int d = hex_value(p[i]);
         if (d < 0) {
             return false;
@@ -80,7 +80,7 @@ static bool hex_number(const char *p, unsigned n, uint32_t *out)
 static void reply(slcan_result_t *out, const char *text)
 {
     const size_t n = strlen(text);
-    memcpy(out->reply, text, n);
+    (void)memcpy(out->reply, text, n);
     out->reply[n] = SLCAN_CR;
     out->reply_len = (uint8_t)(n + 1u);
 }
@@ -95,12 +95,12 @@ static void reply_bel(slcan_result_t *out)
  * a data frame) payload are well formed, and for t the frame goes to @p f. */
 static bool parse_frame(const char *line, size_t len, bool ext, bool remote, hal_can_frame_t *f)
 {
-    const unsigned id_digits = ext ? EXT_ID_DIGITS : STD_ID_DIGITS;
-    if (len < 2u + id_digits) {
+    const size_t id_digits = ext ? EXT_ID_DIGITS : STD_ID_DIGITS;
+    if (len < id_digits + 2u) {
         return false;
     }
     uint32_t id;
-    if (!hex_number(line + 1, id_digits, &id) || id > (ext ? MAX_EXT_ID : HAL_CAN_MAX_STD_ID)) {
+    if (!hex_number(&line[1], id_digits, &id) || id > (ext ? MAX_EXT_ID : HAL_CAN_MAX_STD_ID)) {
         return false;
     }
     const char l = line[1u + id_digits];
@@ -108,14 +108,14 @@ static bool parse_frame(const char *line, size_t len, bool ext, bool remote, hal
         return false;
     }
     const uint8_t dlc = (uint8_t)(l - '0');
-    const size_t data_at = 2u + id_digits;
-    if (len != data_at + (remote ? 0u : 2u * dlc)) {
+    const size_t data_at = id_digits + 2u;
+    if (len != data_at + (remote ? 0u : 2u * (size_t)dlc)) {
         return false;
     }
     hal_can_frame_t fr = { .id = id, .dlc = dlc };
-    for (unsigned i = 0; !remote && i < dlc; i++) {
+    for (size_t i = 0; !remote && i < dlc; i++) {
         uint32_t byte;
-        if (!hex_number(line + data_at + 2u * i, 2u, &byte)) {
+        if (!hex_number(&line[data_at + 2u * i], 2u, &byte)) {
             return false;
         }
         fr.data[i] = (uint8_t)byte;
@@ -193,19 +193,17 @@ size_t slcan_format_frame(const hal_can_frame_t *f, char *out)
     if (f->id > HAL_CAN_MAX_STD_ID || f->dlc > HAL_CAN_MAX_DLC) {
         return 0u;
     }
-    size_t n = 0u;
-    out[n++] = 't';
-    for (unsigned shift = 8u;; shift -= 4u) {
-        out[n++] = hex_upper[(f->id >> shift) & 0xFu];
-        if (shift == 0u) {
-            break;
-        }
+    out[0] = 't';
+    for (size_t k = 0; k < STD_ID_DIGITS; k++) {
+        out[1u + k] = hex_upper[(f->id >> (4u * (STD_ID_DIGITS - 1u - k))) & 0xFu];
     }
-    out[n++] = (char)('0' + f->dlc);
-    for (unsigned i = 0; i < f->dlc; i++) {
-        out[n++] = hex_upper[f->data[i] >> 4];
-        out[n++] = hex_upper[f->data[i] & 0xFu];
+    out[1u + STD_ID_DIGITS] = hex_upper[f->dlc]; /* 0..8: its own digit */
+    size_t n = STD_ID_DIGITS + 2u;
+    for (size_t i = 0; i < f->dlc; i++) {
+        out[n] = hex_upper[f->data[i] >> 4u];
+        out[n + 1u] = hex_upper[f->data[i] & 0xFu];
+        n += 2u;
     }
-    out[n++] = SLCAN_CR;
-    return n;
+    out[n] = SLCAN_CR;
+    return n + 1u;
 }
