@@ -158,7 +158,7 @@ endif
 endif
 UNIT_BINS := $(addprefix $(B)/tests/,$(or $(TEST),$(UNIT_TESTS)))
 
-.PHONY: test test-unit test-python lint
+.PHONY: test test-unit test-python lint typecheck
 test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module (in NUMERIC mode; TEST=test_avd: one)
 	@tools/run-unit-tests $(UNIT_BINS)
 .PHONY: libs-both
@@ -181,8 +181,10 @@ lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, c
 	$(PY) -m ruff format --check $(PY_LINT)
 	@clang-format --dry-run --Werror $(C_FORMAT) && echo "clang-format: $(words $(C_FORMAT)) files ok"
 	@$(PY) tools/quality/spdx
-test: deps-test  ## every test: lint, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
-	@$(MAKE) --no-print-directory lint check-protocol
+typecheck: deps-sim  ## mypy, strict, over the package mstc (settings in pyproject.toml)
+	$(PY) -m mypy
+test: deps-test  ## every test: lint, types, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
+	@$(MAKE) --no-print-directory lint typecheck check-protocol
 	@$(MAKE) --no-print-directory -j2 --output-sync=target quality cross coverage fuzz
 	@$(MAKE) --no-print-directory NUMERIC=fixed test-unit
 	@$(MAKE) --no-print-directory NUMERIC=float test-unit

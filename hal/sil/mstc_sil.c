@@ -225,3 +225,82 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     }
     return 0;
 }
+
+/* The layout table of mstc_sil_layout(). A field added to a struct of
+ * mstc_sil.h is added here too; the Python bindings refuse a library whose
+ * table and their own structs disagree, naming the struct and field. */
+#define LAYOUT_STRUCT(t)                                                                           \
+    {                                                                                              \
+#t, NULL, 0u, (uint32_t)sizeof(t)                                                          \
+    }
+#define LAYOUT_FIELD(t, f)                                                                         \
+    {                                                                                              \
+#t, #f, (uint32_t)offsetof(t, f), (uint32_t)sizeof(((t *)NULL)->f)                         \
+    }
+
+static const mstc_sil_layout_t layout[] = {
+    LAYOUT_STRUCT(mstc_sil_params_t),
+    LAYOUT_FIELD(mstc_sil_params_t, r_m),
+    LAYOUT_FIELD(mstc_sil_params_t, r_ob),
+    LAYOUT_FIELD(mstc_sil_params_t, d_det),
+    LAYOUT_FIELD(mstc_sil_params_t, d_act),
+    LAYOUT_FIELD(mstc_sil_params_t, d_s),
+    LAYOUT_FIELD(mstc_sil_params_t, trk_k),
+    LAYOUT_FIELD(mstc_sil_params_t, avd_k),
+    LAYOUT_FIELD(mstc_sil_params_t, wheel_radius),
+    LAYOUT_FIELD(mstc_sil_params_t, track_width),
+    LAYOUT_FIELD(mstc_sil_params_t, max_wheel_speed),
+
+    LAYOUT_STRUCT(mstc_sil_obstacle_t),
+    LAYOUT_FIELD(mstc_sil_obstacle_t, id),
+    LAYOUT_FIELD(mstc_sil_obstacle_t, x),
+    LAYOUT_FIELD(mstc_sil_obstacle_t, y),
+    LAYOUT_FIELD(mstc_sil_obstacle_t, radius),
+
+    LAYOUT_STRUCT(mstc_sil_input_t),
+    LAYOUT_FIELD(mstc_sil_input_t, robot),
+    LAYOUT_FIELD(mstc_sil_input_t, ref),
+    LAYOUT_FIELD(mstc_sil_input_t, v_r),
+    LAYOUT_FIELD(mstc_sil_input_t, w_r),
+    LAYOUT_FIELD(mstc_sil_input_t, t_us),
+    LAYOUT_FIELD(mstc_sil_input_t, n_obstacles),
+    LAYOUT_FIELD(mstc_sil_input_t, obstacles),
+
+    LAYOUT_STRUCT(mstc_sil_event_t),
+    LAYOUT_FIELD(mstc_sil_event_t, t_us),
+    LAYOUT_FIELD(mstc_sil_event_t, kind),
+    LAYOUT_FIELD(mstc_sil_event_t, obstacle),
+    LAYOUT_FIELD(mstc_sil_event_t, side),
+
+    LAYOUT_STRUCT(mstc_sil_output_t),
+    LAYOUT_FIELD(mstc_sil_output_t, wheel_left),
+    LAYOUT_FIELD(mstc_sil_output_t, wheel_right),
+    LAYOUT_FIELD(mstc_sil_output_t, mode),
+    LAYOUT_FIELD(mstc_sil_output_t, active_obstacle),
+    LAYOUT_FIELD(mstc_sil_output_t, side),
+    LAYOUT_FIELD(mstc_sil_output_t, faults),
+    LAYOUT_FIELD(mstc_sil_output_t, e1),
+    LAYOUT_FIELD(mstc_sil_output_t, e2),
+    LAYOUT_FIELD(mstc_sil_output_t, e3),
+    LAYOUT_FIELD(mstc_sil_output_t, e),
+    LAYOUT_FIELD(mstc_sil_output_t, v),
+    LAYOUT_FIELD(mstc_sil_output_t, w),
+    LAYOUT_FIELD(mstc_sil_output_t, n_obstacles),
+    LAYOUT_FIELD(mstc_sil_output_t, obstacle_id),
+    LAYOUT_FIELD(mstc_sil_output_t, distance),
+    LAYOUT_FIELD(mstc_sil_output_t, n_events),
+    LAYOUT_FIELD(mstc_sil_output_t, events),
+
+    LAYOUT_STRUCT(mstc_sil_frame_t),
+    LAYOUT_FIELD(mstc_sil_frame_t, id),
+    LAYOUT_FIELD(mstc_sil_frame_t, dlc),
+    LAYOUT_FIELD(mstc_sil_frame_t, data),
+};
+
+const mstc_sil_layout_t *mstc_sil_layout(size_t *n)
+{
+    if (n != NULL) {
+        *n = sizeof layout / sizeof layout[0];
+    }
+    return layout;
+}

@@ -124,4 +124,24 @@ int mstc_sil_fw_send(const mstc_sil_frame_t *f);
  */
 int mstc_sil_fw_recv(mstc_sil_frame_t *f);
 
+/**
+ * @brief Where one field of a struct of this header lies, so that a binding
+ *        (sim/mstc/firmware.py) can check its own copy of the struct at load
+ *        time instead of reading garbage after one side changed.
+ */
+typedef struct {
+    const char *type;  /**< the struct's name, e.g. "mstc_sil_output_t" */
+    const char *field; /**< the field's name; NULL: the whole struct */
+    uint32_t offset;   /**< offsetof [bytes]; 0 for the whole struct */
+    uint32_t size;     /**< sizeof the field (or the struct) [bytes] */
+} mstc_sil_layout_t;
+
+/**
+ * @brief The layout of every struct above: for each, one entry for the whole
+ *        struct followed by one entry per field, in declaration order.
+ * @param[out] n the number of entries.
+ * @return the entries (static; never NULL).
+ */
+const mstc_sil_layout_t *mstc_sil_layout(size_t *n);
+
 #endif /* MSTC_SIL_H */

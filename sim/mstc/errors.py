@@ -41,6 +41,23 @@ class FirmwareError(MstcError):
     its parameters, or a step fails."""
 
 
+class DbcError(MstcError):
+    """The DBC lacks a value-table entry the Python side names (a parameter
+    index, a mode, an event kind, ...), or its tables disagree.
+
+    :param dbc: the DBC file, as loaded.
+    :param table: the value table (``STATUS_mode``, ``Strategy``, ...).
+    :param entry: the entry's name.
+    :param problem: what is wrong with it.
+    """
+
+    def __init__(self, dbc: str, table: str, entry: str, problem: str) -> None:
+        self.dbc = dbc
+        self.table = table
+        self.entry = entry
+        super().__init__(f"{dbc}: value table {table}: {problem}")
+
+
 class ControllerError(MstcError):
     """The firmware did not answer as the protocol says."""
 

@@ -1,18 +1,38 @@
 # SPDX-License-Identifier: MIT
-"""The firmware's control step, called in-process through its C ABI.
+"""The firmware library's bindings, in one place, and its control step in-process.
 
-Binds ``libmstc_sil.so`` (``make lib``; the ABI is ``hal/sil/mstc_sil.h``) with
-ctypes. The structures below mirror that header field for field; the library
-converts to and from the firmware's numeric type at this boundary.
+``libmstc_sil.so`` (``make lib``; the ABI is ``hal/sil/mstc_sil.h``) is reached
+through ctypes by three users: the in-memory controller
+(:class:`SilController`), the python-can interface ``mstc-sil``
+(:mod:`mstc.can.silbus`) and the replay (:mod:`mstc.logs.replay`). All of them
+open it with :meth:`Library.open`, which declares the signatures and checks
+every structure below against the layout the library exports
+(``mstc_sil_layout()``: each struct's size, each field's offset and size), so
+a field added or changed on one side only is a :class:`FirmwareError` naming
+the struct and the field, never garbage read at the wrong offset. Adding a
+field means adding it to the C struct (and its row of the layout table in
+mstc_sil.c) and to the struct here.
+
+The library converts to and from the firmware's numeric type at this
+boundary: everything here is double or an integer. Its modes and event kinds
+are the firmware's ``sup_mode_t`` and ``sup_event_kind_t``, which the firmware
+asserts equal to the DBC's STATUS_mode and EVENT_kind values, so they are
+decoded with the DBC's value tables (:mod:`mstc.can.dbc`); its sides are the
+sign of α (``avd_side_t``: 1 left, -1 right, 0 none), a geometric convention
+rather than a wire value.
 """
+
+from __future__ import annotations
 
 import ctypes
 import errno
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import ClassVar
 
-from mstc.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
+from mstc.can.dbc import tables
+from mstc.controller import Event, Fault, Side, Status, StepResult
 from mstc.errors import FirmwareError
 from mstc.params import Params
 from mstc.sim.plant import Pose, wrap_angle
@@ -22,18 +42,28 @@ LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no path is given."""
 
 MAX_OBSTACLES = 16
-"""MSTC_SIL_MAX_OBSTACLES."""
+"""MSTC_SIL_MAX_OBSTACLES (checked through the size of ``mstc_sil_output_t.obstacle_id``)."""
 MAX_EVENTS = 18
-"""MSTC_SIL_MAX_EVENTS."""
+"""MSTC_SIL_MAX_EVENTS (checked through the size of ``mstc_sil_output_t.events``)."""
+FRAME_DATA = 8
+"""Data bytes of ``mstc_sil_frame_t``."""
 _ALIGN = 16
 """Alignment the controller memory needs."""
 
-_MODES = {0: Mode.TRACK, 1: Mode.AVOID, 2: Mode.STOP}
-_KINDS = {1: EventKind.DETECT, 2: EventKind.ACTIVATE, 3: EventKind.COMPLETE}
 _SIDES = {0: None, 1: Side.LEFT, -1: Side.RIGHT}
+"""``avd_side_t``, the sign of α in eq. (10)-(12): not a wire value."""
 
 
-class _Params(ctypes.Structure):
+class AbiStruct(ctypes.Structure):
+    """A struct of hal/sil/mstc_sil.h; :attr:`c_name` is its name there."""
+
+    c_name: ClassVar[str] = ""
+
+
+class ParamsStruct(AbiStruct):
+    """``mstc_sil_params_t``: parameters, SI units."""
+
+    c_name = "mstc_sil_params_t"
     _fields_ = [
         ("r_m", ctypes.c_double),
         ("r_ob", ctypes.c_double),
@@ -48,7 +78,10 @@ class _Params(ctypes.Structure):
     ]
 
 
-class _Obstacle(ctypes.Structure):
+class ObstacleStruct(AbiStruct):
+    """``mstc_sil_obstacle_t``: a reported obstacle."""
+
+    c_name = "mstc_sil_obstacle_t"
     _fields_ = [
         ("id", ctypes.c_uint32),
         ("x", ctypes.c_double),
@@ -57,7 +90,10 @@ class _Obstacle(ctypes.Structure):
     ]
 
 
-class _Input(ctypes.Structure):
+class InputStruct(AbiStruct):
+    """``mstc_sil_input_t``: the inputs of one step."""
+
+    c_name = "mstc_sil_input_t"
     _fields_ = [
         ("robot", ctypes.c_double * 3),
         ("ref", ctypes.c_double * 3),
@@ -65,11 +101,14 @@ class _Input(ctypes.Structure):
         ("w_r", ctypes.c_double),
         ("t_us", ctypes.c_uint64),
         ("n_obstacles", ctypes.c_uint32),
-        ("obstacles", ctypes.POINTER(_Obstacle)),
+        ("obstacles", ctypes.POINTER(ObstacleStruct)),
     ]
 
 
-class _Event(ctypes.Structure):
+class EventStruct(AbiStruct):
+    """``mstc_sil_event_t``: a switching event."""
+
+    c_name = "mstc_sil_event_t"
     _fields_ = [
         ("t_us", ctypes.c_uint64),
         ("kind", ctypes.c_int32),
@@ -78,7 +117,10 @@ class _Event(ctypes.Structure):
     ]
 
 
-class _Output(ctypes.Structure):
+class OutputStruct(AbiStruct):
+    """``mstc_sil_output_t``: the outputs of one step."""
+
+    c_name = "mstc_sil_output_t"
     _fields_ = [
         ("wheel_left", ctypes.c_double),
         ("wheel_right", ctypes.c_double),
@@ -96,45 +138,201 @@ class _Output(ctypes.Structure):
         ("obstacle_id", ctypes.c_uint32 * MAX_OBSTACLES),
         ("distance", ctypes.c_double * MAX_OBSTACLES),
         ("n_events", ctypes.c_uint32),
-        ("events", _Event * MAX_EVENTS),
+        ("events", EventStruct * MAX_EVENTS),
     ]
 
 
-def _load(path: str | os.PathLike[str] | None) -> tuple[ctypes.CDLL, Path]:
-    """Open the library and declare the signatures of its functions."""
-    if path is None:
+class FrameStruct(AbiStruct):
+    """``mstc_sil_frame_t``: a classic CAN frame."""
+
+    c_name = "mstc_sil_frame_t"
+    _fields_ = [
+        ("id", ctypes.c_uint32),
+        ("dlc", ctypes.c_uint8),
+        ("data", ctypes.c_uint8 * FRAME_DATA),
+    ]
+
+
+ABI_STRUCTS: tuple[type[AbiStruct], ...] = (
+    ParamsStruct,
+    ObstacleStruct,
+    InputStruct,
+    EventStruct,
+    OutputStruct,
+    FrameStruct,
+)
+"""Every struct of the ABI, checked at load time."""
+
+
+class _LayoutEntry(ctypes.Structure):
+    """``mstc_sil_layout_t``: the carrier of the check, the one struct it cannot check."""
+
+    _fields_ = [
+        ("type", ctypes.c_char_p),
+        ("field", ctypes.c_char_p),
+        ("offset", ctypes.c_uint32),
+        ("size", ctypes.c_uint32),
+    ]
+
+
+Layout = dict[str, dict[str | None, tuple[int, int]]]
+"""By struct name: (offset, size) of each field, and of the whole struct under None."""
+
+
+def library_layout(dll: ctypes.CDLL) -> Layout:
+    """The layout the library exports (``mstc_sil_layout``)."""
+    fn = dll["mstc_sil_layout"]
+    fn.argtypes = [ctypes.POINTER(ctypes.c_size_t)]
+    fn.restype = ctypes.POINTER(_LayoutEntry)
+    n = ctypes.c_size_t()
+    entries = fn(ctypes.byref(n))
+    layout: Layout = {}
+    for e in entries[: n.value]:
+        struct = (e.type or b"").decode()
+        field = e.field.decode() if e.field is not None else None
+        layout.setdefault(struct, {})[field] = (int(e.offset), int(e.size))
+    return layout
+
+
+def struct_layout(struct: type[ctypes.Structure]) -> dict[str | None, tuple[int, int]]:
+    """The same for a ctypes struct: its fields' offsets and sizes, and its size."""
+    fields: dict[str | None, tuple[int, int]] = {None: (0, ctypes.sizeof(struct))}
+    for name, *_ in struct._fields_:
+        descriptor = getattr(struct, name)
+        fields[name] = (descriptor.offset, descriptor.size)
+    return fields
+
+
+def check_layout(
+    layout: Layout, where: str, structs: Sequence[type[AbiStruct]] = ABI_STRUCTS
+) -> None:
+    """Check @p structs against the @p layout of the library at @p where.
+
+    :raises FirmwareError: a struct, or a field of one, that the two sides lay
+        out differently (or only one side has), named.
+    """
+    problems = []
+    for struct in structs:
+        theirs = layout.get(struct.c_name)
+        if theirs is None:
+            problems.append(f"{struct.c_name}: not in the library's layout table")
+            continue
+        ours = struct_layout(struct)
+        for field in [*ours, *(f for f in theirs if f not in ours)]:
+            name = struct.c_name if field is None else f"{struct.c_name}.{field}"
+            if field not in theirs:
+                problems.append(f"{name}: in the Python binding only")
+            elif field not in ours:
+                problems.append(f"{name}: in the library only")
+            elif ours[field] != theirs[field]:
+                (o_off, o_size), (t_off, t_size) = ours[field], theirs[field]
+                problems.append(
+                    f"{name}: {t_size} bytes in the library, {o_size} in the Python binding"
+                    if field is None
+                    else f"{name}: offset {t_off}, size {t_size} in the library; "
+                    f"offset {o_off}, size {o_size} in the Python binding"
+                )
+    if problems:
+        raise FirmwareError(
+            f"{where} does not match the Python bindings (mstc.firmware against "
+            "hal/sil/mstc_sil.h): " + "; ".join(problems)
+        )
+
+
+def library_path(path: str | os.PathLike[str] | None = None) -> Path:
+    """@p path, else the library named by ``$MSTC_SIL_LIB``.
+
+    :raises FirmwareError: neither names one.
+    """
+    if path is None or str(path) == "":
         path = os.environ.get(LIB_ENV)
         if not path:
             raise FirmwareError(
                 f"no firmware library: pass its path (--lib) or set {LIB_ENV} "
                 "(build it with `make lib`)"
             )
-    lib_path = Path(path)
-    try:
-        lib = ctypes.CDLL(str(lib_path.resolve()))
-        lib.mstc_sil_size.argtypes = []
-        lib.mstc_sil_size.restype = ctypes.c_size_t
-        lib.mstc_sil_numeric.argtypes = []
-        lib.mstc_sil_numeric.restype = ctypes.c_char_p
-        lib.mstc_sil_defaults.argtypes = [ctypes.POINTER(_Params)]
-        lib.mstc_sil_defaults.restype = None
-        lib.mstc_sil_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Params)]
-        lib.mstc_sil_init.restype = ctypes.c_int
-        lib.mstc_sil_step.argtypes = [
-            ctypes.c_void_p,
-            ctypes.POINTER(_Input),
-            ctypes.POINTER(_Output),
-        ]
-        lib.mstc_sil_step.restype = ctypes.c_int
-    except OSError as exc:
-        raise FirmwareError(f"cannot load firmware library {lib_path}: {exc}") from exc
-    except AttributeError as exc:
-        raise FirmwareError(f"{lib_path} is not the mstc SIL library: {exc}") from exc
-    return lib, lib_path
+    return Path(path)
 
 
-def _c_params(p: Params) -> _Params:
-    return _Params(
+def _declare(dll: ctypes.CDLL) -> None:
+    """Declare the signatures of the library's functions."""
+    c_int, c_void_p, pointer = ctypes.c_int, ctypes.c_void_p, ctypes.POINTER
+    signatures: list[tuple[str, list[type], type | None]] = [
+        ("mstc_sil_size", [], ctypes.c_size_t),
+        ("mstc_sil_numeric", [], ctypes.c_char_p),
+        ("mstc_sil_defaults", [pointer(ParamsStruct)], None),
+        ("mstc_sil_init", [c_void_p, pointer(ParamsStruct)], c_int),
+        ("mstc_sil_step", [c_void_p, pointer(InputStruct), pointer(OutputStruct)], c_int),
+        ("mstc_sil_fw_init", [pointer(ParamsStruct)], c_int),
+        ("mstc_sil_fw_send", [pointer(FrameStruct)], c_int),
+        ("mstc_sil_fw_recv", [pointer(FrameStruct)], c_int),
+    ]
+    for name, argtypes, restype in signatures:
+        fn = getattr(dll, name)
+        fn.argtypes = argtypes
+        fn.restype = restype
+
+
+class Library:
+    """``libmstc_sil.so``, loaded, its functions declared and its structs checked.
+
+    Open it with :meth:`open`: one object per file and process, as the
+    dynamic loader keeps one copy of the library, and so one firmware
+    instance of the frame path, per process.
+
+    :param path: the library.
+    :raises FirmwareError: it cannot be loaded, is not the mstc SIL library, or
+        its structs differ from the bindings'.
+    """
+
+    _opened: ClassVar[dict[Path, Library]] = {}
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        if not path.is_file():
+            raise FirmwareError(
+                f"cannot load firmware library {path}: no such file (make lib builds it)"
+            )
+        try:
+            self.dll = ctypes.CDLL(str(path.resolve()))
+        except OSError as exc:
+            raise FirmwareError(f"cannot load firmware library {path}: {exc}") from exc
+        try:
+            _declare(self.dll)
+            layout = library_layout(self.dll)
+        except AttributeError as exc:
+            raise FirmwareError(
+                f"{path} is not the mstc SIL library of this version: {exc}"
+            ) from exc
+        check_layout(layout, str(path), ABI_STRUCTS)
+        self.numeric: str = self.dll.mstc_sil_numeric().decode("ascii")
+        """The firmware's numeric mode, "float" or "fixed"."""
+
+    @classmethod
+    def open(cls, path: str | os.PathLike[str] | None = None) -> Library:
+        """The library at @p path (default: ``$MSTC_SIL_LIB``), loaded once per process.
+
+        :raises FirmwareError: see :class:`Library`.
+        """
+        given = library_path(path)
+        key = given.resolve()
+        lib = cls._opened.get(key)
+        if lib is None:
+            lib = cls(given)
+            cls._opened[key] = lib
+        return lib
+
+    def address_function(self, name: str) -> Callable[[int], int]:
+        """@p name as a function taking one address (``void *``): for callers
+        that pass pointers into their own buffers (the replay's frame arrays)."""
+        fn = self.dll[name]
+        fn.argtypes = [ctypes.c_void_p]
+        fn.restype = ctypes.c_int
+        return fn
+
+
+def _c_params(p: Params) -> ParamsStruct:
+    return ParamsStruct(
         r_m=p.r_m,
         r_ob=p.r_ob,
         d_det=p.d_det,
@@ -161,9 +359,12 @@ class SilController:
     """
 
     def __init__(self, params: Params, lib_path: str | os.PathLike[str] | None = None) -> None:
-        self._lib, self.lib_path = _load(lib_path)
-        self.numeric: str = self._lib.mstc_sil_numeric().decode("ascii")
+        library = Library.open(lib_path)
+        self._lib = library.dll
+        self.lib_path = library.path
+        self.numeric: str = library.numeric
         """The firmware's numeric mode, "float" or "fixed"."""
+        self._tables = tables()
         size = self._lib.mstc_sil_size()
         # Caller-owned memory, 16-byte aligned: over-allocate and offset.
         self._mem = (ctypes.c_uint8 * (size + _ALIGN))()
@@ -177,16 +378,16 @@ class SilController:
             )
         if rc != 0:
             raise FirmwareError(f"mstc_sil_init failed with {rc}")
-        self._in = _Input()
-        self._out = _Output()
-        self._obstacles = (_Obstacle * MAX_OBSTACLES)()
+        self._in = InputStruct()
+        self._out = OutputStruct()
+        self._obstacles = (ObstacleStruct * MAX_OBSTACLES)()
         self._in.obstacles = self._obstacles
 
     @staticmethod
     def defaults(lib_path: str | os.PathLike[str] | None = None) -> Params:
         """The parameters the firmware uses by default (mstc_sil_defaults)."""
-        lib, _ = _load(lib_path)
-        c = _Params()
+        lib = Library.open(lib_path).dll
+        c = ParamsStruct()
         lib.mstc_sil_defaults(ctypes.byref(c))
         return Params(
             r_m=c.r_m,
@@ -235,9 +436,10 @@ class SilController:
 
     def _result(self) -> StepResult:
         out = self._out
+        modes, kinds = self._tables.mode, self._tables.event_kind
         try:
             status = Status(
-                mode=_MODES[out.mode],
+                mode=modes[out.mode],
                 active_obstacle=out.active_obstacle,
                 side=_SIDES[out.side],
                 faults=Fault(out.faults),
@@ -251,7 +453,7 @@ class SilController:
             if out.n_events > MAX_EVENTS:
                 raise KeyError(f"n_events {out.n_events}")
             events = tuple(
-                Event(ev.t_us, _KINDS[ev.kind], ev.obstacle, _SIDES[ev.side])
+                Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
                 for ev in out.events[: out.n_events]
             )
         except (KeyError, ValueError) as exc:

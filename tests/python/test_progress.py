@@ -34,8 +34,8 @@ def test_progress_is_plain_lines_every_tenth_when_not_a_terminal(
     assert [line.split(":")[1].split("%")[0].strip() for line in lines[:-1]] == [
         str(n) for n in range(10, 100, 10)
     ]
-    assert lines[1] == "replay: 20% (200/1,000 frames), 0:02 elapsed, 0:08 left"
-    assert lines[-1] == "replay: done in 0:10"
+    assert lines[1] == "replay: 20% (200/1,000 frames), 00:02 elapsed, 00:08 left"
+    assert lines[-1] == "replay: done in 00:10"
     assert "\r" not in stream.getvalue()
 
 
@@ -47,9 +47,12 @@ def test_progress_is_a_bar_with_eta_on_a_terminal(monkeypatch: pytest.MonkeyPatc
     now[0] = 2.0
     p.update(100)
     text = stream.getvalue()
-    assert text.startswith("\rreplay [#######---------------------]  25% 100/400 frames ETA 0:06")
+    assert text.startswith("\rreplay [#######---------------------]  25% 100/400 frames ETA 00:06")
+    assert "\n" not in text  # redrawn in place
     p.close()
-    assert stream.getvalue().endswith("\r\x1b[K")
+    # Cleared: close wrote blanks over the bar, between carriage returns.
+    closing = stream.getvalue()[len(text) :]
+    assert closing.startswith("\r") and closing.endswith("\r") and not closing.strip()
 
 
 def test_progress_is_plain_in_ci_even_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -59,7 +62,7 @@ def test_progress_is_plain_in_ci_even_on_a_terminal(monkeypatch: pytest.MonkeyPa
     p = Progress(10, "replay", stream=stream, clock=lambda: now[0])
     now[0] = 7.0
     p.update(5)
-    assert stream.getvalue() == "replay: 50% (5/10 frames), 0:02 elapsed, 0:02 left\n"
+    assert stream.getvalue() == "replay: 50% (5/10 frames), 00:02 elapsed, 00:02 left\n"
 
 
 def test_short_or_quiet_runs_show_no_progress() -> None:

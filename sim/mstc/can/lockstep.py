@@ -16,10 +16,11 @@ from dataclasses import dataclass, field
 
 import can
 
+from mstc.can.dbc import tables
 from mstc.can.protocol import COUNTER_MODULO, Frame, FrameDropped, Protocol, e2e_crc
-from mstc.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
+from mstc.controller import Event, Fault, Status, StepResult
 from mstc.errors import ControllerError
-from mstc.params import Params
+from mstc.params import Params, param_values
 from mstc.sim.plant import Pose, wrap_angle
 from mstc.sim.sensor import Obstacle
 
@@ -28,52 +29,17 @@ STEP_MODULO = 1 << 16
 TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here (71.6 minutes)."""
 
-_MODES = {0: Mode.TRACK, 1: Mode.AVOID, 2: Mode.STOP}
-_KINDS = {1: EventKind.DETECT, 2: EventKind.ACTIVATE, 3: EventKind.COMPLETE}
-_SIDES = {0: None, 1: Side.LEFT, 2: Side.RIGHT}
-
-PARAM_INDEX = {
-    "r_m": 0,
-    "r_ob": 1,
-    "d_det": 2,
-    "d_act": 3,
-    "d_s": 4,
-    "trk_k1": 5,
-    "trk_k2": 6,
-    "trk_k3": 7,
-    "avd_k1": 8,
-    "avd_k2": 9,
-    "wheel_radius": 10,
-    "track_width": 11,
-    "max_wheel_speed": 12,
-}
-"""PARAM_SET / PARAM_GET indices (the DBC's value table)."""
-ARM_INDEX = 128
-"""PARAM_SET index of the arm command (value 1 arms, 0 disarms; docs/safety.md)."""
+ARM_INDEX = tables().arm_index
+"""PARAM_SET index of the arm command in the package's DBC (value 1 arms, 0
+disarms; docs/safety.md). A controller uses its own DBC's."""
 REARM_FRAMES = 5
 """Good frames in a row each input needs before the firmware accepts the arm
 command (APP_REARM_FRAMES in firmware/app/app.h)."""
 
 
-def param_values(p: Params) -> dict[str, float]:
-    """Every parameter the firmware takes over the bus, by PARAM_INDEX name."""
-    k = p.tracking_gains
-    a = p.avoidance_gains
-    return {
-        "r_m": p.r_m,
-        "r_ob": p.r_ob,
-        "d_det": p.d_det,
-        "d_act": p.d_act,
-        "d_s": p.d_s,
-        "trk_k1": k[0],
-        "trk_k2": k[1],
-        "trk_k3": k[2],
-        "avd_k1": a[0],
-        "avd_k2": a[1],
-        "wheel_radius": p.wheel_radius,
-        "track_width": p.track_width,
-        "max_wheel_speed": p.max_wheel_speed,
-    }
+def _param_value(index: int) -> Callable[[Frame], bool]:
+    """Matches the firmware's PARAM_VALUE answer about parameter @p index."""
+    return lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == index
 
 
 @dataclass
@@ -94,6 +60,9 @@ class CanController:
     :param timeout: how long to wait for an answer [s] (wall time).
     :param sim_time_stamps: stamp sent frames with the simulated time (for the
         in-process bus, whose answers carry the same stamp), else wall time.
+    :param protocol: the protocol side to use (its DBC gives the parameter
+        indexes and value tables); default: the package's DBC.
+    :raises DbcError: the DBC lacks an entry the controller names.
     """
 
     def __init__(
@@ -104,13 +73,15 @@ class CanController:
         timeout: float = 2.0,
         sim_time_stamps: bool = False,
         clock: Callable[[], float] = time.time,
+        protocol: Protocol | None = None,
     ) -> None:
         self.bus = bus
         self.params = params
         self.timeout = timeout
         self.sim_time_stamps = sim_time_stamps
         self.clock = clock
-        self.proto = Protocol(node=None)
+        self.proto = protocol if protocol is not None else Protocol(node=None)
+        self.tables = self.proto.tables
         self.traffic = Traffic()
         self._now = 0.0
         self._steps = 0
@@ -139,7 +110,7 @@ class CanController:
             except FrameDropped:
                 continue  # counted in self.proto.drops
             if frame.name == "STATUS_COUNTERS":
-                self.traffic.firmware_drops = dict(frame.signals)
+                self.traffic.firmware_drops = {k: int(v) for k, v in frame.signals.items()}
             return frame
 
     def _configure(self) -> None:
@@ -150,13 +121,10 @@ class CanController:
         while pending:
             rejected: dict[str, float] = {}
             for name, value in pending.items():
-                index = PARAM_INDEX[name]
+                index = self.tables.param_indexes[name]
                 self._send(self.proto.encode("PARAM_SET", index=index, value=value))
-                answer = self._await(
-                    lambda f, i=index: f.name == "PARAM_VALUE" and f.signals["index"] == i,
-                    f"PARAM_VALUE {name}",
-                )
-                if answer.signals["result"] != 0:
+                answer = self._await(_param_value(index), f"PARAM_VALUE {name}")
+                if answer.signals["result"] != self.tables.param_ok:
                     rejected[name] = value
             if len(rejected) == len(pending):
                 raise ControllerError(f"the firmware rejects the parameters {sorted(rejected)}")
@@ -176,11 +144,10 @@ class CanController:
         and the run's first step is still step 0 at its own time."""
         for _ in range(REARM_FRAMES):
             self._send_inputs(robot, ref, v_r, w_r)
-        self._send(self.proto.encode("PARAM_SET", index=ARM_INDEX, value=1.0))
-        answer = self._await(
-            lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == ARM_INDEX, "PARAM_VALUE arm"
-        )
-        if answer.signals["result"] != 0:
+        arm = self.tables.arm_index
+        self._send(self.proto.encode("PARAM_SET", index=arm, value=1.0))
+        answer = self._await(_param_value(arm), "PARAM_VALUE arm")
+        if answer.signals["result"] != self.tables.param_ok:
             raise ControllerError(
                 f"the firmware refuses to arm (result {answer.signals['result']})"
             )
@@ -231,7 +198,12 @@ class CanController:
                 raw_us = round(s["time"] * 1e6)
                 base = t_us - t_us % TIME_MODULO
                 events.append(
-                    Event(base + raw_us, _KINDS[s["kind"]], int(s["obstacle"]), _SIDES[s["side"]])
+                    Event(
+                        base + raw_us,
+                        self.tables.event_kind[int(s["kind"])],
+                        int(s["obstacle"]),
+                        self.tables.side[int(s["side"])],
+                    )
                 )
             elif frame.name == "STATUS":
                 status = frame
@@ -248,9 +220,9 @@ class CanController:
             left,
             right,
             Status(
-                mode=_MODES[st["mode"]],
+                mode=self.tables.mode[int(st["mode"])],
                 active_obstacle=int(st["obstacle"]),
-                side=_SIDES[st["side"]],
+                side=self.tables.side[int(st["side"])],
                 faults=Fault(int(st["faults"])),
                 e1=float(trk.signals["e1"]),
                 e2=float(trk.signals["e2"]),

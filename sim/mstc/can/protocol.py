@@ -27,13 +27,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import can
-import cantools
-from cantools.database.can import Database, Message, Signal
+from cantools.database.can import Message, Signal
 
+from mstc.can.dbc import DBC_PATH as DBC_PATH
+from mstc.can.dbc import E2E_SIGNALS, Tables, e2e_data_ids, numeric_values, short_name, tables
+from mstc.can.dbc import load_database as load_database
 from mstc.errors import MstcError
-
-DBC_PATH = Path(__file__).resolve().parents[3] / "firmware" / "comm" / "mstc.dbc"
-"""The protocol's DBC, found from this file's place in the repository."""
 
 DLC = 8
 """Length of every frame [bytes]."""
@@ -115,14 +114,6 @@ class _Counters:
     rx: dict[int, _RxState] = field(default_factory=dict)
 
 
-def load_database(path: Path = DBC_PATH) -> Database:
-    """Load the protocol's DBC, strictly (overlapping signals are an error)."""
-    db = cantools.database.load_file(path, strict=True)
-    if not isinstance(db, Database):
-        raise TypeError(f"{path} is not a CAN database")
-    return db
-
-
 def _field_range(signal: Signal) -> tuple[int, int]:
     """Raw values the signal's bits can hold."""
     if signal.is_signed:
@@ -173,7 +164,7 @@ class Protocol:
         frames it does not receive are dropped as unknown, as the firmware
         drops the frames it only sends. ``None`` accepts every frame of the
         DBC (log decoders, monitors).
-    :param dbc_path: the DBC; the repository's by default.
+    :param dbc_path: the DBC; the package's by default.
     """
 
     def __init__(self, node: str | None = None, dbc_path: Path = DBC_PATH) -> None:
@@ -181,12 +172,18 @@ class Protocol:
         if node is not None and node not in {n.name for n in self.db.nodes}:
             raise ValueError(f"no node {node!r} in {dbc_path.name}")
         self.node = node
-        self._data_ids = {
-            m.frame_id: int(m.dbc.attributes["E2EDataID"].value) for m in self.db.messages
-        }
+        self._data_ids = e2e_data_ids(self.db)
         self._counters = _Counters()
         self.drops: dict[DropReason, int] = dict.fromkeys(DropReason, 0)
         """Received frames dropped, by reason (saturating at DROP_COUNT_MAX)."""
+
+    @property
+    def tables(self) -> Tables:
+        """The DBC's value tables (parameter indexes, modes, ...; :mod:`mstc.can.dbc`).
+
+        :raises DbcError: the DBC lacks an entry the Python side names.
+        """
+        return tables(self.db)
 
     def reset(self) -> None:
         """Forget counters and drop counts, as comm_init() does."""
@@ -229,7 +226,7 @@ class Protocol:
         message = self.message(name)
         values = {**(signals or {}), **kwargs}
         prefix = f"{message.name}_"
-        wanted = {s.name.removeprefix(prefix) for s in message.signals} - {"CRC", "Counter"}
+        wanted = {short_name(message, s.name) for s in message.signals} - set(E2E_SIGNALS)
         if set(values) != wanted:
             raise KeyError(
                 f"{message.name}: missing {sorted(wanted - set(values))}, "
@@ -240,7 +237,9 @@ class Protocol:
             signal = message.get_signal_by_name(prefix + short)
             if raw:
                 lo, hi = _field_range(signal)
-                raw_values[signal.name] = value if signal.is_float else min(max(int(value), lo), hi)
+                raw_values[signal.name] = (
+                    float(value) if signal.is_float else min(max(int(value), lo), hi)
+                )
             else:
                 raw_values[signal.name] = to_raw(signal, value)
         data = bytearray(message.encode(raw_values, scaling=False, strict=False))
@@ -312,11 +311,6 @@ class Protocol:
         """
         counter = self.check(msg)
         message = self.message(msg.arbitration_id)
-        prefix = f"{message.name}_"
-        decoded = message.decode(bytes(msg.data), scaling=True, decode_choices=False)
-        signals = {
-            name.removeprefix(prefix): value
-            for name, value in decoded.items()
-            if name not in (f"{prefix}CRC", f"{prefix}Counter")
-        }
+        values = numeric_values(message, bytes(msg.data))
+        signals = {name: v for name, v in values.items() if name not in E2E_SIGNALS}
         return Frame(message.name, message.frame_id, counter, signals, msg.timestamp)

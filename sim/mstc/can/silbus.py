@@ -23,23 +23,13 @@ from __future__ import annotations
 import ctypes
 import errno
 import os
-from pathlib import Path
 from typing import Any
 
 import can
 
-LIB_ENV = "MSTC_SIL_LIB"
-"""Environment variable naming the library when no ``lib`` is given."""
-
-
-class _Frame(ctypes.Structure):
-    """``mstc_sil_frame_t`` (hal/sil/mstc_sil.h)."""
-
-    _fields_ = [
-        ("id", ctypes.c_uint32),
-        ("dlc", ctypes.c_uint8),
-        ("data", ctypes.c_uint8 * 8),
-    ]
+from mstc.errors import FirmwareError
+from mstc.firmware import FRAME_DATA, FrameStruct, Library
+from mstc.firmware import LIB_ENV as LIB_ENV
 
 
 class SilBus(can.BusABC):
@@ -47,40 +37,21 @@ class SilBus(can.BusABC):
 
     :param channel: a name for the bus in logs (default ``"sil0"``).
     :param lib: path of ``libmstc_sil.so``; default: ``$MSTC_SIL_LIB``.
+    :raises can.CanInitializationError: the library cannot be loaded (its
+        bindings, :class:`mstc.firmware.Library`, say why) or the firmware started.
     """
 
     def __init__(
         self, channel: Any = None, lib: str | os.PathLike[str] | None = None, **kwargs: Any
     ) -> None:
-        path = lib if lib is not None else os.environ.get(LIB_ENV)
-        if not path:
-            raise can.CanInitializationError(
-                f"mstc-sil: no firmware library: pass lib=... or set {LIB_ENV} (make lib builds it)"
-            )
-        if not Path(path).is_file():
-            raise can.CanInitializationError(
-                f"mstc-sil: cannot load firmware library {path}: no such file (make lib builds it)"
-            )
         try:
-            self._lib = ctypes.CDLL(str(Path(path).resolve()))
-        except OSError as exc:
-            raise can.CanInitializationError(
-                f"mstc-sil: cannot load firmware library {path}: {exc}"
-            ) from exc
-        for name, args in (
-            ("mstc_sil_fw_init", [ctypes.c_void_p]),
-            ("mstc_sil_fw_send", [ctypes.POINTER(_Frame)]),
-            ("mstc_sil_fw_recv", [ctypes.POINTER(_Frame)]),
-        ):
-            fn = getattr(self._lib, name, None)
-            if fn is None:
-                raise can.CanInitializationError(f"mstc-sil: {path} has no {name}")
-            fn.argtypes = args
-            fn.restype = ctypes.c_int
-        self._lib.mstc_sil_numeric.restype = ctypes.c_char_p
-        self.numeric = self._lib.mstc_sil_numeric().decode()
+            library = Library.open(lib)
+        except FirmwareError as exc:
+            raise can.CanInitializationError(f"mstc-sil: {exc}") from exc
+        self._lib = library.dll
+        self.numeric = library.numeric
         self.channel = channel if channel is not None else "sil0"
-        self.channel_info = f"mstc-sil ({self.numeric}) {path}"
+        self.channel_info = f"mstc-sil ({self.numeric}) {library.path}"
         self._now = 0.0
         rc = self._lib.mstc_sil_fw_init(None)
         if rc != 0:
@@ -93,9 +64,9 @@ class SilBus(can.BusABC):
             raise can.CanOperationError(
                 "mstc-sil: only classic data frames with 11-bit identifiers are supported"
             )
-        if msg.dlc > 8 or len(msg.data) > 8 or msg.arbitration_id > 0x7FF:
+        if msg.dlc > FRAME_DATA or len(msg.data) > FRAME_DATA or msg.arbitration_id > 0x7FF:
             raise can.CanOperationError(f"mstc-sil: bad frame {msg}")
-        frame = _Frame(msg.arbitration_id, len(msg.data))
+        frame = FrameStruct(msg.arbitration_id, len(msg.data))
         frame.data[: len(msg.data)] = list(msg.data)
         if msg.timestamp:
             self._now = msg.timestamp
@@ -107,7 +78,7 @@ class SilBus(can.BusABC):
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         # Nothing arrives while we wait: the firmware only answers frames.
-        frame = _Frame()
+        frame = FrameStruct()
         if self._lib.mstc_sil_fw_recv(ctypes.byref(frame)) != 0:
             return None, False
         msg = can.Message(

@@ -13,9 +13,9 @@ import sys
 from collections.abc import Sequence
 
 from mstc import __version__
-from mstc.cli import hil, play, plot, replay, sim
+from mstc.cli import export, hil, play, plot, replay, sim
 
-COMMANDS = (sim, hil, replay, play, plot)
+COMMANDS = (sim, hil, replay, play, plot, export)
 """The subcommands, in the order ``mstc --help`` lists them."""
 
 

@@ -13,11 +13,14 @@ from pathlib import Path
 
 from cantools.database.can import Database
 
+from mstc.can.dbc import tables
 from mstc.can.protocol import DBC_PATH, load_database
-from mstc.errors import FirmwareError, LogError, ScenarioError
+from mstc.errors import DbcError, FirmwareError, LogError, ScenarioError
 from mstc.firmware import LIB_ENV
+from mstc.logs.decode import DecodedLog, decode_log
 from mstc.logs.read import FORMATS, FrameLog, read_log
 from mstc.report.outputs import BusLog, write_outputs
+from mstc.report.progress import Progress
 from mstc.report.table import format_report
 from mstc.sim.run import RunResult
 from mstc.sim.scenario import Scenario, load_scenario
@@ -35,8 +38,14 @@ EXIT_INTERRUPTED = 130
 
 ROOT = Path(__file__).resolve().parents[3]
 """The repository, when the package runs from its source tree."""
-DEFAULT_LIB = ROOT / "build" / "host" / "float" / "libmstc_sil.so"
-"""The float build (``make lib``), when neither --lib nor $MSTC_SIL_LIB names one."""
+DEFAULT_LIB: Path | None = (
+    ROOT / "build" / "host" / "float" / "libmstc_sil.so"
+    if (ROOT / "hal" / "sil" / "mstc_sil.h").is_file()
+    else None
+)
+"""The float build (``make lib``), when neither --lib nor $MSTC_SIL_LIB names
+one; None when the package is installed outside its source tree (no build
+to default to)."""
 
 
 def error(message: str) -> None:
@@ -47,13 +56,19 @@ def error(message: str) -> None:
 def library(given: Path | None) -> Path:
     """The firmware library: @p given, else $MSTC_SIL_LIB, else :data:`DEFAULT_LIB`.
 
-    :raises FirmwareError: none given and the default does not exist.
+    :raises FirmwareError: none given and there is no default, or it does not exist.
     """
     if given is not None:
         return Path(given)
     env = os.environ.get(LIB_ENV)
     if env:
         return Path(env)
+    if DEFAULT_LIB is None:
+        raise FirmwareError(
+            "no firmware library: this mstc is installed outside its source tree, so there "
+            f"is no default build; name one with --lib PATH or {LIB_ENV} (`make lib` in the "
+            "source tree builds build/host/float/libmstc_sil.so)"
+        )
     if not DEFAULT_LIB.is_file():
         raise FirmwareError(
             f"no firmware library: {DEFAULT_LIB} does not exist; build it with `make lib`, "
@@ -125,9 +140,11 @@ def run_scenarios(
 # -------------------------------------------------------------- bus logs
 
 
-def add_log_arguments(parser: argparse.ArgumentParser) -> None:
-    """The log and how to read it (``mstc replay``, ``play``, ``plot``)."""
-    parser.add_argument("log", metavar="LOG", type=Path, help="the bus log")
+def add_log_arguments(
+    parser: argparse.ArgumentParser, metavar: str = "LOG", what: str = "the bus log"
+) -> None:
+    """The log and how to read it (``mstc replay``, ``play``, ``plot``, ``export``)."""
+    parser.add_argument("log", metavar=metavar, type=Path, help=what)
     parser.add_argument(
         "--format",
         choices=FORMATS,
@@ -138,7 +155,7 @@ def add_log_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PATH",
         type=Path,
         default=DBC_PATH,
-        help="the protocol's DBC (default: firmware/comm/mstc.dbc)",
+        help="the protocol's DBC (default: the one shipped in the package, firmware/comm/mstc.dbc)",
     )
     parser.add_argument(
         "--strict",
@@ -157,12 +174,31 @@ def add_log_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog] | int:
+    """The DBC and the log, decoded (``mstc plot``, ``export``); or an exit status."""
+    loaded = load_log(args)
+    if isinstance(loaded, int):
+        return loaded
+    db, log = loaded
+    try:
+        bar = Progress(len(log), "decode", "frames", enabled=not args.quiet)
+        return db, decode_log(log, db, bar)
+    except ValueError as exc:
+        error(str(exc))
+        return EXIT_USAGE
+
+
 def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:
     """The DBC and the log, with its problems printed; or an exit status."""
     try:
         db = load_database(args.dbc)
     except Exception as exc:  # cantools raises several kinds on a bad DBC
         error(f"cannot load the DBC {args.dbc}: {exc}")
+        return EXIT_USAGE
+    try:
+        tables(db)  # it names everything the Python side names (mstc.can.dbc)
+    except DbcError as exc:
+        error(str(exc))
         return EXIT_USAGE
     try:
         log = read_log(args.log, db, args.format)

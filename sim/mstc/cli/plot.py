@@ -13,19 +13,17 @@ from mstc.cli.common import (
     EXIT_USAGE,
     add_log_arguments,
     error,
-    load_log,
+    load_decoded,
 )
 from mstc.errors import ScenarioError
 from mstc.logs.decode import (
-    decode_log,
     format_events,
     write_events_json,
     write_status_csv,
     write_trace_csv,
 )
 from mstc.report.plots import plot_all
-from mstc.report.progress import Progress
-from mstc.sim.scenario import load_scenario
+from mstc.sim.scenario import ExpectedEvent, load_scenario
 
 NAME = "plot"
 HELP = "decode a bus log: events, status, trace and the paper's figures"
@@ -84,23 +82,17 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def run(args: argparse.Namespace) -> int:
     """Decode the log, write the tables and figures, print the events."""
-    expected = ()
+    expected: tuple[ExpectedEvent, ...] = ()
     if args.scenario is not None:
         try:
             expected = load_scenario(args.scenario).expected
         except ScenarioError as exc:
             error(str(exc))
             return EXIT_USAGE
-    loaded = load_log(args)
+    loaded = load_decoded(args)
     if isinstance(loaded, int):
         return loaded
-    db, log = loaded
-    try:
-        bar = Progress(len(log), "decode", "frames", enabled=not args.quiet)
-        decoded = decode_log(log, db, bar)
-    except ValueError as exc:
-        error(str(exc))
-        return EXIT_USAGE
+    _, decoded = loaded
     for problem in decoded.problems[: max(args.max_problems, 0)]:
         print(problem, file=sys.stderr)
     if decoded.problems and args.strict:

@@ -28,16 +28,17 @@ import json
 import math
 import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from cantools.database.can import Database, Message
 
+from mstc.can.dbc import E2E_SIGNALS, e2e_data_ids, numeric_values, short_name, tables
 from mstc.can.protocol import e2e_crc
-from mstc.controller import Event, EventKind, Fault, Mode, Side
+from mstc.controller import Event, Fault, Mode
 from mstc.logs.read import FrameLog, LogProblem, ProblemKind
-from mstc.params import Params
+from mstc.params import PARAM_NAMES, Params, with_param_values
 from mstc.report.outputs import event_record
 from mstc.report.plots import PlotData
 from mstc.report.progress import Progress
@@ -49,29 +50,6 @@ from mstc.sim.sensor import Obstacle
 TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here."""
 
-_MODES = {0: Mode.TRACK, 1: Mode.AVOID, 2: Mode.STOP}
-_KINDS = {1: EventKind.DETECT, 2: EventKind.ACTIVATE, 3: EventKind.COMPLETE}
-_SIDES = {0: None, 1: Side.LEFT, 2: Side.RIGHT}
-
-_SCALAR_PARAMS = {
-    "R_m": "r_m",
-    "R_ob": "r_ob",
-    "D_det": "d_det",
-    "D_act": "d_act",
-    "D_s": "d_s",
-    "wheel_radius": "wheel_radius",
-    "track_width": "track_width",
-    "max_wheel_speed": "max_wheel_speed",
-}
-"""PARAM index names (the DBC's value table) of the scalar :class:`Params` fields."""
-_GAIN_PARAMS = {
-    "trk_k1": ("tracking_gains", 0),
-    "trk_k2": ("tracking_gains", 1),
-    "trk_k3": ("tracking_gains", 2),
-    "avd_k1": ("avoidance_gains", 0),
-    "avd_k2": ("avoidance_gains", 1),
-}
-_E2E = ("CRC", "Counter")
 _INPUT_COLUMNS = ("x", "y", "theta", "x_r", "y_r", "theta_r", "v_r", "w_r")
 _WHEEL_COLUMNS = ("wheel_left", "wheel_right", "v", "w")
 
@@ -113,6 +91,8 @@ class DecodedLog:
     """Frames not used (bad CRC, wrong length, undecodable)."""
     dt: float = 0.0
     """The median control period [s] (0 with fewer than two steps)."""
+    stamps: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The log's time stamp of each row's WHEEL_CMD [s]."""
 
     @property
     def name(self) -> str:
@@ -141,12 +121,9 @@ class _Decoder:
     def __init__(self, log: FrameLog, db: Database) -> None:
         self.log = log
         self.db = db
+        self.tables = tables(db)
         self.messages: dict[int, Message] = {m.frame_id: m for m in db.messages}
-        self.data_ids = {
-            m.frame_id: int(m.dbc.attributes["E2EDataID"].value)
-            for m in db.messages
-            if m.dbc is not None and "E2EDataID" in m.dbc.attributes
-        }
+        self.data_ids = e2e_data_ids(db)
         self.latest: dict[str, dict[str, float | int]] = {}
         self.step_time: dict[int, int] = {}
         self.time_raw: int | None = None
@@ -179,18 +156,13 @@ class _Decoder:
             )
             return None
         try:
-            values = message.decode(data, decode_choices=False, scaling=True)
+            values = numeric_values(message, data)
         except Exception as exc:  # cantools raises several kinds on bad data
             self.problems.append(
                 LogProblem(where, line, ProblemKind.MALFORMED, f"{message.name}: {exc}")
             )
             return None
-        prefix = f"{message.name}_"
-        return {
-            k.removeprefix(prefix): v  # type: ignore[misc]
-            for k, v in values.items()
-            if k.removeprefix(prefix) not in _E2E
-        }
+        return {k: v for k, v in values.items() if k not in E2E_SIGNALS}
 
     def run(self, progress: Progress | None = None) -> None:
         log = self.log
@@ -230,17 +202,16 @@ class _Decoder:
     # Outputs ---------------------------------------------------------------
 
     def on_param_value(self, row: int, s: dict[str, float | int]) -> None:
-        if int(s["result"]) != 0:
+        if int(s["result"]) != self.tables.param_ok:
             return
-        message = self.db.get_message_by_name("PARAM_VALUE")
-        signal = message.get_signal_by_name("PARAM_VALUE_index")
-        name = str((signal.choices or {}).get(int(s["index"]), s["index"]))
-        self.param_values[name] = _float32_value(float(s["value"]))
+        name = self.tables.param_index.name_of(int(s["index"]))
+        if name is not None:
+            self.param_values[name] = _float32_value(float(s["value"]))
 
     def on_event(self, row: int, s: dict[str, float | int]) -> None:
         raw = round(float(s["time"]) * 1e6)
         base = self.now_us - self.now_us % TIME_MODULO if self.now_us is not None else 0
-        kind = _KINDS.get(int(s["kind"]))
+        kind = self.tables.event_kind.get(int(s["kind"]))
         if kind is None:
             self.problems.append(
                 LogProblem(
@@ -251,7 +222,8 @@ class _Decoder:
                 )
             )
             return
-        self.events.append(Event(base + raw, kind, int(s["obstacle"]), _SIDES.get(int(s["side"]))))
+        side = self.tables.side.get(int(s["side"]))
+        self.events.append(Event(base + raw, kind, int(s["obstacle"]), side))
 
     def on_status_counters(self, row: int, s: dict[str, float | int]) -> None:
         self.latest["STATUS_COUNTERS"] = s
@@ -272,6 +244,7 @@ class _Decoder:
         self.rows.append(
             {
                 "t_us": t_us,
+                "stamp": float(self.log.time[row]),
                 "step": step,
                 "x": float(odom_xy.get("x", nan)),
                 "y": float(odom_xy.get("y", nan)),
@@ -290,22 +263,9 @@ class _Decoder:
 
 
 def _params(values: dict[str, float]) -> tuple[Params, tuple[str, ...]]:
-    p = Params()
-    used = []
-    gains = {"tracking_gains": list(p.tracking_gains), "avoidance_gains": list(p.avoidance_gains)}
-    changes: dict[str, object] = {}
-    for name, value in values.items():
-        if name in _SCALAR_PARAMS:
-            changes[_SCALAR_PARAMS[name]] = value
-        elif name in _GAIN_PARAMS:
-            field_name, i = _GAIN_PARAMS[name]
-            gains[field_name][i] = value
-        else:
-            continue
-        used.append(name)
-    changes["tracking_gains"] = tuple(gains["tracking_gains"])
-    changes["avoidance_gains"] = tuple(gains["avoidance_gains"])
-    return replace(p, **changes), tuple(used)  # type: ignore[arg-type]
+    """Table 1 with the parameters of the log; the names of those used."""
+    used = tuple(name for name in values if name in PARAM_NAMES)
+    return with_param_values(Params(), values), used
 
 
 def _unwrap(a: np.ndarray) -> np.ndarray:
@@ -322,6 +282,7 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
 
     :param progress: told how many frames are done, now and then.
     :raises ValueError: the log has no WHEEL_CMD frame: no control step to show.
+    :raises DbcError: the DBC lacks an entry the decoder names (:mod:`mstc.can.dbc`).
     """
     dec = _Decoder(log, db)
     dec.run(progress)
@@ -364,7 +325,8 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
         return int(value) if math.isfinite(value) else default
 
     # A step without STATUS (none received yet) shows as stopped.
-    modes = tuple(_MODES.get(status_int(r, "mode", 2), Mode.STOP) for r in rows)
+    stop = next(raw for raw, mode in dec.tables.mode.items() if mode is Mode.STOP)
+    modes = tuple(dec.tables.mode.get(status_int(r, "mode", stop), Mode.STOP) for r in rows)
     theta, theta_r = _unwrap(col["theta"]), _unwrap(col["theta_r"])
     values = np.column_stack(
         [
@@ -406,16 +368,16 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
 
     status_msg = db.get_message_by_name("STATUS")
     trk_msg = db.get_message_by_name("STATUS_TRK")
-    skip = {*_E2E, "step"}
-    status_signals = [s for s in status_msg.signals if _short(status_msg, s.name) not in skip]
-    trk_signals = [s for s in trk_msg.signals if _short(trk_msg, s.name) not in skip]
+    skip = {*E2E_SIGNALS, "step"}
+    status_signals = [s for s in status_msg.signals if short_name(status_msg, s.name) not in skip]
+    trk_signals = [s for s in trk_msg.signals if short_name(trk_msg, s.name) not in skip]
     columns = (
         "t",
         "step",
         *_INPUT_COLUMNS,
         *_WHEEL_COLUMNS,
-        *(_short(status_msg, s.name) for s in status_signals),
-        *(_short(trk_msg, s.name) for s in trk_signals),
+        *(short_name(status_msg, s.name) for s in status_signals),
+        *(short_name(trk_msg, s.name) for s in trk_signals),
         *(f"d{o.id}" for o in obstacles),
     )
     status_rows: list[list[object]] = []
@@ -430,7 +392,7 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
             values_of = r[frame]
             assert isinstance(values_of, dict)
             for s in signals:
-                value = values_of.get(_short(msg, s.name))
+                value = values_of.get(short_name(msg, s.name))
                 if value is not None and s.choices and int(value) in s.choices:
                     value = str(s.choices[int(value)])
                 cells.append("" if value is None else value)
@@ -456,11 +418,8 @@ def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) ->
         counters=counters,
         problems=dec.problems,
         dt=round(dt, 6),
+        stamps=np.array([r["stamp"] for r in rows], dtype=float),
     )
-
-
-def _short(message: Message, name: str) -> str:
-    return name.removeprefix(f"{message.name}_")
 
 
 # ------------------------------------------------------------------ outputs
@@ -552,7 +511,7 @@ def format_events(
         label = "min distance" if i == 0 else ""
         lines.append(f"  {label:<13} O{o.id} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
     for fault, count in decoded.faults.items():
-        lines.append(f"  {'fault':<13} {fault.name.lower()} in {count} steps")
+        lines.append(f"  {'fault':<13} {str(fault.name).lower()} in {count} steps")
     modes = ", ".join(f"{mode} {n}" for mode, n in decoded.modes.items())
     lines.append(f"  {'steps':<13} {modes}")
     if decoded.counters:

@@ -178,7 +178,8 @@ class FrameLog:
 
     def standard_ids_in(self, ids: Iterable[int]) -> np.ndarray:
         """Boolean mask of the rows with an 11-bit identifier in @p ids."""
-        return np.isin(self.frame_id, np.fromiter(ids, dtype=np.int64)) & ~self.extended
+        mask: np.ndarray = np.isin(self.frame_id, np.fromiter(ids, dtype=np.int64)) & ~self.extended
+        return mask
 
     @property
     def duration(self) -> float:
@@ -453,7 +454,7 @@ def _read_candump(path: Path, raw: bytes) -> FrameLog:
         if isinstance(parsed[0], ProblemKind):
             problems.append(LogProblem(f"{path}:{number}", number, parsed[0], str(parsed[1])))
             continue
-        t, channel, frame_id, extended, data = parsed  # type: ignore[misc]
+        t, channel, frame_id, extended, data = parsed
         cols.add(number, t, channel, frame_id, extended, data)
     return cols.build(path, "candump", problems, lines)
 
@@ -524,7 +525,7 @@ def _check(log: FrameLog, lengths: Mapping[int, int]) -> None:
     problems = log.problems
     known = np.fromiter(lengths, dtype=np.int64)
     in_dbc = np.isin(log.frame_id, known) & ~log.extended
-    for row in np.flatnonzero(~in_dbc):
+    for row in np.flatnonzero(~in_dbc).tolist():
         kind = "extended identifier" if log.extended[row] else "identifier"
         digits = 8 if log.extended[row] else 3
         problems.append(
@@ -540,7 +541,7 @@ def _check(log: FrameLog, lengths: Mapping[int, int]) -> None:
         if frame_id <= 0x7FF:
             table[frame_id] = length
     want = np.where(in_dbc, table[np.where(in_dbc, log.frame_id, 0)], -1)
-    for row in np.flatnonzero(in_dbc & (log.dlc != want)):
+    for row in np.flatnonzero(in_dbc & (log.dlc != want)).tolist():
         problems.append(
             LogProblem(
                 log.where(row),
@@ -550,7 +551,7 @@ def _check(log: FrameLog, lengths: Mapping[int, int]) -> None:
                 f"the DBC says {int(want[row])}",
             )
         )
-    for row in np.flatnonzero(np.diff(log.time) < 0) + 1:
+    for row in (np.flatnonzero(np.diff(log.time) < 0) + 1).tolist():
         problems.append(
             LogProblem(
                 log.where(row),

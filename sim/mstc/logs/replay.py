@@ -40,35 +40,29 @@ import can
 import numpy as np
 from cantools.database.can import Database, Message
 
+from mstc.can.dbc import E2E_SIGNALS, short_name, signal_values
 from mstc.can.silbus import SilBus
 from mstc.errors import FirmwareError
+from mstc.firmware import FRAME_DATA, FrameStruct, Library
 from mstc.logs.read import FrameLog, LogFrame
 from mstc.report.progress import Progress
 
 FW_NODE = "FW"
 """The firmware's node in the DBC."""
 
-_E2E_SIGNALS = ("CRC", "Counter")
-"""Signals that differ whenever anything else does; left out of the statistics."""
 MAX_DECODED = 20_000
 """Differing frames decoded for the statistics by message (the rest are counted)."""
 
 
-class _Frame(ctypes.Structure):
-    """``mstc_sil_frame_t`` of hal/sil/mstc_sil.h."""
-
-    _fields_ = [
-        ("id", ctypes.c_uint32),
-        ("dlc", ctypes.c_uint8),
-        ("data", ctypes.c_uint8 * 8),
-    ]
-
-
-_SIZE = ctypes.sizeof(_Frame)
+_SIZE = ctypes.sizeof(FrameStruct)
 """Bytes of one frame in the C layout (16, with padding)."""
-_DATA = _Frame.data.offset
+_ID = FrameStruct.id.offset
+"""Offset of the identifier (a uint32 in the host's byte order)."""
+_DLC = FrameStruct.dlc.offset
+"""Offset of the length byte."""
+_DATA = FrameStruct.data.offset
 """Offset of the data bytes (5)."""
-_KEY = _DATA + 8
+_KEY = _DATA + FRAME_DATA
 """The bytes that matter: identifier, length, data; the padding after is undefined."""
 
 
@@ -85,8 +79,8 @@ def firmware_ids(db: Database) -> tuple[frozenset[int], frozenset[int]]:
 def pack_frames(log: FrameLog, rows: np.ndarray) -> np.ndarray:
     """Rows of @p log in the C layout of ``mstc_sil_frame_t``: (len(rows), 16) uint8."""
     out = np.zeros((len(rows), _SIZE), dtype=np.uint8)
-    out[:, 0:4] = log.frame_id[rows].astype(np.uint32).view(np.uint8).reshape(-1, 4)
-    out[:, 4] = log.dlc[rows]
+    out[:, _ID : _ID + 4] = log.frame_id[rows].astype(np.uint32).view(np.uint8).reshape(-1, 4)
+    out[:, _DLC] = log.dlc[rows]
     out[:, _DATA:_KEY] = log.data[rows]
     return out
 
@@ -113,13 +107,11 @@ class SilFirmware:
             raise FirmwareError(str(exc)) from exc
         self.lib = lib
         self.numeric = self.bus.numeric
-        # dlopen of the same file returns the library SilBus loaded: one instance.
-        dll = ctypes.CDLL(str(Path(lib).resolve()))
-        self._send = dll.mstc_sil_fw_send
-        self._recv = dll.mstc_sil_fw_recv
-        for fn in (self._send, self._recv):
-            fn.argtypes = [ctypes.c_void_p]
-            fn.restype = ctypes.c_int
+        # The library SilBus opened (one per process: one firmware instance),
+        # its entry points taking addresses into the frame buffers below.
+        library = Library.open(lib)
+        self._send = library.address_function("mstc_sil_fw_send")
+        self._recv = library.address_function("mstc_sil_fw_recv")
 
     def close(self) -> None:
         """Release the bus."""
@@ -195,7 +187,9 @@ class SilFirmware:
                 if progress is not None:
                     progress.update(j)
         used = out - base
-        sent = np.frombuffer(sink, dtype=np.uint8, count=used).reshape(-1, _SIZE).copy()
+        # numpy's stubs omit ctypes arrays, which numpy reads as buffers.
+        flat = np.frombuffer(sink, dtype=np.uint8, count=used)  # type: ignore[call-overload]
+        sent = flat.reshape(-1, _SIZE).copy()
         return np.array(counts, dtype=np.int64), sent, refused
 
 
@@ -280,17 +274,17 @@ def _windows(input_rows: np.ndarray, output_rows: np.ndarray) -> np.ndarray:
 
 
 def _ids(packed: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(packed[:, 0:4]).view(np.uint32).ravel().astype(np.int64)
+    return np.ascontiguousarray(packed[:, _ID : _ID + 4]).view(np.uint32).ravel().astype(np.int64)
 
 
 def _payload(packed_row: np.ndarray) -> tuple[int, bytes]:
-    frame_id = int(np.ascontiguousarray(packed_row[0:4]).view(np.uint32)[0])
-    return frame_id, packed_row[_DATA : _DATA + int(packed_row[4])].tobytes()
+    frame_id = int(np.ascontiguousarray(packed_row[_ID : _ID + 4]).view(np.uint32)[0])
+    return frame_id, packed_row[_DATA : _DATA + int(packed_row[_DLC])].tobytes()
 
 
 def decode_signals(
     db: Database, frame_id: int, data: bytes, *, choices: bool = True
-) -> dict[str, object] | str:
+) -> dict[str, float | int | str] | str:
     """A frame's signals by short name (without the message prefix), or why it
     cannot be decoded."""
     try:
@@ -298,11 +292,9 @@ def decode_signals(
     except KeyError:
         return f"identifier {frame_id:03X} is not in the DBC"
     try:
-        values = message.decode(data, decode_choices=choices, scaling=True)
+        return dict(signal_values(message, data, choices=choices))
     except Exception as exc:  # cantools raises several kinds on bad data
         return f"cannot decode: {exc}"
-    prefix = f"{message.name}_"
-    return {name.removeprefix(prefix): value for name, value in values.items()}
 
 
 def message_name(db: Database, frame_id: int) -> str:
@@ -420,9 +412,10 @@ def compare(
             continue
         for name, value in recorded.items():
             other = actual.get(name)
-            if name in _E2E_SIGNALS or other == value:
+            # The E2E fields differ whenever anything else does: left out.
+            if name in E2E_SIGNALS or other is None or other == value:
                 continue
-            delta = abs(float(other) - float(value))  # type: ignore[arg-type]
+            delta = abs(float(other) - float(value))
             s.max_delta[name] = max(s.max_delta.get(name, 0.0), delta)
     for p in np.flatnonzero(differ).tolist():
         entry(int(exp_id[pe[p]])).differing += 1
@@ -528,10 +521,9 @@ def _signal_table(
             lines.append(f"    ({label}: {col})")
     if message is None:
         return lines
-    prefix = f"{message.name}_"
     rows = [("signal", "recorded", "sent", "unit", "")]
     for signal in message.signals:
-        name = signal.name.removeprefix(prefix)
+        name = short_name(message, signal.name)
         cells = [
             _value_text(c[name]) if isinstance(c, dict) and name in c else "—" for c in columns
         ]
@@ -583,7 +575,11 @@ def format_difference(diff: Difference, log: FrameLog, db: Database) -> str:
     sent = diff.sent[1] if diff.sent is not None else None
     lines.append(f"  recorded  {_hex(recorded) if recorded is not None else '—'}")
     lines.append(f"  sent      {_hex(sent) if sent is not None else '—'}")
-    frame_id = diff.recorded.frame_id if diff.recorded is not None else diff.sent[0]  # type: ignore[index]
+    if diff.recorded is not None:
+        frame_id = diff.recorded.frame_id
+    else:
+        assert diff.sent is not None  # an extra frame: what was sent
+        frame_id = diff.sent[0]
     lines += _signal_table(db, frame_id, recorded, sent)
     return "\n".join(lines)
 
@@ -593,7 +589,7 @@ def _delta_text(db: Database, stats: MessageStats) -> str:
         return ""
     try:
         message = db.get_message_by_frame_id(stats.frame_id)
-        units = {s.name.removeprefix(f"{message.name}_"): s.unit or "" for s in message.signals}
+        units = {short_name(message, s.name): s.unit or "" for s in message.signals}
     except KeyError:
         units = {}
     parts = [

@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: MIT
-"""Progress of long runs on stderr, without a dependency.
+"""Progress of long runs on stderr.
 
-On a terminal, a bar redrawn in place with the share done and an estimate of
-the time left; when stderr is not a terminal, or when ``CI=true``, one plain
-line at every tenth done, so that CI logs stay readable. Runs shorter than a
-second show nothing.
+On a terminal, a tqdm bar redrawn in place with the share done and an
+estimate of the time left; when stderr is not a terminal, or when ``CI=true``,
+one plain line at every tenth done instead, so that CI logs stay readable
+(tqdm writes carriage returns there, or with ``mininterval`` a line per
+interval, not per share). Runs shorter than a second show nothing.
 """
 
 from __future__ import annotations
@@ -13,12 +14,19 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from typing import TextIO
+from typing import Any, TextIO
+
+from tqdm import tqdm
 
 BAR_WIDTH = 28
 """Characters of the bar."""
 REDRAW_S = 0.1
 """Least time between two redraws of the bar [s]."""
+BAR_FORMAT = (
+    f"{{desc}} [{{bar:{BAR_WIDTH}}}] {{percentage:3.0f}}% {{n:,}}/{{total:,}} {{unit}} "
+    "ETA {remaining}"
+)
+"""The bar's line (tqdm's ``bar_format``)."""
 
 
 def plain_output(stream: TextIO) -> bool:
@@ -29,12 +37,14 @@ def plain_output(stream: TextIO) -> bool:
     return not (isatty is not None and isatty())
 
 
-def _clock_text(seconds: float) -> str:
-    """``m:ss``, or ``h:mm:ss`` from an hour."""
-    s = max(0, round(seconds))
-    h, rest = divmod(s, 3600)
-    m, s = divmod(rest, 60)
-    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+class _Bar(tqdm):  # type: ignore[type-arg]  # tqdm is generic over its iterable; none here
+    """tqdm on a given clock (tests pass a fake one): tqdm reads its clock
+    through the instance attribute ``_time``, set in its constructor."""
+
+    def __init__(self, clock: Callable[[], float], **kwargs: Any) -> None:
+        super().__init__(**kwargs)  # with delay > 0, nothing is drawn yet
+        self._time = clock
+        self.start_t = self.last_print_t = clock()
 
 
 class Progress:
@@ -71,44 +81,44 @@ class Progress:
         self.clock = clock
         self.enabled = enabled and total > 0
         self._start = clock()
-        self._last_draw = -float("inf")
         self._decile = 0
         self._drawn = False
-
-    def _eta(self, done: int, elapsed: float) -> str:
-        if done <= 0:
-            return "?"
-        return _clock_text(elapsed * (self.total - done) / done)
+        self._bar: _Bar | None = None
+        if self.enabled and not self.plain:
+            self._bar = _Bar(
+                clock,
+                total=total,
+                desc=label,
+                unit=unit,
+                file=self.stream,
+                # tqdm draws at once, on its own clock, when delay is 0.
+                delay=max(delay, 1e-9),
+                mininterval=REDRAW_S,
+                smoothing=0,
+                ascii="-#",
+                leave=False,
+                dynamic_ncols=False,
+                bar_format=BAR_FORMAT,
+            )
 
     def update(self, done: int) -> None:
         """@p done units of :attr:`total` are done."""
         if not self.enabled:
             return
-        now = self.clock()
-        elapsed = now - self._start
+        if self._bar is not None:
+            self._bar.update(done - self._bar.n)
+            return
+        elapsed = self.clock() - self._start
         if elapsed < self.delay:
             return
-        share = min(max(done / self.total, 0.0), 1.0)
-        if self.plain:
-            decile = int(share * 10)
-            if decile <= self._decile or decile >= 10:
-                return
-            self._decile = decile
-            self.stream.write(
-                f"{self.label}: {decile * 10}% ({done:,}/{self.total:,} {self.unit}), "
-                f"{_clock_text(elapsed)} elapsed, {self._eta(done, elapsed)} left\n"
-            )
-            self.stream.flush()
-            self._drawn = True
+        decile = int(min(max(done / self.total, 0.0), 1.0) * 10)
+        if decile <= self._decile or decile >= 10:
             return
-        if now - self._last_draw < REDRAW_S:
-            return
-        self._last_draw = now
-        filled = int(share * BAR_WIDTH)
-        bar = "#" * filled + "-" * (BAR_WIDTH - filled)
+        self._decile = decile
+        left = tqdm.format_interval(elapsed * (self.total - done) / done) if done > 0 else "?"
         self.stream.write(
-            f"\r{self.label} [{bar}] {share * 100:3.0f}% {done:,}/{self.total:,} {self.unit} "
-            f"ETA {self._eta(done, elapsed)} "
+            f"{self.label}: {decile * 10}% ({done:,}/{self.total:,} {self.unit}), "
+            f"{tqdm.format_interval(elapsed)} elapsed, {left} left\n"
         )
         self.stream.flush()
         self._drawn = True
@@ -116,11 +126,11 @@ class Progress:
     def close(self) -> None:
         """The run is over: clear the bar (a terminal), or say so (plain lines,
         when any was written)."""
-        if not (self.enabled and self._drawn):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
             return
-        if self.plain:
-            elapsed = self.clock() - self._start
-            self.stream.write(f"{self.label}: done in {_clock_text(elapsed)}\n")
-        else:
-            self.stream.write("\r\x1b[K")
-        self.stream.flush()
+        if self.enabled and self._drawn:
+            elapsed = tqdm.format_interval(self.clock() - self._start)
+            self.stream.write(f"{self.label}: done in {elapsed}\n")
+            self.stream.flush()

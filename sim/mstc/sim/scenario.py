@@ -18,7 +18,7 @@ from typing import Any
 
 from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
-from mstc.params import Params
+from mstc.params import PARAM_NAMES, Params
 from mstc.sim.plant import Integrator, Pose
 
 MAX_OBSTACLES = 16
@@ -110,17 +110,9 @@ class Scenario:
 _TOP_KEYS = ("robot", "reference", "obstacles", "sim", "params", "expected")
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
-# File key -> Params attribute, for the scalar parameters.
-_SCALAR_PARAMS = {
-    "R_m": "r_m",
-    "R_ob": "r_ob",
-    "D_det": "d_det",
-    "D_act": "d_act",
-    "D_s": "d_s",
-    "wheel_radius": "wheel_radius",
-    "track_width": "track_width",
-    "max_wheel_speed": "max_wheel_speed",
-}
+# File key -> Params attribute, for the scalar parameters: their names in the
+# DBC's parameter index table (PARAM_NAMES).
+_SCALAR_PARAMS = {key: attr for key, (attr, element) in PARAM_NAMES.items() if element is None}
 _GAIN_PARAMS = {"tracking_gains": 3, "avoidance_gains": 2}
 
 
