@@ -140,7 +140,18 @@ class LoopStats:
         if len(w) != LOOP_STATS_WORDS:
             raise FirmwareError(f"read {len(w)} words of stm32_loop_stats, not {LOOP_STATS_WORDS}")
         can_open = w[2] - (1 << 32) if w[2] >= 1 << 31 else w[2]
-        return cls(*w[:2], can_open, *w[3:5], bool(w[5]), *w[6:9], w[9] | (w[10] << 32))
+        return cls(
+            steps=w[0],
+            overruns=w[1],
+            can_open=can_open,
+            reset_cause=w[3],
+            sysclk_hz=w[4],
+            lockstep=bool(w[5]),
+            frame_steps=w[6],
+            step_cycles_min=w[7],
+            step_cycles_max=w[8],
+            step_cycles_sum=w[9] | (w[10] << 32),
+        )
 
     @property
     def measured_steps(self) -> int:
