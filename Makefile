@@ -84,8 +84,10 @@ UNIT_TESTS := $(patsubst tests/unit/%.c,%,$(UNIT_SRCS))
 # include path its headers need: TEST_SRCS_<test>, SRC_CFLAGS_<test source>.
 TEST_SRCS_test_bxcan := hal/stm32/bxcan_calc.c
 TEST_SRCS_test_stm32_calc := hal/stm32/stm32_calc.c hal/stm32/wheel_cmd.c
+TEST_SRCS_test_slcan := hal/stm32/slcan_codec.c
 SRC_CFLAGS_tests/unit/test_bxcan.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_stm32_calc.c := -Ihal/stm32
+SRC_CFLAGS_tests/unit/test_slcan.c := -Ihal/stm32
 TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
 SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
@@ -201,6 +203,7 @@ test: deps-test  ## every test: lint, types, generated files, static analysis, c
 include mk/comm.mk
 include mk/replay.mk
 include mk/firmware.mk
+include mk/pil.mk
 include mk/cross.mk
 include mk/bench.mk
 include mk/numerics.mk

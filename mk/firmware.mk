@@ -8,8 +8,10 @@
 #   make firmware BOARD=stm32f405   Cortex-M4F, float   -> build/firmware/stm32f405/
 #   make firmware BOARD=stm32f103   Cortex-M3, fixed    -> build/firmware/stm32f103/
 #   make firmware BOARD=template    the blank port: compiles and links, runs nowhere
+#   make firmware BOARD=... CAN=slcan  the same image with CAN over a UART (slcan)
+#                                   -> build/firmware/<board>-slcan/ (docs/hil.md)
 #   make firmware-all               the three, then the budget check
-#   make firmware-budget            flash, RAM, stack of both images vs. the budgets
+#   make firmware-budget            flash, RAM, stack of the four STM32 images vs. the budgets
 #   make firmware-smoke             both images under QEMU (tools/bench/qemu_smoke)
 #   make flash BOARD=... [FLASH_TOOL=openocd|st-flash|pyocd] [FLASH_DRY_RUN=1]
 #
@@ -27,8 +29,16 @@ IMG_OBJCOPY := $(CROSS_COMPILE)objcopy
 # -Os: the images must fit 32 KB of flash (docs/porting.md, budgets).
 IMG_OPT ?= -Os -g3
 
-# Shared STM32 code: bxCAN, IWDG, SysTick, timers, start-up, main loop.
-STM32_SRCS := $(sort $(wildcard hal/stm32/*.c))
+# CAN transport of the STM32 images, the only sources in which the two
+# variants of a board's image differ (docs/hil.md): bxCAN, the default, or
+# slcan over a UART. A board lists the ones it has in BOARD_CANS, default
+# first; the other variants get their own directory, <board>-<can>.
+CAN ?= bxcan
+STM32_CAN_SRCS_bxcan := hal/stm32/bxcan.c hal/stm32/bxcan_calc.c
+STM32_CAN_SRCS_slcan := hal/stm32/slcan.c hal/stm32/slcan_codec.c
+# Shared STM32 code: IWDG, SysTick, timers, start-up, main loop.
+STM32_SRCS := $(filter-out $(STM32_CAN_SRCS_bxcan) $(STM32_CAN_SRCS_slcan), \
+  $(sort $(wildcard hal/stm32/*.c)))
 
 ifneq ($(filter firmware flash,$(MAKECMDGOALS)),)
 ifeq ($(filter $(BOARD),$(IMG_BOARDS)),)
@@ -45,31 +55,42 @@ IMG_SRCS_$(1) := $$(BOARD_SRCS)
 IMG_INC_$(1) := $$(BOARD_INC)
 IMG_LD_$(1) := $$(BOARD_LD)
 IMG_SVD_$(1) := $$(BOARD_SVD)
+IMG_CANS_$(1) := $$(BOARD_CANS)
+BOARD_CANS :=
 endef
 $(foreach b,$(IMG_BOARDS),$(eval $(call IMG_BOARD_LOAD,$(b))))
 
-# Rules of one board. $(1): board; $(2): its numeric mode.
+# Image name of board $(1) with transport $(2): the board itself for its
+# first (default) transport or when it has no choice, <board>-<can> else.
+img_name = $(1)$(if $(filter-out $(firstword $(IMG_CANS_$(1))),$(filter $(2),$(IMG_CANS_$(1)))),-$(2))
+
+# Rules of one image. $(1): image; $(2): its numeric mode; $(3): board;
+# $(4): CAN transport (empty for a board without the choice). The register
+# header is the board's, shared by its images, so that their common objects
+# are compiled from the same files and come out identical.
 define IMG_RULES
 IMG_DIR_$(1) := build/firmware/$(1)
 IMG_OBJ_$(1) := build/firmware/$(1)/obj-$(2)
-IMG_GEN_$(1) := build/firmware/$(1)/gen
-IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(1)),$$(IMG_GEN_$(1))/stm32_regs.h)
+IMG_GEN_$(1) := build/firmware/$(3)/gen
+IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(3)),$$(IMG_GEN_$(1))/stm32_regs.h)
 BUILD_CC_img-$(1) := $$(IMG_CC)
-BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(1)) -ffunction-sections \
-  -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(1)) \
-  $$(if $$(IMG_SVD_$(1)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2))
+BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections \
+  -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(3)) \
+  $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2))
 BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
-BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(IMG_SRCS_$(1))
+BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))
 BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2))
 BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
 $$(eval $$(call BUILD,img-$(1)))
-IMG_OBJS_$(1) := $$(BUILD_OBJS_img-$(1)) $$(if $$(IMG_SVD_$(1)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
+IMG_OBJS_$(1) := $$(BUILD_OBJS_img-$(1)) $$(if $$(IMG_SVD_$(3)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
 
-ifneq ($$(IMG_SVD_$(1)),)
+ifneq ($$(IMG_SVD_$(3)),)
+ifeq ($(1),$(3))
 # Register header and vector table from the vendor's SVD (tools/svd/).
 $$(IMG_GEN_$(1))/stm32_regs.h $$(IMG_GEN_$(1))/stm32_vectors.c &: $$(IMG_SVD_$(1)) \
     tools/svd/svd2c.py deps/svd/.sha256 | .venv/.requirements.sha256
 	$$(PY) tools/svd/svd2c.py $$(IMG_SVD_$(1)) deps/svd $$(IMG_GEN_$(1))
+endif
 # The generated vector table: the board's compile, its object in gen/.
 $$(IMG_OBJ_$(1))/gen/stm32_vectors.o: $$(IMG_GEN_$(1))/stm32_vectors.c \
     $$(IMG_GEN_$(1))/stm32_regs.h | $$(STAMP)/apt-test
@@ -83,11 +104,11 @@ endif
 $$(IMG_DIR_$(1))/numeric.txt: FORCE
 	@mkdir -p $$(@D)
 	@echo $(2) | cmp -s - $$@ || echo $(2) > $$@
-$$(IMG_DIR_$(1))/mstc.elf: $$(IMG_OBJS_$(1)) $$(IMG_LD_$(1)) hal/stm32/sections.ld \
+$$(IMG_DIR_$(1))/mstc.elf: $$(IMG_OBJS_$(1)) $$(IMG_LD_$(3)) hal/stm32/sections.ld \
     $$(IMG_DIR_$(1))/numeric.txt
-	$$(IMG_CC) $$(IMG_CPU_$(1)) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	$$(IMG_CC) $$(IMG_CPU_$(3)) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
 	  -Wl,-Map=$$(IMG_DIR_$(1))/mstc.map -Wl,--no-warn-rwx-segments -Lhal/stm32 \
-	  -T$$(IMG_LD_$(1)) -o $$@ $$(IMG_OBJS_$(1)) -Wl,--start-group -lc -lm -lgcc -Wl,--end-group
+	  -T$$(IMG_LD_$(3)) -o $$@ $$(IMG_OBJS_$(1)) -Wl,--start-group -lc -lm -lgcc -Wl,--end-group
 $$(IMG_DIR_$(1))/mstc.bin: $$(IMG_DIR_$(1))/mstc.elf
 	$$(IMG_OBJCOPY) -O binary $$< $$@
 $$(IMG_DIR_$(1))/mstc.hex: $$(IMG_DIR_$(1))/mstc.elf
@@ -98,7 +119,15 @@ $$(IMG_DIR_$(1))/size.txt: $$(IMG_DIR_$(1))/mstc.elf tools/bench/board_budget \
 .PHONY: img-$(1)
 img-$(1): $$(addprefix $$(IMG_DIR_$(1))/,mstc.elf mstc.bin mstc.hex size.txt)
 endef
-$(foreach b,$(IMG_BOARDS),$(eval $(call IMG_RULES,$(b),$(IMG_NUMERIC_$(b)))))
+$(foreach b,$(IMG_BOARDS),$(foreach c,$(or $(IMG_CANS_$(b)),none),$(eval \
+  $(call IMG_RULES,$(call img_name,$(b),$(c)),$(IMG_NUMERIC_$(b)),$(b),$(filter-out none,$(c))))))
+# The image `make firmware` and `make flash` mean.
+IMG := $(call img_name,$(BOARD),$(CAN))
+ifneq ($(filter firmware flash,$(MAKECMDGOALS)),)
+ifeq ($(filter $(CAN),$(or $(IMG_CANS_$(BOARD)),bxcan)),)
+$(error CAN must be one of: $(or $(IMG_CANS_$(BOARD)),bxcan) for BOARD=$(BOARD) (not '$(CAN)'))
+endif
+endif
 
 .PHONY: FORCE
 FORCE:
@@ -107,14 +136,16 @@ deps/svd/.sha256: tools/svd/svd.lock tools/svd/fetch | .venv/.requirements.sha25
 	@tools/svd/fetch && touch $@
 
 .PHONY: firmware firmware-all firmware-budget firmware-smoke flash
-firmware: img-$(BOARD)  ## build a board image: BOARD=stm32f405|stm32f103|template
-	@cat build/firmware/$(BOARD)/size.txt
+firmware: img-$(IMG)  ## build a board image: BOARD=stm32f405|stm32f103|template [CAN=bxcan|slcan]
+	@cat build/firmware/$(IMG)/size.txt
 
-firmware-all: $(addprefix img-,$(IMG_BOARDS))  ## build every board image, then check the budgets
-	@$(PY) tools/bench/board_budget build/firmware/stm32f405 build/firmware/stm32f103
+# The STM32 images, bxCAN and slcan, whose budgets are checked.
+BUDGET_IMGS := stm32f405 stm32f103 stm32f405-slcan stm32f103-slcan
+firmware-all: $(addprefix img-,$(IMG_BOARDS) $(BUDGET_IMGS))  ## build every board image, then check the budgets
+	@$(PY) tools/bench/board_budget $(addprefix build/firmware/,$(BUDGET_IMGS))
 
-firmware-budget: img-stm32f405 img-stm32f103  ## flash, RAM and stack of the board images vs. budgets
-	@$(PY) tools/bench/board_budget build/firmware/stm32f405 build/firmware/stm32f103
+firmware-budget: $(addprefix img-,$(BUDGET_IMGS))  ## flash, RAM and stack of the board images vs. budgets
+	@$(PY) tools/bench/board_budget $(addprefix build/firmware/,$(BUDGET_IMGS))
 
 firmware-smoke: img-stm32f405 img-stm32f103  ## run both board images under QEMU: does the loop run?
 	@$(PY) tools/bench/qemu_smoke build/firmware/stm32f405 build/firmware/stm32f103
@@ -122,9 +153,9 @@ firmware-smoke: img-stm32f405 img-stm32f103  ## run both board images under QEMU
 # make flash BOARD=... [FLASH_TOOL=openocd|st-flash|pyocd] [FLASH_DRY_RUN=1]
 # [FLASH_ARGS="--interface cmsis-dap.cfg"]: tools/flash says how each works.
 FLASH_TOOL ?= openocd
-flash: img-$(BOARD)  ## flash BOARD's image (FLASH_TOOL=openocd|st-flash|pyocd; FLASH_DRY_RUN=1: print only)
+flash: img-$(IMG)  ## flash BOARD's image (FLASH_TOOL=openocd|st-flash|pyocd; FLASH_DRY_RUN=1: print only)
 ifeq ($(FLASH_DRY_RUN),)
 	@tools/setup/apt-install tools/setup/debian-flash.txt
 endif
 	@$(PY) tools/flash --board $(BOARD) --tool $(FLASH_TOOL) $(if $(FLASH_DRY_RUN),--dry-run) \
-	  $(FLASH_ARGS) build/firmware/$(BOARD)/mstc.elf
+	  $(FLASH_ARGS) build/firmware/$(IMG)/mstc.elf

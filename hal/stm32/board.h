@@ -9,7 +9,8 @@
  *
  * Called from the main loop's start-up, in this order: board_clock_init(),
  * board_gpio_init(), then the drivers enable their peripherals through
- * board_can_enable() and board_timers_enable().
+ * board_can_enable() (bxCAN) or board_slcan_enable() (slcan), and
+ * board_timers_enable().
  */
 #ifndef STM32_BOARD_H
 #define STM32_BOARD_H
@@ -48,6 +49,10 @@ void board_gpio_init(void);
 
 /** @brief Clock (and, on the F1, pin remap) of the CAN controller. */
 void board_can_enable(void);
+
+/** @brief Clock and pins of the slcan UART (board_config.h: BOARD_SLCAN_UART,
+ *         USART2 on PA2/PA3): the slcan transport's board_can_enable(). */
+void board_slcan_enable(void);
 
 /** @brief Clocks of the control-period and PWM timers. */
 void board_timers_enable(void);

@@ -10,6 +10,7 @@
 
 #include "board.h"
 #include "bxcan_calc.h"
+#include "can_queue.h"
 #include "can_ring.h"
 #include "cortex_m.h"
 #include "hal/hal_can.h"
@@ -137,44 +138,15 @@ int hal_can_set_filters(const hal_can_filter_t *filters, unsigned n)
 
 int hal_can_send(const hal_can_frame_t *frame)
 {
-    if (frame == NULL || frame->id > HAL_CAN_MAX_STD_ID || frame->dlc > HAL_CAN_MAX_DLC) {
-        return -EINVAL;
-    }
-    if (!opened) {
-        return -ENODEV;
-    }
-    if (!can_ring_push(&tx_ring, frame)) {
-        tx_refused = tx_refused + 1u;
-        return -EAGAIN;
-    }
-    /* The transmit ISR is the ring's only consumer: wake it. */
-    cm_nvic_set_pending(BOARD_CAN_TX_IRQn);
-    return 0;
+    return can_queue_send(&tx_ring, BOARD_CAN_TX_IRQn, frame, opened ? 0 : -ENODEV, &tx_refused);
 }
+
+/* hal_can.h: -EIO while the controller is bus-off. */
+static bool bus_off_now(void) { return opened && (CAN->ESR & CAN_ESR_BOFF_Msk) != 0u; }
 
 int hal_can_recv(hal_can_frame_t *frame, uint32_t timeout_us)
 {
-    if (frame == NULL) {
-        return -EINVAL;
-    }
-    const uint64_t end = timeout_us != 0u ? hal_time_now_us() + timeout_us : 0u;
-    for (;;) {
-        if (can_ring_pop(&rx_ring, frame)) {
-            return 0;
-        }
-        if (opened && (CAN->ESR & CAN_ESR_BOFF_Msk) != 0u) {
-            return -EIO;
-        }
-        if (timeout_us == 0u || hal_time_now_us() >= end) {
-            return -EAGAIN;
-        }
-        /* Mask, check, sleep: a frame arriving in between still wakes us. */
-        const uint32_t primask = cm_irq_save();
-        if (can_ring_count(&rx_ring) == 0u) {
-            cm_wfi();
-        }
-        cm_irq_restore(primask);
-    }
+    return can_queue_recv(&rx_ring, frame, timeout_us, bus_off_now);
 }
 
 void hal_can_close(void)

@@ -1,10 +1,17 @@
 /* SPDX-License-Identifier: MIT */
-/* The main loop of the STM32 boards: real-time mode. A timer counts control
+/* The main loop of the STM32 boards. Real-time mode: a timer counts control
  * periods; this loop drains received frames into the application, runs one
  * control step per period with the time of that period, sends the wheel
  * speeds to the motor outputs, and kicks the watchdog only when a step has
  * run, so a stuck loop or a dead timer resets the MCU. Interrupts only queue
- * frames and count periods (events up, no control code in an ISR). */
+ * frames and count periods (events up, no control code in an ISR).
+ *
+ * Lock-step (a plant in the loop, docs/hil.md): a STEP frame runs one control
+ * step in the application (app.h). From the first one on, the STEP frames
+ * are the board's clock and the timer runs no more steps, so that each STEP
+ * gives exactly one step, as in the host builds. The watchdog is then fed by
+ * those steps: a plant that stops stepping for longer than its timeout
+ * resets the board, which starts again in real-time mode, not armed. */
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -66,6 +73,31 @@ static void motors_from_last_step(void)
     (void)hal_motor_set(wheel_cmd_from_speed(w->left, max), wheel_cmd_from_speed(w->right, max));
 }
 
+/* After each control step, which took @p cycles (@p first: the first of its
+ * mode, real-time or lock-step, which restarts the cycle statistics):
+ * motors, LED, statistics, watchdog. */
+static void after_step(uint32_t cycles, bool first, bool can_ok)
+{
+    static uint32_t steps;
+    volatile stm32_loop_stats_t *st = &stm32_loop_stats;
+    motors_from_last_step();
+    led_step(++steps, can_ok);
+    if (first) {
+        st->step_cycles_min = cycles;
+        st->step_cycles_max = 0u;
+        st->step_cycles_sum_lo = 0u;
+        st->step_cycles_sum_hi = 0u;
+    }
+    st->step_cycles_min = cycles < st->step_cycles_min ? cycles : st->step_cycles_min;
+    st->step_cycles_max = cycles > st->step_cycles_max ? cycles : st->step_cycles_max;
+    const uint32_t lo = st->step_cycles_sum_lo + cycles;
+    st->step_cycles_sum_hi += lo < cycles ? 1u : 0u;
+    st->step_cycles_sum_lo = lo;
+    st->steps = steps;
+    st->overruns = stm32_tick_overruns();
+    hal_sys_watchdog_kick();
+}
+
 int main(void)
 {
     board_clock_init();
@@ -90,21 +122,31 @@ int main(void)
     (void)hal_sys_watchdog_start(BOARD_WATCHDOG_MS);
 
     uint64_t t_us = 0u;
-    uint32_t steps = 0u;
     for (;;) {
-        (void)app_poll(&app, 0u);
+        /* Every received frame into the application (app_poll(), one frame
+         * at a time, so that a STEP's step can be timed). */
+        hal_can_frame_t f;
+        while (hal_can_recv(&f, 0u) == 0) {
+            const uint32_t before = app.steps;
+            const uint32_t c0 = stm32_time_cycles();
+            (void)app_on_frame(&app, &f);
+            const uint32_t cycles = stm32_time_cycles() - c0;
+            if (app.steps != before) {
+                const bool first = stm32_loop_stats.lockstep == 0u;
+                stm32_loop_stats.lockstep = 1u;
+                stm32_loop_stats.frame_steps++;
+                after_step(cycles, first, can_ok);
+            }
+        }
         const uint32_t periods = stm32_tick_take();
-        if (periods > 0u) {
+        if (periods > 0u && stm32_loop_stats.lockstep == 0u) {
             /* The step's time is the end of the period that has elapsed, not
              * when this loop got to it: steps stay evenly spaced. Missed
              * periods are skipped (stm32_tick_overruns() counts them). */
             t_us += (uint64_t)periods * BOARD_CONTROL_PERIOD_US;
+            const uint32_t c0 = stm32_time_cycles();
             app_control_tick(&app, t_us);
-            motors_from_last_step();
-            led_step(++steps, can_ok);
-            stm32_loop_stats.steps = steps;
-            stm32_loop_stats.overruns = stm32_tick_overruns();
-            hal_sys_watchdog_kick();
+            after_step(stm32_time_cycles() - c0, stm32_loop_stats.steps == 0u, can_ok);
         }
         /* Sleep until the next interrupt unless work arrived meanwhile. */
         const uint32_t primask = cm_irq_save();

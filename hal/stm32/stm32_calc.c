@@ -99,3 +99,24 @@ hal_reset_cause_t stm32_reset_cause(uint32_t csr)
 }
 
 uint32_t stm32_systick_reload(uint32_t sysclk_hz) { return sysclk_hz / 1000u - 1u; }
+
+int stm32_usart_brr(uint32_t pclk_hz, uint32_t baud, uint16_t *brr, int32_t *err_ppm)
+{
+    if (brr == NULL || err_ppm == NULL || baud == 0u) {
+        return -EINVAL;
+    }
+    const uint64_t div = ((uint64_t)pclk_hz + baud / 2u) / baud;
+    if (div < 16u || div > 0xFFFFu) {
+        return -EINVAL;
+    }
+    /* actual / baud - 1 = pclk / (div · baud) - 1, in ppm, rounded */
+    const int64_t den = (int64_t)(div * baud);
+    const int64_t num = ((int64_t)pclk_hz - den) * 1000000;
+    const int64_t err = (num + (num < 0 ? -den / 2 : den / 2)) / den;
+    if (err > STM32_USART_MAX_ERR_PPM || err < -STM32_USART_MAX_ERR_PPM) {
+        return -EINVAL;
+    }
+    *brr = (uint16_t)div;
+    *err_ppm = (int32_t)err;
+    return 0;
+}

@@ -83,4 +83,21 @@ hal_reset_cause_t stm32_reset_cause(uint32_t csr);
 /** @brief SysTick reload for a 1 kHz tick from the core clock (24 bits). */
 uint32_t stm32_systick_reload(uint32_t sysclk_hz);
 
+/** @brief Largest baud-rate error stm32_usart_brr() accepts [ppm]: the
+ *         receiver of an 8N1 frame sampled 16 times a bit tolerates about
+ *         3.75 % between the two ends (RM0090 §30.3.5 [§27.3.5]); the rest
+ *         is left to the peer's clock. */
+#define STM32_USART_MAX_ERR_PPM 30000
+
+/**
+ * @brief USART_BRR for @p baud from the peripheral clock @p pclk_hz, with 16
+ *        times oversampling (OVER8 = 0; the F1 has no other): the divider
+ *        pclk / (16 · baud) in 12.4 fixed point, which is pclk / baud rounded
+ *        to the nearest integer (RM0090 §30.3.4 [RM0008 §27.3.4]).
+ * @param[out] err_ppm the baud rate's error [ppm], rounded (0 when exact).
+ * @retval 0 done. @retval -EINVAL baud 0, a divider below 1 (BRR < 16) or
+ *         above 0xFFFF, or an error beyond STM32_USART_MAX_ERR_PPM.
+ */
+int stm32_usart_brr(uint32_t pclk_hz, uint32_t baud, uint16_t *brr, int32_t *err_ppm);
+
 #endif /* STM32_CALC_H */

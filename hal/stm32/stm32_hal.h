@@ -14,6 +14,11 @@
 /** @brief Start SysTick (hal_time) from the core clock. Task context. */
 void stm32_time_init(uint32_t sysclk_hz);
 
+/** @brief Core clock cycles since stm32_time_init(), modulo 2^32, from
+ *         SysTick: differences time code to the cycle (under QEMU's -icount,
+ *         SysTick counts executed instructions: docs/hil.md). Task or ISR. */
+uint32_t stm32_time_cycles(void);
+
 /**
  * @brief Start the control-period timer (board_config.h: BOARD_TICK_TIM):
  *        an update interrupt every @p period_us, which only counts.
@@ -48,6 +53,17 @@ typedef struct {
     int32_t can_open;     /**< hal_can_open() result (0, or a negative errno) */
     uint32_t reset_cause; /**< hal_reset_cause_t at start */
     uint32_t sysclk_hz;   /**< core clock in force */
+    uint32_t lockstep;    /**< 1 once a STEP frame ran a step: the timer steps no more */
+    uint32_t frame_steps; /**< control steps run by STEP frames (lock-step) */
+    /** Core clock cycles (stm32_time_cycles()) of one control step: handling
+     *  the STEP frame, or the timer's app_control_tick(), with the frames it
+     *  sends and the interrupts that run meanwhile. Over the steps of the
+     *  mode in force: the `steps` of real-time mode, then, from the first
+     *  STEP frame on, the `frame_steps`. */
+    uint32_t step_cycles_min;
+    uint32_t step_cycles_max;
+    uint32_t step_cycles_sum_lo; /**< sum over the steps, low word ... */
+    uint32_t step_cycles_sum_hi; /**< ... and high word */
 } stm32_loop_stats_t;
 
 /** @brief Written by the main loop only. */

@@ -28,22 +28,37 @@ void stm32_time_init(uint32_t sysclk_hz)
 
 void SysTick_Handler(void) { ms_count = ms_count + 1u; }
 
-uint64_t hal_time_now_us(void)
+/* Milliseconds and SysTick counts into the current one, read as one. */
+static uint32_t now_counts(uint64_t *ms)
 {
     /* With interrupts masked the count and the counter are read as one; if
      * the counter wrapped but the tick is not yet handled (PENDSTSET, as in
      * an ISR of equal or higher priority), count it here and re-read the
      * counter, which now belongs to the new millisecond. */
     const uint32_t primask = cm_irq_save();
-    uint64_t ms = ms_count;
+    uint64_t m = ms_count;
     uint32_t val = CM_SYST_CVR;
     if ((CM_SCB_ICSR & CM_ICSR_PENDSTSET) != 0u) {
-        ms++;
+        m++;
         val = CM_SYST_CVR;
     }
     cm_irq_restore(primask);
-    const uint32_t elapsed = reload - val; /* counts down from reload */
+    *ms = m;
+    return reload - val; /* counts down from reload */
+}
+
+uint64_t hal_time_now_us(void)
+{
+    uint64_t ms;
+    const uint32_t elapsed = now_counts(&ms);
     return ms * 1000u + (cycles_per_us != 0u ? elapsed / cycles_per_us : 0u);
+}
+
+uint32_t stm32_time_cycles(void)
+{
+    uint64_t ms;
+    const uint32_t elapsed = now_counts(&ms);
+    return (uint32_t)(ms * (reload + 1u)) + elapsed;
 }
 
 void hal_time_sleep_until_us(uint64_t t_us)

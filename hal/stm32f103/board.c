@@ -80,7 +80,7 @@ const board_clocks_t *board_clocks(void) { return &clocks; }
  * MODE[1:0] (00 input, 10 output 2 MHz, 11 output 50 MHz), CNF[1:0]. */
 #define CFG_OUT_PP_2MHZ 0x2u /* general-purpose push-pull */
 #define CFG_AF_PP_2MHZ  0xAu /* alternate push-pull, 2 MHz (20 kHz PWM) */
-#define CFG_AF_PP_50MHZ 0xBu /* alternate push-pull, 50 MHz (CAN TX) */
+#define CFG_AF_PP_50MHZ 0xBu /* alternate push-pull, 50 MHz (CAN TX, USART TX) */
 #define CFG_IN_PULL     0x8u /* input with pull-up/down, chosen by ODR */
 
 static void pin_cfg(GPIO_TypeDef *port, unsigned pin, uint32_t cfg)
@@ -128,6 +128,16 @@ void board_can_enable(void)
 {
     RCC->APB1ENR |= RCC_APB1ENR_CANEN_Msk;
     (void)RCC->APB1ENR;
+}
+
+void board_slcan_enable(void)
+{
+    /* USART2 on PA2 (TX) / PA3 (RX) without remap (RM0008 §9.3.8). */
+    RCC->APB1ENR |= RCC_APB1ENR_USART2EN_Msk;
+    (void)RCC->APB1ENR;
+    pin_cfg(GPIOA, 2u, CFG_AF_PP_50MHZ);
+    pin_write(GPIOA, 3u, true); /* pull-up: RX idles high with no adapter, too */
+    pin_cfg(GPIOA, 3u, CFG_IN_PULL);
 }
 
 void board_timers_enable(void)

@@ -124,8 +124,9 @@ static void pin_write(GPIO_TypeDef *port, unsigned pin, bool high)
     port->BSRR = high ? (1u << pin) : (1u << (pin + 16u)); /* atomic set/reset */
 }
 
-#define AF_TIM3 2u
-#define AF_CAN1 9u
+#define AF_TIM3   2u
+#define AF_USART2 7u
+#define AF_CAN1   9u
 
 void board_gpio_init(void)
 {
@@ -153,6 +154,16 @@ void board_can_enable(void)
 {
     RCC->APB1ENR |= RCC_APB1ENR_CAN1EN_Msk;
     (void)RCC->APB1ENR;
+}
+
+void board_slcan_enable(void)
+{
+    RCC->APB1ENR |= RCC_APB1ENR_USART2EN_Msk;
+    (void)RCC->APB1ENR;
+    pin_af(GPIOA, 2u, AF_USART2);
+    pin_af(GPIOA, 3u, AF_USART2);
+    /* RX idles high (stop level) with no adapter plugged in, too. */
+    pin_mode(GPIOA, 3u, MODE_AF, SPEED_HIGH, PULL_UP);
 }
 
 void board_timers_enable(void)

@@ -19,6 +19,8 @@
  *   driver enable  PB12  output, high = enabled (fit a pull-down: low
  *                        through reset and until the firmware drives it)
  *   status LED     PB5   output, high = on
+ *   USART2_TX      PA2   AF7, slcan images only (CAN=slcan)
+ *   USART2_RX      PA3   AF7 with pull-up, slcan images only
  */
 #ifndef BOARD_CONFIG_H
 #define BOARD_CONFIG_H
@@ -62,5 +64,16 @@
 #define BOARD_TICK_IRQHandler TIM2_IRQHandler
 
 #define BOARD_PWM_TIM TIM3
+
+/* The slcan transport (CAN=slcan, hal/stm32/slcan.c): CAN frames as Lawicel
+ * ASCII lines over USART2 (TX PA2, RX PA3), for a USB-serial adapter or
+ * QEMU's serial port (docs/hil.md). 8 data bits, no parity, 1 stop bit. */
+#define BOARD_SLCAN_UART       USART2
+#define BOARD_SLCAN_IRQn       USART2_IRQn
+#define BOARD_SLCAN_IRQHandler USART2_IRQHandler
+/** @brief Baud rate of the slcan line [bit/s]. */
+#ifndef BOARD_SLCAN_BAUD
+#define BOARD_SLCAN_BAUD 460800u
+#endif
 
 #endif /* BOARD_CONFIG_H */

@@ -7,7 +7,9 @@
 BOARD_NUMERIC := float
 # TODO the compiler's CPU flags (here: any Cortex-M3, soft float).
 BOARD_CPU := -mcpu=cortex-m3 -mthumb -mfloat-abi=soft
-# TODO your sources; add $(STM32_SRCS) to reuse hal/stm32 on an STM32.
+# TODO your sources; add $(STM32_SRCS) to reuse hal/stm32 on an STM32, and
+# then name its CAN transports, the default first (mk/firmware.mk):
+# BOARD_CANS := bxcan slcan
 BOARD_SRCS := $(sort $(wildcard hal/template/*.c))
 BOARD_INC := -Ihal/template
 # TODO your MCU's memory map.

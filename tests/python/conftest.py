@@ -68,6 +68,22 @@ def sil_lib() -> Path:
     return path
 
 
+@pytest.fixture(scope="session")
+def libs() -> dict[str, Path]:
+    """Both numeric modes' firmware libraries, by mode ("float", "fixed"), from
+    MSTC_SIL_LIB_FLOAT and MSTC_SIL_LIB_FIXED; never skipped."""
+    found = {}
+    for mode in ("float", "fixed"):
+        var = f"MSTC_SIL_LIB_{mode.upper()}"
+        value = os.environ.get(var)
+        if not value or not Path(value).is_file():
+            pytest.fail(
+                f"{var}={value!r}: `make test` builds both libraries and sets it", pytrace=False
+            )
+        found[mode] = Path(value)
+    return found
+
+
 def _toml_value(value: object) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"

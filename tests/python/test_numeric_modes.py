@@ -10,7 +10,6 @@ issue; the scenarios are drawn from a seeded generator, not tuned.
 """
 
 import math
-import os
 import random
 from pathlib import Path
 
@@ -28,20 +27,6 @@ N_RANDOM = 60
 PATH_BOUND_M = 1e-3
 REPORT: list[str] = []
 """Lines for the terminal summary (conftest.py prints them)."""
-
-
-@pytest.fixture(scope="module")
-def libs() -> dict[str, Path]:
-    found = {}
-    for mode in ("float", "fixed"):
-        var = f"MSTC_SIL_LIB_{mode.upper()}"
-        value = os.environ.get(var)
-        if not value or not Path(value).is_file():
-            pytest.fail(
-                f"{var}={value!r}: `make test` builds both libraries and sets it", pytrace=False
-            )
-        found[mode] = Path(value)
-    return found
 
 
 def _run_both(path: Path, libs: dict[str, Path]) -> tuple[RunResult, RunResult]:

@@ -1,14 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the board-independent computations of the STM32 ports
- * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, reset cause, SysTick) and
- * of the wheel-speed-to-motor-command glue (hal/stm32/wheel_cmd.c), in both
- * numeric modes.
+ * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, reset cause, SysTick, USART
+ * baud rate) and of the wheel-speed-to-motor-command glue
+ * (hal/stm32/wheel_cmd.c), in both numeric modes.
  *
  * Both sources are pure (no register access), so the host test build compiles
  * and links them (TEST_SRCS_test_stm32_calc in the Makefile).
  * Expected values are derived by hand beside each case from the reference
- * manuals' formulas (RM0090 §21.3.3 IWDG, §18.3.1 timer time base).
+ * manuals' formulas (RM0090 §21.3.3 IWDG, §18.3.1 timer time base, §30.3.4
+ * USART baud rate).
  */
 #include <errno.h>
 #include <math.h>
@@ -158,6 +159,50 @@ static void test_stm32_systick_reload(void)
     TEST_ASSERT_EQUAL_UINT32(15999, stm32_systick_reload(16000000));
 }
 
+/* ------------------------------------------------------------- USART */
+
+static void expect_brr(uint32_t pclk, uint32_t baud, unsigned brr, int32_t err_ppm)
+{
+    uint16_t b;
+    int32_t err;
+    TEST_ASSERT_EQUAL_INT(0, stm32_usart_brr(pclk, baud, &b, &err));
+    TEST_ASSERT_EQUAL_UINT(brr, b);
+    TEST_ASSERT_EQUAL_INT32(err_ppm, err);
+}
+
+/* BRR = pclk / baud rounded (16 × the divider, 12.4 fixed point); the error
+ * is pclk / (BRR · baud) - 1. */
+static void test_stm32_usart_brr_hand_values(void)
+{
+    /* F4, APB1 42 MHz: 42e6 / 460800 = 91.146 → 91 (mantissa 5, fraction 11);
+     * 42e6 / 91 = 461538.5 baud: 67200 / 41932800 = +1602.6 ppm. */
+    expect_brr(42000000, 460800, 91, 1603);
+    /* F1, APB1 36 MHz: 78.125 → 78; 36e6 / 78 = 461538.5 baud, the same +1603 ppm. */
+    expect_brr(36000000, 460800, 78, 1603);
+    /* F4 on its HSI fallback (16 MHz): 34.72 → 35, 457142.9 baud: -128000 /
+     * 16128000 = -7936.5 ppm, rounded away from zero. */
+    expect_brr(16000000, 460800, 35, -7937);
+    /* F1 on HSI (8 MHz): 17.36 → 17, 470588.2 baud: 166400 / 7833600 =
+     * +21241.8 ppm, still within the 3 % limit. */
+    expect_brr(8000000, 460800, 17, 21242);
+    /* 72 MHz / 115200 = 625 exactly. */
+    expect_brr(72000000, 115200, 625, 0);
+}
+
+static void test_stm32_usart_brr_rejects_out_of_range(void)
+{
+    uint16_t b;
+    int32_t err;
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_usart_brr(42000000, 0, &b, &err));
+    /* 8 MHz / 1 Mbaud = 8 < 16: a divider below 1. */
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_usart_brr(8000000, 1000000, &b, &err));
+    /* 42 MHz / 300 baud = 140000 > 0xFFFF. */
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_usart_brr(42000000, 300, &b, &err));
+    /* 1 MHz / 60643 = 16.49 → 16: 62500 baud, +3.06 % > 3 %. */
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_usart_brr(1000000, 60643, &b, &err));
+    TEST_ASSERT_EQUAL_INT(-EINVAL, stm32_usart_brr(42000000, 460800, NULL, &err));
+}
+
 /* ------------------------------------------------------- wheel command */
 
 static num_t n(double x) { return num_from_float((float)x); }
@@ -205,6 +250,8 @@ int main(void)
     RUN_TEST(test_stm32_pwm_compare);
     RUN_TEST(test_stm32_reset_cause_most_specific_flag_wins);
     RUN_TEST(test_stm32_systick_reload);
+    RUN_TEST(test_stm32_usart_brr_hand_values);
+    RUN_TEST(test_stm32_usart_brr_rejects_out_of_range);
     RUN_TEST(test_wheel_cmd_scales_to_full_scale);
     RUN_TEST(test_wheel_cmd_clamps_and_guards);
     return UNITY_END();

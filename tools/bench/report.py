@@ -10,10 +10,15 @@ other sections (later benchmarks) are kept. Figures and ratios are reported
 against the targets of the issue; nothing here fails on a figure: only
 missing or malformed results are errors.
 
-Usage: report.py --doc docs/performance.md RESULT.txt...
+With --pil build/pil, the section also gives the instructions per control
+step the board images counted in the closed loop under QEMU (`make pil`:
+loop_stats.json of each board and scenario), beside ctl_step's.
+
+Usage: report.py --doc docs/performance.md [--pil build/pil] RESULT.txt...
 """
 
 import argparse
+import json
 import platform
 import subprocess
 import sys
@@ -29,6 +34,74 @@ TARGETS = {
     "m3-float": ("Cortex-M3, float (soft float)", "mps2-an385", None),
 }
 RATIO_TARGET = 4.0  # M3: soft float / fixed
+
+# Board images in the loop (make pil): board -> (label, clock of the real board
+# [Hz], the ctl_step build of the same core and numeric mode).
+BOARDS = {
+    "stm32f405": ("STM32F405, float", 168_000_000, "m4f-float"),
+    "stm32f103": ("STM32F103, fixed Q16.16", 72_000_000, "m3-fixed"),
+}
+PERIOD_S = 0.020
+CYCLES_PER_INSTRUCTION = 2  # the assumed upper bound
+
+
+def parse_pil(pil_dir: Path) -> dict[str, list[dict]]:
+    """loop_stats.json of every board and scenario under @p pil_dir, by board."""
+    found: dict[str, list[dict]] = {}
+    for board in BOARDS:
+        for path in sorted((pil_dir / board).glob("*/loop_stats.json")):
+            record = json.loads(path.read_text())
+            record["scenario"] = path.parent.name
+            found.setdefault(board, []).append(record)
+    return found
+
+
+def pil_section(pil: dict[str, list[dict]], results: dict) -> str:
+    """The subsection on the board images in the loop."""
+    out = ["### The control step on the board images, in the loop\n"]
+    w = out.append
+    w(
+        "The images `make flash` writes, built with CAN=slcan, run the paper's scenarios "
+        "under QEMU in lock-step with the plant (`make pil`, docs/hil.md). Each control "
+        "step is timed on the image itself with SysTick from the STEP frame into "
+        "`app_on_frame` to its return: decoding the frame, the safety supervisor, "
+        "`ctl_step`, encoding and queueing the answers, and the serial line's interrupt "
+        "work meanwhile. Under `-icount shift=0` a SysTick count is 10⁹ / f instructions, "
+        "f the core clock QEMU models (168 MHz on netduinoplus2, 120 MHz on netduino2). "
+        f"The share of the {PERIOD_S * 1000:.0f} ms period is at the real board's clock "
+        f"assuming at most {CYCLES_PER_INSTRUCTION} cycles per instruction on average "
+        "(an assumption for the budget, not a measurement of cycles).\n"
+    )
+    w(
+        "| image | scenario | QEMU machine | steps | instructions/step (mean) | largest step "
+        "| `ctl_step` alone (mean, above) | share of the period (mean / largest) |"
+    )
+    w("|---|---|---|---:|---:|---:|---:|---|")
+    for board, records in pil.items():
+        label, hz, cfg = BOARDS[board]
+        alone = float(results[cfg]["instr_per_step"]) if cfg in results else None
+        for r in records:
+            ins = r["instructions_per_step"]
+            share = [100 * ins[k] * CYCLES_PER_INSTRUCTION / hz / PERIOD_S for k in ("mean", "max")]
+            w(
+                f"| {label} (`{board}-slcan`, {hz / 1e6:.0f} MHz) | {r['scenario']} "
+                f"| {r['machine']} | {r['steps']:,} | **{fmt_int(ins['mean'])}** "
+                f"| {fmt_int(ins['max'])} | {fmt_int(alone) if alone else '—'} "
+                f"| {share[0]:.2f} % / {share[1]:.2f} % |"
+            )
+    w("")
+    w(
+        "- The difference to `ctl_step` alone is the application and the transport: "
+        "each step checks and decodes the STEP frame, closes the E2E cycle of five "
+        "inputs, encodes three frames or more (CRC-8 over each) and formats them as "
+        "slcan lines, byte by byte through the UART interrupt; and the images are "
+        "built for size (-Os), the benchmark for speed (-O2)."
+    )
+    w(
+        "- From run to run the figures move by about 1 %: an interrupt (SysTick's, a "
+        "byte of the next step's frames) may fall inside a step or not."
+    )
+    return "\n".join(out) + "\n"
 
 
 def parse(path: Path) -> dict:
@@ -274,6 +347,12 @@ def main() -> None:
         help="instead: put standard input, as preformatted text under ## TITLE, into the "
         "document's section NAME (another tool's printed report)",
     )
+    ap.add_argument(
+        "--pil",
+        type=Path,
+        metavar="DIR",
+        help="build/pil: add the board images' figures in the loop (make pil)",
+    )
     ap.add_argument("results", type=Path, nargs="*")
     a = ap.parse_args()
     if a.text:
@@ -292,6 +371,11 @@ def main() -> None:
             sys.exit(f"error: {p}: not a benchmark result")
         results[r["config"]] = r
     body = section(results)
+    if a.pil is not None:
+        pil = parse_pil(a.pil)
+        if not pil:
+            sys.exit(f"error: {a.pil}: no loop_stats.json (make pil writes them)")
+        body += "\n" + pil_section(pil, results)
     print(body)
     changed = update_doc(a.doc, body)
     print(f"{a.doc}: {'updated' if changed else 'unchanged'}")

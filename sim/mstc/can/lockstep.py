@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import can
 
 from mstc.can.dbc import tables
-from mstc.can.protocol import Frame, FrameDropped, Protocol
+from mstc.can.protocol import COUNTER_MODULO, Frame, FrameDropped, Protocol, e2e_crc
 from mstc.controller import Event, Fault, Status, StepResult
 from mstc.errors import ControllerError
 from mstc.params import Params, Strategy, param_values
@@ -247,3 +247,50 @@ class CanController:
             ),
             tuple(events),
         )
+
+
+PRIME_STEP = STEP_MODULO - 1
+"""Step number of the STEP frame that :func:`enter_lockstep` sends."""
+
+
+def enter_lockstep(bus: can.BusABC, timeout: float = 2.0) -> list[tuple[can.Message, bool]]:
+    """Switch a board's main loop (hal/stm32/main.c) to lock-step before a
+    :class:`CanController` takes the bus.
+
+    A board steps on its own timer until the first STEP frame; from then on
+    only STEP frames run steps (docs/hil.md). Left in real-time mode during
+    the configuration and the arming, its timer would run steps of its own
+    between the plant's frames, and a step with the arm accepted but before
+    the plant's first STEP. So one STEP goes first: step PRIME_STEP at time
+    0, answered like any (the application is not armed yet: it stands
+    still). Its alive counter is 15, the one before the 0 of a fresh
+    CanController's first STEP, so the board's E2E receiver sees one
+    unbroken STEP sequence; the plant's step 0 then finds the same state as
+    in the host builds, which have no timer.
+
+    :returns: every frame that crossed the bus meanwhile (True: sent), for
+        the bus log.
+    :raises ControllerError: no WHEEL_CMD for that STEP within @p timeout.
+    """
+    proto = Protocol(node=None)
+    msg = proto.encode("STEP", step=PRIME_STEP, time=0, raw=True)
+    data = bytearray(msg.data)
+    data[1] = (data[1] & 0xF0) | (COUNTER_MODULO - 1)
+    data[0] = e2e_crc(proto.data_id(msg.arbitration_id), data)
+    msg.data = data
+    msg.timestamp = time.time()
+    bus.send(msg)
+    frames: list[tuple[can.Message, bool]] = [(msg, True)]
+    deadline = time.monotonic() + timeout
+    while (left := deadline - time.monotonic()) > 0:
+        got = bus.recv(timeout=left)
+        if got is None:
+            continue
+        frames.append((got, False))
+        try:
+            frame = proto.decode(got)
+        except FrameDropped:
+            continue
+        if frame.name == "WHEEL_CMD" and frame.signals["step"] == PRIME_STEP:
+            return frames
+    raise ControllerError(f"no WHEEL_CMD for the STEP that starts lock-step within {timeout} s")

@@ -1,19 +1,23 @@
 # SPDX-License-Identifier: MIT
-"""``mstc hil``: scenario files over a real CAN bus, against ``mstc-fw`` or a board."""
+"""``mstc hil``: scenario files over a real CAN bus, against ``mstc-fw`` or a
+board; or over a board image's serial line under QEMU (processor in the loop)."""
 
 from __future__ import annotations
 
 import argparse
+import json
 import select
 import subprocess
+from dataclasses import dataclass
 from pathlib import Path
 
 import can
 
-from mstc.can.lockstep import CanController
+from mstc.can.lockstep import CanController, enter_lockstep
 from mstc.cli.common import EXIT_USAGE, error, run_scenarios
 from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, FirmwareError
+from mstc.qemu import ICOUNT, BoardVm, LoopStats
 from mstc.report.outputs import BusLog
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import Scenario
@@ -32,11 +36,26 @@ and prints the table of `mstc sim`.
 On a host whose kernel has no CAN, `make hil` runs this inside a small VM
 with vcan (docs/hil.md).
 
+A board in the loop (--board) steps on its own timer until its first STEP
+frame: one STEP goes first, before the parameters and the arming, so that
+every step of the run is the plant's. A board on a USB-serial adapter
+(CAN=slcan images): --interface slcan --channel /dev/ttyUSB0@460800 --board.
+
+With --qemu, the firmware is a board image built with CAN=slcan, booted under
+qemu-system-arm for each scenario, and the plant reaches it through
+python-can's slcan interface on the image's USART2 (processor in the loop,
+`make pil`). One STEP frame first switches the board's main loop to
+lock-step; the run fails if its timer ran a step after that. Each scenario
+also writes loop_stats.json: the board's steps, and the instructions per
+control step counted under QEMU's -icount.
+
 exit status: 0 done; 1 the firmware could not be started or did not answer,
 or an output could not be written; 2 bad arguments or a bad scenario file.
 
-example:
+examples:
   .venv/bin/mstc hil --channel vcan0 --fw build/host/mstc-fw \\
+      sim/scenarios/paper-line.toml
+  .venv/bin/mstc hil --qemu build/firmware/stm32f103-slcan --out build/pil/stm32f103 \\
       sim/scenarios/paper-line.toml
 """
 
@@ -68,6 +87,19 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=Path,
         help="start this firmware executable (mstc-fw) on --channel before each scenario "
         "and stop it after, so each runs on a fresh firmware (SocketCAN only)",
+    )
+    parser.add_argument(
+        "--board",
+        action="store_true",
+        help="the firmware is a board image, which steps on its own timer until its first "
+        "STEP frame: send one first (docs/hil.md); implied by --qemu",
+    )
+    parser.add_argument(
+        "--qemu",
+        metavar="IMAGE_DIR",
+        type=Path,
+        help="boot this board image (build/firmware/<board>-slcan) under QEMU for each "
+        "scenario and run it over its serial line with python-can's slcan interface",
     )
     add_output_arguments(parser, "build/hil")
     parser.set_defaults(run=run)
@@ -108,7 +140,9 @@ def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResu
     bus = can.Bus(interface=args.interface, channel=args.channel)
     firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
     try:
+        primer = enter_lockstep(bus) if args.board else []
         ctl = CanController(bus, scenario.params, sim_time_stamps=False)
+        ctl.traffic.frames[:0] = primer
         result = simulate(scenario, ctl)
     finally:
         bus.shutdown()
@@ -117,15 +151,106 @@ def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResu
     return bus.channel_info, result, BusLog(args.channel, ctl)
 
 
+# ------------------------------------------------------------ under QEMU
+
+SLCAN_BITRATE = 500000
+"""The S code python-can asks for (S6): nominal, a serial line has no bit rate."""
+
+
+@dataclass(frozen=True)
+class BoardBusLog(BusLog):
+    """The bus log of a run on a board image, and the board's own account."""
+
+    board: str = ""
+
+    def describe(self) -> str:
+        return f"{super().describe()}\n  board         {self.board}"
+
+
+def check_lockstep(start: LoopStats, end: LoopStats, steps: int) -> None:
+    """The board ran exactly one control step per STEP frame between
+    @p start and @p end, and none on its timer.
+
+    :raises ControllerError: it did not.
+    """
+    by_frames = end.frame_steps - start.frame_steps
+    timer = (end.steps - start.steps) - by_frames
+    if not end.lockstep or by_frames != steps or timer != 0:
+        raise ControllerError(
+            f"the board ran {by_frames} steps on {steps} STEP frames and {timer} on its timer "
+            "(lock-step needs one per STEP and none on the timer)"
+        )
+
+
+def loop_record(vm: BoardVm, start: LoopStats, end: LoopStats) -> dict[str, object]:
+    """loop_stats.json: the board's steps and their cost during the run.
+
+    Cycles are SysTick counts at the core clock QEMU models; under -icount
+    shift=0 one instruction takes 1 ns of virtual time, so a count is
+    10⁹ / core_hz instructions (sim/mstc/qemu.py). The mean is over the run's
+    steps; the maximum over every lock-step step (the one before arming too).
+    """
+    n = end.frame_steps - start.frame_steps
+    core_hz = vm.core_hz()
+    per_count = 1e9 / core_hz
+    mean = (end.step_cycles_sum - start.step_cycles_sum) / n if n else 0.0
+    return {
+        "board": vm.board,
+        "image": str(vm.image_dir),
+        "machine": vm.machine,
+        "icount": ICOUNT,
+        "qemu_core_hz": core_hz,
+        "steps": n,
+        "timer_steps": (end.steps - start.steps) - n,
+        "cycles_per_step": {"mean": round(mean, 1), "max": end.step_cycles_max},
+        "instructions_per_step": {
+            "mean": round(mean * per_count),
+            "max": round(end.step_cycles_max * per_count),
+        },
+    }
+
+
+def _run_on_qemu(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog]:
+    with BoardVm(args.qemu, serial=True) as vm:
+        bus = can.Bus(
+            interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
+        )
+        try:
+            primer = enter_lockstep(bus)
+            start = vm.stats()
+            ctl = CanController(bus, scenario.params, sim_time_stamps=False)
+            ctl.traffic.frames[:0] = primer
+            result = simulate(scenario, ctl)
+            end = vm.stats()
+        finally:
+            bus.shutdown()
+        check_lockstep(start, end, len(result.trace.values))
+        record = loop_record(vm, start, end)
+    folder = args.out / scenario.name
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "loop_stats.json").write_text(json.dumps(record, indent=2) + "\n")
+    ins = record["instructions_per_step"]
+    assert isinstance(ins, dict)
+    board = (
+        f"{args.qemu.name} on qemu-system-arm -M {record['machine']}: {record['steps']} steps, "
+        f"one per STEP; {ins['mean']} instructions per step (mean), {ins['max']} (max)"
+    )
+    return f"{args.qemu}/mstc.elf under QEMU", result, BoardBusLog("slcan0", ctl, board)
+
+
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each over the bus, then write and report."""
     if args.fw is not None and args.interface != "socketcan":
         error("--fw starts mstc-fw, which runs on SocketCAN only (--interface socketcan)")
         return EXIT_USAGE
+    if args.qemu is not None and args.fw is not None:
+        error("--qemu runs a board image, --fw a process: one or the other")
+        return EXIT_USAGE
+    run_one = _run_on_qemu if args.qemu is not None else _run_one
     return run_scenarios(
         args.scenarios,
         args.out,
         not args.no_figures,
-        lambda scenario: _run_one(args, scenario),
+        lambda scenario: run_one(args, scenario),
         (FirmwareError, ControllerError, can.CanError, OSError),
     )

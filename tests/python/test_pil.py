@@ -1,0 +1,255 @@
+# SPDX-License-Identifier: MIT
+"""Processor in the loop: the board images themselves, under QEMU, in closed
+loop with the plant (issue 14; docs/hil.md).
+
+The images are the ones `make flash` would write, built with CAN=slcan: the
+same objects as the bxCAN images but for the CAN transport (checked here,
+object by object). `make pil` boots each under qemu-system-arm (F405 on
+netduinoplus2, F103 on netduino2), and the plant drives it through
+python-can's slcan interface on its USART2, in lock-step.
+
+- Both boards, both paper scenarios: every event at the paper's time to the
+  control step, with the paper's sides, and the safe distance D_s kept (the
+  paper's table is tests/python/test_paper.py's).
+- The F103 image (Q16.16) runs the closed loop bit for bit as the host fixed
+  build does through the same frames in process (`mstc sim`): trace.csv
+  (every pose, the velocities from every wheel command, the errors) and
+  events.json are byte-identical. The F405 image (float on the M4F's FPU)
+  gives the host float build's events; its bits may differ (other libm,
+  fused multiply-adds).
+- The board ran one control step per STEP frame and none on its timer
+  (loop_stats.json).
+- The comm-loss trial of docs/safety.md against the F103 image: odometry cut
+  at a seeded step and phase, the halt flagged within 3 control periods and
+  the wheels ramped down at max_wheel_decel, checked by the very function the
+  host build's test uses (tests/python/test_faults.py).
+
+Needs the cross toolchain and qemu-system-arm (tools/setup/debian-test.txt);
+without them these fail, loudly. `make pil` takes about 2 to 3 minutes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import time
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+
+import can
+import pytest
+
+from mstc.can.lockstep import CanController, enter_lockstep
+from mstc.can.protocol import load_database
+from mstc.cli.hil import SLCAN_BITRATE
+from mstc.qemu import BoardVm
+from mstc.report.outputs import write_events, write_trace
+from mstc.sim.run import simulate
+from mstc.sim.scenario import load_scenario
+from test_board_images import make
+from test_faults import _cut_trial
+from test_paper import D_S, PAPER
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIOS = ROOT / "sim" / "scenarios"
+PIL = ROOT / "build" / "pil"
+BOARDS = ("stm32f405", "stm32f103")
+NAMES = sorted(PAPER)
+TRANSPORT = {"bxcan": {"bxcan.o", "bxcan_calc.o"}, "slcan": {"slcan.o", "slcan_codec.o"}}
+CUT_SEEDS = (100, 109)
+"""test_faults' seeds of two odometry cuts (steps 79 and 148, phases 3 and 1)."""
+
+
+@pytest.fixture(scope="module")
+def pil() -> str:
+    """`make pil`: both boards, both paper scenarios; its output."""
+    r = make("pil")
+    out = r.stdout + r.stderr
+    assert r.returncode == 0, out[-4000:]
+    return out
+
+
+def _folder(board: str, name: str) -> Path:
+    return PIL / board / name
+
+
+# ------------------------------------------------------------- the paper
+
+
+@pytest.mark.parametrize("board", BOARDS)
+@pytest.mark.parametrize("name", NAMES)
+def test_pil_reproduces_every_event_of_the_paper_and_keeps_d_s(
+    pil: str, board: str, name: str
+) -> None:
+    doc = json.loads((_folder(board, name) / "events.json").read_text())
+    got = sorted(
+        (round(e["t"] * 1e6), e["event"], e["obstacle"], e.get("side")) for e in doc["events"]
+    )
+    want = sorted((round(t * 1e6), kind, o, side) for t, kind, o, side in PAPER[name])
+    # Equal lists: the same control step, the same side, nothing extra.
+    assert got == want
+    assert len(doc["min_distance"]) == 2 and all(d >= D_S for d in doc["min_distance"])
+    for f in ("trace.csv", "bus.log", "loop_stats.json"):
+        assert (_folder(board, name) / f).is_file()
+
+
+@pytest.mark.parametrize("board", BOARDS)
+@pytest.mark.parametrize("name", NAMES)
+def test_pil_board_ran_one_step_per_step_frame_and_none_on_its_timer(
+    pil: str, board: str, name: str
+) -> None:
+    stats = json.loads((_folder(board, name) / "loop_stats.json").read_text())
+    steps = len((_folder(board, name) / "trace.csv").read_text().splitlines()) - 1
+    assert (stats["board"], stats["steps"], stats["timer_steps"]) == (board, steps, 0)
+    assert stats["instructions_per_step"]["mean"] > 0
+
+
+def _host_run(lib: Path, name: str, out: Path) -> Path:
+    """The scenario through the host build over CAN in process (mstc sim's
+    path); its events.json and trace.csv in @p out."""
+    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib))
+    try:
+        result = simulate(scenario, CanController(bus, scenario.params, sim_time_stamps=True))
+    finally:
+        bus.shutdown()
+    write_events(result, out / "events.json")
+    write_trace(result, out / "trace.csv")
+    return out
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+# What each image must share with the host build of its numeric mode: the
+# F103 (Q16.16) every bit of the closed loop, the F405 (float on the FPU) the
+# events.
+HOST = {
+    "stm32f103": ("fixed", ("trace.csv", "events.json")),
+    "stm32f405": ("float", ("events.json",)),
+}
+
+
+@pytest.mark.parametrize("board", BOARDS)
+@pytest.mark.parametrize("name", NAMES)
+def test_pil_closed_loop_is_the_host_builds_bit_for_bit_on_f103_in_events_on_f405(
+    pil: str, libs: dict[str, Path], board: str, name: str, tmp_path: Path
+) -> None:
+    mode, files = HOST[board]
+    host = _host_run(libs[mode], name, tmp_path)
+    for f in files:
+        assert _sha(_folder(board, name) / f) == _sha(host / f), f
+
+
+# ------------------------------------------------------------ comm loss
+
+
+class AnsweringBus:
+    """A lock-step view of an asynchronous bus, for test_faults' Loop.
+
+    Loop reads the firmware's answers with ``recv(timeout=0)`` right after
+    sending, as the in-process bus answers at once. Here send() of a STEP,
+    PARAM_SET or PARAM_GET returns only once its answer (the WHEEL_CMD
+    echoing the step, the PARAM_VALUE of the index) has arrived; every frame
+    received meanwhile is kept, in order, for recv().
+    """
+
+    def __init__(self, bus: can.BusABC, timeout: float = 5.0) -> None:
+        self.bus = bus
+        self.timeout = timeout
+        self.db = load_database()
+        self.received: deque[can.Message] = deque()
+
+    def _signal(self, msg: can.Message, name: str, signal: str) -> int | None:
+        message = self.db.get_message_by_name(name)
+        if msg.arbitration_id != message.frame_id:
+            return None
+        return int(message.decode(bytes(msg.data), decode_choices=False)[f"{name}_{signal}"])
+
+    def _answer(self, msg: can.Message) -> Callable[[can.Message], bool] | None:
+        step = self._signal(msg, "STEP", "step")
+        if step is not None:
+            return lambda m: self._signal(m, "WHEEL_CMD", "step") == step
+        for name in ("PARAM_SET", "PARAM_GET"):
+            index = self._signal(msg, name, "index")
+            if index is not None:
+                return lambda m, i=index: self._signal(m, "PARAM_VALUE", "index") == i
+        return None
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        self.bus.send(msg)
+        answer = self._answer(msg)
+        if answer is None:
+            return
+        deadline = time.monotonic() + self.timeout
+        while (left := deadline - time.monotonic()) > 0:
+            got = self.bus.recv(timeout=left)
+            if got is not None:
+                self.received.append(got)
+                if answer(got):
+                    return
+        raise AssertionError(f"no answer to 0x{msg.arbitration_id:03X} within {self.timeout} s")
+
+    def recv(self, timeout: float | None = None) -> can.Message | None:
+        if self.received:
+            return self.received.popleft()
+        return self.bus.recv(timeout=timeout)
+
+
+@pytest.mark.parametrize("seed", CUT_SEEDS)
+def test_f103_image_halts_within_3_periods_and_ramps_down_when_odometry_is_cut(
+    pil: str, seed: int
+) -> None:
+    scenario = load_scenario(SCENARIOS / "paper-line.toml")
+    with BoardVm(PIL.parent / "firmware" / "stm32f103-slcan", serial=True) as vm:
+        bus = can.Bus(
+            interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
+        )
+        try:
+            enter_lockstep(bus)
+            start = vm.stats()
+            _cut_trial(AnsweringBus(bus), scenario, seed, instant=False)  # type: ignore[arg-type]
+            end = vm.stats()
+        finally:
+            bus.shutdown()
+    assert end.steps - start.steps == end.frame_steps - start.frame_steps, "no timer step"
+
+
+# ------------------------------------------------------ only the transport
+
+
+def _objects(image: str) -> dict[str, Path]:
+    """The build's objects an image's link map loads, by path in its object
+    directory."""
+    d = ROOT / "build" / "firmware" / image
+    loads = re.findall(r"^LOAD (\S+\.o)$", (d / "mstc.map").read_text(), re.M)
+    prefix = f"build/firmware/{image}/"
+    objs = {}
+    for p in loads:
+        assert p.startswith(prefix), p
+        objs[p[len(prefix) :].split("/", 1)[1]] = ROOT / p
+    return objs
+
+
+def _libraries(image: str) -> list[str]:
+    text = (ROOT / "build" / "firmware" / image / "mstc.map").read_text()
+    return sorted(set(re.findall(r"^LOAD (\S+\.a)$", text, re.M)))
+
+
+@pytest.mark.parametrize("board", BOARDS)
+def test_slcan_image_differs_from_the_bxcan_image_in_the_transport_only(board: str) -> None:
+    r = make(f"img-{board}", f"img-{board}-slcan")
+    assert r.returncode == 0, (r.stdout + r.stderr)[-4000:]
+    bx, sl = _objects(board), _objects(f"{board}-slcan")
+    assert {Path(p).name for p in set(bx) - set(sl)} == TRANSPORT["bxcan"]
+    assert {Path(p).name for p in set(sl) - set(bx)} == TRANSPORT["slcan"]
+    common = sorted(set(bx) & set(sl))
+    # The application, the main loop, the clock and the timers among them.
+    for must in ("firmware/app/app.o", "hal/stm32/main.o", "hal/stm32/time.o", "hal/stm32/tick.o"):
+        assert must in common
+    different = [p for p in common if bx[p].read_bytes() != sl[p].read_bytes()]
+    assert different == [], "objects that differ beyond the transport"
+    assert _libraries(board) == _libraries(f"{board}-slcan")
