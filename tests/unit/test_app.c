@@ -252,6 +252,64 @@ static void test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults(void)
     TEST_ASSERT_TRUE(app.ctl.p.d_s == NUM_C(0.35));
 }
 
+/* ---------------------------------------------------------------- issue 13 */
+
+/* Case 2: an obstacle radius that switches avoidance off. D_s (0.35) must be
+ * at least R_m + R_ob (0.2 + R_ob): R_ob = 1.0 would move the thresholds of a
+ * 0.1 m obstacle to 0.35 + 0.1 − 1.0 = −0.55 m, below any distance, and is
+ * refused (the relation, not its own range: result rejected); so is 0.25
+ * (0.45 > 0.35). 0.12 (0.32 <= 0.35) is accepted. */
+static void test_app_refuses_an_obstacle_radius_that_switches_avoidance_off(void)
+{
+    send_param(COMM_ID_PARAM_SET, COMM_PARAM_R_OB, 1.0f);
+    struct mstc_dbc_param_value_t v = tf_last_param_value();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.1f, v.param_value_value);
+    send_param(COMM_ID_PARAM_SET, COMM_PARAM_R_OB, 0.25f);
+    v = tf_last_param_value();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.1f, v.param_value_value);
+    send_param(COMM_ID_PARAM_SET, COMM_PARAM_R_OB, 0.12f);
+    v = tf_last_param_value();
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.12f, v.param_value_value);
+}
+
+/* Case 4: WHEEL_CMD carries -128 to 127.999 rad/s (18 bits of 2^-10 rad/s),
+ * so a wheel limit above it could command what the frame cannot say: 300
+ * and 128 are out of range, the limit in force (100) kept. */
+static void test_app_refuses_a_wheel_limit_that_wheel_cmd_cannot_carry(void)
+{
+    const float bad[] = { 300.0f, 128.0f };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        send_param(COMM_ID_PARAM_SET, COMM_PARAM_MAX_WHEEL_SPEED, bad[i]);
+        const struct mstc_dbc_param_value_t v = tf_last_param_value();
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, v.param_value_result);
+        TEST_ASSERT_EQUAL_FLOAT(100.0f, v.param_value_value);
+    }
+}
+
+/* Case 4: a telemetry value beyond its field is flagged in STATUS faults bit
+ * 5, in the STATUS of the same step. The reference 100 m ahead gives
+ * e1 = 100 m, beyond STATUS_TRK_e1's 31.999 m: sent clipped, flagged. 1 m
+ * ahead (e1 = 1 m) is not flagged. */
+static void test_app_flags_a_clipped_tracking_error_in_status_fault_bit_5(void)
+{
+    arm_at(0.0, 0.0, 0.0, 100.0, 0.0, 0.0, 0.5, 0.0);
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(100.0, 0.0, 0.0, 0.5, 0.0);
+    send_step(0, 0u);
+    TEST_ASSERT_EQUAL_UINT8(0x20u, tf_last_status().status_faults & 0x20u);
+    struct mstc_dbc_status_trk_t trk;
+    TEST_ASSERT_EQUAL_INT(
+        0, mstc_dbc_status_trk_unpack(&trk, tf_last_sent(COMM_ID_STATUS_TRK)->data, 8));
+    TEST_ASSERT_EQUAL_INT16(32767, trk.status_trk_e1); /* 31.999 m: clipped */
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    send_step(1, 20000u);
+    TEST_ASSERT_EQUAL_UINT8(0u, tf_last_status().status_faults & 0x20u);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -265,5 +323,8 @@ int main(void)
     RUN_TEST(test_app_extends_the_step_time_past_its_32_bit_wrap);
     RUN_TEST(test_app_poll_drains_the_queue_waiting_only_for_the_first_frame);
     RUN_TEST(test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults);
+    RUN_TEST(test_app_refuses_an_obstacle_radius_that_switches_avoidance_off);
+    RUN_TEST(test_app_refuses_a_wheel_limit_that_wheel_cmd_cannot_carry);
+    RUN_TEST(test_app_flags_a_clipped_tracking_error_in_status_fault_bit_5);
     return UNITY_END();
 }

@@ -569,6 +569,68 @@ static void test_app_safety_real_time_mode_needs_no_step_and_times_out(void)
     TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-3, 1e-2), 70.0 - 2.0, app_last_wheels(&app)->left);
 }
 
+/* ---------------------------------------------------------------- issue 13 */
+
+/* Case 1: a deceleration that cannot stop the wheels in time. A halt must
+ * ramp the wheels from max_wheel_speed (100 rad/s) to zero within 0.8 s, so
+ * max_wheel_decel >= 100 / 0.8 = 125 rad/s². 1e-6 is below every bound (and
+ * rounds to 0 in Q16.16): out of range. 124 is within its own range but not
+ * enough for this wheel limit: rejected. Either way the value in force is
+ * kept. 125 is accepted. */
+static void test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused(void)
+{
+    feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
+    const float before = tf_last_param_value().param_value_value;
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1e-6f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 124.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 125.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(125.0f, tf_last_param_value().param_value_value);
+}
+
+/* Cases 1 and 7: the figures of README.md and docs/safety.md, by hand. With
+ * the reference 2 m ahead both wheels want 130 rad/s and run at the limit,
+ * 100 rad/s (102400 lsb). The last odometry frame comes with step k; steps
+ * k+1 and k+2 still run, k+3 flags the halt (3 control periods) and ramps:
+ * 125 rad/s² × 20 ms = 2.5 rad/s a step, 40 steps from 100 rad/s, the
+ * first at k+3: zero at step k+42, 0.84 s after the last frame, within
+ * 1 s. */
+static void test_app_safety_a_halt_stops_the_wheels_from_their_limit_within_1_s(void)
+{
+    arm();
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(2.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.5, 0.0));
+        step();
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 102400, tf_last_wheels().wheel_cmd_left);
+    }
+    int32_t prev = tf_last_wheels().wheel_cmd_left;
+    for (unsigned n = 1; n <= 45u; n++) { /* step k + n: no odometry */
+        feed(tf_ref_xy(2.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.5, 0.0));
+        step();
+        const struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
+        const uint8_t halt = tf_last_status().status_halt;
+        TEST_ASSERT_EQUAL_UINT8(n < 3u ? COMM_HALT_NONE : COMM_HALT_ODOMETRY, halt);
+        TEST_ASSERT_EQUAL_INT32(w.wheel_cmd_left, w.wheel_cmd_right); /* straight on */
+        TEST_ASSERT_TRUE(w.wheel_cmd_left <= prev);
+        if (n >= 3u && n <= 42u) { /* 100 − 2.5 (n − 2) rad/s */
+            const int32_t want = 102400 - 2560 * (int32_t)(n - 2u);
+            TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)n, want, w.wheel_cmd_left);
+        }
+        if (n >= 43u) {
+            TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_left);
+        }
+        prev = w.wheel_cmd_left;
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -600,5 +662,7 @@ int main(void)
     RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
+    RUN_TEST(test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused);
+    RUN_TEST(test_app_safety_a_halt_stops_the_wheels_from_their_limit_within_1_s);
     return UNITY_END();
 }
