@@ -112,6 +112,34 @@ static void test_comm_telemetry_tracking_errors_beyond_status_trk_are_flagged(vo
     TEST_ASSERT_EQUAL_UINT8(0u, quiet_status_faults() & CLIPPED);
 }
 
+#ifndef NUM_FIXED
+/* Float mode: NaN has no raw value; it goes out as 0, flagged. */
+static void test_comm_telemetry_nan_is_sent_as_zero_and_flagged(void)
+{
+    const struct mstc_dbc_wheel_cmd_t w = wheel_cmd((double)NAN, 1.0);
+    TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(CLIPPED, quiet_status_faults() & CLIPPED);
+}
+#endif
+
+/* The active obstacle's distance is the one sent, not the nearest. */
+static void test_comm_telemetry_the_active_obstacle_distance_is_checked(void)
+{
+    ctl_status_t st = { .mode = SUP_MODE_AVOID, .active_obstacle = 4u, .n_obstacles = 2u };
+    st.obstacle_id[0] = 3u;
+    st.distance[0] = tu_num(1.0);
+    st.obstacle_id[1] = 4u;
+    st.distance[1] = tu_num(65.0);
+    TEST_ASSERT_EQUAL_UINT8(CLIPPED, status_faults(&st) & CLIPPED);
+    st.distance[1] = tu_num(2.0);
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_status(&c, &st, 0u, false, 0u, &f));
+    struct mstc_dbc_status_t s;
+    TEST_ASSERT_EQUAL_INT(0, mstc_dbc_status_unpack(&s, f.data, 8));
+    TEST_ASSERT_EQUAL_UINT16(2048, s.status_distance); /* 2 m, not the nearest 1 m */
+    TEST_ASSERT_EQUAL_UINT8(0u, s.status_faults & CLIPPED);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -120,5 +148,9 @@ int main(void)
     RUN_TEST(test_comm_telemetry_a_status_value_beyond_its_field_flags_its_own_status);
     RUN_TEST(test_comm_telemetry_no_obstacle_is_the_distance_maximum_not_a_clip);
     RUN_TEST(test_comm_telemetry_tracking_errors_beyond_status_trk_are_flagged);
+    RUN_TEST(test_comm_telemetry_the_active_obstacle_distance_is_checked);
+#ifndef NUM_FIXED
+    RUN_TEST(test_comm_telemetry_nan_is_sent_as_zero_and_flagged);
+#endif
     return UNITY_END();
 }
