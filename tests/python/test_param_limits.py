@@ -10,6 +10,8 @@ of radius R_ob; WHEEL_CMD carries ±128 rad/s; OBSTACLE_radius up to 2.55 m.
 
 from __future__ import annotations
 
+import os
+import random
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -17,7 +19,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mstc.errors import ScenarioError
+from mstc.errors import FirmwareError, ScenarioError
+from mstc.firmware import SilController
+from mstc.limits import Held, load_table, violation
 from mstc.params import Params
 from mstc.report.table import format_report
 from mstc.sim.plant import Integrator, Pose
@@ -117,3 +121,75 @@ def test_the_report_never_calls_a_negative_safe_distance_ok() -> None:
 def test_the_report_still_says_ok_and_below() -> None:
     assert _report_line(Params(), 0.36).endswith("(D_s 0.35 m: ok)")
     assert _report_line(Params(), 0.34).endswith("(D_s 0.35 m: BELOW D_s)")
+
+
+# ------------------------------------------- the loader agrees with the firmware
+
+
+def _near_limits(rng: random.Random) -> dict[str, float]:
+    """Table 1 with one to three parameters moved to, or a hair across, an end
+    of their range or of a relation they are in."""
+    table = load_table()
+    values = {p.name: p.default for p in table.params if p.held}
+    for _ in range(rng.randint(1, 3)):
+        p = rng.choice([p for p in table.params if p.scenario])
+        r = rng.random()
+        if r < 0.4:
+            base = rng.choice((p.minimum, p.maximum))
+        else:
+            relation = rng.choice(table.relations)
+            total = relation.factor * sum(values[n] for n in relation.rhs)
+            base = total if p.name == relation.lhs else rng.uniform(p.minimum, p.maximum)
+        hair = rng.choice((0.0, 1e-9, -1e-9, 1e-7, -1e-7, 1e-5, -1e-5, 2**-17, -(2**-17)))
+        values[p.name] = base * (1.0 + hair) if r < 0.9 else base + hair
+    return values
+
+
+def _params_of(values: Mapping[str, float]) -> Params:
+    return Params(
+        r_m=values["R_m"],
+        r_ob=values["R_ob"],
+        d_det=values["D_det"],
+        d_act=values["D_act"],
+        d_s=values["D_s"],
+        tracking_gains=(values["trk_k1"], values["trk_k2"], values["trk_k3"]),
+        avoidance_gains=(values["avd_k1"], values["avd_k2"]),
+        wheel_radius=values["wheel_radius"],
+        track_width=values["track_width"],
+        max_wheel_speed=values["max_wheel_speed"],
+    )
+
+
+@pytest.mark.parametrize(("numeric", "held"), [("float", Held.FLOAT), ("fixed", Held.FIXED_DOUBLE)])
+def test_the_loader_and_the_firmware_agree_on_sets_at_the_limits(numeric: str, held: Held) -> None:
+    """mstc.limits, holding values as the library's mstc_sil_init does, and the
+    firmware's ctl_params_check (through mstc_sil_init) accept and refuse the
+    same sets, over 3000 sets at and a hair across the ends of ranges and
+    relations: the rounding the loader emulates is the firmware's."""
+    var = f"MSTC_SIL_LIB_{numeric.upper()}"
+    lib = os.environ.get(var)
+    if not lib or not Path(lib).is_file():
+        pytest.fail(f"{var}={lib!r}: `make test-python` builds both libraries", pytrace=False)
+    rng = random.Random(f"limits-{numeric}")
+    verdicts = {True: 0, False: 0}
+    for _ in range(3000):
+        values = _near_limits(rng)
+        loader = violation(values, ways=(held,)) is None
+        try:
+            SilController(_params_of(values), lib)
+            firmware = True
+        except FirmwareError:
+            firmware = False
+        assert loader == firmware, (values, violation(values, ways=(held,)))
+        verdicts[firmware] += 1
+    assert min(verdicts.values()) > 500, verdicts
+
+
+def test_every_held_value_is_checked_in_every_way_the_firmware_holds_it() -> None:
+    """0.3 = 0.2 + 0.1 as held: the float and both Q16.16 roundings accept
+    D_s = R_m + R_ob there, though 0.2 + 0.1 > 0.3 in double; and a gain of
+    1e-6, in range for nothing, is refused whatever the way (0 in Q16.16)."""
+    assert violation({"D_s": 0.3}) is None
+    for way in Held:
+        problem = violation({"trk_k1": 1e-6}, ways=(way,))
+        assert problem is not None and problem.names == ("trk_k1",) and not problem.relation
