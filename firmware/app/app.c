@@ -20,11 +20,11 @@ int app_init(app_t *a, const ctl_params_t *p)
 {
     ctl_params_t defaults;
     ctl_params_default(&defaults);
-    *a = (app_t){ .state = COMM_STATE_READY,
-                  .halt = (uint8_t)COMM_HALT_NOT_ARMED,
-                  .max_decel = num_from_float(APP_DEFAULT_MAX_WHEEL_DECEL) };
+    *a = (app_t){ .state = COMM_STATE_READY, .halt = (uint8_t)COMM_HALT_NOT_ARMED };
     comm_init(&a->comm);
-    return ctl_init(&a->ctl, p != NULL ? p : &defaults);
+    const int rc = ctl_init(&a->ctl, p != NULL ? p : &defaults);
+    a->ramp_decel = a->ctl.p.max_wheel_decel;
+    return rc;
 }
 
 /* A frame that cannot be queued is lost; the bus is the only way out, so
@@ -96,14 +96,26 @@ static comm_halt_t check_inputs(app_t *a, uint64_t t_us, bool lockstep)
     return why;
 }
 
-/* Step the wheel speeds down towards zero by at most max_decel·dt, both by
+/* Halt with reason @p why unless already halted. The ramp keeps the
+ * deceleration in force now: the wheels are within max_wheel_speed, which the
+ * set's check bounds by it, so they stop within the bound of docs/safety.md;
+ * a parameter set while halted (lowering both) cannot slow this stop. */
+static void halt(app_t *a, comm_halt_t why)
+{
+    if (a->halt == (uint8_t)COMM_HALT_NONE) {
+        a->halt = (uint8_t)why; /* latched until re-armed */
+        a->ramp_decel = a->ctl.p.max_wheel_decel;
+    }
+}
+
+/* Step the wheel speeds down towards zero by at most ramp_decel·dt, both by
  * one factor so that the curvature is kept (the robot stays on its arc). */
 static void ramp_down(app_t *a, uint32_t dt_us)
 {
     /* Through float in both modes: 1 µs is below Q16.16's resolution, so
      * num_from_int(1000000) cannot serve as the divisor. */
     const num_t dt = num_from_float((float)dt_us * 1.0e-6f);
-    const num_t step = num_mul(a->max_decel, dt);
+    const num_t step = num_mul(a->ramp_decel, dt);
     const num_t l = num_abs(a->wheels.left);
     const num_t r = num_abs(a->wheels.right);
     const num_t m = num_max(l, r);
@@ -131,9 +143,7 @@ bool app_ready(const app_t *a)
 int app_arm(app_t *a, bool arm)
 {
     if (!arm) {
-        if (a->halt == (uint8_t)COMM_HALT_NONE) {
-            a->halt = (uint8_t)COMM_HALT_NOT_ARMED;
-        }
+        halt(a, COMM_HALT_NOT_ARMED);
         return 0;
     }
     if (!app_ready(a)) {
@@ -156,8 +166,8 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
     a->stepped = true;
 
     const comm_halt_t why = check_inputs(a, t_us, lockstep);
-    if (a->halt == (uint8_t)COMM_HALT_NONE && why != COMM_HALT_NONE) {
-        a->halt = (uint8_t)why; /* latched until re-armed */
+    if (why != COMM_HALT_NONE) {
+        halt(a, why);
     }
 
     ctl_output_t out;
@@ -191,37 +201,22 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
         (void)comm_encode_event(&a->comm, &out.events[i], &f);
         send(&f);
     }
+    /* STATUS_TRK and WHEEL_CMD are encoded before STATUS, so that a value
+     * either clips is flagged in this step's STATUS (comm.h); they go out
+     * after it, WHEEL_CMD last: it tells a lock-step plant that the step's
+     * telemetry is out. */
+    hal_can_frame_t trk;
+    hal_can_frame_t cmd;
+    (void)comm_encode_status_trk(&a->comm, &out.status.err, &trk);
+    (void)comm_encode_wheel_cmd(&a->comm, step, &out.wheels, &cmd);
     (void)comm_encode_status(&a->comm, &out.status, step, a->frame_dropped, a->halt, &f);
     send(&f);
     a->frame_dropped = false;
-    (void)comm_encode_status_trk(&a->comm, &out.status.err, &f);
-    send(&f);
-    /* Last: it tells a lock-step plant that the step's telemetry is out. */
-    (void)comm_encode_wheel_cmd(&a->comm, step, &out.wheels, &f);
-    send(&f);
+    send(&trk);
+    send(&cmd);
 }
 
 /* -------------------------------------------------------------- parameters */
-
-static num_t *param_slot(ctl_params_t *p, uint8_t index)
-{
-    switch (index) {
-    case COMM_PARAM_R_M: return &p->r_m;
-    case COMM_PARAM_R_OB: return &p->r_ob;
-    case COMM_PARAM_D_DET: return &p->d_det;
-    case COMM_PARAM_D_ACT: return &p->d_act;
-    case COMM_PARAM_D_S: return &p->d_s;
-    case COMM_PARAM_TRK_K1: return &p->trk.k1;
-    case COMM_PARAM_TRK_K2: return &p->trk.k2;
-    case COMM_PARAM_TRK_K3: return &p->trk.k3;
-    case COMM_PARAM_AVD_K1: return &p->avd.k1;
-    case COMM_PARAM_AVD_K2: return &p->avd.k2;
-    case COMM_PARAM_WHEEL_RADIUS: return &p->kin.wheel_radius;
-    case COMM_PARAM_TRACK_WIDTH: return &p->kin.track_width;
-    case COMM_PARAM_MAX_WHEEL_SPEED: return &p->kin.max_wheel_speed;
-    default: return NULL;
-    }
-}
 
 /* The arm command (PARAM_SET): 1 arms, 0 disarms, anything else is out of
  * range. Answers with the armed state afterwards. */
@@ -237,15 +232,29 @@ static comm_param_result_t on_arm(app_t *a, float value)
     return COMM_PARAM_OUT_OF_RANGE;
 }
 
-/* max_wheel_decel: finite, > 0 and at most APP_MAX_WHEEL_DECEL_LIMIT. */
-static comm_param_result_t on_decel(app_t *a, float value)
+/* Set parameter @p index (held: ctl_param_slot() is not NULL) to @p value
+ * if the whole set that results passes the check; else change nothing. */
+static comm_param_result_t set_param(app_t *a, uint8_t index, float value)
 {
-    /* isfinite() first: an ordered comparison with NaN would raise
-     * FE_INVALID. */
-    if (!isfinite(value) || value <= 0.0f || value > APP_MAX_WHEEL_DECEL_LIMIT) {
+    if (a->halt == (uint8_t)COMM_HALT_NONE && ctl_limits[index].control_law) {
+        return COMM_PARAM_ARMED;
+    }
+    /* isfinite() first: NaN has no Q16.16 value (num_from_float gives 0). */
+    if (!isfinite(value)) {
+        return COMM_PARAM_OUT_OF_RANGE;
+    }
+    ctl_params_t p = a->ctl.p;
+    /* The value as it will be held: a float rounded to Q16.16 in fixed mode
+     * (1e-6 becomes 0) is checked after rounding, never before. */
+    *ctl_param_slot(&p, index) = num_from_float(value);
+    const ctl_params_verdict_t verdict = ctl_params_verdict(&p);
+    if (verdict == CTL_PARAMS_RANGE) {
+        return COMM_PARAM_OUT_OF_RANGE;
+    }
+    if (verdict == CTL_PARAMS_RELATION) {
         return COMM_PARAM_REJECTED;
     }
-    a->max_decel = num_from_float(value);
+    (void)ctl_set_params(&a->ctl, &p); /* passes: the same check */
     return COMM_PARAM_OK;
 }
 
@@ -254,27 +263,19 @@ static comm_param_result_t on_decel(app_t *a, float value)
 static void on_param(app_t *a, uint8_t index, bool set, float value)
 {
     comm_param_result_t result = COMM_PARAM_OK;
-    float now;
+    float now = 0.0f;
     if (index == (uint8_t)COMM_PARAM_ARM) {
         result = set ? on_arm(a, value) : COMM_PARAM_OK;
         now = a->halt == (uint8_t)COMM_HALT_NONE ? 1.0f : 0.0f;
-    } else if (index == (uint8_t)COMM_PARAM_MAX_WHEEL_DECEL) {
-        result = set ? on_decel(a, value) : COMM_PARAM_OK;
-        now = num_to_float(a->max_decel);
     } else {
-        ctl_params_t p = a->ctl.p;
-        num_t *slot = param_slot(&p, index);
-        now = 0.0f;
-        if (slot == NULL) {
+        const num_t *held = ctl_param_slot(&a->ctl.p, index);
+        if (held == NULL) {
             result = COMM_PARAM_UNKNOWN_INDEX;
         } else {
             if (set) {
-                *slot = num_from_float(value);
-                if (ctl_set_params(&a->ctl, &p) != 0) {
-                    result = COMM_PARAM_REJECTED;
-                }
+                result = set_param(a, index, value);
             }
-            now = num_to_float(*param_slot(&a->ctl.p, index));
+            now = num_to_float(*held);
         }
     }
     hal_can_frame_t f;

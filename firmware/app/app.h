@@ -19,12 +19,21 @@
  * (comm.h) and an accepted frame arrived within the last APP_TIMEOUT_PERIODS
  * control steps and APP_TIMEOUT_US. Otherwise, and on CAN bus-off, the
  * application halts: it stops running the controller, ramps the wheel speeds
- * down to zero at max_wheel_decel, and reports the reason in STATUS_halt.
- * The halt latches until re-armed (PARAM_SET index COMM_PARAM_ARM, value 1),
- * which is accepted only while odometry and reference are valid and each of
- * their frames had APP_REARM_FRAMES good frames in a row. It starts halted
+ * down to zero at the max_wheel_decel in force when the halt began, and
+ * reports the reason in STATUS_halt. The halt latches until re-armed
+ * (PARAM_SET index COMM_PARAM_ARM, value 1), which is accepted only while
+ * odometry and reference are valid and each of their frames had
+ * APP_REARM_FRAMES good frames in a row. It starts halted
  * (COMM_HALT_NOT_ARMED). The time base is the STEP time in lock-step and the
  * caller's now_us in real-time mode.
+ *
+ * Parameters (PARAM_SET, docs/safety.md "Parameters"): a value is taken as
+ * the firmware will hold it (num_from_float) and the whole set that would
+ * result is checked against the limits table (ctl_params_verdict): a
+ * non-finite value or one outside its range is answered out_of_range, a set
+ * that breaks a relation rejected, and nothing changes. While armed, a
+ * parameter of the control law is answered armed and not changed; only
+ * max_wheel_decel may change then.
  */
 #ifndef MSTC_APP_H
 #define MSTC_APP_H
@@ -39,23 +48,18 @@
 #define APP_HOUSEKEEPING_PERIOD_US 100000u
 
 /** @brief Nominal control period [µs]: the DBC cycle time of the inputs. */
-#define APP_PERIOD_US               20000u
+#define APP_PERIOD_US       20000u
 /** @brief An input not received for this many control steps halts the robot. */
-#define APP_TIMEOUT_PERIODS         3u
+#define APP_TIMEOUT_PERIODS 3u
 /** @brief ... or for this long [µs]: APP_TIMEOUT_PERIODS nominal periods,
  *         whichever comes first. */
-#define APP_TIMEOUT_US              60000u
+#define APP_TIMEOUT_US      60000u
 /** @brief Good frames in a row each input frame needs before a re-arm. */
-#define APP_REARM_FRAMES            5u
-/** @brief Default deceleration of the wheels in a halt [rad/s²]: 5 m/s² with
- *         the default 0.05 m wheels. */
-#define APP_DEFAULT_MAX_WHEEL_DECEL 100.0f
-/** @brief Largest accepted max_wheel_decel [rad/s²]. */
-#define APP_MAX_WHEEL_DECEL_LIMIT   10000.0f
+#define APP_REARM_FRAMES    5u
 /** @brief Longest step interval the ramp uses [µs]; a longer one (a time
  *         jump) ramps as this one, and a shorter steps the robot down faster
  *         in time, never slower. */
-#define APP_MAX_DT_US               1000000u
+#define APP_MAX_DT_US       1000000u
 
 /** @brief Inputs watched by the safety supervisor, in the order of app_t::in. */
 enum {
@@ -94,7 +98,8 @@ typedef struct {
     uint32_t steps;      /**< control steps run */
     kin_wheels_t wheels; /**< wheel speeds of the last control step [rad/s]; 0 before the first */
     uint8_t halt;        /**< comm_halt_t: latched reason, COMM_HALT_NONE while running */
-    num_t max_decel;     /**< wheel deceleration of a halt [rad/s²] */
+    num_t ramp_decel;    /**< deceleration of the halt under way: max_wheel_decel when it
+                              began [rad/s²] */
     app_input_t in[APP_N_IN];
     uint64_t last_step_us;  /**< time of the last control step */
     bool stepped;           /**< a control step has run */

@@ -46,8 +46,17 @@ _Static_assert(COMM_HALT_NOT_ARMED == MSTC_DBC_STATUS_STATUS_HALT_NOT_ARMED_CHOI
                    COMM_HALT_STEP == MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE &&
                    COMM_HALT_BUS_OFF == MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE,
                "halt reasons");
-_Static_assert(COMM_PARAM_REJECTED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE,
+_Static_assert(COMM_PARAM_REJECTED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE &&
+                   COMM_PARAM_ARMED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_ARMED_CHOICE,
                "parameter results");
+/* The parameter indices are the limits table's (ctl_limits.h, checked
+ * against the DBC by tools/gen-limits). */
+_Static_assert((int)COMM_PARAM_R_M == (int)CTL_P_R_M &&
+                   (int)COMM_PARAM_MAX_WHEEL_SPEED == (int)CTL_P_MAX_WHEEL_SPEED &&
+                   (int)COMM_PARAM_MAX_WHEEL_DECEL == (int)CTL_P_MAX_WHEEL_DECEL &&
+                   (unsigned)COMM_PARAM_COUNT <= CTL_N_PARAMS &&
+                   (unsigned)COMM_PARAM_ARM >= CTL_N_PARAMS,
+               "parameter indices of the limits table");
 _Static_assert(COMM_STATE_FAULT == MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE,
                "heartbeat states");
 _Static_assert(SUP_MODE_TRACK == MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE &&
@@ -205,20 +214,25 @@ static num_t num_from_raw(int32_t raw, const scale_t *s)
     return (num_t)(raw * (INT32_C(1) << (NUM_FRAC_BITS - s->frac_bits)));
 }
 
-static int32_t raw_from_num(num_t v, const scale_t *s)
+static int32_t raw_from_num(comm_t *c, num_t v, const scale_t *s)
 {
     const unsigned shift = (unsigned)(NUM_FRAC_BITS - s->frac_bits);
+    const int64_t unit = INT64_C(1) << shift; /* one raw step in Q16.16 */
+    /* Beyond the signal's range [lo, hi]·2^-frac_bits: clipped. Within it,
+     * the rounding below stays within [lo, hi]. */
+    if ((int64_t)v < (int64_t)s->lo * unit) {
+        c->clipped = true;
+        return s->lo;
+    }
+    if ((int64_t)v > (int64_t)s->hi * unit) {
+        c->clipped = true;
+        return s->hi;
+    }
     int64_t r = (int64_t)v;
     if (shift > 0u) {
         /* Round halves away from zero, as roundf() does in float mode. */
         const int64_t half = INT64_C(1) << (shift - 1u);
         r = r >= 0 ? (r + half) >> shift : -((-r + half) >> shift);
-    }
-    if (r < s->lo) {
-        return s->lo;
-    }
-    if (r > s->hi) {
-        return s->hi;
     }
     return (int32_t)r;
 }
@@ -232,21 +246,25 @@ static num_t num_from_raw(int32_t raw, const scale_t *s)
     return num_from_float(ldexpf((float)raw, -(int)s->frac_bits));
 }
 
-static int32_t raw_from_num(num_t v, const scale_t *s)
+static int32_t raw_from_num(comm_t *c, num_t v, const scale_t *s)
 {
     const float x = num_to_float(v);
     /* Saturate before scaling: ldexpf() of a value beyond the range could
      * overflow (FE_OVERFLOW), and converting an out-of-range float to an
      * integer is undefined. lo and hi have at most 24 bits, so they and their
      * scaled values are exact in float; isnan() raises nothing, and after it
-     * the comparisons are ordered. */
+     * the comparisons are ordered. Beyond [lo, hi]·2^-frac_bits, or NaN: a
+     * clip. Within it, the rounding stays within [lo, hi]. */
     if (isnan(x) != 0) {
+        c->clipped = true;
         return 0;
     }
-    if (x <= ldexpf((float)s->lo, -(int)s->frac_bits)) {
+    if (x < ldexpf((float)s->lo, -(int)s->frac_bits)) {
+        c->clipped = true;
         return s->lo;
     }
-    if (x >= ldexpf((float)s->hi, -(int)s->frac_bits)) {
+    if (x > ldexpf((float)s->hi, -(int)s->frac_bits)) {
+        c->clipped = true;
         return s->hi;
     }
     return (int32_t)roundf(ldexpf(x, (int)s->frac_bits)); /* exact scaling */
@@ -508,28 +526,33 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
 {
     const struct mstc_dbc_wheel_cmd_t s = {
         .wheel_cmd_step = step,
-        .wheel_cmd_left = raw_from_num(w->left, &s_wheel),
-        .wheel_cmd_right = raw_from_num(w->right, &s_wheel),
+        .wheel_cmd_left = raw_from_num(c, w->left, &s_wheel),
+        .wheel_cmd_right = raw_from_num(c, w->right, &s_wheel),
     };
     (void)mstc_dbc_wheel_cmd_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_WHEEL_CMD), f);
     return 0;
 }
 
-/* STATUS_distance: the active obstacle's distance, else the nearest one's,
- * else beyond the signal's range (sent as its maximum). */
-static num_t status_distance(const ctl_status_t *st)
+/* STATUS_distance, raw: the active obstacle's distance, else the nearest
+ * one's; with none known, the signal's maximum, which means "none" (not a
+ * clip). */
+static uint16_t status_distance(comm_t *c, const ctl_status_t *st)
 {
-    num_t nearest = NUM_MAX;
+    if (st->n_obstacles == 0u) {
+        return (uint16_t)s_distance.hi;
+    }
     const size_t n = st->n_obstacles < SUP_MAX_OBSTACLES ? st->n_obstacles : SUP_MAX_OBSTACLES;
+    num_t d = st->distance[0];
     /* cppcheck-suppress knownConditionTrueFalse ; false positive: n is up to 16 */
     for (size_t i = 0; i < n; i++) {
         if (st->active_obstacle != 0u && st->obstacle_id[i] == st->active_obstacle) {
-            return st->distance[i];
+            d = st->distance[i];
+            break;
         }
-        nearest = num_min(nearest, st->distance[i]);
+        d = num_min(d, st->distance[i]);
     }
-    return nearest;
+    return (uint16_t)raw_from_num(c, d, &s_distance);
 }
 
 int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
@@ -539,16 +562,20 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
     const uint8_t ctl_faults =
         (uint8_t)(st->faults &
                   (CTL_FAULT_INPUT_NONFINITE | CTL_FAULT_OBSTACLE_DROPPED | CTL_FAULT_SATURATED));
+    const int16_t e = (int16_t)raw_from_num(c, st->e, &s_angle13);
+    const uint16_t distance = status_distance(c, st);
     const struct mstc_dbc_status_t s = {
         .status_mode = sat_u8((uint32_t)st->mode, MSTC_DBC_STATUS_STATUS_MODE_BLOCKED_CHOICE),
         .status_side = side_to_wire(st->side),
         .status_obstacle = sat_u8(st->active_obstacle, 15u),
-        .status_faults = (uint8_t)(ctl_faults | (frame_faults ? 0x08u : 0u)),
-        .status_e = (int16_t)raw_from_num(st->e, &s_angle13),
-        .status_distance = (uint16_t)raw_from_num(status_distance(st), &s_distance),
+        .status_faults = (uint8_t)(ctl_faults | (frame_faults ? 0x08u : 0u) |
+                                   (c->clipped ? COMM_FAULT_CLIPPED : 0u)),
+        .status_e = e,
+        .status_distance = distance,
         .status_step = (uint8_t)(step & 0x07u),
         .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_BUS_OFF),
     };
+    c->clipped = false;
     (void)mstc_dbc_status_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_STATUS), f);
     return 0;
@@ -557,9 +584,9 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
 int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f)
 {
     const struct mstc_dbc_status_trk_t s = {
-        .status_trk_e1 = (int16_t)raw_from_num(err->e1, &s_err),
-        .status_trk_e2 = (int16_t)raw_from_num(err->e2, &s_err),
-        .status_trk_e3 = (int16_t)raw_from_num(err->e3, &s_angle13),
+        .status_trk_e1 = (int16_t)raw_from_num(c, err->e1, &s_err),
+        .status_trk_e2 = (int16_t)raw_from_num(c, err->e2, &s_err),
+        .status_trk_e3 = (int16_t)raw_from_num(c, err->e3, &s_angle13),
     };
     (void)mstc_dbc_status_trk_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_STATUS_TRK), f);
@@ -609,7 +636,7 @@ int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result
     const struct mstc_dbc_param_value_t s = {
         .param_value_index = index, /* echoed as received (comm.h) */
         .param_value_result =
-            sat_u8((uint32_t)result, MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE),
+            sat_u8((uint32_t)result, MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_ARMED_CHOICE),
         .param_value_value = value,
     };
     (void)mstc_dbc_param_value_pack(f->data, &s, FRAME_LEN);

@@ -17,7 +17,9 @@
  * (2^-k, k <= 16): in fixed mode a conversion is an exact shift of the Q16.16
  * value, in float mode an exact multiplication. Encoding rounds to the nearest
  * raw value (halves away from zero) and saturates to the signal's range, never
- * wraps; NaN (float mode) is sent as 0. Decoding is exact.
+ * wraps; NaN (float mode) is sent as 0. A value beyond its signal's DBC range
+ * (or NaN) is clipped, and the next STATUS says so in faults bit 5
+ * (COMM_FAULT_CLIPPED). Decoding is exact.
  *
  * Not scaled, and so not saturated: STEP_time and EVENT_time (the low 32 bits
  * of a time in µs, which wrap after 4294.967296 s like the step counters) and
@@ -91,13 +93,26 @@ typedef enum {
     COMM_HALT_BUS_OFF = 5,   /**< the CAN controller went bus-off */
 } comm_halt_t;
 
-/** @brief Results in PARAM_VALUE. */
+/** @brief Results in PARAM_VALUE (docs/safety.md, "Parameters"). */
 typedef enum {
     COMM_PARAM_OK = 0,
     COMM_PARAM_UNKNOWN_INDEX = 1,
+    /** Not finite, or outside the parameter's range once held as num_t; for
+     *  the arm command a value other than 0 and 1. */
     COMM_PARAM_OUT_OF_RANGE = 2,
+    /** Within its range but the set that would result breaks a relation; for
+     *  the arm command: not ready (app_ready). */
     COMM_PARAM_REJECTED = 3,
+    /** A parameter of the control law, refused while armed (app.h). */
+    COMM_PARAM_ARMED = 5,
 } comm_param_result_t;
+
+/** @brief STATUS_faults bit 5: a telemetry value sent since the previous
+ *         STATUS (in it, or in STATUS_TRK and WHEEL_CMD before it) was beyond
+ *         its signal's range and was clipped to it. Bits 0..2 are the
+ *         controller's (CTL_FAULT_*), bit 3 a dropped frame, bit 4 the
+ *         safety filter's. */
+#define COMM_FAULT_CLIPPED 0x20u
 
 /** @brief Heartbeat states. */
 typedef enum {
@@ -201,6 +216,7 @@ typedef struct {
     uint8_t tx_counter[COMM_N_FRAMES];
     comm_rx_t rx[COMM_N_FRAMES];
     comm_counters_t drops;
+    bool clipped; /**< a value was clipped since the last STATUS (COMM_FAULT_CLIPPED) */
 } comm_t;
 
 /** @brief Reset counters and sequence state: the next frame of every
@@ -267,8 +283,9 @@ const comm_rx_t *comm_rx(const comm_t *c, uint32_t id);
 
 /* Encoders for the frames the firmware sends. Each fills @p f (id, dlc 8,
  * payload with CRC and the next alive counter) and returns 0. Values outside a
- * signal's range saturate; so do ids and enumerations beyond their largest
- * value (not the parameter index, echoed as received). */
+ * signal's range saturate and are flagged in the next STATUS
+ * (COMM_FAULT_CLIPPED); ids and enumerations beyond their largest value
+ * saturate too (not the parameter index, echoed as received). */
 
 /** @brief WHEEL_CMD: wheel speeds echoing @p step. */
 int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_can_frame_t *f);
@@ -276,10 +293,12 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  * @brief STATUS from the status of a step.
  *
  * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
- * faults = st->faults bits 0..2 (CTL_FAULT_*), bit 3 = @p frame_faults; e;
- * distance = centre distance to the active obstacle, else to the nearest one
- * remembered, else the signal's maximum (63.999 m); the low 3 bits of @p step;
- * halt = @p halt (saturated at COMM_HALT_BUS_OFF).
+ * faults = st->faults bits 0..2 (CTL_FAULT_*), bit 3 = @p frame_faults, bit 5
+ * = a value clipped since the previous STATUS, this one's e and distance
+ * included (then cleared); e; distance = centre distance to the active
+ * obstacle, else to the nearest one remembered, else the signal's maximum
+ * (63.999 m, meaning none: not a clip); the low 3 bits of @p step; halt =
+ * @p halt (saturated at COMM_HALT_BUS_OFF).
  * @param frame_faults a received frame was dropped since the last STATUS.
  * @param halt comm_halt_t: why the wheels are held at zero.
  */

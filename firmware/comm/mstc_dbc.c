@@ -1982,12 +1982,12 @@ bool mstc_dbc_param_value_param_value_index_is_in_phys_range(float value)
 
 bool mstc_dbc_param_value_param_value_result_is_in_range(uint8_t value)
 {
-    return (value <= 3u);
+    return (value <= 5u);
 }
 
 bool mstc_dbc_param_value_param_value_result_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 3.0f));
+    return ((value >= 0.0f) && (value <= 5.0f));
 }
 
 bool mstc_dbc_param_value_param_value_value_is_in_range(float value)

@@ -202,6 +202,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_UNKNOWN_INDEX_CHOICE (1u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_OUT_OF_RANGE_CHOICE (2u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE (3u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_ARMED_CHOICE (5u)
 
 /* Frame Names. */
 #define MSTC_DBC_ODOM_XY_NAME "ODOM_XY"
@@ -999,7 +1000,9 @@ struct mstc_dbc_param_value_t {
     uint8_t param_value_index;
 
     /**
-     * Range: 0..3 (0..3 -)
+     * Of a PARAM_SET: ok (set); unknown_index; out_of_range: not finite, or outside the parameter's range once held by the firmware (for arm: a value other than 0 and 1); rejected: the set that would result breaks a relation of the limits table (for arm: not ready); armed: a parameter of the control law, refused while armed. Anything but ok changes nothing; value is the value in force (docs/safety.md, Parameters).
+     *
+     * Range: 0..5 (0..5 -)
      * Scale: 1
      * Offset: 0
      */

@@ -4,59 +4,9 @@
 
 #include <errno.h>
 
-void ctl_params_default(ctl_params_t *p)
-{
-    /* Table 1 of the paper. */
-    p->r_m = NUM_C(0.2);
-    p->r_ob = NUM_C(0.1);
-    p->d_det = NUM_C(3.5);
-    p->d_act = NUM_C(0.5);
-    p->d_s = NUM_C(0.35);
-    p->trk = (trk_gains_t){ .k1 = NUM_C(3.0), .k2 = NUM_C(12.0), .k3 = NUM_C(6.0) };
-    p->avd = (avd_gains_t){ .k1 = NUM_C(3.0), .k2 = NUM_C(6.0) };
-    /* Not in the paper: a small robot whose wheels never saturate in its
-     * scenarios (they peak near 32 rad/s). */
-    p->kin = (kin_params_t){ .wheel_radius = NUM_C(0.05),
-                             .track_width = NUM_C(0.3),
-                             .max_wheel_speed = NUM_C(100.0) };
-}
-
 /* |x| <= lim, for a finite x only: num_is_finite() first, since an ordered
  * comparison with NaN raises FE_INVALID. */
 static bool within(num_t x, num_t lim) { return num_is_finite(x) && num_abs(x) <= lim; }
-
-static bool in_param_range(num_t x)
-{
-    return num_is_finite(x) && x >= CTL_PARAM_MIN && x <= CTL_PARAM_MAX;
-}
-
-int ctl_params_check(const ctl_params_t *p)
-{
-    const num_t all[] = { p->r_m,
-                          p->r_ob,
-                          p->d_det,
-                          p->d_act,
-                          p->d_s,
-                          p->trk.k1,
-                          p->trk.k2,
-                          p->trk.k3,
-                          p->avd.k1,
-                          p->avd.k2,
-                          p->kin.wheel_radius,
-                          p->kin.track_width,
-                          p->kin.max_wheel_speed };
-    for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) {
-        if (!in_param_range(all[i])) {
-            return -EINVAL;
-        }
-    }
-    /* Definition 2 (D_s >= R_m), Definition 4 (D_s < D_act), and activation
-     * must lie within what the sensor sees. */
-    if (p->d_s < p->r_m || p->d_s >= p->d_act || p->d_act > p->d_det) {
-        return -EINVAL;
-    }
-    return 0;
-}
 
 static sup_params_t sup_params_of(const ctl_params_t *p)
 {

@@ -13,11 +13,16 @@
 #include <stdint.h>
 
 #include "ctrl/avd.h"
+#include "ctrl/ctl_limits.h"
 #include "ctrl/sup.h"
 #include "ctrl/trk.h"
 #include "kin/kin.h"
 
-/** @brief Every parameter of the controller (Table 1 and wheel geometry). */
+/**
+ * @brief Every parameter PARAM_SET sets: Table 1, the wheel geometry and the
+ *        deceleration of a halt. Their limits are one table,
+ *        ctl_params.toml (docs/safety.md, "Parameters").
+ */
 typedef struct {
     num_t r_m;   /**< robot radius R_m [m] */
     num_t r_ob;  /**< default obstacle radius R_ob [m] */
@@ -27,7 +32,50 @@ typedef struct {
     trk_gains_t trk;
     avd_gains_t avd;
     kin_params_t kin;
+    /** Wheel deceleration of a halt [rad/s²]: not used by the control step
+     *  but by the application's ramp (app.h); in the set because its bound
+     *  depends on kin.max_wheel_speed. */
+    num_t max_wheel_decel;
 } ctl_params_t;
+
+/** @brief Operators of a relation between parameters. */
+typedef enum {
+    CTL_REL_GE = 0, /**< lhs >= rhs */
+    CTL_REL_LT = 1, /**< lhs < rhs */
+    CTL_REL_LE = 2, /**< lhs <= rhs */
+} ctl_rel_op_t;
+
+/** @brief The limits of one parameter: a row of ctl_params.toml. */
+typedef struct {
+    num_t min;        /**< smallest value accepted */
+    num_t max;        /**< largest value accepted */
+    num_t def;        /**< default (ctl_params_default) */
+    bool held;        /**< ctl_params_t holds it (false: not yet; PARAM_SET answers
+                           unknown_index) */
+    bool control_law; /**< it changes what the controller commands: accepted
+                           only while not armed (app.h) */
+} ctl_limit_t;
+
+/** @brief A relation: p[lhs] op factor · (p[rhs[0]] + p[rhs[1]]), with the
+ *         term rhs[1] absent when it is CTL_P_NONE. */
+typedef struct {
+    uint8_t lhs;    /**< CTL_P_* */
+    uint8_t op;     /**< ctl_rel_op_t */
+    num_t factor;   /**< > 0 */
+    uint8_t rhs[2]; /**< CTL_P_*, or CTL_P_NONE for the second */
+} ctl_relation_t;
+
+/** @brief The limits of every parameter, by index (ctl_limits.c, generated). */
+extern const ctl_limit_t ctl_limits[CTL_N_PARAMS];
+/** @brief The relations, in the order they are checked (ctl_limits.c). */
+extern const ctl_relation_t ctl_relations[CTL_N_RELATIONS];
+
+/** @brief What ctl_params_verdict() found. */
+typedef enum {
+    CTL_PARAMS_OK = 0,       /**< every value in its range, every relation holds */
+    CTL_PARAMS_RANGE = 1,    /**< a value is non-finite or outside its range */
+    CTL_PARAMS_RELATION = 2, /**< the values are in range but a relation fails */
+} ctl_params_verdict_t;
 
 /** @brief Status bits in ctl_status_t::faults. */
 enum {
@@ -41,17 +89,15 @@ enum {
                                                on the wire) */
 };
 
-/** @name Ranges of the step's inputs and parameters (docs/safety.md). Within
- * them no intermediate of the control laws overflows a float, so every
- * output is finite; outside them a step stops (CTL_FAULT_INPUT_NONFINITE), an
- * obstacle report is dropped, a parameter is rejected. All are within
+/** @name Ranges of the step's inputs (docs/safety.md). Within them and the
+ * parameters' (ctl_limits[]) no intermediate of the control laws overflows a
+ * float, so every output is finite; outside them a step stops
+ * (CTL_FAULT_INPUT_NONFINITE), an obstacle report is dropped. All are within
  * Q16.16's range too. @{ */
 #define CTL_MAX_ABS_POSITION NUM_C(10000.0) /**< |x|, |y| of poses and obstacles [m] */
 #define CTL_MAX_ABS_ANGLE    NUM_C(1000.0)  /**< |θ| [rad], wrapped by the controllers */
 #define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s] */
 #define CTL_MAX_RADIUS       NUM_C(100.0)   /**< obstacle radius [m] */
-#define CTL_PARAM_MIN        NUM_C(0.001)   /**< smallest value of every parameter */
-#define CTL_PARAM_MAX        NUM_C(10000.0) /**< largest value of every parameter */
 /** @} */
 
 /** @brief Inputs of one step. */
@@ -94,15 +140,30 @@ typedef struct {
     sup_t sup;
 } ctl_t;
 
-/** @brief Parameters of Table 1, with wheel geometry that never saturates in
- *         the paper's scenarios (r = 0.05 m, L = 0.3 m, 100 rad/s). */
+/** @brief The defaults of the table: Table 1, with wheel geometry that never
+ *         saturates in the paper's scenarios (r = 0.05 m, L = 0.3 m,
+ *         100 rad/s) and a halt's deceleration of 125 rad/s². */
 void ctl_params_default(ctl_params_t *p);
 
 /**
- * @brief Check parameters: every value finite and within [CTL_PARAM_MIN,
- *        CTL_PARAM_MAX], D_s >= R_m, D_s < D_act <= D_det.
+ * @brief The member of @p p behind parameter index @p index (CTL_P_*), or
+ *        NULL for an index that is unknown or not held yet (generated with
+ *        the table, ctl_limits.c).
+ */
+num_t *ctl_param_slot(ctl_params_t *p, unsigned index);
+
+/**
+ * @brief Check a whole parameter set against the table: first every value
+ *        held, in index order, finite and within [min, max]; then every
+ *        relation, in order (docs/safety.md, "Parameters"). The values are
+ *        checked as held, after rounding to num_t.
+ */
+ctl_params_verdict_t ctl_params_verdict(const ctl_params_t *p);
+
+/**
+ * @brief ctl_params_verdict() as an error code.
  * @retval 0       valid.
- * @retval -EINVAL a value is out of range.
+ * @retval -EINVAL a value is out of range or a relation fails.
  */
 int ctl_params_check(const ctl_params_t *p);
 

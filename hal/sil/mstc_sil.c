@@ -112,16 +112,19 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
  * fields with the new strategy. */
 static ctl_params_t params_from(const mstc_sil_params_t *p)
 {
-    return (ctl_params_t){
-        .r_m = from_d(p->r_m),
-        .r_ob = from_d(p->r_ob),
-        .d_det = from_d(p->d_det),
-        .d_act = from_d(p->d_act),
-        .d_s = from_d(p->d_s),
-        .trk = { from_d(p->trk_k[0]), from_d(p->trk_k[1]), from_d(p->trk_k[2]) },
-        .avd = { from_d(p->avd_k[0]), from_d(p->avd_k[1]) },
-        .kin = { from_d(p->wheel_radius), from_d(p->track_width), from_d(p->max_wheel_speed) },
-    };
+    /* What the ABI does not carry (max_wheel_decel) keeps its default. */
+    ctl_params_t c;
+    ctl_params_default(&c);
+    c.r_m = from_d(p->r_m);
+    c.r_ob = from_d(p->r_ob);
+    c.d_det = from_d(p->d_det);
+    c.d_act = from_d(p->d_act);
+    c.d_s = from_d(p->d_s);
+    c.trk = (trk_gains_t){ from_d(p->trk_k[0]), from_d(p->trk_k[1]), from_d(p->trk_k[2]) };
+    c.avd = (avd_gains_t){ from_d(p->avd_k[0]), from_d(p->avd_k[1]) };
+    c.kin = (kin_params_t){ from_d(p->wheel_radius), from_d(p->track_width),
+                            from_d(p->max_wheel_speed) };
+    return c;
 }
 
 int mstc_sil_init(void *mem, const mstc_sil_params_t *p)

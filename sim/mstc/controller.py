@@ -59,6 +59,9 @@ class Fault(IntFlag):
     FRAME_DROPPED = 8
     """Through CAN only: a received frame failed its checks since the last
     STATUS (wrong length, CRC, alive counter, unknown identifier)."""
+    TELEMETRY_CLIPPED = 32
+    """Through CAN only: a value the firmware sent since the last STATUS (in
+    it, STATUS_TRK or WHEEL_CMD) was beyond its field's range and clipped."""
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 """Shared fixtures: the firmware library, and scenario files written from dicts."""
 
+import importlib
 import math
 import os
 import shutil
@@ -132,12 +133,14 @@ def write_scenario(tmp_path: Path) -> Callable[[Mapping[str, object], str], Path
 
 
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
-    """Print what tests collected for the reader (float vs fixed comparison)."""
-    try:
-        from test_numeric_modes import REPORT
-    except ImportError:
-        return
-    if REPORT:
-        terminalreporter.section("float vs fixed")
-        for line in REPORT:
-            terminalreporter.write_line(line)
+    """Print what tests collected for the reader (float vs fixed comparison,
+    the parameter sweep's figures)."""
+    for module, title in (("test_numeric_modes", "float vs fixed"), ("test_param_sweep", "sweep")):
+        try:
+            report = importlib.import_module(module).REPORT
+        except ImportError:
+            continue
+        if report:
+            terminalreporter.section(title)
+            for line in report:
+                terminalreporter.write_line(line)

@@ -247,11 +247,20 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     e, distance, step = _f32(rng.uniform(-5, 5)), _f32(rng.uniform(-2, 70)), rng.randint(0, 65535)
     halt = rng.randint(0, 9)
     inputs = [mode, side, active, faults, e, distance, step, frame_faults, halt]
+    # Bit 5: a value beyond its signal's DBC range went out clipped.
+    status = DB.get_message_by_name("STATUS")
+    clipped = any(
+        not s.minimum <= x <= s.maximum
+        for s, x in (
+            (status.get_signal_by_name(f"STATUS_{n}"), v)
+            for n, v in (("e", e), ("distance", distance))
+        )
+    )
     wire = {
         "mode": min(mode, 3),
         "side": {0: 0, 1: 1, -1: 2}[side],
         "obstacle": min(active, 15),
-        "faults": (faults & 0x7) | (frame_faults << 3),
+        "faults": (faults & 0x7) | (frame_faults << 3) | (0x20 if clipped else 0),
         "e": e,
         "distance": distance,
         "step": step & 0x7,

@@ -89,8 +89,9 @@ def test_minimal_file_without_obstacles_params_or_expected(write_scenario: Write
 
 
 def test_obstacle_radius_defaults_to_the_overridden_r_ob(write_scenario: WriteScenario) -> None:
-    s = load_scenario(write_scenario(edit("params.R_ob", 0.15), "r_ob"))
-    assert s.obstacles[0].radius == 0.15
+    # 0.05: D_s (0.3 here) must stay >= R_m + R_ob (docs/safety.md).
+    s = load_scenario(write_scenario(edit("params.R_ob", 0.05), "r_ob"))
+    assert s.obstacles[0].radius == 0.05
 
 
 def test_paper_scenarios_load() -> None:

@@ -84,6 +84,16 @@ static void send_param(uint32_t id, uint8_t index, float value)
     feed(id == COMM_ID_PARAM_SET ? tf_param_set(index, value) : tf_param_get(index));
 }
 
+/* PARAM_SET @p index to @p value: answered @p result, with @p now in force. */
+static void expect_set(uint8_t index, float value, uint8_t result, float now)
+{
+    send_param(COMM_ID_PARAM_SET, index, value);
+    const struct mstc_dbc_param_value_t v = tf_last_param_value();
+    TEST_ASSERT_EQUAL_UINT8(index, v.param_value_index);
+    TEST_ASSERT_EQUAL_UINT8(result, v.param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, now, v.param_value_value);
+}
+
 static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(void)
 {
     arm_at(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0);
@@ -171,26 +181,16 @@ static void test_app_reports_events_before_the_wheel_command(void)
 static void test_app_sets_and_gets_parameters_over_the_bus(void)
 {
     send_param(COMM_ID_PARAM_GET, COMM_PARAM_D_S, 0.0f);
-    struct mstc_dbc_param_value_t v = tf_last_param_value();
+    const struct mstc_dbc_param_value_t v = tf_last_param_value();
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_D_S, v.param_value_index);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
     TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.35f, v.param_value_value); /* Table 1 */
 
-    send_param(COMM_ID_PARAM_SET, COMM_PARAM_D_S, 0.4f);
-    v = tf_last_param_value();
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, v.param_value_result);
-    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, v.param_value_value);
-
+    expect_set(COMM_PARAM_D_S, 0.4f, COMM_PARAM_OK, 0.4f);
     /* D_s = 0.6 would not be < D_act = 0.5 (Definition 4): rejected, kept. */
-    send_param(COMM_ID_PARAM_SET, COMM_PARAM_D_S, 0.6f);
-    v = tf_last_param_value();
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, v.param_value_result);
-    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, v.param_value_value);
+    expect_set(COMM_PARAM_D_S, 0.6f, COMM_PARAM_REJECTED, 0.4f);
 
-    send_param(COMM_ID_PARAM_SET, 200, 1.0f);
-    v = tf_last_param_value();
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, v.param_value_result);
-    TEST_ASSERT_EQUAL_UINT8(200, v.param_value_index);
+    expect_set(200, 1.0f, COMM_PARAM_UNKNOWN_INDEX, 0.0f); /* echoed, answered 0 */
 }
 
 static void test_app_reports_a_dropped_frame_in_the_next_status_only(void)
@@ -271,6 +271,72 @@ static void test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults(void)
     TEST_ASSERT_TRUE(app.ctl.p.d_s == NUM_C(0.35));
 }
 
+/* OBSTACLE_VEL (protocol 2) is received and decoded (2^-10 m/s: raw 1024 is
+ * 1 m/s, -512 is -0.5 m/s); the paper's strategy does not use it, so the
+ * application only accepts it. */
+static void test_app_accepts_an_obstacle_velocity_frame(void)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_obstacle_vel_t v = { .obstacle_vel_id = 2,
+                                               .obstacle_vel_vx = 1024,
+                                               .obstacle_vel_vy = -512 };
+    (void)mstc_dbc_obstacle_vel_pack(p, &v, 8);
+    const hal_can_frame_t f = tf_seal(COMM_ID_OBSTACLE_VEL, p);
+    comm_t c;
+    comm_init(&c);
+    comm_msg_t m;
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
+    TEST_ASSERT_EQUAL_UINT8(2, m.u.obstacle_vel.id);
+    TEST_ASSERT_TRUE(m.u.obstacle_vel.vx == NUM_ONE);
+    TEST_ASSERT_TRUE(m.u.obstacle_vel.vy == NUM_C(-0.5));
+    TEST_ASSERT_EQUAL_INT(0, app_on_frame(&app, &f));
+    TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent);
+}
+
+/* ---------------------------------------------------------------- issue 13 */
+
+/* Case 2: an obstacle radius that switches avoidance off. D_s (0.35) must be
+ * at least R_m + R_ob (0.2 + R_ob): R_ob = 1.0 would move the thresholds of a
+ * 0.1 m obstacle to 0.35 + 0.1 − 1.0 = −0.55 m, below any distance, and is
+ * refused (the relation, not its own range: result rejected); so is 0.25
+ * (0.45 > 0.35). 0.12 (0.32 <= 0.35) is accepted. */
+static void test_app_refuses_an_obstacle_radius_that_switches_avoidance_off(void)
+{
+    expect_set(COMM_PARAM_R_OB, 1.0f, COMM_PARAM_REJECTED, 0.1f);
+    expect_set(COMM_PARAM_R_OB, 0.25f, COMM_PARAM_REJECTED, 0.1f);
+    expect_set(COMM_PARAM_R_OB, 0.12f, COMM_PARAM_OK, 0.12f);
+}
+
+/* Case 4: WHEEL_CMD carries -128 to 127.999 rad/s (18 bits of 2^-10 rad/s),
+ * so a wheel limit above it could command what the frame cannot say: 300
+ * and 128 are out of range, the limit in force (100) kept. */
+static void test_app_refuses_a_wheel_limit_that_wheel_cmd_cannot_carry(void)
+{
+    expect_set(COMM_PARAM_MAX_WHEEL_SPEED, 300.0f, COMM_PARAM_OUT_OF_RANGE, 100.0f);
+    expect_set(COMM_PARAM_MAX_WHEEL_SPEED, 128.0f, COMM_PARAM_OUT_OF_RANGE, 100.0f);
+}
+
+/* Case 4: a telemetry value beyond its field is flagged in STATUS faults bit
+ * 5, in the STATUS of the same step. The reference 100 m ahead gives
+ * e1 = 100 m, beyond STATUS_TRK_e1's 31.999 m: sent clipped, flagged. 1 m
+ * ahead (e1 = 1 m) is not flagged. */
+static void test_app_flags_a_clipped_tracking_error_in_status_fault_bit_5(void)
+{
+    arm_at(0.0, 0.0, 0.0, 100.0, 0.0, 0.0, 0.5, 0.0);
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(100.0, 0.0, 0.0, 0.5, 0.0);
+    send_step(0, 0u);
+    TEST_ASSERT_EQUAL_UINT8(0x20u, tf_last_status().status_faults & 0x20u);
+    struct mstc_dbc_status_trk_t trk;
+    TEST_ASSERT_EQUAL_INT(
+        0, mstc_dbc_status_trk_unpack(&trk, tf_last_sent(COMM_ID_STATUS_TRK)->data, 8));
+    TEST_ASSERT_EQUAL_INT16(32767, trk.status_trk_e1); /* 31.999 m: clipped */
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    send_step(1, 20000u);
+    TEST_ASSERT_EQUAL_UINT8(0u, tf_last_status().status_faults & 0x20u);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -285,5 +351,9 @@ int main(void)
     RUN_TEST(test_app_extends_the_step_time_past_its_32_bit_wrap);
     RUN_TEST(test_app_poll_drains_the_queue_waiting_only_for_the_first_frame);
     RUN_TEST(test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults);
+    RUN_TEST(test_app_accepts_an_obstacle_velocity_frame);
+    RUN_TEST(test_app_refuses_an_obstacle_radius_that_switches_avoidance_off);
+    RUN_TEST(test_app_refuses_a_wheel_limit_that_wheel_cmd_cannot_carry);
+    RUN_TEST(test_app_flags_a_clipped_tracking_error_in_status_fault_bit_5);
     return UNITY_END();
 }

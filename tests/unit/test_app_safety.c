@@ -9,7 +9,8 @@
  * Expected values: eq. (1)-(3) by hand for the wheel speeds, as in
  * test_app.c (robot at the origin heading east, reference 1 m ahead at
  * 0.5 m/s: both wheels 70 rad/s = 71680 lsb of 2^-10 rad/s); the ramp by
- * hand: max_wheel_decel 100 rad/s² over 20 ms is 2 rad/s = 2048 lsb a step.
+ * hand: the default max_wheel_decel, 125 rad/s², over 20 ms is 2.5 rad/s =
+ * 2560 lsb a step.
  */
 #include <errno.h>
 #include <string.h>
@@ -25,7 +26,7 @@ static app_t app;
 /* Raw wheel speed tolerance [lsb of 2^-10 rad/s]: test_app.c says why. */
 #define TOL_WHEEL_RAW TU_TOL(1, 6)
 /* The ramp: float exact to the raw rounding; fixed: dt = 0.02 s is Q16.16
- * 1311/65536 (5e-4 relative) times 100 rad/s², and the scaling factor's
+ * 1311/65536 (5e-4 relative) times 125 rad/s², and the scaling factor's
  * rounding: a few lsb a step. */
 #define TOL_RAMP_RAW  TU_TOL(2, 8)
 #define DT_US         20000u
@@ -149,7 +150,7 @@ static void test_app_safety_disarm_halts_with_a_ramp(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     full_step();
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, tf_last_status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
     /* Disarming again keeps the reason. */
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
@@ -190,8 +191,8 @@ static void test_app_safety_odometry_lost_halts_at_the_third_step(void)
     step();
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
     TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_right);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_right);
 }
 
 static void test_app_safety_reference_lost_halts_with_its_reason(void)
@@ -241,13 +242,13 @@ static void test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero(void)
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 28672, tf_last_wheels().wheel_cmd_right);
     TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, -8192, tf_last_wheels().wheel_cmd_left);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
-    /* The larger wheel loses 2 rad/s a step, the other keeps the ratio
-     * -8/28; 28 rad/s takes 14 steps. */
+    /* The larger wheel loses 2.5 rad/s a step, the other keeps the ratio
+     * -8/28; from 28 rad/s, 11 steps leave 0.5 rad/s, the 12th stops. */
     int32_t prev_r = 28672;
-    for (unsigned k = 1; k <= 14u; k++) {
+    for (unsigned k = 1; k <= 11u; k++) {
         step();
         const struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
-        const double want_r = 28672.0 - 2048.0 * k;
+        const double want_r = 28672.0 - 2560.0 * k;
         TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, (int32_t)want_r, w.wheel_cmd_right);
         TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, (int32_t)(-want_r * 8.0 / 28.0),
                                  w.wheel_cmd_left);
@@ -268,7 +269,7 @@ static void test_app_safety_deceleration_is_a_parameter(void)
     const float bad[] = { 0.0f, -1.0f, NAN, INFINITY, 10001.0f };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
-        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
         TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
     }
     feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
@@ -419,7 +420,7 @@ static void test_app_safety_bus_off_halts_and_blocks_the_rearm(void)
     hal_fake.can_status.bus_off = 1;
     full_step();
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_BUS_OFF, tf_last_status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
     for (unsigned k = 0; k < 5u; k++) {
         full_step();
     }
@@ -446,16 +447,18 @@ static void test_app_safety_a_bus_off_between_steps_halts_too(void)
 
 static void test_app_safety_every_parameter_reads_back_its_default(void)
 {
-    /* Table 1 and the default geometry (ctl.h), in index order. */
-    const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,  12.0f,
-                                           6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f };
-    for (uint8_t i = 0; i < COMM_PARAM_MAX_WHEEL_DECEL; i++) {
+    /* Table 1, the default geometry and the halt's deceleration (125 rad/s²:
+     * 100 rad/s stopped within 0.8 s), in index order; index 14 (strategy)
+     * is not held yet: unknown. */
+    const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,   12.0f,
+                                           6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f, 125.0f };
+    for (uint8_t i = 0; i < COMM_PARAM_COUNT; i++) {
         feed(tf_param_get(i));
         TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
         TEST_ASSERT_FLOAT_WITHIN(1e-4f, want[i], tf_last_param_value().param_value_value);
     }
-    feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
-    TEST_ASSERT_EQUAL_FLOAT(APP_DEFAULT_MAX_WHEEL_DECEL, tf_last_param_value().param_value_value);
+    feed(tf_param_get(14));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
 static void test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once(void)
@@ -565,8 +568,141 @@ static void test_app_safety_real_time_mode_needs_no_step_and_times_out(void)
         now += DT_US;
     }
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY, tf_last_status().status_halt);
-    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2048, tf_last_wheels().wheel_cmd_left);
-    TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-3, 1e-2), 70.0 - 2.0, app_last_wheels(&app)->left);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-3, 1e-2), 70.0 - 2.5, app_last_wheels(&app)->left);
+}
+
+/* ---------------------------------------------------------------- issue 13 */
+
+/* Case 1: a deceleration that cannot stop the wheels in time. A halt must
+ * ramp the wheels from max_wheel_speed (100 rad/s) to zero within 0.8 s, so
+ * max_wheel_decel >= 100 / 0.8 = 125 rad/s². 1e-6 is below every bound (and
+ * rounds to 0 in Q16.16): out of range. 124 is within its own range but not
+ * enough for this wheel limit: rejected. Either way the value in force is
+ * kept. 125 is accepted. */
+static void test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused(void)
+{
+    feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
+    const float before = tf_last_param_value().param_value_value;
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1e-6f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 124.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 125.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(125.0f, tf_last_param_value().param_value_value);
+}
+
+/* Cases 1 and 7: the figures of README.md and docs/safety.md, by hand. With
+ * the reference 2 m ahead both wheels want 130 rad/s and run at the limit,
+ * 100 rad/s (102400 lsb). The last odometry frame comes with step k; steps
+ * k+1 and k+2 still run, k+3 flags the halt (3 control periods) and ramps:
+ * 125 rad/s² × 20 ms = 2.5 rad/s a step, 40 steps from 100 rad/s, the
+ * first at k+3: zero at step k+42, 0.84 s after the last frame, within
+ * 1 s. */
+static void test_app_safety_a_halt_stops_the_wheels_from_their_limit_within_1_s(void)
+{
+    arm();
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(2.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.5, 0.0));
+        step();
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 102400, tf_last_wheels().wheel_cmd_left);
+    }
+    int32_t prev = tf_last_wheels().wheel_cmd_left;
+    for (unsigned n = 1; n <= 45u; n++) { /* step k + n: no odometry */
+        feed(tf_ref_xy(2.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.5, 0.0));
+        step();
+        const struct mstc_dbc_wheel_cmd_t w = tf_last_wheels();
+        const uint8_t halt = tf_last_status().status_halt;
+        TEST_ASSERT_EQUAL_UINT8(n < 3u ? COMM_HALT_NONE : COMM_HALT_ODOMETRY, halt);
+        TEST_ASSERT_EQUAL_INT32(w.wheel_cmd_left, w.wheel_cmd_right); /* straight on */
+        TEST_ASSERT_TRUE(w.wheel_cmd_left <= prev);
+        if (n >= 3u && n <= 42u) { /* 100 − 2.5 (n − 2) rad/s */
+            const int32_t want = 102400 - 2560 * (int32_t)(n - 2u);
+            TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)n, want, w.wheel_cmd_left);
+        }
+        if (n >= 43u) {
+            TEST_ASSERT_EQUAL_INT32(0, w.wheel_cmd_left);
+        }
+        prev = w.wheel_cmd_left;
+    }
+}
+
+/* While armed, a parameter of the control law is refused with result armed
+ * (5) and the value in force kept; max_wheel_decel, safety and not control
+ * law, is accepted (within its bound); reading is always allowed. Disarmed
+ * again, the same set is accepted. */
+static void test_app_safety_control_law_parameters_are_refused_while_armed(void)
+{
+    drive(2);
+    for (uint8_t i = 0; i < COMM_PARAM_MAX_WHEEL_DECEL; i++) {
+        feed(tf_param_get(i));
+        const float before = tf_last_param_value().param_value_value;
+        feed(tf_param_set(i, before * 1.01f));
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_ARMED, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
+    }
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 500.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt); /* still driving */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, tf_last_param_value().param_value_value);
+}
+
+/* A halt ramps at the deceleration in force when it began: lowering the
+ * wheel limit and then the deceleration while halted (both allowed then)
+ * cannot slow the stop under way. Disarmed at 70 rad/s with 125 rad/s²
+ * (2.5 rad/s a step); then max_wheel_speed 10 and max_wheel_decel 12.5
+ * (0.25 rad/s a step): the wheels still lose 2.5 rad/s a step, and are at
+ * zero 28 steps after the disarm. The next halt uses 12.5. */
+static void test_app_safety_a_halt_keeps_the_deceleration_it_began_with(void)
+{
+    drive(2);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    full_step();
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_SPEED, 10.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 12.5f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    for (unsigned k = 2; k <= 27u; k++) {
+        full_step();
+        TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW * (int32_t)k, 71680 - 2560 * (int32_t)k,
+                                 tf_last_wheels().wheel_cmd_left);
+    }
+    full_step(); /* 28: 0.0 left, as 70 = 28 × 2.5 */
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    /* Re-armed, the robot runs at the new limit, 10 rad/s; the next halt
+     * ramps at 12.5 rad/s²: 0.25 rad/s (256 lsb) a step. */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    full_step();
+    TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 10240, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    full_step();
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 10240 - 256, tf_last_wheels().wheel_cmd_left);
+}
+
+/* A value that is not a number is out of range for every parameter. */
+static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
+{
+    const float bad[] = { NAN, INFINITY, -INFINITY };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        feed(tf_param_set(COMM_PARAM_TRK_K1, bad[i]));
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_FLOAT(3.0f, tf_last_param_value().param_value_value);
+    }
+    /* And an index the table does not hold (strategy, 14, until it is). */
+    feed(tf_param_set(14, 0.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
 int main(void)
@@ -600,5 +736,10 @@ int main(void)
     RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
+    RUN_TEST(test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused);
+    RUN_TEST(test_app_safety_a_halt_stops_the_wheels_from_their_limit_within_1_s);
+    RUN_TEST(test_app_safety_control_law_parameters_are_refused_while_armed);
+    RUN_TEST(test_app_safety_a_halt_keeps_the_deceleration_it_began_with);
+    RUN_TEST(test_app_safety_a_non_finite_parameter_value_is_out_of_range);
     return UNITY_END();
 }

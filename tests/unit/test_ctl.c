@@ -128,7 +128,7 @@ static void test_ctl_params_check_rejects_each_bad_parameter(void)
     EXPECT_CHECK(-EINVAL, p_.d_s = tu_num(0.5));
     EXPECT_CHECK(-EINVAL, p_.d_s = tu_num(0.6));
     EXPECT_CHECK(-EINVAL, p_.d_act = tu_num(0.3));
-    /* D_s ≥ R_m (Definition 2, eq. (6)). */
+    /* D_s ≥ R_m (Definition 2, eq. (6)), and ≥ R_m + R_ob (docs/safety.md). */
     EXPECT_CHECK(-EINVAL, p_.d_s = tu_num(0.19));
     EXPECT_CHECK(-EINVAL, p_.r_m = tu_num(0.36));
     /* D_act ≤ D_det. */
@@ -150,8 +150,10 @@ static void test_ctl_params_check_rejects_each_bad_parameter(void)
 
 static void test_ctl_params_check_accepts_the_boundaries(void)
 {
-    /* D_s = R_m is allowed (D_s ≥ R_m), D_act = D_det too (D_act ≤ D_det). */
-    EXPECT_CHECK(0, p_.d_s = tu_num(0.2));
+    /* D_s = R_m + R_ob is allowed (D_s ≥ R_m + R_ob, docs/safety.md: 0.25 +
+     * 0.1 = 0.35 exactly as held, in both modes), D_act = D_det too
+     * (D_act ≤ D_det). */
+    EXPECT_CHECK(0, p_.r_m = tu_num(0.25));
     EXPECT_CHECK(0, p_.d_det = tu_num(0.5));
     /* Other valid values. */
     EXPECT_CHECK(0, (p_.trk.k1 = tu_num(0.5), p_.avd.k2 = tu_num(20.0)));

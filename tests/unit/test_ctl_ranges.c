@@ -129,39 +129,136 @@ static void test_ctl_ranges_reports_beyond_the_table_are_dropped(void)
     assert_wheels_in_range();
 }
 
-#define EXPECT_PARAM(expected, field, value)                                                       \
-    do {                                                                                           \
-        ctl_params_t p_;                                                                           \
-        ctl_params_default(&p_);                                                                   \
-        p_.field = (value);                                                                        \
-        TEST_ASSERT_EQUAL_INT_MESSAGE((expected), ctl_params_check(&p_), #field);                  \
-    } while (0)
+/* The limits of docs/safety.md ("Parameters"), written out by hand: each
+ * value's range, by index. The reasons are there; R_ob's end is what
+ * OBSTACLE_radius carries (2.55 m), max_wheel_speed's what WHEEL_CMD does
+ * (below 128 rad/s). */
+typedef struct {
+    unsigned index;
+    double min, max;
+} range_t;
+
+static const range_t ranges[] = {
+    { CTL_P_R_M, 0.05, 2.0 },
+    { CTL_P_R_OB, 0.01, 2.55 },
+    { CTL_P_D_DET, 0.05, 60.0 },
+    { CTL_P_D_ACT, 0.05, 60.0 },
+    { CTL_P_D_S, 0.05, 60.0 },
+    { CTL_P_TRK_K1, 0.01, 1000.0 },
+    { CTL_P_TRK_K2, 0.01, 1000.0 },
+    { CTL_P_TRK_K3, 0.01, 1000.0 },
+    { CTL_P_AVD_K1, 0.01, 1000.0 },
+    { CTL_P_AVD_K2, 0.01, 1000.0 },
+    { CTL_P_WHEEL_RADIUS, 0.005, 1.0 },
+    { CTL_P_TRACK_WIDTH, 0.02, 4.0 },
+    { CTL_P_MAX_WHEEL_SPEED, 1.0, 127.99 },
+    { CTL_P_MAX_WHEEL_DECEL, 1.25, 10000.0 },
+};
+
+/* The verdict on the defaults with parameter @p index set to @p value. */
+static ctl_params_verdict_t verdict_with(unsigned index, double value)
+{
+    ctl_params_t p;
+    ctl_params_default(&p);
+    *ctl_param_slot(&p, index) = tu_num(value);
+    return ctl_params_verdict(&p);
+}
 
 static void test_ctl_ranges_parameters_beyond_their_range_are_rejected(void)
 {
-    EXPECT_PARAM(-EINVAL, trk.k1, tu_num(10001.0));
-    EXPECT_PARAM(-EINVAL, kin.max_wheel_speed, tu_num(10001.0));
-    EXPECT_PARAM(-EINVAL, kin.wheel_radius, tu_num(0.0009));
-    EXPECT_PARAM(-EINVAL, avd.k2, tu_num(0.0009));
-    EXPECT_PARAM(0, trk.k2, CTL_PARAM_MAX);
-    EXPECT_PARAM(0, trk.k3, CTL_PARAM_MIN);
-    EXPECT_PARAM(0, kin.wheel_radius, CTL_PARAM_MIN);
+    for (size_t i = 0; i < sizeof ranges / sizeof ranges[0]; i++) {
+        const range_t *r = &ranges[i];
+        /* 1 % beyond either end: more than a Q16.16 step at the smallest. */
+        TEST_ASSERT_EQUAL_INT_MESSAGE(CTL_PARAMS_RANGE, verdict_with(r->index, r->min * 0.99),
+                                      "below min");
+        TEST_ASSERT_EQUAL_INT_MESSAGE(CTL_PARAMS_RANGE, verdict_with(r->index, r->max * 1.01),
+                                      "above max");
+        TEST_ASSERT_EQUAL_INT_MESSAGE(CTL_PARAMS_RANGE, verdict_with(r->index, 0.0), "zero");
+        TEST_ASSERT_EQUAL_INT_MESSAGE(CTL_PARAMS_RANGE, verdict_with(r->index, -r->max),
+                                      "negative");
+        /* The ends themselves are in range (a relation may still refuse the
+         * set: the defaults of the others are not made for them). */
+        TEST_ASSERT_NOT_EQUAL_INT_MESSAGE(CTL_PARAMS_RANGE, verdict_with(r->index, r->min), "min");
+        TEST_ASSERT_NOT_EQUAL_INT_MESSAGE(CTL_PARAMS_RANGE, verdict_with(r->index, r->max), "max");
+    }
+    ctl_params_t p;
+    ctl_params_default(&p);
+    TEST_ASSERT_EQUAL_INT(0, ctl_params_check(&p));
+    p.trk.k1 = tu_num(1001.0);
+    TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_params_check(&p));
+    /* Index 14 (strategy) is not held yet; nothing past the table is. */
+    TEST_ASSERT_NULL(ctl_param_slot(&p, CTL_P_STRATEGY));
+    TEST_ASSERT_NULL(ctl_param_slot(&p, CTL_N_PARAMS));
+}
+
+static void test_ctl_ranges_every_relation_refuses_the_set_that_breaks_it(void)
+{
+    /* Table 1: R_m 0.2, R_ob 0.1, D_s 0.35, D_act 0.5, D_det 3.5, L 0.3,
+     * 100 rad/s, 125 rad/s². Each line breaks one relation by hand. */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_R_OB, 0.2));   /* 0.4 > D_s */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_R_M, 0.3));    /* 0.4 > D_s */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_D_S, 0.5));    /* = D_act */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_D_ACT, 4.0));  /* > D_det */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_D_DET, 0.45)); /* < D_act */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION,
+                          verdict_with(CTL_P_TRACK_WIDTH, 0.5)); /* R_m < L/2 */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_MAX_WHEEL_DECEL, 124.0));
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RELATION, verdict_with(CTL_P_MAX_WHEEL_SPEED, 101.0));
+    /* ... and the ends of each relation hold (exact in both modes). */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_OK, verdict_with(CTL_P_R_OB, 0.125)); /* 0.325 */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_OK, verdict_with(CTL_P_D_ACT, 3.5));
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_OK, verdict_with(CTL_P_TRACK_WIDTH, 0.4)); /* L/2 = R_m */
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_OK, verdict_with(CTL_P_MAX_WHEEL_DECEL, 125.0));
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.d_s = tu_num(0.5);
+    TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_params_check(&p));
+    /* A rejected set leaves the controller as it was. */
+    TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_set_params(&c, &p));
+    TEST_ASSERT_TRUE(c.p.d_s == NUM_C(0.35));
+}
+
+static void test_ctl_ranges_defaults_are_table_1(void)
+{
+    ctl_params_t p;
+    ctl_params_default(&p);
+    const double want[] = { 0.2, 0.1, 3.5, 0.5,  0.35, 3.0,   12.0,
+                            6.0, 3.0, 6.0, 0.05, 0.3,  100.0, 125.0 };
+    for (unsigned i = 0; i < sizeof want / sizeof want[0]; i++) {
+        TEST_ASSERT_TRUE_MESSAGE(*ctl_param_slot(&p, i) == tu_num(want[i]), "default");
+    }
 }
 
 static void test_ctl_ranges_extreme_parameters_give_outputs_in_range(void)
 {
     /* Gains and speed limit at their largest, wheels at their smallest, the
-     * inputs at the corner: still finite and within the limit. */
+     * inputs at the corner; then the largest wheels and robot: still finite
+     * and within the limit. */
     ctl_params_t p;
     ctl_params_default(&p);
-    p.trk = (trk_gains_t){ CTL_PARAM_MAX, CTL_PARAM_MAX, CTL_PARAM_MAX };
-    p.avd = (avd_gains_t){ CTL_PARAM_MAX, CTL_PARAM_MAX };
-    p.kin = (kin_params_t){ CTL_PARAM_MIN, CTL_PARAM_MAX, CTL_PARAM_MAX };
+    const num_t k = tu_num(1000.0);
+    p.trk = (trk_gains_t){ k, k, k };
+    p.avd = (avd_gains_t){ k, k };
+    p.kin = (kin_params_t){ tu_num(0.005), tu_num(0.02), tu_num(127.99) };
+    p.max_wheel_decel = tu_num(10000.0);
     TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
     ctl_input_t in = { .robot = { num_neg(CTL_MAX_ABS_POSITION), CTL_MAX_ABS_POSITION, NUM_C(1.0) },
                        .ref = { CTL_MAX_ABS_POSITION, num_neg(CTL_MAX_ABS_POSITION), NUM_C(-2.0) },
                        .v_r = CTL_MAX_ABS_SPEED,
                        .w_r = CTL_MAX_ABS_SPEED };
+    ctl_step(&c, &in, &out);
+    assert_wheels_in_range();
+    p.r_m = tu_num(2.0);
+    p.r_ob = tu_num(2.55);
+    p.d_s = tu_num(4.6);
+    p.d_act = tu_num(60.0);
+    p.d_det = tu_num(60.0);
+    p.kin = (kin_params_t){ tu_num(1.0), tu_num(4.0), tu_num(1.0) };
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+    const sup_obstacle_t o = { .id = 1, .x = tu_num(1.0), .y = NUM_ZERO, .radius = tu_num(0.01) };
+    in.obstacles = &o;
+    in.n_obstacles = 1;
+    in.robot = tu_pose(0.0, 0.0, 0.0);
     ctl_step(&c, &in, &out);
     assert_wheels_in_range();
 }
@@ -210,6 +307,8 @@ int main(void)
     RUN_TEST(test_ctl_ranges_bad_obstacle_reports_are_dropped_not_used);
     RUN_TEST(test_ctl_ranges_reports_beyond_the_table_are_dropped);
     RUN_TEST(test_ctl_ranges_parameters_beyond_their_range_are_rejected);
+    RUN_TEST(test_ctl_ranges_every_relation_refuses_the_set_that_breaks_it);
+    RUN_TEST(test_ctl_ranges_defaults_are_table_1);
     RUN_TEST(test_ctl_ranges_extreme_parameters_give_outputs_in_range);
 #ifndef NUM_FIXED
     RUN_TEST(test_ctl_ranges_non_finite_inputs_stop_without_a_fp_exception);

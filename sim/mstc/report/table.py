@@ -5,6 +5,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mstc.controller import Event, EventKind, Fault
+from mstc.params import Params
 from mstc.sim.run import RunResult
 from mstc.sim.scenario import ExpectedEvent
 
@@ -13,6 +14,7 @@ _FAULT_NAMES = {
     Fault.INPUT_NONFINITE: "non-finite input",
     Fault.OBSTACLE_DROPPED: "obstacle report dropped",
     Fault.SATURATED: "wheel speeds saturated",
+    Fault.TELEMETRY_CLIPPED: "telemetry value clipped to its frame field",
 }
 
 
@@ -71,6 +73,19 @@ def _note(match: Match, any_expected: bool) -> str:
     return ""
 
 
+def _verdict(p: Params, radius: float, d: float) -> str:
+    """How the closest approach @p d to an obstacle of @p radius compares with
+    its D_s. Never "ok" for a distance that means nothing: the robot's body
+    (R_m) overlapped the obstacle's, or D_s itself lies within R_m + radius
+    (a parameter set the loader refuses: D_s >= R_m + R_ob)."""
+    touch = p.r_m + radius
+    if d < touch:
+        return f"COLLISION: closer than R_m + radius = {touch:g} m"
+    if p.safe_distance(radius) < touch:
+        return f"D_s meaningless: below R_m + radius = {touch:g} m"
+    return "ok" if d >= p.safe_distance(radius) else "BELOW D_s"
+
+
 def _decimals(t_us: int) -> int:
     """Decimals that show a time in µs exactly in seconds."""
     digits = 6
@@ -105,8 +120,8 @@ def format_report(result: RunResult, folder: Path) -> str:
     p = scenario.params
     for i, (o, d) in enumerate(zip(scenario.obstacles, result.min_distance, strict=True)):
         d_s = p.safe_distance(o.radius)
-        verdict = "ok" if d >= d_s else "BELOW D_s"
         label = "min distance" if i == 0 else ""
+        verdict = _verdict(p, o.radius, d)
         lines.append(f"  {label:<13} O{i + 1} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
     for fault, count in result.faults.items():
         lines.append(f"  {'fault':<13} {_FAULT_NAMES.get(fault, str(fault))} in {count} steps")

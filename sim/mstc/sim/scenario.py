@@ -9,6 +9,7 @@ O1, O2) and what is wrong with it.
 
 import difflib
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -18,7 +19,8 @@ from typing import Any
 
 from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
-from mstc.params import PARAM_NAMES, Params, Strategy
+from mstc.limits import Limit, load_table, violation
+from mstc.params import Params, Strategy
 from mstc.sim.plant import Integrator, Pose
 
 MAX_OBSTACLES = 15
@@ -173,10 +175,29 @@ _TOP_KEYS = (
 )
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
-# File key -> Params attribute, for the scalar parameters: their names in the
-# DBC's parameter index table (PARAM_NAMES).
-_SCALAR_PARAMS = {key: attr for key, (attr, element) in PARAM_NAMES.items() if element is None}
-_GAIN_PARAMS = {"tracking_gains": 3, "avoidance_gains": 2}
+
+def _param_keys() -> tuple[dict[str, Limit], dict[str, tuple[Limit, ...]]]:
+    """The [params] keys, from the limits table (firmware/ctrl/ctl_params.toml):
+    scalar keys (``R_m``; the Params attribute is the key in lower case), and
+    arrays (``tracking_gains``, one parameter per element, in order)."""
+    scalars: dict[str, Limit] = {}
+    arrays: dict[str, list[Limit]] = {}
+    for p in load_table().params:
+        element = re.fullmatch(r"(\w+)\[(\d+)\]", p.scenario)
+        if element is not None:
+            arrays.setdefault(element[1], []).append(p)
+        elif p.scenario:
+            scalars[p.scenario] = p
+    return scalars, {k: tuple(v) for k, v in arrays.items()}
+
+
+def params_values(p: Params) -> dict[str, float]:
+    """The parameters a scenario sets, by their name in the limits table."""
+    scalars, arrays = _param_keys()
+    values = {limit.name: float(getattr(p, key.lower())) for key, limit in scalars.items()}
+    for key, limits in arrays.items():
+        values.update(zip((x.name for x in limits), getattr(p, key), strict=True))
+    return values
 
 
 def _type_name(value: object) -> str:
@@ -372,41 +393,47 @@ def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
 
 
 def _parse_params(c: _Checker, value: object) -> Params:
+    """[params]: each value a positive number, then the whole set checked
+    against the limits table as the firmware will check it (mstc.limits):
+    the problem names the key and the limit."""
     table = c.table(value, "params")
-    c.keys(table, "params", (), (*_SCALAR_PARAMS, *_GAIN_PARAMS, "strategy"))
+    scalars, arrays = _param_keys()
+    c.keys(table, "params", (), (*scalars, *arrays, "strategy"))
     overrides: dict[str, Any] = {}
     if "strategy" in table:
         overrides["strategy"] = Strategy(
             c.choice(table["strategy"], "params.strategy", tuple(Strategy))
         )
-    for key, attr in _SCALAR_PARAMS.items():
+    key_of: dict[str, str] = {}  # table name -> the file's key, for what the file sets
+    element_of: dict[str, str] = {}  # table name -> "k2 " for an array element
+    for key, limit in scalars.items():
         if key in table:
-            overrides[attr] = c.positive(table[key], f"params.{key}")
-    for key, n in _GAIN_PARAMS.items():
+            overrides[key.lower()] = c.positive(table[key], f"params.{key}")
+            key_of[limit.name] = key
+    for key, limits in arrays.items():
+        names = tuple(f"k{i + 1}" for i in range(len(limits)))
+        for limit, name in zip(limits, names, strict=True):
+            element_of[limit.name] = f"{name} "
         if key in table:
-            gains = c.numbers(table[key], f"params.{key}", tuple(f"k{i + 1}" for i in range(n)))
+            gains = c.numbers(table[key], f"params.{key}", names)
             for i, k in enumerate(gains):
                 if k <= 0.0:
                     raise c.fail(f"params.{key}", f"gain k{i + 1} must be > 0, got {k:g}")
             overrides[key] = gains
+            key_of.update((limit.name, key) for limit in limits)
     p = Params(**overrides)
-
-    def blame(*keys: str) -> str:
-        """The first of ``keys`` the file sets (the one to change), else the first."""
-        return "params." + next((k for k in keys if k in table), keys[0])
-
-    # The constraints of ctl_params_check: R_m <= D_s < D_act <= D_det.
-    if p.d_s < p.r_m:
-        raise c.fail(
-            blame("D_s", "R_m"), f"D_s ({p.d_s:g} m) must be >= R_m ({p.r_m:g} m), eq. (6)"
-        )
-    if p.d_s >= p.d_act:
-        raise c.fail(blame("D_s", "D_act"), f"D_s ({p.d_s:g} m) must be < D_act ({p.d_act:g} m)")
-    if p.d_act > p.d_det:
-        raise c.fail(
-            blame("D_act", "D_det"), f"D_act ({p.d_act:g} m) must be <= D_det ({p.d_det:g} m)"
-        )
-    return p
+    problem = violation(params_values(p))
+    if problem is None:
+        return p
+    # Blame the first parameter concerned that the file sets (the one to
+    # change): there is one, since the defaults pass.
+    name = next(n for n in problem.names if n in key_of)
+    text = problem.problem if problem.relation else element_of.get(name, "") + problem.problem
+    first = load_table().by_name(problem.names[0])
+    if not first.scenario:
+        text += f" ({first.name} is the firmware's {first.default:g} {first.unit}; "
+        text += "a scenario cannot set it)"
+    raise c.fail(f"params.{key_of[name]}", text)
 
 
 def _parse_obstacles(c: _Checker, value: object, params: Params) -> tuple[ObstacleSpec, ...]:
