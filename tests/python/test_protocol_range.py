@@ -100,4 +100,4 @@ def test_the_firmware_rule_saturates_on_request() -> None:
     assert decoded["OBSTACLE_id"] == 15
     assert decoded["OBSTACLE_x"] == 127.999755859375
     assert decoded["OBSTACLE_y"] == -128.0
-    assert decoded["OBSTACLE_radius"] == 2.55
+    assert decoded["OBSTACLE_radius"] == pytest.approx(2.55, abs=1e-12)  # 255 cm
