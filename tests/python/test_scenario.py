@@ -272,7 +272,7 @@ def test_bad_file_raises_one_line_naming_file_and_key(
 
 def test_values_at_the_frames_limits_load(write_scenario: WriteScenario) -> None:
     doc = edit("robot.pose", [127.99, -128.0, 100.0])  # θ is sent wrapped: any heading
-    doc["reference"] = {"pose": [-127.5, 127.5, -50.0], "v": -15.99, "w": 15.99}
+    doc["reference"] = {"pose": [-125.0, 125.0, -50.0], "v": -15.99, "w": 15.99}  # a 1 m circle
     doc["obstacles"] = [{"position": [127.99, -128.0], "radius": 2.55}] * 15
     doc["expected"] = []
     s = load_scenario(write_scenario(doc, "limits"))

@@ -35,7 +35,7 @@ from mstc.firmware import SilController
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import load_scenario
 
-SCENES = 36
+SCENES = 42
 SEED = 20130013
 DT = 0.02
 STEP_TOLERANCE = 1
@@ -87,7 +87,7 @@ def scene(rng: random.Random, index: int) -> tuple[dict[str, Any], str | None]:
         "sim": {"duration": duration, "dt": DT, "integrator": rng.choice(["euler", "exact"])},
     }
     beyond: str | None = None
-    kind = index % 6 if index >= SCENES // 2 else -1  # half the scenes are pushed beyond
+    kind = (index // 3) % 6 if index % 3 == 2 else -1  # a third are pushed beyond
     if kind == 0:
         # Sixteen obstacles: the 16th far off the path (where the sensor still sees it).
         far = [{"position": [x0 + 50.0 + i, y0 + 50.0]} for i in range(16 - len(obstacles))]
