@@ -15,6 +15,7 @@ from mstc.cli.common import EXIT_USAGE, error, run_scenarios
 from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, FirmwareError
 from mstc.report.outputs import BusLog
+from mstc.report.progress import Progress
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import Scenario
 
@@ -27,13 +28,15 @@ bus: by default SocketCAN's vcan0, where the firmware runs as its own process
 (--fw build/host/mstc-fw, started afresh for each scenario, like a board) or
 on a board behind a CAN adapter. Each scenario writes DIR/<file stem>/ with
 events.json, trace.csv, bus.log (every frame, candump -L) and the figures,
-and prints the table of `mstc sim`.
+and prints the table of `mstc sim`. Scenario limits, progress, and reruns into
+the same folder are as for `mstc sim` (see its --help).
 
 On a host whose kernel has no CAN, `make hil` runs this inside a small VM
 with vcan (docs/hil.md).
 
-exit status: 0 done; 1 the firmware could not be started or did not answer,
-or an output could not be written; 2 bad arguments or a bad scenario file.
+exit status: 0 done; 1 the firmware could not be started, did not answer or
+refused the parameters, or an output could not be written; 2 bad arguments,
+a bad scenario file, or an output folder that cannot be used.
 
 example:
   .venv/bin/mstc hil --channel vcan0 --fw build/host/mstc-fw \\
@@ -104,12 +107,14 @@ def stop_firmware(proc: subprocess.Popen[str]) -> None:
         proc.wait()
 
 
-def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog]:
+def _run_one(
+    args: argparse.Namespace, scenario: Scenario, bar: Progress
+) -> tuple[str, RunResult, BusLog]:
     bus = can.Bus(interface=args.interface, channel=args.channel)
     firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
     try:
         ctl = CanController(bus, scenario.params, sim_time_stamps=False)
-        result = simulate(scenario, ctl)
+        result = simulate(scenario, ctl, bar)
     finally:
         bus.shutdown()
         if firmware is not None:
@@ -126,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
         args.scenarios,
         args.out,
         not args.no_figures,
-        lambda scenario: _run_one(args, scenario),
+        lambda scenario, bar: _run_one(args, scenario, bar),
         (FirmwareError, ControllerError, can.CanError, OSError),
+        quiet=args.quiet,
     )

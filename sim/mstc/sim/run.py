@@ -1,7 +1,10 @@
 # SPDX-License-Identifier: MIT
 """The closed loop: plant, reference and sensor around a controller."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -10,6 +13,12 @@ from mstc.sim.plant import UnicyclePlant
 from mstc.sim.reference import ReferenceRobot
 from mstc.sim.scenario import Scenario
 from mstc.sim.sensor import Obstacle, RangeSensor
+
+if TYPE_CHECKING:
+    from mstc.report.progress import Progress
+
+PROGRESS_UPDATES = 200
+"""How many times a run tells its progress display how far it is."""
 
 TRACE_COLUMNS = (
     "t",
@@ -73,7 +82,9 @@ def world_obstacles(scenario: Scenario) -> tuple[Obstacle, ...]:
     return tuple(Obstacle(i, o.x, o.y, o.radius) for i, o in enumerate(scenario.obstacles, start=1))
 
 
-def simulate(scenario: Scenario, controller: Controller) -> RunResult:
+def simulate(
+    scenario: Scenario, controller: Controller, progress: Progress | None = None
+) -> RunResult:
     """Run a scenario in closed loop.
 
     For k = 0..N (N = round(duration/dt)), at t = k·dt: the sensor scans from
@@ -83,8 +94,14 @@ def simulate(scenario: Scenario, controller: Controller) -> RunResult:
     ends with the row of step N, so the trace spans t = 0 to the duration and
     the minimum distances include the final state.
 
+    The trace is written into arrays of the run's size, taken once: a run of
+    N steps holds about (15 + obstacles) × 8 bytes per step, whatever the
+    controller (the scenario loader bounds N, :data:`~mstc.sim.scenario.MAX_STEPS`).
+
     :param scenario: the scenario.
     :param controller: a freshly initialised controller for its parameters.
+    :param progress: told how many steps are done, now and then, and closed
+        when the run ends.
 
     :returns: The trace, the events and the minimum distance to each obstacle.
     """
@@ -98,32 +115,39 @@ def simulate(scenario: Scenario, controller: Controller) -> RunResult:
     sensor = RangeSensor(obstacles, p.d_det)
     v_r, w_r = ref.v, ref.w
 
-    rows: list[tuple[float, ...]] = []
+    n = sim.steps + 1
+    values = np.empty((n, len(TRACE_COLUMNS)), dtype=float)
+    distance = np.empty((n, len(obstacles)), dtype=float)
     modes: list[Mode] = []
-    distances: list[list[float]] = []
     events: list[Event] = []
     faults: dict[Fault, int] = {}
-    for k in range(sim.steps + 1):
-        t_us = k * sim.dt_us
-        robot, reference = plant.pose, ref.pose
-        result = controller.step(robot, reference, v_r, w_r, sensor.scan(robot), t_us)
-        v, w = plant.body_velocity(result.wheel_left, result.wheel_right)
-        s = result.status
-        rows.append((t_us / 1e6, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e))
-        modes.append(s.mode)
-        distances.append([o.distance(robot) for o in obstacles])
-        events.extend(result.events)
-        for bit in Fault:
-            if s.faults & bit:
-                faults[bit] = faults.get(bit, 0) + 1
-        if k < sim.steps:
-            plant.step(result.wheel_left, result.wheel_right, sim.dt)
-            ref.step(sim.dt)
+    tick = max(n // PROGRESS_UPDATES, 1)
+    try:
+        for k in range(n):
+            t_us = k * sim.dt_us
+            robot, reference = plant.pose, ref.pose
+            result = controller.step(robot, reference, v_r, w_r, sensor.scan(robot), t_us)
+            v, w = plant.body_velocity(result.wheel_left, result.wheel_right)
+            s = result.status
+            values[k] = (t_us / 1e6, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e)
+            modes.append(s.mode)
+            distance[k] = [o.distance(robot) for o in obstacles]
+            events.extend(result.events)
+            for bit in Fault:
+                if s.faults & bit:
+                    faults[bit] = faults.get(bit, 0) + 1
+            if k < sim.steps:
+                plant.step(result.wheel_left, result.wheel_right, sim.dt)
+                ref.step(sim.dt)
+            if progress is not None and (k + 1) % tick == 0:
+                progress.update(k + 1)
+    finally:
+        if progress is not None:
+            progress.close()
 
-    distance = np.array(distances, dtype=float).reshape(len(rows), len(obstacles))
     return RunResult(
         scenario=scenario,
-        trace=Trace(np.array(rows, dtype=float), tuple(modes), distance),
+        trace=Trace(values, tuple(modes), distance),
         events=tuple(events),
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
         faults=faults,

@@ -201,6 +201,22 @@ _SCALAR_PARAMS = {
 _GAIN_PARAMS = {"tracking_gains": 3, "avoidance_gains": 2}
 
 
+def changed_params(params: Params) -> list[str]:
+    """The ``[params]`` settings that differ from Table 1, as a file writes
+    them (``params.D_det = 20000``): where to look when the firmware refuses
+    a parameter set the loader took."""
+    default = Params()
+    settings = []
+    for key, attr in _SCALAR_PARAMS.items():
+        if getattr(params, attr) != getattr(default, attr):
+            settings.append(f"params.{key} = {getattr(params, attr):g}")
+    for key in _GAIN_PARAMS:
+        if getattr(params, key) != getattr(default, key):
+            gains = ", ".join(f"{k:g}" for k in getattr(params, key))
+            settings.append(f"params.{key} = [{gains}]")
+    return settings
+
+
 def _type_name(value: object) -> str:
     """The TOML name of a value's type."""
     if isinstance(value, bool):
