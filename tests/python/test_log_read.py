@@ -281,7 +281,8 @@ def test_problems_are_all_counted_and_the_first_ones_kept(tmp_path: Path, db: ob
     stamp = lines[4].split()[0]
     lines[4] = f"{stamp} sil0 7AB#0011223344556677"
     lines[10:10] = ["junk"] * 5000
-    lines += [f"{stamp} sil0 7AC#00112233445566{i:02X}" for i in range(10)]
+    last = lines[-1].split()[0]
+    lines += [f"{last} sil0 7AC#00112233445566{i:02X}" for i in range(10)]
     path = write(tmp_path, lines)
     log = read_log(path, db, max_problems=20)  # type: ignore[arg-type]
     assert len(log.problems) == 20

@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -16,7 +15,7 @@ from cantools.database.can import Database
 from mstc.can.protocol import DBC_PATH, load_database
 from mstc.errors import ControllerError, FirmwareError, LogError, MstcError, ScenarioError
 from mstc.firmware import LIB_ENV
-from mstc.logs.read import FORMATS, FrameLog, read_log
+from mstc.logs.read import FORMATS, FrameLog, ProblemList, read_log
 from mstc.report.outputs import RUN_FILES, BusLog, OutputError, output_folder, write_outputs
 from mstc.report.progress import Progress
 from mstc.report.table import format_report
@@ -191,19 +190,23 @@ def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:
         error(f"cannot load the DBC {args.dbc}: {exc}")
         return EXIT_USAGE
     try:
-        log = read_log(args.log, db, args.format)
+        log = read_log(args.log, db, args.format, max_problems=max(args.max_problems, 0))
     except LogError as exc:
         error(str(exc))
         return EXIT_USAGE
-    problems = log.problems
-    for problem in problems[: max(args.max_problems, 0)]:
-        print(problem, file=sys.stderr)
-    rest = len(problems) - max(args.max_problems, 0)
-    if rest > 0:
-        kinds = Counter(p.kind.value for p in problems)
-        counts = ", ".join(f"{n} {kind}" for kind, n in kinds.items())
-        print(f"{args.log}: ... and {rest} more problems ({counts} in all)", file=sys.stderr)
-    if problems and args.strict:
-        error(f"{args.log}: {len(problems)} problems in the log (--strict)")
+    print_problems(log.problems, args.log)
+    if log.problems.total and args.strict:
+        error(f"{args.log}: {log.problems.total:,} problems in the log (--strict)")
         return EXIT_USAGE
     return db, log
+
+
+def print_problems(problems: ProblemList, log: Path) -> None:
+    """The problems kept, one a line on stderr, then how many more there are
+    of each kind."""
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    rest = problems.total - len(problems)
+    if rest > 0:
+        counts = ", ".join(f"{n:,} {kind.value}" for kind, n in problems.counts.items())
+        print(f"{log}: ... and {rest:,} more problems ({counts} in all)", file=sys.stderr)
