@@ -4,8 +4,9 @@ and in memory (issue 13, cases 3 and 4): what the frames cannot carry is
 refused by the loader, naming the key and the limit, instead of being clipped
 on the way to the firmware.
 
-Seeded random scenes: a reference line or arc, the robot near its start,
-obstacles spaced along its path; some scenes are pushed beyond what the frames
+Seeded random scenes (those of test_numeric_modes.py: a reference line or
+arc, the robot near its start, obstacles near its path at least 1.2 m apart,
+here with radii of 5 to 30 cm and either integrator); some are pushed beyond what the frames
 carry (a 16th obstacle, a radius of 3 m, 20 m/s, a start or a path beyond
 ±128 m). Whether a scene is beyond is decided here, independently of the
 loader, from the DBC's ranges through cantools and a brute-force walk of the
@@ -34,6 +35,7 @@ from mstc.errors import ScenarioError
 from mstc.firmware import SilController
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import load_scenario
+from test_numeric_modes import _random_scenario
 
 SCENES = 42
 SEED = 20130013
@@ -61,35 +63,16 @@ def _point(x: float, y: float, theta: float, v: float, w: float, t: float) -> tu
 
 def scene(rng: random.Random, index: int) -> tuple[dict[str, Any], str | None]:
     """A scene, and the key that puts it beyond the frames (None: within)."""
-    x0, y0, th = rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-math.pi, math.pi)
-    v, w = rng.uniform(0.5, 1.0), rng.choice([0.0, rng.uniform(-0.25, 0.25)])
-    duration = 10.0
-    obstacles: list[dict[str, Any]] = []
-    s = 1.5
-    while s < v * duration - 0.5 and len(obstacles) < 4:
-        t = (s + rng.uniform(-0.2, 0.2)) / v
-        px, py = _point(x0, y0, th, v, w, t)
-        off = rng.uniform(-0.35, 0.35)
-        heading = th + w * t
-        position = [px - off * math.sin(heading), py + off * math.cos(heading)]
-        obstacles.append({"position": position, "radius": rng.randint(5, 30) / 100})
-        s += 2.0
-    doc: dict[str, Any] = {
-        "robot": {
-            "pose": [
-                x0 + rng.uniform(-0.2, 0.2),
-                y0 + rng.uniform(-0.2, 0.2),
-                th + rng.uniform(-0.3, 0.3),
-            ]
-        },
-        "reference": {"pose": [x0, y0, th], "v": v, "w": w},
-        "obstacles": obstacles,
-        "sim": {"duration": duration, "dt": DT, "integrator": rng.choice(["euler", "exact"])},
-    }
+    doc: dict[str, Any] = _random_scenario(SEED + index)  # type: ignore[assignment]
+    obstacles: list[dict[str, Any]] = doc["obstacles"]
+    for o in obstacles:  # radii the frames carry, around R_ob
+        o["radius"] = rng.randint(5, 30) / 100
+    doc["sim"] = {"duration": 12.0, "dt": DT, "integrator": rng.choice(["euler", "exact"])}
+    x0, y0, _ = doc["reference"]["pose"]
     beyond: str | None = None
     kind = (index // 3) % 6 if index % 3 == 2 else -1  # a third are pushed beyond
     if kind == 0:
-        # Sixteen obstacles: the 16th far off the path (where the sensor still sees it).
+        # Sixteen obstacles: those added far off the path.
         far = [{"position": [x0 + 50.0 + i, y0 + 50.0]} for i in range(16 - len(obstacles))]
         doc["obstacles"] = obstacles + far
         beyond = "obstacles"
@@ -103,10 +86,10 @@ def scene(rng: random.Random, index: int) -> tuple[dict[str, Any], str | None]:
         doc["robot"]["pose"][0] = 200.0
         beyond = "robot.pose"
     elif kind == 4:
-        # Start 5 m inside the edge, heading out: the path crosses 128 m in time.
-        doc["reference"]["pose"] = [123.0, y0, 0.0]
+        # Start 3 m inside the edge, heading out: the path crosses 128 m in time.
+        doc["reference"]["pose"] = [125.0, y0, 0.0]
         doc["reference"]["w"] = 0.0
-        doc["robot"]["pose"] = [123.0, y0, 0.0]
+        doc["robot"]["pose"] = [125.0, y0, 0.0]
         doc["obstacles"] = []
         beyond = "reference"
     elif kind == 5 and obstacles:
