@@ -33,9 +33,9 @@ from mstc.sim.plant import Integrator, Pose
 
 MAX_STEPS = 100_000
 """Control steps one scenario may have: N = round(duration / dt) (the run has
-N + 1 rows). It bounds a run's time and memory: about 0.2 kB per step in
-memory, 3 kB per step through CAN (the frames kept for bus.log), and 1.3 ms
-per step through CAN on a desktop, so about 2 minutes at the limit."""
+N + 1 rows). It bounds a run's time and memory: about 0.15 kB per step in
+memory, 2.6 kB per step through CAN (the frames kept for bus.log), and 1.3 to
+2 ms per step through CAN, so 2 to 3 minutes at the limit (docs/scenarios.md)."""
 
 
 @dataclass(frozen=True)
