@@ -6,7 +6,8 @@
   seeded random raw values and random payloads.
 - The firmware's adapter (firmware/comm/comm.c) and the plant's
   (sim/mstc/can/protocol.py) agree: same bytes for the same values (scaling,
-  rounding, saturation, alive counter, CRC), and the firmware decodes the
+  rounding, saturation, alive counter, CRC; protocol.py saturates like comm.c
+  only when asked, with ``saturate=True``), and the firmware decodes the
   plant's frames to the values cantools reads from them; both drop the same
   frames for the same reasons.
 - comm.c's data IDs and frame directions are those of the DBC.
@@ -234,7 +235,7 @@ def test_comm_receives_exactly_the_frames_the_dbc_sends_it(shim: Shim) -> None:
     shim.lib.shim_comm_init()
     tool = Protocol()
     for m in MESSAGES:
-        rc, _ = shim.comm_decode(tool.encode(m.name, _valid_values(rng, m)))
+        rc, _ = shim.comm_decode(tool.encode(m.name, _valid_values(rng, m), saturate=True))
         assert rc == (0 if "FW" in m.receivers else -errno.ENOENT), m.name
 
 
@@ -338,7 +339,7 @@ def test_comm_encode_is_protocol_encode(shim: Shim, message: Message) -> None:
     for i in range(N_RANDOM):
         inputs, wire = CASES[message.name](rng)
         got = shim.comm_encode(message.frame_id, inputs)
-        want = bytes(fw.encode(message.name, wire).data)
+        want = bytes(fw.encode(message.name, wire, saturate=True).data)
         assert got.hex(" ") == want.hex(" "), f"frame {i}: inputs {inputs}"
 
 
@@ -354,7 +355,7 @@ def test_comm_decodes_protocol_frames_to_cantools_values(shim: Shim, message: Me
             for s in message.signals
             if s.name not in (f"{prefix}CRC", f"{prefix}Counter")
         }
-        msg = plant.encode(message.name, values)
+        msg = plant.encode(message.name, values, saturate=True)
         rc, got = shim.comm_decode(msg)
         assert rc == 0, f"{values}: {rc}"
         want = message.decode(bytes(msg.data), scaling=True, decode_choices=False)
@@ -401,9 +402,9 @@ def test_comm_and_protocol_drop_the_same_frames(shim: Shim) -> None:
         if last is not None and rng.random() < 0.1:
             msg = last  # a repeat
         else:
-            msg = sender.encode(message.name, _valid_values(rng, message))
+            msg = sender.encode(message.name, _valid_values(rng, message), saturate=True)
             while rng.random() < 0.15:  # frames lost on the way
-                msg = sender.encode(message.name, _valid_values(rng, message))
+                msg = sender.encode(message.name, _valid_values(rng, message), saturate=True)
         last = msg
         msg = _corrupt(rng, msg)
         rc, _ = shim.comm_decode(msg)

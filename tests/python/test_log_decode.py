@@ -182,6 +182,67 @@ def test_logplot_without_control_steps_is_exit_2(
     assert "no WHEEL_CMD frame" in capsys.readouterr().err
 
 
+# ---------------------------------------- issue 13: bounded, never escaping
+
+
+def test_an_absurd_time_stamp_does_not_overflow_the_decoder(tmp_path: Path, db: object) -> None:
+    # Without STEP frames the rows take the log's time stamps; a log read by
+    # other means may hold any double.
+    lines = [
+        line for line in hand_made_log(tmp_path).read_text().splitlines() if " 104#" not in line
+    ]
+    log = read_log(write(tmp_path, lines, "nostep.log"), db)  # type: ignore[arg-type]
+    wheel = [row for row in range(len(log)) if log.frame_id[row] == 0x180]
+    log.time[wheel[-1]] = 1e308
+    d = decode_log(log, db)  # type: ignore[arg-type]
+    assert list(d.trace["t"]) == [0.0, 0.05]
+    assert [p.line for p in d.problems] == [int(log.line[wheel[-1]])]
+    assert "time stamp" in d.problems[0].message
+
+
+def test_decoder_problems_are_all_counted_and_the_first_ones_kept(
+    tmp_path: Path, db: object
+) -> None:
+    lines = log_lines("paper-line")[:3000]
+    bad = [i for i, line in enumerate(lines) if split(line)[1] == 0x102]  # REF_XY
+    for i in bad:
+        head, data = lines[i].rsplit("#", 1)
+        lines[i] = f"{head}#{int(data[:2], 16) ^ 0xFF:02X}{data[2:]}"  # a wrong CRC
+    log = read_log(write(tmp_path, lines), db)  # type: ignore[arg-type]
+    d = decode_log(log, db, max_problems=5)  # type: ignore[arg-type]
+    assert [p.line for p in d.problems] == [i + 1 for i in bad[:5]]
+    assert d.problems.total == len(bad) > 100
+
+
+@pytest.mark.parametrize("name", ["...log", "..log"])
+def test_logplot_never_writes_outside_out(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    path = logs / name
+    path.write_bytes(hand_made_log(tmp_path).read_bytes())
+    out = tmp_path / "work" / "out"
+    rc = main(["plot", "--no-figures", "--out", str(out), str(path)])
+    assert rc == 2
+    assert "--out" in capsys.readouterr().err
+    assert not (tmp_path / "work").exists() or not any((tmp_path / "work").rglob("*.csv"))
+    assert not (logs / "events.json").exists() and not (tmp_path / "events.json").exists()
+
+
+def test_logplot_rerun_clears_the_earlier_outputs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = hand_made_log(tmp_path)
+    out = tmp_path / "out"
+    assert main(["plot", "--out", str(out), str(path)]) == 0
+    assert (out / "hand" / "overview.png").exists()
+    assert main(["plot", "--no-figures", "--out", str(out), str(path)]) == 0
+    names = sorted(p.name for p in (out / "hand").iterdir())
+    assert names == ["events.json", "status.csv", "trace.csv"]
+    capsys.readouterr()
+
+
 # ---------------------------------------------------------------- tools
 
 

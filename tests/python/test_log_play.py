@@ -7,6 +7,9 @@ Expected values come from the logs' own time stamps and a fake clock.
 
 from __future__ import annotations
 
+import threading
+from pathlib import Path
+
 import can
 import pytest
 
@@ -158,3 +161,58 @@ def test_bus_options_belong_to_play(run_replay: Run, run_play: Run) -> None:
     with pytest.raises(SystemExit) as exc:
         run_play("--interface", "virtual", "--rate", "0", DATA / "paper-line.log")
     assert exc.value.code == 2
+
+
+# ------------------------------------------------- issue 13: absurd time stamps
+
+
+def test_play_skips_an_absurd_time_stamp_instead_of_crashing(tmp_path: Path, run_play: Run) -> None:
+    odom = [line for line in log_lines("paper-line") if split(line)[1] == 0x100][:3]
+    frames = [line.split()[2] for line in odom]
+    path = tmp_path / "bus.log"
+    path.write_text(
+        f"(0.000000) vcan0 {frames[0]}\n(0.001000) vcan0 {frames[1]}\n(1e300) vcan0 {frames[2]}\n"
+    )
+    channel = "mstc-test-absurd"
+    with can.Bus(interface="virtual", channel=channel) as rx:
+        rc, out, err = run_play("--interface", "virtual", "--channel", channel, path)
+        received = [rx.recv(0) for _ in range(3)]
+    assert rc == 0, err
+    assert f"{path}:3: time stamp" in err
+    assert "sent 2 frames" in out
+    assert [m.arbitration_id for m in received if m] == [0x100, 0x100]
+
+
+def test_player_sleeps_in_pieces_a_blocking_call_can_take() -> None:
+    # A frame due in 1e300 s (a log read by other means, or --rate 1e-300):
+    # the player waits in pieces, each one a sleep the system accepts, until
+    # interrupted; it never asks for one sleep it cannot take.
+    frames = [
+        can.Message(timestamp=t, arbitration_id=0x100, data=bytes(8), is_extended_id=False)
+        for t in (0.0, 1e300)
+    ]
+    clock = FakeClock()
+
+    def sleep(seconds: float) -> None:
+        assert 0 < seconds <= threading.TIMEOUT_MAX
+        clock.sleep(seconds)
+        if len(clock.sleeps) == 3:
+            raise KeyboardInterrupt
+
+    with can.Bus(interface="virtual", channel="mstc-test-huge") as bus:
+        with pytest.raises(KeyboardInterrupt):
+            Player(bus, clock=clock.clock, sleep=sleep).play(frames)
+    assert len(clock.sleeps) == 3
+
+
+def test_player_wakes_on_time_after_sleeping_in_pieces() -> None:
+    frames = [
+        can.Message(timestamp=t, arbitration_id=0x100, data=bytes(8), is_extended_id=False)
+        for t in (0.0, 5000.0)
+    ]
+    clock = FakeClock()
+    with can.Bus(interface="virtual", channel="mstc-test-long") as bus:
+        stats = Player(bus, clock=clock.clock, sleep=clock.sleep).play(frames)
+    assert stats.sent == 2
+    assert sum(clock.sleeps) == pytest.approx(5000.0)
+    assert clock.now == pytest.approx(5100.0)

@@ -268,3 +268,117 @@ def test_columnar_and_line_parsers_agree(tmp_path: Path, db: object) -> None:
     mixed = read_log(write(tmp_path, two, "two.log"), db)  # type: ignore[arg-type]
     for column in ("time", "frame_id", "extended", "dlc", "data", "line"):
         assert np.array_equal(getattr(fast, column), getattr(mixed, column)), column
+
+
+# ------------------------------------------------ issue 13: bounded, one rule
+
+
+def test_problems_are_all_counted_and_the_first_ones_kept(tmp_path: Path, db: object) -> None:
+    # An unknown identifier at line 5, 5,000 garbage lines from line 11, 11
+    # more unknown identifiers after them: the first 20 in file order are kept
+    # (the early unknown identifier among them), every one is counted.
+    lines = list(log_lines("paper-line")[:600])
+    stamp = lines[4].split()[0]
+    lines[4] = f"{stamp} sil0 7AB#0011223344556677"
+    lines[10:10] = ["junk"] * 5000
+    last = lines[-1].split()[0]
+    lines += [f"{last} sil0 7AC#00112233445566{i:02X}" for i in range(10)]
+    path = write(tmp_path, lines)
+    log = read_log(path, db, max_problems=20)  # type: ignore[arg-type]
+    assert len(log.problems) == 20
+    assert [p.line for p in log.problems] == [5, *range(11, 30)]
+    assert log.problems.total == 5011
+    assert log.problems.counts == {ProblemKind.MALFORMED: 5000, ProblemKind.UNKNOWN_ID: 11}
+    assert len(log) == 600 + 10  # every frame kept
+
+
+def test_the_cli_keeps_as_many_problems_as_it_prints(
+    tmp_path: Path, short_lines: list[str], run_replay: Run
+) -> None:
+    path = write(tmp_path, [*short_lines[:10], *(["junk"] * 3000), *short_lines[10:]])
+    rc, out, err = run_replay("--max-problems", "3", path)
+    assert rc == 0 and "bit-exact" in out
+    assert err.count(": expected '(time) interface id#data'") == 3
+    assert "... and 2,997 more problems (3,000 malformed in all)" in err
+    assert re.search(r"log problems\s+3,000\s", out)
+
+
+def _one_high_id(lines: list[str], at: int) -> list[str]:
+    stamp = lines[at].split()[0]
+    return [*lines[:at], f"{stamp} sil0 FFF#0011223344556677", *lines[at:]]
+
+
+def test_a_three_digit_identifier_above_7ff_is_skipped_whatever_the_other_lines(
+    tmp_path: Path, short_lines: list[str], db: object
+) -> None:
+    # Every other line regular (the fast readers), or one other line irregular
+    # (the line-by-line reader): the same rule, skipped as not a frame.
+    regular = _one_high_id(short_lines, 30)
+    irregular = list(regular)
+    irregular[60] += " "
+    for lines in (regular, irregular):
+        log = read_log(write(tmp_path, lines), db)  # type: ignore[arg-type]
+        assert [(p.line, p.kind, p.message) for p in log.problems] == [
+            (31, ProblemKind.MALFORMED, "standard identifier FFF above 7FF")
+        ]
+        assert len(log) == len(short_lines)
+        assert 0xFFF not in log.frame_id
+
+
+def asc_of(lines: list[str], tmp_path: Path) -> Path:
+    """An ASC file of @p lines (candump -L), written by python-can."""
+    src = write(tmp_path, lines, "src.log")
+    path = tmp_path / "bus.asc"
+    with can.Logger(str(path)) as writer:
+        for msg in can.LogReader(str(src)):
+            writer.on_message_received(msg)
+    return path
+
+
+def test_asc_lines_python_can_skips_are_reported_like_candump_ones(
+    tmp_path: Path, short_lines: list[str], run_replay: Run
+) -> None:
+    path = asc_of(short_lines, tmp_path)
+    text = path.read_text().splitlines()
+    first = next(i for i, line in enumerate(text) if "Rx" in line)
+    # Damage three frame lines in the middle: garbage, a truncated line, a
+    # line the reader's pattern does not take.
+    at = first + 40
+    text[at] = "hello world"
+    text[at + 10] = " 0.400000 1"
+    text[at + 20] = text[at + 20].replace(" Rx ", " Qx ")
+    path.write_text("\n".join(text) + "\n")
+    rc, out, err = run_replay(path)
+    where = re.escape(str(path))
+    for n, shown in ((at + 1, "hello world"), (at + 11, "0.400000 1"), (at + 21, " Qx ")):
+        said = rf"^{where}:{n}: skipped by python-can's ASC reader: '.*{re.escape(shown)}"
+        assert re.search(said, err, re.M), err
+    assert err.count("skipped by python-can's ASC reader") == 3
+    assert rc == 1  # three frames were lost: the firmware answered other inputs
+
+
+def test_asc_problems_name_the_line(tmp_path: Path, short_lines: list[str], db: object) -> None:
+    stamp = short_lines[20].split()[0]
+    path = asc_of(
+        [*short_lines[:20], f"{stamp} sil0 7AB#0011223344556677", *short_lines[20:]], tmp_path
+    )
+    n = 1 + next(i for i, line in enumerate(path.read_text().splitlines()) if " 7AB " in line)
+    log = read_log(path, db)  # type: ignore[arg-type]
+    assert [str(p) for p in log.problems] == [
+        f"{path}:{n}: identifier 7AB is not in the DBC: not fed"
+    ]
+
+
+@pytest.mark.parametrize("stamp", ["(1e300)", "(9007199255.000000)", "(-1e300)", "(1e400)"])
+def test_an_absurd_time_stamp_is_skipped_as_not_a_frame(
+    stamp: str, tmp_path: Path, short_lines: list[str], db: object
+) -> None:
+    frame = short_lines[50].split()[2]
+    path = write(tmp_path, [*short_lines[:50], f"{stamp} sil0 {frame}", *short_lines[50:]])
+    log = read_log(path, db)  # type: ignore[arg-type]
+    assert [(p.line, p.kind) for p in log.problems] == [(51, ProblemKind.MALFORMED)]
+    assert (
+        "time stamp" in log.problems[0].message and "9007199254.740992" in log.problems[0].message
+    )
+    assert len(log) == len(short_lines)
+    assert float(abs(log.time).max()) < 2**53 / 1e6

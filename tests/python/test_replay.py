@@ -159,3 +159,33 @@ def test_altered_input_changes_the_answer_that_follows(tmp_path: Path, run_repla
     next_step = index_of(lines[i:], 0x104) + i  # the STEP of that step
     assert next_step + 1 < first <= next_step + 8
     assert "answering line" in out and "0x104 STEP" in out
+
+
+# ------------------------------------------------ issue 13: nothing compared
+
+
+def other_bus(tmp_path: Path) -> Path:
+    """A log of another bus: identifiers the DBC does not have."""
+    lines = [
+        f"({k * 0.01:.6f}) can1 {0x300 + k % 5:03X}#00112233445566{k % 256:02X}" for k in range(200)
+    ]
+    return write(tmp_path, lines, "other.log")
+
+
+def test_a_replay_that_compared_nothing_fails(tmp_path: Path, run_replay: Run) -> None:
+    path = other_bus(tmp_path)
+    rc, out, err = run_replay("--quiet", "--max-problems", "0", path)
+    assert rc == 2
+    assert "bit-exact" not in out
+    assert re.search(r"compared\s+0\s", out)
+    assert f"error: {path}: nothing compared" in err
+    assert "--allow-empty" in err
+
+
+def test_a_replay_that_compared_nothing_passes_when_asked(tmp_path: Path, run_replay: Run) -> None:
+    rc, out, err = run_replay(
+        "--quiet", "--max-problems", "0", "--allow-empty", other_bus(tmp_path)
+    )
+    assert rc == 0
+    assert "nothing compared" in out
+    assert "error" not in err

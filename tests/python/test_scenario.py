@@ -102,6 +102,9 @@ def test_paper_scenarios_load() -> None:
 
 
 SIXTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(16)]
+# The frames' ranges (firmware/comm/mstc.dbc, read by hand): positions ±128 m
+# (ODOM_XY, REF_XY, OBSTACLE), v_r and ω_r ±16, radius 0.01 to 2.55 m in
+# whole centimetres, obstacle ids 1 to 15.
 
 # (document, key named in the message (None: the whole file), words of the problem)
 BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
@@ -200,6 +203,37 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
     "unknown integrator": (edit("sim.integrator", "rk4"), "sim.integrator", 'got "rk4"'),
     "integrator not a string": (edit("sim.integrator", 1), "sim.integrator", "must be a string"),
     "16 obstacles": (edit("obstacles", SIXTEEN_OBSTACLES), "obstacles", "at most 15"),
+    # Issue 13, case 4: what the frames cannot carry, naming the key and the limit.
+    "robot beyond 128 m": (edit("robot.pose", [200.0, 2.5, 0.5]), "robot.pose", "-128"),
+    "robot below -128 m": (edit("robot.pose", [0.0, -128.5, 0.5]), "robot.pose", "ODOM_XY.y"),
+    "reference beyond 128 m": (edit("reference.pose", [0.1, 130, 0]), "reference.pose", "REF_XY"),
+    "reference at 20 m/s": (edit("reference.v", 20.0), "reference.v", "REF_MOTION.v"),
+    "reference at -16.5 m/s": (edit("reference.v", -16.5), "reference.v", "-16"),
+    "reference turning at 17 rad/s": (edit("reference.w", 17), "reference.w", "REF_MOTION.w"),
+    "obstacle of radius 3 m": (edit("obstacles[2].radius", 3.0), "obstacles[2].radius", "2.55"),
+    "obstacle radius off the cm grid": (
+        edit("obstacles[2].radius", 0.123),
+        "obstacles[2].radius",
+        "whole number of centimetres",
+    ),
+    "obstacle beyond 128 m": (
+        edit("obstacles[1].position", [3.0, 200.0]),
+        "obstacles[1].position",
+        "OBSTACLE.y",
+    ),
+    "reference leaving the frames' range": (
+        edit("sim.duration", 400.0),  # 0.5 m/s from x = 0.1 along θ = 0.7: x = 128 at 334.5 s
+        "reference",
+        "REF_XY",
+    ),
+    # Issue 13, case 5: one clear line instead of a crash or a hang.
+    "duration 1e308": (edit("sim.duration", 1e308), "sim.duration", "100,000 control steps"),
+    "reference w 1e308": (edit("reference.w", 1e308), "reference.w", "REF_MOTION.w"),
+    "1e13 steps": (
+        edit("sim", {"duration": 1e7, "dt": 1e-6, "integrator": "euler"}),
+        "sim.duration",
+        "100,000 control steps",
+    ),
     "unknown event": (edit("expected[1].event", "collide"), "expected[1].event", "one of"),
     "side on detect": (edit("expected[1].side", "left"), "expected[1].side", "only activate"),
     "unknown side": (edit("expected[2].side", "up"), "expected[2].side", '"left", "right"'),
@@ -307,6 +341,76 @@ def test_bad_file_raises_one_line_naming_file_and_key(
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     check_message(str(info.value), path, key, problem)
+
+
+def test_values_at_the_frames_limits_load(write_scenario: WriteScenario) -> None:
+    doc = edit("robot.pose", [127.99, -128.0, 100.0])  # θ is sent wrapped: any heading
+    doc["reference"] = {"pose": [-125.0, 125.0, -50.0], "v": -15.99, "w": 15.99}  # a 1 m circle
+    doc["obstacles"] = [{"position": [127.99, -128.0], "radius": 2.55}] * 15
+    doc["expected"] = []
+    s = load_scenario(write_scenario(doc, "limits"))
+    assert len(s.obstacles) == 15
+    assert s.obstacles[0].radius == 2.55
+    # 0.15 m is 15.000000000000002 cm in binary: still a whole number of centimetres.
+    assert (
+        load_scenario(write_scenario(edit("obstacles[2].radius", 0.15), "cm")).obstacles[1].radius
+        == 0.15
+    )
+
+
+def _reference_extent(
+    x: float, y: float, theta: float, v: float, w: float, n: int, dt: float, integrator: str
+) -> tuple[float, float, float, float]:
+    """min x, max x, min y, max y of the reference's poses k = 0..n, stepped
+    one period at a time like the plant (an independent, brute-force model)."""
+    xs, ys = [x], [y]
+    for _ in range(n):
+        if integrator == "euler":
+            x, y = x + v * math.cos(theta) * dt, y + v * math.sin(theta) * dt
+        else:
+            h = w * dt / 2
+            chord = v * dt * (math.sin(h) / h if h else 1.0)
+            x, y = x + chord * math.cos(theta + h), y + chord * math.sin(theta + h)
+        theta += w * dt
+        xs.append(x)
+        ys.append(y)
+    return min(xs), max(xs), min(ys), max(ys)
+
+
+@pytest.mark.parametrize("integrator", ["euler", "exact"])
+@pytest.mark.parametrize(
+    ("start", "v", "w", "duration"),
+    [
+        ((118.0, 0.0, 0.0), 1.0, 0.5, 3.0),  # an arc of a 2 m circle that turns away in time
+        ((118.0, 0.0, 0.0), 1.0, 0.05, 30.0),  # a 20 m circle, past 128 m in x
+        ((118.0, 0.0, 0.0), 1.0, 0.05, 9.0),  # the same circle, stopped short of it
+        ((0.0, 120.0, 1.0), 2.0, -0.3, 60.0),  # whole turns of a 6.7 m circle: y up to 123.1
+        ((0.0, 126.0, 1.0), 2.0, -0.3, 60.0),  # the same circle 6 m higher: 129.1 m
+        ((-100.0, 0.0, 3.0), 2.0, 0.0, 14.0),  # a straight line, just inside at -127.7
+        ((-100.0, 0.0, 3.0), 2.0, 1e-9, 15.0),  # nearly straight, past -128 m
+    ],
+)
+def test_the_reference_is_refused_exactly_when_its_path_leaves_the_frames_range(
+    start: tuple[float, float, float],
+    v: float,
+    w: float,
+    duration: float,
+    integrator: str,
+    write_scenario: WriteScenario,
+) -> None:
+    doc = edit("reference", {"pose": list(start), "v": v, "w": w})
+    doc["sim"] = {"duration": duration, "dt": 0.02, "integrator": integrator}
+    doc["expected"] = []
+    n = round(duration / 0.02)
+    x0, x1, y0, y1 = _reference_extent(*start, v, w, n, 0.02, integrator)
+    leaves = x0 < -128 or y0 < -128 or x1 > 127.9999847412109375 or y1 > 127.9999847412109375
+    path = write_scenario(doc, "arc")
+    if leaves:
+        with pytest.raises(ScenarioError) as info:
+            load_scenario(path)
+        check_message(str(info.value), path, "reference", "REF_XY")
+    else:
+        load_scenario(path)
 
 
 def test_missing_file(tmp_path: Path) -> None:

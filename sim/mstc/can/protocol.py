@@ -10,8 +10,12 @@ increments for every frame of that identifier.
 
 :class:`Protocol` encodes physical values into protected :class:`can.Message`
 objects and checks and decodes received ones, with the same rules as the
-firmware: values are rounded to the nearest raw value (halves away from zero)
-and saturated to the signal's range, never wrapped; a received frame with an
+firmware: values are rounded to the nearest raw value (halves away from zero),
+never wrapped. A value beyond its signal's range (or NaN) is refused with
+:class:`SignalRangeError` rather than saturated as comm.c does, so that the
+plant never hands the firmware something other than what it simulates
+without saying so; ``saturate=True`` applies the firmware's rule instead (the
+tests that compare the two encoders use it). A received frame with an
 unknown identifier, a wrong length, a bad CRC or a repeated or too far
 advanced counter is counted and dropped (:class:`FrameDropped`).
 
@@ -79,6 +83,31 @@ class DropReason(enum.Enum):
     """Alive counter repeated, or advanced by more than MAX_COUNTER_JUMP."""
 
 
+class SignalRangeError(MstcError, ValueError):
+    """A value its signal cannot carry: refused by the encoder instead of clipped.
+
+    :param frame: message name, e.g. ``"OBSTACLE"``.
+    :param signal: the signal's short name, e.g. ``"id"``.
+    :param value: the value asked for.
+    :param limits: the range it must lie in.
+    :param unit: the signal's unit, or what the range is of (``"raw, 4 bits"``).
+    """
+
+    def __init__(
+        self, frame: str, signal: str, value: float, limits: tuple[float, float], unit: str
+    ) -> None:
+        lo, hi = limits
+        what = f" {unit}" if unit else ""
+        super().__init__(
+            f"{frame}.{signal} = {value:.10g}{what} is outside its range "
+            f"[{lo:.10g}, {hi:.10g}]{what}: not sent"
+        )
+        self.frame = frame
+        self.signal = signal
+        self.value = value
+        self.limits = limits
+
+
 class FrameDropped(MstcError):
     """A received frame failed a check; it has been counted in :attr:`Protocol.drops`."""
 
@@ -131,23 +160,59 @@ def raw_range(signal: Signal) -> tuple[int, int]:
     return lo, hi
 
 
-def to_raw(signal: Signal, value: Value) -> float | int:
-    """The raw value of @p value: rounded to nearest (halves away from zero) and
-    saturated to the signal's range, as comm.c does; NaN gives 0. IEEE float
-    signals (PARAM values) pass unchanged."""
+def physical_range(signal: Signal) -> tuple[float, float]:
+    """The values @p signal carries [its unit]: the DBC's [min|max] within what
+    its bits hold (IEEE float signals: the DBC's [min|max])."""
+    if signal.is_float:
+        # The DBC gives every float signal its range (PARAM_SET/VALUE value).
+        assert signal.minimum is not None and signal.maximum is not None
+        return float(signal.minimum), float(signal.maximum)
+    lo, hi = raw_range(signal)
+    return lo * signal.scale + signal.offset, hi * signal.scale + signal.offset
+
+
+def _round_half_away(x: float) -> int:
+    return int(math.copysign(math.floor(abs(x) + 0.5), x))
+
+
+def to_raw(signal: Signal, value: Value, *, saturate: bool = False, frame: str = "") -> float | int:
+    """The raw value of @p value, rounded to nearest (halves away from zero).
+
+    :param saturate: the firmware's rule (comm.c): saturate to the signal's
+        range, NaN giving 0; IEEE float signals pass unchanged. Without it,
+        a value that does not round into the range, or NaN, raises.
+    :param frame: the signal's message name, for the error.
+    :raises SignalRangeError: without @p saturate, the value is not carried.
+    """
     if isinstance(value, str):
         value = _choice_value(signal, value)
     if signal.is_float:
-        return float(value)
+        lo_f, hi_f = physical_range(signal)
+        if saturate or lo_f <= value <= hi_f:
+            return float(value)
+        raise _range_error(signal, frame, value, (lo_f, hi_f), signal.unit or "")
     x = (value - signal.offset) / signal.scale
     lo, hi = raw_range(signal)
+    if not saturate:
+        # Compared before rounding, so that an infinite x is refused, not floored.
+        if not (lo - 1 <= x <= hi + 1 and lo <= _round_half_away(x) <= hi):
+            raise _range_error(signal, frame, value, physical_range(signal), signal.unit or "")
+        return _round_half_away(x)
     if math.isnan(x):
         return min(max(0, lo), hi)
     if x <= lo:
         return lo
     if x >= hi:
         return hi
-    return int(math.copysign(math.floor(abs(x) + 0.5), x))
+    return _round_half_away(x)
+
+
+def _range_error(
+    signal: Signal, frame: str, value: float, limits: tuple[float, float], unit: str
+) -> SignalRangeError:
+    return SignalRangeError(
+        frame or "?", signal.name.removeprefix(f"{frame}_"), float(value), limits, unit
+    )
 
 
 def _choice_value(signal: Signal, name: str) -> int:
@@ -208,20 +273,25 @@ class Protocol:
         signals: Mapping[str, Value] | None = None,
         *,
         raw: bool = False,
+        saturate: bool = False,
         timestamp: float = 0.0,
         **kwargs: Value,
     ) -> can.Message:
-        """A protected frame: signals scaled and saturated, the next alive
-        counter of its identifier, then the CRC.
+        """A protected frame: signals scaled and checked against their range,
+        the next alive counter of its identifier, then the CRC.
 
         :param name: message name, e.g. ``"ODOM_XY"``.
         :param signals: values by short name; every signal but CRC and counter
             is required. Keyword arguments add to them.
-        :param raw: the values are raw integers, saturated only to what the
+        :param raw: the values are raw integers, checked only against what the
             signal's bits hold, so that a test can send values outside the
             DBC range (an obstacle id 0, an unknown parameter index).
+        :param saturate: saturate values to their signal's range as the
+            firmware does (comm.c) instead of refusing them.
         :param timestamp: the message's time stamp [s].
         :raises KeyError: a signal is missing or unknown.
+        :raises SignalRangeError: a value its signal cannot carry (without
+            @p saturate): nothing is sent, and the alive counter is unchanged.
         """
         message = self.message(name)
         values = {**(signals or {}), **kwargs}
@@ -236,12 +306,20 @@ class Protocol:
         for short, value in values.items():
             signal = message.get_signal_by_name(prefix + short)
             if raw:
-                lo, hi = _field_range(signal)
-                raw_values[signal.name] = (
-                    float(value) if signal.is_float else min(max(int(value), lo), hi)
-                )
+                if isinstance(value, str):
+                    raise TypeError(f"{message.name}.{short}: a raw value is a number: {value!r}")
+                if signal.is_float:
+                    raw_values[signal.name] = value
+                    continue
+                field = _field_range(signal)
+                if not field[0] <= value <= field[1]:
+                    bits = f"raw, {signal.length} bits"
+                    raise _range_error(signal, message.name, float(value), field, bits)
+                raw_values[signal.name] = int(value)
             else:
-                raw_values[signal.name] = to_raw(signal, value)
+                raw_values[signal.name] = to_raw(
+                    signal, value, saturate=saturate, frame=message.name
+                )
         data = bytearray(message.encode(raw_values, scaling=False, strict=False))
         self.protect(message.frame_id, data)
         return can.Message(

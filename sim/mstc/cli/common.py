@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -15,15 +14,22 @@ from cantools.database.can import Database
 
 from mstc.can.dbc import tables
 from mstc.can.protocol import DBC_PATH, load_database
-from mstc.errors import DbcError, FirmwareError, LogError, ScenarioError
+from mstc.errors import (
+    ControllerError,
+    DbcError,
+    FirmwareError,
+    LogError,
+    MstcError,
+    ScenarioError,
+)
 from mstc.firmware import LIB_ENV
 from mstc.logs.decode import DecodedLog, decode_log
-from mstc.logs.read import FORMATS, FrameLog, read_log
-from mstc.report.outputs import BusLog, write_outputs
+from mstc.logs.read import FORMATS, FrameLog, ProblemList, read_log
+from mstc.report.outputs import RUN_FILES, BusLog, OutputError, output_folder, write_outputs
 from mstc.report.progress import Progress
 from mstc.report.table import format_report
 from mstc.sim.run import RunResult
-from mstc.sim.scenario import Scenario, load_scenario
+from mstc.sim.scenario import Scenario, changed_params, load_scenario
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -78,8 +84,9 @@ def library(given: Path | None) -> Path:
 
 
 def load_all(paths: Sequence[Path], out: Path) -> list[Scenario] | None:
-    """Every scenario, or None after printing each problem (and any two that
-    would write the same output folder)."""
+    """Every scenario, or None after printing each problem: a bad file, any two
+    that would write the same output folder, a folder that cannot be written
+    (:func:`~mstc.report.outputs.output_folder`)."""
     scenarios = []
     ok = True
     for path in paths:
@@ -94,11 +101,28 @@ def load_all(paths: Sequence[Path], out: Path) -> list[Scenario] | None:
         if first != scenario.path:
             error(f"{first} and {scenario.path} would both write {out / scenario.name}/")
             ok = False
+            continue
+        try:
+            output_folder(out, scenario.name, RUN_FILES)
+        except OutputError as exc:
+            error(f"{scenario.path}: {exc}")
+            ok = False
     return scenarios if ok else None
 
 
-RunOne = Callable[[Scenario], tuple[str, RunResult, "BusLog | None"]]
-"""Runs one scenario: (what firmware ran, the result, the bus log if any)."""
+def run_failure(scenario: Scenario, exc: BaseException) -> str:
+    """The error line of a run that failed: the file first, and, when the
+    firmware refused the parameters, the settings of the file's [params]."""
+    text = f"{scenario.path}: {exc}"
+    if isinstance(exc, FirmwareError | ControllerError) and "parameters" in str(exc):
+        settings = changed_params(scenario.params)
+        text += f" (the file sets {', '.join(settings)})" if settings else ""
+    return text
+
+
+RunOne = Callable[[Scenario, Progress], tuple[str, RunResult, "BusLog | None"]]
+"""Runs one scenario, telling the progress display how far it is: (what
+firmware ran, the result, the bus log if any)."""
 
 
 def run_scenarios(
@@ -107,27 +131,35 @@ def run_scenarios(
     figures: bool,
     run_one: RunOne,
     failures: tuple[type[BaseException], ...],
+    *,
+    quiet: bool = False,
 ) -> int:
     """Validate every scenario file, run each with @p run_one, then write each
-    run's outputs under @p out and print its table. An exception of
-    @p failures ends the command with one error line (EXIT_FAILED)."""
+    run's outputs under @p out and print its table. An :class:`MstcError` or
+    an exception of @p failures ends the command with one error line naming
+    the scenario's file (EXIT_FAILED).
+
+    :param quiet: no progress display (a run longer than a second shows one).
+    """
     scenarios = load_all(paths, out)
     if scenarios is None:
         return EXIT_USAGE
     results: list[tuple[RunResult, BusLog | None]] = []
     firmware = ""
-    try:
-        for scenario in scenarios:
-            firmware, result, log = run_one(scenario)
-            results.append((result, log))
-    except failures as exc:
-        error(str(exc))
-        return EXIT_FAILED
+    caught: tuple[type[BaseException], ...] = (MstcError, *failures)
+    for scenario in scenarios:
+        bar = Progress(scenario.sim.steps + 1, scenario.name, "steps", enabled=not quiet)
+        try:
+            firmware, result, log = run_one(scenario, bar)
+        except caught as exc:
+            error(run_failure(scenario, exc))
+            return EXIT_FAILED
+        results.append((result, log))
     print(f"firmware: {firmware}")
     for result, log in results:
         try:
             folder = write_outputs(result, out, log, figures=figures)
-        except OSError as exc:
+        except (OSError, OutputError) as exc:
             error(f"cannot write the outputs of {result.scenario.path}: {exc}")
             return EXIT_FAILED
         print()
@@ -175,17 +207,23 @@ def add_log_arguments(
 
 
 def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog] | int:
-    """The DBC and the log, decoded (``mstc plot``, ``export``); or an exit status."""
+    """The DBC and the log, decoded (``mstc plot``, ``export``), with the
+    problems of both printed; or an exit status."""
     loaded = load_log(args)
     if isinstance(loaded, int):
         return loaded
     db, log = loaded
     try:
         bar = Progress(len(log), "decode", "frames", enabled=not args.quiet)
-        return db, decode_log(log, db, bar)
+        decoded = decode_log(log, db, bar, max_problems=max(args.max_problems, 0))
     except ValueError as exc:
         error(str(exc))
         return EXIT_USAGE
+    print_problems(decoded.problems, args.log)
+    if decoded.problems.total and args.strict:
+        error(f"{args.log}: {decoded.problems.total:,} frames not decoded (--strict)")
+        return EXIT_USAGE
+    return db, decoded
 
 
 def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:
@@ -201,19 +239,23 @@ def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:
         error(str(exc))
         return EXIT_USAGE
     try:
-        log = read_log(args.log, db, args.format)
+        log = read_log(args.log, db, args.format, max_problems=max(args.max_problems, 0))
     except LogError as exc:
         error(str(exc))
         return EXIT_USAGE
-    problems = log.problems
-    for problem in problems[: max(args.max_problems, 0)]:
-        print(problem, file=sys.stderr)
-    rest = len(problems) - max(args.max_problems, 0)
-    if rest > 0:
-        kinds = Counter(p.kind.value for p in problems)
-        counts = ", ".join(f"{n} {kind}" for kind, n in kinds.items())
-        print(f"{args.log}: ... and {rest} more problems ({counts} in all)", file=sys.stderr)
-    if problems and args.strict:
-        error(f"{args.log}: {len(problems)} problems in the log (--strict)")
+    print_problems(log.problems, args.log)
+    if log.problems.total and args.strict:
+        error(f"{args.log}: {log.problems.total:,} problems in the log (--strict)")
         return EXIT_USAGE
     return db, log
+
+
+def print_problems(problems: ProblemList, log: Path) -> None:
+    """The problems kept, one a line on stderr, then how many more there are
+    of each kind."""
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    rest = problems.total - len(problems)
+    if rest > 0:
+        counts = ", ".join(f"{n:,} {kind.value}" for kind, n in problems.counts.items())
+        print(f"{log}: ... and {rest:,} more problems ({counts} in all)", file=sys.stderr)

@@ -19,6 +19,7 @@ from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, FirmwareError
 from mstc.qemu import ICOUNT, BoardVm, LoopStats
 from mstc.report.outputs import BusLog
+from mstc.report.progress import Progress
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import Scenario
 
@@ -31,7 +32,8 @@ bus: by default SocketCAN's vcan0, where the firmware runs as its own process
 (--fw build/host/mstc-fw, started afresh for each scenario, like a board) or
 on a board behind a CAN adapter. Each scenario writes DIR/<file stem>/ with
 events.json, trace.csv, bus.log (every frame, candump -L) and the figures,
-and prints the table of `mstc sim`.
+and prints the table of `mstc sim`. Scenario limits, progress, and reruns into
+the same folder are as for `mstc sim` (see its --help).
 
 On a host whose kernel has no CAN, `make hil` runs this inside a small VM
 with vcan (docs/hil.md).
@@ -49,8 +51,9 @@ lock-step; the run fails if its timer ran a step after that. Each scenario
 also writes loop_stats.json: the board's steps, and the instructions per
 control step counted under QEMU's -icount.
 
-exit status: 0 done; 1 the firmware could not be started or did not answer,
-or an output could not be written; 2 bad arguments or a bad scenario file.
+exit status: 0 done; 1 the firmware could not be started, did not answer or
+refused the parameters, or an output could not be written; 2 bad arguments,
+a bad scenario file, or an output folder that cannot be used.
 
 examples:
   .venv/bin/mstc hil --channel vcan0 --fw build/host/mstc-fw \\
@@ -136,14 +139,16 @@ def stop_firmware(proc: subprocess.Popen[str]) -> None:
         proc.wait()
 
 
-def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog]:
+def _run_one(
+    args: argparse.Namespace, scenario: Scenario, bar: Progress
+) -> tuple[str, RunResult, BusLog]:
     bus = can.Bus(interface=args.interface, channel=args.channel)
     firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
     try:
         primer = enter_lockstep(bus) if args.board else []
         ctl = CanController(bus, scenario.params, sim_time_stamps=False)
         ctl.traffic.frames[:0] = primer
-        result = simulate(scenario, ctl)
+        result = simulate(scenario, ctl, bar)
     finally:
         bus.shutdown()
         if firmware is not None:
@@ -162,6 +167,12 @@ class BoardBusLog(BusLog):
     """The bus log of a run on a board image, and the board's own account."""
 
     board: str = ""
+    loop_stats: str = ""
+    """loop_stats.json: the board's steps and instructions per step."""
+
+    @property
+    def files(self) -> dict[str, str]:
+        return {"loop_stats.json": self.loop_stats}
 
     def describe(self) -> str:
         return f"{super().describe()}\n  board         {self.board}"
@@ -210,7 +221,9 @@ def loop_record(vm: BoardVm, start: LoopStats, end: LoopStats) -> dict[str, obje
     }
 
 
-def _run_on_qemu(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog]:
+def _run_on_qemu(
+    args: argparse.Namespace, scenario: Scenario, bar: Progress
+) -> tuple[str, RunResult, BusLog]:
     with BoardVm(args.qemu, serial=True) as vm:
         bus = can.Bus(
             interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
@@ -220,22 +233,20 @@ def _run_on_qemu(args: argparse.Namespace, scenario: Scenario) -> tuple[str, Run
             start = vm.stats()
             ctl = CanController(bus, scenario.params, sim_time_stamps=False)
             ctl.traffic.frames[:0] = primer
-            result = simulate(scenario, ctl)
+            result = simulate(scenario, ctl, bar)
             end = vm.stats()
         finally:
             bus.shutdown()
         check_lockstep(start, end, len(result.trace.values))
         record = loop_record(vm, start, end)
-    folder = args.out / scenario.name
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "loop_stats.json").write_text(json.dumps(record, indent=2) + "\n")
     ins = record["instructions_per_step"]
     assert isinstance(ins, dict)
     board = (
         f"{args.qemu.name} on qemu-system-arm -M {record['machine']}: {record['steps']} steps, "
         f"one per STEP; {ins['mean']} instructions per step (mean), {ins['max']} (max)"
     )
-    return f"{args.qemu}/mstc.elf under QEMU", result, BoardBusLog("slcan0", ctl, board)
+    stats = json.dumps(record, indent=2) + "\n"
+    return f"{args.qemu}/mstc.elf under QEMU", result, BoardBusLog("slcan0", ctl, board, stats)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -251,6 +262,7 @@ def run(args: argparse.Namespace) -> int:
         args.scenarios,
         args.out,
         not args.no_figures,
-        lambda scenario: run_one(args, scenario),
+        lambda scenario, bar: run_one(args, scenario, bar),
         (FirmwareError, ControllerError, can.CanError, OSError),
+        quiet=args.quiet,
     )

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from mstc.cli.common import (
@@ -17,11 +16,14 @@ from mstc.cli.common import (
 )
 from mstc.errors import ScenarioError
 from mstc.logs.decode import (
+    PLOT_FILES,
     format_events,
+    output_name,
     write_events_json,
     write_status_csv,
     write_trace_csv,
 )
+from mstc.report.outputs import OutputError, fresh_folder, output_folder
 from mstc.report.plots import plot_all
 from mstc.sim.scenario import ExpectedEvent, load_scenario
 
@@ -38,13 +40,18 @@ angle_error.png, v.png, w.png, distance.png and overview.png. Prints the
 events table of make sim, beside the [[expected]] events of --scenario when
 given.
 
+A rerun into the same folder replaces the earlier outputs (as mstc sim does):
+the files above are removed first. A folder holding other files, a folder
+that is a symbolic link, and a log whose name cannot name a folder inside
+DIR (a file called ...log) are refused (exit 2).
+
 Wheel radius and track width (for v and w), D_s and D_act come from the
 PARAM_VALUE frames in the log, else Table 1 of the paper; the obstacles from
 the OBSTACLE frames.
 
 exit status: 0 done; 1 an output could not be written; 2 bad arguments, a log
-that cannot be used (with --strict, any problem in it) or one without
-control steps.
+that cannot be used (with --strict, any problem in it), one without control
+steps, or an output folder that cannot be used.
 
 example:
   .venv/bin/mstc plot --scenario sim/scenarios/paper-line.toml tests/data/paper-line.log
@@ -89,24 +96,23 @@ def run(args: argparse.Namespace) -> int:
         except ScenarioError as exc:
             error(str(exc))
             return EXIT_USAGE
+    try:
+        output_folder(args.out, output_name(args.log), PLOT_FILES)
+    except OutputError as exc:
+        error(f"{args.log}: {exc}")
+        return EXIT_USAGE
     loaded = load_decoded(args)
     if isinstance(loaded, int):
         return loaded
     _, decoded = loaded
-    for problem in decoded.problems[: max(args.max_problems, 0)]:
-        print(problem, file=sys.stderr)
-    if decoded.problems and args.strict:
-        error(f"{args.log}: {len(decoded.problems)} frames not decoded (--strict)")
-        return EXIT_USAGE
-    folder = args.out / decoded.name
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        folder = fresh_folder(args.out, decoded.name, PLOT_FILES)
         write_events_json(decoded, folder / "events.json")
         write_trace_csv(decoded, folder / "trace.csv")
         write_status_csv(decoded, folder / "status.csv")
         if not args.no_figures:
             plot_all(decoded.plot_data(), folder)
-    except OSError as exc:
+    except (OSError, OutputError) as exc:
         error(f"cannot write the outputs into {folder}: {exc}")
         return EXIT_FAILED
     print(format_events(decoded, expected, folder))

@@ -12,6 +12,7 @@ from mstc.cli.common import (
     EXIT_INTERRUPTED,
     EXIT_NO_TARGET,
     EXIT_OK,
+    EXIT_USAGE,
     add_log_arguments,
     error,
     library,
@@ -42,9 +43,13 @@ reported, the log's order kept. See docs/replay.md.
 
 To play a log onto a bus with its timing instead (like canplayer): mstc play.
 
-exit status: 0 bit-exact; 1 the firmware's frames differ; 2 bad arguments, or
-a log that cannot be used (with --strict, any problem in it); 3 the firmware
-library cannot be loaded.
+A replay that compared nothing (the log holds no frame the firmware sends,
+and the firmware sent none: a log of another bus) is not called bit-exact: it
+fails with exit 2, unless --allow-empty says that is expected.
+
+exit status: 0 bit-exact; 1 the firmware's frames differ; 2 bad arguments, a
+log that cannot be used (with --strict, any problem in it), or nothing
+compared (without --allow-empty); 3 the firmware library cannot be loaded.
 
 examples:
   .venv/bin/mstc replay tests/data/paper-line.log
@@ -72,6 +77,11 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=Path,
         help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
     )
+    parser.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="exit 0 when nothing was compared (the log holds no frame the firmware sends)",
+    )
     parser.set_defaults(run=run)
 
 
@@ -96,4 +106,10 @@ def run(args: argparse.Namespace) -> int:
     if result.first is not None:
         print(format_difference(result.first, log, db))
     print(format_summary(result, db))
+    if result.nothing_compared and not args.allow_empty:
+        error(
+            f"{args.log}: nothing compared: the log holds no frame the firmware sends and the "
+            "firmware sent none for its inputs (a log of another bus?); --allow-empty accepts it"
+        )
+        return EXIT_USAGE
     return EXIT_OK if result.identical else EXIT_FAILED

@@ -13,6 +13,7 @@ from mstc.cli.common import library, run_scenarios
 from mstc.errors import ControllerError, FirmwareError
 from mstc.firmware import LIB_ENV, SilController
 from mstc.report.outputs import BusLog
+from mstc.report.progress import Progress
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import Scenario
 
@@ -29,10 +30,21 @@ minimum distance to each obstacle against D_s. The format of scenario files
 is in docs/scenarios.md.
 
 Every scenario is validated before any runs: a bad file prints one line
-(file, key, problem) and nothing is written.
+(file, key, problem) and nothing is written. Values the CAN frames cannot
+carry (positions beyond 128 m, speeds beyond 16, radii beyond 2.55 m or off
+whole centimetres, more than 15 obstacles) and runs of more than 100,000
+control steps are refused (docs/scenarios.md). A run longer than a second
+shows its progress on stderr (--quiet hides it).
 
-exit status: 0 done; 1 the firmware library failed or an output could not be
-written; 2 bad arguments or a bad scenario file.
+A rerun into the same folder replaces the earlier run: the files a run writes
+(those above) are removed from DIR/<file stem>/ before the new ones are
+written, so that none is left from before. A folder holding any other file,
+a folder that is a symbolic link, and a file whose stem cannot name a folder
+inside DIR (a file called ...toml) are refused (exit 2) and left alone.
+
+exit status: 0 done; 1 the firmware library failed or refused the scenario's
+parameters, the run failed, or an output could not be written; 2 bad
+arguments, a bad scenario file, or an output folder that cannot be used.
 
 buses:
   sil     the firmware in process behind CAN frames: python-can's interface
@@ -65,6 +77,9 @@ def add_output_arguments(parser: argparse.ArgumentParser, default_out: str) -> N
         type=Path,
         default=Path(default_out),
         help="output folder; each scenario writes DIR/<file stem>/ (default: %(default)s)",
+    )
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", help="no progress display (long runs show one)"
     )
     parser.add_argument(
         "scenarios",
@@ -101,15 +116,18 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
-def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog | None]:
+def _run_one(
+    args: argparse.Namespace, scenario: Scenario, bar: Progress
+) -> tuple[str, RunResult, BusLog | None]:
     lib = library(args.lib)
     if args.bus == "memory":
         controller = SilController(scenario.params, lib)
-        return f"{controller.lib_path} ({controller.numeric})", simulate(scenario, controller), None
+        result = simulate(scenario, controller, bar)
+        return f"{controller.lib_path} ({controller.numeric})", result, None
     bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib))
     try:
         ctl = CanController(bus, scenario.params, sim_time_stamps=True)
-        result = simulate(scenario, ctl)
+        result = simulate(scenario, ctl, bar)
     finally:
         bus.shutdown()
     return bus.channel_info, result, BusLog("sil0", ctl)
@@ -121,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
         args.scenarios,
         args.out,
         not args.no_figures,
-        lambda scenario: _run_one(args, scenario),
+        lambda scenario, bar: _run_one(args, scenario, bar),
         (FirmwareError, ControllerError, can.CanError),
+        quiet=args.quiet,
     )

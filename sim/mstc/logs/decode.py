@@ -18,7 +18,8 @@ on a real board is analysed exactly like a simulation:
   values), Table 1 of the paper for any not there.
 
 Frames with a bad E2E CRC or of the wrong length are reported and not used;
-alive counters are not checked (a log that lost frames still decodes).
+alive counters are not checked (a log that lost frames still decodes). Like
+the reader's, the decoder's problems are all counted and the first ones kept.
 """
 
 from __future__ import annotations
@@ -37,9 +38,16 @@ from cantools.database.can import Database, Message
 from mstc.can.dbc import E2E_SIGNALS, e2e_data_ids, numeric_values, short_name, tables
 from mstc.can.protocol import e2e_crc
 from mstc.controller import Event, Fault, Mode
-from mstc.logs.read import FrameLog, LogProblem, ProblemKind
+from mstc.logs.read import (
+    DEFAULT_MAX_PROBLEMS,
+    MAX_TIME_S,
+    FrameLog,
+    LogProblem,
+    ProblemKind,
+    ProblemList,
+)
 from mstc.params import PARAM_NAMES, Params, with_param_values
-from mstc.report.outputs import event_record
+from mstc.report.outputs import FIGURES, event_record
 from mstc.report.plots import PlotData
 from mstc.report.progress import Progress
 from mstc.report.table import match_events
@@ -51,6 +59,8 @@ TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here."""
 
 _INPUT_COLUMNS = ("x", "y", "theta", "x_r", "y_r", "theta_r", "v_r", "w_r")
+PLOT_FILES = ("events.json", "trace.csv", "status.csv", *(f"{stem}.png" for stem in FIGURES))
+"""Every file ``mstc plot`` writes into its folder."""
 _WHEEL_COLUMNS = ("wheel_left", "wheel_right", "v", "w")
 
 
@@ -87,8 +97,9 @@ class DecodedLog:
     """Steps run in each mode."""
     counters: dict[str, int] = field(default_factory=dict)
     """The last STATUS_COUNTERS (frames the firmware dropped, by reason)."""
-    problems: list[LogProblem] = field(default_factory=list)
-    """Frames not used (bad CRC, wrong length, undecodable)."""
+    problems: ProblemList = field(default_factory=ProblemList)
+    """Frames not used (bad CRC, undecodable, a time stamp too far off): all
+    counted, the first ones kept."""
     dt: float = 0.0
     """The median control period [s] (0 with fewer than two steps)."""
     stamps: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -96,10 +107,8 @@ class DecodedLog:
 
     @property
     def name(self) -> str:
-        """The log's file stem; for a run's ``bus.log``, its folder's name
-        (``build/hil/paper-line/bus.log`` is ``paper-line``)."""
-        path = self.log.path
-        return path.parent.name if path.stem == "bus" and path.parent.name else path.stem
+        """The name of its output folder: see :func:`output_name`."""
+        return output_name(self.log.path)
 
     def plot_data(self) -> PlotData:
         """The figures' input, as a simulation's."""
@@ -115,10 +124,17 @@ class DecodedLog:
         )
 
 
+def output_name(path: Path) -> str:
+    """The name a log's outputs go under: its file stem; for a run's
+    ``bus.log``, its folder's name (``build/hil/paper-line/bus.log`` is
+    ``paper-line``)."""
+    return path.parent.name if path.stem == "bus" and path.parent.name else path.stem
+
+
 class _Decoder:
     """Walks a log's frames in order, keeping the latest of each input."""
 
-    def __init__(self, log: FrameLog, db: Database) -> None:
+    def __init__(self, log: FrameLog, db: Database, max_problems: int) -> None:
         self.log = log
         self.db = db
         self.tables = tables(db)
@@ -133,7 +149,7 @@ class _Decoder:
         self.param_values: dict[str, float] = {}
         self.events: list[Event] = []
         self.rows: list[dict[str, object]] = []
-        self.problems: list[LogProblem] = []
+        self.problems = ProblemList(max_problems)
         self.first_wheel_time: float | None = None
 
     def signals(self, row: int, message: Message) -> dict[str, float | int] | None:
@@ -235,7 +251,19 @@ class _Decoder:
             stamp = float(self.log.time[row])
             if self.first_wheel_time is None:
                 self.first_wheel_time = stamp
-            t_us = round((stamp - self.first_wheel_time) * 1e6)
+            since = stamp - self.first_wheel_time
+            if not abs(since) <= 2 * MAX_TIME_S:  # a log read by other means: no overflow
+                self.problems.append(
+                    LogProblem(
+                        self.log.where(row),
+                        int(self.log.line[row]),
+                        ProblemKind.TIME,
+                        f"WHEEL_CMD: time stamp {stamp!r} s, {since:g} s after the first "
+                        "WHEEL_CMD: not a time; the step is not used",
+                    )
+                )
+                return
+            t_us = round(since * 1e6)
         nan = math.nan
         odom_xy = self.latest.get("ODOM_XY", {})
         odom_theta = self.latest.get("ODOM_THETA", {})
@@ -277,14 +305,21 @@ def _unwrap(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def decode_log(log: FrameLog, db: Database, progress: Progress | None = None) -> DecodedLog:
+def decode_log(
+    log: FrameLog,
+    db: Database,
+    progress: Progress | None = None,
+    *,
+    max_problems: int = DEFAULT_MAX_PROBLEMS,
+) -> DecodedLog:
     """Decode @p log (see the module's description).
 
     :param progress: told how many frames are done, now and then.
+    :param max_problems: problems to keep (all are counted).
     :raises ValueError: the log has no WHEEL_CMD frame: no control step to show.
     :raises DbcError: the DBC lacks an entry the decoder names (:mod:`mstc.can.dbc`).
     """
-    dec = _Decoder(log, db)
+    dec = _Decoder(log, db, max_problems)
     dec.run(progress)
     if progress is not None:
         progress.close()

@@ -31,6 +31,10 @@ from mstc.report.progress import Progress
 
 SEND_TIMEOUT_S = 1.0
 """How long one send may wait for room in the interface's queue [s]."""
+MAX_SLEEP_S = 60.0
+"""Longest single sleep [s]: a frame due later is waited for in pieces, so
+that no wait, however far off (a slow --rate), asks the system for a sleep
+it cannot take."""
 
 
 @dataclass(frozen=True)
@@ -171,8 +175,8 @@ class Player:
             for msg in frames:
                 due = start + (msg.timestamp - t0) / self.rate
                 now = self.clock()
-                if due > now:
-                    self.sleep(due - now)
+                while due > now:
+                    self.sleep(min(due - now, MAX_SLEEP_S))
                     now = self.clock()
                 stats.late_max = max(stats.late_max, now - due)
                 try:

@@ -12,14 +12,16 @@ with 8 data bytes (any log ``make sim`` or candump writes of mstc traffic) is
 parsed at once, with numpy over the bytes (one channel name) or one regular
 expression over the text; any other file line by line, each bad line reported
 as ``path:line: problem``. ASC and BLF go
-through python-can's ``ASCReader`` and ``BLFReader``, their problems reported
-by frame number.
+through python-can's ``ASCReader`` and ``BLFReader``; an ASC file's problems
+are reported by line, as candump's are (a line the ASC reader skips without a
+word is reported too), a BLF file's by frame number.
 
 What happens to a problem (docs/replay.md):
 
 - **skipped** (the line is not used): a line that is not a frame (garbage,
-  truncated, bad time stamp, bad hex), and frames the firmware cannot take:
-  remote, error and CAN FD frames;
+  truncated, bad hex, a 3-digit identifier above 7FF, a time stamp that is not
+  a number or lies beyond ±:data:`MAX_TIME_S`), and frames the firmware
+  cannot take: remote, error and CAN FD frames;
 - **kept** and reported: an identifier the DBC does not have (or an extended
   one), a DBC frame of the wrong length, a time stamp earlier than the one
   before (the log's order is kept);
@@ -28,14 +30,20 @@ What happens to a problem (docs/replay.md):
 
 A reader that fails in the middle of an ASC or BLF file is reported, and the
 frames before the damage are used.
+
+Every problem is counted, but only the first ones in file order are kept
+(:class:`ProblemList`), so that a log of millions of garbage lines takes no
+more memory than its text.
 """
 
 from __future__ import annotations
 
 import enum
+import io
 import math
 import re
-from collections.abc import Iterable, Iterator, Mapping
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from itertools import repeat
 from pathlib import Path
@@ -59,6 +67,13 @@ CAN_ERR_FLAG = 0x20000000
 """In candump's identifier: an error frame."""
 MAX_DATA = 8
 """Data bytes of a classic frame."""
+MAX_TIME_S = 2.0**53 / 1e6
+"""Largest |time stamp| of a log [s] (9007199254.740992, the year 2255 as an
+epoch time): beyond it a double no longer holds whole microseconds, and the
+tools' sums and waits on it would overflow. A line stamped beyond is not a
+frame."""
+DEFAULT_MAX_PROBLEMS = 1000
+"""Problems a :class:`ProblemList` keeps unless told otherwise."""
 
 
 class ProblemKind(enum.Enum):
@@ -98,6 +113,51 @@ class LogProblem:
         return f"{self.where}: {self.message}"
 
 
+class ProblemList(list[LogProblem]):
+    """The problems of a log: every one counted, by kind, and the first
+    :attr:`limit` in file order kept (the list itself).
+
+    Problems may arrive out of file order (those of kept frames are found
+    after the lines are read); the list holds at most twice :attr:`limit`
+    until :meth:`finish` sorts it and cuts it to the first :attr:`limit`.
+
+    :param limit: problems to keep.
+    """
+
+    def __init__(self, limit: int = DEFAULT_MAX_PROBLEMS) -> None:
+        super().__init__()
+        self.limit = max(limit, 0)
+        self.total = 0
+        """Problems found, kept or not."""
+        self.counts: Counter[ProblemKind] = Counter()
+        """Problems found, by kind."""
+        self._last = -1  # the largest line kept
+
+    def append(self, problem: LogProblem) -> None:
+        """Count @p problem, and keep it while it is among the first ones."""
+        self.total += 1
+        self.counts[problem.kind] += 1
+        if len(self) >= self.limit and problem.line >= self._last:
+            return  # after every kept one: never among the first
+        super().append(problem)
+        self._last = max(self._last, problem.line)
+        if len(self) >= 2 * self.limit:
+            self.finish()
+
+    def tally(self, kind: ProblemKind, n: int) -> None:
+        """Count @p n problems of @p kind that are not kept."""
+        if n:
+            self.total += n
+            self.counts[kind] += n
+
+    def finish(self) -> None:
+        """Sort the kept problems into file order (a line's in the order found)
+        and keep the first :attr:`limit`."""
+        self.sort(key=lambda p: p.line)
+        del self[self.limit :]
+        self._last = self[-1].line if self else -1
+
+
 class LogFrame(NamedTuple):
     """One frame of a log (for reports and decoders; the replay uses the columns)."""
 
@@ -133,19 +193,19 @@ class FrameLog:
     data: np.ndarray
     """(N, 8) uint8: the data bytes, zero past ``dlc``."""
     line: np.ndarray
-    """int64: line number (candump) or frame number (ASC, BLF), from 1."""
+    """int64: line number (candump, ASC) or frame number (BLF), from 1."""
     channel: list[str]
     """Interface each frame was recorded on."""
-    problems: list[LogProblem] = field(default_factory=list)
-    """Every problem found, in file order."""
+    problems: ProblemList = field(default_factory=ProblemList)
+    """The problems found: all counted, the first ones kept, in file order."""
     lines: int = 0
-    """Lines (candump) or frames (ASC, BLF) read."""
+    """Lines (candump, ASC) or frames (BLF) read."""
 
     def __len__(self) -> int:
         return len(self.time)
 
     def where(self, row: int) -> str:
-        """``path:line`` (candump) or ``path: frame N`` of a row."""
+        """``path:line`` (candump, ASC) or ``path: frame N`` (BLF) of a row."""
         return _where(self.path, self.format, int(self.line[row]))
 
     def frame(self, row: int) -> LogFrame:
@@ -188,7 +248,13 @@ class FrameLog:
 
 
 def _where(path: Path, fmt: str, line: int) -> str:
-    return f"{path}:{line}" if fmt == "candump" else f"{path}: frame {line}"
+    """Where a line (candump, ASC: text files) or a frame (BLF) is."""
+    return f"{path}: frame {line}" if fmt == "blf" else f"{path}:{line}"
+
+
+def where_in(log: FrameLog, line: int) -> str:
+    """``path:line`` (candump, ASC) or ``path: frame N`` (BLF) of a line of @p log."""
+    return _where(log.path, log.format, line)
 
 
 def format_for(path: Path, override: str | None = None) -> str:
@@ -238,7 +304,7 @@ class _Columns:
         self.extended.append(extended)
         self.data.append(data)
 
-    def build(self, path: Path, fmt: str, problems: list[LogProblem], lines: int) -> FrameLog:
+    def build(self, path: Path, fmt: str, problems: ProblemList, lines: int) -> FrameLog:
         n = len(self.time)
         data = np.zeros((n, MAX_DATA), dtype=np.uint8)
         dlc = np.fromiter(map(len, self.data), dtype=np.uint8, count=n)
@@ -286,8 +352,10 @@ def parse_candump_line(text: str) -> tuple[float, str, int, bool, bytes] | tuple
         t = float(stamp[1:-1])
     except ValueError:
         return ProblemKind.MALFORMED, f"bad time stamp {_show(stamp)}"
-    if not math.isfinite(t):
+    if math.isnan(t):
         return ProblemKind.MALFORMED, f"time stamp not finite: {_show(stamp)}"
+    if not abs(t) <= MAX_TIME_S:
+        return ProblemKind.MALFORMED, _time_beyond(_show(stamp))
     ident, sep, payload = frame.partition("#")
     if not sep:
         return ProblemKind.MALFORMED, f"no '#' between identifier and data: {_show(frame)}"
@@ -320,6 +388,13 @@ def parse_candump_line(text: str) -> tuple[float, str, int, bool, bytes] | tuple
             f"{len(payload) // 2} data bytes: a classic frame has at most 8",
         )
     return t, channel, frame_id, extended, bytes.fromhex(payload)
+
+
+def _time_beyond(stamp: str) -> str:
+    return (
+        f"time stamp {stamp} beyond ±{MAX_TIME_S!r} s, where a double stops holding "
+        "whole microseconds: not a time"
+    )
 
 
 _HEX_VALUE = np.full(256, 0xFF, dtype=np.uint8)
@@ -409,17 +484,22 @@ def _columnar_candump(path: Path, raw: bytes) -> FrameLog | None:
 
 def _fast_candump(path: Path, text: str, lines: int) -> FrameLog | None:
     """The whole file at once when every line is a classic 11-bit frame with 8
-    bytes; else None."""
+    bytes and a time stamp within ±MAX_TIME_S; else None (the line-by-line
+    reader then says what is wrong with the others)."""
     rows = _FAST.findall(text)
     if len(rows) != lines or not rows:
         return None
     stamps, channels, ids, payloads = zip(*rows, strict=True)
     n = len(rows)
+    time = np.fromiter(map(float, stamps), dtype=np.float64, count=n)
+    frame_id = np.fromiter(map(int, ids, repeat(16)), dtype=np.int64, count=n)
+    if (frame_id > 0x7FF).any() or (time > MAX_TIME_S).any():
+        return None
     return FrameLog(
         path=path,
         format="candump",
-        time=np.fromiter(map(float, stamps), dtype=np.float64, count=n),
-        frame_id=np.fromiter(map(int, ids, repeat(16)), dtype=np.int64, count=n),
+        time=time,
+        frame_id=frame_id,
         extended=np.zeros(n, dtype=bool),
         dlc=np.full(n, MAX_DATA, dtype=np.uint8),
         data=np.frombuffer(bytes.fromhex("".join(payloads)), dtype=np.uint8).reshape(n, MAX_DATA),
@@ -429,26 +509,23 @@ def _fast_candump(path: Path, text: str, lines: int) -> FrameLog | None:
     )
 
 
-def _read_candump(path: Path, raw: bytes) -> FrameLog:
+def _read_candump(path: Path, raw: bytes, max_problems: int) -> FrameLog:
     columnar = _columnar_candump(path, raw)
     if columnar is not None:
         return columnar
-    text = raw.decode("utf-8", errors="replace")
-    lines = text.count("\n") + (0 if text.endswith("\n") or not text else 1)
-    fast = _fast_candump(path, text, lines)
+    lines = raw.count(b"\n") + (0 if raw.endswith(b"\n") or not raw else 1)
+    fast = _fast_candump(path, raw.decode("utf-8", errors="replace"), lines)
     if fast is not None:
         return fast
-    problems: list[LogProblem] = []
+    problems = ProblemList(max_problems)
     cols = _Columns()
-    for number, line in enumerate(text.split("\n"), start=1):
+    # Line by line out of the bytes: no list of every line, no second copy.
+    for number, chunk in enumerate(io.BytesIO(raw), start=1):
+        line = chunk.decode("utf-8", errors="replace").rstrip("\n")
         if not line.strip():
-            continue  # blank lines, and the end of the file
+            continue  # blank lines
         if "\x00" in line or "\ufffd" in line:
-            problems.append(
-                LogProblem(
-                    f"{path}:{number}", number, ProblemKind.MALFORMED, "binary data, not text"
-                )
-            )
+            problems.append(_binary(path, number))
             continue
         parsed = parse_candump_line(line)
         if isinstance(parsed[0], ProblemKind):
@@ -459,20 +536,85 @@ def _read_candump(path: Path, raw: bytes) -> FrameLog:
     return cols.build(path, "candump", problems, lines)
 
 
+def _binary(path: Path, number: int) -> LogProblem:
+    return LogProblem(f"{path}:{number}", number, ProblemKind.MALFORMED, "binary data, not text")
+
+
 # ---------------------------------------------------------------- ASC and BLF
 
+# Lines of an ASC file that are not frames and that python-can's ASCReader
+# rightly passes over: the header, the trigger block's bounds, comments.
+_ASC_STRUCTURE = re.compile(
+    r"(?:date\s|base\s+(?:hex|dec)|(?:no\s+)?internal\s+events\s+logged"
+    r"|begin\s+triggerblock|end\s+triggerblock|//|\d+\.\d+\s+start\s+of\s+measurement)",
+    re.IGNORECASE,
+)
 
-def _read_python_can(path: Path, fmt: str) -> FrameLog:
-    reader_class = can.ASCReader if fmt == "asc" else can.BLFReader
-    problems: list[LogProblem] = []
+
+class _AscLines:
+    """An ASC file's lines as python-can's ASCReader reads them, numbered, so
+    that a line it passes over without yielding a frame is reported.
+
+    The reader asks for line n+1 only after it has yielded the frame of line
+    n, if any: :attr:`framed` (set by the caller on each frame) says whether
+    line n gave one.
+    """
+
+    def __init__(self, path: Path, problems: ProblemList) -> None:
+        self.path = path
+        self.problems = problems
+        self.file = path.open(encoding="utf-8", errors="replace", newline="")
+        self.number = 0
+        self.text = ""
+        self.framed = 0
+        """The number of the last line that gave a frame."""
+
+    def __iter__(self) -> _AscLines:
+        return self
+
+    def __next__(self) -> str:
+        self.passed()
+        self.text = next(self.file)
+        self.number += 1
+        return self.text
+
+    def passed(self) -> None:
+        """Report the current line if the reader passed over it unduly (once)."""
+        line, self.text = self.text.strip(), ""
+        if self.number == self.framed or not line or _ASC_STRUCTURE.match(line):
+            return
+        if "\x00" in line or "\ufffd" in line:
+            self.problems.append(_binary(self.path, self.number))
+            return
+        self.problems.append(
+            LogProblem(
+                f"{self.path}:{self.number}",
+                self.number,
+                ProblemKind.MALFORMED,
+                f"skipped by python-can's ASC reader: {_show(line)}",
+            )
+        )
+
+    def close(self) -> None:
+        self.file.close()
+
+
+def _read_python_can(path: Path, fmt: str, max_problems: int) -> FrameLog:
+    problems = ProblemList(max_problems)
     cols = _Columns()
     number = 0
+    asc = _AscLines(path, problems) if fmt == "asc" else None
     try:
-        reader = reader_class(str(path))
+        reader = can.ASCReader(asc) if asc is not None else can.BLFReader(str(path))  # type: ignore[arg-type]
     except Exception as exc:  # python-can raises what its parser meets
+        if asc is not None:
+            asc.close()
         raise LogError(f"{path}: not a readable {fmt.upper()} file: {exc}") from exc
     try:
-        for number, msg in enumerate(reader, start=1):
+        for count, msg in enumerate(reader, start=1):
+            number = count if asc is None else asc.number
+            if asc is not None:
+                asc.framed = number
             where = _where(path, fmt, number)
             if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
                 what = "error" if msg.is_error_frame else "remote" if msg.is_remote_frame else "FD"
@@ -486,15 +628,23 @@ def _read_python_can(path: Path, fmt: str) -> FrameLog:
                     LogProblem(where, number, ProblemKind.MALFORMED, f"{len(data)} data bytes")
                 )
                 continue
+            t = float(msg.timestamp)
+            if not abs(t) <= MAX_TIME_S:
+                problems.append(
+                    LogProblem(where, number, ProblemKind.MALFORMED, _time_beyond(f"{t!r}"))
+                )
+                continue
             channel = "" if msg.channel is None else str(msg.channel)
-            cols.add(
-                number, float(msg.timestamp), channel, msg.arbitration_id, msg.is_extended_id, data
-            )
+            cols.add(number, t, channel, msg.arbitration_id, msg.is_extended_id, data)
+        if asc is not None:
+            asc.passed()  # the last line
     except Exception as exc:  # a damaged file: keep what came before
+        after = number if asc is None else asc.number
+        where = f"{path}: after frame {after}" if asc is None else f"{path}:{after}"
         problems.append(
             LogProblem(
-                f"{path}: after frame {number}",
-                number,
+                where,
+                after,
                 ProblemKind.READ,
                 f"cannot read further ({type(exc).__name__}: {exc}); the frames before are used",
             )
@@ -513,7 +663,7 @@ def _read_python_can(path: Path, fmt: str) -> FrameLog:
                 "the frames before are used",
             )
         )
-    return cols.build(path, fmt, problems, number)
+    return cols.build(path, fmt, problems, number if asc is None else asc.number)
 
 
 # ------------------------------------------------------------------ checking
@@ -521,54 +671,53 @@ def _read_python_can(path: Path, fmt: str) -> FrameLog:
 
 def _check(log: FrameLog, lengths: Mapping[int, int]) -> None:
     """Add the problems of frames that are kept: unknown identifiers, wrong
-    lengths, time going backwards; then sort every problem into file order."""
+    lengths, time going backwards; then sort the kept problems into file
+    order. Of each kind, only the first rows can be among the first problems
+    kept: the others are counted, not described."""
     problems = log.problems
+
+    def add(kind: ProblemKind, rows: np.ndarray, describe: Callable[[int], str]) -> None:
+        for row in rows[: problems.limit].tolist():
+            problems.append(LogProblem(log.where(row), int(log.line[row]), kind, describe(row)))
+        problems.tally(kind, max(len(rows) - problems.limit, 0))
+
+    def unknown(row: int) -> str:
+        kind, digits = ("extended identifier", 8) if log.extended[row] else ("identifier", 3)
+        return f"{kind} {int(log.frame_id[row]):0{digits}X} is not in the DBC: not fed"
+
     known = np.fromiter(lengths, dtype=np.int64)
     in_dbc = np.isin(log.frame_id, known) & ~log.extended
-    for row in np.flatnonzero(~in_dbc).tolist():
-        kind = "extended identifier" if log.extended[row] else "identifier"
-        digits = 8 if log.extended[row] else 3
-        problems.append(
-            LogProblem(
-                log.where(row),
-                int(log.line[row]),
-                ProblemKind.UNKNOWN_ID,
-                f"{kind} {int(log.frame_id[row]):0{digits}X} is not in the DBC: not fed",
-            )
-        )
+    add(ProblemKind.UNKNOWN_ID, np.flatnonzero(~in_dbc), unknown)
     table = np.full(0x800, -1, dtype=np.int64)  # DBC length by 11-bit identifier
     for frame_id, length in lengths.items():
         if frame_id <= 0x7FF:
             table[frame_id] = length
     want = np.where(in_dbc, table[np.where(in_dbc, log.frame_id, 0)], -1)
-    for row in np.flatnonzero(in_dbc & (log.dlc != want)).tolist():
-        problems.append(
-            LogProblem(
-                log.where(row),
-                int(log.line[row]),
-                ProblemKind.LENGTH,
-                f"{int(log.frame_id[row]):03X} has {int(log.dlc[row])} data bytes, "
-                f"the DBC says {int(want[row])}",
-            )
-        )
-    for row in (np.flatnonzero(np.diff(log.time) < 0) + 1).tolist():
-        problems.append(
-            LogProblem(
-                log.where(row),
-                int(log.line[row]),
-                ProblemKind.TIME,
-                f"time goes backwards: {log.time[row]:.6f} s after {log.time[row - 1]:.6f} s",
-            )
-        )
-    problems.sort(key=lambda p: p.line)  # stable: a line's problems keep their order
+    add(
+        ProblemKind.LENGTH,
+        np.flatnonzero(in_dbc & (log.dlc != want)),
+        lambda row: (
+            f"{int(log.frame_id[row]):03X} has {int(log.dlc[row])} data bytes, "
+            f"the DBC says {int(want[row])}"
+        ),
+    )
+    add(
+        ProblemKind.TIME,
+        np.flatnonzero(np.diff(log.time) < 0) + 1,
+        lambda row: f"time goes backwards: {log.time[row]:.6f} s after {log.time[row - 1]:.6f} s",
+    )
+    problems.finish()
 
 
-def read_log(path: Path, db: Database, fmt: str | None = None) -> FrameLog:
+def read_log(
+    path: Path, db: Database, fmt: str | None = None, *, max_problems: int = DEFAULT_MAX_PROBLEMS
+) -> FrameLog:
     """Read and check a log.
 
     :param path: the file.
     :param db: the DBC, for the identifiers and lengths it knows.
     :param fmt: one of :data:`FORMATS`; by default from the extension.
+    :param max_problems: problems to keep (all are counted).
     :returns: The usable frames, with :attr:`FrameLog.problems`.
     :raises LogError: the file cannot be read, its format is unknown, or it
         holds no usable frame.
@@ -581,19 +730,21 @@ def read_log(path: Path, db: Database, fmt: str | None = None) -> FrameLog:
             raw = path.read_bytes()
         except OSError as exc:
             raise LogError(f"{path}: cannot read: {exc.strerror or exc}") from exc
-        log = _read_candump(path, raw)
+        log = _read_candump(path, raw, max_problems)
     else:
         if not path.is_file():
             raise LogError(f"{path}: cannot read: no such file")
-        log = _read_python_can(path, fmt)
+        log = _read_python_can(path, fmt, max_problems)
+    if not log.problems.total:  # read at once, without a problem
+        log.problems = ProblemList(max_problems)
     if not len(log):
         if fmt == "candump":
             what = f"in {log.lines} lines" if log.lines else "(the file is empty)"
         else:
             what = f"that python-can's {fmt.upper()} reader could read"
-        reasons = {p.kind.value for p in log.problems}
+        reasons = {kind.value for kind in log.problems.counts}
         if reasons:
-            n = len(log.problems)
+            n = log.problems.total
             what += f" ({n} problem{'s' if n != 1 else ''}: {', '.join(sorted(reasons))})"
         raise LogError(f"{path}: no usable CAN frame {what}: is it a {fmt} log? (--format)")
     _check(log, {m.frame_id: m.length for m in db.messages})

@@ -44,7 +44,7 @@ from mstc.can.dbc import E2E_SIGNALS, short_name, signal_values
 from mstc.can.silbus import SilBus
 from mstc.errors import FirmwareError
 from mstc.firmware import FRAME_DATA, FrameStruct, Library
-from mstc.logs.read import FrameLog, LogFrame
+from mstc.logs.read import FrameLog, LogFrame, where_in
 from mstc.report.progress import Progress
 
 FW_NODE = "FW"
@@ -266,6 +266,21 @@ class ReplayResult:
     def identical(self) -> bool:
         """Every recorded frame was sent, bit for bit, and nothing else."""
         return not (self.differing or self.missing or self.extra or self.refused)
+
+    @property
+    def nothing_compared(self) -> bool:
+        """Identical, but only because there was nothing to compare: the log
+        holds no frame of the firmware's and the firmware sent none (a log of
+        another bus, or of inputs the firmware does not answer). ``mstc
+        replay`` fails on it unless told it is expected."""
+        return self.identical and self.compared == 0
+
+    @property
+    def verdict(self) -> str:
+        """``bit-exact``, ``DIFFERENT`` or ``nothing compared``."""
+        if not self.identical:
+            return "DIFFERENT"
+        return "nothing compared" if self.nothing_compared else "bit-exact"
 
 
 def _windows(input_rows: np.ndarray, output_rows: np.ndarray) -> np.ndarray:
@@ -543,11 +558,7 @@ def format_difference(diff: Difference, log: FrameLog, db: Database) -> str:
     """The report of one difference: where, what, bytes and signals."""
     lines = []
     if diff.recorded is not None:
-        row_where = (
-            f"{log.path}:{diff.recorded.line}"
-            if log.format == "candump"
-            else (f"{log.path}: frame {diff.recorded.line}")
-        )
+        row_where = where_in(log, diff.recorded.line)
         name = message_name(db, diff.recorded.frame_id)
     else:
         assert diff.sent is not None
@@ -602,7 +613,7 @@ def _delta_text(db: Database, stats: MessageStats) -> str:
 def format_summary(result: ReplayResult, db: Database) -> str:
     """The summary printed after a replay."""
     log = result.log
-    unit = "lines" if log.format == "candump" else "records"
+    unit = "records" if log.format == "blf" else "lines"
     rate = len(log) / result.seconds if result.seconds > 0 else 0.0
     lines = [
         f"replay: {log.path} ({log.format}, {log.lines:,} {unit}, {len(log):,} frames, "
@@ -616,7 +627,7 @@ def format_summary(result: ReplayResult, db: Database) -> str:
         f"differing {result.differing:,}",
         f"  missing             {result.missing:>8,}  recorded, not sent",
         f"  extra               {result.extra:>8,}  sent, not recorded",
-        f"  log problems        {len(log.problems):>8,}",
+        f"  log problems        {log.problems.total:>8,}",
     ]
     for frame, rc in result.refused[:5]:
         lines.append(
@@ -633,6 +644,7 @@ def format_summary(result: ReplayResult, db: Database) -> str:
                 f"    {label:<{name_w}}  {s.compared:>8,}  {s.differing:>9,}  {s.missing:>7,}  "
                 f"{s.extra:>5,}  {_delta_text(db, s)}".rstrip()
             )
-    verdict = "bit-exact" if result.identical else "DIFFERENT"
-    lines.append(f"  result              {verdict} ({result.seconds:.2f} s, {rate:,.0f} frames/s)")
+    lines.append(
+        f"  result              {result.verdict} ({result.seconds:.2f} s, {rate:,.0f} frames/s)"
+    )
     return "\n".join(lines)

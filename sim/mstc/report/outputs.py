@@ -1,18 +1,94 @@
 # SPDX-License-Identifier: MIT
-"""What a run leaves on disk: events.json, trace.csv and the figures."""
+"""What a run leaves on disk: events.json, trace.csv and the figures.
+
+Each run writes one folder, ``OUT/<name>/``. The folder never leaves OUT (a
+name such as ``..``, from a file called ``...toml``, is refused), and a rerun
+into it replaces the earlier run: the files an earlier run wrote are removed
+first, so that none is left beside the new results. A folder that holds any
+other file, or that is a symbolic link, is refused, never cleared.
+"""
 
 import csv
 import json
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mstc.controller import Event
+from mstc.errors import MstcError
 from mstc.logs.candump import write_candump
 from mstc.sim.run import TRACE_COLUMNS, RunResult
 
 if TYPE_CHECKING:
     from mstc.can.lockstep import CanController
+
+
+FIGURES = ("path", "position_error", "angle_error", "v", "w", "distance", "overview")
+"""Stems of the PNG figures :func:`mstc.report.plots.plot_all` writes."""
+EXTRA_FILES = ("loop_stats.json",)
+"""Files a bus log may add to a run's folder (:attr:`BusLog.files`): a board
+image's own account under QEMU (``mstc hil --qemu``)."""
+RUN_FILES = (
+    "events.json",
+    "trace.csv",
+    "bus.log",
+    *EXTRA_FILES,
+    *(f"{stem}.png" for stem in FIGURES),
+)
+"""Every file a run of ``mstc sim`` or ``mstc hil`` writes into its folder."""
+
+
+class OutputError(MstcError):
+    """An output folder that cannot be written without leaving OUT or destroying
+    files mstc did not write; nothing is written."""
+
+
+def output_folder(out: Path, name: str, owned: Collection[str]) -> Path:
+    """``out/name``, once sure that writing there stays inside @p out and
+    destroys nothing but what an earlier run wrote.
+
+    :param out: the output folder the user named (--out).
+    :param name: the folder's name: a scenario's file stem, a log's name.
+    :param owned: the files such a run writes (and a rerun may remove).
+    :raises OutputError: @p name is not a plain folder name (``""``, ``.``,
+        ``..``, a path); the folder is a symbolic link or not a folder; it
+        holds anything but files of @p owned.
+    """
+    if name in ("", ".", "..") or Path(name).name != name:
+        raise OutputError(f"{name!r} cannot name a folder inside --out {out}: rename the file")
+    folder = out / name
+    if folder.is_symlink():
+        raise OutputError(f"{folder} is a symbolic link: mstc writes into real folders only")
+    if folder.exists() and not folder.is_dir():
+        raise OutputError(f"{folder} exists and is not a folder")
+    if folder.is_dir():
+        others = sorted(
+            p.name
+            for p in folder.iterdir()
+            if p.name not in owned or p.is_symlink() or not p.is_file()
+        )
+        if others:
+            shown = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
+            raise OutputError(
+                f"{folder} holds files mstc did not write ({shown}): not cleared; "
+                "move them or choose another --out"
+            )
+    return folder
+
+
+def fresh_folder(out: Path, name: str, owned: Collection[str]) -> Path:
+    """:func:`output_folder`, created, with every file of @p owned that an
+    earlier run left there removed.
+
+    :raises OutputError: see :func:`output_folder`.
+    :raises OSError: the folder cannot be created or cleared.
+    """
+    folder = output_folder(out, name, owned)
+    for file in owned:
+        (folder / file).unlink(missing_ok=True)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
 
 
 @dataclass(frozen=True)
@@ -21,6 +97,11 @@ class BusLog:
 
     channel: str
     controller: "CanController"
+
+    @property
+    def files(self) -> dict[str, str]:
+        """More files for the run's folder, by name (one of :data:`EXTRA_FILES`)."""
+        return {}
 
     def describe(self) -> str:
         """One line for the report."""
@@ -87,17 +168,20 @@ def write_outputs(
     result: RunResult, out_dir: Path, bus_log: BusLog | None = None, *, figures: bool = True
 ) -> Path:
     """Write every output of a run into ``out_dir/<scenario name>/``, with
-    bus.log when the run went through CAN.
+    bus.log when the run went through CAN, after removing what an earlier run
+    left there (:func:`fresh_folder`).
 
     :returns: That folder.
+    :raises OutputError: the folder cannot be used (:func:`output_folder`).
     """
-    folder = out_dir / result.scenario.name
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = fresh_folder(out_dir, result.scenario.name, RUN_FILES)
     write_events(result, folder / "events.json")
     write_trace(result, folder / "trace.csv")
     if bus_log is not None:
         frames = [m for m, _ in bus_log.controller.traffic.frames]
         write_candump(folder / "bus.log", frames, bus_log.channel)
+        for name, text in bus_log.files.items():
+            (folder / name).write_text(text)
     if figures:
         from mstc.report.plots import plot_all  # matplotlib: slow to import, so only when drawing
 

@@ -1,10 +1,13 @@
 # SPDX-License-Identifier: MIT
 """The closed loop: plant, reference and sensor around a controller."""
 
+from __future__ import annotations
+
 import math
 import time
 from collections import deque
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +17,12 @@ from mstc.sim.plant import Pose, UnicyclePlant
 from mstc.sim.reference import ReferenceRobot
 from mstc.sim.scenario import Scenario
 from mstc.sim.sensor import Obstacle, RangeSensor
+
+if TYPE_CHECKING:
+    from mstc.report.progress import Progress
+
+PROGRESS_UPDATES = 200
+"""How many times a run tells its progress display how far it is."""
 
 TRACE_COLUMNS = (
     "t",
@@ -106,7 +115,9 @@ def _fault_counts(masks: list[int]) -> dict[Fault, int]:
     return faults
 
 
-def simulate(scenario: Scenario, controller: Controller) -> RunResult:
+def simulate(
+    scenario: Scenario, controller: Controller, progress: Progress | None = None
+) -> RunResult:
     """Run a scenario in closed loop.
 
     For k = 0..N (N = round(duration/dt)), at t = k·dt: the sensor scans from
@@ -119,8 +130,14 @@ def simulate(scenario: Scenario, controller: Controller) -> RunResult:
     spans t = 0 to the duration and the minimum distances include the final
     state.
 
+    The trace is written into an array of the run's size, taken once: a run of
+    N steps holds about (15 + obstacles) × 8 bytes per step, whatever the
+    controller (the scenario loader bounds N, :data:`~mstc.sim.scenario.MAX_STEPS`).
+
     :param scenario: the scenario.
     :param controller: a freshly initialised controller for its parameters.
+    :param progress: told how many steps are done, now and then, and closed
+        when the run ends.
 
     :returns: The trace, the events and the minimum distance to each obstacle.
 
@@ -151,7 +168,7 @@ def simulate(scenario: Scenario, controller: Controller) -> RunResult:
         odometry_noise = (odometry_rng.standard_normal((steps + 1, 3)) * sigma).tolist()
     pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
 
-    rows: list[tuple[float, ...]] = []
+    values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
     modes: list[Mode] = []
     events: list[Event] = []
     fault_masks: list[int] = []
@@ -159,35 +176,41 @@ def simulate(scenario: Scenario, controller: Controller) -> RunResult:
     spent = 0
     step = controller.step
     body_velocity = plant.body_velocity
-    for k in range(steps + 1):
-        t_us = k * sim.dt_us
-        t = t_us / 1e6
-        robot, reference = plant.pose, ref.pose
-        seen = sensor.scan(robot, t)
-        measured = robot
-        if odometry_noise is not None:
-            nx, ny, nt = odometry_noise[k]
-            measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
-        start = clock()
-        result = step(measured, reference, v_r, w_r, seen, t_us)
-        spent += clock() - start
-        left, right = result.wheel_left, result.wheel_right
-        v, w = body_velocity(left, right)
-        s = result.status
-        rows.append((t, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e))
-        modes.append(s.mode)
-        if result.events:
-            events.extend(result.events)
-        if s.faults:
-            fault_masks.append(int(s.faults))
-        if k < steps:
-            if pending:
-                pending.append((left, right))
-                left, right = pending.popleft()
-            plant.step(left, right, sim.dt)
-            ref.step(sim.dt)
+    tick = max((steps + 1) // PROGRESS_UPDATES, 1)
+    try:
+        for k in range(steps + 1):
+            t_us = k * sim.dt_us
+            t = t_us / 1e6
+            robot, reference = plant.pose, ref.pose
+            seen = sensor.scan(robot, t)
+            measured = robot
+            if odometry_noise is not None:
+                nx, ny, nt = odometry_noise[k]
+                measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
+            start = clock()
+            result = step(measured, reference, v_r, w_r, seen, t_us)
+            spent += clock() - start
+            left, right = result.wheel_left, result.wheel_right
+            v, w = body_velocity(left, right)
+            s = result.status
+            values[k] = (t, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e)
+            modes.append(s.mode)
+            if result.events:
+                events.extend(result.events)
+            if s.faults:
+                fault_masks.append(int(s.faults))
+            if k < steps:
+                if pending:
+                    pending.append((left, right))
+                    left, right = pending.popleft()
+                plant.step(left, right, sim.dt)
+                ref.step(sim.dt)
+            if progress is not None and (k + 1) % tick == 0:
+                progress.update(k + 1)
+    finally:
+        if progress is not None:
+            progress.close()
 
-    values = np.array(rows, dtype=float)
     if not np.isfinite(values[:, 1:7]).all():
         k = int(np.argmin(np.isfinite(values[:, 1:7]).all(axis=1)))
         raise SimulationError(

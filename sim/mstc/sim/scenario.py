@@ -5,9 +5,16 @@ Every problem with a file raises :class:`ScenarioError`, whose text is one
 line naming the file, the key (a dotted path such as ``params.D_s`` or
 ``obstacles[2].position``, obstacles and expected events counted from 1 like
 O1, O2) and what is wrong with it.
+
+A scenario must also fit the frames that carry it to the firmware over CAN
+(firmware/comm/mstc.dbc): poses, speeds, obstacle positions, radii and ids
+are checked against the ranges of their signals, read from the DBC, so that
+``--bus sil`` never clips what ``--bus memory`` passes exactly; and a run is
+bounded by :data:`MAX_STEPS`.
 """
 
 import difflib
+import functools
 import math
 import re
 import tomllib
@@ -17,15 +24,91 @@ from datetime import date, datetime, time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from mstc.can.protocol import load_database, physical_range
 from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
 from mstc.limits import Limit, load_table, violation
 from mstc.params import Params, Strategy
 from mstc.sim.plant import Integrator, Pose
 
-MAX_OBSTACLES = 15
-"""Obstacles one scenario may hold: the protocol's obstacle ids are 1..15
-(OBSTACLE_id is 4 bits, 0 means none)."""
+MAX_STEPS = 100_000
+"""Control steps one scenario may have: N = round(duration / dt) (the run has
+N + 1 rows). It bounds a run's time and memory: about 0.15 kB per step in
+memory, 2.6 kB per step through CAN (the frames kept for bus.log), and 1.3 to
+2 ms per step through CAN, so 2 to 3 minutes at the limit (docs/scenarios.md)."""
+
+
+@dataclass(frozen=True)
+class SignalRange:
+    """What one signal of the protocol carries, for the loader's messages."""
+
+    name: str
+    """``MESSAGE.signal``, e.g. ``ODOM_XY.x``."""
+    lo: float
+    hi: float
+    unit: str
+    scale: float
+    """The step between two values it carries."""
+
+    def __contains__(self, value: object) -> bool:
+        return isinstance(value, int | float) and self.lo <= value <= self.hi
+
+    def text(self) -> str:
+        """``[-128, 127.9999847] m (what ODOM_XY.x carries)``."""
+        unit = f" {self.unit}" if self.unit else ""
+        return f"[{self.lo:.10g}, {self.hi:.10g}]{unit} (what {self.name} carries)"
+
+
+@dataclass(frozen=True)
+class WireLimits:
+    """The ranges of the signals a scenario's values travel in."""
+
+    robot: tuple[SignalRange, SignalRange]
+    """x, y of ODOM_XY."""
+    reference: tuple[SignalRange, SignalRange]
+    """x, y of REF_XY."""
+    v: SignalRange
+    w: SignalRange
+    obstacle: tuple[SignalRange, SignalRange]
+    """x, y of OBSTACLE."""
+    radius: SignalRange
+    velocity: tuple[SignalRange, SignalRange]
+    """vx, vy of OBSTACLE_VEL."""
+    ids: SignalRange
+    """OBSTACLE's id: obstacles are numbered 1.. in file order."""
+
+    @property
+    def max_obstacles(self) -> int:
+        """Obstacles a scenario may hold: one per id the frames carry."""
+        return int(self.ids.hi - self.ids.lo + 1)
+
+
+@functools.cache
+def wire_limits() -> WireLimits:
+    """The ranges of firmware/comm/mstc.dbc (read once)."""
+    db = load_database()
+
+    def signal(message: str, name: str) -> SignalRange:
+        s = db.get_message_by_name(message).get_signal_by_name(f"{message}_{name}")
+        lo, hi = physical_range(s)
+        return SignalRange(f"{message}.{name}", lo, hi, s.unit or "", float(s.scale))
+
+    return WireLimits(
+        robot=(signal("ODOM_XY", "x"), signal("ODOM_XY", "y")),
+        reference=(signal("REF_XY", "x"), signal("REF_XY", "y")),
+        v=signal("REF_MOTION", "v"),
+        w=signal("REF_MOTION", "w"),
+        obstacle=(signal("OBSTACLE", "x"), signal("OBSTACLE", "y")),
+        radius=signal("OBSTACLE", "radius"),
+        velocity=(signal("OBSTACLE_VEL", "vx"), signal("OBSTACLE_VEL", "vy")),
+        ids=signal("OBSTACLE", "id"),
+    )
+
+
+MAX_OBSTACLES = wire_limits().max_obstacles
+"""Obstacles one scenario may hold: one per id the OBSTACLE frame carries (1..15)."""
 
 
 @dataclass(frozen=True)
@@ -200,6 +283,26 @@ def params_values(p: Params) -> dict[str, float]:
     return values
 
 
+def changed_params(params: Params) -> list[str]:
+    """The ``[params]`` settings that differ from Table 1, as a file writes
+    them (``params.D_det = 20000``): where to look when the firmware refuses
+    a parameter set the loader took."""
+    default = Params()
+    scalars, arrays = _param_keys()
+    settings = []
+    for key in scalars:
+        value = getattr(params, key.lower())
+        if value != getattr(default, key.lower()):
+            settings.append(f"params.{key} = {value:g}")
+    for key in arrays:
+        if getattr(params, key) != getattr(default, key):
+            gains = ", ".join(f"{k:g}" for k in getattr(params, key))
+            settings.append(f"params.{key} = [{gains}]")
+    if params.strategy != default.strategy:
+        settings.append(f'params.strategy = "{params.strategy}"')
+    return settings
+
+
 def _type_name(value: object) -> str:
     """The TOML name of a value's type."""
     if isinstance(value, bool):
@@ -307,6 +410,12 @@ class _Checker:
             raise self.fail(key, f"{what}must be a finite number, got {result}")
         return result
 
+    def within(self, value: float, key: str, carried: SignalRange, what: str = "") -> float:
+        """@p value, if the frames carry it."""
+        if value not in carried:
+            raise self.fail(key, f"{what}must be within {carried.text()}, got {value:g}")
+        return value
+
     def choice(self, value: object, key: str, choices: tuple[str, ...]) -> str:
         if not isinstance(value, str):
             raise self.fail(key, f"must be a string, got {_type_name(value)}")
@@ -363,21 +472,23 @@ def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
     c.keys(data, "", _TOP_REQUIRED, _TOP_KEYS)
 
     params = _parse_params(c, data.get("params", {}))
+    wire = wire_limits()
 
     robot = c.table(data["robot"], "robot")
     c.keys(robot, "robot", ("pose",), ("pose",))
-    robot_pose = Pose(*c.numbers(robot["pose"], "robot.pose", ("x", "y", "θ")))
+    robot_pose = _pose(c, robot["pose"], "robot.pose", wire.robot)
 
     ref = c.table(data["reference"], "reference")
     c.keys(ref, "reference", ("pose", "v", "w"), ("pose", "v", "w"))
     reference = ReferenceSpec(
-        pose=Pose(*c.numbers(ref["pose"], "reference.pose", ("x", "y", "θ"))),
-        v=c.number(ref["v"], "reference.v"),
-        w=c.number(ref["w"], "reference.w"),
+        pose=_pose(c, ref["pose"], "reference.pose", wire.reference),
+        v=c.within(c.number(ref["v"], "reference.v"), "reference.v", wire.v),
+        w=c.within(c.number(ref["w"], "reference.w"), "reference.w", wire.w),
     )
 
-    obstacles = _parse_obstacles(c, data.get("obstacles", []), params)
+    obstacles = _parse_obstacles(c, data.get("obstacles", []), params, wire)
     sim = _parse_sim(c, data["sim"])
+    _check_reference_path(c, reference, sim, wire.reference)
     expected = _parse_expected(c, data.get("expected", []), len(obstacles), sim)
     return Scenario(
         path=Path(path),
@@ -436,21 +547,48 @@ def _parse_params(c: _Checker, value: object) -> Params:
     raise c.fail(f"params.{key_of[name]}", text)
 
 
-def _parse_obstacles(c: _Checker, value: object, params: Params) -> tuple[ObstacleSpec, ...]:
+def _pose(c: _Checker, value: object, key: str, carried: tuple[SignalRange, SignalRange]) -> Pose:
+    """A pose [x, y, θ] whose position the frames carry (θ is sent wrapped)."""
+    x, y, theta = c.numbers(value, key, ("x", "y", "θ"))
+    c.within(x, key, carried[0], "element x ")
+    c.within(y, key, carried[1], "element y ")
+    return Pose(x, y, theta)
+
+
+def _parse_obstacles(
+    c: _Checker, value: object, params: Params, wire: WireLimits
+) -> tuple[ObstacleSpec, ...]:
     entries = c.array_of_tables(value, "obstacles")
-    if len(entries) > MAX_OBSTACLES:
-        raise c.fail("obstacles", f"at most {MAX_OBSTACLES} obstacles, got {len(entries)}")
+    if len(entries) > wire.max_obstacles:
+        ids = wire.ids
+        raise c.fail(
+            "obstacles",
+            f"at most {wire.max_obstacles} obstacles ({ids.name} carries {ids.lo:g} to "
+            f"{ids.hi:g}), got {len(entries)}",
+        )
     result = []
     for i, entry in enumerate(entries, start=1):
         prefix = f"obstacles[{i}]"
         c.keys(entry, prefix, ("position",), ("position", "radius", "velocity"))
         x, y = c.numbers(entry["position"], f"{prefix}.position", ("x", "y"))
-        radius = params.r_ob
+        c.within(x, f"{prefix}.position", wire.obstacle[0], "element x ")
+        c.within(y, f"{prefix}.position", wire.obstacle[1], "element y ")
+        radius, what = params.r_ob, f"the default radius params.R_ob = {params.r_ob:g} m "
         if "radius" in entry:
-            radius = c.positive(entry["radius"], f"{prefix}.radius")
+            radius, what = c.positive(entry["radius"], f"{prefix}.radius"), ""
+        c.within(radius, f"{prefix}.radius", wire.radius, what)
+        steps = radius / wire.radius.scale
+        if abs(steps - round(steps)) > 1e-6:
+            raise c.fail(
+                f"{prefix}.radius",
+                f"{what}must be a whole number of centimetres ({wire.radius.name} carries "
+                f"steps of {wire.radius.scale:g} {wire.radius.unit}), got {radius:g}",
+            )
         vx, vy = 0.0, 0.0
         if "velocity" in entry:
             vx, vy = c.numbers(entry["velocity"], f"{prefix}.velocity", ("vx", "vy"))
+            c.within(vx, f"{prefix}.velocity", wire.velocity[0], "element vx ")
+            c.within(vy, f"{prefix}.velocity", wire.velocity[1], "element vy ")
         result.append(ObstacleSpec(x, y, radius, vx, vy))
     return tuple(result)
 
@@ -502,8 +640,51 @@ def _parse_sim(c: _Checker, value: object) -> SimSpec:
     dt_us = dt * 1e6
     if dt_us < 0.5 or abs(dt_us - round(dt_us)) > 1e-6:
         raise c.fail("sim.dt", f"must be a whole number of microseconds, got {dt:g} s")
+    steps = duration / dt  # inf for duration = 1e308 at dt = 1e-6: refused, never rounded
+    if not steps < MAX_STEPS + 1 or round(steps) > MAX_STEPS:
+        raise c.fail(
+            "sim.duration",
+            f"{duration:g} s at dt = {dt:g} s is more than {MAX_STEPS:,} control steps "
+            "(the limit per scenario, docs/scenarios.md)",
+        )
+    if round(steps) * round(dt_us) >= 1 << 64:
+        raise c.fail(
+            "sim.duration", f"{duration:g} s is beyond the firmware's clock (2^64 microseconds)"
+        )
     integrator = c.choice(table["integrator"], "sim.integrator", tuple(Integrator))
     return SimSpec(duration, dt, Integrator(integrator))
+
+
+def reference_path(reference: ReferenceSpec, sim: SimSpec) -> tuple[np.ndarray, np.ndarray]:
+    """x and y of the reference at every step k = 0..N, as
+    :class:`~mstc.sim.reference.ReferenceRobot` integrates it (θ_k = θ_0 + k ω dt)."""
+    v, w, dt = reference.v, reference.w, sim.dt
+    theta = reference.pose.theta + w * dt * np.arange(sim.steps)
+    if sim.integrator is Integrator.EULER:
+        dx, dy = v * dt * np.cos(theta), v * dt * np.sin(theta)
+    else:  # the chord of each arc: v dt sinc(ω dt/2) at θ + ω dt/2 (plant.integrate)
+        half = 0.5 * w * dt
+        chord = v * dt * float(np.sinc(half / np.pi))
+        dx, dy = chord * np.cos(theta + half), chord * np.sin(theta + half)
+    x = reference.pose.x + np.concatenate(([0.0], np.cumsum(dx)))
+    y = reference.pose.y + np.concatenate(([0.0], np.cumsum(dy)))
+    return x, y
+
+
+def _check_reference_path(
+    c: _Checker, reference: ReferenceSpec, sim: SimSpec, carried: tuple[SignalRange, SignalRange]
+) -> None:
+    """The reference must stay within what REF_XY carries for the whole run
+    (the robot follows it; its own excursions beyond are refused at run time)."""
+    for axis, values, signal in zip("xy", reference_path(reference, sim), carried, strict=True):
+        outside = np.flatnonzero((values < signal.lo) | (values > signal.hi))
+        if len(outside):
+            k = int(outside[0])
+            raise c.fail(
+                "reference",
+                f"its path leaves {signal.text()} at t = {k * sim.dt:g} s "
+                f"({axis} = {values[k]:g} m); shorten sim.duration or move the reference",
+            )
 
 
 def _parse_expected(

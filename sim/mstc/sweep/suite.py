@@ -280,6 +280,11 @@ class _Draw:
         lo, hi = r
         return lo + (hi - lo) * self.rng.random()
 
+    def cm(self, r: Range) -> float:
+        """A radius drawn from @p r, in whole centimetres: what the OBSTACLE
+        frame carries (a scenario may not hold another, docs/scenarios.md)."""
+        return round(self.u(r), 2)
+
     def i(self, r: Range) -> int:
         lo, hi = int(r[0]), int(r[1])
         return lo + min(int(self.rng.random() * (hi - lo + 1)), hi - lo)
@@ -339,7 +344,7 @@ def _isolated(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
             scene,
             d,
             p,
-            lambda: (*scene.point(d.u(g["along"]), d.u(g["lateral"])), d.u(g["radius"]), 0.0, 0.0),
+            lambda: (*scene.point(d.u(g["along"]), d.u(g["lateral"])), d.cm(g["radius"]), 0.0, 0.0),
             separation=g["spacing"],
         )
 
@@ -350,7 +355,7 @@ def _cluster(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
         scene,
         d,
         p,
-        lambda: (*scene.point(d.u(g["along"]), d.u(g["lateral"])), d.u(g["radius"]), 0.0, 0.0),
+        lambda: (*scene.point(d.u(g["along"]), d.u(g["lateral"])), d.cm(g["radius"]), 0.0, 0.0),
     )
     while len(scene.obstacles) < n:
 
@@ -359,7 +364,7 @@ def _cluster(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
                 min(int(d.rng.random() * len(scene.obstacles)), len(scene.obstacles) - 1)
             ]
             a, gap = d.u((-math.pi, math.pi)), d.u(g["gap"])
-            return (ox + gap * math.cos(a), oy + gap * math.sin(a), d.u(g["radius"]), 0.0, 0.0)
+            return (ox + gap * math.cos(a), oy + gap * math.sin(a), d.cm(g["radius"]), 0.0, 0.0)
 
         _place(scene, d, p, member, separation=g["gap"][0])
 
@@ -371,7 +376,7 @@ def _head_on(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
 
         def on_path(at: float = s + k * g["spacing"]) -> tuple[float, float, float, float, float]:
             x, y = scene.point(at, 0.0)
-            return (x, y, d.u(g["radius"]), 0.0, 0.0)
+            return (x, y, d.cm(g["radius"]), 0.0, 0.0)
 
         _place(scene, d, p, on_path)
 
@@ -390,7 +395,7 @@ def _circle(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
             return (
                 cx + sgn * r * math.sin(th),
                 cy - sgn * r * math.cos(th),
-                d.u(g["radius"]),
+                d.cm(g["radius"]),
                 0.0,
                 0.0,
             )
@@ -408,7 +413,7 @@ def _moving(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
             a = scene.heading + d.sign() * d.u(g["angle"])
             speed = d.u(g["speed"])
             vx, vy = speed * math.cos(a), speed * math.sin(a)
-            return (qx - vx * t_cross, qy - vy * t_cross, d.u(g["radius"]), vx, vy)
+            return (qx - vx * t_cross, qy - vy * t_cross, d.cm(g["radius"]), vx, vy)
 
         _place(scene, d, p, crossing)
 
@@ -420,7 +425,7 @@ def _dense(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
             x, y = scene.point(d.u(g["along"]), d.u(g["lateral"]))
             if math.hypot(x - scene.robot[0], y - scene.robot[1]) < g["clear_start"]:
                 return None
-            return (x, y, d.u(g["radius"]), 0.0, 0.0)
+            return (x, y, d.cm(g["radius"]), 0.0, 0.0)
 
         _place(scene, d, p, anywhere, separation=g["separation"])
 
@@ -428,7 +433,7 @@ def _dense(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
 def _narrow(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
     gap, n = d.u(g["gap"]), d.i(g["wall"])
     pitch, s0, axis = d.u(g["pitch"]), d.u(g["along"]), d.u(g["lateral"])
-    r = d.u(g["radius"])
+    r = d.cm(g["radius"])
     for k in range(n):
         for side in (1.0, -1.0):
             x, y = scene.point(s0 + k * pitch, axis + side * (gap / 2 + r))
@@ -436,14 +441,14 @@ def _narrow(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
 
 
 def _through(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
-    r = d.u(g["radius"])
+    r = d.cm(g["radius"])
     s = d.u(g["along"])
     _place(scene, d, p, lambda: (*scene.point(s, d.u(g["fraction"]) * r), r, 0.0, 0.0))
 
 
 def _start_active(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> None:
     rx, ry, rth = scene.robot
-    r = d.u(g["radius"])
+    r = d.cm(g["radius"])
     dist = p.safe_distance(r) + d.u(g["between"]) * (p.activation_distance(r) - p.safe_distance(r))
     b = rth + d.u(g["bearing"])
     # Placed directly: this one is meant to be within D_act of the start.
@@ -453,7 +458,7 @@ def _start_active(scene: _Scene, d: _Draw, g: Mapping[str, Any], p: Params) -> N
             scene,
             d,
             p,
-            lambda: (*scene.point(d.u(g["along"]), d.u((-0.5, 0.5))), d.u(g["radius"]), 0.0, 0.0),
+            lambda: (*scene.point(d.u(g["along"]), d.u((-0.5, 0.5))), d.cm(g["radius"]), 0.0, 0.0),
             separation=g["spacing"],
         )
 
