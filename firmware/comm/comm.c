@@ -315,6 +315,8 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
         m->u.obstacle.x = num_from_raw(s.obstacle_x, &s_obs_xy);
         m->u.obstacle.y = num_from_raw(s.obstacle_y, &s_obs_xy);
         m->u.obstacle.radius = radius_from_cm(s.obstacle_radius);
+        m->u.obstacle.vx = NUM_ZERO; /* OBSTACLE carries no velocity: a static obstacle */
+        m->u.obstacle.vy = NUM_ZERO;
         break;
     }
     case COMM_ID_PARAM_SET: {

@@ -56,6 +56,9 @@ typedef struct {
     num_t x;      /**< centre [m] */
     num_t y;      /**< centre [m] */
     num_t radius; /**< [m], > 0 */
+    num_t vx;     /**< velocity [m/s], 0 for a static obstacle ("mstc" uses it; "paper"
+                       ignores it) */
+    num_t vy;     /**< velocity [m/s] */
 } sup_obstacle_t;
 
 /** @brief Thresholds of Definitions 1-4 (Table 1), centre to centre. */

@@ -49,6 +49,8 @@ static sup_obstacle_t obstacle(uint8_t id, double x, double y, double radius)
     o.x = tu_num(x);
     o.y = tu_num(y);
     o.radius = tu_num(radius);
+    o.vx = NUM_ZERO; /* static: the paper's switch ignores it */
+    o.vy = NUM_ZERO;
     return o;
 }
 
