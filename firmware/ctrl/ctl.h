@@ -12,11 +12,19 @@
 #include <stdint.h>
 
 #include "ctrl/avd.h"
+#include "ctrl/cbf.h"
+#include "ctrl/msw.h"
 #include "ctrl/sup.h"
 #include "ctrl/trk.h"
 #include "kin/kin.h"
 
-/** @brief Every parameter of the controller (Table 1 and wheel geometry). */
+/** @brief Values of ctl_params_t::strategy. */
+enum {
+    CTL_STRATEGY_PAPER = 0, /**< the paper's switch strategy, exactly (sup.h) */
+    CTL_STRATEGY_MSTC = 1,  /**< the safe strategy: msw.h, cbf.h (docs/strategy.md) */
+};
+
+/** @brief Every parameter of the controller (Table 1, wheel geometry, strategy). */
 typedef struct {
     num_t r_m;   /**< robot radius R_m [m] */
     num_t r_ob;  /**< default obstacle radius R_ob [m] */
@@ -26,6 +34,7 @@ typedef struct {
     trk_gains_t trk;
     avd_gains_t avd;
     kin_params_t kin;
+    uint8_t strategy; /**< CTL_STRATEGY_PAPER or CTL_STRATEGY_MSTC */
 } ctl_params_t;
 
 /** @brief Status bits in ctl_status_t::faults. */
@@ -38,6 +47,8 @@ enum {
                                                the limit: zero instead (a defence that the
                                                ranges below should make unreachable; not
                                                on the wire) */
+    CTL_FAULT_FILTER = 1u << 4,           /**< "mstc": the safety filter changed the command
+                                               this step (cbf.h) */
 };
 
 /** @name Ranges of the step's inputs and parameters (docs/safety.md). Within
@@ -47,7 +58,7 @@ enum {
  * Q16.16's range too. @{ */
 #define CTL_MAX_ABS_POSITION NUM_C(10000.0) /**< |x|, |y| of poses and obstacles [m] */
 #define CTL_MAX_ABS_ANGLE    NUM_C(1000.0)  /**< |θ| [rad], wrapped by the controllers */
-#define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s] */
+#define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s], obstacle |vx|, |vy| */
 #define CTL_MAX_RADIUS       NUM_C(100.0)   /**< obstacle radius [m] */
 #define CTL_PARAM_MIN        NUM_C(0.001)   /**< smallest value of every parameter */
 #define CTL_PARAM_MAX        NUM_C(10000.0) /**< largest value of every parameter */
@@ -67,7 +78,7 @@ typedef struct {
 /** @brief What the step did, for telemetry. */
 typedef struct {
     sup_mode_t mode;
-    uint8_t active_obstacle; /**< id of the obstacle avoided, 0 when none */
+    uint8_t active_obstacle; /**< id of the obstacle avoided (followed, "mstc"), 0 when none */
     avd_side_t side;         /**< its side */
     trk_err_t err;           /**< e1, e2, e3 */
     num_t e;                 /**< avoidance heading error [rad], 0 unless avoiding */
@@ -90,16 +101,20 @@ typedef struct {
 /** @brief Controller state. */
 typedef struct {
     ctl_params_t p;
-    sup_t sup;
+    sup_t sup; /**< obstacle table; the paper's switch strategy */
+    msw_t msw; /**< the "mstc" switch strategy */
+    cbf_t cbf; /**< the "mstc" safety filter */
 } ctl_t;
 
 /** @brief Parameters of Table 1, with wheel geometry that never saturates in
- *         the paper's scenarios (r = 0.05 m, L = 0.3 m, 100 rad/s). */
+ *         the paper's scenarios (r = 0.05 m, L = 0.3 m, 100 rad/s), and the
+ *         "mstc" strategy (the paper's scenarios select "paper"). */
 void ctl_params_default(ctl_params_t *p);
 
 /**
  * @brief Check parameters: every value finite and within [CTL_PARAM_MIN,
- *        CTL_PARAM_MAX], D_s >= R_m, D_s < D_act <= D_det.
+ *        CTL_PARAM_MAX], D_s >= R_m, D_s < D_act <= D_det, and the strategy
+ *        CTL_STRATEGY_PAPER or CTL_STRATEGY_MSTC.
  * @retval 0       valid.
  * @retval -EINVAL a value is out of range.
  */
@@ -115,7 +130,8 @@ int ctl_init(ctl_t *c, const ctl_params_t *p);
 
 /**
  * @brief Replace the parameters, keeping the supervisor's state (obstacles,
- *        mode, side), as when a board is tuned over the bus.
+ *        mode, side), as when a board is tuned over the bus. A change of
+ *        strategy restarts the "mstc" strategy and filter in tracking.
  * @retval 0 applied. @retval -EINVAL rejected by ctl_params_check(); nothing
  *         changes.
  */
@@ -125,13 +141,18 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p);
 void ctl_reset(ctl_t *c);
 
 /**
- * @brief One control step. Total: never fails, and the wheel speeds are
+ * @brief One control step, with the strategy of the parameters: "paper"
+ *        (sup_step(), then the active controller and kinematics, exactly as
+ *        the paper) or "mstc" (msw_step(), the active controller, kinematics,
+ *        then the safety filter cbf_step() after wheel saturation, and the
+ *        saturation again). Total: never fails, and the wheel speeds are
  *        always finite and within ±max_wheel_speed. A non-finite or
  *        out-of-range pose or velocity gives zero wheel speeds, mode STOP and
  *        CTL_FAULT_INPUT_NONFINITE, and leaves the supervisor untouched. An
  *        obstacle report with a non-finite or out-of-range value is dropped
  *        (counted by the supervisor, CTL_FAULT_OBSTACLE_DROPPED); reports
- *        beyond SUP_MAX_OBSTACLES are dropped too.
+ *        beyond SUP_MAX_OBSTACLES are dropped too. "paper" ignores obstacle
+ *        velocities; "mstc" drops a report whose velocity is out of range.
  */
 void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
 

@@ -15,6 +15,9 @@
 
 _Static_assert(MSTC_SIL_MAX_OBSTACLES == SUP_MAX_OBSTACLES, "obstacle table sizes differ");
 _Static_assert(MSTC_SIL_MAX_EVENTS == SUP_MAX_EVENTS, "event buffer sizes differ");
+_Static_assert(MSTC_SIL_STRATEGY_PAPER == CTL_STRATEGY_PAPER &&
+                   MSTC_SIL_STRATEGY_MSTC == CTL_STRATEGY_MSTC,
+               "strategy values differ");
 _Static_assert(sizeof(mstc_sil_frame_t) == sizeof(hal_can_frame_t) &&
                    offsetof(mstc_sil_frame_t, dlc) == offsetof(hal_can_frame_t, dlc) &&
                    offsetof(mstc_sil_frame_t, data) == offsetof(hal_can_frame_t, data),
@@ -70,14 +73,17 @@ static double to_d(num_t n) { return (double)num_to_float(n); }
 #endif
 
 /* The obstacle id the firmware gets: 0 (a report it drops and counts) for an
- * id out of range and, in fixed mode, for a non-finite coordinate or radius,
- * which sup_step drops in float mode. */
-static uint8_t obstacle_id(const mstc_sil_obstacle_t *o)
+ * id out of range and, in fixed mode, for a non-finite coordinate, radius or
+ * velocity, which the firmware drops in float mode. */
+static uint8_t obstacle_id(const mstc_sil_obstacle_t *o, const mstc_sil_velocity_t *v)
 {
 #if defined(NUM_FIXED)
-    if (!isfinite(o->x) || !isfinite(o->y) || !isfinite(o->radius)) {
+    if (!isfinite(o->x) || !isfinite(o->y) || !isfinite(o->radius) ||
+        (v != NULL && (!isfinite(v->vx) || !isfinite(v->vy)))) {
         return 0u;
     }
+#else
+    (void)v;
 #endif
     return o->id <= 255u ? (uint8_t)o->id : 0u;
 }
@@ -104,7 +110,21 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
     };
 }
 
-static ctl_params_t params_from(const mstc_sil_params_t *p)
+int32_t mstc_sil_default_strategy(void)
+{
+    ctl_params_t c;
+    ctl_params_default(&c);
+    return (int32_t)c.strategy;
+}
+
+/* The strategy as ctl_params_t holds it; a value out of uint8_t's range
+ * becomes one ctl_params_check rejects. */
+static uint8_t strategy_of(int32_t strategy)
+{
+    return strategy >= 0 && strategy <= 255 ? (uint8_t)strategy : UINT8_MAX;
+}
+
+static ctl_params_t params_from(const mstc_sil_params_t *p, int32_t strategy)
 {
     return (ctl_params_t){
         .r_m = from_d(p->r_m),
@@ -115,26 +135,47 @@ static ctl_params_t params_from(const mstc_sil_params_t *p)
         .trk = { from_d(p->trk_k[0]), from_d(p->trk_k[1]), from_d(p->trk_k[2]) },
         .avd = { from_d(p->avd_k[0]), from_d(p->avd_k[1]) },
         .kin = { from_d(p->wheel_radius), from_d(p->track_width), from_d(p->max_wheel_speed) },
+        .strategy = strategy_of(strategy),
     };
 }
 
-int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
+int mstc_sil_init_strategy(void *mem, const mstc_sil_params_t *p, int32_t strategy)
 {
     if (mem == NULL || p == NULL) {
         return -EINVAL;
     }
-    const ctl_params_t c = params_from(p);
+    const ctl_params_t c = params_from(p, strategy);
     return ctl_init((ctl_t *)mem, &c);
+}
+
+int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
+{
+    return mstc_sil_init_strategy(mem, p, MSTC_SIL_STRATEGY_PAPER);
+}
+
+int mstc_sil_fw_init_strategy(const mstc_sil_params_t *p, int32_t strategy)
+{
+    hal_sil_reset();
+    mstc_sil_params_t d;
+    if (p == NULL) {
+        mstc_sil_defaults(&d);
+        p = &d;
+    }
+    const ctl_params_t c = params_from(p, strategy);
+    const int rc = app_init(&app, &c);
+    if (rc != 0) {
+        /* app_init fell back to the firmware's defaults: "mstc". The caller
+         * who said nothing valid gets "paper", as with no strategy at all. */
+        mstc_sil_defaults(&d);
+        const ctl_params_t paper = params_from(&d, MSTC_SIL_STRATEGY_PAPER);
+        (void)ctl_set_params(&app.ctl, &paper);
+    }
+    return rc;
 }
 
 int mstc_sil_fw_init(const mstc_sil_params_t *p)
 {
-    hal_sil_reset();
-    if (p == NULL) {
-        return app_init(&app, NULL);
-    }
-    const ctl_params_t c = params_from(p);
-    return app_init(&app, &c);
+    return mstc_sil_fw_init_strategy(p, MSTC_SIL_STRATEGY_PAPER);
 }
 
 int mstc_sil_fw_send(const mstc_sil_frame_t *f)
@@ -167,6 +208,12 @@ int mstc_sil_fw_recv(mstc_sil_frame_t *f)
 
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 {
+    return mstc_sil_step_moving(mem, in, NULL, out);
+}
+
+int mstc_sil_step_moving(void *mem, const mstc_sil_input_t *in, const mstc_sil_velocity_t *vel,
+                         mstc_sil_output_t *out)
+{
     if (mem == NULL || in == NULL || out == NULL || in->n_obstacles > MSTC_SIL_MAX_OBSTACLES ||
         (in->n_obstacles > 0 && in->obstacles == NULL)) {
         return -EINVAL;
@@ -181,9 +228,13 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     sup_obstacle_t obs[MSTC_SIL_MAX_OBSTACLES];
     for (uint32_t i = 0; i < in->n_obstacles; i++) {
         const mstc_sil_obstacle_t *o = &in->obstacles[i];
-        obs[i] = (sup_obstacle_t){
-            .id = obstacle_id(o), .x = from_d(o->x), .y = from_d(o->y), .radius = from_d(o->radius)
-        };
+        const mstc_sil_velocity_t *v = vel != NULL ? &vel[i] : NULL;
+        obs[i] = (sup_obstacle_t){ .id = obstacle_id(o, v),
+                                   .x = from_d(o->x),
+                                   .y = from_d(o->y),
+                                   .radius = from_d(o->radius),
+                                   .vx = v != NULL ? from_d(v->vx) : NUM_ZERO,
+                                   .vy = v != NULL ? from_d(v->vy) : NUM_ZERO };
     }
     const ctl_input_t ci = {
         .robot = { from_d(in->robot[0]), from_d(in->robot[1]), from_d(in->robot[2]) },

@@ -14,6 +14,15 @@
  * library converts at this boundary. For the in-memory step the caller owns
  * the controller's memory (mstc_sil_size() bytes, 16-byte aligned); the frame
  * path has one firmware instance per loaded library, like a board.
+ *
+ * The switch strategy (ctl_params_t::strategy, docs/strategy.md): the
+ * structures below predate it and keep their layout, so a caller that says
+ * nothing about it (mstc_sil_init(), mstc_sil_fw_init(), mstc_sil_step())
+ * gets "paper" (MSTC_SIL_STRATEGY_PAPER), the strategy every committed
+ * scenario and log was made with, even though the firmware's own default
+ * (the board images') is "mstc". A caller that knows the strategy passes it
+ * to mstc_sil_init_strategy() / mstc_sil_fw_init_strategy(), and obstacle
+ * velocities to mstc_sil_step_moving().
  */
 #ifndef MSTC_SIL_H
 #define MSTC_SIL_H
@@ -23,6 +32,11 @@
 
 #define MSTC_SIL_MAX_OBSTACLES 16
 #define MSTC_SIL_MAX_EVENTS    18
+
+/** @name Strategies (CTL_STRATEGY_*). @{ */
+#define MSTC_SIL_STRATEGY_PAPER 0
+#define MSTC_SIL_STRATEGY_MSTC  1
+/** @} */
 
 /** @brief Parameters, SI units (see ctl_params_t). */
 typedef struct {
@@ -48,21 +62,27 @@ typedef struct {
     const mstc_sil_obstacle_t *obstacles;
 } mstc_sil_input_t;
 
+/** @brief Velocity of a reported obstacle (mstc_sil_step_moving()). */
+typedef struct {
+    double vx, vy; /**< [m/s], 0 for a static obstacle */
+} mstc_sil_velocity_t;
+
 /** @brief An event (see sup_event_t). */
 typedef struct {
     uint64_t t_us;
-    int32_t kind;     /**< 1 detect, 2 activate, 3 complete */
-    int32_t obstacle; /**< obstacle id */
+    int32_t kind;     /**< 1 detect, 2 activate, 3 complete; "mstc" also 4 blocked,
+                           5 resume, 6 filter */
+    int32_t obstacle; /**< obstacle id (0: none, resume) */
     int32_t side;     /**< 1 left, -1 right, 0 none */
 } mstc_sil_event_t;
 
 /** @brief Outputs of one step (see ctl_output_t). */
 typedef struct {
     double wheel_left, wheel_right; /**< [rad/s] */
-    int32_t mode;                   /**< 0 track, 1 avoid, 2 stop */
+    int32_t mode;                   /**< 0 track, 1 avoid, 2 stop, 3 blocked ("mstc") */
     int32_t active_obstacle;        /**< id, 0 when none */
     int32_t side;                   /**< 1 left, -1 right, 0 none */
-    uint32_t faults;                /**< CTL_FAULT_* bits */
+    uint32_t faults;                /**< CTL_FAULT_* bits (bit 4: the safety filter acted) */
     double e1, e2, e3, e;
     double v, w; /**< commanded body velocity after saturation */
     uint32_t n_obstacles;
@@ -81,18 +101,38 @@ const char *mstc_sil_numeric(void);
 /** @brief Table 1 defaults into @p p. */
 void mstc_sil_defaults(mstc_sil_params_t *p);
 
+/** @brief The firmware's default strategy (ctl_params_default(): the board
+ *         images'), MSTC_SIL_STRATEGY_MSTC. */
+int32_t mstc_sil_default_strategy(void);
+
 /**
- * @brief Initialise the controller in @p mem.
+ * @brief Initialise the controller in @p mem with the "paper" strategy.
  * @retval 0 ready; -EINVAL parameters rejected (ctl_params_check).
  */
 int mstc_sil_init(void *mem, const mstc_sil_params_t *p);
 
 /**
- * @brief One control step.
+ * @brief Initialise the controller in @p mem with @p strategy.
+ * @param strategy MSTC_SIL_STRATEGY_PAPER or MSTC_SIL_STRATEGY_MSTC.
+ * @retval 0 ready; -EINVAL parameters or strategy rejected (ctl_params_check).
+ */
+int mstc_sil_init_strategy(void *mem, const mstc_sil_params_t *p, int32_t strategy);
+
+/**
+ * @brief One control step, every obstacle static.
  * @retval 0 done; -EINVAL more than MSTC_SIL_MAX_OBSTACLES obstacles or a
  *         NULL pointer (nothing is done).
  */
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out);
+
+/**
+ * @brief One control step with obstacle velocities.
+ * @param vel NULL (every obstacle static), or in->n_obstacles velocities in
+ *            the order of in->obstacles. "paper" ignores them.
+ * @retval 0 done; -EINVAL as mstc_sil_step().
+ */
+int mstc_sil_step_moving(void *mem, const mstc_sil_input_t *in, const mstc_sil_velocity_t *vel,
+                         mstc_sil_output_t *out);
 
 /** @brief A classic CAN frame (same layout as hal_can_frame_t). */
 typedef struct {
@@ -103,11 +143,18 @@ typedef struct {
 
 /**
  * @brief (Re)start the library's firmware instance: empty bus queues, fresh
- *        application state.
+ *        application state, the "paper" strategy.
  * @param p parameters, or NULL for the defaults.
  * @retval 0 ready; -EINVAL parameters rejected (the defaults are then used).
  */
 int mstc_sil_fw_init(const mstc_sil_params_t *p);
+
+/**
+ * @brief mstc_sil_fw_init() with @p strategy (MSTC_SIL_STRATEGY_*).
+ * @retval 0 ready; -EINVAL parameters or strategy rejected (the defaults,
+ *         "paper", are then used).
+ */
+int mstc_sil_fw_init_strategy(const mstc_sil_params_t *p, int32_t strategy);
 
 /**
  * @brief Put a frame on the firmware's bus; the firmware handles it before

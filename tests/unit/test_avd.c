@@ -77,17 +77,17 @@ static double ref_beta(double x, double y, double ox, double oy, double ds, int 
     return atan2(uy, ux);
 }
 
-/* Eq. (22) with u̇ = u̇_p + u̇_f, eq. (16) u̇_f = −R q̇, and eq. (15) either as
+/* Eq. (22) with u̇ = u̇_p + u̇_f, eq. (16) u̇_f = −R q̇, for the robot moving
+ * at q̇ = (xd, yd) relative to the obstacle, and eq. (15) either as
  * corrected in notes.md or as the paper prints it (misprint = true):
  *   corrected: u̇_p = (D_s/r − 1) q̇ − (D_s/r)(ẋ cos φ + ẏ sin φ) û
  *   misprint:  u̇_p = (D_s/r − 1) q̇ + D_s (ẋ cos φ + ẏ sin φ) u_mo      */
-static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy, double ds,
-                           int side, bool misprint)
+static double ref_beta_dot_q(double x, double y, double xd, double yd, double ox, double oy,
+                             double ds, int side, bool misprint)
 {
     const double s = (double)side;
     const double mx = ox - x, my = oy - y, r = hypot(mx, my);
     const double cphi = mx / r, sphi = my / r;
-    const double xd = v * cos(th), yd = v * sin(th);
     const double proj = xd * cphi + yd * sphi;
     double upx, upy;
     if (misprint) {
@@ -102,6 +102,13 @@ static double ref_beta_dot(double x, double y, double th, double v, double ox, d
     double un;
     const double b = ref_beta(x, y, ox, oy, ds, side, &un);
     return (udy * cos(b) - udx * sin(b)) / un;
+}
+
+/* The same for a robot at heading th and speed v: q̇ = v [cos θ, sin θ]. */
+static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy, double ds,
+                           int side, bool misprint)
+{
+    return ref_beta_dot_q(x, y, v * cos(th), v * sin(th), ox, oy, ds, side, misprint);
 }
 
 static const char *side_name(avd_side_t s)
@@ -484,6 +491,42 @@ static void test_avd_control_linear_speed_is_eq23(void)
     TEST_ASSERT_NUM_WITHIN(TOL_BETA, atan(8.0) - tu_q(0.3), e);
 }
 
+/* ------------------------------------------------------- avd_turn ("mstc") */
+
+static void test_avd_turn_of_a_static_circle_is_eq24(void)
+{
+    /* For a still circle and the v of eq. (23), avd_turn() gives the ω and e
+     * of avd_control() (β̇ + k2 e, the independent double formula). */
+    const avd_gains_t g = { .k1 = tu_num(3.0), .k2 = tu_num(5.0) };
+    const double c[][4] = { { 1.6, 1.0, 0.3, 0.5 },
+                            { 2.3, 1.35, -2.5, 0.4 },
+                            { 1.5, 0.9, -3.0, 0.45 } };
+    char msg[96];
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        for (int side = -1; side <= 1; side += 2) {
+            const pose_t robot = tu_pose(c[i][0], c[i][1], c[i][2]);
+            const avd_obstacle_t o = { .x = tu_num(2.0),
+                                       .y = tu_num(1.0),
+                                       .vx = NUM_ZERO,
+                                       .vy = NUM_ZERO,
+                                       .d_s = tu_num(DS) };
+            num_t w, e;
+            avd_turn(&g, &robot, num_cos(robot.theta), num_sin(robot.theta), &o, (avd_side_t)side,
+                     tu_num(c[i][3]), &w, &e);
+            double un;
+            const double beta =
+                ref_beta(tu_q(c[i][0]), tu_q(c[i][1]), 2.0, 1.0, tu_q(DS), side, &un);
+            const double ee = tu_wrap(beta - tu_q(c[i][2]));
+            const double ww = ref_beta_dot(tu_q(c[i][0]), tu_q(c[i][1]), tu_q(c[i][2]),
+                                           tu_q(c[i][3]), 2.0, 1.0, tu_q(DS), side, false) +
+                              5.0 * ee;
+            snprintf(msg, sizeof msg, "pose %zu side %d", i, side);
+            TEST_ASSERT_ANGLE_WITHIN_MESSAGE(TOL_BETA, ee, e, msg);
+            TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_OMEGA, ww, w, msg);
+        }
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -501,5 +544,6 @@ int main(void)
     RUN_TEST(test_avd_control_wraps_e_and_adds_beta_dot);
     RUN_TEST(test_avd_control_heading_error_and_omega_general);
     RUN_TEST(test_avd_control_linear_speed_is_eq23);
+    RUN_TEST(test_avd_turn_of_a_static_circle_is_eq24);
     return UNITY_END();
 }
