@@ -33,6 +33,11 @@ static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t
     (*n)++;
 }
 
+static bool moving(const sup_entry_t *e)
+{
+    return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
+}
+
 static bool in_mask(uint16_t mask, uint8_t i) { return (mask & (1u << i)) != 0u; }
 
 /* Time since @p t0, 0 if the clock went backwards. */
@@ -54,6 +59,28 @@ static bool closing(const msw_input_t *in, const sup_entry_t *e)
     return oset_closing(num_sub(e->o.x, in->robot->x), num_sub(e->o.y, in->robot->y), vx, vy);
 }
 
+/* A moving entry whose closest approach within the horizon, under the
+ * tracking command, comes inside D_s + MSW_CPA_MARGIN. */
+static bool cpa_inside(const msw_input_t *in, const sup_entry_t *e, num_t horizon, num_t margin)
+{
+    const num_t px = num_sub(e->o.x, in->robot->x);
+    const num_t py = num_sub(e->o.y, in->robot->y);
+    if (num_abs(px) >= NUM_C(32.0) || num_abs(py) >= NUM_C(32.0)) {
+        return false; /* out of reach within any horizon used here */
+    }
+    num_t vx;
+    num_t vy;
+    relative_velocity(in, e, &vx, &vy);
+    if (num_abs(vx) >= NUM_C(32.0) || num_abs(vy) >= NUM_C(32.0)) {
+        return true; /* beyond what the test can tell: assume the worst */
+    }
+    num_t t;
+    num_t d2;
+    oset_closest_approach(px, py, num_neg(vx), num_neg(vy), horizon, &t, &d2);
+    const num_t r = num_add(e->d_s, margin);
+    return d2 < num_mul(r, r);
+}
+
 /* Boundary distance of entry @p i: centre distance less its own D_s. */
 static num_t boundary(const sup_t *s, const msw_input_t *in, uint8_t i)
 {
@@ -71,7 +98,11 @@ static int candidate(const msw_t *m, const sup_t *s, const msw_input_t *in, uint
         if (m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
             continue;
         }
-        if (in->dist[i] < e->d_act && closing(in, e)) {
+        bool trig = in->dist[i] < e->d_act && closing(in, e);
+        if (!trig && moving(e) && in->dist[i] < num_add(e->d_act, MSW_CPA_REACH)) {
+            trig = cpa_inside(in, e, MSW_CPA_HORIZON, MSW_CPA_MARGIN);
+        }
+        if (trig) {
             const num_t b = boundary(s, in, i);
             if (best < 0 || b < best_b) {
                 best = (int)i;
@@ -186,7 +217,18 @@ static avd_side_t side_by_heading(const sup_t *s, uint16_t cluster, num_t offset
 avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in)
 {
-    (void)trigger;
+    const sup_entry_t *t = &s->obs[trigger];
+    if (moving(t)) {
+        /* Obstacle velocity across the heading: [−sin θ, cos θ]·v_o. */
+        const num_t across =
+            num_add(num_mul(num_neg(in->sin_th), t->o.vx), num_mul(in->cos_th, t->o.vy));
+        if (across > MSW_MOVING_SPEED) {
+            return AVD_SIDE_RIGHT;
+        }
+        if (across < num_neg(MSW_MOVING_SPEED)) {
+            return AVD_SIDE_LEFT;
+        }
+    }
     avd_side_t side = side_by_reference(s, cluster, offset, in);
     if (side == AVD_SIDE_NONE) {
         side = side_by_heading(s, cluster, offset, in);
@@ -207,9 +249,19 @@ static bool way_clear(const sup_t *s, const msw_input_t *in)
         if (in->dist[i] < num_add(e->d_act, MSW_MARGIN)) {
             clear = num_max(clear, num_sub(in->dist[i], MSW_MARGIN));
         }
-        /* Beyond the path's reach by the distance: clear without a look. */
-        const bool ok =
-            in->dist[i] >= num_add(path.reach, clear) || rol_clears(&path, e->o.x, e->o.y, clear);
+        /* A moving entry: the robot no longer closes on it within reach of an
+         * activation, and its closest approach over the activation's horizon
+         * stays beyond what activates by the margin (hysteresis). */
+        bool ok;
+        if (moving(e)) {
+            ok = !(closing(in, e) && in->dist[i] < num_add(e->d_act, MSW_CPA_REACH)) &&
+                 !cpa_inside(in, e, MSW_CPA_HORIZON,
+                             num_max(num_sub(clear, e->d_s), num_add(MSW_CPA_MARGIN, MSW_MARGIN)));
+        } else {
+            /* Beyond the path's reach by the distance: clear without a look. */
+            ok = in->dist[i] >= num_add(path.reach, clear) ||
+                 rol_clears(&path, e->o.x, e->o.y, clear);
+        }
         if (!ok) {
             return false;
         }
@@ -233,10 +285,11 @@ static bool release_ok(const msw_t *m, const sup_t *s, const msw_input_t *in)
     if (since(in->t_us, m->t_act_us) < MSW_DWELL_US) {
         return false;
     }
-    /* p1 for every member. */
+    /* p1 for every static member (a moving one may never let the reference
+     * pass it: way_clear() judges it by its motion). */
     for (uint8_t i = 0; i < s->n_obs; i++) {
         const sup_entry_t *e = &s->obs[i];
-        if (in_mask(m->cluster, i) && !p1(in, e)) {
+        if (in_mask(m->cluster, i) && !moving(e) && !p1(in, e)) {
             return false;
         }
     }

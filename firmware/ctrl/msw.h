@@ -1,31 +1,36 @@
 /**
  * @file msw.h
  * @brief The "mstc" switch strategy (docs/strategy.md): switching on the
- *        robot's own motion, clusters gone around as one, release after a
- *        forward roll-out.
+ *        robot's own motion, clusters gone around as one, moving obstacles
+ *        met early and passed behind, release after a forward roll-out.
  *
  * It shares the supervisor's obstacle table (sup_take_reports(), Definition
  * 1) and decides, each step, what runs:
  *
  * - **Activation** (tracking): the nearest obstacle, by distance to its own
  *   safe circle, that the robot is within D_act of (the supervisor's per-
- *   obstacle threshold) and closing on under the tracking command, whatever
- *   the reference does (no p1 here). Its cluster (oset_cluster()) is gone
- *   around on one side, chosen once (msw_choose_side()) and held. At most
+ *   obstacle threshold) and closing on under the tracking command, or, for a
+ *   moving obstacle within D_act + MSW_CPA_REACH, whose closest approach
+ *   within MSW_CPA_HORIZON comes inside D_s + MSW_CPA_MARGIN; whatever the
+ *   reference does (no p1 here). Its cluster (oset_cluster()) is gone around
+ *   on one side, chosen once (msw_choose_side()) and held. At most
  *   MSW_MAX_ACTIVATIONS activations per obstacle in a run.
  * - **Avoidance**: the avoidance law follows the member of the cluster
  *   nearest from the robot or just ahead of it, on a circle MSW_FOLLOW_OFFSET
- *   beyond its D_s, or, when the cluster has gaps, half the robot's width
- *   plus MSW_FILL_MARGIN beyond it, so that the circles overlap and close the
- *   gaps; the cluster is recomputed whenever the table changes (obstacles
- *   detected later join it).
+ *   beyond its D_s (moving with it), or, when the cluster has gaps, half the
+ *   robot's width plus MSW_FILL_MARGIN beyond it, so that the circles overlap
+ *   and close the gaps; the cluster is recomputed whenever the table changes
+ *   (obstacles detected later join it).
  * - **Release** (COMPLETE): after MSW_DWELL_US in avoidance, when p1 holds
- *   for every member and the roll-out of the tracking command over
- *   MSW_ROLLOUT (rol.h) keeps every obstacle beyond its D_s + MSW_MARGIN and
- *   comes no more than MSW_MARGIN closer to any within its D_act + MSW_MARGIN
- *   (the robot no longer closes on it). Or, when an obstacle outside the
- *   cluster calls for an activation and is nearer than the member followed
- *   (a hand-over: the next step activates it).
+ *   for every static member and the roll-out of the tracking command over
+ *   MSW_ROLLOUT (rol.h) keeps every static obstacle beyond its D_s +
+ *   MSW_MARGIN and comes no more than MSW_MARGIN closer to any within its
+ *   D_act + MSW_MARGIN (the robot no longer closes on it); a moving one is
+ *   judged by its motion instead: no longer closing on it within reach of an
+ *   activation, and its closest approach beyond what activates, by the
+ *   margin. Or, when an obstacle outside the cluster calls for an activation
+ *   and is nearer than the member followed (a hand-over: the next step
+ *   activates it).
  *
  * At most one change of mode per step, so with the detections and a filter
  * event a step emits at most SUP_MAX_EVENTS events.
@@ -47,8 +52,12 @@
 #define MSW_FOLLOW_AHEAD    NUM_C(0.25) /**< member chosen from this far ahead too [m] */
 #define MSW_FILL_MARGIN     NUM_C(0.02) /**< gapped cluster: circles overlap by [m] */
 #define MSW_MAX_ACTIVATIONS 2u          /**< per obstacle and run */
+#define MSW_CPA_HORIZON     NUM_C(3.0)  /**< closest-approach horizon [s] */
+#define MSW_CPA_MARGIN      NUM_C(0.05) /**< closest approach below D_s + this activates [m] */
+#define MSW_CPA_REACH       NUM_C(1.0)  /**< ... when within D_act + this [m] */
 #define MSW_SIDE_DEADBAND   NUM_C(0.05) /**< side ties below this [rad] */
 #define MSW_TIE_OFFSET      NUM_C(0.05) /**< reference-side ties below this [m] */
+#define MSW_MOVING_SPEED    NUM_C(0.02) /**< slower obstacles count as static [m/s] */
 #define MSW_SPEED_MIN       NUM_C(0.5)  /**< least avoidance speed, times |v_r| */
 #define MSW_CATCH_UP        NUM_C(1.0)  /**< largest speed: |v_r| + this [m/s] */
 #define MSW_REGULATE        NUM_C(2.0)  /**< speed regulated within D_act + this [m] */
@@ -115,14 +124,17 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
 /**
  * @brief Side for going around cluster @p cluster, whose activation came
  *        from entry @p trigger, each member a disc of radius D_s + @p offset:
- *        1. the side on which the cluster's edge lies nearer the reference's
- *           path (the line through the reference along its direction of
- *           motion): LEFT when its left edge is nearer;
- *        2. when the two are within MSW_TIE_OFFSET (an obstacle on the path),
+ *        1. a trigger moving across the robot's heading (faster than
+ *           MSW_MOVING_SPEED) is passed behind: RIGHT when it moves to the
+ *           robot's left, LEFT when to its right;
+ *        2. else the side on which the cluster's edge lies nearer the
+ *           reference's path (the line through the reference along its
+ *           direction of motion): LEFT when its left edge is nearer;
+ *        3. when the two are within MSW_TIE_OFFSET (an obstacle on the path),
  *           the side that needs the smaller turn of the robot's heading to
  *           clear the cluster's angular extent seen from the robot (for one
  *           obstacle: eq. (11)-(12) of the paper);
- *        3. when that is within MSW_SIDE_DEADBAND too (head-on): LEFT.
+ *        4. when that is within MSW_SIDE_DEADBAND too (head-on): LEFT.
  * @param s       the table.
  * @param cluster members, a bit per table index.
  * @param trigger table index of the activating entry.

@@ -161,6 +161,18 @@ static void test_msw_side_on_the_path_falls_back_to_the_heading_then_left(void)
     TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, side_for(0.0, 0.0, 0.5, &o, 1));
 }
 
+static void test_msw_side_passes_behind_a_crossing_obstacle(void)
+{
+    /* An obstacle ahead moving to the robot's left (+y): its back is on the
+     * robot's right: RIGHT (whatever the path says: it is 0.2 right of it,
+     * which alone would give LEFT). Moving to the right: LEFT. */
+    sup_obstacle_t o = obstacle(1, 0.4, -0.2, 0.0, 0.5);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, side_for(0.0, 0.0, 0.5, &o, 1));
+    setUp();
+    o = obstacle(1, 0.4, 0.2, 0.0, -0.5);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, side_for(0.0, 0.0, 0.5, &o, 1));
+}
+
 /* ------------------------------------------------------------ activation */
 
 static void test_msw_activates_within_d_act_when_closing_whatever_the_reference(void)
@@ -217,6 +229,31 @@ static void test_msw_activates_the_nearest_boundary(void)
     step(&k, far, 2);
     TEST_ASSERT_EQUAL_UINT8(2, ev[0].obstacle);
     TEST_ASSERT_EQUAL_HEX16(0x0002u, m.cluster);
+}
+
+static void test_msw_activates_early_for_a_moving_obstacle_on_a_collision_course(void)
+{
+    /* Robot at the origin heading +x at 0.5 m/s; obstacle at (1.0, −0.5)
+     * moving +y at 0.5 m/s: relative position (1, −0.5), relative velocity
+     * (−0.5, 0.5): t* = 0.75 / 0.5 = 1.5 s, at (0.25, 0.25): 0.354 m
+     * < D_s + MSW_CPA_MARGIN = 0.4. Centre distance 1.118 < D_act +
+     * MSW_CPA_REACH = 1.5: ACTIVATE now, passing behind it (it moves to the
+     * robot's left): RIGHT. */
+    const sup_obstacle_t o = obstacle(1, 1.0, -0.5, 0.0, 0.5);
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, &o, 1);
+    expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_RIGHT);
+    /* The same obstacle static: nothing (1.118 > D_act). */
+    setUp();
+    const sup_obstacle_t still = obstacle(1, 1.0, -0.5, 0.0, 0.0);
+    step(&k, &still, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    /* Moving alongside at the robot's own velocity, 1.4 m away: no relative
+     * motion, the closest approach is now: nothing. */
+    setUp();
+    const sup_obstacle_t wide = obstacle(1, 1.0, -1.0, 0.5, 0.0);
+    step(&k, &wide, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
 }
 
 static void test_msw_gapped_cluster_widens_the_circle_followed(void)
@@ -372,6 +409,15 @@ static void test_msw_ties_on_distance_keep_the_first_trigger_in_the_table(void)
     TEST_ASSERT_EQUAL_UINT8(1, ev[0].obstacle);
 }
 
+static void test_msw_side_of_an_obstacle_moving_along_the_heading_is_the_static_rule(void)
+{
+    /* Coming head-on along the robot's heading (no velocity across it): the
+     * reference rule decides, as for a static obstacle 0.2 left of the
+     * path: RIGHT. */
+    sup_obstacle_t o = obstacle(1, 0.4, 0.2, -0.5, 0.0);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, side_for(0.0, 0.0, 0.5, &o, 1));
+}
+
 static void test_msw_a_clock_going_back_does_not_end_the_dwell(void)
 {
     /* Activated at t = 1 s; a step stamped 0.5 s (the clock went back) with
@@ -383,6 +429,91 @@ static void test_msw_a_clock_going_back_does_not_end_the_dwell(void)
     step(&k, &o, 1);
     TEST_ASSERT_EQUAL_size_t(0, n_ev);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+}
+
+static void test_msw_release_judges_moving_obstacles_by_their_motion(void)
+{
+    /* Avoiding a moving obstacle (activated when it came within D_act):
+     * p1 does not apply to it. Still closing on it within D_act +
+     * MSW_CPA_REACH: no release; moving away (robot +x, obstacle going +y
+     * away from the path, its closest approach now, 0.41 + ... clear):
+     * release. */
+    const sup_obstacle_t in_way = obstacle(1, 0.45, 0.0, 0.0, 0.3);
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, &in_way, 1);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    /* 1 s later: robot at (−0.15, 0.2) heading +x, the obstacle at
+     * (0.45, 0.3): 0.608 away; the robot's velocity relative to it,
+     * (0.5, −0.3), has dot 0.27 > 0 with (0.6, 0.1): closing, within
+     * D_act + MSW_CPA_REACH = 1.5: no release. */
+    sup_obstacle_t o = obstacle(1, 0.45, 0.3, 0.0, 0.3);
+    k = at(-0.15, 0.2, 0.0, 2.0, -0.45, 0.0, 1000000);
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    /* Past it: robot at (0.6, −0.45), obstacle at (0.45, 0.6): relative
+     * velocity of the robot (0.5, −0.3), dot with (−0.15, 1.05) < 0: not
+     * closing; closest approach now, 1.06 > 0.42: release, though the
+     * reference is nowhere past it. */
+    o = obstacle(1, 0.45, 0.6, 0.0, 0.3);
+    k = at(0.6, -0.45, 0.0, 0.45, 0.3, 0.0, 2000000);
+    step(&k, &o, 1);
+    expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+}
+
+static void test_msw_release_waits_for_a_fast_or_far_moving_obstacle(void)
+{
+    /* Avoiding a static obstacle with the release otherwise ready (the case
+     * of test_msw_release_waits_for_the_dwell_then_completes). Another
+     * obstacle, detected at (3, 0), since moved 40 m away at 1 m/s: out of
+     * any reach, release. */
+    sup_obstacle_t o[2] = { obstacle(1, 0.45, 0.0, 0, 0), obstacle(2, 3.0, 0.0, -1.0, 0) };
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, o, 2);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    TEST_ASSERT_EQUAL_UINT8(2, s.n_obs);
+    o[1] = obstacle(2, 40.0, 0.0, -1.0, 0);
+    k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, 600000);
+    step(&k, o, 2);
+    expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+    /* The same 40 m away along y. */
+    setUp();
+    o[1] = obstacle(2, 3.0, 0.0, -1.0, 0);
+    k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, o, 2);
+    o[1] = obstacle(2, 0.0, -40.0, -1.0, 0);
+    k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, 600000);
+    step(&k, o, 2);
+    expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+    /* One 3 m away at 40 m/s: beyond what the closest-approach test can
+     * tell in Q16.16 (|v| >= 32): assumed in the way, no release. */
+    setUp();
+    o[1] = obstacle(2, 3.0, 0.0, -40.0, 0);
+    k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, o, 2);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, 600000);
+    step(&k, o, 2);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+}
+
+static void test_msw_no_hand_over_to_a_farther_obstacle(void)
+{
+    /* Two static obstacles both within D_act of the robot are always one
+     * cluster (their D_act exceed D_s by less than half the width), so the
+     * farther candidate outside the cluster is a moving one, called by its
+     * closest approach: obstacle 2 at (1.7, 0) coming at 0.5 m/s, 1.3 from
+     * the robot at (0.4, 0) that follows 1 at the origin (boundary 0.05);
+     * 2's boundary is 0.95: the avoidance of 1 goes on. */
+    const sup_obstacle_t o[2] = { obstacle(1, 0.0, 0.0, 0, 0), obstacle(2, 1.7, 0.0, -0.5, 0) };
+    step_t a = at(-0.45, 0.0, 0.0, 5.0, 0.0, 0.0, 0);
+    step(&a, o, 2);
+    expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
+    step_t k = at(0.4, 0.0, 0.0, 5.0, 0.0, 0.0, 20000);
+    step(&k, o, 2);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    TEST_ASSERT_EQUAL_PTR(&s.obs[0], d.followed);
 }
 
 static void test_msw_obstacles_found_while_avoiding_join_the_cluster(void)
@@ -404,9 +535,11 @@ int main(void)
     RUN_TEST(test_msw_side_passes_where_the_cluster_leaves_the_path_nearer);
     RUN_TEST(test_msw_side_of_a_cluster_uses_its_whole_extent);
     RUN_TEST(test_msw_side_on_the_path_falls_back_to_the_heading_then_left);
+    RUN_TEST(test_msw_side_passes_behind_a_crossing_obstacle);
     RUN_TEST(test_msw_activates_within_d_act_when_closing_whatever_the_reference);
     RUN_TEST(test_msw_does_not_activate_when_not_closing_or_beyond_d_act);
     RUN_TEST(test_msw_activates_the_nearest_boundary);
+    RUN_TEST(test_msw_activates_early_for_a_moving_obstacle_on_a_collision_course);
     RUN_TEST(test_msw_gapped_cluster_widens_the_circle_followed);
     RUN_TEST(test_msw_follows_the_member_nearest_now_or_just_ahead);
     RUN_TEST(test_msw_release_waits_for_the_dwell_then_completes);
@@ -415,7 +548,11 @@ int main(void)
     RUN_TEST(test_msw_no_obstacle_is_activated_more_than_twice);
     RUN_TEST(test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster);
     RUN_TEST(test_msw_ties_on_distance_keep_the_first_trigger_in_the_table);
+    RUN_TEST(test_msw_side_of_an_obstacle_moving_along_the_heading_is_the_static_rule);
     RUN_TEST(test_msw_a_clock_going_back_does_not_end_the_dwell);
+    RUN_TEST(test_msw_release_judges_moving_obstacles_by_their_motion);
+    RUN_TEST(test_msw_release_waits_for_a_fast_or_far_moving_obstacle);
+    RUN_TEST(test_msw_no_hand_over_to_a_farther_obstacle);
     RUN_TEST(test_msw_obstacles_found_while_avoiding_join_the_cluster);
     return UNITY_END();
 }
