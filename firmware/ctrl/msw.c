@@ -20,6 +20,11 @@ void msw_reset(msw_t *m)
     m->revision = 0u;
     m->offset = MSW_FOLLOW_OFFSET;
     m->t_act_us = 0u;
+    m->turned = NUM_ZERO;
+    m->last_theta = NUM_ZERO;
+    m->mark_x = NUM_ZERO;
+    m->mark_y = NUM_ZERO;
+    m->t_mark_us = 0u;
     for (size_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
         m->acts[i] = 0u;
     }
@@ -305,6 +310,25 @@ static bool hand_over(const msw_t *m, const sup_t *s, const msw_input_t *in)
     return other >= 0 && boundary(s, in, (uint8_t)other) < boundary(s, in, m->followed);
 }
 
+/* Progress watchdog while avoiding: true when no progress is possible, that
+ * is when the robot has turned once around (the signed sum of its heading
+ * changes since the activation exceeds MSW_LOOP: it circles the cluster),
+ * or has stayed within MSW_PROGRESS of one point for MSW_STILL_US (stuck,
+ * the filter holding it). While p3 stops the robot, standing still is no
+ * sign of anything: the mark follows it. */
+static bool no_progress(msw_t *m, const msw_input_t *in)
+{
+    m->turned = num_add(m->turned, num_wrap(num_sub(in->robot->theta, m->last_theta)));
+    m->last_theta = in->robot->theta;
+    if (sup_p3(in->v_r, in->w_r) || !oset_within(num_sub(in->robot->x, m->mark_x),
+                                                 num_sub(in->robot->y, m->mark_y), MSW_PROGRESS)) {
+        m->mark_x = in->robot->x;
+        m->mark_y = in->robot->y;
+        m->t_mark_us = in->t_us;
+    }
+    return num_abs(m->turned) > MSW_LOOP || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
+}
+
 /* The cluster of the trigger, and the offset of the circles followed round
  * it: with gaps, half the width (the widest a gap in a cluster can be) plus
  * MSW_FILL_MARGIN, so that neighbouring circles overlap. */
@@ -327,13 +351,23 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
     m->side = msw_choose_side(s, m->cluster, i, m->offset, in);
     m->acts[i]++;
     m->t_act_us = in->t_us;
+    m->turned = NUM_ZERO;
+    m->last_theta = in->robot->theta;
+    m->mark_x = in->robot->x;
+    m->mark_y = in->robot->y;
+    m->t_mark_us = in->t_us;
     emit(events, n_ev, in->t_us, SUP_EVENT_ACTIVATE, s->obs[i].o.id, m->side);
 }
 
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
-    if (m->state == (uint8_t)MSW_AVOID) {
+    if (m->state == (uint8_t)MSW_BLOCKED) {
+        if (way_clear(s, in)) {
+            m->state = (uint8_t)MSW_TRACK;
+            emit(events, n_events, in->t_us, SUP_EVENT_RESUME, 0u, AVD_SIDE_NONE);
+        }
+    } else if (m->state == (uint8_t)MSW_AVOID) {
         if (s->revision != m->revision) {
             find_cluster(m, s); /* obstacles joined or moved */
         }
@@ -341,6 +375,10 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         if (release_ok(m, s, in) || hand_over(m, s, in)) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
+                 AVD_SIDE_NONE);
+        } else if (no_progress(m, in)) {
+            m->state = (uint8_t)MSW_BLOCKED;
+            emit(events, n_events, in->t_us, SUP_EVENT_BLOCKED, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
         } else {
             /* keep avoiding */
@@ -364,6 +402,8 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
                                       .vx = f->o.vx,
                                       .vy = f->o.vy,
                                       .d_s = num_add(f->d_s, m->offset) };
+    } else if (m->state == (uint8_t)MSW_BLOCKED) {
+        d->mode = SUP_MODE_BLOCKED;
     } else {
         /* tracking */
     }

@@ -2,7 +2,8 @@
  * @file msw.h
  * @brief The "mstc" switch strategy (docs/strategy.md): switching on the
  *        robot's own motion, clusters gone around as one, moving obstacles
- *        met early and passed behind, release after a forward roll-out.
+ *        met early and passed behind, release after a forward roll-out, and
+ *        a blocked state instead of circling.
  *
  * It shares the supervisor's obstacle table (sup_take_reports(), Definition
  * 1) and decides, each step, what runs:
@@ -31,6 +32,12 @@
  *   margin. Or, when an obstacle outside the cluster calls for an activation
  *   and is nearer than the member followed (a hand-over: the next step
  *   activates it).
+ * - **Blocked**: in avoidance, when the robot has turned once around (the
+ *   signed sum of its heading changes since the activation beyond MSW_LOOP:
+ *   it circles the cluster) or has not moved MSW_PROGRESS for MSW_STILL_US
+ *   (held in place), no progress is possible: it stops (BLOCKED, v = ω = 0)
+ *   and waits, and resumes tracking (RESUME) when the roll-out tests of the
+ *   release pass. Standing still while p3 stops the robot does not count.
  *
  * At most one change of mode per step, so with the detections and a filter
  * event a step emits at most SUP_MAX_EVENTS events.
@@ -55,6 +62,9 @@
 #define MSW_CPA_HORIZON     NUM_C(3.0)  /**< closest-approach horizon [s] */
 #define MSW_CPA_MARGIN      NUM_C(0.05) /**< closest approach below D_s + this activates [m] */
 #define MSW_CPA_REACH       NUM_C(1.0)  /**< ... when within D_act + this [m] */
+#define MSW_LOOP            NUM_C(6.8)  /**< turned once around (2π + 0.5): blocked [rad] */
+#define MSW_STILL_US        5000000u    /**< within MSW_PROGRESS this long: blocked [µs] */
+#define MSW_PROGRESS        NUM_C(0.1)  /**< least motion that counts as progress [m] */
 #define MSW_SIDE_DEADBAND   NUM_C(0.05) /**< side ties below this [rad] */
 #define MSW_TIE_OFFSET      NUM_C(0.05) /**< reference-side ties below this [m] */
 #define MSW_MOVING_SPEED    NUM_C(0.02) /**< slower obstacles count as static [m/s] */
@@ -67,6 +77,7 @@
 typedef enum {
     MSW_TRACK = 0,
     MSW_AVOID = 1,
+    MSW_BLOCKED = 2,
 } msw_state_t;
 
 /** @brief Strategy state. */
@@ -80,6 +91,10 @@ typedef struct {
     uint16_t revision;               /**< sup_t::revision the cluster was found at */
     num_t offset;                    /**< circles followed: D_s + this [m] */
     uint64_t t_act_us;               /**< time of the activation */
+    num_t turned;                    /**< heading change since the activation [rad] */
+    num_t last_theta;                /**< heading at the previous step [rad] */
+    num_t mark_x, mark_y;            /**< where the robot last made progress [m] */
+    uint64_t t_mark_us;              /**< when */
     uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index */
 } msw_t;
 

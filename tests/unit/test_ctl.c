@@ -627,6 +627,36 @@ static void test_ctl_mstc_filter_brakes_and_says_so(void)
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 3.5 / R_WHEEL, out.wheels.left);
 }
 
+static void test_ctl_mstc_blocked_stops_the_wheels(void)
+{
+    /* Obstacle at (0.45, 0) straight ahead: activation. The reference waits
+     * inside its D_act (no p1, no release), and the robot is then found
+     * going round it on a 0.41 circle, turning 0.5 rad a step: after 14
+     * steps (7 rad) the strategy calls it blocked: mode BLOCKED, wheels 0,
+     * event BLOCKED naming the obstacle. */
+    mstc_init();
+    sup_obstacle_t o = obstacle(5, 0.45, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.45, 0.3, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(5, out.status.active_obstacle);
+    for (int i = 1; i <= 14; i++) {
+        const double th = 0.5 * i;
+        in.robot = tu_pose(0.45 - 0.41 * sin(th), 0.41 * cos(th), th);
+        in.t_us = (uint64_t)i * 20000u;
+        ctl_step(&c, &in, &out);
+        if (i < 14) {
+            TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_BLOCKED, out.status.mode);
+    TEST_ASSERT_EQUAL_size_t(1, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_BLOCKED, out.events[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(5, out.events[0].obstacle);
+    TEST_ASSERT_TRUE(out.wheels.left == NUM_ZERO && out.wheels.right == NUM_ZERO);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.active_obstacle);
+}
+
 static void test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper(void)
 {
     /* A report with vx = 101 m/s (beyond CTL_MAX_ABS_SPEED): "mstc" drops it;
@@ -861,6 +891,7 @@ int main(void)
     RUN_TEST(test_ctl_set_params_applies_and_keeps_the_supervisor_state);
     RUN_TEST(test_ctl_mstc_tracks_as_the_paper_away_from_obstacles);
     RUN_TEST(test_ctl_mstc_filter_brakes_and_says_so);
+    RUN_TEST(test_ctl_mstc_blocked_stops_the_wheels);
     RUN_TEST(test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper);
     RUN_TEST(test_ctl_mstc_drops_reports_beyond_the_table);
     RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);

@@ -397,6 +397,87 @@ static void test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster(void)
 
 /* --------------------------------------------------------------- blocked */
 
+static void test_msw_blocked_after_a_full_turn_around(void)
+{
+    /* Avoiding with the reference never past (p1 false: it sits behind at
+     * (−1, 0)); the robot's heading turns by 0.5 rad a step. After 14 steps
+     * it has turned 7 rad > MSW_LOOP = 6.8: BLOCKED, naming the member. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    activate_one(&o);
+    size_t i = 1;
+    for (; i <= 14; i++) {
+        const double th = 0.5 * (double)i;
+        step_t k = at(0.45 - 0.41 * sin(th), 0.41 * cos(th), th, -1.0, 0.0, 0.0, 20000 * i);
+        step(&k, &o, 1);
+        if (n_ev != 0) {
+            break;
+        }
+    }
+    TEST_ASSERT_EQUAL_size_t(14, i);
+    expect_event(SUP_EVENT_BLOCKED, 1, AVD_SIDE_NONE);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_BLOCKED, d.mode);
+    TEST_ASSERT_NULL(d.followed);
+}
+
+static void test_msw_blocked_when_still_then_resumes_when_the_way_clears(void)
+{
+    /* Avoiding, with the reference at (0.45, 0.3) inside D_act of the
+     * obstacle (no p1, no release), the robot held in place (by the filter,
+     * say) at (0, −0.45): it got there at t = 0.02 s, and 5 s later without
+     * moving 0.1 m it is BLOCKED. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    activate_one(&o);
+    step_t k = at(0.0, -0.45, 0.0, 0.45, 0.3, 0.0, 0);
+    for (uint64_t t = 20000; t < 5020000; t += 20000) {
+        k.t_us = t;
+        step(&k, &o, 1);
+        TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    }
+    k.t_us = 5020000;
+    step(&k, &o, 1);
+    expect_event(SUP_EVENT_BLOCKED, 1, AVD_SIDE_NONE);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_BLOCKED, d.mode);
+    /* It waits while the tracking command would drive at the obstacle
+     * (heading π/4 from (0, −0.45) points at its centre, 0.636 away: the
+     * 0.5 m roll-out ends 0.136 from it, inside D_s + margin = 0.37), and
+     * resumes when it would not (heading +x: the roll-out passes 0.45 from
+     * the centre). The obstacle is beyond D_act + margin = 0.52, so only
+     * D_s + margin applies. */
+    k.robot = tu_pose(0.0, -0.45, TU_PI / 4);
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_BLOCKED, d.mode);
+    k.robot = tu_pose(0.0, -0.45, 0.0);
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    expect_event(SUP_EVENT_RESUME, 0, AVD_SIDE_NONE);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+}
+
+static void test_msw_p3_stops_and_is_not_blocked(void)
+{
+    /* Avoiding (the reference inside D_act of the obstacle: no release),
+     * then the reference stops (v_r = ω_r = 0): mode STOP, the avoidance
+     * kept; standing still through p3 is no sign of a block. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    activate_one(&o);
+    step_t k = at(0.0, -0.45, 0.0, 0.45, 0.3, 0.0, 0);
+    k.v_r = 0.0;
+    for (uint64_t t = 20000; t <= 8000000; t += 20000) {
+        k.t_us = t;
+        step(&k, &o, 1);
+        TEST_ASSERT_EQUAL_size_t(0, n_ev);
+        TEST_ASSERT_EQUAL_INT(SUP_MODE_STOP, d.mode);
+    }
+    TEST_ASSERT_EQUAL_UINT8(MSW_AVOID, m.state);
+    /* Tracking with p3: STOP too. */
+    setUp();
+    k.v_r = 0.0;
+    step(&k, NULL, 0);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_STOP, d.mode);
+}
+
 /* ------------------------------------------------------------ more cases */
 
 static void test_msw_ties_on_distance_keep_the_first_trigger_in_the_table(void)
@@ -547,6 +628,9 @@ int main(void)
     RUN_TEST(test_msw_release_needs_the_roll_out_clear);
     RUN_TEST(test_msw_no_obstacle_is_activated_more_than_twice);
     RUN_TEST(test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster);
+    RUN_TEST(test_msw_blocked_after_a_full_turn_around);
+    RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);
+    RUN_TEST(test_msw_p3_stops_and_is_not_blocked);
     RUN_TEST(test_msw_ties_on_distance_keep_the_first_trigger_in_the_table);
     RUN_TEST(test_msw_side_of_an_obstacle_moving_along_the_heading_is_the_static_rule);
     RUN_TEST(test_msw_a_clock_going_back_does_not_end_the_dwell);
