@@ -145,6 +145,29 @@ static void fill_distances(const ctl_t *c, const pose_t *robot, ctl_status_t *st
     }
 }
 
+/* The step's reports into the table (sup_take_reports), screened: at most
+ * SUP_MAX_OBSTACLES, the rest dropped (CTL_FAULT_OBSTACLE_DROPPED, as for a
+ * report the table rejects). Their DETECT events start out->events. A
+ * function of its own, so that the copy of the reports (384 bytes) is off
+ * the stack before the strategy runs. */
+static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ctl_output_t *out)
+{
+    const size_t n_reports =
+        in->n_obstacles < SUP_MAX_OBSTACLES ? in->n_obstacles : SUP_MAX_OBSTACLES;
+    const uint16_t dropped_before = c->sup.dropped;
+    sup_obstacle_t reports[SUP_MAX_OBSTACLES];
+    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
+    for (size_t i = 0; i < n_reports; i++) {
+        reports[i] = screened(&in->obstacles[i], with_velocity);
+    }
+    size_t n_ev = 0;
+    sup_take_reports(&c->sup, &in->robot, reports, n_reports, in->t_us, out->events, &n_ev);
+    out->n_events = n_ev;
+    if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
+        out->status.faults |= CTL_FAULT_OBSTACLE_DROPPED;
+    }
+}
+
 /* Wheel speeds for (v, ω), saturated (CTL_FAULT_SATURATED when scaled). */
 static void wheels_for(const ctl_t *c, num_t v, num_t w, kin_wheels_t *wheels, uint8_t *faults)
 {
@@ -206,16 +229,11 @@ static num_t avoid_speed(const ctl_params_t *p, const trk_err_t *err, num_t v_r)
 
 /* The "mstc" step (ctl.h): the table, the strategy, the active controller,
  * kinematics, then the safety filter on what the wheels will do. */
-static void mstc_step(ctl_t *c, const ctl_input_t *in, const sup_obstacle_t *reports,
-                      size_t n_reports, ctl_output_t *out)
+static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
-    size_t n_ev = 0;
-    const uint16_t dropped_before = c->sup.dropped;
-    sup_take_reports(&c->sup, &in->robot, reports, n_reports, in->t_us, out->events, &n_ev);
-    if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
-        st->faults |= CTL_FAULT_OBSTACLE_DROPPED;
-    }
+    take_reports(c, in, true, out);
+    size_t n_ev = out->n_events;
     const num_t cos_th = num_cos(in->robot.theta);
     const num_t sin_th = num_sin(in->robot.theta);
     trk_errors_cs(&in->robot, cos_th, sin_th, &in->ref, &st->err);
@@ -281,39 +299,17 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, const sup_obstacle_t *rep
     finish(c, out);
 }
 
-void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
+/* The "paper" step: the paper's supervisor and controllers, as they have
+ * always run. */
+static void paper_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
-    *st = (ctl_status_t){ .mode = SUP_MODE_STOP, .side = AVD_SIDE_NONE };
-    out->n_events = 0;
-    out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
-
-    if (!inputs_in_range(in)) {
-        /* Bad data from outside: stop, and leave the supervisor as it was. */
-        st->faults = CTL_FAULT_INPUT_NONFINITE;
-        return;
-    }
-
-    sup_obstacle_t reports[SUP_MAX_OBSTACLES];
-    const size_t n_reports =
-        in->n_obstacles < SUP_MAX_OBSTACLES ? in->n_obstacles : SUP_MAX_OBSTACLES;
-    const bool mstc = c->p.strategy == (uint8_t)CTL_STRATEGY_MSTC;
-    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
-    for (size_t i = 0; i < n_reports; i++) {
-        reports[i] = screened(&in->obstacles[i], mstc);
-    }
-    if (mstc) {
-        mstc_step(c, in, reports, n_reports, out);
-        return;
-    }
-    const uint16_t dropped_before = c->sup.dropped;
+    /* sup_step() in its two halves, the reports taken one at a time. */
+    take_reports(c, in, false, out);
     sup_decision_t d;
-    sup_step(&c->sup, &in->robot, &in->ref, in->v_r, in->w_r, reports, n_reports, in->t_us,
-             out->events, &d);
+    sup_decide(&c->sup, &in->robot, &in->ref, in->v_r, in->w_r, in->t_us, out->events,
+               out->n_events, &d);
     out->n_events = d.n_events;
-    if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
-        st->faults |= CTL_FAULT_OBSTACLE_DROPPED;
-    }
 
     trk_errors(&in->robot, &in->ref, &st->err);
     st->mode = d.mode;
@@ -333,4 +329,23 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     wheels_for(c, v, w, &out->wheels, &st->faults);
     finish(c, out);
     fill_distances(c, &in->robot, st);
+}
+
+void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
+{
+    ctl_status_t *st = &out->status;
+    *st = (ctl_status_t){ .mode = SUP_MODE_STOP, .side = AVD_SIDE_NONE };
+    out->n_events = 0;
+    out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
+
+    if (!inputs_in_range(in)) {
+        /* Bad data from outside: stop, and leave the supervisor as it was. */
+        st->faults = CTL_FAULT_INPUT_NONFINITE;
+        return;
+    }
+    if (c->p.strategy == (uint8_t)CTL_STRATEGY_MSTC) {
+        mstc_step(c, in, out);
+    } else {
+        paper_step(c, in, out);
+    }
 }

@@ -128,7 +128,13 @@ void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t
 {
     size_t n_ev = 0;
     sup_take_reports(s, robot, reports, n_reports, t_us, events, &n_ev);
+    sup_decide(s, robot, ref, v_r, w_r, t_us, events, n_ev, d);
+}
 
+void sup_decide(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
+                uint64_t t_us, sup_event_t *events, size_t n_events, sup_decision_t *d)
+{
+    size_t n_ev = n_events;
     /* notes.md, several obstacles: completion of the active obstacle first. */
     if (s->avoiding != 0) {
         const sup_entry_t *a = &s->obs[s->active];

@@ -176,4 +176,15 @@ void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t
               const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us, sup_event_t *events,
               sup_decision_t *d);
 
+/**
+ * @brief Steps 2 to 4 of sup_step() alone, on the table as
+ *        sup_take_reports() left it: sup_step() is sup_take_reports() then
+ *        this.
+ * @param s, robot, ref, v_r, w_r, t_us, events, d as sup_step().
+ * @param n_events events already in @p events this step (the detections);
+ *                 d->n_events counts them with the ones added here.
+ */
+void sup_decide(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
+                uint64_t t_us, sup_event_t *events, size_t n_events, sup_decision_t *d);
+
 #endif /* MSTC_SUP_H */
