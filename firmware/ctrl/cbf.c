@@ -97,6 +97,19 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const sup_entr
     *ay = num_add(num_sub(fr.ply, o->o.y), num_sub(fr.ply, o->o.y));
 }
 
+/* The constraint of @p o into *k, unless it surely cannot bind
+ * (slack_sure): then false. */
+static bool binding(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                    constraint_t *k)
+{
+    if (slack_sure(o, dist, speed)) {
+        return false;
+    }
+    num_t h;
+    constraint_of(fr, o, k, &h);
+    return true;
+}
+
 /* The most violated constraint for (v, ω), by more than CBF_TOLERANCE: its
  * index, or -1. */
 static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_t *dist, uint8_t n,
@@ -106,12 +119,10 @@ static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_
     int found = -1;
     num_t worst_gap = CBF_TOLERANCE;
     for (uint8_t i = 0; i < n; i++) {
-        if (slack_sure(&e[i], dist[i], speed)) {
+        constraint_t k;
+        if (!binding(fr, &e[i], dist[i], speed, &k)) {
             continue;
         }
-        constraint_t k;
-        num_t h;
-        constraint_of(fr, &e[i], &k, &h);
         const num_t gap = shortfall(&k, v, w);
         if (gap > worst_gap) {
             worst_gap = gap;
@@ -131,13 +142,8 @@ static num_t brake_factor(const lookahead_t *fr, const sup_entry_t *e, const num
     const num_t speed = speed_of(v, w);
     num_t f = NUM_ONE;
     for (uint8_t i = 0; i < n; i++) {
-        if (slack_sure(&e[i], dist[i], speed)) {
-            continue;
-        }
         constraint_t k;
-        num_t h;
-        constraint_of(fr, &e[i], &k, &h);
-        if (shortfall(&k, v, w) <= CBF_TOLERANCE) {
+        if (!binding(fr, &e[i], dist[i], speed, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
             continue;
         }
         if (k.b > NUM_ZERO) {
