@@ -13,18 +13,22 @@
  *     a_i = 2 (p_l − c_i)
  *     constraint: a_i·u >= b_i = a_i·w_i − α h_i   (ḣ_i >= −α h_i)
  *
- * One constraint at a time: up to CBF_PASSES times, the most violated one
- * is met exactly, u += (b_i − a_i·u) / |a_i|² a_i (the least change of u
- * that meets it). If some static constraint is still violated after that,
- * u is scaled down, by the largest factor in [0, 1] that meets every
- * constraint with b_i <= 0 (braking along the path: v and ω shrink
- * together; u = 0 meets them all). A constraint with b_i > 0 that is still
- * violated (an obstacle moving in faster than the robot can leave) is
- * reported as infeasible; the command is then the best of the passes.
+ * In (v, ω) the constraint reads g1 v + g2 l ω >= b_i, g1 = a_i·[cos θ,
+ * sin θ], g2 = a_i·[−sin θ, cos θ]. The most violated constraint is met
+ * exactly with the least change of (v, ω) in the norm Δv² + κ² Δω²
+ * (κ = CBF_TURN_WEIGHT_M: turning is not made cheap by a short l). If
+ * another constraint is then violated, the least change meeting the two:
+ * the projection onto either if it meets the other, else their vertex. What
+ * is still violated among the constraints with b_i <= 0 is met by scaling
+ * (v, ω) down, by the largest factor in [0, 1] that meets them all (braking
+ * along the path: v and ω shrink together; (0, 0) meets them all while
+ * h_i >= 0). A constraint with b_i > 0 still violated (an obstacle moving
+ * in faster than the robot can leave) is reported as infeasible; the
+ * command is then the best found.
  *
- * Scaling u by a factor in [0, 1] keeps every met constraint with b_i <= 0
- * met, so the wheel saturation after the filter (which scales v and ω by one
- * factor, kin.h) keeps them too.
+ * Scaling (v, ω), so u, by a factor in [0, 1] keeps every met constraint
+ * with b_i <= 0 met, so the wheel saturation after the filter (which scales
+ * v and ω by one factor, kin.h) keeps them too.
  */
 #ifndef MSTC_CBF_H
 #define MSTC_CBF_H
