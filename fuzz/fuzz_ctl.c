@@ -6,12 +6,14 @@
  * Q16.16. Covers the supervisor's input too: obstacle reports of any value.
  *
  * Input: 4-byte words, in order: robot x, y, θ; reference x, y, θ; v_r, ω_r;
- * then obstacles of 4 words each (id from the low byte of the first, then
- * x, y, radius), at most SUP_MAX_OBSTACLES + 2; optionally, when the input
- * starts with the byte 'P', 13 parameter words first (rejected ones leave the
- * defaults). Several steps run on the same state, one per 32 + 16n bytes.
- * After each step: the wheel speeds are finite and within
- * ±max_wheel_speed, the mode is one of the three; otherwise abort().
+ * then obstacles of 6 words each (id from the low byte of the first, then
+ * x, y, radius, vx, vy), at most SUP_MAX_OBSTACLES + 2; optionally, when the
+ * input starts with the byte 'P', 13 parameter words and a strategy word
+ * (a raw num_t like the others: 0 paper, 1 mstc, anything else refused)
+ * first (rejected ones leave the defaults, whose strategy is "mstc"). Several steps run on the same
+ * state, one per 32 + 24n bytes. After each step: the wheel speeds are finite and within
+ * ±max_wheel_speed, the mode is one of the four, the events fit their
+ * buffer; otherwise abort().
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -60,6 +62,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) {
             *all[i] = word(&p, end);
         }
+        params.strategy = word(&p, end);
     }
     (void)ctl_init(&c, &params);
     uint64_t t_us = 0;
@@ -76,13 +79,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             n_max = (size_t)(*p % (SUP_MAX_OBSTACLES + 3u));
             p++;
         }
-        while (n < n_max && end - p >= 16) {
+        while (n < n_max && end - p >= 24) {
             const num_t id = word(&p, end);
             uint8_t id8;
             memcpy(&id8, &id, 1);
-            obs[n] = (sup_obstacle_t){
-                .id = id8, .x = word(&p, end), .y = word(&p, end), .radius = word(&p, end)
-            };
+            obs[n] = (sup_obstacle_t){ .id = id8,
+                                       .x = word(&p, end),
+                                       .y = word(&p, end),
+                                       .radius = word(&p, end),
+                                       .vx = word(&p, end),
+                                       .vy = word(&p, end) };
             n++;
         }
         in.obstacles = obs;
@@ -93,7 +99,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         ctl_step(&c, &in, &out);
         const num_t max = c.p.kin.max_wheel_speed;
         if (!wheel_ok(out.wheels.left, max) || !wheel_ok(out.wheels.right, max) ||
-            out.status.mode > SUP_MODE_STOP || out.n_events > SUP_MAX_EVENTS) {
+            out.status.mode > SUP_MODE_BLOCKED || out.n_events > SUP_MAX_EVENTS) {
             abort();
         }
     }

@@ -10,6 +10,7 @@
 #include "hal/hal_can.h"
 
 _Static_assert(APP_TIMEOUT_US == APP_TIMEOUT_PERIODS * APP_PERIOD_US, "timeout in periods");
+_Static_assert((APP_OBSTACLE_IDS & (APP_OBSTACLE_IDS - 1u)) == 0u, "ids masked: a power of two");
 
 /* The frame of each watched input (app.h, APP_IN_*). */
 static const uint32_t input_id[APP_N_IN] = {
@@ -172,6 +173,12 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
 
     ctl_output_t out;
     if (a->halt == (uint8_t)COMM_HALT_NONE) {
+        for (uint8_t i = 0; i < a->n_reports; i++) {
+            sup_obstacle_t *o = &a->reports[i];
+            const uint8_t id = o->id & (uint8_t)(APP_OBSTACLE_IDS - 1u); /* 4 bits, as sent */
+            o->vx = a->obstacle_v[id][0];
+            o->vy = a->obstacle_v[id][1];
+        }
         const ctl_input_t in = {
             .robot = a->odom,
             .ref = a->ref,
@@ -285,6 +292,16 @@ static void on_param(app_t *a, uint8_t index, bool set, float value)
 
 /* ---------------------------------------------------------------- frames in */
 
+/* The velocity of obstacle m.u.obstacle_vel.id, kept until the next one: the
+ * plant sends it after the obstacle's OBSTACLE frame, each step it moves. */
+static void on_obstacle_vel(app_t *a, const comm_msg_t *m)
+{
+    /* The frame's id is 4 bits: the mask only says so to the compiler. */
+    const uint8_t id = m->u.obstacle_vel.id & (uint8_t)(APP_OBSTACLE_IDS - 1u);
+    a->obstacle_v[id][0] = m->u.obstacle_vel.vx;
+    a->obstacle_v[id][1] = m->u.obstacle_vel.vy;
+}
+
 static void on_obstacle(app_t *a, const sup_obstacle_t *o)
 {
     /* One report per id per step: a repeat replaces the earlier one. */
@@ -324,10 +341,7 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
         a->w_r = m.u.ref_motion.w;
         break;
     case COMM_ID_OBSTACLE: on_obstacle(a, &m.u.obstacle); break;
-    case COMM_ID_OBSTACLE_VEL:
-        /* Accepted and counted by the E2E receiver; the velocity of moving
-         * obstacles is not used by the paper's strategy. */
-        break;
+    case COMM_ID_OBSTACLE_VEL: on_obstacle_vel(a, &m); break;
     case COMM_ID_STEP: {
         /* The simulator's time, extended past the 32-bit wrap (71.6 min). A
          * time that goes back is taken as a wrap: a jump forward, which times

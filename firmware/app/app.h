@@ -61,6 +61,9 @@
  *         in time, never slower. */
 #define APP_MAX_DT_US       1000000u
 
+/** @brief Obstacle ids the OBSTACLE and OBSTACLE_VEL frames carry: 0..15. */
+#define APP_OBSTACLE_IDS 16u
+
 /** @brief Inputs watched by the safety supervisor, in the order of app_t::in. */
 enum {
     APP_IN_ODOM_XY = 0,
@@ -88,6 +91,9 @@ typedef struct {
     num_t w_r;
     sup_obstacle_t reports[SUP_MAX_OBSTACLES]; /**< obstacles reported since the last step */
     uint8_t n_reports;
+    /** Last OBSTACLE_VEL of each id (the frame's 4-bit id), vx then vy [m/s];
+     *  zero until one arrives: a report without one is a static obstacle. */
+    num_t obstacle_v[APP_OBSTACLE_IDS][2];
     uint16_t step;       /**< step of the last control step */
     uint32_t time_raw;   /**< last STEP time [µs], as sent (wraps at 2^32) */
     uint32_t time_wraps; /**< wraps of time_raw seen, for a 64-bit time */

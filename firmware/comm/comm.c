@@ -344,6 +344,8 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
         m->u.obstacle.x = num_from_raw(s.obstacle_x, &s_obs_xy);
         m->u.obstacle.y = num_from_raw(s.obstacle_y, &s_obs_xy);
         m->u.obstacle.radius = radius_from_cm(s.obstacle_radius);
+        m->u.obstacle.vx = NUM_ZERO; /* OBSTACLE carries no velocity: a static obstacle */
+        m->u.obstacle.vy = NUM_ZERO;
         break;
     }
     case COMM_ID_OBSTACLE_VEL: {
@@ -558,10 +560,11 @@ static uint16_t status_distance(comm_t *c, const ctl_status_t *st)
 int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
                        uint8_t halt, hal_can_frame_t *f)
 {
-    /* Bit 3 is this layer's; the controller's own bits are 0..2. */
+    /* Bits 3 and 5 are this layer's; the controller's own are 0..2 and 4
+     * (its bit 3, CTL_FAULT_OUTPUT_INVALID, is not on the wire). */
     const uint8_t ctl_faults =
-        (uint8_t)(st->faults &
-                  (CTL_FAULT_INPUT_NONFINITE | CTL_FAULT_OBSTACLE_DROPPED | CTL_FAULT_SATURATED));
+        (uint8_t)(st->faults & (CTL_FAULT_INPUT_NONFINITE | CTL_FAULT_OBSTACLE_DROPPED |
+                                CTL_FAULT_SATURATED | CTL_FAULT_FILTER));
     const int16_t e = (int16_t)raw_from_num(c, st->e, &s_angle13);
     const uint16_t distance = status_distance(c, st);
     const struct mstc_dbc_status_t s = {

@@ -293,7 +293,7 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  * @brief STATUS from the status of a step.
  *
  * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
- * faults = st->faults bits 0..2 (CTL_FAULT_*), bit 3 = @p frame_faults, bit 5
+ * faults = st->faults bits 0..2 and 4 (CTL_FAULT_*), bit 3 = @p frame_faults, bit 5
  * = a value clipped since the previous STATUS, this one's e and distance
  * included (then cleared); e; distance = centre distance to the active
  * obstacle, else to the nearest one remembered, else the signal's maximum

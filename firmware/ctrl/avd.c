@@ -14,8 +14,10 @@ avd_side_t avd_choose_side(const pose_t *robot, num_t ox, num_t oy)
     return num_wrap(num_sub(robot->theta, phi)) >= NUM_ZERO ? AVD_SIDE_LEFT : AVD_SIDE_RIGHT;
 }
 
-void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_t side, num_t v,
-                   avd_dir_t *dir)
+/* β, β̇ and |u| for the robot moving at (xd, yd) relative to the obstacle
+ * (its velocity minus the obstacle's: u_mo changes at −(xd, yd)). */
+static void direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_t side, num_t xd,
+                      num_t yd, avd_dir_t *dir)
 {
     /* u_mo, eq. (5)/(9), and its length r = D_r. */
     const num_t mx = num_sub(ox, robot->x);
@@ -48,9 +50,6 @@ void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_
     const num_t cb = num_div(ux, u_norm);
     const num_t sb = num_div(uy, u_norm);
 
-    /* q̇ = v [cos θ, sin θ]. */
-    const num_t xd = num_mul(v, num_cos(robot->theta));
-    const num_t yd = num_mul(v, num_sin(robot->theta));
     /* Corrected eq. (15): u̇_p = (D_s/r − 1) q̇ − (D_s/r)(ẋ cos φ + ẏ sin φ) û. */
     const num_t radial = num_mul(ds_r, num_add(num_mul(xd, cphi), num_mul(yd, sphi)));
     num_t udx = num_sub(num_neg(num_mul(k, xd)), num_mul(radial, cphi));
@@ -69,6 +68,15 @@ void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_
     dir->u_norm = u_norm;
 }
 
+void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_t side, num_t v,
+                   avd_dir_t *dir)
+{
+    /* q̇ = v [cos θ, sin θ]. */
+    const num_t xd = num_mul(v, num_cos(robot->theta));
+    const num_t yd = num_mul(v, num_sin(robot->theta));
+    direction(robot, ox, oy, d_s, side, xd, yd, dir);
+}
+
 void avd_control(const avd_gains_t *g, const pose_t *robot, const trk_err_t *err, num_t v_r,
                  num_t ox, num_t oy, num_t d_s, avd_side_t side, num_t *v, num_t *w, num_t *e)
 {
@@ -78,6 +86,19 @@ void avd_control(const avd_gains_t *g, const pose_t *robot, const trk_err_t *err
     avd_dir_t dir;
     avd_direction(robot, ox, oy, d_s, side, *v, &dir);
     /* eq. (21), wrapped (docs/equations.md erratum 2), and eq. (24). */
+    *e = num_wrap(num_sub(dir.beta, robot->theta));
+    *w = num_add(dir.beta_dot, num_mul(g->k2, *e));
+}
+
+void avd_turn(const avd_gains_t *g, const pose_t *robot, num_t cos_th, num_t sin_th,
+              const avd_obstacle_t *o, avd_side_t side, num_t v, num_t *w, num_t *e)
+{
+    /* eq. (15)-(17) hold for u_mo = O − q whatever moves: u̇_mo = Ȯ − q̇, so
+     * the robot's velocity enters relative to the obstacle's. */
+    const num_t xd = num_sub(num_mul(v, cos_th), o->vx);
+    const num_t yd = num_sub(num_mul(v, sin_th), o->vy);
+    avd_dir_t dir;
+    direction(robot, o->x, o->y, o->d_s, side, xd, yd, &dir);
     *e = num_wrap(num_sub(dir.beta, robot->theta));
     *w = num_add(dir.beta_dot, num_mul(g->k2, *e));
 }

@@ -75,4 +75,29 @@ void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_
 void avd_control(const avd_gains_t *g, const pose_t *robot, const trk_err_t *err, num_t v_r,
                  num_t ox, num_t oy, num_t d_s, avd_side_t side, num_t *v, num_t *w, num_t *e);
 
+/** @brief A circle to go around, possibly moving (avd_control_moving()). */
+typedef struct {
+    num_t x, y;   /**< centre [m] */
+    num_t vx, vy; /**< velocity [m/s] */
+    num_t d_s;    /**< radius of the circle followed [m], > 0 */
+} avd_obstacle_t;
+
+/**
+ * @brief The turn of the avoidance law, eq. (21), (22) and (24), for a given
+ *        linear velocity @p v, around a circle that may move at constant
+ *        velocity ("mstc", docs/strategy.md): β̇ is taken for the robot's
+ *        velocity relative to the circle's. For a static circle and the v of
+ *        eq. (23) it is what avd_control() computes.
+ * @param g     gains (k2).
+ * @param robot robot pose.
+ * @param cos_th,sin_th cos θ and sin θ of its heading (the caller has them).
+ * @param o     the circle: centre, velocity, radius.
+ * @param side  side held.
+ * @param v     the linear velocity the robot is given [m/s].
+ * @param[out] w angular velocity [rad/s]: β̇ + k2 e.
+ * @param[out] e heading error wrap(β − θ) [rad].
+ */
+void avd_turn(const avd_gains_t *g, const pose_t *robot, num_t cos_th, num_t sin_th,
+              const avd_obstacle_t *o, avd_side_t side, num_t v, num_t *w, num_t *e);
+
 #endif /* MSTC_AVD_H */

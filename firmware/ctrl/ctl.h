@@ -13,15 +13,23 @@
 #include <stdint.h>
 
 #include "ctrl/avd.h"
+#include "ctrl/cbf.h"
 #include "ctrl/ctl_limits.h"
+#include "ctrl/msw.h"
 #include "ctrl/sup.h"
 #include "ctrl/trk.h"
 #include "kin/kin.h"
 
+/** @brief Values of ctl_params_t::strategy (the DBC's value table Strategy). */
+enum {
+    CTL_STRATEGY_PAPER = 0, /**< the paper's switch strategy, exactly (sup.h) */
+    CTL_STRATEGY_MSTC = 1,  /**< the safe strategy: msw.h, cbf.h (docs/strategy.md) */
+};
+
 /**
- * @brief Every parameter PARAM_SET sets: Table 1, the wheel geometry and the
- *        deceleration of a halt. Their limits are one table,
- *        ctl_params.toml (docs/safety.md, "Parameters").
+ * @brief Every parameter PARAM_SET sets: Table 1, the wheel geometry, the
+ *        deceleration of a halt and the switch strategy. Their limits are one
+ *        table, ctl_params.toml (docs/safety.md, "Parameters").
  */
 typedef struct {
     num_t r_m;   /**< robot radius R_m [m] */
@@ -36,6 +44,9 @@ typedef struct {
      *  but by the application's ramp (app.h); in the set because its bound
      *  depends on kin.max_wheel_speed. */
     num_t max_wheel_decel;
+    /** CTL_STRATEGY_PAPER or CTL_STRATEGY_MSTC, held as a number like every
+     *  parameter the table checks (an enumerated one: a whole number). */
+    num_t strategy;
 } ctl_params_t;
 
 /** @brief Operators of a relation between parameters. */
@@ -54,6 +65,7 @@ typedef struct {
                            unknown_index) */
     bool control_law; /**< it changes what the controller commands: accepted
                            only while not armed (app.h) */
+    bool integer;     /**< an enumerated parameter: a whole number in [min, max] */
 } ctl_limit_t;
 
 /** @brief A relation: p[lhs] op factor · (p[rhs[0]] + p[rhs[1]]), with the
@@ -87,6 +99,8 @@ enum {
                                                the limit: zero instead (a defence that the
                                                ranges below should make unreachable; not
                                                on the wire) */
+    CTL_FAULT_FILTER = 1u << 4,           /**< "mstc": the safety filter changed the command
+                                               this step (cbf.h) */
 };
 
 /** @name Ranges of the step's inputs (docs/safety.md). Within them and the
@@ -96,7 +110,7 @@ enum {
  * Q16.16's range too. @{ */
 #define CTL_MAX_ABS_POSITION NUM_C(10000.0) /**< |x|, |y| of poses and obstacles [m] */
 #define CTL_MAX_ABS_ANGLE    NUM_C(1000.0)  /**< |θ| [rad], wrapped by the controllers */
-#define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s] */
+#define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s], obstacle |vx|, |vy| */
 #define CTL_MAX_RADIUS       NUM_C(100.0)   /**< obstacle radius [m] */
 /** @} */
 
@@ -114,7 +128,7 @@ typedef struct {
 /** @brief What the step did, for telemetry. */
 typedef struct {
     sup_mode_t mode;
-    uint8_t active_obstacle; /**< id of the obstacle avoided, 0 when none */
+    uint8_t active_obstacle; /**< id of the obstacle avoided (followed, "mstc"), 0 when none */
     avd_side_t side;         /**< its side */
     trk_err_t err;           /**< e1, e2, e3 */
     num_t e;                 /**< avoidance heading error [rad], 0 unless avoiding */
@@ -137,12 +151,16 @@ typedef struct {
 /** @brief Controller state. */
 typedef struct {
     ctl_params_t p;
-    sup_t sup;
+    sup_t sup; /**< obstacle table; the paper's switch strategy */
+    msw_t msw; /**< the "mstc" switch strategy */
+    cbf_t cbf; /**< the "mstc" safety filter */
 } ctl_t;
 
 /** @brief The defaults of the table: Table 1, with wheel geometry that never
  *         saturates in the paper's scenarios (r = 0.05 m, L = 0.3 m,
- *         100 rad/s) and a halt's deceleration of 125 rad/s². */
+ *         100 rad/s), a halt's deceleration of 125 rad/s² and the "mstc"
+ *         strategy (the board images' default; the paper's scenario files
+ *         select "paper"). */
 void ctl_params_default(ctl_params_t *p);
 
 /**
@@ -177,7 +195,8 @@ int ctl_init(ctl_t *c, const ctl_params_t *p);
 
 /**
  * @brief Replace the parameters, keeping the supervisor's state (obstacles,
- *        mode, side), as when a board is tuned over the bus.
+ *        mode, side), as when a board is tuned over the bus. A change of
+ *        strategy restarts the "mstc" strategy and filter in tracking.
  * @retval 0 applied. @retval -EINVAL rejected by ctl_params_check(); nothing
  *         changes.
  */
@@ -187,14 +206,26 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p);
 void ctl_reset(ctl_t *c);
 
 /**
- * @brief One control step. Total: never fails, and the wheel speeds are
+ * @brief One control step, with the strategy of the parameters: "paper"
+ *        (sup_step(), then the active controller and kinematics, exactly as
+ *        the paper) or "mstc" (msw_step(), the active controller, kinematics,
+ *        then the safety filter cbf_step() after wheel saturation, and the
+ *        saturation again). Total: never fails, and the wheel speeds are
  *        always finite and within ±max_wheel_speed. A non-finite or
  *        out-of-range pose or velocity gives zero wheel speeds, mode STOP and
  *        CTL_FAULT_INPUT_NONFINITE, and leaves the supervisor untouched. An
  *        obstacle report with a non-finite or out-of-range value is dropped
  *        (counted by the supervisor, CTL_FAULT_OBSTACLE_DROPPED); reports
- *        beyond SUP_MAX_OBSTACLES are dropped too.
+ *        beyond SUP_MAX_OBSTACLES are dropped too. "paper" ignores obstacle
+ *        velocities; "mstc" drops a report whose velocity is out of range.
  */
 void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
+
+/** @brief Whether @p p selects the "mstc" strategy (ctl_params_check() has
+ *         made strategy a whole 0 or 1). */
+static inline bool ctl_is_mstc(const ctl_params_t *p)
+{
+    return p->strategy == num_from_int((int32_t)CTL_STRATEGY_MSTC);
+}
 
 #endif /* MSTC_CTL_H */

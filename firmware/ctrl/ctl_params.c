@@ -5,27 +5,34 @@
 
 #include "ctrl/ctl.h"
 
+/* Every row of the table is held (tools/gen-limits refuses one that is not),
+ * so ctl_param_slot() of an index below CTL_N_PARAMS is never NULL. */
+
 void ctl_params_default(ctl_params_t *p)
 {
     *p = (ctl_params_t){ 0 };
     for (unsigned i = 0; i < CTL_N_PARAMS; i++) {
-        num_t *slot = ctl_param_slot(p, i);
-        if (slot != NULL) {
-            *slot = ctl_limits[i].def;
-        }
+        *ctl_param_slot(p, i) = ctl_limits[i].def;
     }
 }
 
 /* The value of parameter @p i in @p p (a copy: ctl_param_slot() wants it
- * writable). Relations name held parameters only (mstc.limits checks the
- * table when tools/gen-limits writes ctl_limits.c), so the slot exists. */
+ * writable). */
 static num_t value_of(ctl_params_t *p, unsigned i) { return *ctl_param_slot(p, i); }
 
 /* Finite and within [min, max]: num_is_finite() first, since an ordered
  * comparison with NaN raises FE_INVALID. */
+/* A whole number, for an x already within an enumerated parameter's small
+ * range (the cast cannot overflow). */
+static bool whole(num_t x)
+{
+    const float f = num_to_float(x);
+    return f == (float)(int32_t)f;
+}
+
 static bool in_range(num_t x, const ctl_limit_t *l)
 {
-    return num_is_finite(x) && x >= l->min && x <= l->max;
+    return num_is_finite(x) && x >= l->min && x <= l->max && (!l->integer || whole(x));
 }
 
 static bool holds(const ctl_relation_t *r, ctl_params_t *p)
@@ -51,8 +58,7 @@ ctl_params_verdict_t ctl_params_verdict(const ctl_params_t *p)
 {
     ctl_params_t q = *p;
     for (unsigned i = 0; i < CTL_N_PARAMS; i++) {
-        const num_t *slot = ctl_param_slot(&q, i);
-        if (slot != NULL && !in_range(*slot, &ctl_limits[i])) {
+        if (!in_range(value_of(&q, i), &ctl_limits[i])) {
             return CTL_PARAMS_RANGE;
         }
     }

@@ -23,6 +23,7 @@ bool sup_p3(num_t v_r, num_t w_r) { return v_r == NUM_ZERO && w_r == NUM_ZERO; }
 void sup_init(sup_t *s, const sup_params_t *p)
 {
     s->p = *p;
+    s->revision = 0u;
     sup_reset(s);
 }
 
@@ -33,6 +34,10 @@ void sup_reset(sup_t *s)
     s->active = 0;
     s->side = AVD_SIDE_NONE;
     s->dropped = 0;
+    s->revision++;
+    for (size_t i = 0; i < sizeof s->slot; i++) {
+        s->slot[i] = 0u;
+    }
 }
 
 static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o);
@@ -44,6 +49,7 @@ void sup_set_params(sup_t *s, const sup_params_t *p)
         const sup_obstacle_t o = s->obs[i].o;
         set_entry(s, &s->obs[i], &o);
     }
+    s->revision++;
 }
 
 static bool report_valid(const sup_obstacle_t *o)
@@ -52,14 +58,17 @@ static bool report_valid(const sup_obstacle_t *o)
            o->radius > NUM_ZERO;
 }
 
+/* A report that moves an obstacle or changes its size (what clusters are
+ * made of; a velocity alone does not). */
+static bool moved(const sup_obstacle_t *was, const sup_obstacle_t *now)
+{
+    return was->x != now->x || was->y != now->y || was->radius != now->radius;
+}
+
 static sup_entry_t *find(sup_t *s, uint8_t id)
 {
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (s->obs[i].o.id == id) {
-            return &s->obs[i];
-        }
-    }
-    return NULL;
+    const uint8_t k = s->slot[id];
+    return k != 0u ? &s->obs[k - 1u] : NULL;
 }
 
 static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t kind, uint8_t id,
@@ -82,8 +91,8 @@ static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o)
 /* Definition 1: remember each reported obstacle from the first step at which
  * it lies within D_det. At most one new entry per id, so at most
  * SUP_MAX_OBSTACLES detect events per step. */
-static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
-                         size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                      size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
 {
     for (size_t i = 0; i < n_reports; i++) {
         const sup_obstacle_t *o = &reports[i];
@@ -93,6 +102,9 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
         }
         sup_entry_t *e = find(s, o->id);
         if (e != NULL) {
+            if (moved(&e->o, o)) {
+                s->revision++;
+            }
             set_entry(s, e, o);
             continue;
         }
@@ -105,6 +117,8 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
         }
         set_entry(s, &s->obs[s->n_obs], o);
         s->n_obs++;
+        s->slot[o->id] = s->n_obs;
+        s->revision++;
         emit(events, n_ev, t_us, SUP_EVENT_DETECT, o->id, AVD_SIDE_NONE);
     }
 }
@@ -114,8 +128,14 @@ void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t
               sup_decision_t *d)
 {
     size_t n_ev = 0;
-    take_reports(s, robot, reports, n_reports, t_us, events, &n_ev);
+    sup_take_reports(s, robot, reports, n_reports, t_us, events, &n_ev);
+    sup_decide(s, robot, ref, v_r, w_r, t_us, events, n_ev, d);
+}
 
+void sup_decide(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
+                uint64_t t_us, sup_event_t *events, size_t n_events, sup_decision_t *d)
+{
+    size_t n_ev = n_events;
     /* docs/equations.md, several obstacles: completion of the active obstacle first. */
     if (s->avoiding != 0) {
         const sup_entry_t *a = &s->obs[s->active];

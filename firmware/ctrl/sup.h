@@ -25,29 +25,37 @@
 
 /** @brief Obstacles the supervisor can remember at once. */
 #define SUP_MAX_OBSTACLES 16u
-/** @brief Most events one step can emit: a detect per new obstacle, a
- *         complete and an activate. */
+/** @brief Most events one step can emit: a detect per new obstacle, and two
+ *         more: a complete and an activate ("paper"), or one change of mode
+ *         and a filter event ("mstc", msw.h). */
 #define SUP_MAX_EVENTS    (SUP_MAX_OBSTACLES + 2u)
 
 /** @brief Which controller runs. */
 typedef enum {
-    SUP_MODE_TRACK = 0, /**< trajectory tracking, eq. (1)-(3) */
-    SUP_MODE_AVOID = 1, /**< obstacle avoidance, eq. (9)-(24) */
-    SUP_MODE_STOP = 2,  /**< p3: v_r = ω_r = 0, so v = ω = 0 */
+    SUP_MODE_TRACK = 0,   /**< trajectory tracking, eq. (1)-(3) */
+    SUP_MODE_AVOID = 1,   /**< obstacle avoidance, eq. (9)-(24) */
+    SUP_MODE_STOP = 2,    /**< p3: v_r = ω_r = 0, so v = ω = 0 */
+    SUP_MODE_BLOCKED = 3, /**< "mstc" only: no progress possible; v = ω = 0 until the way
+                               clears (msw.h) */
 } sup_mode_t;
 
 /** @brief Kinds of event. */
 typedef enum {
     SUP_EVENT_DETECT = 1,   /**< first step with D_r <= D_det (Definition 1) */
     SUP_EVENT_ACTIVATE = 2, /**< p2 held: avoidance starts, with its side */
-    SUP_EVENT_COMPLETE = 3, /**< p1 held for the active obstacle: tracking resumes */
+    SUP_EVENT_COMPLETE = 3, /**< p1 held for the active obstacle: tracking resumes ("mstc":
+                                 the release test of msw.h held) */
+    SUP_EVENT_BLOCKED = 4,  /**< "mstc": the robot stops, no progress is possible (msw.h) */
+    SUP_EVENT_RESUME = 5,   /**< "mstc": the way is clear again, tracking resumes; obstacle 0 */
+    SUP_EVENT_FILTER = 6,   /**< "mstc": first step of a safety-filter intervention episode;
+                                 obstacle = the constraining one (cbf.h) */
 } sup_event_kind_t;
 
 /** @brief An event, stamped with the time of the step that emitted it. */
 typedef struct {
     uint64_t t_us;    /**< step time [µs] */
     uint8_t kind;     /**< sup_event_kind_t */
-    uint8_t obstacle; /**< obstacle id */
+    uint8_t obstacle; /**< obstacle id (0: none, RESUME) */
     int8_t side;      /**< avd_side_t on ACTIVATE, AVD_SIDE_NONE otherwise */
 } sup_event_t;
 
@@ -57,6 +65,9 @@ typedef struct {
     num_t x;      /**< centre [m] */
     num_t y;      /**< centre [m] */
     num_t radius; /**< [m], > 0 */
+    num_t vx;     /**< velocity [m/s], 0 for a static obstacle ("mstc" uses it; "paper"
+                       ignores it) */
+    num_t vy;     /**< velocity [m/s] */
 } sup_obstacle_t;
 
 /** @brief Thresholds of Definitions 1-4 (Table 1), centre to centre. */
@@ -83,6 +94,11 @@ typedef struct {
     uint8_t active;                     /**< index into obs[] while avoiding */
     avd_side_t side;                    /**< side held while avoiding */
     uint16_t dropped;                   /**< reports rejected (bad value or table full) */
+    uint16_t revision; /**< changes whenever an entry is added or moves (position or radius), or
+                            the thresholds change: "mstc" recomputes its cluster only then
+                            (msw.h) */
+    uint8_t slot[256]; /**< index + 1 in obs[] of each id, 0 when unknown: a report finds its
+                            entry without a search */
 } sup_t;
 
 /** @brief What the supervisor decided for one step. */
@@ -119,6 +135,22 @@ void sup_set_params(sup_t *s, const sup_params_t *p);
 void sup_reset(sup_t *s);
 
 /**
+ * @brief Step 1 of sup_step() alone (Definition 1): reports of unknown ids
+ *        within D_det enter the table (DETECT), reports of known ids update
+ *        their position and velocity; bad reports are counted in `dropped`.
+ *        The "mstc" strategy keeps its table with it (msw.h).
+ * @param s        state.
+ * @param robot    robot pose.
+ * @param reports  obstacles reported this step (may be NULL when @p n_reports is 0).
+ * @param n_reports number of reports.
+ * @param t_us     step time [µs], stamped on the events.
+ * @param events   where events go; at least SUP_MAX_EVENTS entries.
+ * @param[in,out] n_events events already in @p events; incremented per DETECT.
+ */
+void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                      size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_events);
+
+/**
  * @brief One step of the switch strategy, on the state at the start of the
  *        control period.
  *
@@ -144,5 +176,16 @@ void sup_reset(sup_t *s);
 void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
               const sup_obstacle_t *reports, size_t n_reports, uint64_t t_us, sup_event_t *events,
               sup_decision_t *d);
+
+/**
+ * @brief Steps 2 to 4 of sup_step() alone, on the table as
+ *        sup_take_reports() left it: sup_step() is sup_take_reports() then
+ *        this.
+ * @param s, robot, ref, v_r, w_r, t_us, events, d as sup_step().
+ * @param n_events events already in @p events this step (the detections);
+ *                 d->n_events counts them with the ones added here.
+ */
+void sup_decide(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
+                uint64_t t_us, sup_event_t *events, size_t n_events, sup_decision_t *d);
 
 #endif /* MSTC_SUP_H */

@@ -4,9 +4,12 @@
 
 void trk_errors(const pose_t *robot, const pose_t *ref, trk_err_t *err)
 {
+    trk_errors_cs(robot, num_cos(robot->theta), num_sin(robot->theta), ref, err);
+}
+
+void trk_errors_cs(const pose_t *robot, num_t c, num_t s, const pose_t *ref, trk_err_t *err)
+{
     /* eq. (1): the world-frame position error rotated into the body frame. */
-    const num_t c = num_cos(robot->theta);
-    const num_t s = num_sin(robot->theta);
     const num_t dx = num_sub(ref->x, robot->x);
     const num_t dy = num_sub(ref->y, robot->y);
     err->e1 = num_add(num_mul(c, dx), num_mul(s, dy));

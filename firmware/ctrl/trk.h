@@ -32,6 +32,16 @@ typedef struct {
 void trk_errors(const pose_t *robot, const pose_t *ref, trk_err_t *err);
 
 /**
+ * @brief trk_errors() for a caller that has cos θ and sin θ of the robot's
+ *        heading already (the same numbers, one sine and cosine fewer).
+ * @param robot the robot's pose.
+ * @param c,s   cos θ, sin θ of robot->theta (num_cos, num_sin).
+ * @param ref   the reference pose.
+ * @param[out] err e1, e2 [m] and e3 [rad].
+ */
+void trk_errors_cs(const pose_t *robot, num_t c, num_t s, const pose_t *ref, trk_err_t *err);
+
+/**
  * @brief Tracking control law, eq. (2)-(3).
  * @param g   gains.
  * @param err tracking errors from trk_errors().

@@ -71,12 +71,13 @@ static double to_d(num_t n) { return (double)num_to_float(n); }
 #endif
 
 /* The obstacle id the firmware gets: 0 (a report it drops and counts) for an
- * id out of range and, in fixed mode, for a non-finite coordinate or radius,
- * which sup_step drops in float mode. */
+ * id out of range and, in fixed mode, for a non-finite coordinate, radius or
+ * velocity, which the step drops in float mode. */
 static uint8_t obstacle_id(const mstc_sil_obstacle_t *o)
 {
 #if defined(NUM_FIXED)
-    if (!isfinite(o->x) || !isfinite(o->y) || !isfinite(o->radius)) {
+    if (!isfinite(o->x) || !isfinite(o->y) || !isfinite(o->radius) || !isfinite(o->vx) ||
+        !isfinite(o->vy)) {
         return 0u;
     }
 #endif
@@ -102,14 +103,10 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
         .wheel_radius = to_d(c.kin.wheel_radius),
         .track_width = to_d(c.kin.track_width),
         .max_wheel_speed = to_d(c.kin.max_wheel_speed),
-        /* .strategy stays 0 (paper), the only strategy ctl_params_t runs
-         * until it carries its own strategy field (protocol 2). */
+        .strategy = ctl_is_mstc(&c) ? (uint32_t)CTL_STRATEGY_MSTC : (uint32_t)CTL_STRATEGY_PAPER,
     };
 }
 
-/* p->strategy and the obstacles' vx, vy are carried by the ABI (protocol 2)
- * but not passed on: the firmware's ctl_params_t and sup_obstacle_t gain the
- * fields with the new strategy. */
 static ctl_params_t params_from(const mstc_sil_params_t *p)
 {
     /* What the ABI does not carry (max_wheel_decel) keeps its default. */
@@ -122,6 +119,8 @@ static ctl_params_t params_from(const mstc_sil_params_t *p)
     c.d_s = from_d(p->d_s);
     c.trk = (trk_gains_t){ from_d(p->trk_k[0]), from_d(p->trk_k[1]), from_d(p->trk_k[2]) };
     c.avd = (avd_gains_t){ from_d(p->avd_k[0]), from_d(p->avd_k[1]) };
+    /* A strategy beyond 1 becomes 2, outside the table's range: refused. */
+    c.strategy = num_from_int(p->strategy <= 2u ? (int32_t)p->strategy : 2);
     c.kin = (kin_params_t){ from_d(p->wheel_radius), from_d(p->track_width),
                             from_d(p->max_wheel_speed) };
     return c;
@@ -190,9 +189,12 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     sup_obstacle_t obs[MSTC_SIL_MAX_OBSTACLES];
     for (uint32_t i = 0; i < in->n_obstacles; i++) {
         const mstc_sil_obstacle_t *o = &in->obstacles[i];
-        obs[i] = (sup_obstacle_t){
-            .id = obstacle_id(o), .x = from_d(o->x), .y = from_d(o->y), .radius = from_d(o->radius)
-        };
+        obs[i] = (sup_obstacle_t){ .id = obstacle_id(o),
+                                   .x = from_d(o->x),
+                                   .y = from_d(o->y),
+                                   .radius = from_d(o->radius),
+                                   .vx = from_d(o->vx),
+                                   .vy = from_d(o->vy) };
     }
     const ctl_input_t ci = {
         .robot = { from_d(in->robot[0]), from_d(in->robot[1]), from_d(in->robot[2]) },

@@ -25,6 +25,8 @@ class Mode(StrEnum):
     """Obstacle avoidance, eq. (9)-(24)."""
     STOP = "stop"
     """p3: v_r = ω_r = 0."""
+    BLOCKED = "blocked"
+    """Strategy "mstc": no way on; the robot waits, stopped (docs/strategy.md)."""
 
 
 class EventKind(StrEnum):
@@ -36,6 +38,13 @@ class EventKind(StrEnum):
     """p2 held: avoidance starts, on a side."""
     COMPLETE = "complete"
     """p1 held for the active obstacle: tracking resumes."""
+    BLOCKED = "blocked"
+    """Strategy "mstc": the robot stops and waits, no way on (docs/strategy.md)."""
+    RESUME = "resume"
+    """Strategy "mstc": the way cleared; the blocked robot moves again."""
+    FILTER = "filter"
+    """Strategy "mstc": the first step of an intervention of the safety filter,
+    on the obstacle that constrained it."""
 
 
 class Side(StrEnum):
@@ -59,6 +68,8 @@ class Fault(IntFlag):
     FRAME_DROPPED = 8
     """Through CAN only: a received frame failed its checks since the last
     STATUS (wrong length, CRC, alive counter, unknown identifier)."""
+    FILTER = 16
+    """Strategy "mstc": the safety filter changed the command this step."""
     TELEMETRY_CLIPPED = 32
     """Through CAN only: a value the firmware sent since the last STATUS (in
     it, STATUS_TRK or WHEEL_CMD) was beyond its field's range and clipped."""

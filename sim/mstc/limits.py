@@ -26,8 +26,11 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
-TABLE_PATH = Path(__file__).resolve().parents[2] / "firmware" / "ctrl" / "ctl_params.toml"
-"""The table, found from this file's place in the repository."""
+TABLE_PATH = Path(__file__).parent / "ctl_params.toml"
+"""The table: firmware/ctrl/ctl_params.toml (a link to it in the source tree,
+its copy in an installed package)."""
+DBC_PATH = Path(__file__).parent / "can" / "mstc.dbc"
+"""The DBC, whose global value tables name an enumerated parameter's values."""
 
 OPS = {">=": "GE", "<": "LT", "<=": "LE"}
 """Relation operators, and the name of each in the firmware (CTL_REL_*)."""
@@ -103,9 +106,26 @@ class TableError(ValueError):
     """The table file itself is malformed."""
 
 
+@cache
+def _value_table(name: str) -> tuple[str, ...]:
+    """The names of the DBC's global value table @p name, by raw value 0, 1, ..."""
+    from cantools.database.can import Database  # only for an enumerated parameter
+
+    db = Database()
+    db.add_dbc_file(str(DBC_PATH))
+    tables = db.dbc.value_tables if db.dbc is not None else {}
+    if name not in tables:
+        raise TableError(f"{DBC_PATH}: no value table {name!r}")
+    entries = {int(raw): str(text) for raw, text in tables[name].items()}
+    if sorted(entries) != list(range(len(entries))):
+        raise TableError(f"{DBC_PATH}: value table {name!r} is not 0, 1, ...: {entries}")
+    return tuple(entries[i] for i in range(len(entries)))
+
+
 def _limit(entry: Mapping[str, object], where: str) -> Limit:
     try:
-        choices = tuple(str(c) for c in entry.get("choices", ()))  # type: ignore[attr-defined]
+        table = entry.get("value_table")
+        choices = _value_table(str(table)) if table is not None else ()
         lo, hi = (0.0, float(len(choices) - 1)) if choices else (entry["min"], entry["max"])
         return Limit(
             index=int(entry["index"]),  # type: ignore[call-overload]
@@ -129,15 +149,18 @@ def _limit(entry: Mapping[str, object], where: str) -> Limit:
 def load_table(path: Path = TABLE_PATH) -> Table:
     """Read and check the table.
 
-    :raises TableError: it is malformed: indices not 0..n-1, a relation naming
-        an unknown or unheld parameter, an unknown operator, a default outside
-        its range.
+    :raises TableError: it is malformed: indices not 0..n-1, a parameter no
+        ctl_params_t member holds (the firmware's check reads every row), a
+        relation naming an unknown parameter, an unknown operator, a default
+        outside its range.
     """
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     params = tuple(_limit(e, f"{path}: param {i}") for i, e in enumerate(data.get("param", [])))
     if [p.index for p in params] != list(range(len(params))):
         raise TableError(f"{path}: the indices must be 0, 1, ... in order")
     for p in params:
+        if not p.held:
+            raise TableError(f"{path}: {p.name}: no ctl_params_t member holds it (member)")
         if not p.minimum <= p.default <= p.maximum:
             raise TableError(f"{path}: {p.name}: default {p.default:g} outside its range")
     held = {p.name for p in params if p.held}
@@ -294,7 +317,9 @@ def violation(
             if not p.held:
                 continue
             # NaN compares false: out of range, as in the firmware.
-            if not held.constant(p.minimum) <= v[p.name] <= held.constant(p.maximum):
+            if not held.constant(p.minimum) <= v[p.name] <= held.constant(p.maximum) or (
+                p.choices and v[p.name] != int(v[p.name])
+            ):
                 return Violation((p.name,), _range_problem(p, full[p.name]), False)
         for r in t.relations:
             total = v[r.rhs[0]]

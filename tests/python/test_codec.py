@@ -261,7 +261,7 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
         "mode": min(mode, 3),
         "side": {0: 0, 1: 1, -1: 2}[side],
         "obstacle": min(active, 15),
-        "faults": (faults & 0x7) | (frame_faults << 3) | (0x20 if clipped else 0),
+        "faults": (faults & 0x17) | (frame_faults << 3) | (0x20 if clipped else 0),
         "e": e,
         "distance": distance,
         "step": step & 0x7,

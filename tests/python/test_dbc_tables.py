@@ -96,7 +96,9 @@ def test_a_renumbered_parameter_is_written_with_its_new_index(tmp_path: Path) ->
     by_index = {m.data[2]: raw.decode_message(0x120, m.data)["PARAM_SET_value"] for m in param_sets}
     assert by_index[40] == pytest.approx(0.3)
     assert 4 not in by_index
-    assert len(by_index) == len(PARAM_NAMES)
+    # Every parameter of Params, and the strategy (index 14, value 1 "mstc").
+    assert len(by_index) == len(PARAM_NAMES) + 1
+    assert by_index[14] == 1.0
 
 
 def test_a_renumbered_parameter_is_read_back_under_its_name(tmp_path: Path) -> None:

@@ -41,7 +41,12 @@ SCENES = 42
 SEED = 20130013
 DT = 0.02
 STEP_TOLERANCE = 1
-DISTANCE_TOLERANCE = 0.005  # [m]
+DISTANCE_TOLERANCE = {"paper": 0.005, "mstc": 0.01}  # [m]
+"""The frames carry positions to 2^-16 m and obstacles to 2^-12 m. The
+paper's controller follows such a perturbation smoothly: 3.3 mm at most over
+these scenes. The "mstc" strategy may release or hand over a step apart, with
+the same events: 0.16 mm at most over these scenes, but 5.4 mm on scene 12
+run with it."""
 
 _DB = cantools.database.load_file(DBC)
 
@@ -63,7 +68,9 @@ def _point(x: float, y: float, theta: float, v: float, w: float, t: float) -> tu
 
 def scene(rng: random.Random, index: int) -> tuple[dict[str, Any], str | None]:
     """A scene, and the key that puts it beyond the frames (None: within)."""
-    doc: dict[str, Any] = _random_scenario(SEED + index)  # type: ignore[assignment]
+    # Half of them with each strategy.
+    strategy = "mstc" if index % 2 else "paper"
+    doc: dict[str, Any] = _random_scenario(SEED + index, strategy)  # type: ignore[assignment]
     obstacles: list[dict[str, Any]] = doc["obstacles"]
     for o in obstacles:  # radii the frames carry, around R_ob
         o["radius"] = rng.randint(5, 30) / 100
@@ -155,7 +162,8 @@ def test_accepted_scenes_agree_through_frames_and_in_memory(
     assert _events(frames) == _events(memory)
     for a, b in zip(frames.events, memory.events, strict=True):
         assert abs(a.t_us - b.t_us) <= STEP_TOLERANCE * scenario.sim.dt_us, (a, b)
-    assert frames.min_distance == pytest.approx(memory.min_distance, abs=DISTANCE_TOLERANCE)
+    tolerance = DISTANCE_TOLERANCE[str(scenario.params.strategy)]
+    assert frames.min_distance == pytest.approx(memory.min_distance, abs=tolerance)
 
 
 def sixteen_obstacles() -> dict[str, Any]:

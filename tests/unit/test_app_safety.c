@@ -448,8 +448,8 @@ static void test_app_safety_a_bus_off_between_steps_halts_too(void)
 static void test_app_safety_every_parameter_reads_back_its_default(void)
 {
     /* Table 1, the default geometry and the halt's deceleration (125 rad/s²:
-     * 100 rad/s stopped within 0.8 s), in index order; index 14 (strategy)
-     * is not held yet: unknown. */
+     * 100 rad/s stopped within 0.8 s), in index order; then index 14, the
+     * strategy: 1, "mstc", the board images' default. */
     const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,   12.0f,
                                            6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f, 125.0f };
     for (uint8_t i = 0; i < COMM_PARAM_COUNT; i++) {
@@ -458,6 +458,9 @@ static void test_app_safety_every_parameter_reads_back_its_default(void)
         TEST_ASSERT_FLOAT_WITHIN(1e-4f, want[i], tf_last_param_value().param_value_value);
     }
     feed(tf_param_get(14));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
+    feed(tf_param_get(15));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
@@ -700,8 +703,14 @@ static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
         TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
         TEST_ASSERT_EQUAL_FLOAT(3.0f, tf_last_param_value().param_value_value);
     }
-    /* And an index the table does not hold (strategy, 14, until it is). */
-    feed(tf_param_set(14, 0.0f));
+    /* The strategy (14) is a whole 0 or 1: 0.5 and 2 are out of range. */
+    feed(tf_param_set(14, 0.5f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
+    feed(tf_param_set(14, 2.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
+    /* And an index the table does not hold. */
+    feed(tf_param_set(15, 0.0f));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 

@@ -78,17 +78,17 @@ static double ref_beta(double x, double y, double ox, double oy, double ds, int 
     return atan2(uy, ux);
 }
 
-/* Eq. (22) with u̇ = u̇_p + u̇_f, eq. (16) u̇_f = −R q̇, and eq. (15) either as
+/* Eq. (22) with u̇ = u̇_p + u̇_f, eq. (16) u̇_f = −R q̇, for the robot moving
+ * at q̇ = (xd, yd) relative to the obstacle, and eq. (15) either as
  * corrected in docs/equations.md or as the paper prints it (misprint = true):
  *   corrected: u̇_p = (D_s/r − 1) q̇ − (D_s/r)(ẋ cos φ + ẏ sin φ) û
  *   misprint:  u̇_p = (D_s/r − 1) q̇ + D_s (ẋ cos φ + ẏ sin φ) u_mo      */
-static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy, double ds,
-                           int side, bool misprint)
+static double ref_beta_dot_q(double x, double y, double xd, double yd, double ox, double oy,
+                             double ds, int side, bool misprint)
 {
     const double s = (double)side;
     const double mx = ox - x, my = oy - y, r = hypot(mx, my);
     const double cphi = mx / r, sphi = my / r;
-    const double xd = v * cos(th), yd = v * sin(th);
     const double proj = xd * cphi + yd * sphi;
     double upx, upy;
     if (misprint) {
@@ -103,6 +103,13 @@ static double ref_beta_dot(double x, double y, double th, double v, double ox, d
     double un;
     const double b = ref_beta(x, y, ox, oy, ds, side, &un);
     return (udy * cos(b) - udx * sin(b)) / un;
+}
+
+/* The same for a robot at heading th and speed v: q̇ = v [cos θ, sin θ]. */
+static double ref_beta_dot(double x, double y, double th, double v, double ox, double oy, double ds,
+                           int side, bool misprint)
+{
+    return ref_beta_dot_q(x, y, v * cos(th), v * sin(th), ox, oy, ds, side, misprint);
 }
 
 static const char *side_name(avd_side_t s)
@@ -485,6 +492,128 @@ static void test_avd_control_linear_speed_is_eq23(void)
     TEST_ASSERT_NUM_WITHIN(TOL_BETA, atan(8.0) - tu_q(0.3), e);
 }
 
+/* ------------------------------------------------------- avd_turn ("mstc") */
+
+static void test_avd_turn_of_a_static_circle_is_eq24(void)
+{
+    /* For a still circle and the v of eq. (23), avd_turn() gives the ω and e
+     * of avd_control() (β̇ + k2 e, the independent double formula). */
+    const avd_gains_t g = { .k1 = tu_num(3.0), .k2 = tu_num(5.0) };
+    const double c[][4] = { { 1.6, 1.0, 0.3, 0.5 },
+                            { 2.3, 1.35, -2.5, 0.4 },
+                            { 1.5, 0.9, -3.0, 0.45 } };
+    char msg[96];
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        for (int side = -1; side <= 1; side += 2) {
+            const pose_t robot = tu_pose(c[i][0], c[i][1], c[i][2]);
+            const avd_obstacle_t o = { .x = tu_num(2.0),
+                                       .y = tu_num(1.0),
+                                       .vx = NUM_ZERO,
+                                       .vy = NUM_ZERO,
+                                       .d_s = tu_num(DS) };
+            num_t w, e;
+            avd_turn(&g, &robot, num_cos(robot.theta), num_sin(robot.theta), &o, (avd_side_t)side,
+                     tu_num(c[i][3]), &w, &e);
+            double un;
+            const double beta =
+                ref_beta(tu_q(c[i][0]), tu_q(c[i][1]), 2.0, 1.0, tu_q(DS), side, &un);
+            const double ee = tu_wrap(beta - tu_q(c[i][2]));
+            const double ww = ref_beta_dot(tu_q(c[i][0]), tu_q(c[i][1]), tu_q(c[i][2]),
+                                           tu_q(c[i][3]), 2.0, 1.0, tu_q(DS), side, false) +
+                              5.0 * ee;
+            snprintf(msg, sizeof msg, "pose %zu side %d", i, side);
+            TEST_ASSERT_ANGLE_WITHIN_MESSAGE(TOL_BETA, ee, e, msg);
+            TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_OMEGA, ww, w, msg);
+        }
+    }
+}
+
+static void test_avd_turn_takes_the_velocity_relative_to_a_moving_circle(void)
+{
+    /* Hand case: robot at the origin heading +y at 0.5 m/s, circle of 0.35
+     * centred at (0.35, 0) (the robot on it), LEFT, moving +y at 0.5 m/s
+     * too: relative velocity 0, so β̇ = 0 (for a still circle it would be
+     * −v/D_s = −1.4286, test_avd_beta_dot_hand_values_on_the_safe_circle's
+     * β = π/2 case). β = π/2 = θ: e = 0, ω = 0. */
+    const avd_gains_t g = { .k1 = tu_num(3.0), .k2 = tu_num(6.0) };
+    const pose_t robot = tu_pose(0.0, 0.0, TU_PI / 2);
+    avd_obstacle_t o = {
+        .x = tu_num(DS), .y = NUM_ZERO, .vx = NUM_ZERO, .vy = tu_num(V), .d_s = tu_num(DS)
+    };
+    num_t w, e;
+    avd_turn(&g, &robot, num_cos(robot.theta), num_sin(robot.theta), &o, AVD_SIDE_LEFT, tu_num(V),
+             &w, &e);
+    TEST_ASSERT_NUM_WITHIN(TOL_BETA, 0.0, e);
+    TEST_ASSERT_NUM_WITHIN(TOL_OMEGA, 0.0, w);
+    o.vy = NUM_ZERO;
+    avd_turn(&g, &robot, num_cos(robot.theta), num_sin(robot.theta), &o, AVD_SIDE_LEFT, tu_num(V),
+             &w, &e);
+    TEST_ASSERT_NUM_WITHIN(TOL_OMEGA, -V / DS, w);
+    /* General points: the double formula with q̇ − w. */
+    const double c[][6] = {
+        /* x, y, θ, v, w_x, w_y */
+        { 1.6, 1.0, 0.3, 0.5, 0.2, -0.1 },
+        { 2.3, 1.35, -2.5, 0.4, -0.3, 0.25 },
+        { 1.75, 0.8, 0.9, 0.4, 0.0, 0.4 },
+    };
+    char msg[96];
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        for (int side = -1; side <= 1; side += 2) {
+            const pose_t r = tu_pose(c[i][0], c[i][1], c[i][2]);
+            const avd_obstacle_t m = { .x = tu_num(2.0),
+                                       .y = tu_num(1.0),
+                                       .vx = tu_num(c[i][4]),
+                                       .vy = tu_num(c[i][5]),
+                                       .d_s = tu_num(DS) };
+            avd_turn(&g, &r, num_cos(r.theta), num_sin(r.theta), &m, (avd_side_t)side,
+                     tu_num(c[i][3]), &w, &e);
+            const double th = tu_q(c[i][2]), v = tu_q(c[i][3]);
+            double un;
+            const double beta =
+                ref_beta(tu_q(c[i][0]), tu_q(c[i][1]), 2.0, 1.0, tu_q(DS), side, &un);
+            const double bd =
+                ref_beta_dot_q(tu_q(c[i][0]), tu_q(c[i][1]), v * cos(th) - tu_q(c[i][4]),
+                               v * sin(th) - tu_q(c[i][5]), 2.0, 1.0, tu_q(DS), side, false);
+            snprintf(msg, sizeof msg, "pose %zu side %d", i, side);
+            TEST_ASSERT_NUM_WITHIN_MESSAGE(TOL_OMEGA, bd + 6.0 * tu_wrap(beta - th), w, msg);
+        }
+    }
+}
+
+static void test_avd_turn_matches_a_finite_difference_with_the_circle_moving(void)
+{
+    /* β along a straight line while the circle moves at (0.3, −0.2): the
+     * central difference of avd_direction()'s β, with the centre where it
+     * is at each time, against avd_turn()'s β̇ = ω − k2 e. */
+    const avd_gains_t g = { .k1 = tu_num(3.0), .k2 = tu_num(6.0) };
+    const double x0 = 1.2, y0 = 0.75, th = 0.25, wx = 0.3, wy = -0.2;
+    const double ts[] = { 0.4, 0.8, 1.2 };
+    char msg[64];
+    for (size_t i = 0; i < 3; i++) {
+        double b[2];
+        for (int k = 0; k < 2; k++) {
+            const double t = ts[i] + (k == 0 ? -FD_H : FD_H);
+            const pose_t r = tu_pose(x0 + V * t * cos(th), y0 + V * t * sin(th), th);
+            avd_dir_t dir;
+            avd_direction(&r, tu_num(2.0 + wx * t), tu_num(1.0 + wy * t), tu_num(DS), AVD_SIDE_LEFT,
+                          tu_num(V), &dir);
+            b[k] = tu_dbl(dir.beta);
+        }
+        const double t = ts[i];
+        const pose_t r = tu_pose(x0 + V * t * cos(th), y0 + V * t * sin(th), th);
+        const avd_obstacle_t o = { .x = tu_num(2.0 + wx * t),
+                                   .y = tu_num(1.0 + wy * t),
+                                   .vx = tu_num(wx),
+                                   .vy = tu_num(wy),
+                                   .d_s = tu_num(DS) };
+        num_t w, e;
+        avd_turn(&g, &r, num_cos(r.theta), num_sin(r.theta), &o, AVD_SIDE_LEFT, tu_num(V), &w, &e);
+        snprintf(msg, sizeof msg, "t = %g", t);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(TOL_FD, tu_wrap(b[1] - b[0]) / (2.0 * FD_H),
+                                          tu_dbl(w) - 6.0 * tu_dbl(e), msg);
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -502,5 +631,8 @@ int main(void)
     RUN_TEST(test_avd_control_wraps_e_and_adds_beta_dot);
     RUN_TEST(test_avd_control_heading_error_and_omega_general);
     RUN_TEST(test_avd_control_linear_speed_is_eq23);
+    RUN_TEST(test_avd_turn_of_a_static_circle_is_eq24);
+    RUN_TEST(test_avd_turn_takes_the_velocity_relative_to_a_moving_circle);
+    RUN_TEST(test_avd_turn_matches_a_finite_difference_with_the_circle_moving);
     return UNITY_END();
 }

@@ -653,13 +653,13 @@ static void test_comm_status_saturates_enumerations_and_ids(void)
     st.mode = (sup_mode_t)7; /* beyond blocked (3): saturated */
     st.side = AVD_SIDE_LEFT;
     st.active_obstacle = 200;
-    st.faults = 0xFF; /* only the controller's bits 0..2 are taken */
+    st.faults = 0xFF; /* only the controller's bits 0..2 and 4 (the filter) are taken */
     hal_can_frame_t f;
     comm_encode_status(&c, &st, 0x00FF, false, 200, &f);
     TEST_ASSERT_EQUAL_INT64(3, get_field(f.data, 12, 2, false));
     TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 14, 2, false));
     TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
-    TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 20, 6, false));
+    TEST_ASSERT_EQUAL_INT64(0x17, get_field(f.data, 20, 6, false));
     TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 58, 3, false)); /* low 3 bits of the step */
     TEST_ASSERT_EQUAL_INT64(COMM_HALT_BUS_OFF, get_field(f.data, 61, 3, false)); /* saturated */
 }

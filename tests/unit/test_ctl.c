@@ -1,8 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of firmware/ctrl/ctl: parameters (Table 1 defaults and their
- * check), and the control step end to end (supervisor, active controller,
- * kinematics) on hand-derived cases.
+ * check, the strategy), and the control step end to end (supervisor, active
+ * controller, kinematics) on hand-derived cases. The cases that derive the
+ * paper's behaviour select the "paper" strategy (paper_params()); the
+ * "mstc" step has its own cases at the end, and its modules their own test
+ * files (test_oset, test_rol, test_cbf, test_msw).
  *
  * Expected values: hand derivations written beside them, with the closed
  * forms of eq. (1)-(3), (21)-(24) and the kinematics of kin.h evaluated in
@@ -53,12 +56,19 @@ static ctl_output_t out;
 #define R_WHEEL    0.05
 #define HALF_TRACK 0.15
 
+/* Table 1 with the paper's switch strategy. */
+static void paper_params(ctl_params_t *p)
+{
+    ctl_params_default(p);
+    p->strategy = num_from_int(CTL_STRATEGY_PAPER);
+}
+
 void setUp(void)
 {
     memset(&c, 0, sizeof c);
     memset(&out, 0, sizeof out);
     ctl_params_t p;
-    ctl_params_default(&p);
+    paper_params(&p);
     TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
 }
 
@@ -85,6 +95,8 @@ static sup_obstacle_t obstacle(uint8_t id, double x, double y, double radius)
     o.x = tu_num(x);
     o.y = tu_num(y);
     o.radius = tu_num(radius);
+    o.vx = NUM_ZERO; /* static */
+    o.vy = NUM_ZERO;
     return o;
 }
 
@@ -110,6 +122,8 @@ static void test_ctl_defaults_are_table_1(void)
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.05, p.kin.wheel_radius);
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.3, p.kin.track_width);
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 100.0, p.kin.max_wheel_speed);
+    /* The board images' strategy (ctl.h). */
+    TEST_ASSERT_TRUE(ctl_is_mstc(&p));
     TEST_ASSERT_EQUAL_INT(0, ctl_params_check(&p));
 }
 
@@ -146,6 +160,12 @@ static void test_ctl_params_check_rejects_each_bad_parameter(void)
     EXPECT_CHECK(-EINVAL, p_.kin.wheel_radius = NUM_ZERO);
     EXPECT_CHECK(-EINVAL, p_.kin.track_width = tu_num(-0.3));
     EXPECT_CHECK(-EINVAL, p_.kin.max_wheel_speed = NUM_ZERO);
+    /* The strategy is 0 (paper) or 1 (mstc). */
+    EXPECT_CHECK(-EINVAL, p_.strategy = num_from_int(2));
+    EXPECT_CHECK(-EINVAL, p_.strategy = num_from_int(255));
+    EXPECT_CHECK(-EINVAL, p_.strategy = num_from_int(-1));
+    /* An enumerated parameter: a whole number only. */
+    EXPECT_CHECK(-EINVAL, p_.strategy = tu_num(0.5));
 }
 
 static void test_ctl_params_check_accepts_the_boundaries(void)
@@ -157,6 +177,8 @@ static void test_ctl_params_check_accepts_the_boundaries(void)
     EXPECT_CHECK(0, p_.d_det = tu_num(0.5));
     /* Other valid values. */
     EXPECT_CHECK(0, (p_.trk.k1 = tu_num(0.5), p_.avd.k2 = tu_num(20.0)));
+    EXPECT_CHECK(0, p_.strategy = num_from_int(CTL_STRATEGY_PAPER));
+    EXPECT_CHECK(0, p_.strategy = num_from_int(CTL_STRATEGY_MSTC));
 }
 
 #ifndef NUM_FIXED
@@ -260,7 +282,7 @@ static void test_ctl_saturation_scales_wheels_and_reports_it(void)
      * larger, factor k = 10/ω_R: right → 10, left → 13.8515·k = 7.6746.
      * The status reports v, ω after saturation: both times k. */
     ctl_params_t p;
-    ctl_params_default(&p);
+    paper_params(&p);
     p.kin.max_wheel_speed = tu_num(10.0);
     TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
     ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.05, 0.1), 0.5, 0.1, NULL, 0, 0);
@@ -496,7 +518,7 @@ static void test_ctl_set_params_rejects_bad_values_and_changes_nothing(void)
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
     ctl_params_t p;
-    ctl_params_default(&p);
+    paper_params(&p);
     p.d_s = tu_num(0.5);
     p.trk.k1 = tu_num(7.0);
     TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_set_params(&c, &p));
@@ -518,7 +540,7 @@ static void test_ctl_set_params_applies_and_keeps_the_supervisor_state(void)
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, out.status.side);
     ctl_params_t p;
-    ctl_params_default(&p);
+    paper_params(&p);
     p.d_s = tu_num(0.3);
     p.d_act = tu_num(0.6);
     p.trk.k1 = tu_num(5.0);
@@ -537,6 +559,316 @@ static void test_ctl_set_params_applies_and_keeps_the_supervisor_state(void)
      * obstacle, D_s 0.3: u_mo = (0.35, 0), u_p = (0.05, 0), LEFT u_f =
      * (0, 0.35): β = atan2(0.35, 0.05) = atan 7 = 1.4288993, e = β − 0.3. */
     TEST_ASSERT_NUM_WITHIN(TOL_E, atan(7.0) - tu_q(0.3), out.status.e);
+}
+
+/* ------------------------------------------------------------------ mstc */
+
+/* Table 1 with the "mstc" strategy (the default). */
+static void mstc_init(void)
+{
+    ctl_params_t p;
+    ctl_params_default(&p);
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+}
+
+static void test_ctl_mstc_tracks_as_the_paper_away_from_obstacles(void)
+{
+    /* The hand case of test_ctl_tracking_step_gives_eq2_eq3_wheel_speeds:
+     * no obstacle, so nothing of "mstc" acts. */
+    mstc_init();
+    ctl_input_t in =
+        input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.05, 0.1), 0.5, 0.1, NULL, 0, 123456);
+    ctl_step(&c, &in, &out);
+    const double e1 = tu_q(0.1), e2 = tu_q(0.05), e3 = tu_q(0.1);
+    const double v = 0.5 * cos(e3) + 3.0 * e1;
+    const double w = tu_q(0.1) + 12.0 * 0.5 * e2 + 6.0 * 0.5 * sin(e3);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, (v + HALF_TRACK * w) / R_WHEEL, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, (v - HALF_TRACK * w) / R_WHEEL, out.wheels.left);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults);
+    TEST_ASSERT_EQUAL_size_t(0, out.n_events);
+    /* Far behind the reference (e1 = 1: v = 0.5 + 3 = 3.5) and far from any
+     * obstacle (10 m): not regulated either. */
+    sup_obstacle_t o = obstacle(3, 10.0, 10.0, 0.1);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 3.5 / R_WHEEL, out.wheels.right);
+}
+
+static void test_ctl_mstc_filter_brakes_and_says_so(void)
+{
+    /* Robot (0, 0, 0), reference 1 m ahead at 0.5 m/s: eq. (2) gives
+     * v = 0.5 + 3·1 = 3.5, ω = 0; an obstacle at (0.52, 0) is within
+     * D_act + MSW_REGULATE, so the speed is regulated to v_r + MSW_CATCH_UP
+     * = 1.5. 0.52 > D_act: no activation. The filter (cbf.h): p_l = (0.05, 0),
+     * h = 0.47² − 0.4² = 0.0609, a = (−0.94, 0): ḣ = −0.94 v >= −20·0.0609
+     * = −1.218 needs v <= 1.2957. Both wheels 1.2957 / 0.05 = 25.915. */
+    mstc_init();
+    sup_obstacle_t o = obstacle(7, 0.52, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    const double v = 20.0 * (0.47 * 0.47 - 0.16) / 0.94;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-4, 1.2957, v);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(CTL_FAULT_FILTER, out.status.faults);
+    TEST_ASSERT_EQUAL_size_t(2, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, out.events[0].kind);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_FILTER, out.events[1].kind);
+    TEST_ASSERT_EQUAL_UINT8(7, out.events[1].obstacle);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_NONE, out.events[1].side);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-2), v / R_WHEEL, out.wheels.left);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-2), v / R_WHEEL, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 1e-3), v, out.status.v);
+    /* The same step again: still filtered, but the episode goes on: no
+     * event. */
+    in.t_us = 20000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(CTL_FAULT_FILTER, out.status.faults);
+    TEST_ASSERT_EQUAL_size_t(0, out.n_events);
+    /* The "paper" strategy has no filter: 3.5 m/s straight on. */
+    setUp();
+    in.t_us = 0;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 3.5 / R_WHEEL, out.wheels.left);
+}
+
+static void test_ctl_mstc_blocked_stops_the_wheels(void)
+{
+    /* Obstacle at (0.45, 0) straight ahead: activation. The reference waits
+     * inside its D_act (no p1, no release), and the robot is then found
+     * going round it on a 0.41 circle, turning 0.5 rad a step: after 14
+     * steps (7 rad) the strategy calls it blocked: mode BLOCKED, wheels 0,
+     * event BLOCKED naming the obstacle. */
+    mstc_init();
+    sup_obstacle_t o = obstacle(5, 0.45, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.45, 0.3, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    TEST_ASSERT_EQUAL_UINT8(5, out.status.active_obstacle);
+    for (int i = 1; i <= 14; i++) {
+        const double th = 0.5 * i;
+        in.robot = tu_pose(0.45 - 0.41 * sin(th), 0.41 * cos(th), th);
+        in.t_us = (uint64_t)i * 20000u;
+        ctl_step(&c, &in, &out);
+        if (i < 14) {
+            TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_BLOCKED, out.status.mode);
+    TEST_ASSERT_EQUAL_size_t(1, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_BLOCKED, out.events[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(5, out.events[0].obstacle);
+    TEST_ASSERT_TRUE(out.wheels.left == NUM_ZERO && out.wheels.right == NUM_ZERO);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.active_obstacle);
+}
+
+static void test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper(void)
+{
+    /* A report with vx = 101 m/s (beyond CTL_MAX_ABS_SPEED): "mstc" drops it;
+     * "paper" ignores velocities and takes it. */
+    sup_obstacle_t o = obstacle(2, 1.0, 1.0, 0.1);
+    o.vx = tu_num(101.0);
+    o.vy = NUM_ZERO;
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(1, out.status.n_obstacles);
+    TEST_ASSERT_TRUE(c.sup.obs[0].o.vx == NUM_ZERO);
+    mstc_init();
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.n_obstacles);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_OBSTACLE_DROPPED) != 0);
+    /* vy likewise. */
+    o.vx = NUM_ZERO;
+    o.vy = tu_num(-101.0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.n_obstacles);
+    /* Within range it is kept, velocity and all. */
+    o.vx = tu_num(-0.5);
+    o.vy = tu_num(100.0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(1, out.status.n_obstacles);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, -0.5, c.sup.obs[0].o.vx);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 100.0, c.sup.obs[0].o.vy);
+}
+
+static void test_ctl_mstc_drops_reports_beyond_the_table(void)
+{
+    /* Seventeen reports in one step: the 17th is dropped (ctl.h), as in
+     * "paper". */
+    mstc_init();
+    sup_obstacle_t o[SUP_MAX_OBSTACLES + 1u];
+    for (uint8_t i = 0; i <= SUP_MAX_OBSTACLES; i++) {
+        o[i] = obstacle((uint8_t)(i + 1u), 2.0 + i, 3.0, 0.1);
+    }
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, o,
+                           SUP_MAX_OBSTACLES + 1u, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_OBSTACLE_DROPPED) != 0);
+}
+
+static void test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed(void)
+{
+    /* An obstacle within D_act + MSW_REGULATE (1.5 m ahead, beside the
+     * path). Robot 0.5 m ahead of its reference: eq. (2) would reverse,
+     * v = 0.5 − 3·0.5 = −1.0; "mstc" waits: v = 0 (both wheels turn the
+     * robot only: ω = 0 here, so both 0). */
+    mstc_init();
+    sup_obstacle_t o = obstacle(1, 1.5, 1.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(-0.5, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
+    /* A reference driving backwards (v_r = −0.5) 1 m behind the robot:
+     * v = −0.5 − 3 = −3.5, held to −(0.5 + MSW_CATCH_UP) = −1.5; 0.3 m ahead
+     * of it the other way: v = −0.5 + 0.9 > 0, held to 0. */
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(-1.0, 0.0, 0.0), -0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.5, out.status.v);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.3, 0.0, 0.0), -0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
+}
+
+static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
+{
+    /* Avoiding under "mstc"; a parameter set that switches to "paper" and
+     * back leaves "mstc" tracking (its state restarted), the obstacle
+     * remembered. */
+    mstc_init();
+    sup_obstacle_t o = obstacle(5, 0.45, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.45, 0.3, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(MSW_AVOID, c.msw.state);
+    ctl_params_t p = c.p;
+    p.strategy = num_from_int(CTL_STRATEGY_PAPER);
+    TEST_ASSERT_EQUAL_INT(0, ctl_set_params(&c, &p));
+    p.strategy = num_from_int(CTL_STRATEGY_MSTC);
+    TEST_ASSERT_EQUAL_INT(0, ctl_set_params(&c, &p));
+    TEST_ASSERT_EQUAL_UINT8(MSW_TRACK, c.msw.state);
+    TEST_ASSERT_EQUAL_UINT8(1, c.sup.n_obs);
+    /* The same strategy set again keeps the state. */
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(MSW_AVOID, c.msw.state);
+    TEST_ASSERT_EQUAL_INT(0, ctl_set_params(&c, &p));
+    TEST_ASSERT_EQUAL_UINT8(MSW_AVOID, c.msw.state);
+    /* ctl_reset forgets everything. */
+    ctl_reset(&c);
+    TEST_ASSERT_EQUAL_UINT8(MSW_TRACK, c.msw.state);
+    TEST_ASSERT_EQUAL_UINT8(0, c.sup.n_obs);
+}
+
+/* ------------------------------------------------ the paper's scenarios */
+
+/* The closed loop of sim/scenarios/paper-*.toml (forward Euler at 0.02 s,
+ * the plant in double, obstacles reported within D_det), and the events it
+ * produced: kind, obstacle, side, step index. */
+typedef struct {
+    double robot[3], ref[3], v_r, w_r, duration;
+    double obs[2][2];
+} scene_t;
+
+typedef struct {
+    int kind, obstacle, side;
+    double t;
+} expect_t;
+
+static const scene_t k_line = {
+    { 0.0, 2.5, 0.5 }, { 0.1, 2.6, 0.7 }, 0.5, 0.0, 20.0, { { 3.0, 5.2 }, { 4.0, 5.8 } }
+};
+static const scene_t k_circle = {
+    { 4.3, 6.4, 0.7 }, { 4.5, 6.5, 0.8 }, 0.48, -0.3, 21.0, { { 6.9, 6.2 }, { 4.9, 3.8 } }
+};
+/* The paper's times (section 5; the scenario files' [[expected]]). */
+static const expect_t k_line_events[] = {
+    { 1, 1, 0, 0.82 }, { 1, 2, 0, 3.10 }, { 2, 1, -1, 6.82 },
+    { 3, 1, 0, 8.76 }, { 2, 2, 1, 9.36 }, { 3, 2, 0, 11.10 },
+};
+static const expect_t k_circle_events[] = {
+    { 1, 1, 0, 0.0 },  { 1, 2, 0, 0.0 },    { 2, 1, 1, 4.94 },
+    { 3, 1, 0, 7.06 }, { 2, 2, -1, 13.68 }, { 3, 2, 0, 15.58 },
+};
+
+static size_t closed_loop(const scene_t *sc, sup_event_t *events, size_t max, double *min_d)
+{
+    double x = sc->robot[0], y = sc->robot[1], th = sc->robot[2];
+    double xr = sc->ref[0], yr = sc->ref[1], thr = sc->ref[2];
+    const size_t n = (size_t)(sc->duration / 0.02 + 0.5);
+    size_t n_ev = 0;
+    *min_d = INFINITY;
+    for (size_t k = 0; k <= n; k++) {
+        sup_obstacle_t obs[2];
+        size_t m = 0;
+        for (uint8_t i = 0; i < 2; i++) {
+            const double d = hypot(sc->obs[i][0] - x, sc->obs[i][1] - y);
+            *min_d = fmin(*min_d, d);
+            if (d <= 3.5) {
+                obs[m++] = obstacle((uint8_t)(i + 1u), sc->obs[i][0], sc->obs[i][1], 0.1);
+            }
+        }
+        ctl_input_t in = input(tu_pose(x, y, th), tu_pose(xr, yr, thr), sc->v_r, sc->w_r, obs, m,
+                               (uint64_t)k * 20000u);
+        ctl_step(&c, &in, &out);
+        for (size_t j = 0; j < out.n_events && n_ev < max; j++) {
+            events[n_ev++] = out.events[j];
+        }
+        const double wl = tu_dbl(out.wheels.left), wr = tu_dbl(out.wheels.right);
+        const double v = R_WHEEL * (wr + wl) / 2.0, w = R_WHEEL * (wr - wl) / (2.0 * HALF_TRACK);
+        x += v * cos(th) * 0.02;
+        y += v * sin(th) * 0.02;
+        th += w * 0.02;
+        xr += sc->v_r * cos(thr) * 0.02;
+        yr += sc->v_r * sin(thr) * 0.02;
+        thr += sc->w_r * 0.02;
+    }
+    return n_ev;
+}
+
+/* The events against the paper's, each within @p steps control periods. */
+static void check_events(const sup_event_t *ev, size_t n, const expect_t *want, size_t n_want,
+                         unsigned steps)
+{
+    char msg[96];
+    TEST_ASSERT_EQUAL_size_t(n_want, n);
+    for (size_t i = 0; i < n; i++) {
+        snprintf(msg, sizeof msg, "event %zu at %.2f s", i, (double)ev[i].t_us * 1e-6);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(want[i].kind, ev[i].kind, msg);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(want[i].obstacle, ev[i].obstacle, msg);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(want[i].side, ev[i].side, msg);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(0.02 * steps + 1e-9, want[i].t, (double)ev[i].t_us * 1e-6,
+                                          msg);
+    }
+}
+
+static void test_ctl_paper_strategy_reproduces_the_papers_times(void)
+{
+    /* "paper": every switching time of section 5 to the control step. */
+    sup_event_t ev[16];
+    double min_d;
+    size_t n = closed_loop(&k_line, ev, 16, &min_d);
+    check_events(ev, n, k_line_events, 6, 0);
+    TEST_ASSERT_TRUE(min_d >= 0.35);
+    setUp();
+    n = closed_loop(&k_circle, ev, 16, &min_d);
+    check_events(ev, n, k_circle_events, 6, 0);
+    TEST_ASSERT_TRUE(min_d >= 0.35);
+}
+
+static void test_ctl_mstc_on_the_papers_scenarios(void)
+{
+    /* "mstc" (docs/strategy.md): the same events, on the same obstacles,
+     * sides and order, each within 2 control periods of the paper's (it goes
+     * round on D_s + 0.06 instead of D_s, which shifts the later switches
+     * by a step or two); no filter, no block; D_s kept with room. */
+    sup_event_t ev[16];
+    double min_d;
+    mstc_init();
+    size_t n = closed_loop(&k_line, ev, 16, &min_d);
+    check_events(ev, n, k_line_events, 6, 2);
+    TEST_ASSERT_TRUE(min_d >= 0.39);
+    mstc_init();
+    n = closed_loop(&k_circle, ev, 16, &min_d);
+    check_events(ev, n, k_circle_events, 6, 2);
+    TEST_ASSERT_TRUE(min_d >= 0.39);
 }
 
 int main(void)
@@ -563,5 +895,14 @@ int main(void)
     RUN_TEST(test_ctl_reset_forgets_obstacles);
     RUN_TEST(test_ctl_set_params_rejects_bad_values_and_changes_nothing);
     RUN_TEST(test_ctl_set_params_applies_and_keeps_the_supervisor_state);
+    RUN_TEST(test_ctl_mstc_tracks_as_the_paper_away_from_obstacles);
+    RUN_TEST(test_ctl_mstc_filter_brakes_and_says_so);
+    RUN_TEST(test_ctl_mstc_blocked_stops_the_wheels);
+    RUN_TEST(test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper);
+    RUN_TEST(test_ctl_mstc_drops_reports_beyond_the_table);
+    RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);
+    RUN_TEST(test_ctl_changing_the_strategy_restarts_the_mstc_state);
+    RUN_TEST(test_ctl_paper_strategy_reproduces_the_papers_times);
+    RUN_TEST(test_ctl_mstc_on_the_papers_scenarios);
     return UNITY_END();
 }

@@ -186,8 +186,12 @@ static void test_ctl_ranges_parameters_beyond_their_range_are_rejected(void)
     TEST_ASSERT_EQUAL_INT(0, ctl_params_check(&p));
     p.trk.k1 = tu_num(1001.0);
     TEST_ASSERT_EQUAL_INT(-EINVAL, ctl_params_check(&p));
-    /* Index 14 (strategy) is not held yet; nothing past the table is. */
-    TEST_ASSERT_NULL(ctl_param_slot(&p, CTL_P_STRATEGY));
+    /* Index 14 is the strategy, an enumerated parameter: held, a whole
+     * number in [0, 1]; nothing past the table is held. */
+    TEST_ASSERT_EQUAL_PTR(&p.strategy, ctl_param_slot(&p, CTL_P_STRATEGY));
+    TEST_ASSERT_TRUE(ctl_limits[CTL_P_STRATEGY].integer);
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_RANGE, verdict_with(CTL_P_STRATEGY, 0.5));
+    TEST_ASSERT_EQUAL_INT(CTL_PARAMS_OK, verdict_with(CTL_P_STRATEGY, 0.0));
     TEST_ASSERT_NULL(ctl_param_slot(&p, CTL_N_PARAMS));
 }
 

@@ -50,6 +50,8 @@ static sup_obstacle_t obstacle(uint8_t id, double x, double y, double radius)
     o.x = tu_num(x);
     o.y = tu_num(y);
     o.radius = tu_num(radius);
+    o.vx = NUM_ZERO; /* static: the paper's switch ignores it */
+    o.vy = NUM_ZERO;
     return o;
 }
 
@@ -613,6 +615,71 @@ static void test_sup_set_params_recomputes_thresholds_and_keeps_state(void)
     expect_avoiding(9, AVD_SIDE_LEFT);
 }
 
+/* ------------------------------------------------ table alone ("mstc") */
+
+static void test_sup_take_reports_alone_detects_and_keeps_velocities(void)
+{
+    /* The table without the paper's switch: a report within D_det enters
+     * it (DETECT), one beyond does not; the velocity is kept. */
+    sup_obstacle_t r[2] = { obstacle(3, 1.0, 0.0, 0.1), obstacle(4, 5.0, 0.0, 0.1) };
+    r[0].vx = tu_num(0.25);
+    r[0].vy = tu_num(-0.5);
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0);
+    size_t n = 0;
+    sup_take_reports(&s, &robot, r, 2, 60000, ev, &n);
+    TEST_ASSERT_EQUAL_size_t(1, n);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, ev[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(3, ev[0].obstacle);
+    TEST_ASSERT_EQUAL_UINT64(60000, ev[0].t_us);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.25, s.obs[0].o.vx);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, -0.5, s.obs[0].o.vy);
+    /* No decision is taken: still tracking. */
+    TEST_ASSERT_EQUAL_UINT8(0, s.avoiding);
+    /* Events are appended after those already there. */
+    r[0].vx = NUM_ZERO;
+    const pose_t near = tu_pose(3.0, 0.0, 0.0);
+    sup_take_reports(&s, &near, r, 2, 80000, ev, &n);
+    TEST_ASSERT_EQUAL_size_t(2, n);
+    TEST_ASSERT_EQUAL_UINT8(4, ev[1].obstacle);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vx);
+}
+
+static void test_sup_revision_changes_only_when_the_table_does(void)
+{
+    const sup_obstacle_t o = obstacle(3, 1.0, 0.0, 0.1);
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0);
+    size_t n = 0;
+    uint16_t rev = s.revision;
+    sup_take_reports(&s, &robot, &o, 1, 0, ev, &n); /* new entry */
+    TEST_ASSERT_TRUE(s.revision != rev);
+    rev = s.revision;
+    sup_take_reports(&s, &robot, &o, 1, 0, ev, &n); /* the same report */
+    TEST_ASSERT_EQUAL_UINT16(rev, s.revision);
+    sup_take_reports(&s, &robot, NULL, 0, 0, ev, &n); /* no report */
+    TEST_ASSERT_EQUAL_UINT16(rev, s.revision);
+    const sup_obstacle_t moved[3] = { obstacle(3, 1.001, 0.0, 0.1), obstacle(3, 1.001, 0.5, 0.1),
+                                      obstacle(3, 1.001, 0.5, 0.2) };
+    for (int i = 0; i < 3; i++) {
+        sup_take_reports(&s, &robot, &moved[i], 1, 0, ev, &n); /* x, then y, then radius */
+        TEST_ASSERT_TRUE(s.revision != rev);
+        rev = s.revision;
+    }
+    /* A velocity alone is kept, but moves nothing a cluster is made of. */
+    sup_obstacle_t m = moved[2];
+    m.vx = tu_num(0.1);
+    m.vy = tu_num(0.1);
+    sup_take_reports(&s, &robot, &m, 1, 0, ev, &n);
+    TEST_ASSERT_EQUAL_UINT16(rev, s.revision);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.1, s.obs[0].o.vy);
+    /* New thresholds and a reset change it too. */
+    sup_set_params(&s, &s.p);
+    TEST_ASSERT_TRUE(s.revision != rev);
+    rev = s.revision;
+    sup_reset(&s);
+    TEST_ASSERT_TRUE(s.revision != rev);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -641,5 +708,7 @@ int main(void)
     RUN_TEST(test_sup_p3_stops_while_tracking);
     RUN_TEST(test_sup_reset_forgets_obstacles_and_keeps_thresholds);
     RUN_TEST(test_sup_set_params_recomputes_thresholds_and_keeps_state);
+    RUN_TEST(test_sup_take_reports_alone_detects_and_keeps_velocities);
+    RUN_TEST(test_sup_revision_changes_only_when_the_table_does);
     return UNITY_END();
 }

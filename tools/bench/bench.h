@@ -9,7 +9,10 @@
  *
  * The closed loop is the one of `make sim`: a forward-Euler unicycle plant in
  * double, a range sensor reporting obstacles within D_det, Table 1 parameters,
- * and the scenarios of sim/scenarios/ (tools/bench/gen_scenarios.py).
+ * and the scenarios of sim/scenarios/ (tools/bench/gen_scenarios.py), each
+ * with its strategy ("paper" unless its [params] say otherwise). The load
+ * scenes (bench_loads) add runs with 1, 4 and 8 obstacles in view, under
+ * both strategies.
  */
 #ifndef MSTC_BENCH_H
 #define MSTC_BENCH_H
@@ -19,7 +22,7 @@
 
 #include "ctrl/ctl.h"
 
-#define BENCH_MAX_OBS      4u
+#define BENCH_MAX_OBS      8u
 #define BENCH_MAX_EXPECTED 8u
 #define BENCH_MAX_EVENTS   16u
 
@@ -32,6 +35,7 @@ typedef struct {
     double duration, dt; /**< [s] */
     unsigned n_obs;
     double obs[BENCH_MAX_OBS][3]; /**< x, y, radius [m] */
+    uint8_t strategy;             /**< CTL_STRATEGY_* */
     unsigned n_expected;
     struct {
         double t;
@@ -54,7 +58,16 @@ typedef struct {
     sup_event_t events[BENCH_MAX_EVENTS];
     int events_match; /**< 1 when the events are the scenario's expected ones, to the step */
     double min_distance[BENCH_MAX_OBS]; /**< [m], centre to centre */
+    double in_view;                     /**< obstacles reported per step, on average */
 } bench_run_t;
+
+/** @brief Modes a step can run in (sup_mode_t), for the per-mode figures. */
+#define BENCH_N_MODES 4u
+
+/** @brief Load scenes: a straight reference past 1, 4 and 8 obstacles, all
+ *         within D_det for most of the run (bench_core.c). */
+#define BENCH_N_LOADS 3u
+extern const bench_scenario_t bench_loads[BENCH_N_LOADS];
 
 /** @brief A step function with ctl_step's signature. */
 typedef void (*bench_step_fn)(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
@@ -70,10 +83,11 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
 
 /**
  * @brief Replay @p n recorded steps of one scenario through @p step from a
- *        fresh controller.
+ *        fresh controller with @p strategy.
  * @retval the counter difference of @p clk over the loop.
  */
-uint64_t bench_replay(const bench_step_t *steps, size_t n, bench_step_fn step, bench_clock_fn clk);
+uint64_t bench_replay(const bench_step_t *steps, size_t n, uint8_t strategy, bench_step_fn step,
+                      bench_clock_fn clk);
 
 /**
  * @brief Replay as bench_replay(), timing each step on its own: adds each
@@ -81,15 +95,16 @@ uint64_t bench_replay(const bench_step_t *steps, size_t n, bench_step_fn step, b
  *        @p count[mode] (mode = the recorded sup_mode_t), and keeps the
  *        largest in @p max[mode].
  */
-void bench_replay_each(const bench_step_t *steps, size_t n, bench_step_fn step, bench_clock_fn clk,
-                       uint64_t sum[3], uint64_t count[3], uint64_t max[3]);
+void bench_replay_each(const bench_step_t *steps, size_t n, uint8_t strategy, bench_step_fn step,
+                       bench_clock_fn clk, uint64_t sum[BENCH_N_MODES],
+                       uint64_t count[BENCH_N_MODES], uint64_t max[BENCH_N_MODES]);
 
 /**
  * @brief Replay and compare with the recorded outputs.
  * @retval number of steps whose wheel speeds differ (0: the replay is the
  *         closed loop).
  */
-size_t bench_verify(const bench_step_t *steps, size_t n);
+size_t bench_verify(const bench_step_t *steps, size_t n, uint8_t strategy);
 
 /**
  * @brief FNV-1a hash of the bits of every recorded pose and wheel command:

@@ -46,9 +46,32 @@ __attribute__((noinline, noipa)) void bench_ctl_step(ctl_t *c, const ctl_input_t
     ctl_step(c, in, out);
 }
 
-static void fresh(ctl_t *c, ctl_params_t *p)
+/* Load scenes: a circular reference of radius 1.8 m about the origin (0.5
+ * m/s, 20 s: most of a lap), the robot starting on it; obstacles on the
+ * circle (gone around, a cluster at 90°) and inside it. Every obstacle lies
+ * within 1.8 m of the origin, so within 3.6 m of the robot, and in view
+ * (D_det = 3.5 m) nearly all the time: `in_view` in the results says how
+ * many were reported per step on average. */
+#define LOAD(NAME, N, ...)                                                                         \
+    {                                                                                              \
+        .name = (NAME), .robot = { 0.05, -1.85, 0.0 }, .ref = { 0.0, -1.8, 0.0 }, .v_r = 0.5,      \
+        .w_r = 0.5 / 1.8, .duration = 20.0, .dt = 0.02, .n_obs = (N), .obs = {                     \
+            __VA_ARGS__                                                                            \
+        }                                                                                          \
+    }
+const bench_scenario_t bench_loads[BENCH_N_LOADS] = {
+    LOAD("load-1", 1, { 0.0, 1.8, 0.1 }),
+    LOAD("load-4", 4, { 0.0, 1.8, 0.1 }, { -0.252, 1.428, 0.1 }, { -1.516, -0.875, 0.1 },
+         { 0.0, 0.0, 0.1 }),
+    LOAD("load-8", 8, { 0.0, 1.8, 0.1 }, { -0.252, 1.428, 0.1 }, { 0.414, 1.545, 0.1 },
+         { 0.0, 0.0, 0.1 }, { 0.5, -0.5, 0.1 }, { -1.516, -0.875, 0.1 }, { 1.386, -0.8, 0.1 },
+         { 1.2, 0.0, 0.1 }),
+};
+
+static void fresh(ctl_t *c, ctl_params_t *p, uint8_t strategy)
 {
     ctl_params_default(p);
+    p->strategy = num_from_int((int32_t)strategy);
     (void)ctl_init(c, p);
 }
 
@@ -74,7 +97,7 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
 {
     ctl_t c;
     ctl_params_t p;
-    fresh(&c, &p);
+    fresh(&c, &p, s->strategy);
     const double r = bench_dbl(p.kin.wheel_radius);
     const double track = bench_dbl(p.kin.track_width);
     const double d_det = bench_dbl(p.d_det);
@@ -85,6 +108,7 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
 
     run->n_steps = n + 1u;
     run->n_events = 0;
+    size_t seen = 0;
     for (unsigned i = 0; i < s->n_obs; i++) {
         run->min_distance[i] = INFINITY;
     }
@@ -102,6 +126,7 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
                                                  .radius = bench_num(s->obs[i][2]) };
             }
         }
+        seen += m;
         st->in = (ctl_input_t){
             .robot = { bench_num(x), bench_num(y), bench_num(th) },
             .ref = { bench_num(xr), bench_num(yr), bench_num(thr) },
@@ -131,14 +156,16 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
         thr += s->w_r * dt;
     }
     run->events_match = events_match(s, run);
+    run->in_view = (double)seen / (double)run->n_steps;
 }
 
-uint64_t bench_replay(const bench_step_t *steps, size_t n, bench_step_fn step, bench_clock_fn clk)
+uint64_t bench_replay(const bench_step_t *steps, size_t n, uint8_t strategy, bench_step_fn step,
+                      bench_clock_fn clk)
 {
     ctl_t c;
     ctl_params_t p;
     ctl_output_t out;
-    fresh(&c, &p);
+    fresh(&c, &p, strategy);
     const uint64_t t0 = clk();
     for (size_t k = 0; k < n; k++) {
         step(&c, &steps[k].in, &out);
@@ -146,18 +173,19 @@ uint64_t bench_replay(const bench_step_t *steps, size_t n, bench_step_fn step, b
     return clk() - t0;
 }
 
-void bench_replay_each(const bench_step_t *steps, size_t n, bench_step_fn step, bench_clock_fn clk,
-                       uint64_t sum[3], uint64_t count[3], uint64_t max[3])
+void bench_replay_each(const bench_step_t *steps, size_t n, uint8_t strategy, bench_step_fn step,
+                       bench_clock_fn clk, uint64_t sum[BENCH_N_MODES],
+                       uint64_t count[BENCH_N_MODES], uint64_t max[BENCH_N_MODES])
 {
     ctl_t c;
     ctl_params_t p;
     ctl_output_t out;
-    fresh(&c, &p);
+    fresh(&c, &p, strategy);
     for (size_t k = 0; k < n; k++) {
         const uint64_t t0 = clk();
         step(&c, &steps[k].in, &out);
         const uint64_t d = clk() - t0;
-        const unsigned m = steps[k].mode < 3u ? steps[k].mode : 2u;
+        const unsigned m = steps[k].mode < BENCH_N_MODES ? steps[k].mode : 2u;
         sum[m] += d;
         count[m]++;
         if (d > max[m]) {
@@ -166,12 +194,12 @@ void bench_replay_each(const bench_step_t *steps, size_t n, bench_step_fn step, 
     }
 }
 
-size_t bench_verify(const bench_step_t *steps, size_t n)
+size_t bench_verify(const bench_step_t *steps, size_t n, uint8_t strategy)
 {
     ctl_t c;
     ctl_params_t p;
     ctl_output_t out;
-    fresh(&c, &p);
+    fresh(&c, &p, strategy);
     size_t differ = 0;
     for (size_t k = 0; k < n; k++) {
         ctl_step(&c, &steps[k].in, &out);

@@ -36,7 +36,7 @@ static double replay_all(const size_t *offset, const size_t *count, bench_step_f
     uint64_t t = 0;
     size_t total = 0;
     for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
-        t += bench_replay(&steps[offset[s]], count[s], fn, now_ns);
+        t += bench_replay(&steps[offset[s]], count[s], bench_scenarios[s].strategy, fn, now_ns);
         total += count[s];
     }
     return (double)t / (double)total;
@@ -54,7 +54,8 @@ int main(void)
         bench_record(&bench_scenarios[s], &steps[total], &run);
         count[s] = run.n_steps;
         total += run.n_steps;
-        ok = ok && run.events_match && bench_verify(&steps[offset[s]], count[s]) == 0u;
+        ok = ok && run.events_match &&
+             bench_verify(&steps[offset[s]], count[s], bench_scenarios[s].strategy) == 0u;
     }
     printf("checksum %08lx\n", (unsigned long)bench_checksum(steps, total));
     static double step_ns[N_RUNS];

@@ -148,6 +148,83 @@ static void primitives(void)
     PRIM("num_wrap", "a in [-8, 8] (60 % outside (-pi, pi])", num_wrap(a));
 }
 
+/* ----------------------------------------------------------------- loads */
+
+static const char *const mode_names[BENCH_N_MODES] = { "track", "avoid", "stop", "blocked" };
+
+/* Per-mode mean and largest step, less the empty loop's mean @p base. */
+static void print_by_mode(const char *key, const uint64_t *sum, const uint64_t *cnt,
+                          const uint64_t *max, double base)
+{
+    for (unsigned m = 0; m < BENCH_N_MODES; m++) {
+        if (cnt[m] != 0u) {
+            printf("%s %s steps %u mean %.0f max %.0f\n", key, mode_names[m], (unsigned)cnt[m],
+                   ((double)sum[m] / (double)cnt[m] - base) * ips, ((double)max[m] - base) * ips);
+        }
+    }
+}
+
+/* One load: record @p sc's closed loop under its strategy, check the replay,
+ * count instructions (whole replay, and the largest single step). Prints
+ * `load NAME strategy S obstacles N in_view X steps N replay_differs N
+ * instr_per_step X max X min_clearance X events ...`. */
+static void load(const bench_scenario_t *sc)
+{
+    bench_run_t run;
+    bench_record(sc, steps, &run);
+    const size_t n = run.n_steps;
+    const size_t differ = bench_verify(steps, n, sc->strategy);
+    const uint64_t t_step = bench_replay(steps, n, sc->strategy, bench_ctl_step, ticks);
+    const uint64_t t_empty = bench_replay(steps, n, sc->strategy, bench_empty_step, ticks);
+    uint64_t sum[BENCH_N_MODES] = { 0 }, cnt[BENCH_N_MODES] = { 0 }, max[BENCH_N_MODES] = { 0 };
+    uint64_t esum[BENCH_N_MODES] = { 0 }, ecnt[BENCH_N_MODES] = { 0 }, emax[BENCH_N_MODES] = { 0 };
+    bench_replay_each(steps, n, sc->strategy, bench_ctl_step, ticks, sum, cnt, max);
+    bench_replay_each(steps, n, sc->strategy, bench_empty_step, ticks, esum, ecnt, emax);
+    const double base = (double)(esum[0] + esum[1] + esum[2] + esum[3]) / (double)n;
+    uint64_t largest = 0;
+    for (unsigned m = 0; m < BENCH_N_MODES; m++) {
+        largest = max[m] > largest ? max[m] : largest;
+    }
+    /* Smallest clearance to D_s (0.35 for the radius 0.1 of every load). */
+    double clear = 1e9;
+    for (unsigned i = 0; i < sc->n_obs; i++) {
+        const double c = run.min_distance[i] - (0.35 + sc->obs[i][2] - 0.1);
+        clear = c < clear ? c : clear;
+    }
+    printf("load %s strategy %s obstacles %u in_view %.2f steps %u replay_differs %u "
+           "instr_per_step %.1f max %.0f min_clearance %.4f events",
+           sc->name, sc->strategy == (uint8_t)CTL_STRATEGY_MSTC ? "mstc" : "paper", sc->n_obs,
+           run.in_view, (unsigned)n, (unsigned)differ,
+           ((double)t_step - (double)t_empty) * ips / (double)n, ((double)largest - base) * ips,
+           clear);
+    for (size_t i = 0; i < run.n_events; i++) {
+        const sup_event_t *e = &run.events[i];
+        printf(" %.2f:%u:%u:%d", (double)e->t_us * 1e-6, e->kind, e->obstacle, e->side);
+    }
+    printf("\n");
+    char key[48];
+    snprintf(key, sizeof key, "load_mode %s %s", sc->name,
+             sc->strategy == (uint8_t)CTL_STRATEGY_MSTC ? "mstc" : "paper");
+    print_by_mode(key, sum, cnt, max, base);
+}
+
+/* The paper's scenarios under "mstc", and the load scenes under both. */
+static void loads(void)
+{
+    for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
+        bench_scenario_t sc = bench_scenarios[s];
+        sc.strategy = (uint8_t)CTL_STRATEGY_MSTC;
+        load(&sc);
+    }
+    for (unsigned i = 0; i < BENCH_N_LOADS; i++) {
+        for (uint8_t st = 0; st <= (uint8_t)CTL_STRATEGY_MSTC; st++) {
+            bench_scenario_t sc = bench_loads[i];
+            sc.strategy = st;
+            load(&sc);
+        }
+    }
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(void)
@@ -171,7 +248,8 @@ int main(void)
         bench_record(&bench_scenarios[s], &steps[total], &run);
         count[s] = run.n_steps;
         total += run.n_steps;
-        const size_t differ = bench_verify(&steps[offset[s]], count[s]);
+        const size_t differ =
+            bench_verify(&steps[offset[s]], count[s], bench_scenarios[s].strategy);
         printf("scenario %s steps %u events_match %d replay_differs %u min_distance",
                bench_scenarios[s].name, (unsigned)run.n_steps, run.events_match, (unsigned)differ);
         for (unsigned i = 0; i < bench_scenarios[s].n_obs; i++) {
@@ -191,28 +269,26 @@ int main(void)
     uint64_t t_step = 0;
     uint64_t t_empty = 0;
     for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
-        t_step += bench_replay(&steps[offset[s]], count[s], bench_ctl_step, ticks);
-        t_empty += bench_replay(&steps[offset[s]], count[s], bench_empty_step, ticks);
+        const uint8_t st = bench_scenarios[s].strategy;
+        t_step += bench_replay(&steps[offset[s]], count[s], st, bench_ctl_step, ticks);
+        t_empty += bench_replay(&steps[offset[s]], count[s], st, bench_empty_step, ticks);
     }
     printf("steps %u\n", (unsigned)total);
     printf("instr_per_step %.1f\n", ((double)t_step - (double)t_empty) * ips / (double)total);
 
     /* Step by step, by mode (each figure ±1 tick = ±40 instructions). */
-    uint64_t sum[3] = { 0 }, cnt[3] = { 0 }, max[3] = { 0 };
-    uint64_t esum[3] = { 0 }, ecnt[3] = { 0 }, emax[3] = { 0 };
+    uint64_t sum[BENCH_N_MODES] = { 0 }, cnt[BENCH_N_MODES] = { 0 }, max[BENCH_N_MODES] = { 0 };
+    uint64_t esum[BENCH_N_MODES] = { 0 }, ecnt[BENCH_N_MODES] = { 0 }, emax[BENCH_N_MODES] = { 0 };
     for (unsigned s = 0; s < BENCH_N_SCENARIOS; s++) {
-        bench_replay_each(&steps[offset[s]], count[s], bench_ctl_step, ticks, sum, cnt, max);
-        bench_replay_each(&steps[offset[s]], count[s], bench_empty_step, ticks, esum, ecnt, emax);
+        const uint8_t st = bench_scenarios[s].strategy;
+        bench_replay_each(&steps[offset[s]], count[s], st, bench_ctl_step, ticks, sum, cnt, max);
+        bench_replay_each(&steps[offset[s]], count[s], st, bench_empty_step, ticks, esum, ecnt,
+                          emax);
     }
-    const double base = (double)(esum[0] + esum[1] + esum[2]) / (double)total;
-    static const char *const names[3] = { "track", "avoid", "stop" };
-    for (unsigned m = 0; m < 3u; m++) {
-        if (cnt[m] == 0u) {
-            continue;
-        }
-        printf("by_mode %s steps %u mean %.0f max %.0f\n", names[m], (unsigned)cnt[m],
-               ((double)sum[m] / (double)cnt[m] - base) * ips, ((double)max[m] - base) * ips);
-    }
+    const double base = (double)(esum[0] + esum[1] + esum[2] + esum[3]) / (double)total;
+    print_by_mode("by_mode", sum, cnt, max, base);
+
+    loads();
 
     primitives();
     printf("done\n");

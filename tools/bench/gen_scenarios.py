@@ -5,7 +5,9 @@
 The benchmark (tools/bench) drives ctl_step with the inputs of a closed loop
 around the paper's scenarios: sim/scenarios/*.toml (format: docs/scenarios.md)
 are read here and written as C initialisers, so that the Cortex-M images and
-the host benchmark run exactly what `make sim` runs.
+the host benchmark run exactly what `make sim` runs. The only [params] key
+taken is `strategy` ("paper" or "mstc"); without it a scenario runs "paper",
+the strategy whose published times the benchmark checks the events against.
 
 Usage: gen_scenarios.py OUT.h SCENARIO.toml...
 """
@@ -15,9 +17,10 @@ import tomllib
 from pathlib import Path
 
 R_OB = 0.1  # Table 1 default obstacle radius [m] (ctl_params_default)
+STRATEGIES = {"paper": 0, "mstc": 1}  # CTL_STRATEGY_*
 KINDS = {"detect": 1, "activate": 2, "complete": 3}
 SIDES = {None: 0, "left": 1, "right": -1}
-MAX_OBS = 4
+MAX_OBS = 8  # BENCH_MAX_OBS
 MAX_EXPECTED = 8
 
 
@@ -29,8 +32,12 @@ def c_double(x: float) -> str:
 def scenario(path: Path) -> str:
     """One bench_scenario_t initialiser."""
     d = tomllib.loads(path.read_text())
-    if "params" in d:
-        sys.exit(f"error: {path}: [params] is not supported by the benchmark (Table 1 only)")
+    params = d.get("params", {})
+    if set(params) - {"strategy"}:
+        sys.exit(f"error: {path}: [params] other than strategy are not supported (Table 1 only)")
+    strategy = params.get("strategy", "paper")
+    if strategy not in STRATEGIES:
+        sys.exit(f"error: {path}: strategy must be one of {sorted(STRATEGIES)}, not {strategy!r}")
     sim = d["sim"]
     if sim.get("integrator", "euler") != "euler":
         sys.exit(f"error: {path}: the benchmark's plant is forward Euler only")
@@ -55,7 +62,8 @@ def scenario(path: Path) -> str:
         f"        .w_r = {c_double(d['reference']['w'])},\n"
         f"        .duration = {c_double(sim['duration'])},\n        .dt = {c_double(sim['dt'])},\n"
         f"        .n_obs = {len(obs)},\n        .obs = {{{o}}},\n"
-        f"        .n_expected = {len(exp)},\n        .expected = {{{e}}},\n    }},\n"
+        f"        .n_expected = {len(exp)},\n        .expected = {{{e}}},\n"
+        f"        .strategy = {STRATEGIES[strategy]},\n    }},\n"
     )
 
 

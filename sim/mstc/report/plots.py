@@ -28,7 +28,16 @@ _AVOIDING = "tab:orange"
 _OBSTACLE_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink")
 _LABEL_BOX = {"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5}
 """Behind small labels, so lines under them do not hide them."""
-_MARKERS = {EventKind.DETECT: "o", EventKind.ACTIVATE: "^", EventKind.COMPLETE: "s"}
+_MARKERS = {
+    EventKind.DETECT: "o",
+    EventKind.ACTIVATE: "^",
+    EventKind.COMPLETE: "s",
+    EventKind.BLOCKED: "X",
+    EventKind.RESUME: "P",
+    EventKind.FILTER: "D",
+}
+_ALWAYS_IN_LEGEND = (EventKind.DETECT, EventKind.ACTIVATE, EventKind.COMPLETE)
+"""The paper's events: in every path figure's legend; the others when they occur."""
 
 
 def _obstacle_color(obstacle: int) -> str:
@@ -178,9 +187,11 @@ def draw_path(ax: Axes, result: PlotData) -> None:
             x[k],
             y[k],
             _MARKERS[event.kind],
-            color=_obstacle_color(event.obstacle),
+            color=_obstacle_color(event.obstacle) if event.obstacle else "0.5",
             ms=7,
-            mfc="none" if event.kind is EventKind.DETECT else _obstacle_color(event.obstacle),
+            mfc="none"
+            if event.kind is EventKind.DETECT or not event.obstacle
+            else _obstacle_color(event.obstacle),
             mec="black",
             mew=0.6,
         )
@@ -212,6 +223,7 @@ def draw_path(ax: Axes, result: PlotData) -> None:
                 mfc="none" if kind is EventKind.DETECT else "0.5",
             )
             for kind, m in _MARKERS.items()
+            if kind in _ALWAYS_IN_LEGEND or any(e.kind is kind for e in result.events)
         ),
     ]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")

@@ -14,6 +14,7 @@ _FAULT_NAMES = {
     Fault.INPUT_NONFINITE: "non-finite input",
     Fault.OBSTACLE_DROPPED: "obstacle report dropped",
     Fault.SATURATED: "wheel speeds saturated",
+    Fault.FILTER: "safety filter acted",
     Fault.TELEMETRY_CLIPPED: "telemetry value clipped to its frame field",
 }
 

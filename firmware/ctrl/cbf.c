@@ -1,0 +1,249 @@
+/* SPDX-License-Identifier: MIT */
+/* Last-line safety filter: closed-form barrier-function filter (cbf.h). */
+#include "ctrl/cbf.h"
+
+#include "ctrl/oset.h"
+
+/* 2/α [s] and 2l [m]: the reach beyond which a constraint cannot bind (see
+ * slack_sure). */
+#define CBF_TWO_LOOKAHEADS NUM_C(2.0 * CBF_LOOKAHEAD_M)
+#define CBF_TWO_OVER_ALPHA NUM_C(2.0 / CBF_ALPHA_PER_S)
+/* Two constraints whose normals (g1, g2) are closer to parallel than this
+ * have no vertex worth meeting [m²] (|a| is about 1 m near the barrier). */
+#define CBF_MIN_DET        NUM_C(0.01)
+/* l/κ² [1/m], l²/κ² and 1/l [1/m]. */
+#define CBF_L_OVER_KAPPA2  NUM_C(CBF_LOOKAHEAD_M / (CBF_TURN_WEIGHT_M * CBF_TURN_WEIGHT_M))
+#define CBF_L2_OVER_KAPPA2                                                                         \
+    NUM_C(CBF_LOOKAHEAD_M *CBF_LOOKAHEAD_M / (CBF_TURN_WEIGHT_M * CBF_TURN_WEIGHT_M))
+#define CBF_INV_LOOKAHEAD NUM_C(1.0 / CBF_LOOKAHEAD_M)
+
+void cbf_init(cbf_t *f) { cbf_reset(f); }
+
+void cbf_reset(cbf_t *f) { f->active = false; }
+
+/* One obstacle's constraint on (v, ω): a·u = g1 v + g2 l ω >= b, with
+ * g1 = a·[cos θ, sin θ] and g2 = a·[−sin θ, cos θ] (l is kept out of g2, so
+ * that Q16.16 holds it to the same relative precision as g1). */
+typedef struct {
+    num_t g1, g2;
+    num_t b; /* a·w − α h */
+} constraint_t;
+
+/* The look-ahead point and the heading of one step. */
+typedef struct {
+    num_t plx, ply;
+    num_t c, s;
+} lookahead_t;
+
+static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constraint_t *k, num_t *h)
+{
+    const num_t dx = num_sub(fr->plx, o->o.x);
+    const num_t dy = num_sub(fr->ply, o->o.y);
+    const num_t rho = num_add(o->d_s, CBF_LOOKAHEAD);
+    *h = num_sub(num_add(num_mul(dx, dx), num_mul(dy, dy)), num_mul(rho, rho));
+    const num_t ax = num_add(dx, dx);
+    const num_t ay = num_add(dy, dy);
+    k->g1 = num_add(num_mul(ax, fr->c), num_mul(ay, fr->s));
+    k->g2 = num_sub(num_mul(ay, fr->c), num_mul(ax, fr->s));
+    k->b = num_sub(num_add(num_mul(ax, o->o.vx), num_mul(ay, o->o.vy)), num_mul(CBF_ALPHA, *h));
+}
+
+/* a·u for the command (v, ω). */
+static num_t rate(const constraint_t *k, num_t v, num_t w)
+{
+    return num_add(num_mul(k->g1, v), num_mul(k->g2, num_mul(CBF_LOOKAHEAD, w)));
+}
+
+/* b − a·u: how far (v, ω) falls short of the constraint (> 0: violated). */
+static num_t shortfall(const constraint_t *k, num_t v, num_t w)
+{
+    return num_sub(k->b, rate(k, v, w));
+}
+
+/* The constraint of @p o, at centre distance @p dist from the robot, cannot
+ * bind for the command (v, ω): with ḣ = a·(u − w) >= −2 |p_l − c| |u − w| and
+ * h = (|p_l − c| − ρ)(|p_l − c| + ρ), ḣ + α h >= 0 whenever
+ * |p_l − c| >= ρ + 2 |u − w| / α; |p_l − c| >= dist − l, and
+ * |u − w| <= |v| + l|ω| + |w_x| + |w_y|. Saves the products for every
+ * obstacle not close. */
+static bool slack_sure(const sup_entry_t *o, num_t dist, num_t speed)
+{
+    const num_t rel = num_add(speed, num_add(num_abs(o->o.vx), num_abs(o->o.vy)));
+    const num_t reach =
+        num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), num_mul(CBF_TWO_OVER_ALPHA, rel));
+    return dist >= reach;
+}
+
+static num_t speed_of(num_t v, num_t w)
+{
+    return num_add(num_abs(v), num_mul(CBF_LOOKAHEAD, num_abs(w)));
+}
+
+static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, lookahead_t *fr)
+{
+    fr->plx = num_add(robot->x, num_mul(CBF_LOOKAHEAD, cos_th));
+    fr->ply = num_add(robot->y, num_mul(CBF_LOOKAHEAD, sin_th));
+    fr->c = cos_th;
+    fr->s = sin_th;
+}
+
+void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const sup_entry_t *o, num_t *h,
+                 num_t *ax, num_t *ay)
+{
+    lookahead_t fr;
+    frame_of(robot, cos_th, sin_th, &fr);
+    constraint_t k;
+    constraint_of(&fr, o, &k, h);
+    *ax = num_add(num_sub(fr.plx, o->o.x), num_sub(fr.plx, o->o.x));
+    *ay = num_add(num_sub(fr.ply, o->o.y), num_sub(fr.ply, o->o.y));
+}
+
+/* The constraint of @p o into *k, unless it surely cannot bind
+ * (slack_sure): then false. */
+static bool binding(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                    constraint_t *k)
+{
+    if (slack_sure(o, dist, speed)) {
+        return false;
+    }
+    num_t h;
+    constraint_of(fr, o, k, &h);
+    return true;
+}
+
+/* The most violated constraint for (v, ω), by more than CBF_TOLERANCE: its
+ * index, or -1. */
+static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_t *dist, uint8_t n,
+                         num_t v, num_t w, constraint_t *worst)
+{
+    const num_t speed = speed_of(v, w);
+    int found = -1;
+    num_t worst_gap = CBF_TOLERANCE;
+    for (uint8_t i = 0; i < n; i++) {
+        constraint_t k;
+        if (!binding(fr, &e[i], dist[i], speed, &k)) {
+            continue;
+        }
+        const num_t gap = shortfall(&k, v, w);
+        if (gap > worst_gap) {
+            worst_gap = gap;
+            *worst = k;
+            found = (int)i;
+        }
+    }
+    return found;
+}
+
+/* The largest factor in [0, 1] by which (v, ω) can be scaled so that every
+ * constraint with b <= 0 holds ((0, 0) meets them all); sets *infeasible when
+ * a constraint with b > 0 is violated. */
+static num_t brake_factor(const lookahead_t *fr, const sup_entry_t *e, const num_t *dist, uint8_t n,
+                          num_t v, num_t w, bool *infeasible)
+{
+    const num_t speed = speed_of(v, w);
+    num_t f = NUM_ONE;
+    for (uint8_t i = 0; i < n; i++) {
+        constraint_t k;
+        if (!binding(fr, &e[i], dist[i], speed, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
+            continue;
+        }
+        if (k.b > NUM_ZERO) {
+            *infeasible = true;
+        } else {
+            /* b <= 0 and a·u < b <= 0: f a·u >= b for f <= b / a·u, in [0, 1). */
+            f = num_min(f, num_div(k.b, rate(&k, v, w)));
+        }
+    }
+    return num_max(f, NUM_ZERO);
+}
+
+/* The least change of (v, ω), in the norm Δv² + κ² Δω², that meets
+ * constraint @p k exactly: with a·u = g1 v + g2 l ω, Δv = λ g1 and
+ * Δω = λ g2 l/κ², λ = shortfall / (g1² + g2² l²/κ²). False when
+ * g1 = g2 = 0 (p_l at the centre: no direction to leave by). */
+static bool project(const constraint_t *k, num_t v, num_t w, num_t *vp, num_t *wp)
+{
+    const num_t den =
+        num_add(num_mul(k->g1, k->g1), num_mul(num_mul(k->g2, k->g2), CBF_L2_OVER_KAPPA2));
+    if (den <= NUM_ZERO) {
+        return false;
+    }
+    const num_t lambda = num_div(shortfall(k, v, w), den);
+    *vp = num_add(v, num_mul(lambda, k->g1));
+    *wp = num_add(w, num_mul(lambda, num_mul(k->g2, CBF_L_OVER_KAPPA2)));
+    return true;
+}
+
+/* (v, ω) meeting both constraints with equality, when they are not
+ * parallel (|det| > CBF_MIN_DET, det = g1a g2b − g2a g1b; the system is
+ * g1 v + g2 (l ω) = b, solved for v and l ω). */
+static bool vertex(const constraint_t *a, const constraint_t *b, num_t *v, num_t *w)
+{
+    const num_t det = num_sub(num_mul(a->g1, b->g2), num_mul(a->g2, b->g1));
+    if (num_abs(det) <= CBF_MIN_DET) {
+        return false;
+    }
+    *v = num_div(num_sub(num_mul(a->b, b->g2), num_mul(a->g2, b->b)), det);
+    const num_t lw = num_div(num_sub(num_mul(a->g1, b->b), num_mul(a->b, b->g1)), det);
+    *w = num_mul(lw, CBF_INV_LOOKAHEAD);
+    return true;
+}
+
+/* Meet the most violated constraint @p ka and the one most violated after
+ * it, B, in closed form: the projection of the command onto A if it meets
+ * B, else onto B if that meets A, else the vertex where both hold with
+ * equality (the three candidates of a two-constraint least-change problem). */
+static void meet_two(const lookahead_t *fr, const sup_entry_t *e, const num_t *dist, uint8_t n,
+                     const constraint_t *ka, num_t *v, num_t *w)
+{
+    constraint_t kb;
+    num_t va;
+    num_t wa;
+    if (!project(ka, *v, *w, &va, &wa)) {
+        *v = NUM_ZERO; /* p_l at a centre: stop */
+        *w = NUM_ZERO;
+        return;
+    }
+    if (most_violated(fr, e, dist, n, va, wa, &kb) < 0) {
+        *v = va;
+        *w = wa;
+        return;
+    }
+    num_t vb;
+    num_t wb;
+    if (project(&kb, *v, *w, &vb, &wb) && shortfall(ka, vb, wb) <= CBF_TOLERANCE) {
+        *v = vb;
+        *w = wb;
+    } else if (vertex(ka, &kb, &vb, &wb)) {
+        *v = vb;
+        *w = wb;
+    } else {
+        /* Parallel: they ask for the same direction, or for opposite ones
+         * that nothing meets; the second projection, then the brake. */
+        *v = va;
+        *w = wa;
+        (void)project(&kb, va, wa, v, w);
+    }
+}
+
+void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const sup_entry_t *e,
+              const num_t *dist, uint8_t n, num_t *v, num_t *w, cbf_result_t *r)
+{
+    *r = (cbf_result_t){ .changed = false };
+    lookahead_t fr;
+    frame_of(robot, cos_th, sin_th, &fr);
+    constraint_t k;
+    const int first = most_violated(&fr, e, dist, n, *v, *w, &k);
+    if (first >= 0) {
+        r->changed = true;
+        r->obstacle = e[first].o.id;
+        num_t vf = *v;
+        num_t wf = *w;
+        meet_two(&fr, e, dist, n, &k, &vf, &wf);
+        const num_t scale = brake_factor(&fr, e, dist, n, vf, wf, &r->infeasible);
+        *v = num_mul(vf, scale);
+        *w = num_mul(wf, scale);
+    }
+    r->new_episode = r->changed && !f->active;
+    f->active = r->changed;
+}

@@ -1,0 +1,414 @@
+/* SPDX-License-Identifier: MIT */
+/* The "mstc" switch strategy (msw.h, docs/strategy.md). */
+#include "ctrl/msw.h"
+
+#include "ctrl/oset.h"
+#include "ctrl/rol.h"
+
+void msw_init(msw_t *m, num_t width)
+{
+    m->width = width;
+    msw_reset(m);
+}
+
+void msw_reset(msw_t *m)
+{
+    m->state = (uint8_t)MSW_TRACK;
+    m->trigger = 0u;
+    m->followed = 0u;
+    m->side = AVD_SIDE_NONE;
+    m->cluster = 0u;
+    m->revision = 0u;
+    m->offset = MSW_FOLLOW_OFFSET;
+    m->t_act_us = 0u;
+    m->turned = NUM_ZERO;
+    m->last_theta = NUM_ZERO;
+    m->mark_x = NUM_ZERO;
+    m->mark_y = NUM_ZERO;
+    m->t_mark_us = 0u;
+    for (size_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
+        m->acts[i] = 0u;
+    }
+}
+
+static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t kind, uint8_t id,
+                 avd_side_t side)
+{
+    events[*n] =
+        (sup_event_t){ .t_us = t_us, .kind = (uint8_t)kind, .obstacle = id, .side = (int8_t)side };
+    (*n)++;
+}
+
+static bool moving(const sup_entry_t *e)
+{
+    return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
+}
+
+static bool in_mask(uint16_t mask, uint8_t i) { return (mask & (1u << i)) != 0u; }
+
+/* Time since @p t0, 0 if the clock went backwards. */
+static uint64_t since(uint64_t now, uint64_t t0) { return now >= t0 ? now - t0 : 0u; }
+
+/* The robot's velocity under the tracking command, relative to entry @p e. */
+static void relative_velocity(const msw_input_t *in, const sup_entry_t *e, num_t *vx, num_t *vy)
+{
+    *vx = num_sub(num_mul(in->v_trk, in->cos_th), e->o.vx);
+    *vy = num_sub(num_mul(in->v_trk, in->sin_th), e->o.vy);
+}
+
+/* Closing on entry @p i under the tracking command. */
+static bool closing(const msw_input_t *in, const sup_entry_t *e)
+{
+    num_t vx;
+    num_t vy;
+    relative_velocity(in, e, &vx, &vy);
+    return oset_closing(num_sub(e->o.x, in->robot->x), num_sub(e->o.y, in->robot->y), vx, vy);
+}
+
+/* A moving entry whose closest approach within the horizon, under the
+ * tracking command, comes inside D_s + MSW_CPA_MARGIN. */
+static bool cpa_inside(const msw_input_t *in, const sup_entry_t *e, num_t horizon, num_t margin)
+{
+    const num_t px = num_sub(e->o.x, in->robot->x);
+    const num_t py = num_sub(e->o.y, in->robot->y);
+    if (num_abs(px) >= NUM_C(32.0) || num_abs(py) >= NUM_C(32.0)) {
+        return false; /* out of reach within any horizon used here */
+    }
+    num_t vx;
+    num_t vy;
+    relative_velocity(in, e, &vx, &vy);
+    if (num_abs(vx) >= NUM_C(32.0) || num_abs(vy) >= NUM_C(32.0)) {
+        return true; /* beyond what the test can tell: assume the worst */
+    }
+    num_t t;
+    num_t d2;
+    oset_closest_approach(px, py, num_neg(vx), num_neg(vy), horizon, &t, &d2);
+    const num_t r = num_add(e->d_s, margin);
+    return d2 < num_mul(r, r);
+}
+
+/* Boundary distance of entry @p i: centre distance less its own D_s. */
+static num_t boundary(const sup_t *s, const msw_input_t *in, uint8_t i)
+{
+    return num_sub(in->dist[i], s->obs[i].d_s);
+}
+
+/* The activation candidate (table index) outside the entries of @p skip,
+ * or -1. */
+static int candidate(const msw_t *m, const sup_t *s, const msw_input_t *in, uint16_t skip)
+{
+    int best = -1;
+    num_t best_b = NUM_ZERO;
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        const sup_entry_t *e = &s->obs[i];
+        if (m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
+            continue;
+        }
+        bool trig = in->dist[i] < e->d_act && closing(in, e);
+        if (!trig && moving(e) && in->dist[i] < num_add(e->d_act, MSW_CPA_REACH)) {
+            trig = cpa_inside(in, e, MSW_CPA_HORIZON, MSW_CPA_MARGIN);
+        }
+        if (trig) {
+            const num_t b = boundary(s, in, i);
+            if (best < 0 || b < best_b) {
+                best = (int)i;
+                best_b = b;
+            }
+        }
+    }
+    return best;
+}
+
+/* The member of the cluster to follow: the nearest by boundary distance
+ * (centre distance less D_s) from the robot or from the point
+ * MSW_FOLLOW_AHEAD ahead of it, whichever is smaller. Looking ahead hands the
+ * robot over to the next member before it reaches a concave corner of the
+ * cluster, where the tangent of the member it leaves points into the next. */
+static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint16_t cluster,
+                              uint8_t fallback)
+{
+    const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, in->cos_th));
+    const num_t qy = num_add(in->robot->y, num_mul(MSW_FOLLOW_AHEAD, in->sin_th));
+    uint8_t best = fallback;
+    num_t best_b = NUM_MAX;
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        if (in_mask(cluster, i)) {
+            const sup_entry_t *e = &s->obs[i];
+            const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
+            const num_t b = num_sub(num_min(in->dist[i], ahead), e->d_s);
+            if (b < best_b) {
+                best = i;
+                best_b = b;
+            }
+        }
+    }
+    return best;
+}
+
+/* asin(x) for x in [0, 1], from atan2 (num.h has no asin). */
+static num_t asin01(num_t x) { return num_atan2(x, num_sqrt(num_sub(NUM_ONE, num_mul(x, x)))); }
+
+/* Side from the cluster's extent across the reference's path: the line
+ * through the reference along its direction of motion. Passing on the left
+ * (side LEFT, cluster on the robot's right) takes the robot to the cluster's
+ * left edge, max(offset + ρ); passing on the right to its right edge,
+ * min(offset − ρ). The side whose edge lies nearer the path wins; NONE when
+ * they are within MSW_TIE_OFFSET. */
+static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offset,
+                                    const msw_input_t *in)
+{
+    num_t ex = num_cos(in->ref->theta);
+    num_t ey = num_sin(in->ref->theta);
+    if (in->v_r < NUM_ZERO) {
+        ex = num_neg(ex);
+        ey = num_neg(ey);
+    }
+    num_t left = num_neg(NUM_MAX);
+    num_t right = NUM_MAX;
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        if (in_mask(cluster, i)) {
+            const sup_entry_t *e = &s->obs[i];
+            /* Signed offset of the centre to the left of the path. */
+            const num_t off = num_sub(num_mul(ex, num_sub(e->o.y, in->ref->y)),
+                                      num_mul(ey, num_sub(e->o.x, in->ref->x)));
+            const num_t rho = num_add(e->d_s, offset);
+            left = num_max(left, num_add(off, rho));
+            right = num_min(right, num_sub(off, rho));
+        }
+    }
+    /* Deviation to pass left: left (if > 0); to pass right: −right. */
+    const num_t lean = num_add(num_max(left, NUM_ZERO), num_min(right, NUM_ZERO));
+    if (lean < num_neg(MSW_TIE_OFFSET)) {
+        return AVD_SIDE_LEFT;
+    }
+    if (lean > MSW_TIE_OFFSET) {
+        return AVD_SIDE_RIGHT;
+    }
+    return AVD_SIDE_NONE;
+}
+
+/* Side from the cluster's angular extent seen from the robot, relative to
+ * its heading (each member a disc of radius D_s + offset): with
+ * L and R its left and right edges, LEFT when L + R < 0, i.e. the smaller
+ * turn; for one obstacle this is eq. (11)-(12). NONE when |L + R| is within
+ * 2 MSW_SIDE_DEADBAND. */
+static avd_side_t side_by_heading(const sup_t *s, uint16_t cluster, num_t offset,
+                                  const msw_input_t *in)
+{
+    const pose_t *p = in->robot;
+    num_t left = num_neg(NUM_MAX);
+    num_t right = NUM_MAX;
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        if (in_mask(cluster, i)) {
+            const sup_entry_t *e = &s->obs[i];
+            const num_t psi = num_wrap(
+                num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), p->theta));
+            const num_t rho = num_add(e->d_s, offset);
+            const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
+            left = num_max(left, num_add(psi, half));
+            right = num_min(right, num_sub(psi, half));
+        }
+    }
+    const num_t lean = num_add(left, right);
+    const num_t band = num_add(MSW_SIDE_DEADBAND, MSW_SIDE_DEADBAND);
+    if (lean < num_neg(band)) {
+        return AVD_SIDE_LEFT;
+    }
+    if (lean > band) {
+        return AVD_SIDE_RIGHT;
+    }
+    return AVD_SIDE_NONE;
+}
+
+avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
+                           const msw_input_t *in)
+{
+    const sup_entry_t *t = &s->obs[trigger];
+    if (moving(t)) {
+        /* Obstacle velocity across the heading: [−sin θ, cos θ]·v_o. */
+        const num_t across =
+            num_add(num_mul(num_neg(in->sin_th), t->o.vx), num_mul(in->cos_th, t->o.vy));
+        if (across > MSW_MOVING_SPEED) {
+            return AVD_SIDE_RIGHT;
+        }
+        if (across < num_neg(MSW_MOVING_SPEED)) {
+            return AVD_SIDE_LEFT;
+        }
+    }
+    avd_side_t side = side_by_reference(s, cluster, offset, in);
+    if (side == AVD_SIDE_NONE) {
+        side = side_by_heading(s, cluster, offset, in);
+    }
+    return side == AVD_SIDE_NONE ? AVD_SIDE_LEFT : side;
+}
+
+/* The tracking command's roll-out keeps every entry beyond its D_s + margin
+ * and, for an entry within its D_act + margin, never comes more than the
+ * margin closer than it is now (the robot is no longer closing on it). */
+static bool way_clear(const sup_t *s, const msw_input_t *in)
+{
+    rol_path_t path;
+    rol_path(&path, in->robot, in->cos_th, in->sin_th, in->v_trk, in->w_trk, MSW_ROLLOUT);
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        const sup_entry_t *e = &s->obs[i];
+        num_t clear = num_add(e->d_s, MSW_MARGIN);
+        if (in->dist[i] < num_add(e->d_act, MSW_MARGIN)) {
+            clear = num_max(clear, num_sub(in->dist[i], MSW_MARGIN));
+        }
+        /* A moving entry: the robot no longer closes on it within reach of an
+         * activation, and its closest approach over the activation's horizon
+         * stays beyond what activates by the margin (hysteresis). */
+        bool ok;
+        if (moving(e)) {
+            ok = !(closing(in, e) && in->dist[i] < num_add(e->d_act, MSW_CPA_REACH)) &&
+                 !cpa_inside(in, e, MSW_CPA_HORIZON,
+                             num_max(num_sub(clear, e->d_s), num_add(MSW_CPA_MARGIN, MSW_MARGIN)));
+        } else {
+            /* Beyond the path's reach by the distance: clear without a look. */
+            ok = in->dist[i] >= num_add(path.reach, clear) ||
+                 rol_clears(&path, e->o.x, e->o.y, clear);
+        }
+        if (!ok) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* p1, eq. (19)-(20), as sup_p1() but on squares (no root): u1·u2 > 0 and
+ * |u2| >= D_act (the paper's |u2| > D_act but for the equality). */
+static bool p1(const msw_input_t *in, const sup_entry_t *e)
+{
+    const num_t u2x = num_sub(in->ref->x, e->o.x);
+    const num_t u2y = num_sub(in->ref->y, e->o.y);
+    const num_t dot = num_add(num_mul(num_sub(in->robot->x, e->o.x), u2x),
+                              num_mul(num_sub(in->robot->y, e->o.y), u2y));
+    return dot > NUM_ZERO && !oset_within(u2x, u2y, e->d_act);
+}
+
+static bool release_ok(const msw_t *m, const sup_t *s, const msw_input_t *in)
+{
+    if (since(in->t_us, m->t_act_us) < MSW_DWELL_US) {
+        return false;
+    }
+    /* p1 for every static member (a moving one may never let the reference
+     * pass it: way_clear() judges it by its motion). */
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        const sup_entry_t *e = &s->obs[i];
+        if (in_mask(m->cluster, i) && !moving(e) && !p1(in, e)) {
+            return false;
+        }
+    }
+    return way_clear(s, in);
+}
+
+/* An obstacle outside the cluster calls for an activation and is nearer than
+ * the member followed: the avoidance ends here, and the next step activates
+ * the other's cluster. */
+static bool hand_over(const msw_t *m, const sup_t *s, const msw_input_t *in)
+{
+    const int other = candidate(m, s, in, m->cluster);
+    return other >= 0 && boundary(s, in, (uint8_t)other) < boundary(s, in, m->followed);
+}
+
+/* Progress watchdog while avoiding: true when no progress is possible, that
+ * is when the robot has turned once around (the signed sum of its heading
+ * changes since the activation exceeds MSW_LOOP: it circles the cluster),
+ * or has stayed within MSW_PROGRESS of one point for MSW_STILL_US (stuck,
+ * the filter holding it). While p3 stops the robot, standing still is no
+ * sign of anything: the mark follows it. */
+static bool no_progress(msw_t *m, const msw_input_t *in)
+{
+    m->turned = num_add(m->turned, num_wrap(num_sub(in->robot->theta, m->last_theta)));
+    m->last_theta = in->robot->theta;
+    if (sup_p3(in->v_r, in->w_r) || !oset_within(num_sub(in->robot->x, m->mark_x),
+                                                 num_sub(in->robot->y, m->mark_y), MSW_PROGRESS)) {
+        m->mark_x = in->robot->x;
+        m->mark_y = in->robot->y;
+        m->t_mark_us = in->t_us;
+    }
+    return num_abs(m->turned) > MSW_LOOP || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
+}
+
+/* The cluster of the trigger, and the offset of the circles followed round
+ * it: with gaps, half the width (the widest a gap in a cluster can be) plus
+ * MSW_FILL_MARGIN, so that neighbouring circles overlap. */
+static void find_cluster(msw_t *m, const sup_t *s)
+{
+    bool gapped;
+    m->cluster = oset_cluster(s->obs, s->n_obs, m->trigger, m->width, &gapped);
+    m->revision = s->revision;
+    m->offset =
+        gapped ? num_add(num_mul(m->width, NUM_C(0.5)), MSW_FILL_MARGIN) : MSW_FOLLOW_OFFSET;
+    m->offset = num_max(m->offset, MSW_FOLLOW_OFFSET);
+}
+
+static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
+                     sup_event_t *events, size_t *n_ev)
+{
+    m->state = (uint8_t)MSW_AVOID;
+    m->trigger = i;
+    find_cluster(m, s);
+    m->side = msw_choose_side(s, m->cluster, i, m->offset, in);
+    m->acts[i]++;
+    m->t_act_us = in->t_us;
+    m->turned = NUM_ZERO;
+    m->last_theta = in->robot->theta;
+    m->mark_x = in->robot->x;
+    m->mark_y = in->robot->y;
+    m->t_mark_us = in->t_us;
+    emit(events, n_ev, in->t_us, SUP_EVENT_ACTIVATE, s->obs[i].o.id, m->side);
+}
+
+void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
+              size_t *n_events, msw_decision_t *d)
+{
+    if (m->state == (uint8_t)MSW_BLOCKED) {
+        if (way_clear(s, in)) {
+            m->state = (uint8_t)MSW_TRACK;
+            emit(events, n_events, in->t_us, SUP_EVENT_RESUME, 0u, AVD_SIDE_NONE);
+        }
+    } else if (m->state == (uint8_t)MSW_AVOID) {
+        if (s->revision != m->revision) {
+            find_cluster(m, s); /* obstacles joined or moved */
+        }
+        m->followed = nearest_member(s, in, m->cluster, m->trigger);
+        if (release_ok(m, s, in) || hand_over(m, s, in)) {
+            m->state = (uint8_t)MSW_TRACK;
+            emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
+                 AVD_SIDE_NONE);
+        } else if (no_progress(m, in)) {
+            m->state = (uint8_t)MSW_BLOCKED;
+            emit(events, n_events, in->t_us, SUP_EVENT_BLOCKED, s->obs[m->followed].o.id,
+                 AVD_SIDE_NONE);
+        } else {
+            /* keep avoiding */
+        }
+    } else {
+        const int i = candidate(m, s, in, 0u);
+        if (i >= 0) {
+            activate(m, s, in, (uint8_t)i, events, n_events);
+            m->followed = nearest_member(s, in, m->cluster, (uint8_t)i);
+        }
+    }
+
+    *d = (msw_decision_t){ .mode = SUP_MODE_TRACK, .followed = NULL, .side = AVD_SIDE_NONE };
+    if (m->state == (uint8_t)MSW_AVOID) {
+        const sup_entry_t *f = &s->obs[m->followed];
+        d->mode = SUP_MODE_AVOID;
+        d->followed = f;
+        d->side = m->side;
+        d->circle = (avd_obstacle_t){ .x = f->o.x,
+                                      .y = f->o.y,
+                                      .vx = f->o.vx,
+                                      .vy = f->o.vy,
+                                      .d_s = num_add(f->d_s, m->offset) };
+    } else if (m->state == (uint8_t)MSW_BLOCKED) {
+        d->mode = SUP_MODE_BLOCKED;
+    } else {
+        /* tracking */
+    }
+    if (sup_p3(in->v_r, in->w_r)) {
+        d->mode = SUP_MODE_STOP;
+    }
+}

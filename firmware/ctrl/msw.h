@@ -1,0 +1,163 @@
+/* SPDX-License-Identifier: MIT */
+/**
+ * @file msw.h
+ * @brief The "mstc" switch strategy (docs/strategy.md): switching on the
+ *        robot's own motion, clusters gone around as one, moving obstacles
+ *        met early and passed behind, release after a forward roll-out, and
+ *        a blocked state instead of circling.
+ *
+ * It shares the supervisor's obstacle table (sup_take_reports(), Definition
+ * 1) and decides, each step, what runs:
+ *
+ * - **Activation** (tracking): the nearest obstacle, by distance to its own
+ *   safe circle, that the robot is within D_act of (the supervisor's per-
+ *   obstacle threshold) and closing on under the tracking command, or, for a
+ *   moving obstacle within D_act + MSW_CPA_REACH, whose closest approach
+ *   within MSW_CPA_HORIZON comes inside D_s + MSW_CPA_MARGIN; whatever the
+ *   reference does (no p1 here). Its cluster (oset_cluster()) is gone around
+ *   on one side, chosen once (msw_choose_side()) and held. At most
+ *   MSW_MAX_ACTIVATIONS activations per obstacle in a run.
+ * - **Avoidance**: the avoidance law follows the member of the cluster
+ *   nearest from the robot or just ahead of it, on a circle MSW_FOLLOW_OFFSET
+ *   beyond its D_s (moving with it), or, when the cluster has gaps, half the
+ *   robot's width plus MSW_FILL_MARGIN beyond it, so that the circles overlap
+ *   and close the gaps; the cluster is recomputed whenever the table changes
+ *   (obstacles detected later join it).
+ * - **Release** (COMPLETE): after MSW_DWELL_US in avoidance, when p1 holds
+ *   for every static member and the roll-out of the tracking command over
+ *   MSW_ROLLOUT (rol.h) keeps every static obstacle beyond its D_s +
+ *   MSW_MARGIN and comes no more than MSW_MARGIN closer to any within its
+ *   D_act + MSW_MARGIN (the robot no longer closes on it); a moving one is
+ *   judged by its motion instead: no longer closing on it within reach of an
+ *   activation, and its closest approach beyond what activates, by the
+ *   margin. Or, when an obstacle outside the cluster calls for an activation
+ *   and is nearer than the member followed (a hand-over: the next step
+ *   activates it).
+ * - **Blocked**: in avoidance, when the robot has turned once around (the
+ *   signed sum of its heading changes since the activation beyond MSW_LOOP:
+ *   it circles the cluster) or has not moved MSW_PROGRESS for MSW_STILL_US
+ *   (held in place), no progress is possible: it stops (BLOCKED, v = ω = 0)
+ *   and waits, and resumes tracking (RESUME) when the roll-out tests of the
+ *   release pass. Standing still while p3 stops the robot does not count.
+ *
+ * At most one change of mode per step, so with the detections and a filter
+ * event a step emits at most SUP_MAX_EVENTS events.
+ */
+#ifndef MSTC_MSW_H
+#define MSTC_MSW_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ctrl/avd.h"
+#include "ctrl/sup.h"
+
+/** @name Tunables of the strategy (docs/strategy.md says how each was chosen). @{ */
+#define MSW_DWELL_US        500000u     /**< least time in avoidance [µs] */
+#define MSW_ROLLOUT         NUM_C(1.0)  /**< roll-out horizon [s] */
+#define MSW_MARGIN          NUM_C(0.02) /**< hysteresis margin of the release [m] */
+#define MSW_FOLLOW_OFFSET   NUM_C(0.06) /**< circle followed: D_s + this [m] */
+#define MSW_FOLLOW_AHEAD    NUM_C(0.25) /**< member chosen from this far ahead too [m] */
+#define MSW_FILL_MARGIN     NUM_C(0.02) /**< gapped cluster: circles overlap by [m] */
+#define MSW_MAX_ACTIVATIONS 2u          /**< per obstacle and run */
+#define MSW_CPA_HORIZON     NUM_C(3.0)  /**< closest-approach horizon [s] */
+#define MSW_CPA_MARGIN      NUM_C(0.05) /**< closest approach below D_s + this activates [m] */
+#define MSW_CPA_REACH       NUM_C(1.0)  /**< ... when within D_act + this [m] */
+#define MSW_LOOP            NUM_C(6.8)  /**< turned once around (2π + 0.5): blocked [rad] */
+#define MSW_STILL_US        5000000u    /**< within MSW_PROGRESS this long: blocked [µs] */
+#define MSW_PROGRESS        NUM_C(0.1)  /**< least motion that counts as progress [m] */
+#define MSW_SIDE_DEADBAND   NUM_C(0.05) /**< side ties below this [rad] */
+#define MSW_TIE_OFFSET      NUM_C(0.05) /**< reference-side ties below this [m] */
+#define MSW_MOVING_SPEED    NUM_C(0.02) /**< slower obstacles count as static [m/s] */
+#define MSW_SPEED_MIN       NUM_C(0.5)  /**< least avoidance speed, times |v_r| */
+#define MSW_CATCH_UP        NUM_C(1.0)  /**< largest speed: |v_r| + this [m/s] */
+#define MSW_REGULATE        NUM_C(2.0)  /**< speed regulated within D_act + this [m] */
+/** @} */
+
+/** @brief State of the strategy. */
+typedef enum {
+    MSW_TRACK = 0,
+    MSW_AVOID = 1,
+    MSW_BLOCKED = 2,
+} msw_state_t;
+
+/** @brief Strategy state. */
+typedef struct {
+    num_t width;                     /**< robot width 2 R_m [m] */
+    uint8_t state;                   /**< msw_state_t */
+    uint8_t trigger;                 /**< table index that activated the cluster */
+    uint8_t followed;                /**< table index followed now */
+    avd_side_t side;                 /**< side held while avoiding */
+    uint16_t cluster;                /**< members, a bit per table index */
+    uint16_t revision;               /**< sup_t::revision the cluster was found at */
+    num_t offset;                    /**< circles followed: D_s + this [m] */
+    uint64_t t_act_us;               /**< time of the activation */
+    num_t turned;                    /**< heading change since the activation [rad] */
+    num_t last_theta;                /**< heading at the previous step [rad] */
+    num_t mark_x, mark_y;            /**< where the robot last made progress [m] */
+    uint64_t t_mark_us;              /**< when */
+    uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index */
+} msw_t;
+
+/** @brief What the strategy sees in one step. */
+typedef struct {
+    const pose_t *robot;
+    const pose_t *ref;
+    num_t v_r, w_r;       /**< reference velocities */
+    num_t cos_th, sin_th; /**< of the robot's heading */
+    num_t v_trk, w_trk;   /**< the tracking command of this step, eq. (2)-(3) */
+    const num_t *dist;    /**< centre distance to each table entry [m] */
+    uint64_t t_us;        /**< step time [µs] */
+} msw_input_t;
+
+/** @brief What the strategy decided. */
+typedef struct {
+    sup_mode_t mode;
+    const sup_entry_t *followed; /**< entry followed (AVOID), else NULL */
+    avd_side_t side;             /**< side held (AVOID), else AVD_SIDE_NONE */
+    avd_obstacle_t circle;       /**< circle followed (AVOID) */
+} msw_decision_t;
+
+/** @brief Initialise for a robot of width @p width = 2 R_m [m]: tracking. */
+void msw_init(msw_t *m, num_t width);
+
+/** @brief Back to tracking, activation counts cleared; the width is kept. */
+void msw_reset(msw_t *m);
+
+/**
+ * @brief One step of the strategy on the table @p s (already updated with
+ *        this step's reports).
+ * @param m      state.
+ * @param s      the supervisor's table (sup_take_reports()).
+ * @param in     robot, reference, tracking command, distances, time.
+ * @param events where events go (SUP_MAX_EVENTS entries).
+ * @param[in,out] n_events events already there; at most one is added.
+ * @param[out] d the decision.
+ */
+void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
+              size_t *n_events, msw_decision_t *d);
+
+/**
+ * @brief Side for going around cluster @p cluster, whose activation came
+ *        from entry @p trigger, each member a disc of radius D_s + @p offset:
+ *        1. a trigger moving across the robot's heading (faster than
+ *           MSW_MOVING_SPEED) is passed behind: RIGHT when it moves to the
+ *           robot's left, LEFT when to its right;
+ *        2. else the side on which the cluster's edge lies nearer the
+ *           reference's path (the line through the reference along its
+ *           direction of motion): LEFT when its left edge is nearer;
+ *        3. when the two are within MSW_TIE_OFFSET (an obstacle on the path),
+ *           the side that needs the smaller turn of the robot's heading to
+ *           clear the cluster's angular extent seen from the robot (for one
+ *           obstacle: eq. (11)-(12) of the paper);
+ *        4. when that is within MSW_SIDE_DEADBAND too (head-on): LEFT.
+ * @param s       the table.
+ * @param cluster members, a bit per table index.
+ * @param trigger table index of the activating entry.
+ * @param offset  circles followed: D_s + this [m].
+ * @param in      robot, reference and distances.
+ */
+avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
+                           const msw_input_t *in);
+
+#endif /* MSTC_MSW_H */

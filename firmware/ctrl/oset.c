@@ -1,0 +1,99 @@
+/* SPDX-License-Identifier: MIT */
+/* Geometry of the obstacle set for the "mstc" strategy (oset.h). */
+#include "ctrl/oset.h"
+
+/* Below this radius, dx² + dy² < 2 r² < 32768 cannot saturate Q16.16. */
+#define OSET_SQUARE_LIMIT NUM_C(128.0)
+/* Relative speeds below this are "no relative motion" [m/s]: t* is then 0.
+ * Its square, 1e-4, is 6.6 Q16.16 steps: |v|² is never divided by 0. */
+#define OSET_MIN_SPEED    NUM_C(0.01)
+
+bool oset_within(num_t dx, num_t dy, num_t r)
+{
+    const num_t ax = num_abs(dx);
+    const num_t ay = num_abs(dy);
+    if (ax >= r || ay >= r) {
+        return false; /* also every r <= 0 */
+    }
+    if (r < OSET_SQUARE_LIMIT) {
+        return num_add(num_mul(dx, dx), num_mul(dy, dy)) < num_mul(r, r);
+    }
+    return num_hypot(dx, dy) < r;
+}
+
+num_t oset_distance(num_t dx, num_t dy)
+{
+    if (num_abs(dx) < OSET_SQUARE_LIMIT && num_abs(dy) < OSET_SQUARE_LIMIT) {
+        return num_sqrt(num_add(num_mul(dx, dx), num_mul(dy, dy)));
+    }
+    return num_hypot(dx, dy);
+}
+
+oset_link_t oset_link(const sup_entry_t *a, const sup_entry_t *b, num_t width)
+{
+    const num_t dx = num_sub(b->o.x, a->o.x);
+    const num_t dy = num_sub(b->o.y, a->o.y);
+    const num_t touch = num_add(a->d_s, b->d_s);
+    if (!oset_within(dx, dy, num_add(touch, width))) {
+        return OSET_APART;
+    }
+    return oset_within(dx, dy, touch) ? OSET_OVERLAP : OSET_GAP;
+}
+
+uint16_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped)
+{
+    /* Breadth first over bit masks: each member is expanded once, against
+     * every other entry: the ones not yet in the cluster may join it, the
+     * ones in it already may leave a gap with it. */
+    uint16_t members = (uint16_t)(1u << seed);
+    uint16_t todo = members;
+    uint16_t done = 0u;
+    *gapped = false;
+    while (todo != 0u) {
+        uint8_t i = 0;
+        while ((todo & (1u << i)) == 0u) {
+            i++;
+        }
+        todo = (uint16_t)(todo & ~(1u << i));
+        done = (uint16_t)(done | (1u << i));
+        for (uint8_t j = 0; j < n; j++) {
+            const uint16_t bit = (uint16_t)(1u << j);
+            if ((done & bit) != 0u) {
+                continue; /* itself, or a pair tested from the other end */
+            }
+            const oset_link_t link = oset_link(&e[i], &e[j], width);
+            if (link != OSET_APART) {
+                *gapped = *gapped || link == OSET_GAP;
+                if ((members & bit) == 0u) {
+                    members = (uint16_t)(members | bit);
+                    todo = (uint16_t)(todo | bit);
+                }
+            }
+        }
+    }
+    return members;
+}
+
+bool oset_closing(num_t dx, num_t dy, num_t vx, num_t vy)
+{
+    return num_add(num_mul(dx, vx), num_mul(dy, vy)) > NUM_ZERO;
+}
+
+void oset_closest_approach(num_t px, num_t py, num_t vx, num_t vy, num_t horizon, num_t *t,
+                           num_t *d2)
+{
+    const num_t v2 = num_add(num_mul(vx, vx), num_mul(vy, vy));
+    num_t ts = NUM_ZERO;
+    if (v2 >= num_mul(OSET_MIN_SPEED, OSET_MIN_SPEED)) {
+        /* t* = −p·v / |v|², in the past (< 0: receding) or beyond the horizon
+         * clamped to the ends. */
+        const num_t pv = num_add(num_mul(px, vx), num_mul(py, vy));
+        if (pv < NUM_ZERO) {
+            ts = num_min(num_div(num_neg(pv), v2), horizon);
+        }
+    }
+    const num_t cx = num_add(px, num_mul(vx, ts));
+    const num_t cy = num_add(py, num_mul(vy, ts));
+    *t = ts;
+    *d2 = num_add(num_mul(cx, cx), num_mul(cy, cy));
+}
