@@ -3,7 +3,8 @@
 # (hal/<board>/), with its start-up, drivers and main loop; each board is a
 # build of mk/compile.mk (img-<board>). Included by the top Makefile after
 # mk/compile.mk. Uses from the Makefile: FW_INC, PY, STAMP, FW_SRCS, the venv
-# rule; from mk/numeric.mk the NUM_*_<mode> variables.
+# rule; from mk/numeric.mk the NUM_*_<mode> variables; from mk/auth.mk AUTH_*
+# and KEY_HEADER, the device key compiled into every image.
 #
 #   make firmware BOARD=stm32f405   Cortex-M4F, float   -> build/firmware/stm32f405/
 #   make firmware BOARD=stm32f103   Cortex-M3, fixed    -> build/firmware/stm32f103/
@@ -57,11 +58,12 @@ IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(1)),$$(IMG_GEN_$(1))/stm32_regs.h)
 BUILD_CC_img-$(1) := $$(IMG_CC)
 BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(1)) -ffunction-sections \
   -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(1)) \
-  $$(if $$(IMG_SVD_$(1)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2))
+  $$(if $$(IMG_SVD_$(1)),-I$$(IMG_GEN_$(1))) -I$$(dir $$(KEY_HEADER)) $$(NUM_CFLAGS_$(2)) \
+  $$(AUTH_CFLAGS)
 BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
-BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(IMG_SRCS_$(1))
-BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2))
-BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
+BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(AUTH_SRCS) $$(IMG_SRCS_$(1))
+BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2)) $$(AUTH_DEPS)
+BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1)) $$(KEY_HEADER)
 $$(eval $$(call BUILD,img-$(1)))
 IMG_OBJS_$(1) := $$(BUILD_OBJS_img-$(1)) $$(if $$(IMG_SVD_$(1)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
 

@@ -24,11 +24,9 @@
 
 static app_t app;
 
-/* The protocol's new names (mstc.dbc). */
-#define ID_PARAM_AUTH          0x122u
-#define ID_AUTH_STATUS         0x186u
-#define RESULT_UNAUTHENTICATED 4u
-#define HALT_ODOMETRY_REPLAYED 6u
+#define ID_AUTH_STATUS         COMM_ID_AUTH_STATUS
+#define RESULT_UNAUTHENTICATED COMM_PARAM_UNAUTHENTICATED
+#define HALT_ODOMETRY_REPLAYED COMM_HALT_ODOMETRY_IMPLAUSIBLE
 
 #define DT_US 20000u
 
@@ -38,24 +36,14 @@ void setUp(void)
     hal_fake.can_status_rc = -ENOTSUP;
     memset(tf_counters, 0, sizeof tf_counters);
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    app_set_key(&app, tf_test_key, 0u);
+    tf_freshness = 0u;
 }
 
 void tearDown(void) {}
 
 static int feed_rc(hal_can_frame_t f) { return app_on_frame(&app, &f); }
 static void feed(hal_can_frame_t f) { TEST_ASSERT_EQUAL_INT(0, feed_rc(f)); }
-
-/* PARAM_AUTH: freshness low 20 bits at bits 12..31, the first four bytes of
- * the CMAC in bytes 4..7, in order. */
-static hal_can_frame_t param_auth(uint32_t fv_low, const uint8_t mac[4])
-{
-    uint8_t p[8] = { 0 };
-    p[1] = (uint8_t)((fv_low & 0x0Fu) << 4);
-    p[2] = (uint8_t)((fv_low >> 4) & 0xFFu);
-    p[3] = (uint8_t)((fv_low >> 12) & 0xFFu);
-    memcpy(&p[4], mac, 4);
-    return tf_seal(ID_PARAM_AUTH, p);
-}
 
 /* The AUTH_STATUS the firmware sent last: reason of the last refusal,
  * freshness, commands refused. */
@@ -191,7 +179,7 @@ static void test_app_auth_an_arm_under_another_key_is_refused(void)
     preroll();
     hal_fake.n_sent = 0;
     (void)feed_rc(tf_param_set(COMM_PARAM_ARM, 1.0f));
-    (void)feed_rc(param_auth(1u, mac_other_key));
+    (void)feed_rc(tf_param_auth(1u, mac_other_key));
     TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, RESULT_UNAUTHENTICATED));
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
     const auth_status_t s = last_auth_status();
@@ -239,8 +227,8 @@ static void test_app_auth_a_replayed_16_frame_odometry_loop_halts(void)
     TEST_ASSERT_EQUAL_UINT8(HALT_ODOMETRY_REPLAYED, tf_last_status().status_halt);
     /* The halt latches and the wheels ramp down. */
     const int32_t before = tf_last_wheels().wheel_cmd_left;
-    feed(xy[0]);
-    feed(th[0]);
+    feed(xy[halted_at % 16u]);
+    feed(th[halted_at % 16u]);
     send_ref();
     run_step();
     TEST_ASSERT_EQUAL_UINT8(HALT_ODOMETRY_REPLAYED, tf_last_status().status_halt);

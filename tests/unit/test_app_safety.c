@@ -36,6 +36,8 @@ void setUp(void)
     hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
     memset(tf_counters, 0, sizeof tf_counters);
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    app_set_key(&app, tf_test_key, 0u);
+    tf_freshness = 0u;
 }
 
 void tearDown(void) {}
@@ -54,11 +56,17 @@ static void ref(void)
     feed(tf_ref_motion(0.0, 0.5, 0.0));
 }
 
-static uint8_t arm_cmd(float value)
+/* An authenticated PARAM_SET; the result it is answered with. */
+static uint8_t set_param(uint8_t index, float value)
 {
-    feed(tf_param_set(COMM_PARAM_ARM, value));
+    hal_can_frame_t f[2];
+    tf_param_set_auth(index, value, f);
+    feed(f[0]);
+    feed(f[1]);
     return tf_last_param_value().param_value_result;
 }
+
+static uint8_t arm_cmd(float value) { return set_param(COMM_PARAM_ARM, value); }
 
 static uint16_t k_step;
 static uint32_t t_us;
@@ -263,12 +271,10 @@ static void test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero(void)
 
 static void test_app_safety_deceleration_is_a_parameter(void)
 {
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
     const float bad[] = { 0.0f, -1.0f, NAN, INFINITY, 10001.0f };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
-        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, set_param(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
         TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
     }
     feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
@@ -356,8 +362,14 @@ static void test_app_safety_two_corrupted_frames_in_the_window_halt_at_once(void
 static void test_app_safety_duplicated_frames_are_tolerated(void)
 {
     drive(2);
+    /* The robot moves as commanded (straight ahead, the wheels equal), so
+     * its odometry stays plausible over the ten steps (odo.h). */
+    double x = 0.0;
     for (unsigned k = 0; k < 10u; k++) {
-        const hal_can_frame_t f = tf_odom_xy(0.0, 0.0);
+        const double v =
+            tu_dbl(app.ctl.p.kin.wheel_radius) * tf_last_wheels().wheel_cmd_left / 1024.0;
+        x += v * DT_US * 1e-6;
+        const hal_can_frame_t f = tf_odom_xy(x, 0.0);
         feed(f);
         TEST_ASSERT_EQUAL_INT(-EALREADY, feed_rc(f)); /* the duplicate */
         feed(tf_odom_theta(0.0));

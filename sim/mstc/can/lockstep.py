@@ -6,6 +6,8 @@ frames: each call sends the robot's odometry, the reference, the obstacles the
 sensor reports and a STEP frame, then reads the firmware's answers up to the
 WHEEL_CMD that echoes the step. The same code drives the in-process firmware
 (``can.Bus(interface="mstc-sil")``), ``mstc-fw`` on SocketCAN and a board.
+Its PARAM_SET frames (parameters, arm) are authenticated with the firmware's
+key (:mod:`mstc.can.secoc`), from the freshness value the firmware publishes.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from dataclasses import dataclass, field
 
 import can
 
+from mstc.can import secoc
 from mstc.can.protocol import Frame, FrameDropped, Protocol
 from mstc.controller import Event, EventKind, Fault, Mode, Side, Status, StepResult
 from mstc.errors import ControllerError
@@ -50,6 +53,8 @@ PARAM_INDEX = {
 """PARAM_SET / PARAM_GET indices (the DBC's value table)."""
 ARM_INDEX = 128
 """PARAM_SET index of the arm command (value 1 arms, 0 disarms; docs/safety.md)."""
+UNAUTHENTICATED = 4
+"""PARAM_VALUE result of a command the firmware could not authenticate."""
 REARM_FRAMES = 5
 """Good frames in a row each input needs before the firmware accepts the arm
 command (APP_REARM_FRAMES in firmware/app/app.h)."""
@@ -94,6 +99,7 @@ class CanController:
     :param timeout: how long to wait for an answer [s] (wall time).
     :param sim_time_stamps: stamp sent frames with the simulated time (for the
         in-process bus, whose answers carry the same stamp), else wall time.
+    :param key: the firmware's key; default: :func:`mstc.can.secoc.load_key`.
     """
 
     def __init__(
@@ -104,6 +110,7 @@ class CanController:
         timeout: float = 2.0,
         sim_time_stamps: bool = False,
         clock: Callable[[], float] = time.time,
+        key: bytes | None = None,
     ) -> None:
         self.bus = bus
         self.params = params
@@ -111,6 +118,7 @@ class CanController:
         self.sim_time_stamps = sim_time_stamps
         self.clock = clock
         self.proto = Protocol(node=None)
+        self.auth = secoc.Authenticator(secoc.load_key() if key is None else key)
         self.traffic = Traffic()
         self._now = 0.0
         self._steps = 0
@@ -140,22 +148,47 @@ class CanController:
                 continue  # counted in self.proto.drops
             if frame.name == "STATUS_COUNTERS":
                 self.traffic.firmware_drops = dict(frame.signals)
+            self.auth.sync(frame)
             return frame
+
+    def _sync(self) -> None:
+        """Learn the firmware's freshness value: a PARAM_GET (which changes
+        nothing) is answered by PARAM_VALUE and AUTH_STATUS."""
+        self._send(self.proto.encode("PARAM_GET", index=ARM_INDEX))
+        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+
+    def command(self, index: int, value: float, what: str) -> Frame:
+        """An authenticated PARAM_SET; the firmware's PARAM_VALUE.
+
+        :raises ControllerError: no answer, or the firmware could not
+            authenticate it (another key, most likely).
+        """
+        for msg in self.auth.param_set(self.proto, index, value):
+            self._send(msg)
+        answer = self._await(
+            lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == index, f"PARAM_VALUE {what}"
+        )
+        # AUTH_STATUS follows every PARAM_VALUE: read it now, so that the
+        # freshness is current and the log keeps the bus's order.
+        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+        if answer.signals["result"] == UNAUTHENTICATED:
+            raise ControllerError(
+                f"the firmware refuses {what} as unauthenticated: does it have the key the "
+                f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
+                "docs/safety.md, 'The key'"
+            )
+        return answer
 
     def _configure(self) -> None:
         """PARAM_SET every parameter; retry the ones the firmware rejects
         because another one has not changed yet (D_s < D_act must hold at
         every moment)."""
+        self._sync()
         pending = param_values(self.params)
         while pending:
             rejected: dict[str, float] = {}
             for name, value in pending.items():
-                index = PARAM_INDEX[name]
-                self._send(self.proto.encode("PARAM_SET", index=index, value=value))
-                answer = self._await(
-                    lambda f, i=index: f.name == "PARAM_VALUE" and f.signals["index"] == i,
-                    f"PARAM_VALUE {name}",
-                )
+                answer = self.command(PARAM_INDEX[name], value, f"PARAM_SET {name}")
                 if answer.signals["result"] != 0:
                     rejected[name] = value
             if len(rejected) == len(pending):
@@ -176,10 +209,7 @@ class CanController:
         and the run's first step is still step 0 at its own time."""
         for _ in range(REARM_FRAMES):
             self._send_inputs(robot, ref, v_r, w_r)
-        self._send(self.proto.encode("PARAM_SET", index=ARM_INDEX, value=1.0))
-        answer = self._await(
-            lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == ARM_INDEX, "PARAM_VALUE arm"
-        )
+        answer = self.command(ARM_INDEX, 1.0, "the arm command")
         if answer.signals["result"] != 0:
             raise ControllerError(
                 f"the firmware refuses to arm (result {answer.signals['result']})"

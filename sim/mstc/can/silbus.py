@@ -15,7 +15,8 @@ frames it sends are stamped with the timestamp of the last frame it was sent,
 so a lock-step run is deterministic.
 
 One firmware instance exists per loaded library, as on a board: a new
-:class:`SilBus` restarts it.
+:class:`SilBus` restarts it and gives it its key (authenticated commands,
+docs/safety.md): ``key=`` bytes, else :func:`mstc.can.secoc.load_key`.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import can
+
+from mstc.can import secoc
 
 LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no ``lib`` is given."""
@@ -47,10 +50,17 @@ class SilBus(can.BusABC):
 
     :param channel: a name for the bus in logs (default ``"sil0"``).
     :param lib: path of ``libmstc_sil.so``; default: ``$MSTC_SIL_LIB``.
+    :param key: the firmware's key (16 bytes); default: :func:`mstc.can.secoc.load_key`.
+    :param freshness: the firmware's freshness value at start (0, as after a reset).
     """
 
     def __init__(
-        self, channel: Any = None, lib: str | os.PathLike[str] | None = None, **kwargs: Any
+        self,
+        channel: Any = None,
+        lib: str | os.PathLike[str] | None = None,
+        key: bytes | None = None,
+        freshness: int = 0,
+        **kwargs: Any,
     ) -> None:
         path = lib if lib is not None else os.environ.get(LIB_ENV)
         if not path:
@@ -71,6 +81,7 @@ class SilBus(can.BusABC):
             ("mstc_sil_fw_init", [ctypes.c_void_p]),
             ("mstc_sil_fw_send", [ctypes.POINTER(_Frame)]),
             ("mstc_sil_fw_recv", [ctypes.POINTER(_Frame)]),
+            ("mstc_sil_fw_set_key", [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_uint32]),
         ):
             fn = getattr(self._lib, name, None)
             if fn is None:
@@ -85,6 +96,14 @@ class SilBus(can.BusABC):
         rc = self._lib.mstc_sil_fw_init(None)
         if rc != 0:
             raise can.CanInitializationError(f"mstc-sil: firmware init failed ({rc})")
+        try:
+            key = secoc.load_key() if key is None else key
+        except secoc.AuthKeyError as exc:
+            raise can.CanInitializationError(f"mstc-sil: {exc}") from exc
+        if self._lib.mstc_sil_fw_set_key(key, len(key), freshness) != 0:
+            raise can.CanInitializationError(
+                f"mstc-sil: the firmware refused the key ({len(key)} bytes, want {secoc.KEY_LEN})"
+            )
         super().__init__(channel=self.channel, **kwargs)
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:

@@ -10,8 +10,9 @@ from pathlib import Path
 
 import can
 
+from mstc.can import secoc
 from mstc.can.lockstep import CanController
-from mstc.cli.common import EXIT_USAGE, error, run_scenarios
+from mstc.cli.common import EXIT_USAGE, add_key_argument, error, load_key, run_scenarios
 from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, FirmwareError
 from mstc.report.outputs import BusLog
@@ -69,21 +70,26 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="start this firmware executable (mstc-fw) on --channel before each scenario "
         "and stop it after, so each runs on a fresh firmware (SocketCAN only)",
     )
+    add_key_argument(parser)
     add_output_arguments(parser, "build/hil")
     parser.set_defaults(run=run)
 
 
-def start_firmware(exe: Path, channel: str, timeout: float = 30.0) -> subprocess.Popen[str]:
-    """Start ``exe --can channel`` and wait until it is on the bus (its first
-    line on stderr says so).
+def start_firmware(
+    exe: Path, channel: str, key_file: Path | None = None, timeout: float = 30.0
+) -> subprocess.Popen[str]:
+    """Start ``exe --can channel [--key-file key_file]`` and wait until it is
+    on the bus (its first line on stderr says so). Without @p key_file it
+    takes its key from the environment, as the tools do.
 
     :raises FirmwareError: it exited or said nothing in @p timeout seconds.
     """
     if not exe.is_file():
         raise FirmwareError(f"--fw {exe}: no such file (make fw builds build/host/mstc-fw)")
-    proc = subprocess.Popen(
-        [str(exe), "--can", channel], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True
-    )
+    cmd = [str(exe), "--can", channel]
+    if key_file is not None:
+        cmd += ["--key-file", str(key_file)]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     assert proc.stderr is not None
     ready, _, _ = select.select([proc.stderr], [], [], timeout)
     line = proc.stderr.readline() if ready else ""
@@ -106,9 +112,11 @@ def stop_firmware(proc: subprocess.Popen[str]) -> None:
 
 def _run_one(args: argparse.Namespace, scenario: Scenario) -> tuple[str, RunResult, BusLog]:
     bus = can.Bus(interface=args.interface, channel=args.channel)
-    firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
+    firmware = (
+        start_firmware(args.fw, args.channel, args.key_source) if args.fw is not None else None
+    )
     try:
-        ctl = CanController(bus, scenario.params, sim_time_stamps=False)
+        ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
         result = simulate(scenario, ctl)
     finally:
         bus.shutdown()
@@ -122,6 +130,12 @@ def run(args: argparse.Namespace) -> int:
     if args.fw is not None and args.interface != "socketcan":
         error("--fw starts mstc-fw, which runs on SocketCAN only (--interface socketcan)")
         return EXIT_USAGE
+    args.key = load_key(args)
+    if args.key is None:
+        return EXIT_USAGE
+    # mstc-fw gets the same key: the file it came from (None: from $MSTC_KEY,
+    # which the process inherits).
+    args.key_source = secoc.key_file(args.key_file)
     return run_scenarios(
         args.scenarios,
         args.out,

@@ -12,9 +12,12 @@ from mstc.cli.common import (
     EXIT_INTERRUPTED,
     EXIT_NO_TARGET,
     EXIT_OK,
+    EXIT_USAGE,
+    add_key_argument,
     add_log_arguments,
     error,
     library,
+    load_key,
     load_log,
 )
 from mstc.errors import FirmwareError
@@ -72,6 +75,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=Path,
         help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
     )
+    add_key_argument(parser)
     parser.set_defaults(run=run)
 
 
@@ -81,12 +85,15 @@ def run(args: argparse.Namespace) -> int:
     if isinstance(loaded, int):
         return loaded
     db, log = loaded
+    key = load_key(args)
+    if key is None:
+        return EXIT_USAGE
 
     def progress(total: int) -> Progress:
         return Progress(total, "replay", "input frames", enabled=not args.quiet)
 
     try:
-        result = replay(log, db, library(args.lib), progress=progress)
+        result = replay(log, db, library(args.lib), progress=progress, key=key)
     except FirmwareError as exc:
         error(str(exc))
         return EXIT_NO_TARGET
