@@ -187,6 +187,84 @@ static void test_app_auth_an_arm_under_another_key_is_refused(void)
     TEST_ASSERT_EQUAL_UINT32(0u, s.freshness); /* nothing accepted */
 }
 
+static void test_app_auth_an_authenticated_arm_is_accepted_once(void)
+{
+    /* MAC of data ID 0x1120, PARAM_SET bytes 2..7 (index 128, 1.0f, 0) and
+     * freshness 1 under the test key (cryptography's CMAC). */
+    static const uint8_t mac[4] = { 0xDE, 0x2C, 0xBC, 0x55 };
+    preroll();
+    const hal_can_frame_t set = tf_param_set(COMM_PARAM_ARM, 1.0f);
+    const hal_can_frame_t auth = tf_param_auth(1u, mac);
+    feed(set);
+    TEST_ASSERT_EQUAL_UINT(0u, hal_fake.n_sent); /* nothing before its PARAM_AUTH */
+    feed(auth);
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, COMM_PARAM_OK));
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, app.halt);
+    TEST_ASSERT_EQUAL_UINT32(1u, last_auth_status().freshness);
+    TEST_ASSERT_EQUAL_UINT(0u, last_auth_status().refused);
+    /* The pair recorded and played again, E2E counter and CRC made good:
+     * refused as stale; disarm first, so that a wrong accept would show. */
+    hal_can_frame_t f[2];
+    tf_freshness = 1u;
+    tf_param_set_auth(COMM_PARAM_ARM, 0.0f, f); /* freshness 2 */
+    feed(f[0]);
+    feed(f[1]);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+    hal_fake.n_sent = 0;
+    feed(tf_seal(COMM_ID_PARAM_SET, set.data));
+    feed(tf_seal(COMM_ID_PARAM_AUTH, auth.data));
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, RESULT_UNAUTHENTICATED));
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+    const auth_status_t st = last_auth_status();
+    TEST_ASSERT_EQUAL_UINT(1u, st.refused);
+    TEST_ASSERT_EQUAL_UINT(AUTH_STALE, st.last);
+    TEST_ASSERT_EQUAL_UINT32(2u, st.freshness);
+}
+
+static void test_app_auth_a_param_auth_alone_is_counted(void)
+{
+    static const uint8_t mac[4] = { 0xDE, 0x2C, 0xBC, 0x55 };
+    hal_fake.n_sent = 0;
+    feed(tf_param_auth(1u, mac));
+    TEST_ASSERT_FALSE(answered(COMM_PARAM_ARM, COMM_PARAM_OK));
+    const auth_status_t st = last_auth_status();
+    TEST_ASSERT_EQUAL_UINT(1u, st.refused);
+    TEST_ASSERT_EQUAL_UINT(AUTH_MISSING, st.last);
+    TEST_ASSERT_EQUAL_UINT32(0u, st.freshness);
+}
+
+static void test_app_auth_a_param_set_waits_one_control_step_for_its_auth(void)
+{
+    /* Real-time mode: a tick may fall between PARAM_SET and PARAM_AUTH. */
+    hal_can_frame_t f[2];
+    tf_param_set_auth(COMM_PARAM_D_S, 0.4f, f);
+    feed(f[0]);
+    app_control_tick(&app, 20000u);
+    TEST_ASSERT_FALSE(answered(COMM_PARAM_D_S, RESULT_UNAUTHENTICATED));
+    feed(f[1]);
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_D_S, COMM_PARAM_OK));
+    TEST_ASSERT_EQUAL_FLOAT(0.4f, num_to_float(app.ctl.p.d_s));
+}
+
+static void test_app_auth_status_goes_with_the_heartbeat(void)
+{
+    hal_fake.n_sent = 0;
+    app_housekeeping(&app, 0u);
+    TEST_ASSERT_EQUAL_UINT(0u, last_auth_status().refused);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_STATUS, hal_fake.sent[hal_fake.n_sent - 1u].id);
+}
+
+static void test_app_auth_without_a_key_every_command_is_refused(void)
+{
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    hal_can_frame_t f[2];
+    tf_param_set_auth(COMM_PARAM_D_S, 0.4f, f);
+    feed(f[0]);
+    feed(f[1]);
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_D_S, RESULT_UNAUTHENTICATED));
+    TEST_ASSERT_EQUAL_UINT(AUTH_NO_KEY, last_auth_status().last);
+}
+
 /* ------------------------------------------------------------- odometry */
 
 static void test_app_auth_a_replayed_16_frame_odometry_loop_halts(void)
@@ -241,6 +319,11 @@ int main(void)
     RUN_TEST(test_app_auth_a_mac_less_arm_is_refused_and_counted);
     RUN_TEST(test_app_auth_a_mac_less_parameter_is_refused_and_not_applied);
     RUN_TEST(test_app_auth_an_arm_under_another_key_is_refused);
+    RUN_TEST(test_app_auth_an_authenticated_arm_is_accepted_once);
+    RUN_TEST(test_app_auth_a_param_auth_alone_is_counted);
+    RUN_TEST(test_app_auth_a_param_set_waits_one_control_step_for_its_auth);
+    RUN_TEST(test_app_auth_status_goes_with_the_heartbeat);
+    RUN_TEST(test_app_auth_without_a_key_every_command_is_refused);
     RUN_TEST(test_app_auth_a_replayed_16_frame_odometry_loop_halts);
     return UNITY_END();
 }
