@@ -21,7 +21,7 @@ FUZZ_DIR := build/fuzz
 FUZZ_SANITIZE := -fsanitize=fuzzer,address,undefined
 # name:source:numeric mode
 FUZZ_HARNESSES := frames:fuzz/fuzz_frames.c:float ctl:fuzz/fuzz_ctl.c:float \
-  ctl_fixed:fuzz/fuzz_ctl.c:fixed
+  ctl_fixed:fuzz/fuzz_ctl.c:fixed auth:fuzz/fuzz_auth.c:float
 FUZZ_NAMES := $(foreach h,$(FUZZ_HARNESSES),$(word 1,$(subst :, ,$(h))))
 FW_HDRS := $(wildcard firmware/*/*.h)
 
