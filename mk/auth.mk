@@ -22,7 +22,8 @@
 MBEDTLS_DIR := deps/mbedtls
 AUTH_SRCS := $(MBEDTLS_DIR)/library/aes.c $(MBEDTLS_DIR)/library/platform_util.c
 # firmware/auth/mbedtls-config first: its mbedtls/config.h replaces Mbed TLS's.
-AUTH_CFLAGS := -Ifirmware/auth/mbedtls-config -I$(MBEDTLS_DIR)/include
+AUTH_CONFIG_INC := -Ifirmware/auth/mbedtls-config
+AUTH_CFLAGS := $(AUTH_CONFIG_INC) -I$(MBEDTLS_DIR)/include
 AUTH_DEPS := $(MBEDTLS_DIR)/.sha256
 
 $(MBEDTLS_DIR)/.sha256: tools/setup/sources.lock | $(STAMP)/apt-sim

@@ -15,11 +15,13 @@
 
 #include <string.h>
 
-#include "mbedtls/aes.h"
-
+/* The configuration first, to check that it is ours and not Mbed TLS's
+ * default (the include path decides: mk/auth.mk). */
+#include "mbedtls/config.h"
 #ifndef MSTC_MBEDTLS_CONFIG
 #error "Mbed TLS's default configuration is in force, not firmware/auth/mbedtls-config (mk/auth.mk)"
 #endif
+#include "mbedtls/aes.h"
 
 #define BLOCK       16u
 #define FV_LOW_MASK ((UINT32_C(1) << AUTH_FV_LOW_BITS) - 1u)
@@ -58,10 +60,11 @@ void auth_init(auth_t *s) { *s = (auth_t){ .keyed = false }; }
 
 void auth_set_key(auth_t *s, const uint8_t key[AUTH_KEY_LEN], uint32_t fv)
 {
-    memcpy(s->key, key, AUTH_KEY_LEN);
+    (void)memcpy(s->key, key, AUTH_KEY_LEN);
     mbedtls_aes_context ctx;
     schedule(&ctx, key);
-    const uint8_t zero[BLOCK] = { 0u };
+    uint8_t zero[BLOCK];
+    (void)memset(zero, 0, sizeof zero);
     uint8_t l[BLOCK];
     encrypt(&ctx, zero, l);
     schedule_wipe(&ctx);
@@ -80,7 +83,8 @@ void auth_cmac(const auth_t *s, const uint8_t *msg, size_t len, uint8_t mac[AUTH
     const bool complete = len != 0u && len % BLOCK == 0u;
     mbedtls_aes_context ctx;
     schedule(&ctx, s->key);
-    uint8_t x[BLOCK] = { 0u };
+    uint8_t x[BLOCK];
+    (void)memset(x, 0, sizeof x);
     uint8_t y[BLOCK];
     for (size_t b = 0; b + 1u < n; b++) {
         for (size_t i = 0; i < BLOCK; i++) {
@@ -112,13 +116,13 @@ void auth_mac(const auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DATA_LE
     uint8_t in[MAC_INPUT_LEN];
     in[0] = (uint8_t)(data_id >> 8);
     in[1] = (uint8_t)(data_id & 0xFFu);
-    memcpy(&in[2], data, AUTH_DATA_LEN);
+    (void)memcpy(&in[2], data, AUTH_DATA_LEN);
     for (size_t i = 0; i < 4u; i++) {
         in[2u + AUTH_DATA_LEN + i] = (uint8_t)((fv >> (24u - 8u * i)) & 0xFFu);
     }
     uint8_t full[AUTH_CMAC_LEN];
     auth_cmac(s, in, sizeof in, full);
-    memcpy(mac, full, AUTH_MAC_LEN);
+    (void)memcpy(mac, full, AUTH_MAC_LEN);
 }
 
 /* Whether @p mac is the authenticator of the command with freshness @p fv.

@@ -103,7 +103,12 @@ class Loop:
         return out
 
     def param(self, index: int, value: float) -> int | None:
-        for f in self.send(self.proto.encode("PARAM_SET", index=index, value=value)):
+        """An authenticated PARAM_SET (the controller's key and freshness); its result."""
+        answers = [
+            f for m in self.ctl.auth.param_set(self.proto, index, value) for f in self.send(m)
+        ]
+        for f in answers:
+            self.ctl.auth.sync(f)
             if f.name == "PARAM_VALUE" and f.signals["index"] == index:
                 return int(f.signals["result"])
         return None

@@ -43,6 +43,10 @@ identifier not in the DBC are not fed; frames of the wrong length are fed (the
 firmware counts and drops them, as a board does); time going backwards is
 reported, the log's order kept. See docs/replay.md.
 
+The firmware must have the key the log's commands were authenticated with
+(--key-file; the committed logs: tests/data/test.key), or it refuses them and
+answers otherwise than the log says.
+
 To play a log onto a bus with its timing instead (like canplayer): mstc play.
 
 exit status: 0 bit-exact; 1 the firmware's frames differ; 2 bad arguments, or
@@ -50,8 +54,10 @@ a log that cannot be used (with --strict, any problem in it); 3 the firmware
 library cannot be loaded.
 
 examples:
-  .venv/bin/mstc replay tests/data/paper-line.log
-  .venv/bin/mstc replay --lib build/host/fixed/libmstc_sil.so tests/data/paper-line.log
+  .venv/bin/mstc replay build/sim/paper-line/bus.log
+  .venv/bin/mstc replay --key-file tests/data/test.key tests/data/paper-line.log
+  .venv/bin/mstc replay --lib build/host/fixed/libmstc_sil.so --key-file tests/data/test.key \\
+    tests/data/paper-line.log
 
 The library defaults to ${LIB_ENV}, else build/host/float/libmstc_sil.so
 (make lib builds it).
