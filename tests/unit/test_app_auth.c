@@ -243,7 +243,7 @@ static void test_app_auth_a_param_set_waits_one_control_step_for_its_auth(void)
     TEST_ASSERT_FALSE(answered(COMM_PARAM_D_S, RESULT_UNAUTHENTICATED));
     feed(f[1]);
     TEST_ASSERT_TRUE(answered(COMM_PARAM_D_S, COMM_PARAM_OK));
-    TEST_ASSERT_EQUAL_FLOAT(0.4f, num_to_float(app.ctl.p.d_s));
+    TEST_ASSERT_DOUBLE_WITHIN(TU_TOL(1e-7, 1.0 / 65536.0), 0.4, tu_dbl(app.ctl.p.d_s));
 }
 
 static void test_app_auth_status_goes_with_the_heartbeat(void)
