@@ -6,8 +6,8 @@
 # checked against tools/setup/sources.lock, into deps/mbedtls (git-ignored),
 # like libfixmath; only aes.c and platform_util.c (mbedtls_platform_zeroize,
 # which wipes the key schedule) are compiled, configured by
-# firmware/auth/mbedtls-config/mbedtls/config.h. They compile clean under the full WARN of
-# every compiler the project uses. Every build that compiles the firmware
+# firmware/auth/mbedtls-config/mbedtls/config.h. They compile clean under the
+# full WARN of every compiler the project uses. Every build that compiles the firmware
 # (FW_SRCS) compiles AUTH_SRCS with AUTH_CFLAGS, after AUTH_DEPS.
 #
 # The device key: KEY_FILE (default keys/device.key, git-ignored), generated
