@@ -41,6 +41,9 @@ FAKE_SRCS := $(sort $(wildcard hal/fake/*.c))
 include mk/numeric.mk
 
 STAMP := build/.stamps
+# Authentication: AUTH_SRCS, AUTH_CFLAGS, AUTH_DEPS (Mbed TLS's AES) and the
+# device key (mk/auth.mk).
+include mk/auth.mk
 # The compile template (BUILD), compile_commands.json, print-cflags.
 include mk/compile.mk
 $(STAMP):
@@ -61,7 +64,7 @@ deps/unity/.sha256: tools/setup/sources.lock $(STAMP)/apt-sim
 	@tools/setup/fetch-source unity
 deps/libfixmath/.sha256: tools/setup/sources.lock $(STAMP)/apt-sim
 	@tools/setup/fetch-source libfixmath
-deps-sim: $(STAMP)/apt-sim venv $(NUM_DEPS)
+deps-sim: $(STAMP)/apt-sim venv $(NUM_DEPS) $(AUTH_DEPS)
 # HIL over vcan (docs/hil.md): QEMU and a Debian kernel with vcan, for hosts
 # whose kernel has no CAN.
 .PHONY: deps-hil
@@ -82,8 +85,8 @@ UNIT_SRCS := $(sort $(wildcard tests/unit/test_*.c))
 UNIT_TESTS := $(patsubst tests/unit/%.c,%,$(UNIT_SRCS))
 # Board code a unit test tests, beyond the firmware and hal/fake, and the
 # include path its headers need: TEST_SRCS_<test>, SRC_CFLAGS_<test source>.
-TEST_SRCS_test_bxcan := hal/stm32/bxcan_calc.c
-TEST_SRCS_test_stm32_calc := hal/stm32/stm32_calc.c hal/stm32/wheel_cmd.c
+TEST_SRCS_test_bxcan := hal/stm32/bxcan_calc.c hal/stm32/div64.c
+TEST_SRCS_test_stm32_calc := hal/stm32/stm32_calc.c hal/stm32/wheel_cmd.c hal/stm32/div64.c
 TEST_SRCS_test_slcan := hal/stm32/slcan_codec.c
 SRC_CFLAGS_tests/unit/test_bxcan.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_stm32_calc.c := -Ihal/stm32
@@ -92,15 +95,15 @@ TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
 SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
 BUILD_CC_host := $(CC)
-BUILD_CFLAGS_host := $(CSTD) $(OPT) -fPIC $(FW_INC) $(NUM_CFLAGS)
+BUILD_CFLAGS_host := $(CSTD) $(OPT) -fPIC $(FW_INC) $(NUM_CFLAGS) $(AUTH_CFLAGS)
 BUILD_DIR_host := $(B)/obj
-BUILD_SRCS_host := $(FW_SRCS) $(NUM_SRCS) $(SIL_SRCS) $(LINUX_SRCS) $(FAKE_SRCS) \
+BUILD_SRCS_host := $(FW_SRCS) $(NUM_SRCS) $(AUTH_SRCS) $(SIL_SRCS) $(LINUX_SRCS) $(FAKE_SRCS) \
   $(UNIT_SRCS) $(TEST_SRCS) $(sort $(wildcard tests/codec/*.c))
-BUILD_DEPS_host := $(NUM_DEPS)
+BUILD_DEPS_host := $(NUM_DEPS) $(AUTH_DEPS)
 BUILD_ORDER_host := $(STAMP)/apt-sim
 $(eval $(call BUILD,host))
 
-FW_OBJS := $(call build_objs,host,$(FW_SRCS) $(NUM_SRCS))
+FW_OBJS := $(call build_objs,host,$(FW_SRCS) $(NUM_SRCS) $(AUTH_SRCS))
 SIL_OBJS := $(call build_objs,host,$(SIL_SRCS))
 $(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS)
 	$(CC) -shared -Wl,--no-undefined -o $@ $^ -lm
@@ -119,8 +122,8 @@ fw: build/host/mstc-fw  ## build build/host/mstc-fw (the firmware on SocketCAN)
 SCENARIO ?= sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 BUS ?= sil
 .PHONY: sim
-sim: deps-sim $(B)/libmstc_sil.so  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
-	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --out build/sim $(SCENARIO)
+sim: deps-sim $(B)/libmstc_sil.so $(KEY_FILE)  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
+	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --key-file $(KEY_FILE) --out build/sim $(SCENARIO)
 
 # --------------------------------------------------------------------- sweep
 # A scenario suite (or scenario files, folders) for several strategies on
@@ -138,8 +141,8 @@ sweep: deps-sim $(B)/libmstc_sil.so  ## run a scenario suite for several strateg
 # socketcan interface; inside a VM where the host kernel has no CAN.
 HIL_TIMEOUT ?= 1800
 .PHONY: hil
-hil: deps-hil build/host/mstc-fw  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/)
-	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(MSTC) hil \
+hil: deps-hil build/host/mstc-fw $(KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/)
+	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(MSTC) hil --key-file $(KEY_FILE) \
 	  --channel vcan0 --fw build/host/mstc-fw --no-figures --out build/hil $(SCENARIO)
 
 # ---------------------------------------------------------------------- test
@@ -159,7 +162,7 @@ $(2)/%: $$(BUILD_DIR_$(1))/tests/unit/%.o $$(call build_objs,$(1),$(3)) $$(UNITY
 	$$(BUILD_CC_$(1)) $(4) $$^ -lm -o $$@
 $$(foreach t,$$(UNIT_TESTS),$$(eval $(2)/$$(t): $$(call build_objs,$(1),$$(TEST_SRCS_$$(t)))))
 endef
-$(eval $(call UNIT_TEST_RULES,host,$(B)/tests,$(FW_SRCS) $(NUM_SRCS) $(FAKE_SRCS),))
+$(eval $(call UNIT_TEST_RULES,host,$(B)/tests,$(FW_SRCS) $(NUM_SRCS) $(AUTH_SRCS) $(FAKE_SRCS),))
 
 # make test-unit TEST=test_avd: one suite (or several, TEST="test_avd test_kin").
 ifneq ($(filter test-unit,$(MAKECMDGOALS)),)

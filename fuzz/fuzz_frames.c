@@ -9,7 +9,9 @@
  *   op & 3  0 raw frame: identifier from id (a protocol frame for id < 0xF0,
  *           else 0x100 + id), DLC dlc & 15, bytes b0..b7 as given;
  *           1 the same with alive counter and CRC made right (so the fuzzer
- *           reaches past the E2E checks);
+ *           reaches past the E2E checks), and for PARAM_AUTH the right
+ *           freshness and MAC for the last PARAM_SET sent (so it reaches
+ *           the armed application: the key is fixed here);
  *           2 a real-time control tick, arg·1 ms after the previous time;
  *           3 the bus: state (arg % 5) and bus-off count += (b0 & 1), or
  *             hal_can_status() -ENOTSUP when arg is 0xFF.
@@ -28,10 +30,15 @@
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static const uint32_t ids[] = {
-    COMM_ID_ODOM_XY,   COMM_ID_ODOM_THETA, COMM_ID_REF_XY,          COMM_ID_REF_MOTION,
-    COMM_ID_STEP,      COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,       COMM_ID_PARAM_GET,
-    COMM_ID_WHEEL_CMD, COMM_ID_STATUS,     COMM_ID_STATUS_COUNTERS, COMM_ID_HEARTBEAT,
+    COMM_ID_ODOM_XY,    COMM_ID_ODOM_THETA, COMM_ID_REF_XY,          COMM_ID_REF_MOTION,
+    COMM_ID_STEP,       COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,       COMM_ID_PARAM_GET,
+    COMM_ID_WHEEL_CMD,  COMM_ID_STATUS,     COMM_ID_STATUS_COUNTERS, COMM_ID_HEARTBEAT,
+    COMM_ID_PARAM_AUTH,
 };
+
+/* The harness's device key (any will do: it authenticates its own commands). */
+static const uint8_t key[AUTH_KEY_LEN] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16 };
+static uint8_t last_set[AUTH_DATA_LEN]; /* bytes 2..7 of the last PARAM_SET sent */
 
 static app_t app;
 static uint8_t counters[16];
@@ -43,6 +50,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     hal_fake_reset();
     memset(counters, 0, sizeof counters);
     (void)app_init(&app, NULL);
+    app_set_key(&app, key, 0u);
+    memset(last_set, 0, sizeof last_set);
     uint64_t now = 0;
     for (size_t at = 0; at + 12u <= size; at += 12u) {
         const uint8_t *r = &data[at];
@@ -54,6 +63,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                                   .dlc = (uint8_t)(r[2] & 15u) };
             memcpy(f.data, &r[3], 8);
             uint16_t did;
+            if (op == 1u && f.id == COMM_ID_PARAM_AUTH) {
+                const uint32_t fv = app.auth.fv + 1u;
+                f.data[1] = (uint8_t)((fv & 0x0Fu) << 4);
+                f.data[2] = (uint8_t)((fv >> 4) & 0xFFu);
+                f.data[3] = (uint8_t)((fv >> 12) & 0xFFu);
+                auth_mac(&app.auth, COMM_PARAM_SET_DATA_ID, last_set, fv, &f.data[4]);
+            }
+            if (op == 1u && f.id == COMM_ID_PARAM_SET) {
+                memcpy(last_set, &f.data[2], sizeof last_set);
+            }
             if (op == 1u && comm_data_id(f.id, &did) == 0) {
                 f.data[1] = (uint8_t)((f.data[1] & 0xF0u) | (counters[k & 15u]++ & 0x0Fu));
                 uint8_t buf[9] = { (uint8_t)(did & 0xFFu), (uint8_t)(did >> 8) };
@@ -71,7 +90,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         const kin_wheels_t *w = app_last_wheels(&app);
         const num_t max = app.ctl.p.kin.max_wheel_speed;
-        if (!wheel_ok(w->left, max) || !wheel_ok(w->right, max) || app.halt > COMM_HALT_BUS_OFF) {
+        if (!wheel_ok(w->left, max) || !wheel_ok(w->right, max) ||
+            app.halt > COMM_HALT_ODOMETRY_IMPLAUSIBLE) {
             abort();
         }
     }

@@ -80,7 +80,7 @@ BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) 
 $(BENCH_DIR)/can_echo: $(call build_objs,bench-host-float,$(BENCH_ECHO_SRCS))
 	$(CC) $^ -o $@
 $(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so tools/bench/can_bench.py | .venv/.requirements.sha256
-	$(PY) tools/bench/can_bench.py sil --lib $< --out $@
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) tools/bench/can_bench.py sil --lib $< --out $@
 $(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/can_bench.py | deps-hil
 	tools/vm/with-vcan --timeout 1200 -- $(PY) tools/bench/can_bench.py hil \
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@

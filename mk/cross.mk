@@ -10,7 +10,7 @@
 #
 # `make cross` builds all three whatever NUMERIC is, each a build of
 # mk/compile.mk (cross-<config>). Uses from the Makefile: CSTD, FW_INC,
-# FW_SRCS, STAMP and mk/numeric.mk's NUM_*_<mode> variables.
+# FW_SRCS, STAMP, mk/numeric.mk's NUM_*_<mode> variables and mk/auth.mk's AUTH_*.
 
 CROSS_COMPILE ?= arm-none-eabi-
 CROSS_CC ?= $(CROSS_COMPILE)gcc
@@ -25,12 +25,12 @@ CROSS_CONFIGS := m4f-float m3-fixed m3-float
 # $(1): config name <cpu>-<mode>; $(2): cpu; $(3): numeric mode.
 define CROSS_CONFIG_RULES
 CROSS_FLAGS_$(1) := $$(CROSS_CPU_$(2)) $$(CSTD) $$(CROSS_OPT) -ffunction-sections -fdata-sections \
-  $$(FW_INC) $$(NUM_CFLAGS_$(3))
+  $$(FW_INC) $$(NUM_CFLAGS_$(3)) $$(AUTH_CFLAGS)
 BUILD_CC_cross-$(1) := $$(CROSS_CC)
 BUILD_CFLAGS_cross-$(1) := $$(CROSS_FLAGS_$(1))
 BUILD_DIR_cross-$(1) := build/cross/$(1)/obj
-BUILD_SRCS_cross-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(3))
-BUILD_DEPS_cross-$(1) := $$(NUM_DEPS_$(3))
+BUILD_SRCS_cross-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(3)) $$(AUTH_SRCS)
+BUILD_DEPS_cross-$(1) := $$(NUM_DEPS_$(3)) $$(AUTH_DEPS)
 BUILD_ORDER_cross-$(1) := $$(STAMP)/apt-test
 $$(eval $$(call BUILD,cross-$(1)))
 build/cross/$(1)/libmstc_fw.a: $$(BUILD_OBJS_cross-$(1))

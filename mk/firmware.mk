@@ -3,7 +3,8 @@
 # (hal/<board>/), with its start-up, drivers and main loop; each board is a
 # build of mk/compile.mk (img-<board>). Included by the top Makefile after
 # mk/compile.mk. Uses from the Makefile: FW_INC, PY, STAMP, FW_SRCS, the venv
-# rule; from mk/numeric.mk the NUM_*_<mode> variables.
+# rule; from mk/numeric.mk the NUM_*_<mode> variables; from mk/auth.mk AUTH_*
+# and KEY_HEADER, the device key compiled into every image.
 #
 #   make firmware BOARD=stm32f405   Cortex-M4F, float   -> build/firmware/stm32f405/
 #   make firmware BOARD=stm32f103   Cortex-M3, fixed    -> build/firmware/stm32f103/
@@ -27,7 +28,15 @@ CROSS_COMPILE ?= arm-none-eabi-
 IMG_CC := $(CROSS_COMPILE)gcc
 IMG_OBJCOPY := $(CROSS_COMPILE)objcopy
 # -Os: the images must fit 32 KB of flash (docs/porting.md, budgets).
-IMG_OPT ?= -Os -g3
+# -fno-math-errno: sqrtf is the M4F's VSQRT instruction rather than a call
+# that also sets errno (the firmware reads no errno; num_sqrt never passes a
+# negative), the same correctly rounded result in less flash. It deletes no
+# check of non-finite values (-ffast-math would, and is never used).
+IMG_OPT ?= -Os -g3 -fno-math-errno
+# Loops that copy stay loops, not calls to newlib's memcpy (300 B of flash
+# for the start-up's copy of .data and slcan's short answers).
+SRC_CFLAGS_hal/stm32/startup.c := -fno-tree-loop-distribute-patterns
+SRC_CFLAGS_hal/stm32/slcan_codec.c := -fno-tree-loop-distribute-patterns
 
 # CAN transport of the STM32 images, the only sources in which the two
 # variants of a board's image differ (docs/hil.md): bxCAN, the default, or
@@ -76,11 +85,13 @@ IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(3)),$$(IMG_GEN_$(1))/stm32_regs.h)
 BUILD_CC_img-$(1) := $$(IMG_CC)
 BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections \
   -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(3)) \
-  $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2))
+  $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) -I$$(dir $$(KEY_HEADER)) $$(NUM_CFLAGS_$(2)) \
+  $$(AUTH_CFLAGS)
 BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
-BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))
-BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2))
-BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
+BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(AUTH_SRCS) $$(IMG_SRCS_$(3)) \
+  $$(STM32_CAN_SRCS_$(4))
+BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2)) $$(AUTH_DEPS)
+BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1)) $$(KEY_HEADER)
 $$(eval $$(call BUILD,img-$(1)))
 IMG_OBJS_$(1) := $$(BUILD_OBJS_img-$(1)) $$(if $$(IMG_SVD_$(3)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
 

@@ -21,7 +21,7 @@ FUZZ_DIR := build/fuzz
 FUZZ_SANITIZE := -fsanitize=fuzzer,address,undefined
 # name:source:numeric mode
 FUZZ_HARNESSES := frames:fuzz/fuzz_frames.c:float ctl:fuzz/fuzz_ctl.c:float \
-  ctl_fixed:fuzz/fuzz_ctl.c:fixed
+  ctl_fixed:fuzz/fuzz_ctl.c:fixed auth:fuzz/fuzz_auth.c:float
 FUZZ_NAMES := $(foreach h,$(FUZZ_HARNESSES),$(word 1,$(subst :, ,$(h))))
 FW_HDRS := $(wildcard firmware/*/*.h)
 
@@ -30,11 +30,11 @@ FW_HDRS := $(wildcard firmware/*/*.h)
 define FUZZ_BUILD
 BUILD_CC_fuzz-$(1) := $$(FUZZ_CC)
 BUILD_CFLAGS_fuzz-$(1) := $$(CSTD) -g -O1 $$(FUZZ_SANITIZE) -fno-sanitize-recover=all \
-  -fno-omit-frame-pointer $$(FW_INC) -Ihal/fake $$(NUM_CFLAGS_$(1))
+  -fno-omit-frame-pointer $$(FW_INC) -Ihal/fake $$(NUM_CFLAGS_$(1)) $$(AUTH_CFLAGS)
 BUILD_DIR_fuzz-$(1) := $$(FUZZ_DIR)/obj-$(1)
-BUILD_SRCS_fuzz-$(1) := $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(1)) \
+BUILD_SRCS_fuzz-$(1) := $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(1)) $$(AUTH_SRCS) \
   $$(sort $$(foreach h,$$(FUZZ_HARNESSES),$$(if $$(filter %:$(1),$$(h)),$$(word 2,$$(subst :, ,$$(h))))))
-BUILD_DEPS_fuzz-$(1) := $$(NUM_DEPS_$(1))
+BUILD_DEPS_fuzz-$(1) := $$(NUM_DEPS_$(1)) $$(AUTH_DEPS)
 BUILD_ORDER_fuzz-$(1) := $$(STAMP)/apt-test
 $$(eval $$(call BUILD,fuzz-$(1)))
 endef
@@ -43,7 +43,8 @@ $(eval $(call FUZZ_BUILD,fixed))
 
 # $(1): name; $(2): harness source; $(3): numeric mode.
 define FUZZ_RULES
-$(FUZZ_DIR)/$(1): $$(call build_objs,fuzz-$(3),$(2) $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(3)))
+$(FUZZ_DIR)/$(1): $$(call build_objs,fuzz-$(3),$(2) $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(3)) \
+    $$(AUTH_SRCS))
 	$$(FUZZ_CC) $$(FUZZ_SANITIZE) $$^ -lm -o $$@
 endef
 $(foreach h,$(FUZZ_HARNESSES),$(eval $(call FUZZ_RULES,$(word 1,$(subst :, ,$(h))),$(word 2,$(subst :, ,$(h))),$(word 3,$(subst :, ,$(h))))))
@@ -67,12 +68,13 @@ fuzz: fuzz-build  ## run every libFuzzer harness for FUZZ_SECONDS (default 60) e
 # the mode whose branches include the non-finite checks), then gcovr.
 COV_DIR := build/coverage
 BUILD_CC_cov := $(CC)
-BUILD_CFLAGS_cov := $(CSTD) -O0 -g --coverage $(FW_INC)
+BUILD_CFLAGS_cov := $(CSTD) -O0 -g --coverage $(FW_INC) $(AUTH_CFLAGS)
 BUILD_DIR_cov := $(COV_DIR)/obj
-BUILD_SRCS_cov := $(FW_SRCS) $(FAKE_SRCS) $(UNIT_SRCS) $(TEST_SRCS)
+BUILD_SRCS_cov := $(FW_SRCS) $(AUTH_SRCS) $(FAKE_SRCS) $(UNIT_SRCS) $(TEST_SRCS)
+BUILD_DEPS_cov := $(AUTH_DEPS)
 BUILD_ORDER_cov := $(STAMP)/apt-sim
 $(eval $(call BUILD,cov))
-$(eval $(call UNIT_TEST_RULES,cov,$(COV_DIR)/tests,$(FW_SRCS) $(FAKE_SRCS),--coverage))
+$(eval $(call UNIT_TEST_RULES,cov,$(COV_DIR)/tests,$(FW_SRCS) $(AUTH_SRCS) $(FAKE_SRCS),--coverage))
 COV_TESTS := $(addprefix $(COV_DIR)/tests/,$(UNIT_TESTS))
 
 .PHONY: coverage
@@ -88,27 +90,30 @@ coverage: deps-test $(COV_TESTS)  ## unit tests under gcov; gcovr report, thresh
 
 # ----------------------------------------------------------- static analysis
 # The firmware's own sources: the generated codec is checked by its golden
-# file and its -Werror compile (mk/comm.mk), libfixmath is third-party;
+# file and its -Werror compile (mk/comm.mk), libfixmath and Mbed TLS are
+# third-party (cppcheck is given Mbed TLS's configuration, not its headers:
+# it would explore their MBEDTLS_CONFIG_FILE branches, which have no header);
 # docs/misra-deviations.md lists both and every rule not followed.
 SA_SRCS := $(filter-out firmware/comm/mstc_dbc.c,$(FW_SRCS))
 SA_DIR := build/static-analysis
 CPPCHECK_FLAGS := --std=c11 --language=c --enable=warning,style,performance,portability \
   --inline-suppr --error-exitcode=1 --quiet --addon=tools/quality/misra.json \
   --suppressions-list=tools/quality/cppcheck-suppressions.txt \
-  --suppress=missingIncludeSystem $(FW_INC) \
+  --suppress=missingIncludeSystem $(FW_INC) $(AUTH_CONFIG_INC) \
   --cppcheck-build-dir=$(SA_DIR)/cppcheck
 
-$(SA_DIR)/cppcheck.ok: $(SA_SRCS) $(FW_HDRS) tools/quality/misra.json \
+$(SA_DIR)/cppcheck.ok: $(SA_SRCS) $(FW_HDRS) $(AUTH_DEPS) tools/quality/misra.json \
     tools/quality/cppcheck-suppressions.txt | $(STAMP)/apt-test
 	@mkdir -p $(SA_DIR)/cppcheck
 	cppcheck $(CPPCHECK_FLAGS) $(SA_SRCS)
 	cppcheck $(CPPCHECK_FLAGS) -DNUM_FIXED $(SA_SRCS)
 	@touch $@
 
-$(SA_DIR)/clang-tidy.ok: $(SA_SRCS) $(FW_HDRS) .clang-tidy $(NUM_DEPS_fixed) | $(STAMP)/apt-test
+$(SA_DIR)/clang-tidy.ok: $(SA_SRCS) $(FW_HDRS) .clang-tidy $(NUM_DEPS_fixed) $(AUTH_DEPS) \
+    | $(STAMP)/apt-test
 	@mkdir -p $(@D)
-	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) $(FW_INC)
-	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) $(FW_INC) $(NUM_CFLAGS_fixed)
+	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) $(FW_INC) $(AUTH_CFLAGS)
+	clang-tidy --quiet $(SA_SRCS) -- $(CSTD) $(FW_INC) $(NUM_CFLAGS_fixed) $(AUTH_CFLAGS)
 	@touch $@
 
 .PHONY: static-analysis cppcheck clang-tidy
@@ -120,15 +125,15 @@ static-analysis: cppcheck clang-tidy  ## cppcheck with the MISRA addon, clang-ti
 # Every firmware source under WARN with clang on the host and with the
 # cross compiler, in both numeric modes (gcc on the host: every build).
 WARN_MODES := float fixed
-$(SA_DIR)/warnings.ok: $(FW_SRCS) $(FW_HDRS) $(NUM_DEPS_fixed) | $(STAMP)/apt-test
+$(SA_DIR)/warnings.ok: $(FW_SRCS) $(FW_HDRS) $(NUM_DEPS_fixed) $(AUTH_DEPS) | $(STAMP)/apt-test
 	@mkdir -p $(@D)
 	@set -e; for m in $(WARN_MODES); do \
 	  flags="$(CSTD) $(WARN) $(FW_INC)"; \
 	  [ $$m = fixed ] && flags="$$flags $(NUM_CFLAGS_fixed)"; \
-	  for f in $(FW_SRCS); do \
-	    clang $$flags -fsyntax-only $$f; \
-	    $(CROSS_CC) $$flags $(CROSS_CPU_m3) -fsyntax-only $$f; \
-	    $(CROSS_CC) $$flags $(CROSS_CPU_m4f) -fsyntax-only $$f; \
+	  for f in $(FW_SRCS) $(AUTH_SRCS); do \
+	    clang $$flags $(AUTH_CFLAGS) -fsyntax-only $$f; \
+	    $(CROSS_CC) $$flags $(AUTH_CFLAGS) $(CROSS_CPU_m3) -fsyntax-only $$f; \
+	    $(CROSS_CC) $$flags $(AUTH_CFLAGS) $(CROSS_CPU_m4f) -fsyntax-only $$f; \
 	  done; \
 	  echo "warnings ($$m): clang, arm-none-eabi-gcc (M3, M4F): none"; \
 	done

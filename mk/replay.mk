@@ -8,22 +8,27 @@
 #   make replay-logs                        re-record tests/data/*.log with make sim
 #   make replay-bench                       replay throughput (frames/s, median of 5)
 #
-# Uses from the Makefile: PY, B, NUMERIC, deps-sim and the library rule.
+# Uses from the Makefile: PY, B, NUMERIC, deps-sim and the library rule; from
+# mk/auth.mk KEY_FILE and TEST_KEY_FILE. The committed logs were recorded with
+# the published test key (their authenticated commands replay only under it);
+# `make replay LOG=...` replays with the device key, as `make sim` records.
+
 
 REPLAY_LOGS := tests/data/paper-line.log tests/data/paper-circle.log
 
 .PHONY: replay replay-regress logplot replay-logs replay-bench
-replay: deps-sim $(B)/libmstc_sil.so  ## replay LOG=path through the firmware and compare (REPLAY_ARGS=...)
+replay: deps-sim $(B)/libmstc_sil.so $(KEY_FILE)  ## replay LOG=path through the firmware and compare (REPLAY_ARGS=...)
 	@test -n "$(LOG)" || { echo "usage: make replay LOG=path/to/bus.log [REPLAY_ARGS=--strict]" >&2; exit 2; }
-	$(MSTC) replay --lib $(B)/libmstc_sil.so $(REPLAY_ARGS) $(LOG)
+	$(MSTC) replay --lib $(B)/libmstc_sil.so --key-file $(KEY_FILE) $(REPLAY_ARGS) $(LOG)
 
 # The committed logs were recorded from the float build: a fixed-point build
 # answers differently by design (make replay NUMERIC=fixed LOG=... shows how).
 replay-regress: deps-sim $(B)/libmstc_sil.so  ## replay the committed logs tests/data/*.log, bit-exact
 	@test "$(NUMERIC)" = float || { echo "error: replay-regress checks the float build (the logs' own); use make replay NUMERIC=$(NUMERIC) LOG=... to see the differences" >&2; exit 2; }
 	@for log in $(REPLAY_LOGS); do \
-	  echo "$(MSTC) replay --strict --quiet --lib $(B)/libmstc_sil.so $$log"; \
-	  $(MSTC) replay --strict --quiet --lib $(B)/libmstc_sil.so $$log || exit $$?; \
+	  echo "$(MSTC) replay --strict --quiet --lib $(B)/libmstc_sil.so --key-file $(TEST_KEY_FILE) $$log"; \
+	  $(MSTC) replay --strict --quiet --lib $(B)/libmstc_sil.so --key-file $(TEST_KEY_FILE) $$log \
+	    || exit $$?; \
 	done
 
 logplot: deps-sim  ## events, status and the paper's figures from LOG=path, into build/logplot/
@@ -34,11 +39,12 @@ logplot: deps-sim  ## events, status and the paper's figures from LOG=path, into
 # shows what changed.
 replay-logs: deps-sim $(B)/libmstc_sil.so  ## re-record tests/data/*.log: make sim's bus.log of the paper scenarios
 	@test "$(NUMERIC)" = float || { echo "error: the regression logs are recorded from the float build" >&2; exit 2; }
-	$(MSTC) sim --bus sil --lib $(B)/libmstc_sil.so --out build/replay-logs \
+	$(MSTC) sim --bus sil --lib $(B)/libmstc_sil.so --key-file $(TEST_KEY_FILE) --out build/replay-logs \
 	  sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml > /dev/null
 	@mkdir -p tests/data
 	cp build/replay-logs/paper-line/bus.log tests/data/paper-line.log
 	cp build/replay-logs/paper-circle/bus.log tests/data/paper-circle.log
 
 replay-bench: deps-sim $(B)/libmstc_sil.so  ## replay throughput on a 10-minute log (recorded once into build/)
-	$(PY) tools/bench/replay_bench.py --lib $(B)/libmstc_sil.so --doc docs/performance.md
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) tools/bench/replay_bench.py --lib $(B)/libmstc_sil.so \
+	  --doc docs/performance.md

@@ -23,9 +23,16 @@ int app_init(app_t *a, const ctl_params_t *p)
     ctl_params_default(&defaults);
     *a = (app_t){ .state = COMM_STATE_READY, .halt = (uint8_t)COMM_HALT_NOT_ARMED };
     comm_init(&a->comm);
+    auth_init(&a->auth);
+    odo_init(&a->odo);
     const int rc = ctl_init(&a->ctl, p != NULL ? p : &defaults);
     a->ramp_decel = a->ctl.p.max_wheel_decel;
     return rc;
+}
+
+void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t freshness)
+{
+    auth_set_key(&a->auth, key, freshness);
 }
 
 /* A frame that cannot be queued is lost; the bus is the only way out, so
@@ -151,12 +158,16 @@ int app_arm(app_t *a, bool arm)
         return -EAGAIN;
     }
     /* The timeouts are not reset: the next step needs fresh frames of its
-     * own, as every step does. */
+     * own, as every step does. The plausibility check starts again from the
+     * next full pose: the robot may have been moved while halted. */
     a->halt = (uint8_t)COMM_HALT_NONE;
+    odo_reset(&a->odo);
     return 0;
 }
 
 /* ------------------------------------------------------------ control step */
+
+static void expire_pending(app_t *a);
 
 static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
 {
@@ -166,7 +177,20 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
     a->last_step_us = t_us;
     a->stepped = true;
 
-    const comm_halt_t why = check_inputs(a, t_us, lockstep);
+    expire_pending(a);
+    if (dt64 > APP_TIMEOUT_US) {
+        /* Over such a gap (a time jump, a stall) the commanded motion says
+         * nothing of where the robot is: the plausibility check starts again
+         * from the next full pose. */
+        odo_reset(&a->odo);
+    }
+    comm_halt_t why = check_inputs(a, t_us, lockstep);
+    if (a->halt == (uint8_t)COMM_HALT_NONE && why == COMM_HALT_NONE &&
+        odo_step(&a->odo, &a->ctl.p.kin, &a->wheels, num_from_float((float)dt_us * 1.0e-6f),
+                 &a->odom, a->in[APP_IN_ODOM_XY].missed == 0u,
+                 a->in[APP_IN_ODOM_THETA].missed == 0u)) {
+        why = COMM_HALT_ODOMETRY_IMPLAUSIBLE;
+    }
     if (why != COMM_HALT_NONE) {
         halt(a, why);
     }
@@ -265,29 +289,91 @@ static comm_param_result_t set_param(app_t *a, uint8_t index, float value)
     return COMM_PARAM_OK;
 }
 
-/* PARAM_SET (with @p set) or PARAM_GET: answer PARAM_VALUE with the value in
- * force afterwards. */
-static void on_param(app_t *a, uint8_t index, bool set, float value)
+static void send_auth_status(app_t *a)
 {
+    hal_can_frame_t f;
+    (void)comm_encode_auth_status(&a->comm, &a->auth, &f);
+    send(&f);
+}
+
+/* PARAM_SET (with @p set) or PARAM_GET: answer PARAM_VALUE with the value in
+ * force afterwards, then AUTH_STATUS. A PARAM_SET that is not @p authentic
+ * changes nothing and is answered COMM_PARAM_UNAUTHENTICATED. */
+static void on_param(app_t *a, uint8_t index, bool set, bool authentic, float value)
+{
+    const bool apply = set && authentic;
     comm_param_result_t result = COMM_PARAM_OK;
     float now = 0.0f;
     if (index == (uint8_t)COMM_PARAM_ARM) {
-        result = set ? on_arm(a, value) : COMM_PARAM_OK;
+        result = apply ? on_arm(a, value) : COMM_PARAM_OK;
         now = a->halt == (uint8_t)COMM_HALT_NONE ? 1.0f : 0.0f;
     } else {
         const num_t *held = ctl_param_slot(&a->ctl.p, index);
         if (held == NULL) {
             result = COMM_PARAM_UNKNOWN_INDEX;
         } else {
-            if (set) {
+            if (apply) {
                 result = set_param(a, index, value);
             }
             now = num_to_float(*held);
         }
     }
+    if (set && !authentic) {
+        result = COMM_PARAM_UNAUTHENTICATED;
+    }
     hal_can_frame_t f;
     (void)comm_encode_param_value(&a->comm, index, result, now, &f);
     send(&f);
+    send_auth_status(a);
+}
+
+/* --------------------------------------------- authenticated commands */
+
+/* Refuse the waiting PARAM_SET: its PARAM_AUTH did not come. */
+static void refuse_pending(app_t *a)
+{
+    a->pending.waiting = false;
+    auth_refuse(&a->auth, AUTH_MISSING);
+    on_param(a, a->pending.index, true, false, a->pending.value);
+}
+
+/* A control step begins: a PARAM_SET waiting that long has lost its PARAM_AUTH. */
+static void expire_pending(app_t *a)
+{
+    if (a->pending.waiting) {
+        a->pending.steps++;
+        if (a->pending.steps >= APP_AUTH_PENDING_STEPS) {
+            refuse_pending(a);
+        }
+    }
+}
+
+/* PARAM_SET: held until its PARAM_AUTH; one still waiting had none. */
+static void on_param_set(app_t *a, const comm_msg_t *m)
+{
+    if (a->pending.waiting) {
+        refuse_pending(a);
+    }
+    a->pending = (app_pending_t){ .waiting = true,
+                                  .index = m->u.param_set.index,
+                                  .value = m->u.param_set.value };
+    for (size_t i = 0; i < AUTH_DATA_LEN; i++) {
+        a->pending.data[i] = m->u.param_set.auth_data[i];
+    }
+}
+
+/* PARAM_AUTH: verify the waiting PARAM_SET, then act on it or refuse it. */
+static void on_param_auth(app_t *a, const comm_msg_t *m)
+{
+    if (!a->pending.waiting) {
+        auth_refuse(&a->auth, AUTH_MISSING);
+        send_auth_status(a);
+        return;
+    }
+    a->pending.waiting = false;
+    const auth_result_t r = auth_verify(&a->auth, COMM_PARAM_SET_DATA_ID, a->pending.data,
+                                        m->u.param_auth.freshness_low, m->u.param_auth.mac);
+    on_param(a, a->pending.index, true, r == AUTH_OK, a->pending.value);
 }
 
 /* ---------------------------------------------------------------- frames in */
@@ -355,9 +441,10 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
         control_step(a, m.u.step.step, t_us, true);
         break;
     }
-    case COMM_ID_PARAM_SET: on_param(a, m.u.param_set.index, true, m.u.param_set.value); break;
+    case COMM_ID_PARAM_SET: on_param_set(a, &m); break;
+    case COMM_ID_PARAM_AUTH: on_param_auth(a, &m); break;
     default: /* COMM_ID_PARAM_GET: comm_decode only returns frames the firmware receives */
-        on_param(a, m.u.param_get, false, 0.0f);
+        on_param(a, m.u.param_get, false, false, 0.0f);
         break;
     }
     return 0;
@@ -390,4 +477,5 @@ void app_housekeeping(app_t *a, uint64_t now_us)
     send(&f);
     (void)comm_encode_counters(&a->comm, &f);
     send(&f);
+    send_auth_status(a);
 }

@@ -34,6 +34,19 @@
  * that breaks a relation rejected, and nothing changes. While armed, a
  * parameter of the control law is answered armed and not changed; only
  * max_wheel_decel may change then.
+ *
+ * Authenticated commands (auth.h; docs/safety.md, "Threat model"): a
+ * PARAM_SET (parameters and the arm command) is held until the PARAM_AUTH
+ * that follows it, and acted on only when that verifies under the key given
+ * by app_set_key() with a new freshness value. One without its PARAM_AUTH
+ * (another PARAM_SET first, or APP_AUTH_PENDING_STEPS control steps), under
+ * another key, replayed or stale is answered COMM_PARAM_UNAUTHENTICATED and
+ * counted; AUTH_STATUS follows every PARAM_VALUE and every refusal, and goes
+ * with HEARTBEAT. Without a key every PARAM_SET is refused.
+ *
+ * Odometry plausibility (odo.h): while running, odometry that disagrees with
+ * the motion commanded (a replayed recording, a stuck sensor) halts with
+ * COMM_HALT_ODOMETRY_IMPLAUSIBLE.
  */
 #ifndef MSTC_APP_H
 #define MSTC_APP_H
@@ -41,6 +54,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "app/odo.h"
+#include "auth/auth.h"
 #include "comm/comm.h"
 #include "ctrl/ctl.h"
 
@@ -63,6 +78,20 @@
 
 /** @brief Obstacle ids the OBSTACLE and OBSTACLE_VEL frames carry: 0..15. */
 #define APP_OBSTACLE_IDS 16u
+
+/** @brief A PARAM_SET whose PARAM_AUTH has not come by the start of this many
+ *         control steps after it is refused (2: one full period, whatever
+ *         the phase of the tick). */
+#define APP_AUTH_PENDING_STEPS 2u
+
+/** @brief A PARAM_SET waiting for its PARAM_AUTH. */
+typedef struct {
+    bool waiting;
+    uint8_t index;
+    float value;
+    uint8_t data[AUTH_DATA_LEN]; /**< PARAM_SET bytes 2..7, which the MAC covers */
+    uint8_t steps;               /**< control steps begun since it arrived */
+} app_pending_t;
 
 /** @brief Inputs watched by the safety supervisor, in the order of app_t::in. */
 enum {
@@ -111,6 +140,9 @@ typedef struct {
     bool stepped;           /**< a control step has run */
     bool bus_off_known;     /**< bus_off_count holds a reading */
     uint32_t bus_off_count; /**< hal_can_status() bus_off at the last look */
+    auth_t auth;            /**< key, freshness and refusals of authenticated commands */
+    app_pending_t pending;  /**< PARAM_SET waiting for its PARAM_AUTH */
+    odo_t odo;              /**< odometry plausibility */
 } app_t;
 
 /**
@@ -118,6 +150,13 @@ typedef struct {
  * @retval 0 ready. @retval -EINVAL @p p rejected; the defaults are used.
  */
 int app_init(app_t *a, const ctl_params_t *p);
+
+/**
+ * @brief Give the device key: PARAM_SET is acted on only when authenticated
+ *        under @p key, with a freshness value above @p freshness (0 after a
+ *        start; a port that keeps the last value across resets passes it).
+ */
+void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t freshness);
 
 /**
  * @brief Handle one received frame; replies go out through hal_can_send().

@@ -26,12 +26,14 @@ _Static_assert(COMM_ID_OBSTACLE == MSTC_DBC_OBSTACLE_FRAME_ID, "OBSTACLE id");
 _Static_assert(COMM_ID_OBSTACLE_VEL == MSTC_DBC_OBSTACLE_VEL_FRAME_ID, "OBSTACLE_VEL id");
 _Static_assert(COMM_ID_PARAM_SET == MSTC_DBC_PARAM_SET_FRAME_ID, "PARAM_SET id");
 _Static_assert(COMM_ID_PARAM_GET == MSTC_DBC_PARAM_GET_FRAME_ID, "PARAM_GET id");
+_Static_assert(COMM_ID_PARAM_AUTH == MSTC_DBC_PARAM_AUTH_FRAME_ID, "PARAM_AUTH id");
 _Static_assert(COMM_ID_WHEEL_CMD == MSTC_DBC_WHEEL_CMD_FRAME_ID, "WHEEL_CMD id");
 _Static_assert(COMM_ID_STATUS == MSTC_DBC_STATUS_FRAME_ID, "STATUS id");
 _Static_assert(COMM_ID_STATUS_TRK == MSTC_DBC_STATUS_TRK_FRAME_ID, "STATUS_TRK id");
 _Static_assert(COMM_ID_STATUS_COUNTERS == MSTC_DBC_STATUS_COUNTERS_FRAME_ID, "STATUS_COUNTERS id");
 _Static_assert(COMM_ID_EVENT == MSTC_DBC_EVENT_FRAME_ID, "EVENT id");
 _Static_assert(COMM_ID_HEARTBEAT == MSTC_DBC_HEARTBEAT_FRAME_ID, "HEARTBEAT id");
+_Static_assert(COMM_ID_AUTH_STATUS == MSTC_DBC_AUTH_STATUS_FRAME_ID, "AUTH_STATUS id");
 _Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
 /* So are the enumerations that go on the wire unchanged. */
 _Static_assert(COMM_PARAM_MAX_WHEEL_SPEED ==
@@ -44,9 +46,13 @@ _Static_assert(COMM_HALT_NOT_ARMED == MSTC_DBC_STATUS_STATUS_HALT_NOT_ARMED_CHOI
                    COMM_HALT_ODOMETRY == MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_CHOICE &&
                    COMM_HALT_REFERENCE == MSTC_DBC_STATUS_STATUS_HALT_REFERENCE_CHOICE &&
                    COMM_HALT_STEP == MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE &&
-                   COMM_HALT_BUS_OFF == MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE,
+                   COMM_HALT_BUS_OFF == MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE &&
+                   COMM_HALT_ODOMETRY_IMPLAUSIBLE ==
+                       MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_IMPLAUSIBLE_CHOICE,
                "halt reasons");
 _Static_assert(COMM_PARAM_REJECTED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE &&
+                   COMM_PARAM_UNAUTHENTICATED ==
+                       MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_UNAUTHENTICATED_CHOICE &&
                    COMM_PARAM_ARMED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_ARMED_CHOICE,
                "parameter results");
 /* The parameter indices are the limits table's (ctl_limits.h, checked
@@ -57,6 +63,12 @@ _Static_assert((int)COMM_PARAM_R_M == (int)CTL_P_R_M &&
                    (unsigned)COMM_PARAM_COUNT <= CTL_N_PARAMS &&
                    (unsigned)COMM_PARAM_ARM >= CTL_N_PARAMS,
                "parameter indices of the limits table");
+_Static_assert(AUTH_MISSING == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MISSING_CHOICE &&
+                   AUTH_MAC == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MAC_CHOICE &&
+                   AUTH_STALE == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_STALE_CHOICE &&
+                   AUTH_NO_KEY == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NO_KEY_CHOICE,
+               "refusal reasons");
+_Static_assert(AUTH_REFUSED_MAX == COMM_DROP_COUNT_MAX, "12-bit counts");
 _Static_assert(COMM_STATE_FAULT == MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE,
                "heartbeat states");
 _Static_assert(SUP_MODE_TRACK == MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE &&
@@ -80,22 +92,15 @@ typedef struct {
 
 /* Indexed like comm_t's counter arrays. */
 static const frame_t frames[COMM_N_FRAMES] = {
-    { COMM_ID_ODOM_XY, 0x1100u, true },
-    { COMM_ID_ODOM_THETA, 0x1101u, true },
-    { COMM_ID_REF_XY, 0x1102u, true },
-    { COMM_ID_REF_MOTION, 0x1103u, true },
-    { COMM_ID_STEP, 0x1104u, true },
-    { COMM_ID_OBSTACLE, 0x1110u, true },
-    { COMM_ID_OBSTACLE_VEL, 0x1111u, true },
-    { COMM_ID_PARAM_SET, 0x1120u, true },
-    { COMM_ID_PARAM_GET, 0x1121u, true },
-    { COMM_ID_WHEEL_CMD, 0x1180u, false },
-    { COMM_ID_STATUS, 0x1181u, false },
-    { COMM_ID_STATUS_TRK, 0x1182u, false },
-    { COMM_ID_STATUS_COUNTERS, 0x1183u, false },
-    { COMM_ID_EVENT, 0x1184u, false },
-    { COMM_ID_HEARTBEAT, 0x1185u, false },
-    { COMM_ID_PARAM_VALUE, 0x1190u, false },
+    { COMM_ID_ODOM_XY, 0x1100u, true },      { COMM_ID_ODOM_THETA, 0x1101u, true },
+    { COMM_ID_REF_XY, 0x1102u, true },       { COMM_ID_REF_MOTION, 0x1103u, true },
+    { COMM_ID_STEP, 0x1104u, true },         { COMM_ID_OBSTACLE, 0x1110u, true },
+    { COMM_ID_OBSTACLE_VEL, 0x1111u, true }, { COMM_ID_PARAM_SET, COMM_PARAM_SET_DATA_ID, true },
+    { COMM_ID_PARAM_GET, 0x1121u, true },    { COMM_ID_PARAM_AUTH, 0x1122u, true },
+    { COMM_ID_WHEEL_CMD, 0x1180u, false },   { COMM_ID_STATUS, 0x1181u, false },
+    { COMM_ID_STATUS_TRK, 0x1182u, false },  { COMM_ID_STATUS_COUNTERS, 0x1183u, false },
+    { COMM_ID_EVENT, 0x1184u, false },       { COMM_ID_HEARTBEAT, 0x1185u, false },
+    { COMM_ID_AUTH_STATUS, 0x1186u, false }, { COMM_ID_PARAM_VALUE, 0x1190u, false },
 };
 
 /* Index of @p id in frames[], or COMM_N_FRAMES when it is not a protocol frame. */
@@ -361,6 +366,19 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
         (void)mstc_dbc_param_set_unpack(&s, d, FRAME_LEN);
         m->u.param_set.index = s.param_set_index;
         m->u.param_set.value = s.param_set_value;
+        /* The bytes as sent, spare bits included: the MAC covers them. */
+        for (size_t i = 0; i < AUTH_DATA_LEN; i++) {
+            m->u.param_set.auth_data[i] = d[2u + i];
+        }
+        break;
+    }
+    case COMM_ID_PARAM_AUTH: {
+        struct mstc_dbc_param_auth_t s;
+        (void)mstc_dbc_param_auth_unpack(&s, d, FRAME_LEN);
+        m->u.param_auth.freshness_low = s.param_auth_freshness;
+        for (size_t i = 0; i < AUTH_MAC_LEN; i++) {
+            m->u.param_auth.mac[i] = d[4u + i];
+        }
         break;
     }
     default: { /* COMM_ID_PARAM_GET, the last frame comm_decode() lets through */
@@ -576,7 +594,7 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
         .status_e = e,
         .status_distance = distance,
         .status_step = (uint8_t)(step & 0x07u),
-        .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_BUS_OFF),
+        .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_ODOMETRY_IMPLAUSIBLE),
     };
     c->clipped = false;
     (void)mstc_dbc_status_pack(f->data, &s, FRAME_LEN);
@@ -630,6 +648,18 @@ int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f)
     };
     (void)mstc_dbc_heartbeat_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_HEARTBEAT), f);
+    return 0;
+}
+
+int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_auth_status_t st = {
+        .auth_status_last = s->last,
+        .auth_status_freshness = s->fv,
+        .auth_status_refused = s->refused,
+    };
+    (void)mstc_dbc_auth_status_pack(f->data, &st, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_AUTH_STATUS), f);
     return 0;
 }
 

@@ -35,6 +35,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "auth/auth.h"
 #include "ctrl/ctl.h"
 #include "hal/hal_can.h"
 
@@ -49,17 +50,22 @@ enum {
     COMM_ID_OBSTACLE_VEL = 0x111,
     COMM_ID_PARAM_SET = 0x120,
     COMM_ID_PARAM_GET = 0x121,
+    COMM_ID_PARAM_AUTH = 0x122,
     COMM_ID_WHEEL_CMD = 0x180,
     COMM_ID_STATUS = 0x181,
     COMM_ID_STATUS_TRK = 0x182,
     COMM_ID_STATUS_COUNTERS = 0x183,
     COMM_ID_EVENT = 0x184,
     COMM_ID_HEARTBEAT = 0x185,
+    COMM_ID_AUTH_STATUS = 0x186,
     COMM_ID_PARAM_VALUE = 0x190,
 };
 
+/** @brief E2E data ID of PARAM_SET, also the data ID its MAC covers (auth.h). */
+#define COMM_PARAM_SET_DATA_ID 0x1120u
+
 /** @brief Number of distinct frames in the protocol. */
-#define COMM_N_FRAMES 16u
+#define COMM_N_FRAMES 18u
 
 /** @brief Parameter indices of PARAM_SET / PARAM_GET / PARAM_VALUE. */
 typedef enum {
@@ -91,6 +97,8 @@ typedef enum {
     COMM_HALT_REFERENCE = 3, /**< REF_XY or REF_MOTION not valid or timed out */
     COMM_HALT_STEP = 4,      /**< STEP not valid (lock-step) */
     COMM_HALT_BUS_OFF = 5,   /**< the CAN controller went bus-off */
+    /** Odometry disagrees with the motion commanded: replayed or stale (app.h) */
+    COMM_HALT_ODOMETRY_IMPLAUSIBLE = 6,
 } comm_halt_t;
 
 /** @brief Results in PARAM_VALUE (docs/safety.md, "Parameters"). */
@@ -103,6 +111,9 @@ typedef enum {
     /** Within its range but the set that would result breaks a relation; for
      *  the arm command: not ready (app_ready). */
     COMM_PARAM_REJECTED = 3,
+    /** PARAM_SET without a PARAM_AUTH that verifies: MAC-less, another key,
+     *  replayed or stale (auth.h); nothing changes. */
+    COMM_PARAM_UNAUTHENTICATED = 4,
     /** A parameter of the control law, refused while armed (app.h). */
     COMM_PARAM_ARMED = 5,
 } comm_param_result_t;
@@ -157,8 +168,13 @@ typedef struct {
         struct {
             uint8_t index;
             float value;
-        } param_set;       /**< PARAM_SET */
-        uint8_t param_get; /**< PARAM_GET index */
+            uint8_t auth_data[AUTH_DATA_LEN]; /**< bytes 2..7, as the MAC covers them */
+        } param_set;                          /**< PARAM_SET */
+        struct {
+            uint32_t freshness_low;    /**< low AUTH_FV_LOW_BITS bits of the freshness */
+            uint8_t mac[AUTH_MAC_LEN]; /**< bytes 4..7: the truncated CMAC */
+        } param_auth;                  /**< PARAM_AUTH */
+        uint8_t param_get;             /**< PARAM_GET index */
     } u;
 } comm_msg_t;
 
@@ -298,7 +314,7 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  * included (then cleared); e; distance = centre distance to the active
  * obstacle, else to the nearest one remembered, else the signal's maximum
  * (63.999 m, meaning none: not a clip); the low 3 bits of @p step; halt =
- * @p halt (saturated at COMM_HALT_BUS_OFF).
+ * @p halt (saturated at COMM_HALT_ODOMETRY_IMPLAUSIBLE).
  * @param frame_faults a received frame was dropped since the last STATUS.
  * @param halt comm_halt_t: why the wheels are held at zero.
  */
@@ -313,6 +329,8 @@ int comm_encode_counters(comm_t *c, hal_can_frame_t *f);
 int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f);
 /** @brief HEARTBEAT. */
 int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f);
+/** @brief AUTH_STATUS: reason of the last refusal, freshness, refusals of @p s. */
+int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t *f);
 /** @brief PARAM_VALUE. */
 int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result, float value,
                             hal_can_frame_t *f);

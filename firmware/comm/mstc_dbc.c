@@ -1123,6 +1123,105 @@ bool mstc_dbc_param_get_param_get_index_is_in_phys_range(float value)
     return ((value >= 0.0f) && (value <= 255.0f));
 }
 
+int mstc_dbc_param_auth_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_param_auth_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->param_auth_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->param_auth_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u32(src_p->param_auth_freshness, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u32(src_p->param_auth_freshness, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u32(src_p->param_auth_freshness, 12u, 0xffu);
+    dst_p[4] |= pack_left_shift_u32(src_p->param_auth_mac, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(src_p->param_auth_mac, 8u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(src_p->param_auth_mac, 16u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(src_p->param_auth_mac, 24u, 0xffu);
+
+    return (8);
+}
+
+int mstc_dbc_param_auth_unpack(
+    struct mstc_dbc_param_auth_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->param_auth_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->param_auth_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->param_auth_freshness = unpack_right_shift_u32(src_p[1], 4u, 0xf0u);
+    dst_p->param_auth_freshness |= unpack_left_shift_u32(src_p[2], 4u, 0xffu);
+    dst_p->param_auth_freshness |= unpack_left_shift_u32(src_p[3], 12u, 0xffu);
+    dst_p->param_auth_mac = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+    dst_p->param_auth_mac |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+    dst_p->param_auth_mac |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+    dst_p->param_auth_mac |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+
+    return (0);
+}
+
+int mstc_dbc_param_auth_init(struct mstc_dbc_param_auth_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_param_auth_t));
+
+    return 0;
+}
+
+bool mstc_dbc_param_auth_param_auth_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_param_auth_param_auth_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_param_auth_param_auth_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_param_auth_param_auth_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_param_auth_param_auth_freshness_is_in_range(uint32_t value)
+{
+    return (value <= 1048575u);
+}
+
+bool mstc_dbc_param_auth_param_auth_freshness_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 1048575.0f));
+}
+
+bool mstc_dbc_param_auth_param_auth_mac_is_in_range(uint32_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_param_auth_param_auth_mac_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 4294967295.0f));
+}
+
 int mstc_dbc_wheel_cmd_pack(
     uint8_t *dst_p,
     const struct mstc_dbc_wheel_cmd_t *src_p,
@@ -1427,12 +1526,12 @@ bool mstc_dbc_status_status_step_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_halt_is_in_range(uint8_t value)
 {
-    return (value <= 5u);
+    return (value <= 6u);
 }
 
 bool mstc_dbc_status_status_halt_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 5.0f));
+    return ((value >= 0.0f) && (value <= 6.0f));
 }
 
 int mstc_dbc_status_trk_pack(
@@ -1885,6 +1984,115 @@ bool mstc_dbc_heartbeat_heartbeat_state_is_in_range(uint8_t value)
 bool mstc_dbc_heartbeat_heartbeat_state_is_in_phys_range(float value)
 {
     return ((value >= 0.0f) && (value <= 4.0f));
+}
+
+int mstc_dbc_auth_status_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_auth_status_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->auth_status_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->auth_status_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->auth_status_last, 4u, 0xf0u);
+    dst_p[2] |= pack_left_shift_u32(src_p->auth_status_freshness, 0u, 0xffu);
+    dst_p[3] |= pack_right_shift_u32(src_p->auth_status_freshness, 8u, 0xffu);
+    dst_p[4] |= pack_right_shift_u32(src_p->auth_status_freshness, 16u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(src_p->auth_status_freshness, 24u, 0xffu);
+    dst_p[6] |= pack_left_shift_u16(src_p->auth_status_refused, 0u, 0xffu);
+    dst_p[7] |= pack_right_shift_u16(src_p->auth_status_refused, 8u, 0x0fu);
+
+    return (8);
+}
+
+int mstc_dbc_auth_status_unpack(
+    struct mstc_dbc_auth_status_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->auth_status_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->auth_status_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->auth_status_last = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
+    dst_p->auth_status_freshness = unpack_right_shift_u32(src_p[2], 0u, 0xffu);
+    dst_p->auth_status_freshness |= unpack_left_shift_u32(src_p[3], 8u, 0xffu);
+    dst_p->auth_status_freshness |= unpack_left_shift_u32(src_p[4], 16u, 0xffu);
+    dst_p->auth_status_freshness |= unpack_left_shift_u32(src_p[5], 24u, 0xffu);
+    dst_p->auth_status_refused = unpack_right_shift_u16(src_p[6], 0u, 0xffu);
+    dst_p->auth_status_refused |= unpack_left_shift_u16(src_p[7], 8u, 0x0fu);
+
+    return (0);
+}
+
+int mstc_dbc_auth_status_init(struct mstc_dbc_auth_status_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_auth_status_t));
+
+    return 0;
+}
+
+bool mstc_dbc_auth_status_auth_status_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_auth_status_auth_status_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_auth_status_auth_status_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_auth_status_auth_status_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_auth_status_auth_status_last_is_in_range(uint8_t value)
+{
+    return (value <= 4u);
+}
+
+bool mstc_dbc_auth_status_auth_status_last_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 4.0f));
+}
+
+bool mstc_dbc_auth_status_auth_status_freshness_is_in_range(uint32_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_auth_status_auth_status_freshness_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 4294967295.0f));
+}
+
+bool mstc_dbc_auth_status_auth_status_refused_is_in_range(uint16_t value)
+{
+    return (value <= 4095u);
+}
+
+bool mstc_dbc_auth_status_auth_status_refused_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 4095.0f));
 }
 
 int mstc_dbc_param_value_pack(

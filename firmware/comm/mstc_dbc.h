@@ -55,12 +55,14 @@ extern "C" {
 #define MSTC_DBC_OBSTACLE_VEL_FRAME_ID (0x111u)
 #define MSTC_DBC_PARAM_SET_FRAME_ID (0x120u)
 #define MSTC_DBC_PARAM_GET_FRAME_ID (0x121u)
+#define MSTC_DBC_PARAM_AUTH_FRAME_ID (0x122u)
 #define MSTC_DBC_WHEEL_CMD_FRAME_ID (0x180u)
 #define MSTC_DBC_STATUS_FRAME_ID (0x181u)
 #define MSTC_DBC_STATUS_TRK_FRAME_ID (0x182u)
 #define MSTC_DBC_STATUS_COUNTERS_FRAME_ID (0x183u)
 #define MSTC_DBC_EVENT_FRAME_ID (0x184u)
 #define MSTC_DBC_HEARTBEAT_FRAME_ID (0x185u)
+#define MSTC_DBC_AUTH_STATUS_FRAME_ID (0x186u)
 #define MSTC_DBC_PARAM_VALUE_FRAME_ID (0x190u)
 
 /* Frame lengths in bytes. */
@@ -73,12 +75,14 @@ extern "C" {
 #define MSTC_DBC_OBSTACLE_VEL_LENGTH (8u)
 #define MSTC_DBC_PARAM_SET_LENGTH (8u)
 #define MSTC_DBC_PARAM_GET_LENGTH (8u)
+#define MSTC_DBC_PARAM_AUTH_LENGTH (8u)
 #define MSTC_DBC_WHEEL_CMD_LENGTH (8u)
 #define MSTC_DBC_STATUS_LENGTH (8u)
 #define MSTC_DBC_STATUS_TRK_LENGTH (8u)
 #define MSTC_DBC_STATUS_COUNTERS_LENGTH (8u)
 #define MSTC_DBC_EVENT_LENGTH (8u)
 #define MSTC_DBC_HEARTBEAT_LENGTH (8u)
+#define MSTC_DBC_AUTH_STATUS_LENGTH (8u)
 #define MSTC_DBC_PARAM_VALUE_LENGTH (8u)
 
 /* Extended or standard frame types. */
@@ -91,12 +95,14 @@ extern "C" {
 #define MSTC_DBC_OBSTACLE_VEL_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_SET_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_GET_IS_EXTENDED (0)
+#define MSTC_DBC_PARAM_AUTH_IS_EXTENDED (0)
 #define MSTC_DBC_WHEEL_CMD_IS_EXTENDED (0)
 #define MSTC_DBC_STATUS_IS_EXTENDED (0)
 #define MSTC_DBC_STATUS_TRK_IS_EXTENDED (0)
 #define MSTC_DBC_STATUS_COUNTERS_IS_EXTENDED (0)
 #define MSTC_DBC_EVENT_IS_EXTENDED (0)
 #define MSTC_DBC_HEARTBEAT_IS_EXTENDED (0)
+#define MSTC_DBC_AUTH_STATUS_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_VALUE_IS_EXTENDED (0)
 
 /* Frame cycle times in milliseconds. */
@@ -112,6 +118,7 @@ extern "C" {
 #define MSTC_DBC_STATUS_TRK_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_STATUS_COUNTERS_CYCLE_TIME_MS (100u)
 #define MSTC_DBC_HEARTBEAT_CYCLE_TIME_MS (100u)
+#define MSTC_DBC_AUTH_STATUS_CYCLE_TIME_MS (100u)
 
 /* Signal choices. */
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_R_M_CHOICE (0u)
@@ -163,6 +170,7 @@ extern "C" {
 #define MSTC_DBC_STATUS_STATUS_HALT_REFERENCE_CHOICE (3u)
 #define MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE (4u)
 #define MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE (5u)
+#define MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_IMPLAUSIBLE_CHOICE (6u)
 
 #define MSTC_DBC_EVENT_EVENT_KIND_DETECT_CHOICE (1u)
 #define MSTC_DBC_EVENT_EVENT_KIND_ACTIVATE_CHOICE (2u)
@@ -180,6 +188,12 @@ extern "C" {
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_RUNNING_CHOICE (2u)
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_STOPPED_CHOICE (3u)
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE (4u)
+
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NONE_CHOICE (0u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MISSING_CHOICE (1u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MAC_CHOICE (2u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_STALE_CHOICE (3u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NO_KEY_CHOICE (4u)
 
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_R_M_CHOICE (0u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_R_OB_CHOICE (1u)
@@ -202,6 +216,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_UNKNOWN_INDEX_CHOICE (1u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_OUT_OF_RANGE_CHOICE (2u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE (3u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_UNAUTHENTICATED_CHOICE (4u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_ARMED_CHOICE (5u)
 
 /* Frame Names. */
@@ -214,12 +229,14 @@ extern "C" {
 #define MSTC_DBC_OBSTACLE_VEL_NAME "OBSTACLE_VEL"
 #define MSTC_DBC_PARAM_SET_NAME "PARAM_SET"
 #define MSTC_DBC_PARAM_GET_NAME "PARAM_GET"
+#define MSTC_DBC_PARAM_AUTH_NAME "PARAM_AUTH"
 #define MSTC_DBC_WHEEL_CMD_NAME "WHEEL_CMD"
 #define MSTC_DBC_STATUS_NAME "STATUS"
 #define MSTC_DBC_STATUS_TRK_NAME "STATUS_TRK"
 #define MSTC_DBC_STATUS_COUNTERS_NAME "STATUS_COUNTERS"
 #define MSTC_DBC_EVENT_NAME "EVENT"
 #define MSTC_DBC_HEARTBEAT_NAME "HEARTBEAT"
+#define MSTC_DBC_AUTH_STATUS_NAME "AUTH_STATUS"
 #define MSTC_DBC_PARAM_VALUE_NAME "PARAM_VALUE"
 
 /* Signal Names. */
@@ -261,6 +278,10 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_CRC_NAME "PARAM_GET_CRC"
 #define MSTC_DBC_PARAM_GET_PARAM_GET_COUNTER_NAME "PARAM_GET_Counter"
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_NAME "PARAM_GET_index"
+#define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_CRC_NAME "PARAM_AUTH_CRC"
+#define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_COUNTER_NAME "PARAM_AUTH_Counter"
+#define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_FRESHNESS_NAME "PARAM_AUTH_freshness"
+#define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_MAC_NAME "PARAM_AUTH_mac"
 #define MSTC_DBC_WHEEL_CMD_WHEEL_CMD_CRC_NAME "WHEEL_CMD_CRC"
 #define MSTC_DBC_WHEEL_CMD_WHEEL_CMD_COUNTER_NAME "WHEEL_CMD_Counter"
 #define MSTC_DBC_WHEEL_CMD_WHEEL_CMD_STEP_NAME "WHEEL_CMD_step"
@@ -297,6 +318,11 @@ extern "C" {
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_CRC_NAME "HEARTBEAT_CRC"
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_COUNTER_NAME "HEARTBEAT_Counter"
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_NAME "HEARTBEAT_state"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_CRC_NAME "AUTH_STATUS_CRC"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_COUNTER_NAME "AUTH_STATUS_Counter"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NAME "AUTH_STATUS_last"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_FRESHNESS_NAME "AUTH_STATUS_freshness"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_REFUSED_NAME "AUTH_STATUS_refused"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_CRC_NAME "PARAM_VALUE_CRC"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_COUNTER_NAME "PARAM_VALUE_Counter"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_NAME "PARAM_VALUE_index"
@@ -588,7 +614,7 @@ struct mstc_dbc_obstacle_vel_t {
 /**
  * Signals in message PARAM_SET.
  *
- * Set a parameter (see the value table of PARAM_SET_index); the firmware answers PARAM_VALUE. Index arm (128) is a command: value 1 re-arms (result rejected unless odometry and reference are valid and their last 5 frames each arrived in sequence), value 0 disarms (ramped stop).
+ * Set a parameter (see the value table of PARAM_SET_index); the firmware answers PARAM_VALUE once the PARAM_AUTH that must follow it has arrived (result unauthenticated when it does not, or does not verify). Index arm (128) is a command: value 1 re-arms (result rejected unless odometry and reference are valid and their last 5 frames each arrived in sequence), value 0 disarms (ramped stop).
  *
  * All signal values are as on the CAN bus.
  */
@@ -650,6 +676,47 @@ struct mstc_dbc_param_get_t {
      * Offset: 0
      */
     uint8_t param_get_index;
+};
+
+/**
+ * Signals in message PARAM_AUTH.
+ *
+ * Authenticates the PARAM_SET sent just before it, in the manner of AUTOSAR SecOC (docs/safety.md): the low 20 bits of a 32-bit freshness value that never repeats, and the first 4 bytes of AES-128-CMAC under the device key over PARAM_SET's data ID (2 bytes, big-endian), PARAM_SET's bytes 2..7 and the whole freshness value (4 bytes, big-endian). The firmware acts on a PARAM_SET only when its PARAM_AUTH follows before another PARAM_SET and within 2 control steps; otherwise it answers result unauthenticated.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_param_auth_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t param_auth_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t param_auth_counter;
+
+    /**
+     * Low 20 bits of the freshness value; the firmware takes the smallest value above the last one it accepted with these low bits.
+     *
+     * Range: 0..1048575 (0..1048575 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint32_t param_auth_freshness;
+
+    /**
+     * Bytes 4..7 are the first four bytes of the CMAC, in order (the signal is their little-endian reading).
+     *
+     * Range: 0..4294967295 (0..4294967295 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint32_t param_auth_mac;
 };
 
 /**
@@ -774,9 +841,9 @@ struct mstc_dbc_status_t {
     uint8_t status_step;
 
     /**
-     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off. Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
+     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off; 6 odometry implausible: it disagrees with the motion the firmware commanded (replayed or stale odometry). Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
      *
-     * Range: 0..5 (0..5 -)
+     * Range: 0..6 (0..6 -)
      * Scale: 1
      * Offset: 0
      */
@@ -971,6 +1038,56 @@ struct mstc_dbc_heartbeat_t {
 };
 
 /**
+ * Signals in message AUTH_STATUS.
+ *
+ * Authentication state: sent after every PARAM_VALUE, after every refused command and every 100 ms of firmware time. A tool reads the freshness here and sends the next value.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_auth_status_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t auth_status_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t auth_status_counter;
+
+    /**
+     * Why the last command was refused: 0 none yet; 1 missing (a PARAM_SET without its PARAM_AUTH, or a PARAM_AUTH without a PARAM_SET); 2 mac (wrong key, forged or corrupted); 3 stale (an authentic command whose freshness is not above the last accepted: a replay); 4 no_key (the firmware was given no key).
+     *
+     * Range: 0..4 (0..4 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t auth_status_last;
+
+    /**
+     * The last freshness value accepted (0 before the first): the next command must carry a larger one.
+     *
+     * Range: 0..4294967295 (0..4294967295 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint32_t auth_status_freshness;
+
+    /**
+     * Commands refused since start-up, for any reason (saturates at 4095).
+     *
+     * Range: 0..4095 (0..4095 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint16_t auth_status_refused;
+};
+
+/**
  * Signals in message PARAM_VALUE.
  *
  * Answer to PARAM_SET or PARAM_GET.
@@ -1000,7 +1117,7 @@ struct mstc_dbc_param_value_t {
     uint8_t param_value_index;
 
     /**
-     * Of a PARAM_SET: ok (set); unknown_index; out_of_range: not finite, or outside the parameter's range once held by the firmware (for arm: a value other than 0 and 1); rejected: the set that would result breaks a relation of the limits table (for arm: not ready); armed: a parameter of the control law, refused while armed. Anything but ok changes nothing; value is the value in force (docs/safety.md, Parameters).
+     * Of a PARAM_SET: ok (set); unknown_index; out_of_range: not finite, or outside the parameter's range once held by the firmware (for arm: a value other than 0 and 1); rejected: the set that would result breaks a relation of the limits table (for arm: not ready); unauthenticated: no valid PARAM_AUTH followed it (docs/safety.md, authenticated commands); armed: a parameter of the control law, refused while armed. Anything but ok changes nothing; value is the value in force (docs/safety.md, Parameters).
      *
      * Range: 0..5 (0..5 -)
      * Scale: 1
@@ -2186,6 +2303,131 @@ bool mstc_dbc_param_get_param_get_index_is_in_range(uint8_t value);
 bool mstc_dbc_param_get_param_get_index_is_in_phys_range(float value);
 
 /**
+ * Pack message PARAM_AUTH.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_param_auth_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_param_auth_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message PARAM_AUTH.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_param_auth_unpack(
+    struct mstc_dbc_param_auth_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from PARAM_AUTH.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_param_auth_init(struct mstc_dbc_param_auth_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_freshness_is_in_range(uint32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_freshness_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_mac_is_in_range(uint32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_param_auth_param_auth_mac_is_in_phys_range(float value);
+
+/**
  * Pack message WHEEL_CMD.
  *
  * @param[out] dst_p Buffer to pack the message into.
@@ -3198,6 +3440,153 @@ bool mstc_dbc_heartbeat_heartbeat_state_is_in_range(uint8_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_heartbeat_heartbeat_state_is_in_phys_range(float value);
+
+/**
+ * Pack message AUTH_STATUS.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_auth_status_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_auth_status_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message AUTH_STATUS.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_auth_status_unpack(
+    struct mstc_dbc_auth_status_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from AUTH_STATUS.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_auth_status_init(struct mstc_dbc_auth_status_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_last_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_last_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_freshness_is_in_range(uint32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_freshness_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_refused_is_in_range(uint16_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_refused_is_in_phys_range(float value);
 
 /**
  * Pack message PARAM_VALUE.

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* mstc-fw: the firmware as a Linux process on a SocketCAN interface. */
+#include <ctype.h>
 #include <errno.h>
 #include <signal.h>
 #include <stdio.h>
@@ -21,7 +22,7 @@ static void on_signal(int sig)
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: mstc-fw --can IFACE [--realtime] [--period-ms MS]\n"
+    fprintf(out, "usage: mstc-fw --can IFACE [--key-file PATH] [--realtime] [--period-ms MS]\n"
                  "\n"
                  "Run the mstc firmware on a SocketCAN interface (e.g. vcan0) until\n"
                  "SIGINT or SIGTERM. The protocol is firmware/comm/mstc.dbc.\n"
@@ -32,12 +33,87 @@ static void usage(FILE *out)
                  "                  firmware runs lock-step: one control step per STEP\n"
                  "                  frame, stamped with the frame's time\n"
                  "  --period-ms MS  control period in real-time mode, 1..1000 (default 20)\n"
+                 "  --key-file PATH the device key of authenticated commands: 32 hex\n"
+                 "                  digits, # comments (default: $MSTC_KEY as hex digits,\n"
+                 "                  else the file $MSTC_KEY_FILE; without a key every\n"
+                 "                  PARAM_SET is refused; docs/safety.md)\n"
                  "  --help          this text\n");
+}
+
+/* The key in @p text: 32 hex digits, lines starting with '#' skipped
+ * (tools/setup/device-key writes such files). */
+static int parse_key(const char *text, uint8_t key[AUTH_KEY_LEN])
+{
+    size_t n = 0;
+    bool line_start = true;
+    bool comment = false;
+    for (const char *p = text; *p != '\0'; p++) {
+        const unsigned char ch = (unsigned char)*p;
+        if (ch == '\n') {
+            line_start = true;
+            comment = false;
+            continue;
+        }
+        if (line_start && ch == '#') {
+            comment = true;
+        }
+        if (!isspace(ch)) {
+            line_start = false;
+        }
+        if (comment || isspace(ch)) {
+            continue;
+        }
+        if (!isxdigit(ch) || n >= 2u * AUTH_KEY_LEN) {
+            return -EINVAL;
+        }
+        const unsigned v = isdigit(ch) ? (unsigned)(ch - '0') : (unsigned)(tolower(ch) - 'a' + 10);
+        key[n / 2u] = (uint8_t)((n % 2u == 0u) ? v << 4 : (key[n / 2u] | v));
+        n++;
+    }
+    return n == 2u * AUTH_KEY_LEN ? 0 : -EINVAL;
+}
+
+/* The key from --key-file, else $MSTC_KEY, else $MSTC_KEY_FILE. Returns 1
+ * when there is none, 0 when @p key holds it, -1 after printing why not. */
+static int load_key(const char *file, uint8_t key[AUTH_KEY_LEN], const char **source)
+{
+    const char *hex = getenv("MSTC_KEY");
+    if (file == NULL && hex != NULL && hex[0] != '\0') {
+        *source = "$MSTC_KEY";
+        if (parse_key(hex, key) != 0) {
+            fprintf(stderr, "mstc-fw: $MSTC_KEY: expected 32 hex digits (an AES-128 key)\n");
+            return -1;
+        }
+        return 0;
+    }
+    if (file == NULL) {
+        file = getenv("MSTC_KEY_FILE");
+    }
+    if (file == NULL || file[0] == '\0') {
+        return 1;
+    }
+    *source = file;
+    char text[4096];
+    FILE *fp = fopen(file, "r");
+    if (fp == NULL) {
+        fprintf(stderr, "mstc-fw: cannot read key file '%s': %s\n", file, strerror(errno));
+        return -1;
+    }
+    const size_t got = fread(text, 1, sizeof text - 1u, fp);
+    const bool longer = fgetc(fp) != EOF;
+    fclose(fp);
+    text[got] = '\0';
+    if (longer || parse_key(text, key) != 0) {
+        fprintf(stderr, "mstc-fw: key file '%s': expected 32 hex digits (an AES-128 key)\n", file);
+        return -1;
+    }
+    return 0;
 }
 
 int main(int argc, char **argv)
 {
     const char *iface = NULL;
+    const char *key_file = NULL;
     int realtime = 0;
     long period_ms = 20;
     for (int i = 1; i < argc; i++) {
@@ -46,6 +122,8 @@ int main(int argc, char **argv)
             return 0;
         } else if (strcmp(argv[i], "--can") == 0 && i + 1 < argc) {
             iface = argv[++i];
+        } else if (strcmp(argv[i], "--key-file") == 0 && i + 1 < argc) {
+            key_file = argv[++i];
         } else if (strcmp(argv[i], "--realtime") == 0) {
             realtime = 1;
         } else if (strcmp(argv[i], "--period-ms") == 0 && i + 1 < argc) {
@@ -65,6 +143,12 @@ int main(int argc, char **argv)
         fprintf(stderr, "mstc-fw: --can IFACE is required (see --help)\n");
         return 2;
     }
+    uint8_t key[AUTH_KEY_LEN];
+    const char *key_source = NULL;
+    const int key_rc = load_key(key_file, key, &key_source);
+    if (key_rc < 0) {
+        return 2;
+    }
     const int rc = hal_can_open(iface);
     if (rc != 0) {
         fprintf(stderr, "mstc-fw: cannot open CAN interface '%s': %s%s\n", iface, strerror(-rc),
@@ -74,8 +158,14 @@ int main(int argc, char **argv)
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     app_init(&app, NULL);
-    fprintf(stderr, "mstc-fw: %s mode on %s (%s)\n", realtime ? "real-time" : "lock-step", iface,
-            NUM_MODE_NAME);
+    if (key_rc == 0) {
+        app_set_key(&app, key, 0u);
+        memset(key, 0, sizeof key);
+    }
+    /* One line: tools wait for it to know the firmware is on the bus. */
+    fprintf(stderr, "mstc-fw: %s mode on %s (%s), %s%s\n", realtime ? "real-time" : "lock-step",
+            iface, NUM_MODE_NAME, key_rc == 0 ? "key from " : "no key: every PARAM_SET is refused",
+            key_rc == 0 ? key_source : "");
 
     const uint64_t period_us = (uint64_t)period_ms * 1000u;
     uint64_t next = hal_time_now_us() + period_us;

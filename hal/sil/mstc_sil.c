@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "app/app.h"
+#include "auth/auth.h"
 #include "ctrl/ctl.h"
 #include "hal/hal_can.h"
 #include "hal_sil.h"
@@ -143,6 +144,29 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p)
     }
     const ctl_params_t c = params_from(p);
     return app_init(&app, &c);
+}
+
+_Static_assert(MSTC_SIL_KEY_LEN == AUTH_KEY_LEN, "key lengths differ");
+
+int mstc_sil_fw_set_key(const uint8_t *key, size_t len, uint32_t freshness)
+{
+    if (key == NULL || len != MSTC_SIL_KEY_LEN) {
+        return -EINVAL;
+    }
+    app_set_key(&app, key, freshness);
+    return 0;
+}
+
+int mstc_sil_cmac(const uint8_t *key, const uint8_t *msg, size_t len, uint8_t *mac)
+{
+    if (key == NULL || mac == NULL || (msg == NULL && len > 0u)) {
+        return -EINVAL;
+    }
+    auth_t s;
+    auth_init(&s);
+    auth_set_key(&s, key, 0u);
+    auth_cmac(&s, msg, len, mac);
+    return 0;
 }
 
 int mstc_sil_fw_send(const mstc_sil_frame_t *f)

@@ -112,6 +112,27 @@ typedef struct {
  */
 int mstc_sil_fw_init(const mstc_sil_params_t *p);
 
+/** @brief Length of a key [bytes] (AES-128). */
+#define MSTC_SIL_KEY_LEN 16
+
+/**
+ * @brief Give the firmware instance its key for authenticated commands
+ *        (app_set_key()); the next command must carry a freshness value
+ *        above @p freshness. Without one, every PARAM_SET is refused.
+ *        mstc_sil_fw_init() forgets it.
+ * @retval 0 done. @retval -EINVAL NULL or @p len is not MSTC_SIL_KEY_LEN.
+ */
+int mstc_sil_fw_set_key(const uint8_t *key, size_t len, uint32_t freshness);
+
+/**
+ * @brief AES-128-CMAC (RFC 4493) of @p len bytes of @p msg under @p key, by
+ *        the firmware's own code (auth_cmac()), for comparing it with another
+ *        implementation.
+ * @param key MSTC_SIL_KEY_LEN bytes. @param[out] mac 16 bytes.
+ * @retval 0 done. @retval -EINVAL a NULL pointer.
+ */
+int mstc_sil_cmac(const uint8_t *key, const uint8_t *msg, size_t len, uint8_t *mac);
+
 /**
  * @brief Put a frame on the firmware's bus; the firmware handles it before
  *        this returns (its answers wait in mstc_sil_fw_recv()).

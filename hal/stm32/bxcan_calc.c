@@ -5,6 +5,8 @@
 #include <errno.h>
 #include <stddef.h>
 
+#include "div64.h"
+
 /* Register encodings (RM0090 §32.9.2-3 [RM0008 §24.9.2-3]). */
 #define BTR_BRP_POS  0u
 #define BTR_TS1_POS  16u
@@ -36,10 +38,11 @@ int bxcan_timing(uint32_t pclk_hz, uint32_t bitrate, uint16_t sample_point_permi
      * larger N, then the later sample point. */
     for (uint32_t n = MAX_TQ; n >= MIN_TQ; n--) {
         const uint64_t per_bit = (uint64_t)bitrate * n;
-        if ((uint64_t)pclk_hz % per_bit != 0u) {
+        uint64_t left = 0u;
+        const uint64_t brp = div64_u(pclk_hz, per_bit, &left);
+        if (left != 0u) {
             continue;
         }
-        const uint64_t brp = (uint64_t)pclk_hz / per_bit;
         if (brp < 1u || brp > 1024u) {
             continue;
         }

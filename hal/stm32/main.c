@@ -16,6 +16,7 @@
 #include <stdint.h>
 
 #include "app/app.h"
+#include "auth_key.h"
 #include "board.h"
 #include "comm/comm.h"
 #include "cortex_m.h"
@@ -39,8 +40,14 @@ static const hal_can_filter_t rx_filters[] = {
     { COMM_ID_REF_XY, HAL_CAN_MAX_STD_ID },       { COMM_ID_REF_MOTION, HAL_CAN_MAX_STD_ID },
     { COMM_ID_STEP, HAL_CAN_MAX_STD_ID },         { COMM_ID_OBSTACLE, HAL_CAN_MAX_STD_ID },
     { COMM_ID_OBSTACLE_VEL, HAL_CAN_MAX_STD_ID }, { COMM_ID_PARAM_SET, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },    { COMM_ID_PARAM_AUTH, HAL_CAN_MAX_STD_ID },
 };
+
+/* The device key, compiled in from build/key/auth_key.h, which mk/auth.mk
+ * generates from the git-ignored keys/device.key (docs/safety.md, "The
+ * key"). In flash, readable by anyone with the debug port: the threat model
+ * says what that means. */
+static const uint8_t device_key[AUTH_KEY_LEN] = AUTH_DEVICE_KEY;
 
 /* Status LED: toggles every LED_SLOW_MS while all is well, every LED_FAST_MS
  * while something needs a look (the crystal did not start, CAN is not up,
@@ -118,6 +125,8 @@ int main(void)
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
     }
     (void)app_init(&app, NULL);
+    /* Freshness from 0: a reset forgets it (docs/safety.md, "Limits"). */
+    app_set_key(&app, device_key, 0u);
     (void)stm32_tick_start(BOARD_CONTROL_PERIOD_US);
     (void)hal_sys_watchdog_start(BOARD_WATCHDOG_MS);
 

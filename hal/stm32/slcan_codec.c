@@ -2,8 +2,6 @@
 /* slcan (Lawicel) line protocol: the board-independent part (see slcan_codec.h). */
 #include "slcan_codec.h"
 
-#include <string.h>
-
 #define STD_ID_DIGITS 3u
 #define EXT_ID_DIGITS 8u
 #define MAX_EXT_ID    0x1FFFFFFFu
@@ -79,8 +77,13 @@ static bool hex_number(const char *p, size_t n, uint32_t *out)
 
 static void reply(slcan_result_t *out, const char *text)
 {
-    const size_t n = strlen(text);
-    (void)memcpy(out->reply, text, n);
+    /* A loop, not strlen and memcpy: the answers are a few characters, and
+     * newlib's memcpy would cost 300 B of a 32 KB image for them (the build
+     * keeps such loops loops: mk/firmware.mk). */
+    size_t n = 0u;
+    for (; text[n] != '\0'; n++) {
+        out->reply[n] = text[n];
+    }
     out->reply[n] = SLCAN_CR;
     out->reply_len = (uint8_t)(n + 1u);
 }

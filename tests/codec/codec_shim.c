@@ -89,6 +89,8 @@ MSG(param_set, FIELD(param_set, param_set_crc), FIELD(param_set, param_set_count
     FIELD(param_set, param_set_index), FIELD(param_set, param_set_value))
 MSG(param_get, FIELD(param_get, param_get_crc), FIELD(param_get, param_get_counter),
     FIELD(param_get, param_get_index))
+MSG(param_auth, FIELD(param_auth, param_auth_crc), FIELD(param_auth, param_auth_counter),
+    FIELD(param_auth, param_auth_freshness), FIELD(param_auth, param_auth_mac))
 MSG(wheel_cmd, FIELD(wheel_cmd, wheel_cmd_crc), FIELD(wheel_cmd, wheel_cmd_counter),
     FIELD(wheel_cmd, wheel_cmd_step), FIELD(wheel_cmd, wheel_cmd_left),
     FIELD(wheel_cmd, wheel_cmd_right))
@@ -109,6 +111,9 @@ MSG(event, FIELD(event, event_crc), FIELD(event, event_counter), FIELD(event, ev
     FIELD(event, event_side), FIELD(event, event_obstacle), FIELD(event, event_time))
 MSG(heartbeat, FIELD(heartbeat, heartbeat_crc), FIELD(heartbeat, heartbeat_counter),
     FIELD(heartbeat, heartbeat_state))
+MSG(auth_status, FIELD(auth_status, auth_status_crc), FIELD(auth_status, auth_status_counter),
+    FIELD(auth_status, auth_status_last), FIELD(auth_status, auth_status_freshness),
+    FIELD(auth_status, auth_status_refused))
 MSG(param_value, FIELD(param_value, param_value_crc), FIELD(param_value, param_value_counter),
     FIELD(param_value, param_value_index), FIELD(param_value, param_value_result),
     FIELD(param_value, param_value_value))
@@ -123,12 +128,14 @@ static const msg_t msgs[] = {
     ENTRY(obstacle_vel, OBSTACLE_VEL),
     ENTRY(param_set, PARAM_SET),
     ENTRY(param_get, PARAM_GET),
+    ENTRY(param_auth, PARAM_AUTH),
     ENTRY(wheel_cmd, WHEEL_CMD),
     ENTRY(status, STATUS),
     ENTRY(status_trk, STATUS_TRK),
     ENTRY(status_counters, STATUS_COUNTERS),
     ENTRY(event, EVENT),
     ENTRY(heartbeat, HEARTBEAT),
+    ENTRY(auth_status, AUTH_STATUS),
     ENTRY(param_value, PARAM_VALUE),
 };
 #define N_MSGS (sizeof msgs / sizeof msgs[0])
@@ -274,6 +281,7 @@ static num_t num(double v) { return num_from_float((float)v); }
  *   STATUS_COUNTERS crc, seq, len, unknown (set as the drop counts)
  *   EVENT           kind, side (avd_side_t), obstacle, t_us
  *   HEARTBEAT       state
+ *   AUTH_STATUS     last, freshness, refused
  *   PARAM_VALUE     index, result, value
  * @retval the encoder's result, or -ENOENT for another identifier.
  */
@@ -320,6 +328,13 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
         break;
     }
     case COMM_ID_HEARTBEAT: rc = comm_encode_heartbeat(&comm, (comm_state_t)in[0], &f); break;
+    case COMM_ID_AUTH_STATUS: {
+        const auth_t s = { .last = (uint8_t)in[0],
+                           .fv = (uint32_t)in[1],
+                           .refused = (uint16_t)in[2] };
+        rc = comm_encode_auth_status(&comm, &s, &f);
+        break;
+    }
     case COMM_ID_PARAM_VALUE:
         rc = comm_encode_param_value(&comm, (uint8_t)in[0], (comm_param_result_t)in[1],
                                      (float)in[2], &f);
@@ -337,7 +352,8 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
  * comm_decode() of a frame; on success @p out holds:
  *   ODOM_XY, REF_XY x, y; ODOM_THETA theta; REF_MOTION theta, v, w;
  *   STEP step, time_us; OBSTACLE id, x, y, radius; OBSTACLE_VEL id, vx, vy;
- *   PARAM_SET index, value; PARAM_GET index.
+ *   PARAM_SET index, value; PARAM_GET index; PARAM_AUTH freshness, mac (bytes 4..7
+ *   read little-endian, as the DBC's signal).
  * @retval comm_decode()'s result.
  */
 int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
@@ -381,6 +397,12 @@ int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
         out[1] = (double)m.u.param_set.value;
         break;
     case COMM_ID_PARAM_GET: out[0] = (double)m.u.param_get; break;
+    case COMM_ID_PARAM_AUTH:
+        out[0] = (double)m.u.param_auth.freshness_low;
+        out[1] =
+            (double)((uint32_t)m.u.param_auth.mac[0] | (uint32_t)m.u.param_auth.mac[1] << 8 |
+                     (uint32_t)m.u.param_auth.mac[2] << 16 | (uint32_t)m.u.param_auth.mac[3] << 24);
+        break;
     default: return -EPROTO; /* comm_decode() returned a frame it must not */
     }
     return 0;

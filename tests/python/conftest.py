@@ -14,6 +14,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 """The repository."""
 SCENARIOS = ROOT / "sim" / "scenarios"
+TEST_KEY_FILE = ROOT / "tests" / "data" / "test.key"
+"""The published test key (RFC 4493's example key): never a device's."""
+
+# Every test runs with the test key, whatever the machine's device key: the
+# firmware library and the tools then agree, mstc-fw and the VM inherit it,
+# and the committed logs (recorded with it) replay.
+os.environ.pop("MSTC_KEY", None)
+os.environ["MSTC_KEY_FILE"] = str(TEST_KEY_FILE)
 
 # Fixtures of the bus-log tests (tests/python/logfiles.py).
 pytest_plugins = ["logfiles"]

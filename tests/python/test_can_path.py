@@ -182,7 +182,7 @@ def test_no_answer_is_a_clear_error(sil_lib: Path) -> None:
             return None, False
 
     scenario = load_scenario(SCENARIOS / "paper-line.toml")
-    with pytest.raises(ControllerError, match="no PARAM_VALUE"):
+    with pytest.raises(ControllerError, match="no AUTH_STATUS"):
         CanController(Silent(), scenario.params, timeout=0.05)
 
 

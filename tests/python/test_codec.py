@@ -265,7 +265,7 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
         "e": e,
         "distance": distance,
         "step": step & 0x7,
-        "halt": min(halt, 5),
+        "halt": min(halt, 6),
     }
     return inputs, wire
 
@@ -309,9 +309,16 @@ def _heartbeat(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 
 
 def _param_value(rng: random.Random) -> tuple[list[float], dict[str, float]]:
-    index, result = rng.randint(0, 12), rng.randint(0, 3)
+    index, result = rng.randint(0, 12), rng.randint(0, 4)
     value = _random_raw(rng, DB.get_message_by_name("PARAM_VALUE").signals[-1])
     return [index, result, value], {"index": index, "result": result, "value": value}
+
+
+def _auth_status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
+    last, refused = rng.randint(0, 4), rng.randint(0, 4095)
+    freshness = rng.choice([0, rng.randint(0, 2**32 - 1), 2**32 - 1])
+    inputs = [last, freshness, refused]
+    return inputs, {"last": last, "freshness": freshness, "refused": refused}
 
 
 CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]] = {
@@ -321,6 +328,7 @@ CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]
     "STATUS_COUNTERS": _counters,
     "EVENT": _event,
     "HEARTBEAT": _heartbeat,
+    "AUTH_STATUS": _auth_status,
     "PARAM_VALUE": _param_value,
 }
 

@@ -60,23 +60,34 @@ def renumber_param(name: str, old: int, new: int) -> tuple[str, str]:
 
 
 class AnsweringFirmware(can.BusABC):
-    """A bus whose far end accepts every PARAM_SET: it answers PARAM_VALUE
-    with the same index, result ``ok`` and the value, encoded with @p dbc."""
+    """A bus whose far end accepts every command: a PARAM_SET is answered,
+    once its PARAM_AUTH follows, with PARAM_VALUE (same index, result ``ok``,
+    the value) and AUTH_STATUS (the freshness it carried), encoded with
+    @p dbc; a PARAM_GET with PARAM_VALUE and AUTH_STATUS at freshness 0. No
+    MAC is checked: what is under test is which index the tools write."""
 
     def __init__(self, dbc: Path) -> None:
         self.fw = Protocol(node=None, dbc_path=dbc)
         self.sent: list[can.Message] = []
         self.pending: list[can.Message] = []
+        self.waiting: dict[str, float | int | str] | None = None
         super().__init__(channel="answering")
+
+    def _answer(self, index: float | int | str, value: float | int | str, freshness: int) -> None:
+        enc = self.fw.encode
+        self.pending.append(enc("PARAM_VALUE", index=index, result="ok", value=value))
+        self.pending.append(enc("AUTH_STATUS", last="none", freshness=freshness, refused=0))
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         self.sent.append(msg)
         frame = self.fw.decode(msg)
-        if frame.name == "PARAM_SET":
-            s = frame.signals
-            self.pending.append(
-                self.fw.encode("PARAM_VALUE", index=s["index"], result="ok", value=s["value"])
-            )
+        if frame.name == "PARAM_GET":
+            self._answer(frame.signals["index"], 0.0, 0)
+        elif frame.name == "PARAM_SET":
+            self.waiting = frame.signals
+        elif frame.name == "PARAM_AUTH" and self.waiting is not None:
+            s, self.waiting = self.waiting, None
+            self._answer(s["index"], s["value"], int(frame.signals["freshness"]))
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         return (self.pending.pop(0) if self.pending else None), False

@@ -138,11 +138,20 @@ class Loop:
                 return out
 
     def param(self, index: int, value: float) -> int | None:
+        """An authenticated PARAM_SET (the controller's key and freshness); its result."""
+
         def answer(f: Frame) -> bool:
             return f.name == "PARAM_VALUE" and f.signals["index"] == index
 
-        frames = self.send(self.proto.encode("PARAM_SET", index=index, value=value), answer)
-        return next((int(f.signals["result"]) for f in frames if answer(f)), None)
+        pset, pauth = self.ctl.auth.param_set(self.proto, index, value)
+        # The firmware answers once the PARAM_AUTH is in: wait after it only.
+        frames = self.send(pset) + self.send(pauth, answer)
+        result = None
+        for f in frames:
+            self.ctl.auth.sync(f)
+            if result is None and answer(f):
+                result = int(f.signals["result"])
+        return result
 
     def first_step(self) -> None:
         """Step 0 through CanController: it arms the firmware first."""

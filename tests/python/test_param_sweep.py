@@ -35,6 +35,7 @@ from pathlib import Path
 
 import pytest
 
+from mstc.can import secoc
 from mstc.can.protocol import Protocol
 from mstc.limits import Held, load_table, violation
 
@@ -48,10 +49,11 @@ ARM = 128
 TABLE = load_table()
 HELD = [p for p in TABLE.params if p.held]
 RESULTS = {0: "ok", 1: "unknown_index", 2: "out_of_range", 3: "rejected", 5: "armed"}
+KEY = secoc.load_key()  # the published test key (conftest.py)
 REPORT: list[str] = []
 
 ODOM_XY, ODOM_THETA, REF_XY, REF_MOTION, STEP = 0x100, 0x101, 0x102, 0x103, 0x104
-PARAM_SET, PARAM_GET = 0x120, 0x121
+PARAM_SET, PARAM_GET, PARAM_AUTH = 0x120, 0x121, 0x122
 WHEEL_CMD, STATUS, PARAM_VALUE = 0x180, 0x181, 0x190
 
 
@@ -111,6 +113,13 @@ def param_set(index: int, value: float) -> int:
     return (index << 16) | (int.from_bytes(struct.pack("<f", value), "little") << 24)
 
 
+def param_auth(pset: bytes, freshness: int) -> int:
+    """PARAM_AUTH of the sealed PARAM_SET @p pset (docs/safety.md): the low 20
+    bits of the freshness value at bit 12, the first 4 CMAC bytes at byte 4."""
+    tag = secoc.cmac(KEY, secoc.mac_input(0x1000 + PARAM_SET, pset[2:8], freshness))
+    return ((freshness & 0xFFFFF) << 12) | (int.from_bytes(tag[:4], "little") << 32)
+
+
 class _Frame(ctypes.Structure):
     """mstc_sil_frame_t (hal/sil/mstc_sil.h)."""
 
@@ -152,6 +161,7 @@ class Firmware:
             getattr(self.lib, name).argtypes = [ctypes.POINTER(_Frame)]
             getattr(self.lib, name).restype = ctypes.c_int
         self.lib.mstc_sil_fw_init.argtypes = [ctypes.c_void_p]
+        self.lib.mstc_sil_fw_set_key.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_uint32]
         self.lib.mstc_sil_numeric.restype = ctypes.c_char_p
         self.numeric = self.lib.mstc_sil_numeric().decode()
         self.rx = _Frame()
@@ -159,7 +169,9 @@ class Firmware:
         self._recv = self.lib.mstc_sil_fw_recv
 
     def restart(self) -> None:
+        """A fresh firmware with the test key and freshness 0."""
         assert self.lib.mstc_sil_fw_init(None) == 0
+        assert self.lib.mstc_sil_fw_set_key(KEY, len(KEY), 0) == 0
 
     def put(self, f: _Frame) -> None:
         """Send @p f, an input frame: the firmware answers none."""
@@ -280,8 +292,14 @@ class Trial:
         return (left, right), answers[STATUS] >> 61
 
     def param(self, index: int, value: float, stats: Stats) -> None:
-        f = c_frame(PARAM_SET, seal(PARAM_SET, param_set(index, value), self.counters[PARAM_SET]))
+        """An authenticated PARAM_SET: the firmware answers after its PARAM_AUTH."""
+        pset = seal(PARAM_SET, param_set(index, value), self.counters[PARAM_SET])
         self.counters[PARAM_SET] = (self.counters[PARAM_SET] + 1) & 0xF
+        self.freshness += 1
+        auth = seal(PARAM_AUTH, param_auth(pset, self.freshness), self.counters[PARAM_AUTH])
+        self.counters[PARAM_AUTH] = (self.counters[PARAM_AUTH] + 1) & 0xF
+        self.fw.put(c_frame(PARAM_SET, pset))
+        f = c_frame(PARAM_AUTH, auth)
         answer = next(param_value_of(w) for i, w in self.fw.send(f) if i == PARAM_VALUE)
         assert answer[0] == index
         result = RESULTS[answer[1]]
@@ -320,6 +338,8 @@ class Trial:
         self.fw.restart()
         self.counters = dict.fromkeys((ODOM_XY, ODOM_THETA, REF_XY, REF_MOTION, PARAM_SET), 0)
         self.counters[PARAM_GET] = 0
+        self.counters[PARAM_AUTH] = 0
+        self.freshness = 0
         self.k = 0
         self.now = {p.index: p.default for p in HELD}
         self.ref = rng.choice(self.refs)

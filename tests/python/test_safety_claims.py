@@ -24,6 +24,7 @@ from pathlib import Path
 import can
 import pytest
 
+from mstc.can import secoc
 from mstc.can.protocol import FrameDropped, Protocol
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -75,6 +76,7 @@ class Driver:
     def __init__(self, bus: can.BusABC) -> None:
         self.bus = bus
         self.proto = Protocol(node=None)
+        self.auth = secoc.Authenticator(secoc.load_key())  # the test key (conftest.py)
         self.k = 0
 
     def exchange(self, msg: can.Message) -> list:
@@ -88,7 +90,10 @@ class Driver:
         return out
 
     def param(self, index: int, value: float) -> int:
-        answers = self.exchange(self.proto.encode("PARAM_SET", index=index, value=value))
+        """An authenticated PARAM_SET (docs/safety.md); its result."""
+        answers = [f for m in self.auth.param_set(self.proto, index, value) for f in self.exchange(m)]
+        for f in answers:
+            self.auth.sync(f)
         return next(int(f.signals["result"]) for f in answers if f.name == "PARAM_VALUE")
 
     def inputs(self, odometry: bool) -> None:

@@ -31,6 +31,8 @@ void setUp(void)
     hal_fake_reset();
     memset(tf_counters, 0, sizeof tf_counters);
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    app_set_key(&app, tf_test_key, 0u);
+    tf_freshness = 0u;
 }
 
 void tearDown(void) {}
@@ -79,9 +81,17 @@ static void arm_at(double x, double y, double theta, double rx, double ry, doubl
 
 static void send_step(uint16_t step, uint32_t time_us) { feed(tf_step(step, time_us)); }
 
+/* PARAM_SET (authenticated: with its PARAM_AUTH) or PARAM_GET. */
 static void send_param(uint32_t id, uint8_t index, float value)
 {
-    feed(id == COMM_ID_PARAM_SET ? tf_param_set(index, value) : tf_param_get(index));
+    if (id == COMM_ID_PARAM_SET) {
+        hal_can_frame_t f[2];
+        tf_param_set_auth(index, value, f);
+        feed(f[0]);
+        feed(f[1]);
+    } else {
+        feed(tf_param_get(index));
+    }
 }
 
 /* PARAM_SET @p index to @p value: answered @p result, with @p now in force. */
@@ -102,12 +112,13 @@ static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(v
     TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent); /* inputs alone send nothing */
     send_step(7, 20000u);
     /* Housekeeping (first step), then STATUS, STATUS_TRK and WHEEL_CMD. */
-    TEST_ASSERT_EQUAL_UINT(5, hal_fake.n_sent);
+    TEST_ASSERT_EQUAL_UINT(6, hal_fake.n_sent);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_HEARTBEAT, hal_fake.sent[0].id);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_COUNTERS, hal_fake.sent[1].id);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS, hal_fake.sent[2].id);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_TRK, hal_fake.sent[3].id);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_CMD, hal_fake.sent[4].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_STATUS, hal_fake.sent[2].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS, hal_fake.sent[3].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_TRK, hal_fake.sent[4].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_CMD, hal_fake.sent[5].id);
     TEST_ASSERT_EQUAL_UINT16(7, tf_last_wheels().wheel_cmd_step);
 }
 

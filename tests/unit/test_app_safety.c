@@ -37,6 +37,8 @@ void setUp(void)
     hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
     memset(tf_counters, 0, sizeof tf_counters);
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    app_set_key(&app, tf_test_key, 0u);
+    tf_freshness = 0u;
 }
 
 void tearDown(void) {}
@@ -55,11 +57,17 @@ static void ref(void)
     feed(tf_ref_motion(0.0, 0.5, 0.0));
 }
 
-static uint8_t arm_cmd(float value)
+/* An authenticated PARAM_SET; the result it is answered with. */
+static uint8_t set_param(uint8_t index, float value)
 {
-    feed(tf_param_set(COMM_PARAM_ARM, value));
+    hal_can_frame_t f[2];
+    tf_param_set_auth(index, value, f);
+    feed(f[0]);
+    feed(f[1]);
     return tf_last_param_value().param_value_result;
 }
+
+static uint8_t arm_cmd(float value) { return set_param(COMM_PARAM_ARM, value); }
 
 static uint16_t k_step;
 static uint32_t t_us;
@@ -264,12 +272,11 @@ static void test_app_safety_ramp_keeps_the_curvature_and_ends_at_zero(void)
 
 static void test_app_safety_deceleration_is_a_parameter(void)
 {
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
-    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param(COMM_PARAM_MAX_WHEEL_DECEL, 1000.0f));
     const float bad[] = { 0.0f, -1.0f, NAN, INFINITY, 10001.0f };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
-        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
+        TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE,
+                                set_param(COMM_PARAM_MAX_WHEEL_DECEL, bad[i]));
         TEST_ASSERT_EQUAL_FLOAT(1000.0f, tf_last_param_value().param_value_value);
     }
     feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
@@ -357,8 +364,14 @@ static void test_app_safety_two_corrupted_frames_in_the_window_halt_at_once(void
 static void test_app_safety_duplicated_frames_are_tolerated(void)
 {
     drive(2);
+    /* The robot moves as commanded (straight ahead, the wheels equal), so
+     * its odometry stays plausible over the ten steps (odo.h). */
+    double x = 0.0;
     for (unsigned k = 0; k < 10u; k++) {
-        const hal_can_frame_t f = tf_odom_xy(0.0, 0.0);
+        const double v =
+            tu_dbl(app.ctl.p.kin.wheel_radius) * tf_last_wheels().wheel_cmd_left / 1024.0;
+        x += v * DT_US * 1e-6;
+        const hal_can_frame_t f = tf_odom_xy(x, 0.0);
         feed(f);
         TEST_ASSERT_EQUAL_INT(-EALREADY, feed_rc(f)); /* the duplicate */
         feed(tf_odom_theta(0.0));
@@ -587,13 +600,13 @@ static void test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused(
 {
     feed(tf_param_get(COMM_PARAM_MAX_WHEEL_DECEL));
     const float before = tf_last_param_value().param_value_value;
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 1e-6f));
+    (void)set_param(COMM_PARAM_MAX_WHEEL_DECEL, 1e-6f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 124.0f));
+    (void)set_param(COMM_PARAM_MAX_WHEEL_DECEL, 124.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_REJECTED, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 125.0f));
+    (void)set_param(COMM_PARAM_MAX_WHEEL_DECEL, 125.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(125.0f, tf_last_param_value().param_value_value);
 }
@@ -647,16 +660,16 @@ static void test_app_safety_control_law_parameters_are_refused_while_armed(void)
     for (uint8_t i = 0; i < COMM_PARAM_MAX_WHEEL_DECEL; i++) {
         feed(tf_param_get(i));
         const float before = tf_last_param_value().param_value_value;
-        feed(tf_param_set(i, before * 1.01f));
+        (void)set_param(i, before * 1.01f);
         TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_ARMED, tf_last_param_value().param_value_result);
         TEST_ASSERT_EQUAL_FLOAT(before, tf_last_param_value().param_value_value);
     }
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 500.0f));
+    (void)set_param(COMM_PARAM_MAX_WHEEL_DECEL, 500.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     full_step();
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt); /* still driving */
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
-    feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
+    (void)set_param(COMM_PARAM_D_S, 0.4f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.4f, tf_last_param_value().param_value_value);
 }
@@ -673,9 +686,9 @@ static void test_app_safety_a_halt_keeps_the_deceleration_it_began_with(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
     full_step();
     TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_SPEED, 10.0f));
+    (void)set_param(COMM_PARAM_MAX_WHEEL_SPEED, 10.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
-    feed(tf_param_set(COMM_PARAM_MAX_WHEEL_DECEL, 12.5f));
+    (void)set_param(COMM_PARAM_MAX_WHEEL_DECEL, 12.5f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     for (unsigned k = 2; k <= 27u; k++) {
         full_step();
@@ -699,18 +712,18 @@ static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
 {
     const float bad[] = { NAN, INFINITY, -INFINITY };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        feed(tf_param_set(COMM_PARAM_TRK_K1, bad[i]));
+        (void)set_param(COMM_PARAM_TRK_K1, bad[i]);
         TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
         TEST_ASSERT_EQUAL_FLOAT(3.0f, tf_last_param_value().param_value_value);
     }
     /* The strategy (14) is a whole 0 or 1: 0.5 and 2 are out of range. */
-    feed(tf_param_set(14, 0.5f));
+    (void)set_param(14, 0.5f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
-    feed(tf_param_set(14, 2.0f));
+    (void)set_param(14, 2.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     /* And an index the table does not hold. */
-    feed(tf_param_set(15, 0.0f));
+    (void)set_param(15, 0.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 

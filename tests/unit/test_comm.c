@@ -156,12 +156,11 @@ static void test_comm_crc8h2f_of_nothing_is_init_xor_final(void)
 static void test_comm_data_ids_are_the_dbc_attribute(void)
 {
     static const uint32_t ids[] = {
-        COMM_ID_ODOM_XY,         COMM_ID_ODOM_THETA, COMM_ID_REF_XY,
-        COMM_ID_REF_MOTION,      COMM_ID_STEP,       COMM_ID_OBSTACLE,
-        COMM_ID_OBSTACLE_VEL,    COMM_ID_PARAM_SET,  COMM_ID_PARAM_GET,
-        COMM_ID_WHEEL_CMD,       COMM_ID_STATUS,     COMM_ID_STATUS_TRK,
-        COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,      COMM_ID_HEARTBEAT,
-        COMM_ID_PARAM_VALUE,
+        COMM_ID_ODOM_XY,     COMM_ID_ODOM_THETA,      COMM_ID_REF_XY,       COMM_ID_REF_MOTION,
+        COMM_ID_STEP,        COMM_ID_OBSTACLE,        COMM_ID_OBSTACLE_VEL, COMM_ID_PARAM_SET,
+        COMM_ID_PARAM_GET,   COMM_ID_PARAM_AUTH,      COMM_ID_WHEEL_CMD,    COMM_ID_STATUS,
+        COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,        COMM_ID_HEARTBEAT,
+        COMM_ID_AUTH_STATUS, COMM_ID_PARAM_VALUE,
     };
     TEST_ASSERT_EQUAL_UINT(COMM_N_FRAMES, sizeof ids / sizeof ids[0]);
     for (size_t i = 0; i < COMM_N_FRAMES; i++) {
@@ -226,15 +225,16 @@ static void test_comm_decode_drops_an_unknown_identifier(void)
 
 static void test_comm_decode_drops_a_frame_the_firmware_sends(void)
 {
-    static const uint32_t sent[] = { COMM_ID_WHEEL_CMD,       COMM_ID_STATUS, COMM_ID_STATUS_TRK,
-                                     COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,  COMM_ID_HEARTBEAT,
-                                     COMM_ID_PARAM_VALUE };
+    static const uint32_t sent[] = { COMM_ID_WHEEL_CMD,   COMM_ID_STATUS,
+                                     COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS,
+                                     COMM_ID_EVENT,       COMM_ID_HEARTBEAT,
+                                     COMM_ID_AUTH_STATUS, COMM_ID_PARAM_VALUE };
     comm_msg_t m;
     for (size_t i = 0; i < sizeof sent / sizeof sent[0]; i++) {
         hal_can_frame_t f = sealed(sent[i], zeros, 0);
         TEST_ASSERT_EQUAL_INT(-ENOENT, comm_decode(&c, &f, &m));
     }
-    assert_drops(0, 0, 0, 7);
+    assert_drops(0, 0, 0, 8);
 }
 
 static void test_comm_decode_drops_a_wrong_length(void)
@@ -661,7 +661,8 @@ static void test_comm_status_saturates_enumerations_and_ids(void)
     TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
     TEST_ASSERT_EQUAL_INT64(0x17, get_field(f.data, 20, 6, false));
     TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 58, 3, false)); /* low 3 bits of the step */
-    TEST_ASSERT_EQUAL_INT64(COMM_HALT_BUS_OFF, get_field(f.data, 61, 3, false)); /* saturated */
+    TEST_ASSERT_EQUAL_INT64(COMM_HALT_ODOMETRY_IMPLAUSIBLE,
+                            get_field(f.data, 61, 3, false)); /* saturated */
 }
 
 static void test_comm_encode_status_trk(void)

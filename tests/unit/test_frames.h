@@ -16,6 +16,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "auth/auth.h"
 #include "comm/comm.h"
 #include "comm/mstc_dbc.h"
 #include "hal/hal_can.h"
@@ -127,6 +128,43 @@ static inline hal_can_frame_t tf_param_get(uint8_t index)
     const struct mstc_dbc_param_get_t s = { .param_get_index = index };
     (void)mstc_dbc_param_get_pack(p, &s, 8);
     return tf_seal(COMM_ID_PARAM_GET, p);
+}
+
+/** @brief RFC 4493's example key (tests/data/test.key): the tests' device key. */
+static const uint8_t tf_test_key[AUTH_KEY_LEN] = { 0x2b, 0x7e, 0x15, 0x16, 0x28, 0xae, 0xd2, 0xa6,
+                                                   0xab, 0xf7, 0x15, 0x88, 0x09, 0xcf, 0x4f, 0x3c };
+
+/** @brief Freshness value of the last command tf_param_set_auth() built. */
+static uint32_t tf_freshness;
+
+/** @brief PARAM_AUTH: freshness low 20 bits at bits 12..31, the first four
+ *         bytes of the CMAC in bytes 4..7, in order. */
+static inline hal_can_frame_t tf_param_auth(uint32_t fv, const uint8_t mac[AUTH_MAC_LEN])
+{
+    uint8_t p[8] = { 0 };
+    p[1] = (uint8_t)((fv & 0x0Fu) << 4);
+    p[2] = (uint8_t)((fv >> 4) & 0xFFu);
+    p[3] = (uint8_t)((fv >> 12) & 0xFFu);
+    memcpy(&p[4], mac, AUTH_MAC_LEN);
+    return tf_seal(COMM_ID_PARAM_AUTH, p);
+}
+
+/**
+ * @brief PARAM_SET of @p index = @p value, and the PARAM_AUTH that
+ *        authenticates it under tf_test_key with the next freshness value.
+ *        The MAC is auth_mac()'s: test_auth.c checks it against RFC 4493's
+ *        examples, tests/python/test_auth.py against `cryptography`.
+ */
+static inline void tf_param_set_auth(uint8_t index, float value, hal_can_frame_t out[2])
+{
+    out[0] = tf_param_set(index, value);
+    auth_t s;
+    auth_init(&s);
+    auth_set_key(&s, tf_test_key, 0u);
+    uint8_t mac[AUTH_MAC_LEN];
+    tf_freshness++;
+    auth_mac(&s, COMM_PARAM_SET_DATA_ID, &out[0].data[2], tf_freshness, mac);
+    out[1] = tf_param_auth(tf_freshness, mac);
 }
 
 /** @brief The last frame with @p id that the firmware sent, or fail the test. */

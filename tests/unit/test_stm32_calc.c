@@ -15,6 +15,7 @@
 #include <math.h>
 #include <stdint.h>
 
+#include "div64.h"
 #include "stm32_calc.h"
 #include "unity.h"
 #include "wheel_cmd.h"
@@ -238,9 +239,57 @@ static void test_wheel_cmd_clamps_and_guards(void)
 #endif
 }
 
+/* ------------------------------------------------------------- div64 */
+
+static void test_div64_hand_values(void)
+{
+    uint64_t r = 99u;
+    TEST_ASSERT_EQUAL_UINT64(0u, div64_u(0u, 7u, &r));
+    TEST_ASSERT_EQUAL_UINT64(0u, r);
+    TEST_ASSERT_EQUAL_UINT64(2u, div64_u(17u, 7u, &r)); /* 17 = 2·7 + 3 */
+    TEST_ASSERT_EQUAL_UINT64(3u, r);
+    /* 2^64 − 1 = 3 · 5 · 17 · 257 · 641 · 65537 · 6700417. */
+    TEST_ASSERT_EQUAL_UINT64(UINT64_C(0x5555555555555555), div64_u(UINT64_MAX, 3u, &r));
+    TEST_ASSERT_EQUAL_UINT64(0u, r);
+    TEST_ASSERT_EQUAL_UINT64(1u, div64_u(UINT64_MAX, UINT64_C(1) << 63, &r));
+    TEST_ASSERT_EQUAL_UINT64((UINT64_C(1) << 63) - 1u, r);
+    /* Outside the contract: 0 and the dividend back. */
+    TEST_ASSERT_EQUAL_UINT64(0u, div64_u(5u, 0u, &r));
+    TEST_ASSERT_EQUAL_UINT64(5u, r);
+    /* Nearest, halves away from zero: 7/2 = 3.5 → 4, −7/2 → −4, 5/3 → 2. */
+    TEST_ASSERT_EQUAL_INT64(4, div64_nearest(7, 2u));
+    TEST_ASSERT_EQUAL_INT64(-4, div64_nearest(-7, 2u));
+    TEST_ASSERT_EQUAL_INT64(2, div64_nearest(5, 3u));
+    TEST_ASSERT_EQUAL_INT64(-2, div64_nearest(-5, 3u));
+    TEST_ASSERT_EQUAL_INT64(0, div64_nearest(-1, 3u));
+}
+
+static void test_div64_agrees_with_c_division(void)
+{
+    /* The host's own 64-bit division is the independent reference. */
+    uint64_t x = UINT64_C(0x9E3779B97F4A7C15);
+    for (unsigned i = 0; i < 20000u; i++) {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        const uint64_t n = x;
+        const uint64_t d = (x >> (x % 60u)) | 1u; /* from 1 to large */
+        uint64_t r = 0u;
+        TEST_ASSERT_EQUAL_UINT64(n / d, div64_u(n, d, &r));
+        TEST_ASSERT_EQUAL_UINT64(n % d, r);
+        const int64_t s = (int64_t)(n >> 2) * ((x & 1u) != 0u ? -1 : 1);
+        const uint64_t den = (d >> 2) | 1u;
+        const int64_t half = (int64_t)(den / 2u);
+        const int64_t want = (s + (s < 0 ? -half : half)) / (int64_t)den;
+        TEST_ASSERT_EQUAL_INT64(want, div64_nearest(s, den));
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
+    RUN_TEST(test_div64_hand_values);
+    RUN_TEST(test_div64_agrees_with_c_division);
     RUN_TEST(test_stm32_iwdg_hand_values);
     RUN_TEST(test_stm32_iwdg_rejects_out_of_range);
     RUN_TEST(test_stm32_iwdg_timeout_never_shorter);

@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 
 import can
 
+from mstc.can import secoc
 from mstc.can.dbc import tables
 from mstc.can.protocol import COUNTER_MODULO, Frame, FrameDropped, Protocol, e2e_crc
 from mstc.controller import Event, Fault, Status, StepResult
 from mstc.errors import ControllerError
-from mstc.params import Params, Strategy, param_values
+from mstc.params import Params, param_values
 from mstc.sim.plant import Pose, wrap_angle
 from mstc.sim.sensor import Obstacle
 
@@ -62,6 +63,7 @@ class CanController:
         in-process bus, whose answers carry the same stamp), else wall time.
     :param protocol: the protocol side to use (its DBC gives the parameter
         indexes and value tables); default: the package's DBC.
+    :param key: the firmware's key; default: :func:`mstc.can.secoc.load_key`.
     :raises DbcError: the DBC lacks an entry the controller names.
     """
 
@@ -74,6 +76,7 @@ class CanController:
         sim_time_stamps: bool = False,
         clock: Callable[[], float] = time.time,
         protocol: Protocol | None = None,
+        key: bytes | None = None,
     ) -> None:
         self.bus = bus
         self.params = params
@@ -82,13 +85,11 @@ class CanController:
         self.clock = clock
         self.proto = protocol if protocol is not None else Protocol(node=None)
         self.tables = self.proto.tables
+        self.auth = secoc.Authenticator(secoc.load_key() if key is None else key)
         self.traffic = Traffic()
         self._now = 0.0
         self._steps = 0
         self._armed = False
-        self.strategy_supported = True
-        """False when the firmware answered PARAM_SET strategy with "unknown
-        index": a build from before the strategies, which runs the paper's."""
         self._configure()
 
     # ------------------------------------------------------------ the bus
@@ -114,27 +115,48 @@ class CanController:
                 continue  # counted in self.proto.drops
             if frame.name == "STATUS_COUNTERS":
                 self.traffic.firmware_drops = {k: int(v) for k, v in frame.signals.items()}
+            self.auth.sync(frame)
             return frame
+
+    def _sync(self) -> None:
+        """Learn the firmware's freshness value: a PARAM_GET (which changes
+        nothing) is answered by PARAM_VALUE and AUTH_STATUS."""
+        self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+
+    def command(self, index: int, value: float, what: str) -> Frame:
+        """An authenticated PARAM_SET; the firmware's PARAM_VALUE.
+
+        :raises ControllerError: no answer, or the firmware could not
+            authenticate it (another key, most likely).
+        """
+        for msg in self.auth.param_set(self.proto, index, value):
+            self._send(msg)
+        answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
+        # AUTH_STATUS follows every PARAM_VALUE: read it now, so that the
+        # freshness is current and the log keeps the bus's order.
+        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+        if answer.signals["result"] == self.tables.param_result.value("unauthenticated"):
+            raise ControllerError(
+                f"the firmware refuses {what} as unauthenticated: does it have the key the "
+                f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
+                "docs/safety.md, 'The key'"
+            )
+        return answer
 
     def _configure(self) -> None:
         """PARAM_SET every parameter; retry the ones the firmware rejects
         because another one has not changed yet (D_s < D_act must hold at
         every moment)."""
+        self._sync()
         pending = param_values(self.params)
         pending["strategy"] = float(self.tables.strategy.value(str(self.params.strategy)))
         while pending:
             rejected: dict[str, float] = {}
             for name, value in pending.items():
                 index = self.tables.param_index.value(name)
-                self._send(self.proto.encode("PARAM_SET", index=index, value=value))
-                answer = self._await(_param_value(index), f"PARAM_VALUE {name}")
-                result = answer.signals["result"]
-                unknown = result == self.tables.param_result.value("unknown_index")
-                if name == "strategy" and unknown and self.params.strategy is Strategy.PAPER:
-                    # A firmware built before the strategy parameter runs the
-                    # paper's strategy only: what was asked for.
-                    self.strategy_supported = False
-                elif result != self.tables.param_ok:
+                answer = self.command(index, value, f"PARAM_SET {name}")
+                if answer.signals["result"] != self.tables.param_ok:
                     rejected[name] = value
             if len(rejected) == len(pending):
                 raise ControllerError(f"the firmware rejects the parameters {sorted(rejected)}")
@@ -154,9 +176,7 @@ class CanController:
         and the run's first step is still step 0 at its own time."""
         for _ in range(REARM_FRAMES):
             self._send_inputs(robot, ref, v_r, w_r)
-        arm = self.tables.arm_index
-        self._send(self.proto.encode("PARAM_SET", index=arm, value=1.0))
-        answer = self._await(_param_value(arm), "PARAM_VALUE arm")
+        answer = self.command(self.tables.arm_index, 1.0, "the arm command")
         if answer.signals["result"] != self.tables.param_ok:
             raise ControllerError(
                 f"the firmware refuses to arm (result {answer.signals['result']})"

@@ -27,6 +27,7 @@ from typing import Any
 
 import can
 
+from mstc.can import secoc
 from mstc.errors import FirmwareError
 from mstc.firmware import FRAME_DATA, FrameStruct, Library
 from mstc.firmware import LIB_ENV as LIB_ENV
@@ -37,12 +38,20 @@ class SilBus(can.BusABC):
 
     :param channel: a name for the bus in logs (default ``"sil0"``).
     :param lib: path of ``libmstc_sil.so``; default: ``$MSTC_SIL_LIB``.
+    :param key: the firmware's key (16 bytes); default: :func:`mstc.can.secoc.load_key`.
+    :param freshness: the firmware's freshness value at start (0, as after a reset).
     :raises can.CanInitializationError: the library cannot be loaded (its
-        bindings, :class:`mstc.firmware.Library`, say why) or the firmware started.
+        bindings, :class:`mstc.firmware.Library`, say why), the firmware
+        started, or the key read.
     """
 
     def __init__(
-        self, channel: Any = None, lib: str | os.PathLike[str] | None = None, **kwargs: Any
+        self,
+        channel: Any = None,
+        lib: str | os.PathLike[str] | None = None,
+        key: bytes | None = None,
+        freshness: int = 0,
+        **kwargs: Any,
     ) -> None:
         try:
             library = Library.open(lib)
@@ -56,6 +65,14 @@ class SilBus(can.BusABC):
         rc = self._lib.mstc_sil_fw_init(None)
         if rc != 0:
             raise can.CanInitializationError(f"mstc-sil: firmware init failed ({rc})")
+        try:
+            key = secoc.load_key() if key is None else key
+        except secoc.AuthKeyError as exc:
+            raise can.CanInitializationError(f"mstc-sil: {exc}") from exc
+        if self._lib.mstc_sil_fw_set_key(key, len(key), freshness) != 0:
+            raise can.CanInitializationError(
+                f"mstc-sil: the firmware refused the key ({len(key)} bytes, want {secoc.KEY_LEN})"
+            )
         super().__init__(channel=self.channel, **kwargs)
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:

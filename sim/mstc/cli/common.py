@@ -12,6 +12,7 @@ from pathlib import Path
 
 from cantools.database.can import Database
 
+from mstc.can import secoc
 from mstc.can.dbc import tables
 from mstc.can.protocol import DBC_PATH, load_database
 from mstc.errors import (
@@ -81,6 +82,27 @@ def library(given: Path | None) -> Path:
             f"or name one with --lib PATH or {LIB_ENV}"
         )
     return DEFAULT_LIB
+
+
+def add_key_argument(parser: argparse.ArgumentParser) -> None:
+    """``--key-file``: the firmware's key for authenticated commands."""
+    parser.add_argument(
+        "--key-file",
+        metavar="PATH",
+        type=Path,
+        help=f"the firmware's key, 32 hex digits (default: ${secoc.KEY_ENV} as hex digits, "
+        f"else the file ${secoc.KEY_FILE_ENV}, else keys/device.key, which `make key` "
+        "generates; docs/safety.md)",
+    )
+
+
+def load_key(args: argparse.Namespace) -> bytes | None:
+    """The key ``--key-file`` or the defaults name; None after an error line."""
+    try:
+        return secoc.load_key(args.key_file)
+    except secoc.AuthKeyError as exc:
+        error(str(exc))
+        return None
 
 
 def load_all(paths: Sequence[Path], out: Path) -> list[Scenario] | None:

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import can
 
+from mstc.can import secoc
 from mstc.can.lockstep import CanController, enter_lockstep
-from mstc.cli.common import EXIT_USAGE, error, run_scenarios
+from mstc.cli.common import EXIT_USAGE, add_key_argument, error, load_key, run_scenarios
 from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, FirmwareError
 from mstc.qemu import ICOUNT, BoardVm, LoopStats
@@ -104,21 +105,26 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="boot this board image (build/firmware/<board>-slcan) under QEMU for each "
         "scenario and run it over its serial line with python-can's slcan interface",
     )
+    add_key_argument(parser)
     add_output_arguments(parser, "build/hil")
     parser.set_defaults(run=run)
 
 
-def start_firmware(exe: Path, channel: str, timeout: float = 30.0) -> subprocess.Popen[str]:
-    """Start ``exe --can channel`` and wait until it is on the bus (its first
-    line on stderr says so).
+def start_firmware(
+    exe: Path, channel: str, key_file: Path | None = None, timeout: float = 30.0
+) -> subprocess.Popen[str]:
+    """Start ``exe --can channel [--key-file key_file]`` and wait until it is
+    on the bus (its first line on stderr says so). Without @p key_file it
+    takes its key from the environment, as the tools do.
 
     :raises FirmwareError: it exited or said nothing in @p timeout seconds.
     """
     if not exe.is_file():
         raise FirmwareError(f"--fw {exe}: no such file (make fw builds build/host/mstc-fw)")
-    proc = subprocess.Popen(
-        [str(exe), "--can", channel], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True
-    )
+    cmd = [str(exe), "--can", channel]
+    if key_file is not None:
+        cmd += ["--key-file", str(key_file)]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     assert proc.stderr is not None
     ready, _, _ = select.select([proc.stderr], [], [], timeout)
     line = proc.stderr.readline() if ready else ""
@@ -143,10 +149,12 @@ def _run_one(
     args: argparse.Namespace, scenario: Scenario, bar: Progress
 ) -> tuple[str, RunResult, BusLog]:
     bus = can.Bus(interface=args.interface, channel=args.channel)
-    firmware = start_firmware(args.fw, args.channel) if args.fw is not None else None
+    firmware = (
+        start_firmware(args.fw, args.channel, args.key_source) if args.fw is not None else None
+    )
     try:
         primer = enter_lockstep(bus) if args.board else []
-        ctl = CanController(bus, scenario.params, sim_time_stamps=False)
+        ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
         ctl.traffic.frames[:0] = primer
         result = simulate(scenario, ctl, bar)
     finally:
@@ -231,7 +239,7 @@ def _run_on_qemu(
         try:
             primer = enter_lockstep(bus)
             start = vm.stats()
-            ctl = CanController(bus, scenario.params, sim_time_stamps=False)
+            ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
             ctl.traffic.frames[:0] = primer
             result = simulate(scenario, ctl, bar)
             end = vm.stats()
@@ -257,6 +265,12 @@ def run(args: argparse.Namespace) -> int:
     if args.qemu is not None and args.fw is not None:
         error("--qemu runs a board image, --fw a process: one or the other")
         return EXIT_USAGE
+    args.key = load_key(args)
+    if args.key is None:
+        return EXIT_USAGE
+    # mstc-fw gets the same key: the file it came from (None: from $MSTC_KEY,
+    # which the process inherits).
+    args.key_source = secoc.key_file(args.key_file)
     run_one = _run_on_qemu if args.qemu is not None else _run_one
     return run_scenarios(
         args.scenarios,

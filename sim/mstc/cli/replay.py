@@ -13,9 +13,11 @@ from mstc.cli.common import (
     EXIT_NO_TARGET,
     EXIT_OK,
     EXIT_USAGE,
+    add_key_argument,
     add_log_arguments,
     error,
     library,
+    load_key,
     load_log,
 )
 from mstc.errors import FirmwareError
@@ -41,6 +43,10 @@ identifier not in the DBC are not fed; frames of the wrong length are fed (the
 firmware counts and drops them, as a board does); time going backwards is
 reported, the log's order kept. See docs/replay.md.
 
+The firmware must have the key the log's commands were authenticated with
+(--key-file; the committed logs: tests/data/test.key), or it refuses them and
+answers otherwise than the log says.
+
 To play a log onto a bus with its timing instead (like canplayer): mstc play.
 
 A replay that compared nothing (the log holds no frame the firmware sends,
@@ -52,8 +58,10 @@ log that cannot be used (with --strict, any problem in it), or nothing
 compared (without --allow-empty); 3 the firmware library cannot be loaded.
 
 examples:
-  .venv/bin/mstc replay tests/data/paper-line.log
-  .venv/bin/mstc replay --lib build/host/fixed/libmstc_sil.so tests/data/paper-line.log
+  .venv/bin/mstc replay build/sim/paper-line/bus.log
+  .venv/bin/mstc replay --key-file tests/data/test.key tests/data/paper-line.log
+  .venv/bin/mstc replay --lib build/host/fixed/libmstc_sil.so --key-file tests/data/test.key \\
+    tests/data/paper-line.log
 
 The library defaults to ${LIB_ENV}, else build/host/float/libmstc_sil.so
 (make lib builds it).
@@ -82,6 +90,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         action="store_true",
         help="exit 0 when nothing was compared (the log holds no frame the firmware sends)",
     )
+    add_key_argument(parser)
     parser.set_defaults(run=run)
 
 
@@ -91,12 +100,15 @@ def run(args: argparse.Namespace) -> int:
     if isinstance(loaded, int):
         return loaded
     db, log = loaded
+    key = load_key(args)
+    if key is None:
+        return EXIT_USAGE
 
     def progress(total: int) -> Progress:
         return Progress(total, "replay", "input frames", enabled=not args.quiet)
 
     try:
-        result = replay(log, db, library(args.lib), progress=progress)
+        result = replay(log, db, library(args.lib), progress=progress, key=key)
     except FirmwareError as exc:
         error(str(exc))
         return EXIT_NO_TARGET

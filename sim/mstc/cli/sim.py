@@ -9,7 +9,7 @@ from pathlib import Path
 import can
 
 from mstc.can.lockstep import CanController
-from mstc.cli.common import library, run_scenarios
+from mstc.cli.common import EXIT_USAGE, add_key_argument, library, load_key, run_scenarios
 from mstc.errors import ControllerError, FirmwareError
 from mstc.firmware import LIB_ENV, SilController
 from mstc.report.outputs import BusLog
@@ -112,6 +112,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default="sil",
         help="how the plant reaches the firmware (default: %(default)s; see below)",
     )
+    add_key_argument(parser)
     add_output_arguments(parser, "build/sim")
     parser.set_defaults(run=run)
 
@@ -124,9 +125,9 @@ def _run_one(
         controller = SilController(scenario.params, lib)
         result = simulate(scenario, controller, bar)
         return f"{controller.lib_path} ({controller.numeric})", result, None
-    bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib))
+    bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib), key=args.key)
     try:
-        ctl = CanController(bus, scenario.params, sim_time_stamps=True)
+        ctl = CanController(bus, scenario.params, sim_time_stamps=True, key=args.key)
         result = simulate(scenario, ctl, bar)
     finally:
         bus.shutdown()
@@ -135,6 +136,9 @@ def _run_one(
 
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each, then write and report."""
+    args.key = load_key(args) if args.bus == "sil" else None
+    if args.bus == "sil" and args.key is None:
+        return EXIT_USAGE
     return run_scenarios(
         args.scenarios,
         args.out,

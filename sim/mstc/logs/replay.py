@@ -97,12 +97,14 @@ class SilFirmware:
     loaded library) without a :class:`can.Message` per frame.
 
     :param lib: path of ``libmstc_sil.so``.
+    :param key: the key the log's commands were authenticated with (default:
+        :func:`mstc.can.secoc.load_key`).
     :raises FirmwareError: the library cannot be loaded or the firmware started.
     """
 
-    def __init__(self, lib: Path) -> None:
+    def __init__(self, lib: Path, key: bytes | None = None) -> None:
         try:
-            self.bus = SilBus(lib=str(lib))
+            self.bus = SilBus(lib=str(lib), key=key)
         except can.CanError as exc:
             raise FirmwareError(str(exc)) from exc
         self.lib = lib
@@ -475,6 +477,7 @@ def replay(
     lib: Path,
     *,
     progress: Callable[[int], Progress] | None = None,
+    key: bytes | None = None,
 ) -> ReplayResult:
     """Replay @p log through a fresh instance of the firmware in @p lib and
     compare what it sends with what the log recorded.
@@ -483,6 +486,8 @@ def replay(
     :param db: the DBC: which identifiers are inputs and outputs, and decoding.
     :param lib: ``libmstc_sil.so`` of the build to check.
     :param progress: makes a :class:`Progress` for a number of input frames.
+    :param key: the key the log was recorded with: its authenticated commands
+        replay only under it (default: :func:`mstc.can.secoc.load_key`).
     :raises FirmwareError: the library cannot be loaded or started.
     """
     inputs, outputs = firmware_ids(db)
@@ -492,7 +497,7 @@ def replay(
     output_rows = np.flatnonzero(is_output)
     start = time.perf_counter()
     bar = progress(len(input_rows)) if progress is not None else None
-    with SilFirmware(lib) as fw:
+    with SilFirmware(lib, key) as fw:
         result = ReplayResult(log=log, lib=lib, numeric=fw.numeric)
         counts, sent, refused = fw.run(pack_frames(log, input_rows), len(output_rows), bar)
     if bar is not None:
