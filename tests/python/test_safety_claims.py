@@ -91,7 +91,8 @@ class Driver:
 
     def param(self, index: int, value: float) -> int:
         """An authenticated PARAM_SET (docs/safety.md); its result."""
-        answers = [f for m in self.auth.param_set(self.proto, index, value) for f in self.exchange(m)]
+        commands = self.auth.param_set(self.proto, index, value)
+        answers = [f for m in commands for f in self.exchange(m)]
         for f in answers:
             self.auth.sync(f)
         return next(int(f.signals["result"]) for f in answers if f.name == "PARAM_VALUE")
