@@ -3,7 +3,8 @@
 # unchanged but for that transport, under qemu-system-arm (sim/mstc/qemu.py),
 # driven by the plant through python-can's slcan interface in lock-step
 # (`mstc hil --qemu`). Included by the top Makefile after mk/firmware.mk;
-# uses MSTC, SCENARIO and the img-<board>-slcan rules.
+# uses MSTC, SCENARIO, the img-<board>-slcan rules and KEY_FILE (mk/auth.mk:
+# the images hold that key, so the plant authenticates its commands with it).
 #
 #   make pil                      both boards, the paper's scenarios
 #   make pil BOARD=stm32f103      one board
@@ -26,7 +27,8 @@ endif
 pil: deps-sim $(addprefix img-,$(addsuffix -slcan,$(PIL_BOARDS)))  ## the paper's scenarios on the slcan board images under QEMU, lock-step (BOARD=...: one) -> build/pil/
 	@set -e; for b in $(PIL_BOARDS); do \
 	  echo "== $$b: build/firmware/$$b-slcan under QEMU"; \
-	  $(MSTC) hil --qemu build/firmware/$$b-slcan --no-figures --out build/pil/$$b $(SCENARIO); \
+	  $(MSTC) hil --qemu build/firmware/$$b-slcan --key-file $(KEY_FILE) --no-figures \
+	    --out build/pil/$$b $(SCENARIO); \
 	  $(if $(filter-out $(SCENARIO),$(PIL_PAPER))$(filter-out $(PIL_PAPER),$(SCENARIO)),,touch build/pil/$$b/.paper;) \
 	done
 
@@ -36,5 +38,6 @@ PIL_PAPER := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 PIL_STAMPS := $(foreach b,$(PIL_ALL),build/pil/$(b)/.paper)
 build/pil/%/.paper: build/firmware/%-slcan/mstc.elf $(PIL_PAPER) sim/mstc/cli/hil.py \
     sim/mstc/qemu.py sim/mstc/can/lockstep.py | .venv/.requirements.sha256
-	$(MSTC) hil --qemu build/firmware/$*-slcan --no-figures --out build/pil/$* $(PIL_PAPER)
+	$(MSTC) hil --qemu build/firmware/$*-slcan --key-file $(KEY_FILE) --no-figures \
+	  --out build/pil/$* $(PIL_PAPER)
 	@touch $@

@@ -26,6 +26,7 @@ import pytest
 from conftest import ROOT
 
 DBC = ROOT / "firmware" / "comm" / "mstc.dbc"
+LIMITS = ROOT / "firmware" / "ctrl" / "ctl_params.toml"
 
 
 def run(cmd: list[str | Path], cwd: Path, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
@@ -54,9 +55,14 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str,
         symlinks=True,
         ignore=shutil.ignore_patterns("__pycache__"),
     )
+    # The two files the package ships from the firmware's tree: links in the
+    # source tree, copied into the wheel.
     assert (src / "sim" / "mstc" / "can" / "mstc.dbc").is_symlink()
+    assert (src / "sim" / "mstc" / "ctl_params.toml").is_symlink()
     (src / "firmware" / "comm").mkdir(parents=True)
     shutil.copyfile(DBC, src / "firmware" / "comm" / "mstc.dbc")
+    (src / "firmware" / "ctrl").mkdir(parents=True)
+    shutil.copyfile(LIMITS, src / "firmware" / "ctrl" / "ctl_params.toml")
     shutil.copyfile(ROOT / "pyproject.toml", src / "pyproject.toml")
 
     env = {k: v for k, v in os.environ.items() if k not in ("MSTC_SIL_LIB", "PYTHONPATH")}

@@ -62,6 +62,10 @@ CUT_SEEDS = (100, 109)
 """test_faults' seeds of two odometry cuts (steps 79 and 148, phases 3 and 1)."""
 
 
+DEVICE_KEY_FILE = ROOT / "keys" / "device.key"
+"""The key `make` compiles into the board images (KEY_FILE, mk/auth.mk)."""
+
+
 @pytest.fixture(scope="module")
 def pil() -> str:
     """`make pil`: both boards, both paper scenarios; its output."""
@@ -152,9 +156,9 @@ class AnsweringBus:
 
     Loop reads the firmware's answers with ``recv(timeout=0)`` right after
     sending, as the in-process bus answers at once. Here send() of a STEP,
-    PARAM_SET or PARAM_GET returns only once its answer (the WHEEL_CMD
-    echoing the step, the PARAM_VALUE of the index) has arrived; every frame
-    received meanwhile is kept, in order, for recv().
+    PARAM_AUTH or PARAM_GET returns only once its answer (the WHEEL_CMD
+    echoing the step; the PARAM_VALUE and the AUTH_STATUS after it) has
+    arrived; every frame received meanwhile is kept, in order, for recv().
     """
 
     def __init__(self, bus: can.BusABC, timeout: float = 5.0) -> None:
@@ -173,10 +177,13 @@ class AnsweringBus:
         step = self._signal(msg, "STEP", "step")
         if step is not None:
             return lambda m: self._signal(m, "WHEEL_CMD", "step") == step
-        for name in ("PARAM_SET", "PARAM_GET"):
-            index = self._signal(msg, name, "index")
-            if index is not None:
-                return lambda m, i=index: self._signal(m, "PARAM_VALUE", "index") == i
+        # A PARAM_SET is answered once its PARAM_AUTH is in (docs/safety.md):
+        # wait after that one; a PARAM_GET is answered at once. The
+        # AUTH_STATUS that follows every PARAM_VALUE ends the wait.
+        if self._signal(msg, "PARAM_AUTH", "freshness") is not None or (
+            self._signal(msg, "PARAM_GET", "index") is not None
+        ):
+            return lambda m: m.arbitration_id == self.db.get_message_by_name("AUTH_STATUS").frame_id
         return None
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
@@ -201,8 +208,11 @@ class AnsweringBus:
 
 @pytest.mark.parametrize("seed", CUT_SEEDS)
 def test_f103_image_halts_within_3_periods_and_ramps_down_when_odometry_is_cut(
-    pil: str, seed: int
+    pil: str, seed: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    # The images hold the device key (make pil builds them with it), not the
+    # test key the other tests use (conftest.py).
+    monkeypatch.setenv("MSTC_KEY_FILE", str(DEVICE_KEY_FILE))
     scenario = load_scenario(SCENARIOS / "paper-line.toml")
     with BoardVm(PIL.parent / "firmware" / "stm32f103-slcan", serial=True) as vm:
         bus = can.Bus(

@@ -8,6 +8,7 @@ import argparse
 import json
 import select
 import subprocess
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -186,6 +187,19 @@ class BoardBusLog(BusLog):
         return f"{super().describe()}\n  board         {self.board}"
 
 
+def settled_stats(vm: BoardVm, start: LoopStats, steps: int, timeout: float = 2.0) -> LoopStats:
+    """The board's loop statistics once they count the @p steps the plant
+    saw since @p start, or at @p timeout. The main loop counts a step after
+    the application has sent its WHEEL_CMD, so the plant may read the memory
+    before the last one is counted."""
+    deadline = time.monotonic() + timeout
+    end = vm.stats()
+    while end.frame_steps - start.frame_steps < steps and time.monotonic() < deadline:
+        time.sleep(0.01)
+        end = vm.stats()
+    return end
+
+
 def check_lockstep(start: LoopStats, end: LoopStats, steps: int) -> None:
     """The board ran exactly one control step per STEP frame between
     @p start and @p end, and none on its timer.
@@ -242,7 +256,7 @@ def _run_on_qemu(
             ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
             ctl.traffic.frames[:0] = primer
             result = simulate(scenario, ctl, bar)
-            end = vm.stats()
+            end = settled_stats(vm, start, len(result.trace.values))
         finally:
             bus.shutdown()
         check_lockstep(start, end, len(result.trace.values))
