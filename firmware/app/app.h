@@ -25,6 +25,12 @@
  * their frames had APP_REARM_FRAMES good frames in a row. It starts halted
  * (COMM_HALT_NOT_ARMED). The time base is the STEP time in lock-step and the
  * caller's now_us in real-time mode.
+ *
+ * Every step's STATUS_TRK echoes the alive counter of the ODOM_XY frame whose
+ * position the step used (STATUS_TRK_odom_counter), in both modes: in real
+ * time the plant cannot know which of its frames a tick took, and the echo
+ * tells it, so that it measures the latency from odometry to wheel command
+ * exactly.
  */
 #ifndef MSTC_APP_H
 #define MSTC_APP_H
@@ -100,6 +106,9 @@ typedef struct {
     bool stepped;           /**< a control step has run */
     bool bus_off_known;     /**< bus_off_count holds a reading */
     uint32_t bus_off_count; /**< hal_can_status() bus_off at the last look */
+    /** Alive counter of the ODOM_XY frame odom.x and odom.y came from (0
+     *  before the first), echoed in STATUS_TRK. */
+    uint8_t odom_counter;
 } app_t;
 
 /**
