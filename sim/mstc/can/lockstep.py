@@ -163,11 +163,25 @@ class CanController:
             pending = rejected
 
     def _send_inputs(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
+        self._send_odometry(robot)
+        self._send_reference(ref, v_r, w_r)
+
+    def _send_odometry(self, robot: Pose) -> can.Message:
+        """ODOM_XY and ODOM_THETA; returns the ODOM_XY frame."""
+        xy = self.proto.encode("ODOM_XY", x=robot.x, y=robot.y)
+        self._send(xy)
+        self._send(self.proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)))
+        return xy
+
+    def _send_reference(self, ref: Pose, v_r: float, w_r: float) -> None:
         enc = self.proto.encode
-        self._send(enc("ODOM_XY", x=robot.x, y=robot.y))
-        self._send(enc("ODOM_THETA", theta=wrap_angle(robot.theta)))
         self._send(enc("REF_XY", x=ref.x, y=ref.y))
         self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+
+    def _send_obstacles(self, obstacles: Sequence[Obstacle]) -> None:
+        """One OBSTACLE frame per reported obstacle."""
+        for o in obstacles:
+            self._send(self.proto.encode("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
 
     def _arm(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
         """Arm the firmware before the first step (docs/safety.md): it starts
@@ -212,8 +226,7 @@ class CanController:
         self._steps += 1
         enc = self.proto.encode
         self._send_inputs(robot, ref, v_r, w_r)
-        for o in obstacles:
-            self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
+        self._send_obstacles(obstacles)
         self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
 
         events: list[Event] = []
@@ -228,11 +241,7 @@ class CanController:
                 )
             s = frame.signals
             if frame.name == "EVENT":
-                raw_us = round(s["time"] * 1e6)
-                base = t_us - t_us % TIME_MODULO
-                events.append(
-                    Event(base + raw_us, _KINDS[s["kind"]], int(s["obstacle"]), _SIDES[s["side"]])
-                )
+                events.append(self._decode_event(frame, t_us - t_us % TIME_MODULO))
             elif frame.name == "STATUS":
                 status = frame
             elif frame.name == "STATUS_TRK":
@@ -242,22 +251,30 @@ class CanController:
         if status is None or trk is None:
             raise ControllerError(f"step {step}: WHEEL_CMD came without STATUS and STATUS_TRK")
         left, right = float(s["left"]), float(s["right"])
+        return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
+
+    # ------------------------------------------------------------ telemetry
+
+    def _decode_event(self, frame: Frame, base_us: int) -> Event:
+        """An EVENT frame; its 32-bit time [µs] is added to @p base_us."""
+        s = frame.signals
+        raw_us = round(s["time"] * 1e6)
+        return Event(base_us + raw_us, _KINDS[s["kind"]], int(s["obstacle"]), _SIDES[s["side"]])
+
+    def _decode_status(self, status: Frame, trk: Frame, left: float, right: float) -> Status:
+        """A step's STATUS and STATUS_TRK, with the body velocity of its wheel
+        commands [rad/s]."""
         p = self.params
         st = status.signals
-        return StepResult(
-            left,
-            right,
-            Status(
-                mode=_MODES[st["mode"]],
-                active_obstacle=int(st["obstacle"]),
-                side=_SIDES[st["side"]],
-                faults=Fault(int(st["faults"])),
-                e1=float(trk.signals["e1"]),
-                e2=float(trk.signals["e2"]),
-                e3=float(trk.signals["e3"]),
-                e=float(st["e"]),
-                v=p.wheel_radius * (left + right) / 2,
-                w=p.wheel_radius * (right - left) / p.track_width,
-            ),
-            tuple(events),
+        return Status(
+            mode=_MODES[st["mode"]],
+            active_obstacle=int(st["obstacle"]),
+            side=_SIDES[st["side"]],
+            faults=Fault(int(st["faults"])),
+            e1=float(trk.signals["e1"]),
+            e2=float(trk.signals["e2"]),
+            e3=float(trk.signals["e3"]),
+            e=float(st["e"]),
+            v=p.wheel_radius * (left + right) / 2,
+            w=p.wheel_radius * (right - left) / p.track_width,
         )

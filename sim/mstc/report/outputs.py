@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""What a run leaves on disk: events.json, trace.csv and the figures."""
+"""What a run leaves on disk: events.json, trace.csv, timing.json (real time)
+and the figures."""
 
 import csv
 import json
@@ -81,7 +82,8 @@ def write_outputs(
     result: RunResult, out_dir: Path, bus_log: BusLog | None = None, *, figures: bool = True
 ) -> Path:
     """Write every output of a run into ``out_dir/<scenario name>/``, with
-    bus.log when the run went through CAN.
+    bus.log when the run went through CAN and timing.json when it ran in real
+    time (a lock-step run removes a timing.json left by an earlier one).
 
     :returns: That folder.
     """
@@ -89,6 +91,11 @@ def write_outputs(
     folder.mkdir(parents=True, exist_ok=True)
     write_events(result, folder / "events.json")
     write_trace(result, folder / "trace.csv")
+    timing = folder / "timing.json"
+    if result.timing is not None:
+        timing.write_text(json.dumps(result.timing.to_json(), indent=1) + "\n")
+    else:
+        timing.unlink(missing_ok=True)
     if bus_log is not None:
         frames = [m for m, _ in bus_log.controller.traffic.frames]
         write_candump(folder / "bus.log", frames, bus_log.channel)

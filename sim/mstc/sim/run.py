@@ -10,6 +10,7 @@ from mstc.sim.plant import UnicyclePlant
 from mstc.sim.reference import ReferenceRobot
 from mstc.sim.scenario import Scenario
 from mstc.sim.sensor import Obstacle, RangeSensor
+from mstc.sim.timing import Timing
 
 TRACE_COLUMNS = (
     "t",
@@ -66,6 +67,9 @@ class RunResult:
     """Smallest centre distance to each obstacle over the run [m]."""
     faults: dict[Fault, int]
     """Steps that reported each fault bit (only bits that occurred)."""
+    timing: Timing | None = None
+    """A real-time run's timing (:mod:`mstc.sim.realtime`, timing.json);
+    None in lock-step, where the plant's time is the firmware's."""
 
 
 def world_obstacles(scenario: Scenario) -> tuple[Obstacle, ...]:
