@@ -430,14 +430,15 @@ def test_missed_doubled_and_stale_periods_are_counted(sil_lib: Path, short: Scen
     unused = sum(1 for i in odom if i not in used and i < max(used))
     timing = run.result.timing
     assert timing is not None
-    # By hand: samples go out every 20 ms from 0.18 s (mid-way between the
-    # ticks at 7 + 20n ms), reaching the firmware 1 ms later. A skipped tick
-    # leaves its frame unused (the next tick has a newer one); the extra tick
-    # at 1.212 s finds nothing new (stale); the stall holds the plant from
-    # 1.500 to 1.533 s, so it skips the 1.50 s sample (plant missed), sends
-    # the 1.52 one at 1.533 s and the 1.54 one on time: the ticks at 1.507
-    # and 1.527 s are stale and the 1.533 s frame is passed over.
-    assert (missed, stale, unused) == (2, 3, 3)
+    # By hand: ticks at 7 + 20n ms, their wheel commands at the plant 3 ms
+    # later, samples a quarter period after that (15 + 20n ms, from 0.195 s),
+    # each reaching the firmware 1 ms later. A skipped tick leaves its frame
+    # unused (the next tick has a newer one); the extra tick at 1.212 s finds
+    # nothing new (stale). The stall catches the plant waiting after its
+    # 1.495 s sample and holds it to 1.543 s: the 1.515 s sample is skipped
+    # (plant missed), the 1.535 one goes at 1.543 s; the tick at 1.527 s is
+    # stale and the one at 1.547 s takes the late frame.
+    assert (missed, stale, unused) == (2, 2, 2)
     assert timing.missed == missed
     assert timing.doubled == 1
     assert timing.stale == stale
@@ -548,13 +549,15 @@ def test_a_real_time_run_writes_timing_json_its_figure_and_a_report_line(
     assert doc["rate_hz"] == 50.0 and doc["period_ms"] == 20.0
     for key in ("wheel_cmd_period_ms", "latency_ms"):
         assert set(doc[key]) == {"n", "mean", "p50", "p99", "max", "min"}
-    assert doc["latency_ms"]["p50"] == pytest.approx(10.0, abs=1e-3)  # 7 + 3 ms, by construction
+    # By construction: sampled 3 + 5 ms after a tick, taken by the next, 20 ms
+    # after it, whose wheel command takes 3 ms: 20 - 8 + 3 = 15 ms.
+    assert doc["latency_ms"]["p50"] == pytest.approx(15.0, abs=1e-3)
     assert doc["firmware"]["missed_periods"] == 0 and doc["plant"]["samples"] == 151
     assert len(doc["series"]["latency"]) == doc["latency_ms"]["n"]
     assert (folder / "timing.png").stat().st_size > 10_000
     report = format_report(run.result, folder)
     assert "  timing        WHEEL_CMD every 20.00 ms" in report
-    assert "latency odometry→command 10.00 ms p50" in report
+    assert "latency odometry→command 15.00 ms p50" in report
     # A lock-step run in the same folder leaves no stale timing.json behind.
     write_outputs(simulate(short, SilController(short.params, sil_lib)), tmp_path, figures=False)
     assert not (folder / "timing.json").exists()

@@ -16,6 +16,7 @@ STATUS_TRK_odom_counter. The loop that drives it is
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 
@@ -29,11 +30,26 @@ from mstc.sim.plant import Pose
 from mstc.sim.sensor import Obstacle
 from mstc.sim.timing import FirmwareStep, OdomSent
 
+ODOM_XY_ID = 0x100
+"""The ODOM_XY frame's identifier (mstc.dbc)."""
 STATUS_STEP_MODULO = 8
 """STATUS_step holds the low 3 bits of the step."""
 STAMP_TRUST = 1.0
 """A received frame's time stamp older than this [s] is taken as not on the
 plant's clock."""
+
+
+def _epoch_offset(clock: Callable[[], float], tries: int = 7) -> float:
+    """time.time() - clock(), read so that a descheduling between the two
+    readings (milliseconds, in a loaded VM) cannot bias it: the reading
+    bracketed most tightly by two of the clock's."""
+    best = (math.inf, 0.0)
+    for _ in range(tries):
+        a = clock()
+        wall = time.time()
+        b = clock()
+        best = min(best, (b - a, wall - (a + b) / 2))
+    return best[1]
 
 
 class RealtimeLink(CanController):
@@ -65,8 +81,8 @@ class RealtimeLink(CanController):
         self.now = clock
         self.sleep = sleep
         # bus.log's time stamps: the plant's clock, shifted to the epoch as
-        # candump's are.
-        self._epoch = time.time() - clock()
+        # candump's (and SocketCAN's kernel stamps) are.
+        self._epoch = _epoch_offset(clock)
         self._stamps = stamps if stamps is not None else (lambda ts: ts - self._epoch)
         self.odometry: list[OdomSent] = []
         """Every ODOM_XY frame sent, with the plant clock's time."""
@@ -78,17 +94,24 @@ class RealtimeLink(CanController):
         self.last_t = 0.0
         """When the last frame was sent, or the last frame received arrived
         [s, plant clock]."""
+        self._xy_t = 0.0
         self._pending_events: list[Event] = []
         self._pending_status: Frame | None = None
         self._pending_trk: Frame | None = None
-        super().__init__(bus, params, timeout=timeout, clock=lambda: self._epoch + clock())
+        super().__init__(bus, params, timeout=timeout, clock=lambda: self.stamp(clock()))
+
+    def stamp(self, t: float) -> float:
+        """The time stamp in bus.log of time @p t on the plant's clock."""
+        return self._epoch + t
 
     # ------------------------------------------------------------ sending
 
     def _send(self, msg: can.Message) -> None:
         """Stamp with the plant's clock and send (raises on failure)."""
         self.last_t = self.now()
-        msg.timestamp = self._epoch + self.last_t
+        msg.timestamp = self.stamp(self.last_t)
+        if msg.arbitration_id == ODOM_XY_ID:
+            self._xy_t = self.last_t
         self.bus.send(msg)
         self.traffic.frames.append((msg, True))
 
@@ -121,7 +144,8 @@ class RealtimeLink(CanController):
         if odometry:
             sent: list[can.Message] = []
             if self._post(lambda: sent.append(self._send_odometry(robot))):
-                self.odometry.append(OdomSent(self.last_t, sent[0].data[1] & 0x0F, sample))
+                # Its own time, not that of ODOM_THETA, sent after it.
+                self.odometry.append(OdomSent(self._xy_t, sent[0].data[1] & 0x0F, sample))
         self._post(lambda: self._send_reference(ref, v_r, w_r))
         self._post(lambda: self._send_obstacles(obstacles))
 
@@ -143,7 +167,7 @@ class RealtimeLink(CanController):
         now = self.now()
         arrived = self._stamps(msg.timestamp) if msg.timestamp else now
         self.last_t = arrived if now - STAMP_TRUST <= arrived <= now else now
-        msg.timestamp = self._epoch + self.last_t
+        msg.timestamp = self.stamp(self.last_t)
         self.traffic.frames.append((msg, False))
         try:
             frame = self.proto.decode(msg)

@@ -105,8 +105,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--free-phase",
         action="store_true",
         help="sample on the plant's own schedule; by default the samples are put "
-        f"{DEFAULT_PHASE:g} of a period after the firmware's wheel commands, so that they "
-        "reach it mid-period",
+        f"{DEFAULT_PHASE:g} of a period after the firmware's wheel commands, so that a "
+        "late sample still reaches the next tick",
     )
     timing.add_argument(
         "--stop-odometry-at",

@@ -14,7 +14,11 @@ a test can run the loop on a clock of its own.
 
 from __future__ import annotations
 
+import gc
 import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import replace
 
 import numpy as np
@@ -33,15 +37,16 @@ from mstc.sim.timing import FirmwareStep, OdomSent, analyse
 
 DEFAULT_RATE_HZ = 50.0
 """The control rate: the DBC's cycle time of the inputs, 20 ms."""
-DEFAULT_PHASE = 0.5
-"""Where the plant samples within the firmware's period: half a period after
-a wheel command arrives, so that its frames reach the firmware mid-period,
-as far as can be from the tick they feed and from the one before."""
+DEFAULT_PHASE = 0.25
+"""Where the plant samples within the firmware's period: a quarter of a
+period after a wheel command arrives. The tick before has run by then, and
+the plant can only be late, never early: its frames have three quarters of a
+period to reach the next tick."""
 COMM_LOSS_TAIL = 1.0
 """How long a comm-loss trial runs after the odometry stops [s]."""
 ARM_TIMEOUT = 10.0
 """How long arming may take before the run gives up [s]."""
-BACKLOG = 8
+BACKLOG = 4
 """At most this many queued frames are taken before a due send: a machine
 that handles frames slower than they come must still send (the firmware
 halts without odometry); the rest wait for the next pause."""
@@ -187,6 +192,41 @@ def simulate_realtime(
     :raises ControllerError: the firmware could not be armed.
     """
     period = 1.0 / rate_hz
+    last_k = round(scenario.sim.duration * rate_hz)
+    if stop_odometry_at is not None:
+        last_k = min(last_k, math.ceil((stop_odometry_at + COMM_LOSS_TAIL) * rate_hz - 1e-9))
+    drops_before = dict(link.traffic.firmware_drops)
+    with _no_gc_pauses():
+        return _run(scenario, link, period, phase, stop_odometry_at, last_k, drops_before)
+
+
+@contextmanager
+def _no_gc_pauses() -> Iterator[None]:
+    """Python's cycle collector off while the loop runs. Its full passes
+    over everything the run keeps (every frame, for bus.log) took some 50 ms
+    on the host and over a second under emulation: far more than a period,
+    and the firmware halts when odometry stops for 3 periods. The loop makes
+    no reference cycles, so reference counting frees what it drops."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def _run(
+    scenario: Scenario,
+    link: RealtimeLink,
+    period: float,
+    phase: float | None,
+    stop_odometry_at: float | None,
+    last_k: int,
+    drops_before: dict[str, int],
+) -> RunResult:
+    """The run of :func:`simulate_realtime`, from arming on."""
+    rate_hz = 1.0 / period
     p = scenario.params
     sim = scenario.sim
     plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
@@ -196,11 +236,6 @@ def simulate_realtime(
     obstacles = world_obstacles(scenario)
     sensor = RangeSensor(obstacles, p.d_det)
     v_r, w_r = ref.v, ref.w
-    last_k = round(sim.duration * rate_hz)
-    if stop_odometry_at is not None:
-        last_k = min(last_k, math.ceil((stop_odometry_at + COMM_LOSS_TAIL) * rate_hz - 1e-9))
-    drops_before = dict(link.traffic.firmware_drops)
-
     first = _arm(link, plant.pose, ref.pose, v_r, w_r, period, phase)
     clock = link.now
     t0 = first.t + phase * period if phase is not None else clock()
@@ -220,6 +255,7 @@ def simulate_realtime(
     latest = first
     k = 0
     deadline = t0
+    cpu = time.process_time()
 
     def receive(timeout: float) -> bool:
         """Take a frame; a wheel command acts from its arrival."""
@@ -268,6 +304,7 @@ def simulate_realtime(
         k += 1
         deadline = t0 + k * period
 
+    cpu = time.process_time() - cpu
     end = clock() + DRAIN_PERIODS * period
     while (now := clock()) < end:
         if link.take(end - now) is None:
@@ -288,6 +325,10 @@ def simulate_realtime(
         odometry_stopped_at=stopped_at,
         phase=phase,
     )
+    # The plant's own CPU time per sample: what it asks of the machine.
+    cpu_ms = round(1e3 * cpu / max(len(rows), 1), 3)
+    extra = {"start_stamp": round(link.stamp(t0), 6), "plant_cpu_ms_per_sample": cpu_ms}
+    timing = replace(timing, extra=extra)
     values = np.array(rows, dtype=float).reshape(len(rows), 15)
     distance = np.array(
         [[o.distance(Pose(x, y, 0.0)) for o in obstacles] for x, y in values[:, 1:3]], dtype=float

@@ -207,7 +207,9 @@ class Timing:
     """Where the plant put its samples within the firmware's period (a
     fraction after a WHEEL_CMD arrival); None when not aligned."""
     extra: dict[str, object] = field(default_factory=dict)
-    """Anything else worth keeping (where it ran, the firmware)."""
+    """More of the run, as is: ``start_stamp``, the run's start in bus.log's
+    time stamps [s]; ``plant_cpu_ms_per_sample``, the plant process's CPU
+    time over the run per sample [ms]."""
 
     @property
     def period_s(self) -> float:
