@@ -84,11 +84,19 @@ $(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/
 	tools/vm/with-vcan --timeout 1200 -- $(PY) tools/bench/can_bench.py hil \
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
+# Real time: one mstc hil --realtime run per paper scenario against
+# mstc-fw --realtime, its timing.json figures (tools/bench/realtime_bench.py).
+$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw tools/bench/realtime_bench.py \
+    $(wildcard sim/mstc/sim/*.py sim/mstc/can/*.py) | deps-hil
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan --timeout 1200 -- \
+	  $(PY) tools/bench/realtime_bench.py run --fw build/host/mstc-fw --out $@
 
 .PHONY: bench
-bench: $(BENCH_RESULTS) $(BENCH_CAN) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput: docs/performance.md
+bench: $(BENCH_RESULTS) $(BENCH_CAN) $(BENCH_DIR)/can-realtime.json | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU), ns on the host, CAN throughput, real-time timing: docs/performance.md
 	@$(PY) tools/bench/report.py --doc docs/performance.md $(BENCH_RESULTS)
 	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
+	@$(PY) tools/bench/realtime_bench.py report --doc docs/performance.md \
+	  $(BENCH_DIR)/can-realtime.json
 	@$(MAKE) --no-print-directory replay-bench
 	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt
 	@$(PY) tools/bench/report.py --doc docs/performance.md \

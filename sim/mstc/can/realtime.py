@@ -34,9 +34,9 @@ ODOM_XY_ID = 0x100
 """The ODOM_XY frame's identifier (mstc.dbc)."""
 STATUS_STEP_MODULO = 8
 """STATUS_step holds the low 3 bits of the step."""
-STAMP_TRUST = 1.0
-"""A received frame's time stamp older than this [s] is taken as not on the
-plant's clock."""
+STAMP_TRUST = 10.0
+"""A received frame's time stamp older than this [s], or in the future, is
+taken as not on the plant's clock (an interface that stamps otherwise)."""
 
 
 def _epoch_offset(clock: Callable[[], float], tries: int = 7) -> float:
@@ -95,6 +95,7 @@ class RealtimeLink(CanController):
         """When the last frame was sent, or the last frame received arrived
         [s, plant clock]."""
         self._xy_t = 0.0
+        self._last_arrival = -math.inf
         self._pending_events: list[Event] = []
         self._pending_status: Frame | None = None
         self._pending_trk: Frame | None = None
@@ -166,7 +167,11 @@ class RealtimeLink(CanController):
             return None
         now = self.now()
         arrived = self._stamps(msg.timestamp) if msg.timestamp else now
-        self.last_t = arrived if now - STAMP_TRUST <= arrived <= now else now
+        if not now - STAMP_TRUST <= arrived <= now:
+            arrived = now
+        # Frames arrive in order: never before the one taken before.
+        self.last_t = max(arrived, self._last_arrival)
+        self._last_arrival = self.last_t
         msg.timestamp = self.stamp(self.last_t)
         self.traffic.frames.append((msg, False))
         try:
