@@ -19,6 +19,7 @@ import os
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import can
@@ -45,30 +46,49 @@ STOP_AT = 3.0
 """When the comm-loss trial stops the odometry [s]."""
 
 # Runs inside the VM: the three runs in one Python, so that its (slow,
-# emulated) imports are paid once.
+# emulated) imports are paid once; each run's exit status goes to runs.json,
+# so that one failing does not hide the others.
 GUEST = """
-import sys, time
+import json, sys, time
 from mstc.cli import main
 fw, out, stop, *scenarios = sys.argv[1:]
 common = ["hil", "--channel", "vcan0", "--fw", fw, "--no-figures"]
-for args, files in (
-    (["--out", out], scenarios),
-    (["--realtime", "--out", out + "/realtime"], scenarios),
-    (["--realtime", "--stop-odometry-at", stop, "--out", out + "/comm-loss"], scenarios[:1]),
+status = {}
+for what, args, files in (
+    ("lockstep", ["--out", out], scenarios),
+    ("realtime", ["--realtime", "--out", out + "/realtime"], scenarios),
+    ("comm-loss", ["--realtime", "--stop-odometry-at", stop, "--out", out + "/comm-loss"],
+     scenarios[:1]),
 ):
     t = time.monotonic()
-    rc = main(common + args + files)
-    print(f"{' '.join(args)}: {time.monotonic() - t:.1f} s", flush=True)
-    if rc:
-        sys.exit(rc)
+    status[what] = main(common + args + files)
+    print(f"{what}: exit {status[what]}, {time.monotonic() - t:.1f} s", flush=True)
+with open(out + "/runs.json", "w") as f:
+    json.dump(status, f)
 """
 
 
+@dataclass(frozen=True)
+class HilRuns:
+    """The runs in the VM: where they wrote, their exit statuses, the log."""
+
+    out: Path
+    status: dict[str, int]
+    log: str
+
+    def folder(self, what: str) -> Path:
+        """The outputs of run @p what, or fail with its log if it failed."""
+        if self.status.get(what) != 0:
+            pytest.fail(f"the {what} run failed in the VM:\n{self.log}", pytrace=False)
+        return self.out if what == "lockstep" else self.out / what
+
+
 @pytest.fixture(scope="module")
-def hil_out() -> Path:
+def hil_runs() -> HilRuns:
     fw = os.environ.get("MSTC_FW")
     if not fw or not Path(fw).is_file():
         pytest.fail(f"MSTC_FW={fw!r}: `make test-python` builds build/host/mstc-fw", pytrace=False)
+    (OUT / "runs.json").unlink(missing_ok=True)
     cmd = [
         str(ROOT / "tools" / "vm" / "with-vcan"),
         "--timeout",
@@ -87,12 +107,17 @@ def hil_out() -> Path:
     env = dict(os.environ, MPLCONFIGDIR=str(ROOT / "build" / "mplconfig"))
     start = time.monotonic()
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=2400)
-    if done.returncode != 0:
-        pytest.fail(
-            f"HIL run failed ({done.returncode}):\n{done.stdout}\n{done.stderr}", pytrace=False
-        )
+    log = f"{done.stdout}\n{done.stderr}"
+    if done.returncode != 0 or not (OUT / "runs.json").is_file():
+        pytest.fail(f"HIL in the VM failed ({done.returncode}):\n{log}", pytrace=False)
     print(f"HIL in the VM: {time.monotonic() - start:.0f} s in all\n{done.stdout}")
-    return OUT
+    return HilRuns(OUT, json.loads((OUT / "runs.json").read_text()), log)
+
+
+@pytest.fixture(scope="module")
+def hil_out(hil_runs: HilRuns) -> Path:
+    """The lock-step outputs."""
+    return hil_runs.folder("lockstep")
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -184,13 +209,16 @@ def how_it_ran(folder: Path) -> str:
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_realtime_hil_keeps_the_lock_step_events_and_distances(hil_out: Path, name: str) -> None:
+def test_realtime_hil_keeps_the_lock_step_events_and_distances(
+    hil_runs: HilRuns, name: str
+) -> None:
     scenario = load_scenario(SCENARIOS / f"{name}.toml")
-    lock = json.loads((hil_out / name / "events.json").read_text())["events"]
-    real = json.loads((hil_out / "realtime" / name / "events.json").read_text())
+    lock = json.loads((hil_runs.folder("lockstep") / name / "events.json").read_text())["events"]
+    folder = hil_runs.folder("realtime") / name
+    real = json.loads((folder / "events.json").read_text())
     key = [(e["event"], e["obstacle"], e.get("side")) for e in lock]
     got = [(e["event"], e["obstacle"], e.get("side")) for e in real["events"]]
-    assert got == key, how_it_ran(hil_out / "realtime" / name)
+    assert got == key, how_it_ran(folder)
     shifts = [
         round((r["t"] - e["t"]) / PERIOD, 2) for r, e in zip(real["events"], lock, strict=True)
     ]
@@ -203,9 +231,9 @@ def test_realtime_hil_keeps_the_lock_step_events_and_distances(hil_out: Path, na
 
 @pytest.mark.parametrize("name", NAMES)
 def test_realtime_hil_timing_is_plausible_and_agrees_with_the_bus_log(
-    hil_out: Path, name: str
+    hil_runs: HilRuns, name: str
 ) -> None:
-    folder = hil_out / "realtime" / name
+    folder = hil_runs.folder("realtime") / name
     timing = json.loads((folder / "timing.json").read_text())
     period, latency = timing["wheel_cmd_period_ms"], timing["latency_ms"]
     shown = ("wheel_cmd_period_ms", "latency_ms", "firmware", "plant")
@@ -227,8 +255,8 @@ def test_realtime_hil_timing_is_plausible_and_agrees_with_the_bus_log(
     assert not any(n == "STEP" for _, n, _ in frames)
 
 
-def test_realtime_comm_loss_halts_within_three_periods_and_ramps_down(hil_out: Path) -> None:
-    folder = hil_out / "comm-loss" / "paper-line"
+def test_realtime_comm_loss_halts_within_three_periods_and_ramps_down(hil_runs: HilRuns) -> None:
+    folder = hil_runs.folder("comm-loss") / "paper-line"
     timing = json.loads((folder / "timing.json").read_text())
     loss = timing["comm_loss"]
     print(f"comm loss: {json.dumps({k: v for k, v in loss.items() if k != 'ramp'})}")
