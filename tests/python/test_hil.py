@@ -167,7 +167,7 @@ def latencies_from_log(
 ) -> list[float]:
     """Latency [ms] of each ODOM_XY frame sent from @p start on: to the first
     WHEEL_CMD whose step's STATUS_TRK echoes its counter (the latest frame
-    sent with that counter)."""
+    sent with that counter before that WHEEL_CMD arrived)."""
     sent: list[tuple[float, int]] = []  # (stamp, counter) of ODOM_XY
     used: set[int] = set()
     echo = None
@@ -178,7 +178,7 @@ def latencies_from_log(
         elif name == "STATUS_TRK":
             echo = int(s["STATUS_TRK_odom_counter"])
         elif name == "WHEEL_CMD" and echo is not None:
-            i = max((i for i, (_, c) in enumerate(sent) if c == echo), default=None)
+            i = max((i for i, (ts, c) in enumerate(sent) if c == echo and ts <= t), default=None)
             if i is not None and i not in used:
                 used.add(i)
                 if sent[i][0] >= start:

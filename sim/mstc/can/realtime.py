@@ -208,18 +208,23 @@ class RealtimeLink(CanController):
             right=right,
             status=self._decode_status(status, trk, left, right) if same and trk else None,
             halt=int(status.signals["halt"]) if same and status else None,
-            odom=self._echoed(int(trk.signals["odom_counter"])) if trk is not None else None,
+            odom=self._echoed(int(trk.signals["odom_counter"]), self.last_t) if trk else None,
             events=tuple(self._pending_events),
         )
         self._pending_events, self._pending_status, self._pending_trk = [], None, None
         return result
 
-    def _echoed(self, counter: int) -> int | None:
-        """The ODOM_XY frame a step used: the latest sent with the counter it
-        echoes. Each counter value comes back every 16 frames, so this holds
-        while the latency stays under 16 periods."""
-        first = max(len(self.odometry) - COUNTER_MODULO, 0)
-        for i in range(len(self.odometry) - 1, first - 1, -1):
-            if self.odometry[i].counter == counter:
-                return i
+    def _echoed(self, counter: int, arrived: float) -> int | None:
+        """The ODOM_XY frame a step used: the latest sent before its answer
+        arrived (not before the plant got round to it: a busy plant may have
+        sent 16 more since) with the counter it echoes. Each counter value
+        comes back every 16 frames, so this holds while the latency stays
+        under 16 periods."""
+        odometry = self.odometry
+        i = len(odometry) - 1
+        while i >= 0 and odometry[i].t > arrived:
+            i -= 1
+        for j in range(i, max(i - COUNTER_MODULO, -1), -1):
+            if odometry[j].counter == counter:
+                return j
         return None
