@@ -28,11 +28,9 @@ from mstc.can.protocol import Frame
 from mstc.can.realtime import RealtimeLink
 from mstc.controller import Event, Fault, Mode
 from mstc.errors import ControllerError
-from mstc.sim.plant import Pose, UnicyclePlant, integrate
-from mstc.sim.reference import ReferenceRobot
-from mstc.sim.run import RunResult, Trace, world_obstacles
+from mstc.sim.plant import Pose, integrate
+from mstc.sim.run import RunResult, Trace, make_world
 from mstc.sim.scenario import Scenario
-from mstc.sim.sensor import RangeSensor
 from mstc.sim.timing import FirmwareStep, OdomSent, analyse
 
 DEFAULT_RATE_HZ = 50.0
@@ -227,14 +225,9 @@ def _run(
 ) -> RunResult:
     """The run of :func:`simulate_realtime`, from arming on."""
     rate_hz = 1.0 / period
-    p = scenario.params
     sim = scenario.sim
-    plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
-    ref = ReferenceRobot(
-        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
-    )
-    obstacles = world_obstacles(scenario)
-    sensor = RangeSensor(obstacles, p.d_det)
+    world = make_world(scenario)
+    plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
     v_r, w_r = ref.v, ref.w
     first = _arm(link, plant.pose, ref.pose, v_r, w_r, period, phase)
     clock = link.now

@@ -77,6 +77,29 @@ def world_obstacles(scenario: Scenario) -> tuple[Obstacle, ...]:
     return tuple(Obstacle(i, o.x, o.y, o.radius) for i, o in enumerate(scenario.obstacles, start=1))
 
 
+@dataclass(frozen=True)
+class World:
+    """What a run moves and senses, whatever its clock (lock-step here, the
+    wall clock in :mod:`mstc.sim.realtime`)."""
+
+    plant: UnicyclePlant
+    reference: ReferenceRobot
+    obstacles: tuple[Obstacle, ...]
+    sensor: RangeSensor
+
+
+def make_world(scenario: Scenario) -> World:
+    """The robot, the reference, the obstacles and the sensor at t = 0."""
+    p = scenario.params
+    sim = scenario.sim
+    plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
+    ref = ReferenceRobot(
+        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
+    )
+    obstacles = world_obstacles(scenario)
+    return World(plant, ref, obstacles, RangeSensor(obstacles, p.d_det))
+
+
 def simulate(scenario: Scenario, controller: Controller) -> RunResult:
     """Run a scenario in closed loop.
 
@@ -92,14 +115,9 @@ def simulate(scenario: Scenario, controller: Controller) -> RunResult:
 
     :returns: The trace, the events and the minimum distance to each obstacle.
     """
-    p = scenario.params
     sim = scenario.sim
-    plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
-    ref = ReferenceRobot(
-        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
-    )
-    obstacles = world_obstacles(scenario)
-    sensor = RangeSensor(obstacles, p.d_det)
+    world = make_world(scenario)
+    plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
     v_r, w_r = ref.v, ref.w
 
     rows: list[tuple[float, ...]] = []
