@@ -139,11 +139,15 @@ sweep: deps-sim $(B)/libmstc_sil.so  ## run a scenario suite for several strateg
 # ----------------------------------------------------------------------- hil
 # The firmware as its own process (mstc-fw) on vcan0, the plant on python-can's
 # socketcan interface; inside a VM where the host kernel has no CAN.
+# REALTIME=1: mstc-fw on its own timer, the plant on the wall clock
+# (docs/hil.md, "Real time"), into build/hil-realtime/ with timing.json.
 HIL_TIMEOUT ?= 1800
+HIL_OUT := $(if $(REALTIME),build/hil-realtime,build/hil)
 .PHONY: hil
-hil: deps-hil build/host/mstc-fw $(KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/)
-	tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- $(MSTC) hil --key-file $(KEY_FILE) \
-	  --channel vcan0 --fw build/host/mstc-fw --no-figures --out build/hil $(SCENARIO)
+hil: deps-hil build/host/mstc-fw $(KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/; REALTIME=1: in real time)
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- \
+	  $(MSTC) hil $(if $(REALTIME),--realtime) --key-file $(KEY_FILE) --channel vcan0 \
+	  --fw build/host/mstc-fw --no-figures --out $(HIL_OUT) $(SCENARIO)
 
 # ---------------------------------------------------------------------- test
 # Unity (third-party): its own flags, not the project's warning set.

@@ -85,6 +85,12 @@ $(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/
 	tools/vm/with-vcan --timeout 1200 -- $(PY) tools/bench/can_bench.py hil \
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
+# Real time: one mstc hil --realtime run per paper scenario against
+# mstc-fw --realtime, its timing.json figures (tools/bench/realtime_bench.py).
+$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw tools/bench/realtime_bench.py \
+    $(wildcard sim/mstc/sim/*.py sim/mstc/can/*.py) | deps-hil
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan --timeout 1200 -- \
+	  $(PY) tools/bench/realtime_bench.py run --fw build/host/mstc-fw --out $@
 
 # Sweeps: scene-steps per second in memory, 1,000 paper-like scenes on every
 # core, the same on a local Dask cluster (tools/bench/sweep_bench.py).
@@ -92,10 +98,12 @@ $(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so tools/bench/sweep_bench.py | .venv/
 	$(PY) tools/bench/sweep_bench.py run --lib $< --out $@
 
 .PHONY: bench
-bench: $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) $(BENCH_DIR)/sweep.json | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN and sweep throughput: docs/performance.md
+bench: $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) $(BENCH_DIR)/sweep.json $(BENCH_DIR)/can-realtime.json | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN, sweep and real-time figures: docs/performance.md
 	@$(PY) tools/bench/report.py --doc docs/performance.md --pil build/pil $(BENCH_RESULTS)
 	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
 	@$(PY) tools/bench/sweep_bench.py report --doc docs/performance.md $(BENCH_DIR)/sweep.json
+	@$(PY) tools/bench/realtime_bench.py report --doc docs/performance.md \
+	  $(BENCH_DIR)/can-realtime.json
 	@$(MAKE) --no-print-directory replay-bench
 	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt
 	@$(PY) tools/bench/report.py --doc docs/performance.md \

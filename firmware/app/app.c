@@ -238,7 +238,7 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
      * telemetry is out. */
     hal_can_frame_t trk;
     hal_can_frame_t cmd;
-    (void)comm_encode_status_trk(&a->comm, &out.status.err, &trk);
+    (void)comm_encode_status_trk(&a->comm, &out.status.err, a->odom_counter, &trk);
     (void)comm_encode_wheel_cmd(&a->comm, step, &out.wheels, &cmd);
     (void)comm_encode_status(&a->comm, &out.status, step, a->frame_dropped, a->halt, &f);
     send(&f);
@@ -415,6 +415,9 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
     case COMM_ID_ODOM_XY:
         a->odom.x = m.u.xy.x;
         a->odom.y = m.u.xy.y;
+        /* The frame was just accepted, so its receiver's counter is this
+         * frame's (comm.c follows every frame with a good CRC). */
+        a->odom_counter = comm_rx(&a->comm, COMM_ID_ODOM_XY)->counter;
         break;
     case COMM_ID_ODOM_THETA: a->odom.theta = m.u.theta; break;
     case COMM_ID_REF_XY:

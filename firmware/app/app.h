@@ -47,6 +47,12 @@
  * Odometry plausibility (odo.h): while running, odometry that disagrees with
  * the motion commanded (a replayed recording, a stuck sensor) halts with
  * COMM_HALT_ODOMETRY_IMPLAUSIBLE.
+ *
+ * Every step's STATUS_TRK echoes the alive counter of the ODOM_XY frame whose
+ * position the step used (STATUS_TRK_odom_counter), in both modes: in real
+ * time the plant cannot know which of its frames a tick took, and the echo
+ * tells it, so that it measures the latency from odometry to wheel command
+ * exactly.
  */
 #ifndef MSTC_APP_H
 #define MSTC_APP_H
@@ -143,6 +149,9 @@ typedef struct {
     auth_t auth;            /**< key, freshness and refusals of authenticated commands */
     app_pending_t pending;  /**< PARAM_SET waiting for its PARAM_AUTH */
     odo_t odo;              /**< odometry plausibility */
+    /** Alive counter of the ODOM_XY frame odom.x and odom.y came from (0
+     *  before the first), echoed in STATUS_TRK. */
+    uint8_t odom_counter;
 } app_t;
 
 /**

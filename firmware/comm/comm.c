@@ -602,9 +602,11 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
     return 0;
 }
 
-int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f)
+int comm_encode_status_trk(comm_t *c, const trk_err_t *err, uint8_t odom_counter,
+                           hal_can_frame_t *f)
 {
     const struct mstc_dbc_status_trk_t s = {
+        .status_trk_odom_counter = (uint8_t)(odom_counter & COUNTER_MASK),
         .status_trk_e1 = (int16_t)raw_from_num(c, err->e1, &s_err),
         .status_trk_e2 = (int16_t)raw_from_num(c, err->e2, &s_err),
         .status_trk_e3 = (int16_t)raw_from_num(c, err->e3, &s_angle13),

@@ -320,8 +320,16 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  */
 int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool frame_faults,
                        uint8_t halt, hal_can_frame_t *f);
-/** @brief STATUS_TRK: e1, e2, e3 (odom_counter 0). */
-int comm_encode_status_trk(comm_t *c, const trk_err_t *err, hal_can_frame_t *f);
+/**
+ * @brief STATUS_TRK: e1, e2, e3 and the odometry echo.
+ * @param odom_counter alive counter of the ODOM_XY frame whose position the
+ *        step used (its low 4 bits): a real-time plant matches it with the
+ *        frames it sent to measure the latency from odometry to wheel
+ *        command exactly, whatever the phase between its clock and the
+ *        firmware's.
+ */
+int comm_encode_status_trk(comm_t *c, const trk_err_t *err, uint8_t odom_counter,
+                           hal_can_frame_t *f);
 /** @brief STATUS_COUNTERS from c->drops. */
 int comm_encode_counters(comm_t *c, hal_can_frame_t *f);
 /** @brief EVENT: kind (saturated at the DBC's largest kind), side, obstacle

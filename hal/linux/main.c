@@ -20,6 +20,34 @@ static void on_signal(int sig)
     stop = 1;
 }
 
+/* Real-time mode, as a board's main loop runs (hal/stm32/main.c): frames are
+ * handled as they arrive; when a control period has elapsed, every frame
+ * already queued goes in first, then one control step runs, stamped with the
+ * end of that period on the nominal grid (k * period since start), so steps
+ * stay evenly spaced whatever the scheduling delay. Periods missed while the
+ * process did not run (an overloaded host, a VM) are skipped and counted, not
+ * made up in a burst: a burst of steps on the same inputs would time them out
+ * and halt the robot for nothing. */
+static uint64_t run_realtime(uint64_t period_us)
+{
+    uint64_t overruns = 0;
+    uint64_t next = hal_time_now_us() + period_us;
+    while (!stop) {
+        const uint64_t now = hal_time_now_us();
+        if (now < next) {
+            (void)app_poll(&app, (uint32_t)(next - now));
+            continue;
+        }
+        const uint64_t late = (now - next) / period_us; /* whole periods missed */
+        overruns += late;
+        const uint64_t t = next + late * period_us;
+        next = t + period_us;
+        (void)app_poll(&app, 0u);
+        app_control_tick(&app, t);
+    }
+    return overruns;
+}
+
 static void usage(FILE *out)
 {
     fprintf(out, "usage: mstc-fw --can IFACE [--key-file PATH] [--realtime] [--period-ms MS]\n"
@@ -29,9 +57,10 @@ static void usage(FILE *out)
                  "\n"
                  "  --can IFACE     SocketCAN interface to use (required)\n"
                  "  --realtime      step on this process's own timer every --period-ms,\n"
-                 "                  with the latest inputs, as on a board; without it the\n"
-                 "                  firmware runs lock-step: one control step per STEP\n"
-                 "                  frame, stamped with the frame's time\n"
+                 "                  with the latest inputs, as on a board (periods the\n"
+                 "                  process could not keep are skipped and counted);\n"
+                 "                  without it the firmware runs lock-step: one control\n"
+                 "                  step per STEP frame, stamped with the frame's time\n"
                  "  --period-ms MS  control period in real-time mode, 1..1000 (default 20)\n"
                  "  --key-file PATH the device key of authenticated commands: 32 hex\n"
                  "                  digits, # comments (default: $MSTC_KEY as hex digits,\n"
@@ -163,22 +192,20 @@ int main(int argc, char **argv)
         memset(key, 0, sizeof key);
     }
     /* One line: tools wait for it to know the firmware is on the bus. */
-    fprintf(stderr, "mstc-fw: %s mode on %s (%s), %s%s\n", realtime ? "real-time" : "lock-step",
-            iface, NUM_MODE_NAME, key_rc == 0 ? "key from " : "no key: every PARAM_SET is refused",
+    char period[32] = "";
+    if (realtime) {
+        (void)snprintf(period, sizeof period, ", period %ld ms", period_ms);
+    }
+    fprintf(stderr, "mstc-fw: %s mode on %s (%s)%s, %s%s\n", realtime ? "real-time" : "lock-step",
+            iface, NUM_MODE_NAME, period,
+            key_rc == 0 ? "key from " : "no key: every PARAM_SET is refused",
             key_rc == 0 ? key_source : "");
 
-    const uint64_t period_us = (uint64_t)period_ms * 1000u;
-    uint64_t next = hal_time_now_us() + period_us;
-    while (!stop) {
-        if (realtime) {
-            const uint64_t now = hal_time_now_us();
-            const uint32_t wait = now < next ? (uint32_t)(next - now) : 0u;
-            app_poll(&app, wait);
-            if (hal_time_now_us() >= next) {
-                app_control_tick(&app, next);
-                next += period_us;
-            }
-        } else {
+    uint64_t overruns = 0;
+    if (realtime) {
+        overruns = run_realtime((uint64_t)period_ms * 1000u);
+    } else {
+        while (!stop) {
             app_poll(&app, 100000u); /* wake up now and then to notice signals */
         }
     }
@@ -187,5 +214,9 @@ int main(int argc, char **argv)
     fprintf(stderr,
             "mstc-fw: %u steps; dropped frames: crc %u, sequence %u, length %u, unknown id %u\n",
             (unsigned)app.steps, d->crc, d->seq, d->len, d->unknown);
+    if (realtime) {
+        fprintf(stderr, "mstc-fw: %llu control periods missed (skipped)\n",
+                (unsigned long long)overruns);
+    }
     return 0;
 }

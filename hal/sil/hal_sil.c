@@ -115,7 +115,8 @@ int hal_can_status(hal_can_status_t *st)
     return -ENOTSUP; /* no controller: nothing to count */
 }
 
-/* The SIL runs lock-step only: the firmware's time comes from STEP frames. */
+/* The SIL has no clock: the firmware's time comes from STEP frames, or from
+ * the caller of mstc_sil_fw_tick() in real-time mode. */
 uint64_t hal_time_now_us(void) { return 0; }
 void hal_time_sleep_until_us(uint64_t t_us) { (void)t_us; }
 

@@ -197,6 +197,8 @@ int mstc_sil_fw_recv(mstc_sil_frame_t *f)
     return rc;
 }
 
+void mstc_sil_fw_tick(uint64_t now_us) { app_control_tick(&app, now_us); }
+
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 {
     if (mem == NULL || in == NULL || out == NULL || in->n_obstacles > MSTC_SIL_MAX_OBSTACLES ||

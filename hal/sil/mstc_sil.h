@@ -7,7 +7,8 @@
  * Two entries into the same firmware:
  * - the whole application behind CAN frames (mstc_sil_fw_*): the frames go
  *   through the SIL HAL's queues to the same app code that runs in mstc-fw and
- *   on boards; this is what the python-can interface "mstc-sil" wraps;
+ *   on boards; this is what the python-can interface "mstc-sil" wraps, in
+ *   lock-step; mstc_sil_fw_tick() is the real-time mode's timer tick;
  * - the control step alone, in memory (mstc_sil_init/step), the reference
  *   the frame path is compared against.
  *
@@ -146,6 +147,14 @@ int mstc_sil_fw_send(const mstc_sil_frame_t *f);
  * @retval 0 taken. @retval -EAGAIN none waiting.
  */
 int mstc_sil_fw_recv(mstc_sil_frame_t *f);
+
+/**
+ * @brief Real-time mode: one control step of the library's firmware at
+ *        @p now_us on the latest inputs (app_control_tick), as a board's
+ *        timer runs it; its frames wait in mstc_sil_fw_recv(). The caller is
+ *        the timer, so a test can drive the firmware from a clock of its own.
+ */
+void mstc_sil_fw_tick(uint64_t now_us);
 
 /**
  * @brief Where one field of a struct of this header lies, so that a binding

@@ -311,7 +311,7 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
     }
     case COMM_ID_STATUS_TRK: {
         const trk_err_t e = { num(in[0]), num(in[1]), num(in[2]) };
-        rc = comm_encode_status_trk(&comm, &e, &f);
+        rc = comm_encode_status_trk(&comm, &e, (uint8_t)in[3], &f);
         break;
     }
     case COMM_ID_STATUS_COUNTERS:

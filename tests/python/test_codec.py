@@ -293,8 +293,9 @@ def _wheel_cmd(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 def _status_trk(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     m = DB.get_message_by_name("STATUS_TRK")
     e = [_random_phys(rng, m.get_signal_by_name(f"STATUS_TRK_e{i}")) for i in (1, 2, 3)]
-    # odom_counter is 0 until the firmware fills it (comm_encode_status_trk).
-    return e, {"odom_counter": 0, "e1": e[0], "e2": e[1], "e3": e[2]}
+    # The echoed ODOM_XY counter: its low 4 bits go on the wire.
+    counter = rng.randint(0, 255)
+    return [*e, counter], {"odom_counter": counter & 0xF, "e1": e[0], "e2": e[1], "e3": e[2]}
 
 
 def _counters(rng: random.Random) -> tuple[list[float], dict[str, float]]:

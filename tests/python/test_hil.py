@@ -1,62 +1,123 @@
 # SPDX-License-Identifier: MIT
-"""HIL over vcan (issue: CAN between plant and firmware): mstc-fw as its own
-process on vcan0 and the plant on python-can's socketcan interface, inside the
-vcan VM where the host kernel has no CAN (tools/vm/with-vcan). Never skipped:
-without a vcan the test fails and says why.
+"""HIL over vcan (issue: CAN between plant and firmware; issue 15: real
+time): mstc-fw as its own process on vcan0 and the plant on python-can's
+socketcan interface, inside the vcan VM where the host kernel has no CAN
+(tools/vm/with-vcan), one boot for every run. Never skipped: without a vcan
+the test fails and says why.
 
-Expected values: the paper's events (via the scenario files' [[expected]]
-times, which test_paper.py checks against the paper's) and the in-memory loop.
+Lock-step: the paper's events (via the scenario files' [[expected]] times,
+which test_paper.py checks against the paper's) and the in-memory loop,
+exactly. Real time (mstc-fw --realtime, mstc hil --realtime): the events of
+the lock-step run within ±3 control periods (the VM is emulated and shared:
+its timing is noisy), no obstacle closer than D_s, timing.json agreeing with
+a computation from bus.log written here; and the comm-loss trial, checked
+from bus.log against docs/safety.md.
 """
 
 import json
 import os
 import subprocess
 import sys
+import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import can
+import cantools
+import numpy as np
 import pytest
 
 from mstc.firmware import SilController
 from mstc.report.outputs import event_record
 from mstc.sim.run import simulate
 from mstc.sim.scenario import load_scenario
+from test_realtime import check_ramp
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
 DBC = ROOT / "firmware" / "comm" / "mstc.dbc"
 NAMES = ("paper-line", "paper-circle")
+PERIOD = 0.02
+OUT = ROOT / "build" / "test-hil"
+"""Lock-step outputs; real time in OUT/realtime, the comm-loss trial in
+OUT/comm-loss. The VM shares the working directory read-write, so they go
+there."""
+STOP_AT = 3.0
+"""When the comm-loss trial stops the odometry [s]."""
+
+# Runs inside the VM: the three runs in one Python, so that its (slow,
+# emulated) imports are paid once; each run's exit status goes to runs.json,
+# so that one failing does not hide the others.
+GUEST = """
+import json, sys, time
+from mstc.cli import main
+fw, out, stop, *scenarios = sys.argv[1:]
+common = ["hil", "--channel", "vcan0", "--fw", fw, "--no-figures"]
+status = {}
+for what, args, files in (
+    ("lockstep", ["--out", out], scenarios),
+    ("realtime", ["--realtime", "--out", out + "/realtime"], scenarios),
+    ("comm-loss", ["--realtime", "--stop-odometry-at", stop, "--out", out + "/comm-loss"],
+     scenarios[:1]),
+):
+    t = time.monotonic()
+    status[what] = main(common + args + files)
+    print(f"{what}: exit {status[what]}, {time.monotonic() - t:.1f} s", flush=True)
+with open(out + "/runs.json", "w") as f:
+    json.dump(status, f)
+"""
+
+
+@dataclass(frozen=True)
+class HilRuns:
+    """The runs in the VM: where they wrote, their exit statuses, the log."""
+
+    out: Path
+    status: dict[str, int]
+    log: str
+
+    def folder(self, what: str) -> Path:
+        """The outputs of run @p what, or fail with its log if it failed."""
+        if self.status.get(what) != 0:
+            pytest.fail(f"the {what} run failed in the VM:\n{self.log}", pytrace=False)
+        return self.out if what == "lockstep" else self.out / what
 
 
 @pytest.fixture(scope="module")
-def hil_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def hil_runs() -> HilRuns:
     fw = os.environ.get("MSTC_FW")
     if not fw or not Path(fw).is_file():
         pytest.fail(f"MSTC_FW={fw!r}: `make test-python` builds build/host/mstc-fw", pytrace=False)
-    # The VM shares the working directory read-write, so the output goes there.
-    out = ROOT / "build" / "test-hil"
+    (OUT / "runs.json").unlink(missing_ok=True)
     cmd = [
         str(ROOT / "tools" / "vm" / "with-vcan"),
         "--timeout",
-        "900",
+        "1200",
         "--",
-        str(Path(sys.executable).parent / "mstc"),
-        "hil",
-        "--channel",
-        "vcan0",
-        "--fw",
+        sys.executable,
+        "-c",
+        GUEST,
         fw,
-        "--no-figures",
-        "--out",
-        str(out),
+        str(OUT),
+        str(STOP_AT),
         *(str(SCENARIOS / f"{n}.toml") for n in NAMES),
     ]
-    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=1500)
-    if done.returncode != 0:
-        pytest.fail(
-            f"HIL run failed ({done.returncode}):\n{done.stdout}\n{done.stderr}", pytrace=False
-        )
-    return out
+    # matplotlib's font cache, kept between boots (it takes minutes to build
+    # under emulation, and the guest's home is not writable).
+    env = dict(os.environ, MPLCONFIGDIR=str(ROOT / "build" / "mplconfig"))
+    start = time.monotonic()
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=2400)
+    log = f"{done.stdout}\n{done.stderr}"
+    if done.returncode != 0 or not (OUT / "runs.json").is_file():
+        pytest.fail(f"HIL in the VM failed ({done.returncode}):\n{log}", pytrace=False)
+    print(f"HIL in the VM: {time.monotonic() - start:.0f} s in all\n{done.stdout}")
+    return HilRuns(OUT, json.loads((OUT / "runs.json").read_text()), log)
+
+
+@pytest.fixture(scope="module")
+def hil_out(hil_runs: HilRuns) -> Path:
+    """The lock-step outputs."""
+    return hil_runs.folder("lockstep")
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -84,3 +145,161 @@ def test_hil_bus_log_decodes_with_cantools(hil_out: Path, name: str) -> None:
     assert len(out) == len(lines)
     assert all("::" in line and "Unknown" not in line for line in out)
     assert len(list(can.LogReader(log))) == len(lines)
+
+
+# ------------------------------------------------------------------ real time
+
+DB = cantools.database.load_file(DBC)
+
+
+def bus_log(path: Path) -> list[tuple[float, str, dict[str, float]]]:
+    """(time stamp, message name, signals) of every frame of a bus.log, read
+    by python-can and decoded by cantools."""
+    out = []
+    for msg in can.LogReader(path):
+        m = DB.get_message_by_frame_id(msg.arbitration_id)
+        out.append((msg.timestamp, m.name, m.decode(bytes(msg.data), decode_choices=False)))
+    return out
+
+
+def latencies_from_log(
+    frames: list[tuple[float, str, dict[str, float]]], start: float
+) -> list[float]:
+    """Latency [ms] of each ODOM_XY frame sent from @p start on: to the first
+    WHEEL_CMD whose step's STATUS_TRK echoes its counter (the latest frame
+    sent with that counter before that WHEEL_CMD arrived)."""
+    sent: list[tuple[float, int]] = []  # (stamp, counter) of ODOM_XY
+    used: set[int] = set()
+    echo = None
+    out = []
+    for t, name, s in frames:
+        if name == "ODOM_XY":
+            sent.append((t, int(s["ODOM_XY_Counter"])))
+        elif name == "STATUS_TRK":
+            echo = int(s["STATUS_TRK_odom_counter"])
+        elif name == "WHEEL_CMD" and echo is not None:
+            i = max((i for i, (ts, c) in enumerate(sent) if c == echo and ts <= t), default=None)
+            if i is not None and i not in used:
+                used.add(i)
+                if sent[i][0] >= start:
+                    out.append((t - sent[i][0]) * 1e3)
+            echo = None
+    return out
+
+
+def how_it_ran(folder: Path) -> str:
+    """What a failed real-time run's timing says: whether the plant kept up
+    (its CPU per sample against the 20 ms period, samples skipped, steps that
+    found no new odometry) and when the firmware first halted, and why."""
+    timing = json.loads((folder / "timing.json").read_text())
+    start = timing["start_stamp"]
+    halt = next(
+        (
+            (round(t - start, 3), int(s["STATUS_halt"]))
+            for t, n, s in bus_log(folder / "bus.log")
+            if n == "STATUS" and t >= start and s["STATUS_halt"] != 0
+        ),
+        None,
+    )
+    return (
+        f"plant CPU {timing['plant_cpu_ms_per_sample']} ms per 20 ms sample, "
+        f"plant {timing['plant']}, firmware {timing['firmware']}, "
+        f"period {timing['wheel_cmd_period_ms']}; first halt (t [s], reason): {halt}"
+    )
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_realtime_hil_keeps_the_lock_step_events_and_distances(
+    hil_runs: HilRuns, name: str
+) -> None:
+    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    lock = json.loads((hil_runs.folder("lockstep") / name / "events.json").read_text())["events"]
+    folder = hil_runs.folder("realtime") / name
+    real = json.loads((folder / "events.json").read_text())
+    key = [(e["event"], e["obstacle"], e.get("side")) for e in lock]
+    got = [(e["event"], e["obstacle"], e.get("side")) for e in real["events"]]
+    assert got == key, how_it_ran(folder)
+    shifts = [
+        round((r["t"] - e["t"]) / PERIOD, 2) for r, e in zip(real["events"], lock, strict=True)
+    ]
+    print(f"{name}: real-time events minus lock-step, in periods: {shifts}")
+    assert all(abs(d) <= 3 for d in shifts), shifts
+    p = scenario.params
+    for o, d in zip(scenario.obstacles, real["min_distance"], strict=True):
+        assert d >= p.safe_distance(o.radius) > p.r_m + o.radius  # no contact
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_realtime_hil_timing_is_plausible_and_agrees_with_the_bus_log(
+    hil_runs: HilRuns, name: str
+) -> None:
+    folder = hil_runs.folder("realtime") / name
+    timing = json.loads((folder / "timing.json").read_text())
+    period, latency = timing["wheel_cmd_period_ms"], timing["latency_ms"]
+    shown = ("wheel_cmd_period_ms", "latency_ms", "firmware", "plant")
+    print(f"{name}: {json.dumps({k: timing[k] for k in shown})}")
+    assert abs(period["p50"] - 20.0) <= 2.0 and abs(period["mean"] - 20.0) <= 2.0, period
+    assert 0.0 < latency["p50"] < 3 * 20.0, latency
+    assert latency["n"] >= 0.5 * timing["plant"]["samples"], (latency, timing["plant"])
+    # The same figures from bus.log, computed here.
+    frames = bus_log(folder / "bus.log")
+    start = timing["start_stamp"]
+    got = np.array(latencies_from_log(frames, start - 1e-6))
+    assert len(got) == latency["n"]
+    assert np.median(got) == pytest.approx(latency["p50"], abs=2e-3)
+    assert got.max() == pytest.approx(latency["max"], abs=2e-3)
+    arrivals = np.array([t for t, n, _ in frames if n == "WHEEL_CMD" and t >= start])
+    intervals = np.diff(arrivals) * 1e3
+    assert np.median(intervals[: period["n"]]) == pytest.approx(period["p50"], abs=2e-3)
+    # No STEP frame: the firmware ran on its own timer.
+    assert not any(n == "STEP" for _, n, _ in frames)
+
+
+def test_realtime_comm_loss_halts_within_three_periods_and_ramps_down(hil_runs: HilRuns) -> None:
+    folder = hil_runs.folder("comm-loss") / "paper-line"
+    timing = json.loads((folder / "timing.json").read_text())
+    loss = timing["comm_loss"]
+    print(f"comm loss: {json.dumps({k: v for k, v in loss.items() if k != 'ramp'})}")
+    frames = bus_log(folder / "bus.log")
+    start = timing["start_stamp"]
+    odom = [t for t, n, _ in frames if n == "ODOM_XY" and t >= start]
+    assert odom and odom[-1] - start < STOP_AT
+    # From bus.log: the last step on live odometry is the first to echo the
+    # last ODOM_XY sent; the halt, the first STATUS after it with halt 2.
+    last_counter = [int(s["ODOM_XY_Counter"]) for _, n, s in frames if n == "ODOM_XY"][-1]
+    steps = []  # (stamp of WHEEL_CMD, step, halt, echo, left, right)
+    status = trk = None
+    for t, n, s in frames:
+        if n == "STATUS":
+            status = s
+        elif n == "STATUS_TRK":
+            trk = s
+        elif n == "WHEEL_CMD" and status is not None and trk is not None and t > odom[-1]:
+            steps.append(
+                (
+                    t,
+                    int(s["WHEEL_CMD_step"]),
+                    int(status["STATUS_halt"]),
+                    int(trk["STATUS_TRK_odom_counter"]),
+                    s["WHEEL_CMD_left"],
+                    s["WHEEL_CMD_right"],
+                )
+            )
+    k_last = next(i for i, st in enumerate(steps) if st[3] == last_counter)
+    k_halt = next(i for i, st in enumerate(steps) if i > k_last and st[2] != 0)
+    assert steps[k_halt][2] == 2  # odometry (docs/safety.md)
+    # docs/safety.md: k_last < k <= k_last + 3, counted in the firmware's steps.
+    after = (steps[k_halt][1] - steps[k_last][1]) % 65536
+    wall = steps[k_halt][0] - steps[k_last][0]
+    print(f"comm loss, bus.log: halt {after} steps, {wall * 1e3:.1f} ms after the last on odometry")
+    assert 1 <= after <= 3
+    assert (after, round(wall, 6)) == (
+        loss["halt_after_steps"],
+        round(loss["halt_after_ms"] / 1e3, 6),
+    )
+    # Three periods of wall time: the steps' own spacing is the VM's, so half
+    # a period is allowed for the scheduling noise of the two arrivals.
+    assert wall <= 3.5 * PERIOD, wall
+    ramp = [(t, left, right) for t, _, _, _, left, right in steps[k_halt - 1 :]]
+    ramp = ramp[: next(i for i, r in enumerate(ramp) if r[1:] == (0.0, 0.0)) + 1]
+    check_ramp(ramp, 100.0 * PERIOD, 2**-10)

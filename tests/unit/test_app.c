@@ -273,6 +273,57 @@ static void test_app_poll_drains_the_queue_waiting_only_for_the_first_frame(void
     TEST_ASSERT_EQUAL_UINT16(2, app.comm.drops.unknown);
 }
 
+/* The alive counter the sender (tf_seal) gave the last ODOM_XY frame. */
+static uint8_t last_odom_counter(void)
+{
+    return (uint8_t)((tf_counters[COMM_ID_ODOM_XY] + 15u) & 0xFu);
+}
+
+static void test_app_status_trk_echoes_the_odometry_frame_the_lock_step_used(void)
+{
+    arm_at(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0);
+    for (uint16_t k = 0; k < 20u; k++) { /* past the 4-bit wrap */
+        send_odom(0.0, 0.0, 0.0);
+        send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+        const uint8_t used = last_odom_counter();
+        send_step(k, (uint32_t)k * 20000u);
+        TEST_ASSERT_EQUAL_UINT8(used, tf_last_status_trk().status_trk_odom_counter);
+    }
+    /* A dropped ODOM_XY (bad CRC, then a repeat of the last counter) moves
+     * no pose, so the echo stays on the frame the pose came from. */
+    const uint8_t used = last_odom_counter();
+    uint8_t p[8] = { 0 };
+    hal_can_frame_t bad = tf_seal(COMM_ID_ODOM_XY, p);
+    bad.data[5] ^= 0x01u;
+    TEST_ASSERT_EQUAL_INT(-EBADMSG, app_on_frame(&app, &bad));
+    const hal_can_frame_t again = tf_seal_with(COMM_ID_ODOM_XY, p, used);
+    TEST_ASSERT_EQUAL_INT(-EALREADY, app_on_frame(&app, &again));
+    send_step(20, 400000u);
+    TEST_ASSERT_EQUAL_UINT8(used, tf_last_status_trk().status_trk_odom_counter);
+}
+
+static void test_app_status_trk_echoes_the_latest_odometry_frame_in_real_time(void)
+{
+    arm_at(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0);
+    uint64_t now = 20000u;
+    /* Two frames between ticks: the tick takes the second; none: the tick
+     * reuses the last one and says so. */
+    send_odom(0.0, 0.0, 0.0);
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    const uint8_t second = last_odom_counter();
+    app_control_tick(&app, now);
+    TEST_ASSERT_EQUAL_UINT8(second, tf_last_status_trk().status_trk_odom_counter);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    app_control_tick(&app, now + 20000u);
+    TEST_ASSERT_EQUAL_UINT8(second, tf_last_status_trk().status_trk_odom_counter);
+    send_odom(0.0, 0.0, 0.0);
+    send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
+    app_control_tick(&app, now + 40000u);
+    TEST_ASSERT_EQUAL_UINT8((uint8_t)((second + 1u) & 0xFu),
+                            tf_last_status_trk().status_trk_odom_counter);
+}
+
 static void test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults(void)
 {
     ctl_params_t p;
@@ -361,6 +412,8 @@ int main(void)
     RUN_TEST(test_app_housekeeping_runs_every_100_ms_of_step_time);
     RUN_TEST(test_app_extends_the_step_time_past_its_32_bit_wrap);
     RUN_TEST(test_app_poll_drains_the_queue_waiting_only_for_the_first_frame);
+    RUN_TEST(test_app_status_trk_echoes_the_odometry_frame_the_lock_step_used);
+    RUN_TEST(test_app_status_trk_echoes_the_latest_odometry_frame_in_real_time);
     RUN_TEST(test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults);
     RUN_TEST(test_app_accepts_an_obstacle_velocity_frame);
     RUN_TEST(test_app_refuses_an_obstacle_radius_that_switches_avoidance_off);

@@ -671,8 +671,22 @@ static void test_comm_encode_status_trk(void)
     static const uint8_t golden[8] = { 0xE1, 0x00, 0x00, 0x03, 0x80, 0xFF, 0x00, 0xE0 };
     const trk_err_t e = { tu_num(0.75), tu_num(-0.125), tu_num(-1.0) };
     hal_can_frame_t f;
-    TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &e, &f));
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &e, 0u, &f));
     assert_frame(golden, COMM_ID_STATUS_TRK, &f);
+}
+
+static void test_comm_status_trk_echoes_the_low_four_bits_of_the_odometry_counter(void)
+{
+    /* STATUS_TRK_odom_counter: bits 12..15 (mstc.dbc), above the frame's own
+     * alive counter (bits 8..11), which must not be disturbed. */
+    const trk_err_t e = { NUM_ZERO, NUM_ZERO, NUM_ZERO };
+    hal_can_frame_t f;
+    for (unsigned k = 0; k < 20u; k++) {
+        const uint8_t echo = (uint8_t)(k * 7u + 3u); /* 3, 10, 17 (low bits 1), ... */
+        TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &e, echo, &f));
+        TEST_ASSERT_EQUAL_INT64(echo & 0xFu, get_field(f.data, 12, 4, false));
+        TEST_ASSERT_EQUAL_INT64(k & 0xFu, get_field(f.data, 8, 4, false));
+    }
 }
 
 static void test_comm_encode_counters(void)
@@ -787,12 +801,12 @@ static void test_comm_tracking_errors_saturate_at_both_ends(void)
 {
     const trk_err_t e = { tu_num(40.0), tu_num(-40.0), tu_num(5.0) };
     hal_can_frame_t f;
-    comm_encode_status_trk(&c, &e, &f);
+    comm_encode_status_trk(&c, &e, 0u, &f);
     TEST_ASSERT_EQUAL_INT64(32767, get_field(f.data, 16, 16, true));
     TEST_ASSERT_EQUAL_INT64(-32768, get_field(f.data, 32, 16, true));
     TEST_ASSERT_EQUAL_INT64(32767, get_field(f.data, 48, 16, true));
     const trk_err_t e2 = { tu_num(-32.0), tu_num(31.9990234375), tu_num(-5.0) };
-    comm_encode_status_trk(&c, &e2, &f);
+    comm_encode_status_trk(&c, &e2, 0u, &f);
     TEST_ASSERT_EQUAL_INT64(-32768, get_field(f.data, 16, 16, true));
     TEST_ASSERT_EQUAL_INT64(32767, get_field(f.data, 32, 16, true));
     TEST_ASSERT_EQUAL_INT64(-32768, get_field(f.data, 48, 16, true));
@@ -804,7 +818,7 @@ static void test_comm_angles_of_pi_round_in_both_modes(void)
      * Q16.16 π 205887 >> 3 with rounding give the same). */
     const trk_err_t e = { NUM_ZERO, NUM_ZERO, NUM_PI };
     hal_can_frame_t f;
-    comm_encode_status_trk(&c, &e, &f);
+    comm_encode_status_trk(&c, &e, 0u, &f);
     TEST_ASSERT_EQUAL_INT64(25736, get_field(f.data, 48, 16, true));
     ctl_status_t st = tracking_status();
     st.e = num_neg(NUM_PI);
@@ -867,6 +881,7 @@ int main(void)
     RUN_TEST(test_comm_status_distance_saturates_and_says_none);
     RUN_TEST(test_comm_status_saturates_enumerations_and_ids);
     RUN_TEST(test_comm_encode_status_trk);
+    RUN_TEST(test_comm_status_trk_echoes_the_low_four_bits_of_the_odometry_counter);
     RUN_TEST(test_comm_encode_counters);
     RUN_TEST(test_comm_encode_event);
     RUN_TEST(test_comm_event_time_is_the_low_32_bits_and_the_id_saturates);

@@ -103,12 +103,12 @@ static void test_comm_telemetry_tracking_errors_beyond_status_trk_are_flagged(vo
     };
     for (size_t i = 0; i < sizeof errs / sizeof errs[0]; i++) {
         hal_can_frame_t f;
-        TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &errs[i], &f));
+        TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &errs[i], 0u, &f));
         TEST_ASSERT_EQUAL_UINT8(CLIPPED, quiet_status_faults() & CLIPPED);
     }
     const trk_err_t fine = { tu_num(31.0), tu_num(-31.0), tu_num(3.14) };
     hal_can_frame_t f;
-    TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &fine, &f));
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_status_trk(&c, &fine, 0u, &f));
     TEST_ASSERT_EQUAL_UINT8(0u, quiet_status_faults() & CLIPPED);
 }
 

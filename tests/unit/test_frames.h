@@ -196,6 +196,15 @@ static inline struct mstc_dbc_status_t tf_last_status(void)
     return s;
 }
 
+/** @brief The last STATUS_TRK the firmware sent, unpacked. */
+static inline struct mstc_dbc_status_trk_t tf_last_status_trk(void)
+{
+    struct mstc_dbc_status_trk_t s;
+    TEST_ASSERT_EQUAL_INT(
+        0, mstc_dbc_status_trk_unpack(&s, tf_last_sent(COMM_ID_STATUS_TRK)->data, 8));
+    return s;
+}
+
 /** @brief The last PARAM_VALUE the firmware sent, unpacked. */
 static inline struct mstc_dbc_param_value_t tf_last_param_value(void)
 {

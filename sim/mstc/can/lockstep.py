@@ -53,6 +53,15 @@ class Traffic:
     """The firmware's latest STATUS_COUNTERS."""
 
 
+def unauthenticated(what: str) -> ControllerError:
+    """The error of a command the firmware refused as unauthenticated."""
+    return ControllerError(
+        f"the firmware refuses {what} as unauthenticated: does it have the key the "
+        f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
+        "docs/safety.md, 'The key'"
+    )
+
+
 class CanController:
     """The firmware's control step through CAN frames, lock-step.
 
@@ -137,11 +146,7 @@ class CanController:
         # freshness is current and the log keeps the bus's order.
         self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
         if answer.signals["result"] == self.tables.param_result.value("unauthenticated"):
-            raise ControllerError(
-                f"the firmware refuses {what} as unauthenticated: does it have the key the "
-                f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
-                "docs/safety.md, 'The key'"
-            )
+            raise unauthenticated(what)
         return answer
 
     def _configure(self) -> None:
@@ -163,11 +168,30 @@ class CanController:
             pending = rejected
 
     def _send_inputs(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
+        self._send_odometry(robot)
+        self._send_reference(ref, v_r, w_r)
+
+    def _send_odometry(self, robot: Pose) -> can.Message:
+        """ODOM_XY and ODOM_THETA; returns the ODOM_XY frame."""
+        xy = self.proto.encode("ODOM_XY", x=robot.x, y=robot.y)
+        self._send(xy)
+        self._send(self.proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)))
+        return xy
+
+    def _send_reference(self, ref: Pose, v_r: float, w_r: float) -> None:
         enc = self.proto.encode
-        self._send(enc("ODOM_XY", x=robot.x, y=robot.y))
-        self._send(enc("ODOM_THETA", theta=wrap_angle(robot.theta)))
         self._send(enc("REF_XY", x=ref.x, y=ref.y))
         self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+
+    def _send_obstacles(self, obstacles: Sequence[Obstacle]) -> None:
+        """One OBSTACLE frame per reported obstacle; right after it, for a
+        moving obstacle only, its OBSTACLE_VEL (docs/protocol.md: the firmware
+        keeps 0 for the others)."""
+        enc = self.proto.encode
+        for o in obstacles:
+            self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
+            if o.vx or o.vy:
+                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
 
     def _arm(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
         """Arm the firmware before the first step (docs/safety.md): it starts
@@ -209,12 +233,7 @@ class CanController:
         self._steps += 1
         enc = self.proto.encode
         self._send_inputs(robot, ref, v_r, w_r)
-        for o in obstacles:
-            self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
-            # Right after its OBSTACLE frame, for a moving obstacle only
-            # (docs/protocol.md); the firmware keeps 0 for the others.
-            if o.vx or o.vy:
-                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
+        self._send_obstacles(obstacles)
         self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
 
         events: list[Event] = []
@@ -229,16 +248,7 @@ class CanController:
                 )
             s = frame.signals
             if frame.name == "EVENT":
-                raw_us = round(s["time"] * 1e6)
-                base = t_us - t_us % TIME_MODULO
-                events.append(
-                    Event(
-                        base + raw_us,
-                        self.tables.event_kind[int(s["kind"])],
-                        int(s["obstacle"]),
-                        self.tables.side[int(s["side"])],
-                    )
-                )
+                events.append(self._decode_event(frame, t_us - t_us % TIME_MODULO))
             elif frame.name == "STATUS":
                 status = frame
             elif frame.name == "STATUS_TRK":
@@ -248,24 +258,37 @@ class CanController:
         if status is None or trk is None:
             raise ControllerError(f"step {step}: WHEEL_CMD came without STATUS and STATUS_TRK")
         left, right = float(s["left"]), float(s["right"])
+        return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
+
+    # ------------------------------------------------------------ telemetry
+
+    def _decode_event(self, frame: Frame, base_us: int) -> Event:
+        """An EVENT frame; its 32-bit time [µs] is added to @p base_us."""
+        s = frame.signals
+        raw_us = round(s["time"] * 1e6)
+        return Event(
+            base_us + raw_us,
+            self.tables.event_kind[int(s["kind"])],
+            int(s["obstacle"]),
+            self.tables.side[int(s["side"])],
+        )
+
+    def _decode_status(self, status: Frame, trk: Frame, left: float, right: float) -> Status:
+        """A step's STATUS and STATUS_TRK, with the body velocity of its wheel
+        commands [rad/s]."""
         p = self.params
         st = status.signals
-        return StepResult(
-            left,
-            right,
-            Status(
-                mode=self.tables.mode[int(st["mode"])],
-                active_obstacle=int(st["obstacle"]),
-                side=self.tables.side[int(st["side"])],
-                faults=Fault(int(st["faults"])),
-                e1=float(trk.signals["e1"]),
-                e2=float(trk.signals["e2"]),
-                e3=float(trk.signals["e3"]),
-                e=float(st["e"]),
-                v=p.wheel_radius * (left + right) / 2,
-                w=p.wheel_radius * (right - left) / p.track_width,
-            ),
-            tuple(events),
+        return Status(
+            mode=self.tables.mode[int(st["mode"])],
+            active_obstacle=int(st["obstacle"]),
+            side=self.tables.side[int(st["side"])],
+            faults=Fault(int(st["faults"])),
+            e1=float(trk.signals["e1"]),
+            e2=float(trk.signals["e2"]),
+            e3=float(trk.signals["e3"]),
+            e=float(st["e"]),
+            v=p.wheel_radius * (left + right) / 2,
+            w=p.wheel_radius * (right - left) / p.track_width,
         )
 
 

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 """``mstc hil``: scenario files over a real CAN bus, against ``mstc-fw`` or a
-board; or over a board image's serial line under QEMU (processor in the loop)."""
+board, in lock-step or in real time; or over a board image's serial line under
+QEMU (processor in the loop)."""
 
 from __future__ import annotations
 
@@ -16,19 +17,21 @@ import can
 
 from mstc.can import secoc
 from mstc.can.lockstep import CanController, enter_lockstep
+from mstc.can.realtime import RealtimeLink
 from mstc.cli.common import EXIT_USAGE, add_key_argument, error, load_key, run_scenarios
 from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, FirmwareError
 from mstc.qemu import ICOUNT, BoardVm, LoopStats
 from mstc.report.outputs import BusLog
 from mstc.report.progress import Progress
+from mstc.sim.realtime import COMM_LOSS_TAIL, DEFAULT_PHASE, DEFAULT_RATE_HZ, simulate_realtime
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import Scenario
 
 NAME = "hil"
 HELP = "run scenario files over SocketCAN (or another python-can bus) against mstc-fw or a board"
 
-_EPILOG = """\
+_EPILOG = f"""\
 The plant runs on this machine and reaches the firmware through a python-can
 bus: by default SocketCAN's vcan0, where the firmware runs as its own process
 (--fw build/host/mstc-fw, started afresh for each scenario, like a board) or
@@ -37,8 +40,18 @@ events.json, trace.csv, bus.log (every frame, candump -L) and the figures,
 and prints the table of `mstc sim`. Scenario limits, progress, and reruns into
 the same folder are as for `mstc sim` (see its --help).
 
-On a host whose kernel has no CAN, `make hil` runs this inside a small VM
-with vcan (docs/hil.md).
+With --realtime the plant runs on the wall clock instead: it sends odometry,
+reference and obstacles at --rate-hz, never STEP, and applies each wheel
+command from the moment it arrives, while the firmware steps on its own timer
+(mstc-fw --realtime, or a board). Each scenario then also writes timing.json
+(wheel-command period, latency from odometry to wheel command, missed and
+doubled periods, dropped frames) and timing.png, and the table gains a timing
+line. --stop-odometry-at S is a comm-loss trial: odometry stops at S seconds,
+the firmware must halt within 3 control periods and ramp the wheels down
+(docs/safety.md); the run ends {COMM_LOSS_TAIL:g} s later.
+
+On a host whose kernel has no CAN, `make hil` (REALTIME=1 for real time) runs
+this inside a small VM with vcan (docs/hil.md).
 
 A board in the loop (--board) steps on its own timer until its first STEP
 frame: one STEP goes first, before the parameters and the arming, so that
@@ -60,6 +73,10 @@ a bad scenario file, or an output folder that cannot be used.
 examples:
   .venv/bin/mstc hil --channel vcan0 --fw build/host/mstc-fw \\
       sim/scenarios/paper-line.toml
+  .venv/bin/mstc hil --realtime --channel vcan0 --fw build/host/mstc-fw \\
+      sim/scenarios/paper-line.toml
+  .venv/bin/mstc hil --realtime --interface socketcan --channel can0 \\
+      sim/scenarios/paper-line.toml          # a board (docs/hil.md)
   .venv/bin/mstc hil --qemu build/firmware/stm32f103-slcan --out build/pil/stm32f103 \\
       sim/scenarios/paper-line.toml
 """
@@ -107,16 +124,51 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "scenario and run it over its serial line with python-can's slcan interface",
     )
     add_key_argument(parser)
+    timing = parser.add_argument_group("real time")
+    timing.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the plant on the wall clock against a firmware on its own timer "
+        "(--fw starts mstc-fw --realtime)",
+    )
+    timing.add_argument(
+        "--rate-hz",
+        metavar="HZ",
+        type=float,
+        default=DEFAULT_RATE_HZ,
+        help="the plant's sample rate, which must be the firmware's control rate "
+        "(default: %(default)g; with --fw, 1000/HZ must be a whole number of ms)",
+    )
+    timing.add_argument(
+        "--free-phase",
+        action="store_true",
+        help="sample on the plant's own schedule; by default the samples are put "
+        f"{DEFAULT_PHASE:g} of a period after the firmware's wheel commands, so that a "
+        "late sample still reaches the next tick",
+    )
+    timing.add_argument(
+        "--stop-odometry-at",
+        metavar="S",
+        type=float,
+        help=f"comm-loss trial: stop sending odometry at S seconds; the run ends "
+        f"{COMM_LOSS_TAIL:g} s later",
+    )
     add_output_arguments(parser, "build/hil")
     parser.set_defaults(run=run)
 
 
 def start_firmware(
-    exe: Path, channel: str, key_file: Path | None = None, timeout: float = 30.0
+    exe: Path,
+    channel: str,
+    key_file: Path | None = None,
+    timeout: float = 30.0,
+    *,
+    period_ms: int | None = None,
 ) -> subprocess.Popen[str]:
-    """Start ``exe --can channel [--key-file key_file]`` and wait until it is
-    on the bus (its first line on stderr says so). Without @p key_file it
-    takes its key from the environment, as the tools do.
+    """Start ``exe --can channel [--key-file key_file]`` (with ``--realtime
+    --period-ms`` when @p period_ms is given) and wait until it is on the bus
+    (its first line on stderr says so). Without @p key_file it takes its key
+    from the environment, as the tools do.
 
     :raises FirmwareError: it exited or said nothing in @p timeout seconds.
     """
@@ -125,6 +177,8 @@ def start_firmware(
     cmd = [str(exe), "--can", channel]
     if key_file is not None:
         cmd += ["--key-file", str(key_file)]
+    if period_ms is not None:
+        cmd += ["--realtime", "--period-ms", str(period_ms)]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     assert proc.stderr is not None
     ready, _, _ = select.select([proc.stderr], [], [], timeout)
@@ -150,14 +204,29 @@ def _run_one(
     args: argparse.Namespace, scenario: Scenario, bar: Progress
 ) -> tuple[str, RunResult, BusLog]:
     bus = can.Bus(interface=args.interface, channel=args.channel)
+    period_ms = round(1000.0 / args.rate_hz) if args.realtime else None
     firmware = (
-        start_firmware(args.fw, args.channel, args.key_source) if args.fw is not None else None
+        start_firmware(args.fw, args.channel, args.key_source, period_ms=period_ms)
+        if args.fw is not None
+        else None
     )
+    ctl: CanController
     try:
-        primer = enter_lockstep(bus) if args.board else []
-        ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
-        ctl.traffic.frames[:0] = primer
-        result = simulate(scenario, ctl, bar)
+        if args.realtime:
+            ctl = RealtimeLink(bus, scenario.params, key=args.key)
+            result = simulate_realtime(
+                scenario,
+                ctl,
+                rate_hz=args.rate_hz,
+                phase=None if args.free_phase else DEFAULT_PHASE,
+                stop_odometry_at=args.stop_odometry_at,
+                progress=bar,
+            )
+        else:
+            primer = enter_lockstep(bus) if args.board else []
+            ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
+            ctl.traffic.frames[:0] = primer
+            result = simulate(scenario, ctl, bar)
     finally:
         bus.shutdown()
         if firmware is not None:
@@ -188,10 +257,10 @@ class BoardBusLog(BusLog):
 
 
 def settled_stats(vm: BoardVm, start: LoopStats, steps: int, timeout: float = 2.0) -> LoopStats:
-    """The board's loop statistics once they count the @p steps the plant
-    saw since @p start, or at @p timeout. The main loop counts a step after
-    the application has sent its WHEEL_CMD, so the plant may read the memory
-    before the last one is counted."""
+    """The board's loop statistics once they count the @p steps on STEP
+    frames the plant saw since @p start, or at @p timeout. The main loop
+    counts a step after the application has sent its WHEEL_CMD, so the plant
+    may read the memory before the last one is counted."""
     deadline = time.monotonic() + timeout
     end = vm.stats()
     while end.frame_steps - start.frame_steps < steps and time.monotonic() < deadline:
@@ -251,8 +320,11 @@ def _run_on_qemu(
             interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
         )
         try:
+            before = vm.stats()
             primer = enter_lockstep(bus)
-            start = vm.stats()
+            # The primer's step, once counted: the board counts a step after
+            # its WHEEL_CMD, which the plant may see first.
+            start = settled_stats(vm, before, 1)
             ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
             ctl.traffic.frames[:0] = primer
             result = simulate(scenario, ctl, bar)
@@ -271,6 +343,24 @@ def _run_on_qemu(
     return f"{args.qemu}/mstc.elf under QEMU", result, BoardBusLog("slcan0", ctl, board, stats)
 
 
+def _check_realtime(args: argparse.Namespace) -> str | None:
+    """The problem with the real-time options, if any."""
+    realtime_only = args.free_phase or args.stop_odometry_at is not None
+    if not args.realtime:
+        return "--free-phase and --stop-odometry-at need --realtime" if realtime_only else None
+    if not 1.0 <= args.rate_hz <= 1000.0:
+        return f"--rate-hz: expected 1 to 1000, got {args.rate_hz:g}"
+    period_ms = 1000.0 / args.rate_hz
+    if args.fw is not None and abs(period_ms - round(period_ms)) > 1e-9:
+        return (
+            f"--rate-hz {args.rate_hz:g}: mstc-fw's period is whole milliseconds "
+            f"(--period-ms), and 1000/{args.rate_hz:g} = {period_ms:g}"
+        )
+    if args.stop_odometry_at is not None and not args.stop_odometry_at >= 0.0:
+        return f"--stop-odometry-at: expected a time >= 0 s, got {args.stop_odometry_at:g}"
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each over the bus, then write and report."""
     if args.fw is not None and args.interface != "socketcan":
@@ -278,6 +368,13 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     if args.qemu is not None and args.fw is not None:
         error("--qemu runs a board image, --fw a process: one or the other")
+        return EXIT_USAGE
+    if args.qemu is not None and args.realtime:
+        error("--qemu runs a board image in lock-step: --realtime needs --fw or a board")
+        return EXIT_USAGE
+    problem = _check_realtime(args)
+    if problem is not None:
+        error(problem)
         return EXIT_USAGE
     args.key = load_key(args)
     if args.key is None:

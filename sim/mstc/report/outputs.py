@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""What a run leaves on disk: events.json, trace.csv and the figures.
+"""What a run leaves on disk: events.json, trace.csv, timing.json (real time)
+and the figures.
 
 Each run writes one folder, ``OUT/<name>/``. The folder never leaves OUT (a
 name such as ``..``, from a file called ``...toml``, is refused), and a rerun
@@ -33,8 +34,9 @@ RUN_FILES = (
     "events.json",
     "trace.csv",
     "bus.log",
+    "timing.json",
     *EXTRA_FILES,
-    *(f"{stem}.png" for stem in FIGURES),
+    *(f"{stem}.png" for stem in (*FIGURES, "timing")),
 )
 """Every file a run of ``mstc sim`` or ``mstc hil`` writes into its folder."""
 
@@ -168,8 +170,8 @@ def write_outputs(
     result: RunResult, out_dir: Path, bus_log: BusLog | None = None, *, figures: bool = True
 ) -> Path:
     """Write every output of a run into ``out_dir/<scenario name>/``, with
-    bus.log when the run went through CAN, after removing what an earlier run
-    left there (:func:`fresh_folder`).
+    bus.log when the run went through CAN and timing.json when it ran in real
+    time, after removing what an earlier run left there (:func:`fresh_folder`).
 
     :returns: That folder.
     :raises OutputError: the folder cannot be used (:func:`output_folder`).
@@ -177,6 +179,8 @@ def write_outputs(
     folder = fresh_folder(out_dir, result.scenario.name, RUN_FILES)
     write_events(result, folder / "events.json")
     write_trace(result, folder / "trace.csv")
+    if result.timing is not None:
+        (folder / "timing.json").write_text(json.dumps(result.timing.to_json(), indent=1) + "\n")
     if bus_log is not None:
         frames = [m for m, _ in bus_log.controller.traffic.frames]
         write_candump(folder / "bus.log", frames, bus_log.channel)

@@ -21,6 +21,7 @@ from mstc.controller import Event, EventKind
 from mstc.params import Params
 from mstc.sim.run import RunResult, Trace, world_obstacles
 from mstc.sim.sensor import Obstacle
+from mstc.sim.timing import Timing
 
 _ROBOT = "tab:blue"
 _REFERENCE = "0.35"
@@ -314,13 +315,60 @@ PANELS: tuple[tuple[str, str, _Draw], ...] = (
 """File stem, title and drawing function of each figure, in the paper's order."""
 
 
+def draw_timing(period_ax: Axes, latency_ax: Axes, timing: Timing) -> None:
+    """A real-time run's timing over time: the interval between the
+    firmware's wheel commands, and the latency from each odometry frame to the
+    first wheel command computed from it (timing.json's series)."""
+    nominal = 1e3 * timing.period_s
+    period = np.array(timing.period_series, dtype=float).reshape(-1, 2)
+    latency = np.array(timing.latency_series, dtype=float).reshape(-1, 2)
+    period_ax.plot(
+        period[:, 0], period[:, 1], ".", ms=2.5, color=_ROBOT, label="WHEEL_CMD interval"
+    )
+    period_ax.axhline(nominal, ls="--", lw=1.0, color="black", label=f"period {nominal:g} ms")
+    period_ax.set_ylabel("interval [ms]")
+    latency_ax.plot(
+        latency[:, 0], latency[:, 1], ".", ms=2.5, color=_AVOIDING, label="odometry → wheel command"
+    )
+    latency_ax.set_ylabel("latency [ms]")
+    latency_ax.set_xlabel("t [s]")
+    loss = timing.comm_loss
+    tops = (max([nominal, *period[:, 1]]), max([1.0, *latency[:, 1]]))
+    for ax, top in zip((period_ax, latency_ax), tops, strict=True):
+        if loss is not None:
+            ax.axvline(loss.stopped_at, color=_OBSTACLE_COLORS[0], lw=1.0, label="odometry stopped")
+            if loss.halt_t is not None:
+                ax.axvline(loss.halt_t, color=_OBSTACLE_COLORS[1], lw=1.0, ls=":", label="halt")
+        ax.set_ylim(0.0, 1.25 * top)  # room for the legend above the points
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small")
+
+
+def plot_timing(timing: Timing, name: str, path: Path) -> Path:
+    """Write timing.png: :func:`draw_timing` with the run's figures in the title."""
+    fig = Figure(figsize=(9.0, 6.0), layout="constrained")
+    period_ax, latency_ax = fig.subplots(2, 1, sharex=True)
+    draw_timing(period_ax, latency_ax, timing)
+    p, lat = timing.period, timing.latency
+    period_ax.set_title(
+        f"{name}: wheel command every {p.mean:.2f} ms (p99 {p.p99:.2f}, max {p.max:.2f}); "
+        f"missed {timing.missed}, doubled {timing.doubled}"
+    )
+    latency_ax.set_title(
+        f"latency p50 {lat.p50:.2f} ms, p99 {lat.p99:.2f} ms, max {lat.max:.2f} ms"
+    )
+    _save(fig, path, dpi=120)
+    return path
+
+
 def _save(fig: Figure, path: Path, dpi: int) -> None:
     FigureCanvasAgg(fig)
     fig.savefig(path, dpi=dpi)
 
 
 def plot_all(run: RunResult | PlotData, folder: Path) -> list[Path]:
-    """Write one PNG per panel and overview.png with all six, (a)-(f).
+    """Write one PNG per panel and overview.png with all six, (a)-(f); and
+    timing.png for a real-time run.
 
     :param run: a simulated run, or the data of one (e.g. from a bus log).
     :returns: The files written.
@@ -343,4 +391,6 @@ def plot_all(run: RunResult | PlotData, folder: Path) -> list[Path]:
     fig.suptitle(result.title)
     written.append(folder / "overview.png")
     _save(fig, written[-1], dpi=100)
+    if isinstance(run, RunResult) and run.timing is not None:
+        written.append(plot_timing(run.timing, name, folder / "timing.png"))
     return written

@@ -126,5 +126,7 @@ def format_report(result: RunResult, folder: Path) -> str:
         lines.append(f"  {label:<13} O{i + 1} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
     for fault, count in result.faults.items():
         lines.append(f"  {'fault':<13} {_FAULT_NAMES.get(fault, str(fault))} in {count} steps")
+    if result.timing is not None:
+        lines.append(f"  {'timing':<13} {result.timing.describe()}")
     lines.append(f"  {'output':<13} {folder}/")
     return "\n".join(lines)

@@ -17,6 +17,7 @@ from mstc.sim.plant import Pose, UnicyclePlant
 from mstc.sim.reference import ReferenceRobot
 from mstc.sim.scenario import Scenario
 from mstc.sim.sensor import Obstacle, RangeSensor
+from mstc.sim.timing import Timing
 
 if TYPE_CHECKING:
     from mstc.report.progress import Progress
@@ -87,6 +88,9 @@ class RunResult:
     """Mean wall time of one controller step in this process [s] (the
     controller's own work and the call into it; a measurement, so it
     differs from run to run)."""
+    timing: Timing | None = None
+    """A real-time run's timing (:mod:`mstc.sim.realtime`, timing.json);
+    None in lock-step, where the plant's time is the firmware's."""
 
 
 def world_obstacles(scenario: Scenario) -> tuple[Obstacle, ...]:
@@ -113,6 +117,41 @@ def _fault_counts(masks: list[int]) -> dict[Fault, int]:
             if mask & bit.value:
                 faults[bit] = faults.get(bit, 0) + 1
     return faults
+
+
+@dataclass(frozen=True)
+class World:
+    """What a run moves and senses, whatever its clock (lock-step here, the
+    wall clock in :mod:`mstc.sim.realtime`)."""
+
+    plant: UnicyclePlant
+    reference: ReferenceRobot
+    obstacles: tuple[Obstacle, ...]
+    sensor: RangeSensor
+    odometry_rng: np.random.Generator
+    """The stream of the odometry noise (the sensor has its own)."""
+
+
+def make_world(scenario: Scenario) -> World:
+    """The robot, the reference, the obstacles and the sensor at t = 0, with
+    the scenario's imperfections (docs/scenarios.md)."""
+    p = scenario.params
+    sim = scenario.sim
+    imp = scenario.imperfections
+    plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
+    ref = ReferenceRobot(
+        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
+    )
+    obstacles = world_obstacles(scenario)
+    odometry_rng, sensor_rng = _streams(imp.seed)
+    sensor = RangeSensor(
+        obstacles,
+        p.d_det if imp.sensor_range is None else imp.sensor_range,
+        noise=imp.obstacle_noise,
+        dropout=imp.dropout,
+        rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
+    )
+    return World(plant, ref, obstacles, sensor, odometry_rng)
 
 
 def simulate(
@@ -143,22 +182,11 @@ def simulate(
 
     :raises SimulationError: the plant's state became non-finite.
     """
-    p = scenario.params
     sim = scenario.sim
     imp = scenario.imperfections
-    plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
-    ref = ReferenceRobot(
-        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
-    )
-    obstacles = world_obstacles(scenario)
-    odometry_rng, sensor_rng = _streams(imp.seed)
-    sensor = RangeSensor(
-        obstacles,
-        p.d_det if imp.sensor_range is None else imp.sensor_range,
-        noise=imp.obstacle_noise,
-        dropout=imp.dropout,
-        rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
-    )
+    world = make_world(scenario)
+    plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
+    odometry_rng = world.odometry_rng
     moving = any(o.moving for o in obstacles)
     v_r, w_r = ref.v, ref.w
     steps = sim.steps
@@ -216,7 +244,7 @@ def simulate(
         raise SimulationError(
             f"{scenario.path}: the plant's state became non-finite at t = {values[k, 0]:g} s"
         )
-    distance, obstacle_xy = _distances(values, obstacles, moving)
+    distance, obstacle_xy = distances(values, obstacles, moving)
     return RunResult(
         scenario=scenario,
         trace=Trace(values, tuple(modes), distance, obstacle_xy),
@@ -227,7 +255,7 @@ def simulate(
     )
 
 
-def _distances(
+def distances(
     values: np.ndarray, obstacles: tuple[Obstacle, ...], moving: bool
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Centre distance from the robot to each obstacle at each step, and the
