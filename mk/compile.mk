@@ -28,9 +28,14 @@ build_objs = $(patsubst %.c,$(BUILD_DIR_$(1))/%.o,$(2))
 # The flags source $(1) adds to its build's.
 src_cflags = $(if $(filter $(LIBFIXMATH_DIR)/%,$(1)),$(LIBFIXMATH_WARN),$(WARN)) \
   $(SRC_CFLAGS_$(patsubst %/,%,$(dir $(1)))) $(SRC_CFLAGS_$(1))
+# gcc's flags that clang does not know (it stops on them): a source that needs
+# one in its gcc builds (mk/firmware.mk) compiles without it under clang (the
+# fuzzing build).
+GCC_ONLY_CFLAGS := -fno-tree-loop-distribute-patterns
 # The command that compiles source $(2) of build $(1) into object $(3).
-build_cmd = $(strip $(BUILD_CC_$(1)) $(BUILD_CFLAGS_$(1)) $(call src_cflags,$(2)) \
-  -MMD -MP -c $(2) -o $(3))
+build_cmd = $(strip $(BUILD_CC_$(1)) $(BUILD_CFLAGS_$(1)) \
+  $(if $(filter clang%,$(notdir $(BUILD_CC_$(1)))),$(filter-out $(GCC_ONLY_CFLAGS), \
+    $(call src_cflags,$(2))),$(call src_cflags,$(2))) -MMD -MP -c $(2) -o $(3))
 
 # Build, source and object of every compile, in the order the builds are
 # declared (the host build first: clangd takes a file's first entry).

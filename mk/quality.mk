@@ -21,7 +21,11 @@ FUZZ_DIR := build/fuzz
 FUZZ_SANITIZE := -fsanitize=fuzzer,address,undefined
 # name:source:numeric mode
 FUZZ_HARNESSES := frames:fuzz/fuzz_frames.c:float ctl:fuzz/fuzz_ctl.c:float \
-  ctl_fixed:fuzz/fuzz_ctl.c:fixed auth:fuzz/fuzz_auth.c:float
+  ctl_fixed:fuzz/fuzz_ctl.c:fixed auth:fuzz/fuzz_auth.c:float slcan:fuzz/fuzz_slcan.c:float
+# Sources a harness needs beyond the firmware's: the board images' slcan
+# parser, which is not part of the firmware proper (hal/stm32).
+FUZZ_EXTRA_slcan := hal/stm32/slcan_codec.c
+SRC_CFLAGS_fuzz/fuzz_slcan.c := -Ihal/stm32
 FUZZ_NAMES := $(foreach h,$(FUZZ_HARNESSES),$(word 1,$(subst :, ,$(h))))
 FW_HDRS := $(wildcard firmware/*/*.h)
 
@@ -33,7 +37,8 @@ BUILD_CFLAGS_fuzz-$(1) := $$(CSTD) -g -O1 $$(FUZZ_SANITIZE) -fno-sanitize-recove
   -fno-omit-frame-pointer $$(FW_INC) -Ihal/fake $$(NUM_CFLAGS_$(1)) $$(AUTH_CFLAGS)
 BUILD_DIR_fuzz-$(1) := $$(FUZZ_DIR)/obj-$(1)
 BUILD_SRCS_fuzz-$(1) := $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(1)) $$(AUTH_SRCS) \
-  $$(sort $$(foreach h,$$(FUZZ_HARNESSES),$$(if $$(filter %:$(1),$$(h)),$$(word 2,$$(subst :, ,$$(h))))))
+  $$(sort $$(foreach h,$$(FUZZ_HARNESSES),$$(if $$(filter %:$(1),$$(h)),$$(word 2,$$(subst :, ,$$(h))) \
+    $$(FUZZ_EXTRA_$$(word 1,$$(subst :, ,$$(h)))))))
 BUILD_DEPS_fuzz-$(1) := $$(NUM_DEPS_$(1)) $$(AUTH_DEPS)
 BUILD_ORDER_fuzz-$(1) := $$(STAMP)/apt-test
 $$(eval $$(call BUILD,fuzz-$(1)))
@@ -43,8 +48,8 @@ $(eval $(call FUZZ_BUILD,fixed))
 
 # $(1): name; $(2): harness source; $(3): numeric mode.
 define FUZZ_RULES
-$(FUZZ_DIR)/$(1): $$(call build_objs,fuzz-$(3),$(2) $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(3)) \
-    $$(AUTH_SRCS))
+$(FUZZ_DIR)/$(1): $$(call build_objs,fuzz-$(3),$(2) $$(FUZZ_EXTRA_$(1)) $$(FW_SRCS) $$(FAKE_SRCS) \
+    $$(NUM_SRCS_$(3)) $$(AUTH_SRCS))
 	$$(FUZZ_CC) $$(FUZZ_SANITIZE) $$^ -lm -o $$@
 endef
 $(foreach h,$(FUZZ_HARNESSES),$(eval $(call FUZZ_RULES,$(word 1,$(subst :, ,$(h))),$(word 2,$(subst :, ,$(h))),$(word 3,$(subst :, ,$(h))))))
