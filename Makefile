@@ -186,7 +186,7 @@ libs-both:
 test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric modes' libraries)
 	MSTC_SIL_LIB=$(B)/libmstc_sil.so MSTC_SIL_LIB_FLOAT=build/host/float/libmstc_sil.so \
 	  MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/mstc-fw \
-	  $(PY) -m pytest -q tests/python
+	  $(PY) -m pytest -q --durations=20 tests/python
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
            tools/protocol-doc tools/gen-limits tools/flash tools/bench/board_budget \

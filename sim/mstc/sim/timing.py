@@ -355,8 +355,8 @@ def analyse(
     unused = 0
     last_used = max(first_use, default=-1)
     for i, o in enumerate(odometry):
-        if o.sample is None:
-            continue  # arming: not part of the run's timing
+        if o.t < 0.0:
+            continue  # arming, before the run's start: not part of its timing
         if i in first_use:
             latency.append((o.t, (first_use[i].t - o.t) * 1e3))
         elif i < last_used:
