@@ -140,6 +140,13 @@ def write_scenario(tmp_path: Path) -> Callable[[Mapping[str, object], str], Path
     return write
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """The ``vm`` marker: tests that boot the vcan VM (tools/vm/with-vcan).
+    ``make test`` runs them on their own, after the rest, so that nothing
+    else competes with the emulated VM's timing (``-m vm``, ``-m "not vm"``)."""
+    config.addinivalue_line("markers", "vm: boots the vcan VM (tools/vm/with-vcan)")
+
+
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
     """Print what tests collected for the reader (float vs fixed comparison,
     the parameter sweep's figures)."""

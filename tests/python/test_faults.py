@@ -397,6 +397,7 @@ VM_TRIALS = 3 + 2 + 1
 """What the VM runs: CUT_SEEDS, RAMP_SEEDS and NOISE_SEEDS over vcan."""
 
 
+@pytest.mark.vm
 def test_the_cut_and_noise_trials_pass_against_mstc_fw_over_vcan() -> None:
     """The trials above, a few of each kind, against mstc-fw over vcan0: in the
     vcan VM where the host kernel has no CAN (one boot for all of them), on

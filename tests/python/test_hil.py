@@ -33,6 +33,8 @@ from mstc.sim.run import simulate
 from mstc.sim.scenario import load_scenario
 from test_realtime import check_ramp
 
+pytestmark = pytest.mark.vm
+
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
 DBC = ROOT / "firmware" / "comm" / "mstc.dbc"

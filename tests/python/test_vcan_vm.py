@@ -15,6 +15,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.vm
+
 TOP = Path(__file__).resolve().parents[2]
 WITH_VCAN = TOP / "tools" / "vm" / "with-vcan"
 

@@ -114,14 +114,15 @@ def section(r: dict[str, object]) -> str:
         )
     lines += [
         "",
-        "What limits these figures here: the VM is emulated (no KVM), on a 2-core machine "
-        "shared with other builds, and the plant is Python. Under emulation Python ran 10 to "
-        "30 times slower than on the host when measured (at a load of 4: an encoded and sent "
-        "frame about 1.3 ms, a received and decoded one 2 ms of CPU), so the plant spends much "
-        "of each 20 ms period on its own frames, and the VM's vCPUs are descheduled at the "
-        "host's will: samples come late, some are skipped, and the firmware then finds no new "
-        "odometry at a tick (stale steps). The firmware's own period stays on its grid (it "
-        "stamps steps on it and skips the periods it could not keep).",
+        "What limits these figures here: the VM is emulated (no KVM), on a 2-core machine, "
+        "and the plant is Python, which runs 20 to 50 times slower there than on the host. "
+        "Its frames cost most of its time (an encoded and sent frame, a received and decoded "
+        "one: each under a millisecond of CPU in the VM), so it needs about half of each 20 ms "
+        "period; docs/hil.md says what brought it there. The VM's vCPUs are descheduled at "
+        "the host's will: on a loaded machine samples come late, some are skipped, and the "
+        "firmware then finds no new odometry at a tick (stale steps). The firmware's own "
+        "period stays on its grid (it stamps steps on it and skips the periods it could not "
+        "keep).",
         "",
         "On a workstation with a host vcan (docs/hil.md) there is no emulation: the same run "
         "should show a period within a fraction of a millisecond of 20 ms, a latency of about "
