@@ -103,6 +103,7 @@ def test_mstc_is_safe_rejoins_and_activates_at_most_twice(
     for scene, result, _, m in runs:
         assert result.scenario.params.strategy.value == "mstc", scene
         assert not m.contact, f"{scene}: contact, clearance {m.min_clearance:.4f} m"
+        # The issue allows 0.5 % of moving-obstacle runs below D_s: none of 60.
         assert m.ds_kept, f"{scene}: centre distance below D_s"
         assert m.max_activations <= 2, f"{scene}: an obstacle activated {m.max_activations} times"
         if not m.blocked:
