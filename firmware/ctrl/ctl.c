@@ -142,18 +142,6 @@ static void finish(const ctl_t *c, ctl_output_t *out)
  * roll-out and the filter see what the robot really does). */
 static num_t speed_limit(num_t v_r) { return num_add(num_abs(v_r), MSW_CATCH_UP); }
 
-/* Some obstacle is within its D_act + MSW_REGULATE: "mstc" regulates the
- * tracking speed (track_speed); elsewhere tracking is eq. (2)-(3) as is. */
-static bool obstacle_near(const sup_t *s, const num_t *dist)
-{
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (dist[i] < num_add(s->obs[i].d_act, MSW_REGULATE)) {
-            return true;
-        }
-    }
-    return false;
-}
-
 /* Linear velocity while tracking near obstacles ("mstc"): eq. (2) held within
  * [0, speed_limit] (or [−speed_limit, 0] for a reference that drives
  * backwards): a robot ahead of its reference waits for it, turning, rather
@@ -188,14 +176,18 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     num_t w_trk;
     trk_control(&c->p.trk, &st->err, in->v_r, in->w_r, &v_trk, &w_trk);
     /* Centre distances first: the strategy uses them, the status reports them
-     * (oset_distance: as fill_distances, the cheaper way). */
+     * (oset_distance: as fill_distances, the cheaper way). Some obstacle
+     * within its D_act + MSW_REGULATE: the tracking speed is regulated
+     * (track_speed); elsewhere tracking is eq. (2)-(3) as is. */
     st->n_obstacles = c->sup.n_obs;
+    bool near = false;
     for (uint8_t i = 0; i < c->sup.n_obs; i++) {
-        const sup_obstacle_t *o = &c->sup.obs[i].o;
-        st->obstacle_id[i] = o->id;
-        st->distance[i] = oset_distance(num_sub(o->x, in->robot.x), num_sub(o->y, in->robot.y));
+        const sup_entry_t *e = &c->sup.obs[i];
+        st->obstacle_id[i] = e->o.id;
+        st->distance[i] = oset_distance(num_sub(e->o.x, in->robot.x), num_sub(e->o.y, in->robot.y));
+        near = near || st->distance[i] < num_add(e->d_act, MSW_REGULATE);
     }
-    if (obstacle_near(&c->sup, st->distance)) {
+    if (near) {
         v_trk = track_speed(v_trk, in->v_r);
     }
     const msw_input_t mi = { .robot = &in->robot,

@@ -49,26 +49,63 @@ static bool in_mask(uint16_t mask, uint8_t i) { return (mask & (1u << i)) != 0u;
 /* Time since @p t0, 0 if the clock went backwards. */
 static uint64_t since(uint64_t now, uint64_t t0) { return now >= t0 ? now - t0 : 0u; }
 
-/* The robot's velocity under the tracking command, relative to entry @p e. */
-static void relative_velocity(const msw_input_t *in, const sup_entry_t *e, num_t *vx, num_t *vy)
+/* What one step looks at: its input, and the tracking command rolled out over
+ * MSW_ROLLOUT (rol_path()), computed once, when first needed. */
+typedef struct {
+    const msw_input_t *in;
+    bool rolled;
+    rol_path_t path;
+} look_t;
+
+static const rol_path_t *rolled_out(look_t *lk)
 {
-    *vx = num_sub(num_mul(in->v_trk, in->cos_th), e->o.vx);
-    *vy = num_sub(num_mul(in->v_trk, in->sin_th), e->o.vy);
+    const msw_input_t *in = lk->in;
+    if (!lk->rolled) {
+        lk->rolled = true;
+        rol_path(&lk->path, in->robot, in->cos_th, in->sin_th, in->v_trk, in->w_trk, MSW_ROLLOUT);
+    }
+    return &lk->path;
+}
+
+/* The robot's velocity under the tracking command, relative to entry @p e:
+ * v_trk along the heading for a static entry; for a moving one, when the
+ * roll-out is an arc, its chord per second: the velocity the tracking command
+ * gives on average over MSW_ROLLOUT. In an avoidance the heading is the
+ * avoidance's: a robot going round a moving obstacle's circle heads at it,
+ * and tracking would turn it away at once; judged by its heading it would
+ * never be released, and would follow the obstacle wherever it goes. On a
+ * straight reference the two agree. */
+static void relative_velocity(look_t *lk, const sup_entry_t *e, num_t *vx, num_t *vy)
+{
+    const msw_input_t *in = lk->in;
+    num_t ux = num_mul(in->v_trk, in->cos_th);
+    num_t uy = num_mul(in->v_trk, in->sin_th);
+    if (moving(e)) {
+        const rol_path_t *path = rolled_out(lk);
+        if (path->kind == ROL_ARC) {
+            ux = num_mul(num_sub(path->s1x, path->s0x), MSW_ROLLOUT_INV);
+            uy = num_mul(num_sub(path->s1y, path->s0y), MSW_ROLLOUT_INV);
+        }
+    }
+    *vx = num_sub(ux, e->o.vx);
+    *vy = num_sub(uy, e->o.vy);
 }
 
 /* Closing on entry @p i under the tracking command. */
-static bool closing(const msw_input_t *in, const sup_entry_t *e)
+static bool closing(look_t *lk, const sup_entry_t *e)
 {
     num_t vx;
     num_t vy;
-    relative_velocity(in, e, &vx, &vy);
-    return oset_closing(num_sub(e->o.x, in->robot->x), num_sub(e->o.y, in->robot->y), vx, vy);
+    relative_velocity(lk, e, &vx, &vy);
+    return oset_closing(num_sub(e->o.x, lk->in->robot->x), num_sub(e->o.y, lk->in->robot->y), vx,
+                        vy);
 }
 
 /* A moving entry whose closest approach within the horizon, under the
  * tracking command, comes inside D_s + MSW_CPA_MARGIN. */
-static bool cpa_inside(const msw_input_t *in, const sup_entry_t *e, num_t horizon, num_t margin)
+static bool cpa_inside(look_t *lk, const sup_entry_t *e, num_t horizon, num_t margin)
 {
+    const msw_input_t *in = lk->in;
     const num_t px = num_sub(e->o.x, in->robot->x);
     const num_t py = num_sub(e->o.y, in->robot->y);
     if (num_abs(px) >= NUM_C(32.0) || num_abs(py) >= NUM_C(32.0)) {
@@ -76,7 +113,7 @@ static bool cpa_inside(const msw_input_t *in, const sup_entry_t *e, num_t horizo
     }
     num_t vx;
     num_t vy;
-    relative_velocity(in, e, &vx, &vy);
+    relative_velocity(lk, e, &vx, &vy);
     if (num_abs(vx) >= NUM_C(32.0) || num_abs(vy) >= NUM_C(32.0)) {
         return true; /* beyond what the test can tell: assume the worst */
     }
@@ -95,18 +132,22 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, uint8_t i)
 
 /* The activation candidate (table index) outside the entries of @p skip,
  * or -1. */
-static int candidate(const msw_t *m, const sup_t *s, const msw_input_t *in, uint16_t skip)
+static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
 {
+    const msw_input_t *in = lk->in;
     int best = -1;
     num_t best_b = NUM_ZERO;
     for (uint8_t i = 0; i < s->n_obs; i++) {
         const sup_entry_t *e = &s->obs[i];
-        if (m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
+        /* Beyond any trigger's reach first: the cheapest test, and most
+         * entries fail it. */
+        if (in->dist[i] >= num_add(e->d_act, MSW_CPA_REACH) || m->acts[i] >= MSW_MAX_ACTIVATIONS ||
+            in_mask(skip, i)) {
             continue;
         }
-        bool trig = in->dist[i] < e->d_act && closing(in, e);
-        if (!trig && moving(e) && in->dist[i] < num_add(e->d_act, MSW_CPA_REACH)) {
-            trig = cpa_inside(in, e, MSW_CPA_HORIZON, MSW_CPA_MARGIN);
+        bool trig = in->dist[i] < e->d_act && closing(lk, e);
+        if (!trig && moving(e)) {
+            trig = cpa_inside(lk, e, MSW_CPA_HORIZON, MSW_CPA_MARGIN);
         }
         if (trig) {
             const num_t b = boundary(s, in, i);
@@ -245,10 +286,10 @@ avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, nu
 /* The tracking command's roll-out keeps every entry beyond its D_s + margin
  * and, for an entry within its D_act + margin, never comes more than the
  * margin closer than it is now (the robot is no longer closing on it). */
-static bool way_clear(const sup_t *s, const msw_input_t *in)
+static bool way_clear(const sup_t *s, look_t *lk)
 {
-    rol_path_t path;
-    rol_path(&path, in->robot, in->cos_th, in->sin_th, in->v_trk, in->w_trk, MSW_ROLLOUT);
+    const msw_input_t *in = lk->in;
+    const rol_path_t *path = rolled_out(lk);
     for (uint8_t i = 0; i < s->n_obs; i++) {
         const sup_entry_t *e = &s->obs[i];
         num_t clear = num_add(e->d_s, MSW_MARGIN);
@@ -260,13 +301,13 @@ static bool way_clear(const sup_t *s, const msw_input_t *in)
          * stays beyond what activates by the margin (hysteresis). */
         bool ok;
         if (moving(e)) {
-            ok = !(closing(in, e) && in->dist[i] < num_add(e->d_act, MSW_CPA_REACH)) &&
-                 !cpa_inside(in, e, MSW_CPA_HORIZON,
+            ok = !(closing(lk, e) && in->dist[i] < num_add(e->d_act, MSW_RELEASE_REACH)) &&
+                 !cpa_inside(lk, e, MSW_CPA_HORIZON,
                              num_max(num_sub(clear, e->d_s), num_add(MSW_CPA_MARGIN, MSW_MARGIN)));
         } else {
             /* Beyond the path's reach by the distance: clear without a look. */
-            ok = in->dist[i] >= num_add(path.reach, clear) ||
-                 rol_clears(&path, e->o.x, e->o.y, clear);
+            ok = in->dist[i] >= num_add(path->reach, clear) ||
+                 rol_clears(path, e->o.x, e->o.y, clear);
         }
         if (!ok) {
             return false;
@@ -286,8 +327,9 @@ static bool p1(const msw_input_t *in, const sup_entry_t *e)
     return dot > NUM_ZERO && !oset_within(u2x, u2y, e->d_act);
 }
 
-static bool release_ok(const msw_t *m, const sup_t *s, const msw_input_t *in)
+static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
 {
+    const msw_input_t *in = lk->in;
     if (since(in->t_us, m->t_act_us) < MSW_DWELL_US) {
         return false;
     }
@@ -299,16 +341,16 @@ static bool release_ok(const msw_t *m, const sup_t *s, const msw_input_t *in)
             return false;
         }
     }
-    return way_clear(s, in);
+    return way_clear(s, lk);
 }
 
 /* An obstacle outside the cluster calls for an activation and is nearer than
  * the member followed: the avoidance ends here, and the next step activates
  * the other's cluster. */
-static bool hand_over(const msw_t *m, const sup_t *s, const msw_input_t *in)
+static bool hand_over(const msw_t *m, const sup_t *s, look_t *lk)
 {
-    const int other = candidate(m, s, in, m->cluster);
-    return other >= 0 && boundary(s, in, (uint8_t)other) < boundary(s, in, m->followed);
+    const int other = candidate(m, s, lk, m->cluster);
+    return other >= 0 && boundary(s, lk->in, (uint8_t)other) < boundary(s, lk->in, m->followed);
 }
 
 /* Progress watchdog while avoiding: true when no progress is possible, that
@@ -363,8 +405,11 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
+    look_t lk; /* the path is written when first needed (rolled_out()) */
+    lk.in = in;
+    lk.rolled = false;
     if (m->state == (uint8_t)MSW_BLOCKED) {
-        if (way_clear(s, in)) {
+        if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_RESUME, 0u, AVD_SIDE_NONE);
         }
@@ -373,7 +418,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             find_cluster(m, s); /* obstacles joined or moved */
         }
         m->followed = nearest_member(s, in, m->cluster, m->trigger);
-        if (release_ok(m, s, in) || hand_over(m, s, in)) {
+        if (release_ok(m, s, &lk) || hand_over(m, s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
@@ -385,7 +430,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             /* keep avoiding */
         }
     } else {
-        const int i = candidate(m, s, in, 0u);
+        const int i = candidate(m, s, &lk, 0u);
         if (i >= 0) {
             activate(m, s, in, (uint8_t)i, events, n_events);
             m->followed = nearest_member(s, in, m->cluster, (uint8_t)i);

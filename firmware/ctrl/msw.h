@@ -55,6 +55,7 @@
 /** @name Tunables of the strategy (docs/strategy.md says how each was chosen). @{ */
 #define MSW_DWELL_US        500000u     /**< least time in avoidance [µs] */
 #define MSW_ROLLOUT         NUM_C(1.0)  /**< roll-out horizon [s] */
+#define MSW_ROLLOUT_INV     NUM_C(1.0)  /**< 1 / MSW_ROLLOUT [1/s] */
 #define MSW_MARGIN          NUM_C(0.02) /**< hysteresis margin of the release [m] */
 #define MSW_FOLLOW_OFFSET   NUM_C(0.06) /**< circle followed: D_s + this [m] */
 #define MSW_FOLLOW_AHEAD    NUM_C(0.25) /**< member chosen from this far ahead too [m] */
@@ -63,6 +64,7 @@
 #define MSW_CPA_HORIZON     NUM_C(3.0)  /**< closest-approach horizon [s] */
 #define MSW_CPA_MARGIN      NUM_C(0.05) /**< closest approach below D_s + this activates [m] */
 #define MSW_CPA_REACH       NUM_C(1.0)  /**< ... when within D_act + this [m] */
+#define MSW_RELEASE_REACH   NUM_C(1.0)  /**< no release while closing within D_act + this [m] */
 #define MSW_LOOP            NUM_C(6.8)  /**< turned once around (2π + 0.5): blocked [rad] */
 #define MSW_STILL_US        5000000u    /**< within MSW_PROGRESS this long: blocked [µs] */
 #define MSW_PROGRESS        NUM_C(0.1)  /**< least motion that counts as progress [m] */

@@ -104,8 +104,13 @@ void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *repor
         if (e != NULL) {
             if (moved(&e->o, o)) {
                 s->revision++;
+                set_entry(s, e, o);
+            } else {
+                /* Same place and size, so the same thresholds: only the
+                 * velocity can differ (the cheaper way, every step). */
+                e->o.vx = o->vx;
+                e->o.vy = o->vy;
             }
-            set_entry(s, e, o);
             continue;
         }
         if (num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y)) > s->p.d_det) {

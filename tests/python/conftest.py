@@ -149,8 +149,12 @@ def pytest_configure(config: pytest.Config) -> None:
 
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
     """Print what tests collected for the reader (float vs fixed comparison,
-    the parameter sweep's figures)."""
-    for module, title in (("test_numeric_modes", "float vs fixed"), ("test_param_sweep", "sweep")):
+    the parameter sweep's figures, the strategy on the suite)."""
+    for module, title in (
+        ("test_numeric_modes", "float vs fixed"),
+        ("test_param_sweep", "sweep"),
+        ("test_strategy", "strategy mstc on the suite"),
+    ):
         try:
             report = importlib.import_module(module).REPORT
         except ImportError:

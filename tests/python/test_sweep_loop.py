@@ -27,10 +27,16 @@ R, L = 0.05, 0.3  # wheel radius, track width (Table 1)
 
 class Scripted:
     """A controller that commands body velocity (v, ω) from a function of the
-    step, and records what it was given."""
+    step, reports the mode @p mode gives for the step (tracking by default),
+    and records what it was given."""
 
-    def __init__(self, command: Callable[[int], tuple[float, float]]) -> None:
+    def __init__(
+        self,
+        command: Callable[[int], tuple[float, float]],
+        mode: Callable[[int], Mode] = lambda k: Mode.TRACK,
+    ) -> None:
         self.command = command
+        self.mode = mode
         self.k = 0
         self.seen: list[tuple[Pose, tuple[Obstacle, ...]]] = []
 
@@ -44,10 +50,11 @@ class Scripted:
         t_us: int,
     ) -> StepResult:
         v, w = self.command(self.k)
+        mode = self.mode(self.k)
         self.k += 1
         self.seen.append((robot, tuple(obstacles)))
         left, right = (v - w * L / 2) / R, (v + w * L / 2) / R
-        status = Status(Mode.TRACK, 0, None, Fault(0), 0.0, 0.0, 0.0, 0.0, v, w)
+        status = Status(mode, 0, None, Fault(0), 0.0, 0.0, 0.0, 0.0, v, w)
         return StepResult(left, right, status, ())
 
 
@@ -127,6 +134,91 @@ def test_rejoin_window_counts_from_the_last_obstacle(write_scenario: WriteScenar
 
     m = evaluate(simulate(behind, Scripted(catch_up)))
     assert m.rejoined and m.final_error < 1e-9
+
+
+def test_the_last_obstacle_is_also_the_last_step_busy_with_one(
+    write_scenario: WriteScenario,
+) -> None:
+    # No obstacle: a strategy may go round one it never comes within D_act
+    # of (a moving obstacle met early). The robot runs with its reference;
+    # the controller reports avoiding at steps 100-149 (t = 2.00-2.98 s),
+    # then blocked at step 300 (t = 6 s): t_last is that step. Stopping by
+    # p3 is no obstacle: t_last stays 0.
+    s = load_scenario(scene(write_scenario, duration=8.0))
+
+    def busy(k: int) -> Mode:
+        return Mode.AVOID if 100 <= k < 150 else Mode.BLOCKED if k == 300 else Mode.TRACK
+
+    m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.0), busy)))
+    assert m.t_last == pytest.approx(6.0, abs=1e-9)
+    m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.0), lambda k: Mode.STOP)))
+    assert m.t_last == 0.0 and m.rejoined
+
+
+@pytest.mark.parametrize(
+    ("duration", "want"),
+    [(8.0, None), (12.4, None), (12.42, False), (16.0, False)],
+)
+def test_rejoin_is_not_judged_before_its_window_ends(
+    write_scenario: WriteScenario, duration: float, want: bool | None
+) -> None:
+    # The obstacle 0.45 m beside the path is within D_act (0.5 m) while
+    # |x − 1| < sqrt(0.5² − 0.45²) = 0.218 m: the last such step is x = 1.21 m,
+    # t_last = 2.42 s. From t = 4 s the robot runs at half the reference's
+    # speed (0.25 m/s): 0.5 m behind at 6 s, the error never comes back. A
+    # run that ends before t_last + 10 s = 12.42 s cannot tell whether the
+    # robot would have caught up: not judged (None); from 12.42 s on it has
+    # failed. The robot moves half as far as its reference: not blocked.
+    path = scene(
+        write_scenario,
+        obstacles=[{"position": [1.0, 0.45]}],
+        duration=duration,
+        name=f"w{duration}",
+    )
+    m = evaluate(simulate(load_scenario(path), Scripted(lambda k: (0.5 if k < 200 else 0.25, 0.0))))
+    assert m.t_last == pytest.approx(2.42, abs=1e-9)
+    assert m.rejoined is want and not m.blocked
+
+
+@pytest.mark.parametrize(
+    ("catch_up_after", "duration", "want"),
+    [((150,), 30.0, True), ((1350, 1400), 30.0, False), ((), 8.0, None)],
+)
+def test_rejoin_is_judged_on_every_pass(
+    write_scenario: WriteScenario,
+    catch_up_after: tuple[int, ...],
+    duration: float,
+    want: bool | None,
+) -> None:
+    # No obstacle; the controller reports avoiding at steps 100-149 and again
+    # at steps 1300-1349 (300-349 in the 8 s run), like a robot on a circular
+    # reference meeting its obstacle again a lap later. While avoiding it
+    # runs at 0.25 m/s, half the reference's speed: 50 steps × 0.02 s ×
+    # 0.25 m/s = 0.25 m behind. It catches up (0.75 m/s for 50 steps: the
+    # 0.25 m back) only after the steps given: back at step 200 in the first
+    # case, only from step 1450 (0.5 m back) in the second, never in the last.
+    # The first pass (t 2.98 - 25.98 s) is 23 s long: a robot that does not
+    # catch up there failed it, though it is back at the end; the last pass
+    # (from 26.98 s) ends within its 10 s window, and the robot 0.25 m behind
+    # there cannot tell. In the 8 s run no pass lasts 10 s: not judged.
+    second = 1300 if duration > 20.0 else 300
+
+    def speed(k: int) -> tuple[float, float]:
+        if 100 <= k < 150 or second <= k < second + 50:
+            return (0.25, 0.0)
+        if any(a <= k < a + 50 for a in catch_up_after):
+            return (0.75, 0.0)
+        return (0.5, 0.0)
+
+    def busy(k: int) -> Mode:
+        return Mode.AVOID if 100 <= k < 150 or second <= k < second + 50 else Mode.TRACK
+
+    s = load_scenario(scene(write_scenario, duration=duration, name=f"p{len(catch_up_after)}"))
+    m = evaluate(simulate(s, Scripted(speed, busy)))
+    assert m.t_last == pytest.approx((second + 49) * 0.02, abs=1e-9)
+    assert m.rejoined is want and not m.blocked
+    behind = 0.25 * (2 - len(catch_up_after))
+    assert m.final_error == pytest.approx(behind, abs=1e-9)
 
 
 def test_moving_obstacle_distance_is_measured_at_the_same_step(

@@ -257,6 +257,31 @@ static void test_msw_activates_early_for_a_moving_obstacle_on_a_collision_course
     TEST_ASSERT_EQUAL_size_t(0, n_ev);
 }
 
+static void test_msw_moving_obstacle_judged_by_the_roll_out_chord(void)
+{
+    /* Robot at the origin heading +x, an obstacle at (0.45, −0.15), 0.474 m
+     * away (< D_act = 0.5), moving at (0.3, −0.3) m/s. Tracking straight at
+     * 0.5 m/s the robot's velocity relative to it is (0.2, 0.3), whose dot
+     * with (0.45, −0.15) is 0.045 > 0: closing within D_act, ACTIVATE.
+     * Tracking (0.5 m/s, π/2 rad/s) turns it a quarter round a circle of
+     * radius 1/π m in the 1 s roll-out: the chord (1/π, 1/π) m, so the
+     * velocity over the roll-out is (0.318, 0.318) m/s, relative (0.018,
+     * 0.618), dot −0.085 < 0: not closing; the closest approach is now,
+     * 0.474 m > D_s + MSW_CPA_MARGIN = 0.40: no activation, though the
+     * heading alone says closing (computed by hand and checked in Python). */
+    const sup_obstacle_t o = obstacle(1, 0.45, -0.15, 0.3, -0.3);
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(1, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_ACTIVATE, ev[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(1, ev[0].obstacle);
+    setUp();
+    k.w_trk = 1.5707963267948966;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+}
+
 static void test_msw_gapped_cluster_widens_the_circle_followed(void)
 {
     /* Two obstacles 0.9 apart: circles of 0.35 leave a gap of 0.2 < 0.4:
@@ -622,6 +647,7 @@ int main(void)
     RUN_TEST(test_msw_does_not_activate_when_not_closing_or_beyond_d_act);
     RUN_TEST(test_msw_activates_the_nearest_boundary);
     RUN_TEST(test_msw_activates_early_for_a_moving_obstacle_on_a_collision_course);
+    RUN_TEST(test_msw_moving_obstacle_judged_by_the_roll_out_chord);
     RUN_TEST(test_msw_gapped_cluster_widens_the_circle_followed);
     RUN_TEST(test_msw_follows_the_member_nearest_now_or_just_ahead);
     RUN_TEST(test_msw_release_waits_for_the_dwell_then_completes);

@@ -319,7 +319,7 @@ def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
             def count(column: str, rows: list[dict[str, str]] = ok) -> int:
                 return sum(1 for r in rows if r[column] == "1")
 
-            free = [r for r in ok if r["blocked"] == "0"]
+            free = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]
             print(
                 line.format(
                     family,

@@ -160,7 +160,9 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(f"{type(exc).__name__}: {exc}".split())
 
 
-def _fmt(value: float | bool | int, measured: bool = False) -> str:
+def _fmt(value: float | bool | int | None, measured: bool = False) -> str:
+    if value is None:  # not judged (rejoined: metrics.py)
+        return ""
     if isinstance(value, bool):
         return "1" if value else "0"
     if isinstance(value, int):

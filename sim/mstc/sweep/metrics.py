@@ -12,9 +12,22 @@ baseline's, is judged by the same code. Definitions (docs/sweeps.md):
 - **D_s kept**: every centre distance at or above that obstacle's D_s at
   every step;
 - **the last obstacle** is left at t_last, the last step at which the robot
-  is within any obstacle's D_act (0 when it never is);
-- **rejoined**: from some step no later than t_last + 10 s to the end of the
-  run, the tracking error stays under 0.05 m;
+  is within any obstacle's D_act or its controller is not tracking it
+  (mode ``avoid`` or ``blocked``), 0 when neither ever happens. The mode
+  counts because a strategy may go round an obstacle without coming within
+  its D_act (a moving obstacle met early): the robot is still busy with it;
+- **rejoined**: judged on every *pass*, the free time between leaving an
+  obstacle (a busy step as above) and the next busy step or the end of the
+  run; a run without a busy step is one pass from t = 0. A pass is *back*
+  when from some step no later than 10 s after its start to its end the
+  tracking error stays under 0.05 m; it *failed* when it is not back and
+  lasts 10 s or more; otherwise (shorter, the robot busy again or the run
+  over before its window ends) it cannot tell. The run is rejoined (True)
+  when no pass failed and at least one is back or failed, that is, was
+  judged; not rejoined (False) when one failed; *not judged* (None) when no
+  pass could tell. The last pass alone is the issue's "within 10 s after the
+  last obstacle"; the earlier ones judge a circular reference, whose robot
+  comes back to an obstacle every lap, up to the end of the run;
 - **blocked**: the controller reports mode ``blocked`` at the last step, or
   over the last 5 s the robot travelled less than a tenth of the reference's
   path: it stands while the reference goes on;
@@ -40,6 +53,8 @@ REJOIN_ERROR = 0.05
 """Tracking error under which the robot is back on its reference [m]."""
 REJOIN_WINDOW = 10.0
 """Time after the last obstacle within which it must be back [s]."""
+_BUSY = (Mode.AVOID, Mode.BLOCKED)
+"""Modes in which the controller is busy with an obstacle (t_last)."""
 BLOCKED_WINDOW = 5.0
 """The end of the run that decides whether the robot is blocked [s]."""
 BLOCKED_SHARE = 0.1
@@ -54,7 +69,8 @@ class Metrics:
     min_clearance: float
     """Smallest clearance over the run and obstacles [m]; inf without obstacles."""
     ds_kept: bool
-    rejoined: bool
+    rejoined: bool | None
+    """None: not judged, no pass could tell (the module's docstring)."""
     blocked: bool
     t_last: float
     """When the last obstacle was left [s]."""
@@ -83,6 +99,30 @@ def _path_length(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.hypot(np.diff(x), np.diff(y)).sum())
 
 
+def _rejoined(t: np.ndarray, error: np.ndarray, busy: np.ndarray) -> bool | None:
+    """Every pass judged (the module's docstring): False when one failed,
+    True when none failed and one was back, None when none could tell."""
+    ends = np.flatnonzero(busy[:-1] & ~busy[1:])  # the last busy step of each
+    starts = np.flatnonzero(~busy[:-1] & busy[1:]) + 1  # the first busy step of each
+    if not busy.any():
+        passes = [(0.0, 0, len(t) - 1)]
+    else:
+        passes = []
+        for e in ends:
+            nxt = starts[starts > e]
+            passes.append((float(t[e]), int(e) + 1, int(nxt[0]) - 1 if len(nxt) else len(t) - 1))
+    judged = False
+    for t0, a, b in passes:
+        deadline = t0 + REJOIN_WINDOW + 1e-9
+        bad = np.flatnonzero(error[a : b + 1] >= REJOIN_ERROR)
+        back_from = a if not len(bad) else a + int(bad[-1]) + 1
+        if back_from <= b and t[back_from] <= deadline:
+            judged = True
+        elif t[b] >= t0 + REJOIN_WINDOW - 1e-9:
+            return False
+    return True if judged else None
+
+
 def evaluate(result: RunResult) -> Metrics:
     """The metrics of a run (definitions: this module's docstring)."""
     scenario = result.scenario
@@ -101,17 +141,13 @@ def evaluate(result: RunResult) -> Metrics:
         active = np.array([p.activation_distance(r) for r in radii])
         ds_kept = bool((trace.distance >= safe).all())
         near = (trace.distance <= active).any(axis=1)
-        t_last = float(t[np.flatnonzero(near)[-1]]) if near.any() else 0.0
     else:
-        min_clearance, ds_kept, t_last = math.inf, True, 0.0
+        min_clearance, ds_kept = math.inf, True
+        near = np.zeros(len(t), dtype=bool)
+    busy = near | np.array([m in _BUSY for m in trace.mode], dtype=bool)
+    t_last = float(t[np.flatnonzero(busy)[-1]]) if busy.any() else 0.0
 
-    bad = np.flatnonzero(error >= REJOIN_ERROR)
-    if not len(bad):
-        rejoined = True
-    elif bad[-1] == len(t) - 1:
-        rejoined = False
-    else:
-        rejoined = bool(t[bad[-1] + 1] <= t_last + REJOIN_WINDOW + 1e-9)
+    rejoined = _rejoined(t, error, busy)
 
     window = t >= t[-1] - BLOCKED_WINDOW
     moved = _path_length(x[window], y[window])
