@@ -183,10 +183,12 @@ test-unit: deps-test $(UNIT_BINS)  ## Unity tests of every firmware module (in N
 libs-both:
 	@$(MAKE) --no-print-directory NUMERIC=float lib
 	@$(MAKE) --no-print-directory NUMERIC=fixed lib
-test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric modes' libraries)
+# PYTEST_ARGS: more arguments for pytest, e.g. PYTEST_ARGS='-m vm' (only the
+# tests that boot the vcan VM), PYTEST_ARGS='-k hil'.
+test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric modes' libraries; PYTEST_ARGS='-m vm': only those that boot the vcan VM)
 	MSTC_SIL_LIB=$(B)/libmstc_sil.so MSTC_SIL_LIB_FLOAT=build/host/float/libmstc_sil.so \
 	  MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/mstc-fw \
-	  $(PY) -m pytest -q --durations=20 tests/python
+	  $(PY) -m pytest -q --durations=20 $(PYTEST_ARGS) tests/python
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
            tools/protocol-doc tools/gen-limits tools/flash tools/bench/board_budget \
@@ -202,12 +204,20 @@ lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, c
 	@$(PY) tools/quality/spdx
 typecheck: deps-sim  ## mypy, strict, over the package mstc (settings in pyproject.toml)
 	$(PY) -m mypy
+# The fuzzers run for a fixed time on one core; the host checks take the
+# other meanwhile, one after another (they share build directories). The tests
+# that boot the emulated vcan VM come last, alone, so that nothing competes
+# with its timing.
 test: deps-test  ## every test: lint, types, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
 	@$(MAKE) --no-print-directory lint typecheck check-protocol
-	@$(MAKE) --no-print-directory -j2 --output-sync=target quality cross coverage fuzz
+	@$(MAKE) --no-print-directory -j2 --output-sync=line fuzz test-host
+	@$(MAKE) --no-print-directory NUMERIC=float test-python PYTEST_ARGS='-m vm'
+.PHONY: test-host
+test-host:
+	@$(MAKE) --no-print-directory quality cross coverage
 	@$(MAKE) --no-print-directory NUMERIC=fixed test-unit
 	@$(MAKE) --no-print-directory NUMERIC=float test-unit
-	@$(MAKE) --no-print-directory NUMERIC=float test-python
+	@$(MAKE) --no-print-directory NUMERIC=float test-python PYTEST_ARGS='-m "not vm"'
 include mk/comm.mk
 include mk/replay.mk
 include mk/firmware.mk
