@@ -204,13 +204,15 @@ def simulate(
     spent = 0
     step = controller.step
     body_velocity = plant.body_velocity
+    scan, plant_step, ref_step = sensor.scan, plant.step, ref.step
+    dt, dt_us = sim.dt, sim.dt_us
     tick = max((steps + 1) // PROGRESS_UPDATES, 1)
     try:
         for k in range(steps + 1):
-            t_us = k * sim.dt_us
+            t_us = k * dt_us
             t = t_us / 1e6
             robot, reference = plant.pose, ref.pose
-            seen = sensor.scan(robot, t)
+            seen = scan(robot, t)
             measured = robot
             if odometry_noise is not None:
                 nx, ny, nt = odometry_noise[k]
@@ -231,8 +233,8 @@ def simulate(
                 if pending:
                     pending.append((left, right))
                     left, right = pending.popleft()
-                plant.step(left, right, sim.dt)
-                ref.step(sim.dt)
+                plant_step(left, right, dt)
+                ref_step(dt)
             if progress is not None and (k + 1) % tick == 0:
                 progress.update(k + 1)
     finally:
