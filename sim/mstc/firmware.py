@@ -31,7 +31,7 @@ import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from struct import Struct
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from mstc.can.dbc import tables
 from mstc.controller import Event, Fault, Side, Status, StepResult
@@ -201,11 +201,12 @@ def field_packer(c_struct: type[ctypes.Structure], names: Sequence[str]) -> Stru
     offsets :func:`check_layout` compares with the library's), the bytes in
     between skipped: one ``pack_into`` or ``unpack_from`` costs less than two
     attribute accesses of a ctypes struct."""
-    types = dict((f[0], f[1]) for f in c_struct._fields_)
+    types: dict[str, type] = {f[0]: f[1] for f in c_struct._fields_}
     fmt, at = "=", 0
     for name in names:
         descriptor = getattr(c_struct, name)
-        ctype, count = types[name], 1
+        ctype: Any = types[name]  # ctypes' array types are typed loosely
+        count = 1
         if issubclass(ctype, ctypes.Array):
             ctype, count = ctype._type_, ctype._length_
         if descriptor.offset < at:
