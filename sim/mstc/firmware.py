@@ -31,7 +31,7 @@ import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from struct import Struct
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from mstc.can.dbc import tables
 from mstc.controller import Event, Fault, Side, Status, StepResult
@@ -39,6 +39,9 @@ from mstc.errors import FirmwareError
 from mstc.params import Params, Strategy
 from mstc.sim.plant import Pose
 from mstc.sim.sensor import Obstacle
+
+if TYPE_CHECKING:
+    from mstc.sim.run import StepValues
 
 LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no path is given."""
@@ -462,6 +465,7 @@ class SilController:
         self._in_ref = ctypes.byref(self._in)
         self._out_ref = ctypes.byref(self._out)
         self._step = self._lib.mstc_sil_step
+        self._modes = self._tables.mode
 
     @staticmethod
     def defaults(lib_path: str | os.PathLike[str] | None = None) -> Params:
@@ -497,6 +501,60 @@ class SilController:
         :raises FirmwareError: more than MAX_OBSTACLES obstacles, or the library
             refused the step or returned a value outside its ABI.
         """
+        left, right, mode, active, side, faults, e1, e2, e3, e, v, w, n_events = self._call(
+            robot, ref, v_r, w_r, obstacles, t_us
+        )
+        try:
+            status = Status(
+                mode=self._modes[mode],
+                active_obstacle=active,
+                side=_SIDES[side],
+                faults=_fault(faults),
+                e1=e1,
+                e2=e2,
+                e3=e3,
+                e=e,
+                v=v,
+                w=w,
+            )
+        except KeyError as exc:
+            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
+        return StepResult(left, right, status, self._events(n_events))
+
+    def step_values(
+        self,
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        obstacles: Sequence[Obstacle],
+        t_us: int,
+    ) -> StepValues:
+        """:meth:`step`, its result as the plain tuple the in-memory loop
+        records (:data:`mstc.sim.run.StepValues`): building the Status and
+        StepResult objects costs more than the firmware's step.
+
+        :raises FirmwareError: as :meth:`step`.
+        """
+        left, right, mode, _, side, faults, e1, e2, e3, e, _, _, n_events = self._call(
+            robot, ref, v_r, w_r, obstacles, t_us
+        )
+        try:
+            decoded, _ = self._modes[mode], _SIDES[side]
+        except KeyError as exc:
+            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
+        return left, right, decoded, faults, e1, e2, e3, e, self._events(n_events)
+
+    def _call(
+        self,
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        obstacles: Sequence[Obstacle],
+        t_us: int,
+    ) -> tuple[Any, ...]:
+        """Run the step; the scalars of its output (:data:`_OUTPUT`'s fields)."""
         if len(obstacles) > MAX_OBSTACLES:
             raise FirmwareError(f"{len(obstacles)} obstacles reported, at most {MAX_OBSTACLES}")
         # Headings cross the boundary wrapped (wrap_angle, inlined: it costs
@@ -524,37 +582,19 @@ class SilController:
         rc = self._step(self._state, self._in_ref, self._out_ref)
         if rc != 0:
             raise FirmwareError(f"mstc_sil_step failed with {rc} at t_us={t_us}")
-        return self._result()
+        return _OUTPUT.unpack_from(self._out)
 
-    def _result(self) -> StepResult:
-        out = self._out
-        left, right, mode, active, side, faults, e1, e2, e3, e, v, w, n_events = (
-            _OUTPUT.unpack_from(out)
-        )
-        modes, kinds = self._tables.mode, self._tables.event_kind
+    def _events(self, n_events: int) -> tuple[Event, ...]:
+        """The @p n_events events of the last step's output."""
+        if not n_events:
+            return ()
+        kinds = self._tables.event_kind
         try:
-            status = Status(
-                mode=modes[mode],
-                active_obstacle=active,
-                side=_SIDES[side],
-                faults=_fault(faults),
-                e1=e1,
-                e2=e2,
-                e3=e3,
-                e=e,
-                v=v,
-                w=w,
-            )
             if n_events > MAX_EVENTS:
                 raise KeyError(f"n_events {n_events}")
-            events = (
-                tuple(
-                    Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
-                    for ev in out.events[:n_events]
-                )
-                if n_events
-                else ()
+            return tuple(
+                Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
+                for ev in self._out.events[:n_events]
             )
         except (KeyError, ValueError) as exc:
             raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
-        return StepResult(left, right, status, events)
