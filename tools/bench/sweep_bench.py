@@ -102,42 +102,55 @@ def _reproducible(out: Path) -> list[list[str]]:
     return [r[:drop] + r[drop + 1 :] for r in rows]
 
 
-def sweep_times(lib: str, count: int, workers: int) -> dict[str, float]:
-    """@p count paper-like scenes with the paper's strategy: wall and CPU
-    time on a process pool of @p workers, then on a local Dask cluster of as
-    many single-threaded worker processes (started before the clock runs).
-    CPU time: this process (the client, and the Dask scheduler, which a
-    LocalCluster runs here) plus the pool's workers or the Dask workers."""
+def sweep_times(lib: str, count: int, workers: int, repeats: int) -> dict[str, object]:
+    """@p count paper-like scenes with the paper's strategy, @p repeats
+    times in turn on a process pool of @p workers and on a local Dask cluster
+    of as many single-threaded worker processes (started once, before the
+    clocks run): the median wall and CPU time of each. CPU time: this process
+    (the client, and the Dask scheduler, which a LocalCluster runs here) plus
+    the pool's workers or the Dask workers."""
     from distributed import Client, LocalCluster
 
-    with tempfile.TemporaryDirectory() as tmp:
+    pool: list[tuple[float, float]] = []
+    dask: list[tuple[float, float]] = []
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         folder = Path(tmp)
         scenes = _scenes(count, folder)
-        t0, c0, k0 = time.perf_counter(), process_cpu(), children_cpu()
-        run_sweep(scenes, ["paper"], folder / "pool", lib, workers=workers)
-        pool = time.perf_counter() - t0
-        pool_cpu = process_cpu() - c0 + children_cpu() - k0
-        with (
-            LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-            ) as cluster,
-            Client(cluster) as client,
-        ):
+        address = cluster.scheduler_address
+        for i in range(repeats):
+            t0, c0, k0 = time.perf_counter(), process_cpu(), children_cpu()
+            run_sweep(scenes, ["paper"], folder / f"pool{i}", lib, workers=workers)
+            pool.append((time.perf_counter() - t0, process_cpu() - c0 + children_cpu() - k0))
             w0 = sum(client.run(process_cpu).values())
             t0, c0 = time.perf_counter(), process_cpu()
-            address = cluster.scheduler_address
-            run_sweep(scenes, ["paper"], folder / "dask", lib, workers=workers, scheduler=address)
-            dask = time.perf_counter() - t0
-            dask_cpu = process_cpu() - c0 + sum(client.run(process_cpu).values()) - w0
-        same = _reproducible(folder / "pool") == _reproducible(folder / "dask")
+            run_sweep(
+                scenes, ["paper"], folder / f"dask{i}", lib, workers=workers, scheduler=address
+            )
+            wall, cpu = time.perf_counter() - t0, process_cpu() - c0
+            dask.append((wall, cpu + sum(client.run(process_cpu).values()) - w0))
+        rows = _reproducible(folder / "pool0")
+        same = all(
+            _reproducible(folder / f"{kind}{i}") == rows
+            for kind in ("pool", "dask")
+            for i in range(repeats)
+        )
     return {
         "scenes": count,
         "workers": workers,
-        "pool_s": pool,
-        "pool_cpu_s": pool_cpu,
-        "dask_s": dask,
-        "dask_cpu_s": dask_cpu,
+        "repeats": repeats,
+        "pool_s": statistics.median(w for w, _ in pool),
+        "pool_cpu_s": statistics.median(c for _, c in pool),
+        "dask_s": statistics.median(w for w, _ in dask),
+        "dask_cpu_s": statistics.median(c for _, c in dask),
         "same_rows": same,
+        "pool_runs": pool,
+        "dask_runs": dask,
     }
 
 
@@ -173,7 +186,8 @@ def section(r: dict[str, object]) -> str:
     cpu_overhead = (sw["dask_cpu_s"] / sw["pool_cpu_s"] - 1.0) * 100.0
     lines += [
         f"| sweep of {sw['scenes']:,} paper-like scenes of 20 s (2 obstacles, strategy "
-        f"paper), process pool of {cores} | {sw['pool_s']:.1f} s | **{sw['pool_cpu_s']:.1f} "
+        f"paper), process pool of {cores}; median of {sw['repeats']} | {sw['pool_s']:.1f} s "
+        f"| **{sw['pool_cpu_s']:.1f} "
         f"CPU-s** ({per_scene * 1000:.1f} ms a scene; {idle:.1f} s on {cores} idle cores) "
         f"| ≤ 30 s: {_verdict(idle <= 30)} (wall: {_verdict(sw['pool_s'] <= 30)}) |",
         f"| the same sweep on a local Dask cluster of {cores} single-threaded workers | "
@@ -183,7 +197,8 @@ def section(r: dict[str, object]) -> str:
         "",
         "The sweep times leave out writing the scene files (done first) and include "
         "starting the pool's workers, writing every events.json and runs.csv; the Dask "
-        'cluster is started before the clock runs, as a real one would be. "on '
+        "cluster is started before the clocks run, as a real one would be, and the pool's "
+        "and the cluster's sweeps take turns. \"on "
         f'{cores} idle cores" is the CPU time spread evenly over the cores, what the wall '
         "time is when nothing else runs. Rows alike in both: "
         f"{'yes' if sw['same_rows'] else 'NO'}.",
@@ -201,6 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--runs", type=int, default=7)
     run.add_argument("--scenes", type=int, default=1000)
     run.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    run.add_argument("--repeats", type=int, default=3, help="sweeps on each path (medians)")
     rep = sub.add_parser("report")
     rep.add_argument("--doc", type=Path, required=True)
     rep.add_argument("result", type=Path)
@@ -212,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
             "load": f"{os.getloadavg()[0]:.1f}",
             "runs": a.runs,
             "rate": steps_per_second(lib, a.runs),
-            "sweep": sweep_times(lib, a.scenes, a.workers),
+            "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats),
         }
         a.out.parent.mkdir(parents=True, exist_ok=True)
         a.out.write_text(json.dumps(result, indent=1) + "\n")
