@@ -517,7 +517,7 @@ class SilController:
                 v=v,
                 w=w,
             )
-        except KeyError as exc:
+        except (KeyError, ValueError) as exc:
             raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
         return StepResult(left, right, status, self._events(n_events))
 
