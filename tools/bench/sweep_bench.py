@@ -167,7 +167,8 @@ def section(r: dict[str, object]) -> str:
     lines = [
         "## Sweeps: scenes through the control step in memory",
         "",
-        f"Measured on {r['cpus']} cores (load average {r['load']} at the start: the wall times "
+        f"Measured on {r['cpus']} cores (load average {r['load']} at the start, "
+        f"{r['load_end']} at the end: the wall times "
         "are only as quiet as the machine was). `make bench` runs "
         "`tools/bench/sweep_bench.py`. CPU time is that of every process doing the work "
         "(the bench, the pool's or the Dask cluster's workers, the Dask scheduler): on a "
@@ -230,6 +231,7 @@ def main(argv: list[str] | None = None) -> int:
             "rate": steps_per_second(lib, a.runs),
             "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats),
         }
+        result["load_end"] = f"{os.getloadavg()[0]:.1f}"
         a.out.parent.mkdir(parents=True, exist_ok=True)
         a.out.write_text(json.dumps(result, indent=1) + "\n")
         print(section(result))
