@@ -173,7 +173,9 @@ def section(r: dict[str, object]) -> str:
         "`tools/bench/sweep_bench.py`. CPU time is that of every process doing the work "
         "(the bench, the pool's or the Dask cluster's workers, the Dask scheduler): on a "
         "shared machine wall time also counts the waits for a core, CPU time does not, so "
-        "the targets are judged on CPU time, with wall time beside it.",
+        "the targets are judged on CPU time, with wall time beside it. CPU time is steadier, "
+        "not immune: work on the other core slows this one's too (shared caches), so a "
+        "loaded machine still lowers these figures.",
         "",
         "| measure | wall time | CPU time | target |",
         "|---|---:|---:|---|",
