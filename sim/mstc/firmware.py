@@ -26,17 +26,22 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import ClassVar
+from struct import Struct
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from mstc.can.dbc import tables
 from mstc.controller import Event, Fault, Side, Status, StepResult
 from mstc.errors import FirmwareError
 from mstc.params import Params, Strategy
-from mstc.sim.plant import Pose, wrap_angle
+from mstc.sim.plant import Pose
 from mstc.sim.sensor import Obstacle
+
+if TYPE_CHECKING:
+    from mstc.sim.run import StepValues
 
 LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no path is given."""
@@ -50,6 +55,7 @@ FRAME_DATA = 8
 _ALIGN = 16
 """Alignment the controller memory needs."""
 
+_TAU, _PI = math.tau, math.pi
 _SIDES = {0: None, 1: Side.LEFT, -1: Side.RIGHT}
 """``avd_side_t``, the sign of α in eq. (10)-(12): not a wire value."""
 
@@ -180,6 +186,63 @@ class _LayoutEntry(ctypes.Structure):
 
 Layout = dict[str, dict[str | None, tuple[int, int]]]
 """By struct name: (offset, size) of each field, and of the whole struct under None."""
+
+
+_FORMAT_CODES: dict[type, str] = {
+    ctypes.c_double: "d",
+    ctypes.c_uint64: "Q",
+    ctypes.c_uint32: "I",
+    ctypes.c_int32: "i",
+    ctypes.c_uint8: "B",
+}
+"""struct module codes of the ctypes scalar types the ABI uses."""
+
+
+def field_packer(c_struct: type[ctypes.Structure], names: Sequence[str]) -> Struct:
+    """A :class:`struct.Struct` that reads or writes the fields @p names (in
+    offset order) of @p c_struct in one call, each at its ctypes offset (the
+    offsets :func:`check_layout` compares with the library's), the bytes in
+    between skipped: one ``pack_into`` or ``unpack_from`` costs less than two
+    attribute accesses of a ctypes struct."""
+    types: dict[str, type] = {f[0]: f[1] for f in c_struct._fields_}
+    fmt, at = "=", 0
+    for name in names:
+        descriptor = getattr(c_struct, name)
+        ctype: Any = types[name]  # ctypes' array types are typed loosely
+        count = 1
+        if issubclass(ctype, ctypes.Array):
+            ctype, count = ctype._type_, ctype._length_
+        if descriptor.offset < at:
+            raise ValueError(f"{c_struct.__name__}.{name}: fields out of order")
+        fmt += f"{descriptor.offset - at}x" if descriptor.offset > at else ""
+        fmt += f"{count}{_FORMAT_CODES[ctype]}"
+        at = descriptor.offset + descriptor.size
+    return Struct(fmt)
+
+
+_INPUT = field_packer(InputStruct, ("robot", "ref", "v_r", "w_r", "t_us", "n_obstacles"))
+"""The scalars of one step's input, after which its obstacle pointer follows."""
+_OBSTACLE = field_packer(ObstacleStruct, ("id", "x", "y", "radius", "vx", "vy"))
+_OBSTACLE_SIZE = ctypes.sizeof(ObstacleStruct)
+_OUTPUT = field_packer(
+    OutputStruct,
+    (
+        "wheel_left",
+        "wheel_right",
+        "mode",
+        "active_obstacle",
+        "side",
+        "faults",
+        "e1",
+        "e2",
+        "e3",
+        "e",
+        "v",
+        "w",
+        "n_events",
+    ),
+)
+"""One step's output but its obstacle table and events."""
 
 
 def library_layout(dll: ctypes.CDLL) -> Layout:
@@ -402,8 +465,7 @@ class SilController:
         self._in_ref = ctypes.byref(self._in)
         self._out_ref = ctypes.byref(self._out)
         self._step = self._lib.mstc_sil_step
-        self._robot = self._in.robot
-        self._ref = self._in.ref
+        self._modes = self._tables.mode
 
     @staticmethod
     def defaults(lib_path: str | os.PathLike[str] | None = None) -> Params:
@@ -439,60 +501,100 @@ class SilController:
         :raises FirmwareError: more than MAX_OBSTACLES obstacles, or the library
             refused the step or returned a value outside its ABI.
         """
-        if len(obstacles) > MAX_OBSTACLES:
-            raise FirmwareError(f"{len(obstacles)} obstacles reported, at most {MAX_OBSTACLES}")
-        inp = self._in
-        # Headings cross the boundary wrapped, as a sensor reports them, so
-        # float32 keeps its resolution on long runs.
-        r = self._robot
-        r[0], r[1], r[2] = robot.x, robot.y, wrap_angle(robot.theta)
-        r = self._ref
-        r[0], r[1], r[2] = ref.x, ref.y, wrap_angle(ref.theta)
-        inp.v_r = v_r
-        inp.w_r = w_r
-        inp.t_us = t_us
-        inp.n_obstacles = len(obstacles)
-        for slot, o in zip(self._obstacles, obstacles, strict=False):
-            slot.id, slot.x, slot.y, slot.radius, slot.vx, slot.vy = (
-                o.id,
-                o.x,
-                o.y,
-                o.radius,
-                o.vx,
-                o.vy,
-            )
-        rc = self._step(self._state, self._in_ref, self._out_ref)
-        if rc != 0:
-            raise FirmwareError(f"mstc_sil_step failed with {rc} at t_us={t_us}")
-        return self._result()
-
-    def _result(self) -> StepResult:
-        out = self._out
-        modes, kinds = self._tables.mode, self._tables.event_kind
+        left, right, mode, active, side, faults, e1, e2, e3, e, v, w, n_events = self._call(
+            robot, ref, v_r, w_r, obstacles, t_us
+        )
         try:
             status = Status(
-                mode=modes[out.mode],
-                active_obstacle=out.active_obstacle,
-                side=_SIDES[out.side],
-                faults=_fault(out.faults),
-                e1=out.e1,
-                e2=out.e2,
-                e3=out.e3,
-                e=out.e,
-                v=out.v,
-                w=out.w,
-            )
-            n_events = out.n_events
-            if n_events > MAX_EVENTS:
-                raise KeyError(f"n_events {n_events}")
-            events = (
-                tuple(
-                    Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
-                    for ev in out.events[:n_events]
-                )
-                if n_events
-                else ()
+                mode=self._modes[mode],
+                active_obstacle=active,
+                side=_SIDES[side],
+                faults=_fault(faults),
+                e1=e1,
+                e2=e2,
+                e3=e3,
+                e=e,
+                v=v,
+                w=w,
             )
         except (KeyError, ValueError) as exc:
             raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
-        return StepResult(out.wheel_left, out.wheel_right, status, events)
+        return StepResult(left, right, status, self._events(n_events))
+
+    def step_values(
+        self,
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        obstacles: Sequence[Obstacle],
+        t_us: int,
+    ) -> StepValues:
+        """:meth:`step`, its result as the plain tuple the in-memory loop
+        records (:data:`mstc.sim.run.StepValues`): building the Status and
+        StepResult objects costs more than the firmware's step.
+
+        :raises FirmwareError: as :meth:`step`.
+        """
+        left, right, mode, _, side, faults, e1, e2, e3, e, _, _, n_events = self._call(
+            robot, ref, v_r, w_r, obstacles, t_us
+        )
+        try:
+            decoded, _ = self._modes[mode], _SIDES[side]
+        except KeyError as exc:
+            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
+        return left, right, decoded, faults, e1, e2, e3, e, self._events(n_events)
+
+    def _call(
+        self,
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        obstacles: Sequence[Obstacle],
+        t_us: int,
+    ) -> tuple[Any, ...]:
+        """Run the step; the scalars of its output (:data:`_OUTPUT`'s fields)."""
+        if len(obstacles) > MAX_OBSTACLES:
+            raise FirmwareError(f"{len(obstacles)} obstacles reported, at most {MAX_OBSTACLES}")
+        # Headings cross the boundary wrapped (wrap_angle, inlined: it costs
+        # as much as the step), as a sensor reports them, so float32 keeps
+        # its resolution on long runs.
+        theta = math.remainder(robot.theta, _TAU)
+        theta_r = math.remainder(ref.theta, _TAU)
+        _INPUT.pack_into(
+            self._in,
+            0,
+            robot.x,
+            robot.y,
+            _PI if theta == -_PI else theta,
+            ref.x,
+            ref.y,
+            _PI if theta_r == -_PI else theta_r,
+            v_r,
+            w_r,
+            t_us,
+            len(obstacles),
+        )
+        pack, table = _OBSTACLE.pack_into, self._obstacles
+        for i, o in enumerate(obstacles):
+            pack(table, i * _OBSTACLE_SIZE, o.id, o.x, o.y, o.radius, o.vx, o.vy)
+        rc = self._step(self._state, self._in_ref, self._out_ref)
+        if rc != 0:
+            raise FirmwareError(f"mstc_sil_step failed with {rc} at t_us={t_us}")
+        return _OUTPUT.unpack_from(self._out)
+
+    def _events(self, n_events: int) -> tuple[Event, ...]:
+        """The @p n_events events of the last step's output."""
+        if not n_events:
+            return ()
+        kinds = self._tables.event_kind
+        try:
+            if n_events > MAX_EVENTS:
+                raise KeyError(f"n_events {n_events}")
+            return tuple(
+                Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
+                for ev in self._out.events[:n_events]
+            )
+        except (KeyError, ValueError) as exc:
+            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc

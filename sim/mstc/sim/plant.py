@@ -39,6 +39,13 @@ class Integrator(StrEnum):
     """The exact arc (or straight line) of constant (v, ω)."""
 
 
+_new_pose = tuple.__new__
+"""Builds a Pose without NamedTuple's generated __new__ (one call less a
+period: the plant and the reference each make one per step)."""
+_cos, _sin = math.cos, math.sin
+
+_EULER = Integrator.EULER
+
 # Below this |ω dt| the series of sin(h)/h is exact to double precision.
 _SMALL_ANGLE = 1e-4
 
@@ -67,12 +74,12 @@ def integrate(pose: Pose, v: float, w: float, dt: float, integrator: Integrator)
     :returns: The pose at the end of the period.
     """
     x, y, theta = pose
-    if integrator is Integrator.EULER:
-        return Pose(x + v * math.cos(theta) * dt, y + v * math.sin(theta) * dt, theta + w * dt)
+    if integrator is _EULER:
+        return _new_pose(Pose, (x + v * _cos(theta) * dt, y + v * _sin(theta) * dt, theta + w * dt))
     half = 0.5 * w * dt
     chord = v * dt * _sinc(half)
     mid = theta + half
-    return Pose(x + chord * math.cos(mid), y + chord * math.sin(mid), theta + w * dt)
+    return _new_pose(Pose, (x + chord * _cos(mid), y + chord * _sin(mid), theta + w * dt))
 
 
 def body_velocity(
@@ -115,6 +122,6 @@ class UnicyclePlant:
 
     def step(self, wheel_left: float, wheel_right: float, dt: float) -> Pose:
         """Hold the wheel speeds [rad/s] for ``dt`` [s]; return the new pose."""
-        v, w = self.body_velocity(wheel_left, wheel_right)
+        v, w = body_velocity(wheel_left, wheel_right, self.wheel_radius, self.track_width)
         self.pose = integrate(self.pose, v, w, dt, self.integrator)
         return self.pose

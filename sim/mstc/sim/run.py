@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -91,6 +92,33 @@ class RunResult:
     timing: Timing | None = None
     """A real-time run's timing (:mod:`mstc.sim.realtime`, timing.json);
     None in lock-step, where the plant's time is the firmware's."""
+
+
+StepValues = tuple[float, float, Mode, int, float, float, float, float, tuple[Event, ...]]
+"""What the loop records of one step: the wheel speeds (left, right), the
+mode, the fault bits, e1, e2, e3, e and the events."""
+StepFunction = Callable[[Pose, Pose, float, float, Sequence[Obstacle], int], StepValues]
+
+
+def step_values(controller: Controller) -> StepFunction:
+    """@p controller's step, its result as :data:`StepValues`: the
+    controller's own ``step_values`` when it has one (the firmware's, which
+    skips building the Status and StepResult objects), else its ``step``
+    with the values read from the result."""
+    own: StepFunction | None = getattr(controller, "step_values", None)
+    if own is not None:
+        return own
+    step = controller.step
+
+    def values(
+        robot: Pose, ref: Pose, v_r: float, w_r: float, seen: Sequence[Obstacle], t_us: int
+    ) -> StepValues:
+        result = step(robot, ref, v_r, w_r, seen, t_us)
+        s = result.status
+        left, right = result.wheel_left, result.wheel_right
+        return left, right, s.mode, int(s.faults), s.e1, s.e2, s.e3, s.e, result.events
+
+    return values
 
 
 def world_obstacles(scenario: Scenario) -> tuple[Obstacle, ...]:
@@ -202,37 +230,39 @@ def simulate(
     fault_masks: list[int] = []
     clock = time.perf_counter_ns
     spent = 0
-    step = controller.step
+    step = step_values(controller)
     body_velocity = plant.body_velocity
+    scan, plant_step, ref_step = sensor.scan, plant.step, ref.step
+    dt, dt_us = sim.dt, sim.dt_us
     tick = max((steps + 1) // PROGRESS_UPDATES, 1)
     try:
         for k in range(steps + 1):
-            t_us = k * sim.dt_us
+            t_us = k * dt_us
             t = t_us / 1e6
             robot, reference = plant.pose, ref.pose
-            seen = sensor.scan(robot, t)
+            seen = scan(robot, t)
             measured = robot
             if odometry_noise is not None:
                 nx, ny, nt = odometry_noise[k]
                 measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
             start = clock()
-            result = step(measured, reference, v_r, w_r, seen, t_us)
+            left, right, mode, faults, e1, e2, e3, e, emitted = step(
+                measured, reference, v_r, w_r, seen, t_us
+            )
             spent += clock() - start
-            left, right = result.wheel_left, result.wheel_right
             v, w = body_velocity(left, right)
-            s = result.status
-            values[k] = (t, *robot, *reference, v, w, v_r, w_r, s.e1, s.e2, s.e3, s.e)
-            modes.append(s.mode)
-            if result.events:
-                events.extend(result.events)
-            if s.faults:
-                fault_masks.append(int(s.faults))
+            values[k] = (t, *robot, *reference, v, w, v_r, w_r, e1, e2, e3, e)
+            modes.append(mode)
+            if emitted:
+                events.extend(emitted)
+            if faults:
+                fault_masks.append(faults)
             if k < steps:
                 if pending:
                     pending.append((left, right))
                     left, right = pending.popleft()
-                plant.step(left, right, sim.dt)
-                ref.step(sim.dt)
+                plant_step(left, right, dt)
+                ref_step(dt)
             if progress is not None and (k + 1) % tick == 0:
                 progress.update(k + 1)
     finally:
