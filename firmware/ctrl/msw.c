@@ -405,9 +405,8 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
-    look_t lk; /* the path is written when first needed (rolled_out()) */
-    lk.in = in;
-    lk.rolled = false;
+    /* The path is written when first needed (rolled_out()); zero until then. */
+    look_t lk = { .in = in, .rolled = false, .path = { 0 } };
     if (m->state == (uint8_t)MSW_BLOCKED) {
         if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
