@@ -16,8 +16,11 @@
  *           3 the bus: state (arg % 5) and bus-off count += (b0 & 1), or
  *             hal_can_status() -ENOTSUP when arg is 0xFF.
  * After every record: the wheel speeds are finite and within
- * ±max_wheel_speed, and the application is either running or halted with a
- * reason; otherwise abort() (a finding).
+ * ±max_wheel_speed or, while halted, no faster than after the record before
+ * (a halt ramps down from where the wheels were, at the deceleration in force
+ * when it began, whatever max_wheel_speed is set to meanwhile: docs/safety.md),
+ * and the application is either running or halted with a reason; otherwise
+ * abort() (a finding).
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -43,7 +46,11 @@ static uint8_t last_set[AUTH_DATA_LEN]; /* bytes 2..7 of the last PARAM_SET sent
 static app_t app;
 static uint8_t counters[16];
 
-static bool wheel_ok(num_t w, num_t max) { return num_is_finite(w) && num_abs(w) <= max; }
+/* Wheel speed @p w within ±@p max or, while @p halted, no faster than @p before. */
+static bool wheel_ok(num_t w, num_t max, bool halted, num_t before)
+{
+    return num_is_finite(w) && (num_abs(w) <= max || (halted && num_abs(w) <= num_abs(before)));
+}
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -53,6 +60,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     app_set_key(&app, key, 0u);
     memset(last_set, 0, sizeof last_set);
     uint64_t now = 0;
+    kin_wheels_t before = *app_last_wheels(&app);
     for (size_t at = 0; at + 12u <= size; at += 12u) {
         const uint8_t *r = &data[at];
         const uint8_t op = r[0] & 3u;
@@ -90,10 +98,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         const kin_wheels_t *w = app_last_wheels(&app);
         const num_t max = app.ctl.p.kin.max_wheel_speed;
-        if (!wheel_ok(w->left, max) || !wheel_ok(w->right, max) ||
+        const bool halted = app.halt != (uint8_t)COMM_HALT_NONE;
+        if (!wheel_ok(w->left, max, halted, before.left) ||
+            !wheel_ok(w->right, max, halted, before.right) ||
             app.halt > COMM_HALT_ODOMETRY_IMPLAUSIBLE) {
             abort();
         }
+        before = *w;
     }
     return 0;
 }
