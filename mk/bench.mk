@@ -89,7 +89,8 @@ BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 # mstc-fw --realtime, its timing.json figures (tools/bench/realtime_bench.py).
 $(BENCH_DIR)/can-realtime.json: build/host/mstc-fw tools/bench/realtime_bench.py \
     $(wildcard sim/mstc/sim/*.py sim/mstc/can/*.py) | deps-hil
-	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan --timeout 1200 -- \
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) MPLCONFIGDIR=$(CURDIR)/build/mplconfig \
+	  tools/vm/with-vcan --timeout 1200 -- \
 	  $(PY) tools/bench/realtime_bench.py run --fw build/host/mstc-fw --out $@
 
 # Sweeps: scene-steps per second in memory, 1,000 paper-like scenes on every

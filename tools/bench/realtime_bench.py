@@ -23,6 +23,7 @@ from pathlib import Path
 import can
 from report import update_doc  # tools/bench/report.py, beside this script
 
+from mstc.can import secoc
 from mstc.can.realtime import RealtimeLink
 from mstc.cli.hil import start_firmware, stop_firmware
 from mstc.report.table import match_events
@@ -41,7 +42,8 @@ def bench(fw: Path, channel: str) -> dict[str, object]:
     for path in SCENARIOS:
         scenario = load_scenario(path)
         bus = can.Bus(interface="socketcan", channel=channel)
-        proc = start_firmware(fw, channel, period_ms=20)
+        # The firmware gets the key the plant authenticates with (mstc hil does the same).
+        proc = start_firmware(fw, channel, secoc.key_file(), period_ms=20)
         try:
             link = RealtimeLink(bus, scenario.params)
             result = simulate_realtime(scenario, link)
@@ -117,8 +119,8 @@ def section(r: dict[str, object]) -> str:
         "What limits these figures here: the VM is emulated (no KVM), on a 2-core machine, "
         "and the plant is Python, which runs 20 to 50 times slower there than on the host. "
         "Its frames cost most of its time (an encoded and sent frame, a received and decoded "
-        "one: each under a millisecond of CPU in the VM), so it needs about half of each 20 ms "
-        "period; docs/hil.md says what brought it there. The VM's vCPUs are descheduled at "
+        "one: each under a millisecond of CPU in the VM), so it needs most of each 20 ms "
+        "period (the plant CPU column; docs/hil.md says what brought it there from over 20 ms). The VM's vCPUs are descheduled at "
         "the host's will: on a loaded machine samples come late, some are skipped, and the "
         "firmware then finds no new odometry at a tick (stale steps). The firmware's own "
         "period stays on its grid (it stamps steps on it and skips the periods it could not "
