@@ -326,29 +326,45 @@ class _Codec:
         self.fields = tuple(f for f in fields if f.short not in E2E_SIGNALS)
         self.wanted = frozenset(f.short for f in self.fields)
 
-    def pack(self, values: Mapping[str, Value]) -> bytearray:
-        """The frame's bytes (CRC and counter 0) of physical @p values, each
-        rounded to nearest as :func:`to_raw` does.
+    def pack(
+        self, values: Mapping[str, Value], *, raw: bool = False, saturate: bool = False
+    ) -> bytearray:
+        """The frame's bytes (CRC and counter 0) of @p values (see
+        :meth:`Protocol.encode` for @p raw and @p saturate), each rounded to
+        nearest as :func:`to_raw` does.
 
         :raises SignalRangeError: a value its signal cannot carry.
         """
         acc = 0
         for f in self.fields:
             value = values[f.short]
-            if f.is_float:
-                if isinstance(value, str) or not f.lo <= value <= f.hi:
-                    value = to_raw(f.signal, value, frame=self.name)  # raises, or a choice
-                raw = int.from_bytes(_F32.pack(value), "little")
-            elif isinstance(value, str):
-                raw = int(to_raw(f.signal, value, frame=self.name))
-            else:
-                x = (value - f.offset) / f.scale
-                # Compared before rounding, as to_raw does; to_raw names a
-                # value out of range (it raises).
-                if not (f.lo - 1 <= x <= f.hi + 1 and f.lo <= (raw := _round_half_away(x)) <= f.hi):
-                    raw = int(to_raw(f.signal, value, frame=self.name))
-            acc |= (raw & f.mask) << f.start
+            r: float | int | None = None
+            if raw:
+                r = self._raw(f, value)
+            elif not (saturate or isinstance(value, str)):
+                # The common case without to_raw's lookups; the same rule.
+                if f.is_float:
+                    r = value if f.lo <= value <= f.hi else None
+                else:
+                    x = (value - f.offset) / f.scale
+                    if f.lo - 1 <= x <= f.hi + 1 and f.lo <= (k := _round_half_away(x)) <= f.hi:
+                        r = k
+            if r is None:  # to_raw applies the rule, and names a value out of range
+                r = to_raw(f.signal, value, saturate=saturate, frame=self.name)
+            bits = int.from_bytes(_F32.pack(r), "little") if f.is_float else int(r)
+            acc |= (bits & f.mask) << f.start
         return bytearray(acc.to_bytes(DLC, "little"))
+
+    def _raw(self, f: _Field, value: Value) -> float | int:
+        """A raw value of :meth:`pack`, checked only against what its bits hold."""
+        if isinstance(value, str):
+            raise TypeError(f"{self.name}.{f.short}: a raw value is a number: {value!r}")
+        if f.is_float:
+            return value
+        field = _field_range(f.signal)
+        if not field[0] <= value <= field[1]:
+            raise _range_error(f.signal, self.name, float(value), field, f"raw, {f.length} bits")
+        return int(value)
 
     def unpack(self, data: bytes) -> dict[str, float | int]:
         """The physical values of a frame's bytes, by short name (CRC and
@@ -454,10 +470,7 @@ class Protocol:
                 f"{message.name}: missing {sorted(codec.wanted - set(values))}, "
                 f"unknown {sorted(set(values) - codec.wanted)}"
             )
-        if raw or saturate:
-            data = self._encode_special(message, values, raw=raw, saturate=saturate)
-        else:
-            data = codec.pack(values)
+        data = codec.pack(values, raw=raw, saturate=saturate)
         self.protect(message.frame_id, data)
         return can.Message(
             arbitration_id=message.frame_id,
@@ -466,32 +479,6 @@ class Protocol:
             data=data,
             timestamp=timestamp,
         )
-
-    @staticmethod
-    def _encode_special(
-        message: Message, values: Mapping[str, Value], *, raw: bool, saturate: bool
-    ) -> bytearray:
-        """:meth:`encode`'s raw or saturated values, through cantools."""
-        prefix = f"{message.name}_"
-        raw_values: dict[str, float | int] = {f"{prefix}CRC": 0, f"{prefix}Counter": 0}
-        for short, value in values.items():
-            signal = message.get_signal_by_name(prefix + short)
-            if raw:
-                if isinstance(value, str):
-                    raise TypeError(f"{message.name}.{short}: a raw value is a number: {value!r}")
-                if signal.is_float:
-                    raw_values[signal.name] = value
-                    continue
-                field = _field_range(signal)
-                if not field[0] <= value <= field[1]:
-                    bits = f"raw, {signal.length} bits"
-                    raise _range_error(signal, message.name, float(value), field, bits)
-                raw_values[signal.name] = int(value)
-            else:
-                raw_values[signal.name] = to_raw(
-                    signal, value, saturate=saturate, frame=message.name
-                )
-        return bytearray(message.encode(raw_values, scaling=False, strict=False))
 
     def protect(self, frame_id: int, data: bytearray) -> None:
         """Write the next alive counter of @p frame_id into bits 8..11 of
