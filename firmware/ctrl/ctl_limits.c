@@ -21,6 +21,8 @@ const ctl_limit_t ctl_limits[CTL_N_PARAMS] = {
     { NUM_C(1.25), NUM_C(10000.0), NUM_C(125.0), true, false,
       false },                                                /* 13 max_wheel_decel [rad/s²] */
     { NUM_C(0.0), NUM_C(1.0), NUM_C(1.0), true, true, true }, /* 14 strategy */
+    { NUM_C(1.0), NUM_C(10000.0), NUM_C(20.0), true, true, false }, /* 15 wheel_accel [rad/s²] */
+    { NUM_C(0.0), NUM_C(1.0), NUM_C(0.06), true, true, false },     /* 16 wheel_tau [s] */
 };
 
 /* In the order they are checked: { lhs, op, factor, { rhs, rhs } }. */
@@ -55,6 +57,8 @@ num_t *ctl_param_slot(ctl_params_t *p, unsigned index)
     case CTL_P_MAX_WHEEL_SPEED: return &p->kin.max_wheel_speed;
     case CTL_P_MAX_WHEEL_DECEL: return &p->max_wheel_decel;
     case CTL_P_STRATEGY: return &p->strategy;
+    case CTL_P_WHEEL_ACCEL: return &p->wheel_accel;
+    case CTL_P_WHEEL_TAU: return &p->wheel_tau;
     default: return NULL; /* unknown, or not held yet */
     }
 }

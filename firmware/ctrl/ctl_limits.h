@@ -26,10 +26,12 @@ enum {
     CTL_P_MAX_WHEEL_SPEED = 12, /**< max_wheel_speed [rad/s] */
     CTL_P_MAX_WHEEL_DECEL = 13, /**< max_wheel_decel [rad/s²] */
     CTL_P_STRATEGY = 14,        /**< strategy */
+    CTL_P_WHEEL_ACCEL = 15,     /**< wheel_accel [rad/s²] */
+    CTL_P_WHEEL_TAU = 16,       /**< wheel_tau [s] */
 };
 
 /** @brief Parameter indices are 0 .. CTL_N_PARAMS - 1. */
-#define CTL_N_PARAMS    15u
+#define CTL_N_PARAMS    17u
 /** @brief Relations in ctl_relations[]. */
 #define CTL_N_RELATIONS 5u
 /** @brief No parameter: the second term of a one-term relation. */

@@ -45,6 +45,9 @@ class EventKind(StrEnum):
     FILTER = "filter"
     """Strategy "mstc": the first step of an intervention of the safety filter,
     on the obstacle that constrained it."""
+    INFEASIBLE = "infeasible"
+    """Strategy "mstc": the first step at which the safety filter finds an
+    obstacle coming in that no command within the wheels' limits keeps away."""
 
 
 class Side(StrEnum):
@@ -139,6 +142,7 @@ class Controller(Protocol):
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         """Run one control period.
 
@@ -148,6 +152,10 @@ class Controller(Protocol):
         :param w_r: reference angular velocity [rad/s].
         :param obstacles: what the range sensor reports now.
         :param t_us: step time [µs].
+        :param wheel_speeds: the wheel speeds the wheels' drivers measured
+            (left, right) [rad/s], each the mean over the period that just
+            ended (WHEEL_SPEED), or None when the plant has none (ideal
+            wheels): the controller then predicts them from its commands.
 
         :returns: Wheel speed commands, status and the events of this step.
         """

@@ -66,6 +66,10 @@ class Params:
     """Largest |wheel angular speed| [rad/s]."""
     strategy: Strategy = Strategy.MSTC
     """Switching strategy; the paper's scenario files select ``paper``."""
+    wheel_accel: float = _default("wheel_accel")
+    """What the wheels can do [rad/s²] ("mstc" limits its commands to it)."""
+    wheel_tau: float = _default("wheel_tau")
+    """The wheels' lag to their command, delays included [s]."""
 
     def safe_distance(self, radius: float) -> float:
         """D_s for an obstacle of ``radius`` [m]: moved out by (radius − R_ob),
@@ -92,6 +96,8 @@ PARAM_NAMES: dict[str, tuple[str, int | None]] = {
     "wheel_radius": ("wheel_radius", None),
     "track_width": ("track_width", None),
     "max_wheel_speed": ("max_wheel_speed", None),
+    "wheel_accel": ("wheel_accel", None),
+    "wheel_tau": ("wheel_tau", None),
 }
 """The parameters the Python side sets and reads, by their name in the DBC's
 PARAM_SET_index value table: the :class:`Params` field of each, and the

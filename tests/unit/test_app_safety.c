@@ -36,7 +36,8 @@ void setUp(void)
     hal_fake_reset();
     hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
     memset(tf_counters, 0, sizeof tf_counters);
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
     app_set_key(&app, tf_test_key, 0u);
     tf_freshness = 0u;
 }
@@ -462,7 +463,9 @@ static void test_app_safety_every_parameter_reads_back_its_default(void)
 {
     /* Table 1, the default geometry and the halt's deceleration (125 rad/s²:
      * 100 rad/s stopped within 0.8 s), in index order; then index 14, the
-     * strategy: 1, "mstc", the board images' default. */
+     * strategy: 1, "mstc", the board images' default; 15 and 16 the wheels
+     * of a 37D-class gearmotor, 20 rad/s² and 0.06 s (ctl_params.toml). */
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
     const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,   12.0f,
                                            6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f, 125.0f };
     for (uint8_t i = 0; i < COMM_PARAM_COUNT; i++) {
@@ -474,6 +477,12 @@ static void test_app_safety_every_parameter_reads_back_its_default(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     feed(tf_param_get(15));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 20.0f, tf_last_param_value().param_value_value);
+    feed(tf_param_get(16));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.06f, tf_last_param_value().param_value_value);
+    feed(tf_param_get(17));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
@@ -536,6 +545,60 @@ static void test_app_safety_standing_reference_is_stop_not_a_halt(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
     TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
     TEST_ASSERT_EQUAL_INT(COMM_STATE_STOPPED, app.state);
+}
+
+/* ------------------------------------------------------------ WHEEL_SPEED */
+
+static void test_app_safety_wheel_speeds_never_sent_are_not_needed(void)
+{
+    /* drive() sends none: the firmware predicts them (app.h). */
+    drive(5);
+}
+
+static void test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_step(void)
+{
+    arm();
+    /* WHEEL_SPEED with the first steps, then only odometry and reference: as
+     * odometry, the steps k+1 and k+2 after the last still run, k+3 halts
+     * with reason 7 (six steps: fewer than odometry that stands while the
+     * wheels turn needs to be implausible, odo.h). */
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_wheel_speed(70.0, 70.0));
+        full_step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    }
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
+}
+
+static void test_app_safety_wheel_speeds_lost_while_standing_do_not_halt(void)
+{
+    /* The reference stands (v_r = ω_r = 0) on the robot: p3, the wheels at
+     * zero; measured zero, then no more WHEEL_SPEED: nothing moves, no
+     * halt. */
+    arm();
+    for (unsigned k = 0; k < 4u; k++) {
+        feed(tf_wheel_speed(0.0, 0.0));
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.0, 0.0));
+        step();
+    }
+    for (unsigned k = 0; k < 6u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.0, 0.0));
+        step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    }
 }
 
 static void test_app_safety_ref_motion_alone_lost_is_a_reference_halt(void)
@@ -723,7 +786,7 @@ static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     /* And an index the table does not hold. */
-    (void)set_param(15, 0.0f);
+    (void)set_param(17, 0.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
@@ -756,6 +819,9 @@ int main(void)
     RUN_TEST(test_app_safety_at_most_sixteen_obstacles_a_step);
     RUN_TEST(test_app_safety_standing_reference_is_stop_not_a_halt);
     RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_never_sent_are_not_needed);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_step);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_standing_do_not_halt);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
     RUN_TEST(test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused);

@@ -214,9 +214,17 @@ static void test_ctl_init_with_bad_parameters_falls_back_to_defaults(void)
     ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.2, 0.0, 0.0), 0.0, 0.1, NULL, 0, 0);
     ctl_step(&c, &in, &out);
     /* v = 0 + 3·0.2 = 0.6 (default k1 = 3, not −1), ω = 0.1:
-     * ω_R = (0.6 + 0.015)/0.05 = 12.3, ω_L = (0.6 − 0.015)/0.05 = 11.7. */
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 12.3, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 11.7, out.wheels.left);
+     * ω_R = (0.6 + 0.015)/0.05 = 12.3, ω_L = (0.6 − 0.015)/0.05 = 11.7; the
+     * default strategy "mstc" with the default wheels (20 rad/s²) changes
+     * them from standstill by at most 20 × 0.02 = 0.4 rad/s over the first
+     * period (CTL_FIRST_DT), both by one factor 0.4/12.3: 0.4 and
+     * 11.7 × 0.4/12.3 = 0.3804878. The prediction (wheel_tau 0.06 s) sees
+     * standstill, the catch-up limit sqrt(2 × 0.5 × 0.05 × 20 × 0.2) = 0.447
+     * m/s leaves v = 0.6 (its correction k1 e1 = 0.6 > 0.447!): v = 0.447,
+     * so ω_R = (0.447 + 0.015)/0.05 = 9.244, ω_L = 8.644 before the limiter:
+     * 0.4 and 8.644 × 0.4/9.244 = 0.37404. */
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.4, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.37404, out.wheels.left);
 }
 
 /* ---------------------------------------------------------------- tracking */
@@ -563,11 +571,16 @@ static void test_ctl_set_params_applies_and_keeps_the_supervisor_state(void)
 
 /* ------------------------------------------------------------------ mstc */
 
-/* Table 1 with the "mstc" strategy (the default). */
+/* Table 1 with the "mstc" strategy (the default), and wheels that follow at
+ * once (wheel_accel 10000 rad/s², wheel_tau 0): the strategy's own decisions,
+ * which the wheels' limits (test_act.c, and the tests below that set them)
+ * would only delay. */
 static void mstc_init(void)
 {
     ctl_params_t p;
     ctl_params_default(&p);
+    p.wheel_accel = num_from_int(10000);
+    p.wheel_tau = NUM_ZERO;
     TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
 }
 
@@ -590,7 +603,7 @@ static void test_ctl_mstc_tracks_as_the_paper_away_from_obstacles(void)
     /* Far behind the reference (e1 = 1: v = 0.5 + 3 = 3.5) and far from any
      * obstacle (10 m): not regulated either. */
     sup_obstacle_t o = obstacle(3, 10.0, 10.0, 0.1);
-    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 143456);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 3.5 / R_WHEEL, out.wheels.right);
 }
@@ -721,10 +734,10 @@ static void test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed(void)
     /* A reference driving backwards (v_r = −0.5) 1 m behind the robot:
      * v = −0.5 − 3 = −3.5, held to −(0.5 + MSW_CATCH_UP) = −1.5; 0.3 m ahead
      * of it the other way: v = −0.5 + 0.9 > 0, held to 0. */
-    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(-1.0, 0.0, 0.0), -0.5, 0.0, &o, 1, 0);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(-1.0, 0.0, 0.0), -0.5, 0.0, &o, 1, 20000);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.5, out.status.v);
-    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.3, 0.0, 0.0), -0.5, 0.0, &o, 1, 0);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.3, 0.0, 0.0), -0.5, 0.0, &o, 1, 40000);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
 }
