@@ -224,6 +224,7 @@ class CanController:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         """One lock-step exchange (see :meth:`Controller.step`)."""
         self._now = t_us / 1e6
@@ -233,6 +234,8 @@ class CanController:
         self._steps += 1
         enc = self.proto.encode
         self._send_inputs(robot, ref, v_r, w_r)
+        if wheel_speeds is not None:
+            self._send(enc("WHEEL_SPEED", left=wheel_speeds[0], right=wheel_speeds[1]))
         self._send_obstacles(obstacles)
         self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
 

@@ -28,7 +28,7 @@ from mstc.can.lockstep import REARM_FRAMES, unauthenticated
 from mstc.can.protocol import Frame
 from mstc.can.realtime import RealtimeLink
 from mstc.controller import Event, Fault, Mode
-from mstc.errors import ControllerError
+from mstc.errors import ControllerError, SimulationError
 from mstc.sim.plant import Pose, integrate
 from mstc.sim.run import PROGRESS_UPDATES, RunResult, Trace, distances, make_world
 from mstc.sim.scenario import Scenario
@@ -197,10 +197,18 @@ def simulate_realtime(
     The scenario's odometry noise is added to the pose sent, with the same
     stream as in lock-step, and the sensor's imperfections apply; its
     ``delay`` does not (the latency here is the bus's and the firmware's).
+    An ``[actuator]`` is simulated in lock-step only: the wheels here follow
+    WHEEL_CMD at once.
 
     :returns: the run, with its :class:`~mstc.sim.timing.Timing`.
     :raises ControllerError: the firmware could not be armed.
+    :raises SimulationError: the scenario has an ``[actuator]``.
     """
+    if scenario.actuator is not None:
+        raise SimulationError(
+            f"{scenario.path}: [actuator]: the real-time plant has ideal wheels; run the "
+            "scenario in lock-step (mstc sim, mstc hil without --realtime)"
+        )
     period = 1.0 / rate_hz
     last_k = round(scenario.sim.duration * rate_hz)
     if stop_odometry_at is not None:

@@ -14,6 +14,7 @@ import numpy as np
 
 from mstc.controller import Controller, Event, Fault, Mode
 from mstc.errors import SimulationError
+from mstc.sim.actuator import Actuator
 from mstc.sim.plant import Pose, UnicyclePlant
 from mstc.sim.reference import ReferenceRobot
 from mstc.sim.scenario import Scenario
@@ -97,7 +98,9 @@ class RunResult:
 StepValues = tuple[float, float, Mode, int, float, float, float, float, tuple[Event, ...]]
 """What the loop records of one step: the wheel speeds (left, right), the
 mode, the fault bits, e1, e2, e3, e and the events."""
-StepFunction = Callable[[Pose, Pose, float, float, Sequence[Obstacle], int], StepValues]
+StepFunction = Callable[
+    [Pose, Pose, float, float, Sequence[Obstacle], int, tuple[float, float] | None], StepValues
+]
 
 
 def step_values(controller: Controller) -> StepFunction:
@@ -111,9 +114,15 @@ def step_values(controller: Controller) -> StepFunction:
     step = controller.step
 
     def values(
-        robot: Pose, ref: Pose, v_r: float, w_r: float, seen: Sequence[Obstacle], t_us: int
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        seen: Sequence[Obstacle],
+        t_us: int,
+        wheel_speeds: tuple[float, float] | None,
     ) -> StepValues:
-        result = step(robot, ref, v_r, w_r, seen, t_us)
+        result = step(robot, ref, v_r, w_r, seen, t_us, wheel_speeds)
         s = result.status
         left, right = result.wheel_left, result.wheel_right
         return left, right, s.mode, int(s.faults), s.e1, s.e2, s.e3, s.e, result.events
@@ -158,6 +167,9 @@ class World:
     sensor: RangeSensor
     odometry_rng: np.random.Generator
     """The stream of the odometry noise (the sensor has its own)."""
+    actuator: Actuator | None = None
+    """The wheels that move the plant (docs/scenarios.md, ``[actuator]``);
+    None: ideal wheels, the commanded speeds held over each period."""
 
 
 def make_world(scenario: Scenario) -> World:
@@ -179,7 +191,10 @@ def make_world(scenario: Scenario) -> World:
         dropout=imp.dropout,
         rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
     )
-    return World(plant, ref, obstacles, sensor, odometry_rng)
+    actuator = None
+    if scenario.actuator is not None:
+        actuator = Actuator(scenario.actuator, plant, sim.dt, imp.delay + scenario.actuator.delay)
+    return World(plant, ref, obstacles, sensor, odometry_rng, actuator)
 
 
 def simulate(
@@ -193,9 +208,10 @@ def simulate(
     scenario has some), the reference pose and the scan; the row is
     recorded; then robot and reference are integrated over dt, the robot with
     the wheel speeds commanded ``delay`` periods earlier (standing still
-    before the first). The run ends with the row of step N, so the trace
-    spans t = 0 to the duration and the minimum distances include the final
-    state.
+    before the first), or, with an ``[actuator]``, by its wheels in
+    substeps (:mod:`mstc.sim.actuator`), whose measured speeds the next step
+    gets. The run ends with the row of step N, so the trace spans t = 0 to
+    the duration and the minimum distances include the final state.
 
     The trace is written into an array of the run's size, taken once: a run of
     N steps holds about (15 + obstacles) × 8 bytes per step, whatever the
@@ -222,7 +238,9 @@ def simulate(
     if imp.position_noise or imp.heading_noise:
         sigma = np.array([imp.position_noise, imp.position_noise, imp.heading_noise])
         odometry_noise = (odometry_rng.standard_normal((steps + 1, 3)) * sigma).tolist()
+    actuator = world.actuator
     pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
+    measured_wheels: tuple[float, float] | None = None if actuator is None else (0.0, 0.0)
 
     values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
     modes: list[Mode] = []
@@ -247,7 +265,7 @@ def simulate(
                 measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
             start = clock()
             left, right, mode, faults, e1, e2, e3, e, emitted = step(
-                measured, reference, v_r, w_r, seen, t_us
+                measured, reference, v_r, w_r, seen, t_us, measured_wheels
             )
             spent += clock() - start
             v, w = body_velocity(left, right)
@@ -258,10 +276,13 @@ def simulate(
             if faults:
                 fault_masks.append(faults)
             if k < steps:
-                if pending:
-                    pending.append((left, right))
-                    left, right = pending.popleft()
-                plant_step(left, right, dt)
+                if actuator is not None:
+                    measured_wheels = actuator.step(left, right)
+                else:
+                    if pending:
+                        pending.append((left, right))
+                        left, right = pending.popleft()
+                    plant_step(left, right, dt)
                 ref_step(dt)
             if progress is not None and (k + 1) % tick == 0:
                 progress.update(k + 1)

@@ -19,7 +19,7 @@ import math
 import re
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import date, datetime, time
 from pathlib import Path
 from typing import Any
@@ -31,6 +31,7 @@ from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
 from mstc.limits import Limit, load_table, violation
 from mstc.params import Params, Strategy
+from mstc.sim.actuator import ActuatorSpec
 from mstc.sim.plant import Integrator, Pose
 
 MAX_STEPS = 100_000
@@ -172,6 +173,8 @@ class MetaSpec:
     """The seed the scene was drawn with."""
     index: int | None = None
     """The scene's number within its family."""
+    actuator: str = ""
+    """The suite's actuator profile ("" for a hand-written scene)."""
 
 
 @dataclass(frozen=True)
@@ -239,6 +242,8 @@ class Scenario:
     expected: tuple[ExpectedEvent, ...]
     imperfections: ImperfectionSpec = ImperfectionSpec()
     meta: MetaSpec = MetaSpec()
+    actuator: ActuatorSpec | None = None
+    """The wheels (``[actuator]``); None: ideal wheels."""
 
     @property
     def name(self) -> str:
@@ -255,6 +260,7 @@ _TOP_KEYS = (
     "imperfections",
     "meta",
     "expected",
+    "actuator",
 )
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
@@ -488,6 +494,8 @@ def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
 
     obstacles = _parse_obstacles(c, data.get("obstacles", []), params, wire)
     sim = _parse_sim(c, data["sim"])
+    actuator = _parse_actuator(c, data["actuator"]) if "actuator" in data else None
+    params = _hand_actuator(c, params, actuator, c.table(data.get("params", {}), "params"), sim)
     _check_reference_path(c, reference, sim, wire.reference)
     expected = _parse_expected(c, data.get("expected", []), len(obstacles), sim)
     return Scenario(
@@ -500,6 +508,7 @@ def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
         expected=expected,
         imperfections=_parse_imperfections(c, data.get("imperfections", {})),
         meta=_parse_meta(c, data.get("meta", {})),
+        actuator=actuator,
     )
 
 
@@ -519,7 +528,8 @@ def _parse_params(c: _Checker, value: object) -> Params:
     element_of: dict[str, str] = {}  # table name -> "k2 " for an array element
     for key, limit in scalars.items():
         if key in table:
-            overrides[key.lower()] = c.positive(table[key], f"params.{key}")
+            read = c.positive if limit.minimum > 0.0 else c.non_negative
+            overrides[key.lower()] = read(table[key], f"params.{key}")
             key_of[limit.name] = key
     for key, limits in arrays.items():
         names = tuple(f"k{i + 1}" for i in range(len(limits)))
@@ -593,6 +603,66 @@ def _parse_obstacles(
     return tuple(result)
 
 
+IDEAL_WHEEL_ACCEL = 10000.0
+"""wheel_accel handed to the firmware for wheels without an acceleration
+limit (ideal wheels, or an ``[actuator]`` without ``max_accel``): the
+largest it takes [rad/s²]."""
+
+
+def _parse_actuator(c: _Checker, value: object) -> ActuatorSpec:
+    table = c.table(value, "actuator")
+    allowed = ("time_constant", "max_accel", "encoder_counts", "delay")
+    c.keys(table, "actuator", (), allowed)
+    values: dict[str, Any] = {}
+    if "time_constant" in table:
+        values["time_constant"] = c.non_negative(table["time_constant"], "actuator.time_constant")
+    if "max_accel" in table:
+        values["max_accel"] = c.positive(table["max_accel"], "actuator.max_accel")
+    if "encoder_counts" in table:
+        values["encoder_counts"] = c.integer(table["encoder_counts"], "actuator.encoder_counts", 1)
+    if "delay" in table:
+        values["delay"] = c.integer(table["delay"], "actuator.delay")
+    return ActuatorSpec(**values)
+
+
+def _hand_actuator(
+    c: _Checker,
+    params: Params,
+    actuator: ActuatorSpec | None,
+    table: Mapping[str, object],
+    sim: SimSpec,
+) -> Params:
+    """@p params with what the wheels are handed to the firmware, where
+    ``[params]`` does not set it: wheel_accel = max_accel (without a limit,
+    or without ``[actuator]``: :data:`IDEAL_WHEEL_ACCEL`), wheel_tau =
+    time_constant + delay × dt (0 without ``[actuator]``). A value the
+    firmware would refuse names the actuator's key."""
+    spec = actuator or ActuatorSpec()
+    handed: dict[str, float] = {}
+    blame: dict[str, str] = {}
+    if "wheel_accel" not in table:
+        handed["wheel_accel"] = min(spec.max_accel, IDEAL_WHEEL_ACCEL)
+        blame["wheel_accel"] = "actuator.max_accel"
+    if "wheel_tau" not in table:
+        handed["wheel_tau"] = spec.time_constant + spec.delay * sim.dt
+        blame["wheel_tau"] = "actuator.time_constant"
+    if not handed:
+        return params
+    p = replace(
+        params,
+        wheel_accel=handed.get("wheel_accel", params.wheel_accel),
+        wheel_tau=handed.get("wheel_tau", params.wheel_tau),
+    )
+    problem = violation(params_values(p))
+    if problem is not None:
+        name = next(n for n in problem.names if n in blame)
+        raise c.fail(
+            blame[name],
+            f"hands the firmware {name} = {handed[name]:g}, which it refuses: {problem.problem}",
+        )
+    return p
+
+
 _IMPERFECTION_NOISES = ("position_noise", "heading_noise", "obstacle_noise")
 
 
@@ -620,7 +690,7 @@ def _parse_imperfections(c: _Checker, value: object) -> ImperfectionSpec:
 
 def _parse_meta(c: _Checker, value: object) -> MetaSpec:
     table = c.table(value, "meta")
-    c.keys(table, "meta", (), ("family", "seed", "index"))
+    c.keys(table, "meta", (), ("family", "seed", "index", "actuator"))
     family = ""
     if "family" in table:
         if not isinstance(table["family"], str):
@@ -628,7 +698,12 @@ def _parse_meta(c: _Checker, value: object) -> MetaSpec:
         family = table["family"]
     seed = c.integer(table["seed"], "meta.seed") if "seed" in table else None
     index = c.integer(table["index"], "meta.index") if "index" in table else None
-    return MetaSpec(family, seed, index)
+    actuator = ""
+    if "actuator" in table:
+        if not isinstance(table["actuator"], str):
+            raise c.fail("meta.actuator", f"must be a string, got {_type_name(table['actuator'])}")
+        actuator = table["actuator"]
+    return MetaSpec(family, seed, index, actuator)
 
 
 def _parse_sim(c: _Checker, value: object) -> SimSpec:
