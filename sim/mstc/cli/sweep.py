@@ -129,6 +129,12 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="only this family of the suites (repeatable)",
     )
     parser.add_argument(
+        "--actuator",
+        metavar="NAME",
+        action="append",
+        help="only this actuator profile of the suites (repeatable; default: all)",
+    )
+    parser.add_argument(
         "--count", metavar="N", type=int, help="scenes per family instead of the suite's counts"
     )
     parser.add_argument(
@@ -172,8 +178,16 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]] | N
                 if name not in known:
                     error(f"{path}: no family {name!r} (families: {', '.join(sorted(known))})")
                     return None
+            profiles = {a.name for a in suite.actuators}
+            for name in args.actuator or ():
+                if name not in profiles:
+                    error(
+                        f"{path}: no actuator {name!r} (actuators: {', '.join(sorted(profiles))})"
+                    )
+                    return None
             wanted = tuple(args.family) if args.family else None
-            files += [f.path for f in generate(suite, args.out / "scenes", wanted)]
+            chosen = tuple(args.actuator) if args.actuator else None
+            files += [f.path for f in generate(suite, args.out / "scenes", wanted, chosen)]
             suites.append(suite)
         else:
             files.append(path)
@@ -300,17 +314,29 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
-    families = list(dict.fromkeys(r["family"] or "(none)" for r in rows))
-    line = "  {:<16} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
+    groups = list(dict.fromkeys((r["family"] or "(none)", r["actuator"] or "ideal") for r in rows))
+    line = "  {:<16} {:<10} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
     print(
         line.format(
-            "family", "strategy", "runs", "contact", "D_s kept", "rejoined", "blocked", "errors"
+            "family",
+            "actuator",
+            "strategy",
+            "runs",
+            "contact",
+            "D_s kept",
+            "rejoined",
+            "blocked",
+            "errors",
         )
     )
-    for family in families:
+    for family, actuator in groups:
         for strategy in strategies:
             mine = [
-                r for r in rows if (r["family"] or "(none)") == family and r["strategy"] == strategy
+                r
+                for r in rows
+                if (r["family"] or "(none)") == family
+                and (r["actuator"] or "ideal") == actuator
+                and r["strategy"] == strategy
             ]
             if not mine:
                 continue
@@ -323,6 +349,7 @@ def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
             print(
                 line.format(
                     family,
+                    actuator,
                     strategy,
                     len(mine),
                     count("contact"),

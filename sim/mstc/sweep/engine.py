@@ -41,12 +41,21 @@ from mstc.params import Strategy
 from mstc.report.outputs import events_json
 from mstc.sim.run import RunResult, simulate
 from mstc.sim.scenario import Scenario, parse_scenario
-from mstc.sweep.dwa import DwaController
+from mstc.sweep.dwa import DwaConfig, DwaController
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, evaluate
 
 STRATEGIES = ("paper", "mstc", "dwa")
 """What --strategy takes: the firmware's two strategies, and the DWA baseline."""
-ROW_COLUMNS = ("scene", "family", "seed", "strategy", "steps", *METRIC_COLUMNS, "error")
+ROW_COLUMNS = (
+    "scene",
+    "family",
+    "actuator",
+    "seed",
+    "strategy",
+    "steps",
+    *METRIC_COLUMNS,
+    "error",
+)
 """Columns of runs.csv, in order."""
 MEASURED_COLUMNS = ("step_us",)
 """Columns that are measurements, different from run to run; every other
@@ -64,6 +73,8 @@ class Scene:
     text: str
     family: str = ""
     seed: int | None = None
+    actuator: str = ""
+    """The suite's actuator profile ("" when the file names none)."""
 
     @classmethod
     def from_file(cls, path: Path) -> Scene:
@@ -75,12 +86,14 @@ class Scene:
             meta = {}
         family = meta.get("family", "") if isinstance(meta, dict) else ""
         seed = meta.get("seed") if isinstance(meta, dict) else None
+        actuator = meta.get("actuator", "") if isinstance(meta, dict) else ""
         return cls(
             path.stem,
             str(path),
             text,
             family if isinstance(family, str) else "",
             seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
+            actuator if isinstance(actuator, str) else "",
         )
 
 
@@ -127,24 +140,51 @@ def worker_library(lib: str) -> str:
     )
 
 
+def actuator_name(scenario: Scenario) -> str:
+    """The actuator column of a run: the suite's profile, else ``ideal``
+    without an ``[actuator]`` table, ``custom`` with one."""
+    if scenario.meta.actuator:
+        return scenario.meta.actuator
+    return "ideal" if scenario.actuator is None else "custom"
+
+
 def controller_for(scenario: Scenario, strategy: str, lib: str) -> tuple[Scenario, Controller]:
-    """The scenario with @p strategy applied, and its controller."""
+    """The scenario with @p strategy applied, and its controller (DWA's
+    window limited to the actuator's acceleration, when it has one)."""
     if strategy == "dwa":
-        return scenario, DwaController(scenario.params)
+        return scenario, DwaController(scenario.params, dwa_config(scenario))
     params = dataclasses.replace(scenario.params, strategy=Strategy(strategy))
     scenario = dataclasses.replace(scenario, params=params)
     return scenario, SilController(params, lib)
 
 
+def dwa_config(scenario: Scenario) -> DwaConfig:
+    """DWA's parameters for @p scenario: its window's accelerations are the
+    wheels' when the actuator limits them (a wheel at a rad/s² gives the
+    robot r·a m/s² and 2·r·a/L rad/s²), never more than DWA's own."""
+    config = DwaConfig()
+    act = scenario.actuator
+    if act is None or not math.isfinite(act.max_accel):
+        return config
+    p = scenario.params
+    linear = p.wheel_radius * act.max_accel
+    return dataclasses.replace(
+        config,
+        max_accel=min(config.max_accel, linear),
+        max_delta_yaw_rate=min(config.max_delta_yaw_rate, 2.0 * linear / p.track_width),
+    )
+
+
 def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
     """Run one scene with one strategy; the result (None on failure) and its row."""
     row = {c: "" for c in ROW_COLUMNS}
-    row.update(scene=scene.name, family=scene.family, strategy=strategy)
+    row.update(scene=scene.name, family=scene.family, strategy=strategy, actuator=scene.actuator)
     row["seed"] = "" if scene.seed is None else str(scene.seed)
     try:
         data = tomllib.loads(scene.text)
         scenario = parse_scenario(data, scene.source)
         row["family"] = scenario.meta.family or scene.family
+        row["actuator"] = actuator_name(scenario)
         scenario, controller = controller_for(scenario, strategy, lib)
         result = simulate(scenario, controller)
         metrics = evaluate(result)
@@ -242,7 +282,9 @@ def batches(jobs: Sequence[Job], workers: int, most: int = 16) -> list[list[Job]
 def _crash_row(job: Job, why: str) -> Outcome:
     scene, strategy = job
     row = {c: "" for c in ROW_COLUMNS}
-    row.update(scene=scene.name, family=scene.family, strategy=strategy, error=why)
+    row.update(
+        scene=scene.name, family=scene.family, actuator=scene.actuator, strategy=strategy, error=why
+    )
     row["seed"] = "" if scene.seed is None else str(scene.seed)
     return Outcome(scene.name, strategy, row, None, "")
 

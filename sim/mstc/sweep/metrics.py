@@ -34,6 +34,11 @@ baseline's, is judged by the same code. Definitions (docs/sweeps.md):
 - time in avoidance, switches: the periods run in mode ``avoid``, and the
   number of mode changes;
 - path ratio: the robot's path length over the reference's;
+- **infeasible**: the controller reported an obstacle it could not keep
+  away within the wheels' limits (an ``infeasible`` event, strategy
+  "mstc"); **contact reported**: a contact at a step at or after the first
+  such report (the only contacts the issue "Safe on real wheels" allows,
+  with moving obstacles);
 - ∫|ω|dt: Σ |ω_k| dt over the periods k = 0..N-1 (commanded ω, held);
 - step cost: mean wall time of one controller step in the process that ran
   it (a measurement; it differs from run to run).
@@ -87,6 +92,10 @@ class Metrics:
     switches: int
     max_activations: int
     """Most activate events of one obstacle."""
+    infeasible: bool
+    """An ``infeasible`` event was reported."""
+    contact_reported: bool
+    """A contact, and the first came at or after the first ``infeasible`` event."""
     step_us: float
     """Mean controller step cost [µs] (a measurement, not reproducible)."""
 
@@ -164,6 +173,11 @@ def evaluate(result: RunResult) -> Metrics:
         if e.kind is EventKind.ACTIVATE:
             activations[e.obstacle] = activations.get(e.obstacle, 0) + 1
     ref_length = _path_length(xr, yr)
+    reports = [e.t_us for e in result.events if e.kind is EventKind.INFEASIBLE]
+    contact_reported = False
+    if reports and min_clearance < 0.0:
+        first = int(np.flatnonzero((clearance < 0.0).any(axis=1))[0])
+        contact_reported = round(float(t[first]) * 1e6) >= reports[0]
     return Metrics(
         contact=min_clearance < 0.0,
         min_clearance=min_clearance,
@@ -178,5 +192,7 @@ def evaluate(result: RunResult) -> Metrics:
         int_abs_w=float(np.abs(trace["w"][:-1]).sum() * dt),
         switches=switches,
         max_activations=max(activations.values(), default=0),
+        infeasible=bool(reports),
+        contact_reported=contact_reported,
         step_us=result.step_time * 1e6,
     )
