@@ -46,7 +46,7 @@ bool stm32_can_rx_pending(void);
 uint32_t stm32_can_bitrate(void);
 
 /** @brief What the main loop has done, for a debugger (and the QEMU smoke
- *         test, tools/bench/qemu_smoke): words only, so its layout is plain. */
+ *         test, mstc.bench.qemu_smoke): words only, so its layout is plain. */
 typedef struct {
     uint32_t steps;       /**< control steps run */
     uint32_t overruns;    /**< control periods skipped because the loop was late */

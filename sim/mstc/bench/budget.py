@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""board_budget: flash, RAM and worst-case stack of the board images.
+"""Flash, RAM and worst-case stack of the board images (``make firmware-budget``).
 
 Usage:
-  board_budget IMAGE_DIR...            budget report; exit 1 when over budget
-  board_budget --modules IMAGE_DIR     bytes per module (the size report)
+  python -m mstc.bench.budget IMAGE_DIR...          budget report; exit 1 when over budget
+  python -m mstc.bench.budget --modules IMAGE_DIR   bytes per module (the size report)
 
 IMAGE_DIR is build/firmware/<board> as `make firmware` leaves it: mstc.elf,
 mstc.map, and obj-<numeric>/ with one .su file per object (-fstack-usage).
@@ -403,7 +402,8 @@ def budget_report(dirs: list[Path]) -> int:
     return 1 if failed else 0
 
 
-def main(argv: list[str]) -> int:
+def main(argv: list[str] | None = None) -> int:
+    argv = ["mstc.bench.budget", *(sys.argv[1:] if argv is None else argv)]
     if len(argv) >= 2 and argv[1] == "--modules":
         if len(argv) != 3:
             print(__doc__.split("\n\n")[1], file=sys.stderr)
@@ -420,4 +420,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(main())
