@@ -33,7 +33,7 @@ from pathlib import Path
 import can
 
 from mstc.bench import ROOT
-from mstc.bench.doc import update_doc
+from mstc.bench.doc import report, write_result
 from mstc.can.protocol import Protocol, wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import CanController, simulate
@@ -213,18 +213,14 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("results", type=Path, nargs="+")
     a = ap.parse_args(argv)
     if a.cmd == "report":
-        body = section([json.loads(p.read_text()) for p in a.results])
-        print(body)
-        changed = update_doc(a.doc, body, BEGIN, END)
-        print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+        report(a.doc, section([json.loads(p.read_text()) for p in a.results]), BEGIN, END)
         return 0
     result = (
         bench_sil(a.lib, a.runs)
         if a.cmd == "sil"
         else bench_hil(a.fw, a.echo, a.channel, a.runs, a.count)
     )
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(json.dumps(result, indent=1) + "\n")
+    write_result(a.out, result)
     return 0
 
 

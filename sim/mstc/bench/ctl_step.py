@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from mstc.bench.doc import update_doc
+from mstc.bench.doc import report
 
 BEGIN = "<!-- bench:ctl_step:begin (written by make bench, mstc.bench.ctl_step) -->"
 END = "<!-- bench:ctl_step:end -->"
@@ -403,9 +403,7 @@ def main(argv: list[str] | None = None) -> int:
         if not pil:
             sys.exit(f"error: {a.pil}: no loop_stats.json (make pil writes them)")
         body += "\n" + pil_section(pil, results)
-    print(body)
-    changed = update_doc(a.doc, body, BEGIN, END)
-    print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+    report(a.doc, body, BEGIN, END)
     return 0
 
 

@@ -11,7 +11,9 @@ As a command, it puts another tool's printed report into the document:
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 
 
@@ -41,6 +43,21 @@ def update_doc(doc: Path, body: str, begin: str, end: str) -> bool:
     doc.parent.mkdir(parents=True, exist_ok=True)
     doc.write_text(new)
     return True
+
+
+def report(doc: Path, body: str, begin: str, end: str) -> None:
+    """Print a benchmark's section, write it into @p doc (:func:`update_doc`)
+    and say whether that changed the document."""
+    print(body)
+    changed = update_doc(doc, body, begin, end)
+    print(f"{doc}: {'updated' if changed else 'unchanged'}")
+
+
+def write_result(out: Path, result: Mapping[str, object]) -> None:
+    """A benchmark's raw result, as JSON (build/bench/*.json, which ``report``
+    reads)."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -23,7 +23,7 @@ from pathlib import Path
 import can
 
 from mstc.bench import ROOT
-from mstc.bench.doc import update_doc
+from mstc.bench.doc import report, write_result
 from mstc.can import secoc
 from mstc.can.protocol import wire_limits
 from mstc.firmware.process import start_firmware, stop_firmware
@@ -151,14 +151,9 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("result", type=Path)
     a = ap.parse_args(argv)
     if a.cmd == "report":
-        body = section(json.loads(a.result.read_text()))
-        print(body)
-        changed = update_doc(a.doc, body, BEGIN, END)
-        print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+        report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
         return 0
-    result = bench(a.fw, a.channel)
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(json.dumps(result, indent=1) + "\n")
+    write_result(a.out, bench(a.fw, a.channel))
     return 0
 
 

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 from mstc.bench import ROOT
-from mstc.bench.doc import update_doc
+from mstc.bench.doc import report, write_result
 from mstc.can.protocol import wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
@@ -211,7 +211,9 @@ def section(r: dict[str, object]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.sweep", description=__doc__.splitlines()[0]
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     run = sub.add_parser("run")
     run.add_argument("--lib", required=True)
@@ -234,13 +236,10 @@ def main(argv: list[str] | None = None) -> int:
             "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats),
         }
         result["load_end"] = f"{os.getloadavg()[0]:.1f}"
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps(result, indent=1) + "\n")
+        write_result(a.out, result)
         print(section(result))
         return 0
-    body = section(json.loads(a.result.read_text()))
-    update_doc(a.doc, body, BEGIN, END)
-    print(body)
+    report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
     return 0
 
 
