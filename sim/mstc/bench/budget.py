@@ -42,6 +42,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mstc.errors import StackUnbounded
+
 FLASH_BUDGET = 32 * 1024
 RAM_BUDGET = 8 * 1024
 FLASH_SECTIONS = (".isr_vector", ".text", ".ARM.extab", ".ARM.exidx")
@@ -254,17 +256,13 @@ def read_su(obj_dir: Path, funcs: dict[str, Func]) -> None:
             f.dynamic = f.dynamic or kind.startswith("dynamic")
 
 
-class Unbounded(Exception):
-    pass
-
-
 def depth_of(
     name: str, funcs: dict[str, Func], memo: dict[str, tuple[int, list[str]]], stack: list[str]
 ) -> tuple[int, list[str]]:
     if name in memo:
         return memo[name]
     if name in stack:
-        raise Unbounded(" -> ".join(stack[stack.index(name) :] + [name]))
+        raise StackUnbounded(" -> ".join(stack[stack.index(name) :] + [name]))
     f = funcs.get(name)
     if f is None:
         return 0, [name + " (?)"]
@@ -368,7 +366,7 @@ def budget_report(dirs: list[Path]) -> int:
         s = sizes(d)
         try:
             st = stack_report(d)
-        except Unbounded as e:
+        except StackUnbounded as e:
             print(f"{d.name}: stack depth unbounded, recursion: {e}")
             failed = True
             continue
