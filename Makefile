@@ -91,6 +91,13 @@ TEST_SRCS_test_slcan := hal/stm32/slcan_codec.c
 SRC_CFLAGS_tests/unit/test_bxcan.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_stm32_calc.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_slcan.c := -Ihal/stm32
+# The DC motor model (model/: a plant, not firmware) that the wheel loop is
+# tested against, here, and simulated against, in the SIL library.
+MODEL_SRCS := $(sort $(wildcard model/*.c))
+TEST_SRCS_test_dcm := $(MODEL_SRCS)
+TEST_SRCS_test_whl := $(MODEL_SRCS)
+SRC_CFLAGS_tests/unit/test_dcm.c := -Imodel
+SRC_CFLAGS_tests/unit/test_whl.c := -Imodel
 TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
 SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
