@@ -42,6 +42,11 @@ void whl_set_params(whl_t *w, const whl_params_t *p)
     const uint32_t dead = periods(num_mul(WHL_DEAD_TIME, p->rate));
     w->stall_limit = (uint16_t)(stall < 1u ? 1u : (stall > UINT16_MAX ? UINT16_MAX : stall));
     w->dead_limit = (uint16_t)(dead < 1u ? 1u : (dead > UINT16_MAX ? UINT16_MAX : dead));
+    /* Counts a period at WHL_MAX_SPEED_FACTOR times the free speed:
+     * counts/(2π·rate) first, to stay within Q16.16. */
+    const num_t per_period = num_div(num_div(p->counts, NUM_TWO_PI), p->rate);
+    w->max_step =
+        (int32_t)periods(num_mul(per_period, num_mul(WHL_MAX_SPEED_FACTOR, p->free_speed))) + 1;
 }
 
 void whl_init(whl_t *w, const whl_params_t *p)
@@ -72,15 +77,23 @@ int16_t whl_motor_cmd(num_t u)
 #endif
 }
 
-/* Stall and dead-encoder checks of wheel @p k, on the drive applied over the
- * period that just ended and what the encoder saw of it; returns the fault
- * bits found. */
-static uint8_t check_faults(whl_t *w, unsigned k, int32_t count)
+/* Stall and encoder checks of wheel @p k, on the drive applied over the
+ * period that just ended and what the encoder saw of it (@p step counts
+ * this period); returns the fault bits found. */
+static uint8_t check_faults(whl_t *w, unsigned k, int32_t count, int32_t step)
 {
     whl_wheel_t *s = &w->w[k];
     uint8_t found = 0u;
     const num_t u = s->drive;
-    if (num_abs(u) >= WHL_STALL_DRIVE && num_abs(s->speed) < WHL_STALL_SPEED) {
+    /* Faster than the wheel can turn: a broken, miswired or wrongly
+     * configured encoder (ODrive's overspeed error). */
+    if (step > w->max_step || step < -w->max_step) {
+        found |= (uint8_t)(WHL_FAULT_ENCODER_LEFT << k);
+    }
+    /* Full drive, and no motion the way it drives: held, or an encoder that
+     * died or counts the wrong way. */
+    const num_t along = u > NUM_ZERO ? s->speed : num_neg(s->speed);
+    if (num_abs(u) >= WHL_STALL_DRIVE && along < WHL_STALL_SPEED) {
         s->stall_periods = s->stall_periods < UINT16_MAX ? s->stall_periods + 1u : UINT16_MAX;
         if (s->stall_periods >= w->stall_limit) {
             found |= (uint8_t)(WHL_FAULT_STALL_LEFT << k);
@@ -174,9 +187,10 @@ void whl_step(whl_t *w, const whl_input_t *in, whl_output_t *out)
         /* Modulo 2^32: a running count that wraps still gives the right
          * difference. */
         delta[k] = (int32_t)((uint32_t)c - (uint32_t)s->hist[back]);
+        const int32_t step = (int32_t)((uint32_t)c - (uint32_t)s->hist[w->head]);
         s->hist[next] = c;
         s->speed = num_mul(num_from_int(delta[k]), w->speed_per_count);
-        found |= check_faults(w, k, c);
+        found |= check_faults(w, k, c, step);
     }
     w->head = (uint8_t)next;
     w->primed = true;

@@ -26,11 +26,14 @@
  * 4. **Release at standstill**: a zero setpoint with the wheel below one
  *    count per window gives u = 0 and I = 0 (VESC's s_pid_min_erpm), so a
  *    stopped robot does not hum.
- * 5. **Faults**, latched: a *stall* (|u| ≥ WHL_STALL_DRIVE, |ω̂| below
- *    WHL_STALL_SPEED for stall_time) and a *dead encoder* (|u| ≥
- *    WHL_DEAD_DRIVE in one direction for WHL_DEAD_TIME without a single
- *    count since it rose there). Either stops both wheels (u = 0) until
- *    whl_clear_faults(): a robot with one wheel driven turns on the spot.
+ * 5. **Faults**, latched: a *stall* (|u| ≥ WHL_STALL_DRIVE and ω̂ below
+ *    WHL_STALL_SPEED in the drive's direction, for stall_time: held, or an
+ *    encoder that died while turning or counts backwards), a *dead encoder*
+ *    (|u| ≥ WHL_DEAD_DRIVE in one direction for WHL_DEAD_TIME without a
+ *    single count since it rose there) and an *implausible encoder* (more
+ *    counts in a period than WHL_MAX_SPEED_FACTOR times the free speed
+ *    gives). Any stops both wheels (u = 0) until whl_clear_faults(): a robot
+ *    with one wheel driven turns on the spot.
  *
  * Both numeric modes (num.h). No clock, no heap: the period is the
  * parameter rate, the caller keeps the time.
@@ -51,23 +54,26 @@
 
 /** @name Fault thresholds (docs/wheel.md, "Faults"). @{ */
 /** Full drive, for a stall: |u| at least this. */
-#define WHL_STALL_DRIVE NUM_C(0.95)
+#define WHL_STALL_DRIVE      NUM_C(0.95)
 /** No motion, for a stall: |ω̂| below this [rad/s] (3 % of the default
  *  motor's free speed). */
-#define WHL_STALL_SPEED NUM_C(1.0)
+#define WHL_STALL_SPEED      NUM_C(1.0)
 /** Drive, for a dead encoder: |u| at least this, in one direction. */
-#define WHL_DEAD_DRIVE  NUM_C(0.25)
+#define WHL_DEAD_DRIVE       NUM_C(0.25)
 /** ... for this long without a count [s]: a quarter of full drive moves a
  *  healthy wheel by many counts within it (docs/wheel.md). */
-#define WHL_DEAD_TIME   NUM_C(0.1)
+#define WHL_DEAD_TIME        NUM_C(0.1)
+/** Counts a period beyond this many times the free speed's are implausible:
+ *  the wheel cannot turn that fast, even driven by the robot's motion. */
+#define WHL_MAX_SPEED_FACTOR NUM_C(2.0)
 /** @} */
 
 /** @brief Fault bits (whl_t::faults, WHEEL_SPEED's fault field). */
 enum {
     WHL_FAULT_STALL_LEFT = 1u << 0,   /**< left wheel stalled */
     WHL_FAULT_STALL_RIGHT = 1u << 1,  /**< right wheel stalled */
-    WHL_FAULT_ENCODER_LEFT = 1u << 2, /**< left encoder gives no counts */
-    WHL_FAULT_ENCODER_RIGHT = 1u << 3 /**< right encoder gives no counts */
+    WHL_FAULT_ENCODER_LEFT = 1u << 2, /**< left encoder dead or implausible */
+    WHL_FAULT_ENCODER_RIGHT = 1u << 3 /**< right encoder dead or implausible */
 };
 
 /**
@@ -120,6 +126,7 @@ typedef struct {
     num_t ki_dt;           /**< ki/rate [drive per rad/s] */
     uint16_t stall_limit;  /**< stall_time·rate [periods] */
     uint16_t dead_limit;   /**< WHL_DEAD_TIME·rate [periods] */
+    int32_t max_step;      /**< most counts a period can bring */
 } whl_t;
 
 /** @brief What one step takes. */

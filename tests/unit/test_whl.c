@@ -281,6 +281,48 @@ static void test_whl_an_encoder_dying_while_turning_ends_in_a_stall_fault(void)
     TEST_ASSERT_TRUE(fault_at <= 0.3 + 0.5 + 0.05);
 }
 
+static void test_whl_an_encoder_counting_backwards_ends_in_a_stall_fault(void)
+{
+    /* The left encoder wired the wrong way round: the loop drives forward,
+     * sees the wheel go backwards, drives harder: no motion the way it
+     * drives, so after stall_time the stall check stops it rather than let
+     * it run away. */
+    double fault_at = -1.0;
+    while (now() < 1.0) {
+        const whl_input_t in = { { tu_num(10.0), tu_num(10.0) },
+                                 { -dcm_count(&m[0], &mp), dcm_count(&m[1], &mp) } };
+        whl_step(&w, &in, &out);
+        dcm_step(&m[0], &mp, tu_dbl(out.drive[0]), DT);
+        dcm_step(&m[1], &mp, tu_dbl(out.drive[1]), DT);
+        k++;
+        if (fault_at < 0.0 && out.faults != 0u) {
+            fault_at = now();
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_STALL_LEFT, out.faults);
+    TEST_ASSERT_TRUE(fault_at >= 0.5);
+    TEST_ASSERT_TRUE(fault_at <= 0.5 + 0.05);
+}
+
+static void test_whl_more_counts_than_the_wheel_can_turn_are_an_encoder_fault(void)
+{
+    /* At most 2 × 34.56 rad/s: 2·34.56·1920/(2π·1000) = 21.1 counts a
+     * period, rounded, plus one: 22 pass, 23 do not. */
+    TEST_ASSERT_EQUAL_INT32(22, w.max_step);
+    int32_t c = 0;
+    for (unsigned i = 0; i < 5u; i++) {
+        c += 22;
+        const whl_input_t in = { { NUM_ZERO, NUM_ZERO }, { c, -c } };
+        whl_step(&w, &in, &out);
+        TEST_ASSERT_EQUAL_UINT8(0u, out.faults);
+    }
+    const whl_input_t jump = { { NUM_ZERO, NUM_ZERO }, { c + 23, -c } };
+    whl_step(&w, &jump, &out);
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_LEFT, out.faults);
+    TEST_ASSERT_EQUAL_INT16(0, out.cmd[0]);
+    TEST_ASSERT_EQUAL_INT16(0, out.cmd[1]);
+}
+
 static void test_whl_faults_latch_until_cleared_then_resume_without_a_jump(void)
 {
     wp.ramp = tu_num(250.0);
@@ -398,6 +440,8 @@ int main(void)
     RUN_TEST(test_whl_stall_fault_stops_both_wheels_after_its_time);
     RUN_TEST(test_whl_dead_encoder_fault_stops_both_wheels_after_its_time);
     RUN_TEST(test_whl_an_encoder_dying_while_turning_ends_in_a_stall_fault);
+    RUN_TEST(test_whl_an_encoder_counting_backwards_ends_in_a_stall_fault);
+    RUN_TEST(test_whl_more_counts_than_the_wheel_can_turn_are_an_encoder_fault);
     RUN_TEST(test_whl_faults_latch_until_cleared_then_resume_without_a_jump);
     RUN_TEST(test_whl_standstill_gives_no_drive);
     RUN_TEST(test_whl_speed_from_counts_by_hand);
