@@ -260,7 +260,9 @@ def settled_stats(vm: BoardVm, start: LoopStats, steps: int, timeout: float = 2.
     """The board's loop statistics once they count the @p steps on STEP
     frames the plant saw since @p start, or at @p timeout. The main loop
     counts a step after the application has sent its WHEEL_CMD, so the plant
-    may read the memory before the last one is counted."""
+    may read the memory before the last one is counted. Each copy is
+    consistent (:meth:`LoopStats.read`): a step counted in ``frame_steps`` is
+    counted in ``steps`` too."""
     deadline = time.monotonic() + timeout
     end = vm.stats()
     while end.frame_steps - start.frame_steps < steps and time.monotonic() < deadline:
