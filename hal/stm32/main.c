@@ -87,6 +87,8 @@ static void led_step(uint32_t steps, bool can_ok)
 /* ------------------------------------------------------------ wheel loop */
 
 static whl_t wheels;
+static whl_output_t wheel_out; /* of the last wheel period */
+static bool wheel_measured;    /* it read the encoders (not open loop) */
 volatile stm32_wheel_stats_t stm32_wheel_stats;
 
 static struct {
@@ -127,16 +129,30 @@ static void wheel_period(void)
     }
     wheel_sched.halt = app.halt;
     const kin_wheels_t *w = app_last_wheels(&app);
-    whl_output_t out;
     const uint32_t c0 = stm32_time_cycles();
-    const int rc = wheel_cmd_period(&wheels, w->left, w->right, &out);
+    wheel_measured = wheel_cmd_period(&wheels, w->left, w->right, &wheel_out) == 0;
     const uint32_t cycles = stm32_time_cycles() - c0;
     st->cycles_max = cycles > st->cycles_max ? cycles : st->cycles_max;
     st->periods++;
-    st->closed_loop = rc == 0 ? 1u : 0u;
-    st->faults = out.faults;
-    st->speed_mrad_s[0] = (int32_t)(num_to_float(out.speed[0]) * 1000.0f);
-    st->speed_mrad_s[1] = (int32_t)(num_to_float(out.speed[1]) * 1000.0f);
+    st->closed_loop = wheel_measured ? 1u : 0u;
+    st->faults = wheel_out.faults;
+    st->speed_mrad_s[0] = (int32_t)(num_to_float(wheel_out.speed[0]) * 1000.0f);
+    st->speed_mrad_s[1] = (int32_t)(num_to_float(wheel_out.speed[1]) * 1000.0f);
+}
+
+/* Real-time mode, before each control step: what the encoders measure and
+ * the wheel loop's faults, on the bus (WHEEL_SPEED: the board sends it when
+ * it runs the wheel loop, mstc.dbc). Not in lock-step, where the plant's
+ * wheels are the robot's, and not open loop, where nothing is measured. */
+static void send_wheel_speed(void)
+{
+    if (!wheel_measured) {
+        return;
+    }
+    const kin_wheels_t w = { wheel_out.speed[0], wheel_out.speed[1] };
+    hal_can_frame_t f;
+    (void)comm_encode_wheel_speed_faults(&app.comm, &w, wheel_out.faults, &f);
+    (void)hal_can_send(&f);
 }
 
 /* The main loop's updates of stm32_loop_stats go between these two: the
@@ -243,6 +259,7 @@ int main(void)
              * when this loop got to it: steps stay evenly spaced. Missed
              * periods are skipped (stm32_tick_overruns() counts them). */
             t_us += (uint64_t)periods * BOARD_CONTROL_PERIOD_US;
+            send_wheel_speed();
             const uint32_t c0 = stm32_time_cycles();
             app_control_tick(&app, t_us);
             after_step(stm32_time_cycles() - c0, stm32_loop_stats.steps == 0u, false, can_ok);
