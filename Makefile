@@ -98,6 +98,7 @@ TEST_SRCS_test_dcm := $(MODEL_SRCS)
 TEST_SRCS_test_whl := $(MODEL_SRCS)
 SRC_CFLAGS_tests/unit/test_dcm.c := -Imodel
 SRC_CFLAGS_tests/unit/test_whl.c := -Imodel
+SRC_CFLAGS_hal/sil := -Imodel
 TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
 SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
@@ -112,7 +113,7 @@ $(eval $(call BUILD,host))
 
 FW_OBJS := $(call build_objs,host,$(FW_SRCS) $(NUM_SRCS) $(AUTH_SRCS))
 SIL_OBJS := $(call build_objs,host,$(SIL_SRCS))
-$(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS)
+$(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS) $(call build_objs,host,$(MODEL_SRCS))
 	$(CC) -shared -Wl,--no-undefined -o $@ $^ -lm
 .PHONY: lib
 lib: $(B)/libmstc_sil.so  ## build the firmware as a shared library (SIL)

@@ -105,9 +105,8 @@ static double sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 /* Free shaft over @p dt: exact solution of J·ω' = a − B·ω − τc·sgn(ω),
  * segment by segment, stopping at ω = 0 where friction would reverse the
  * motion (dcm.h). */
-static void step_free(dcm_t *m, const dcm_params_t *p, double a, double dt)
+static void step_free(dcm_t *m, const dcm_params_t *p, double a, double bb, double dt)
 {
-    const double bb = damping(p);
     const double tau = p->j / bb;
     double left = dt;
     for (int seg = 0; seg < 4 && left > 0.0; seg++) {
@@ -139,10 +138,12 @@ static void step_free(dcm_t *m, const dcm_params_t *p, double a, double dt)
 /* Held: the shaft on a damped spring to hold_theta; integrated in small
  * steps (semi-implicit Euler, 10 µs, far below the spring's period of about
  * 40 ms), Coulomb friction as a smoothed sign below 1 mrad/s. */
-static void step_held(dcm_t *m, const dcm_params_t *p, double a, double dt)
+static void step_held(dcm_t *m, const dcm_params_t *p, double a, double bb, double dt)
 {
-    const double bb = damping(p);
     const int n = (int)ceil(dt / 1e-5);
+    if (n < 1) {
+        return;
+    }
     const double h = dt / n;
     for (int k = 0; k < n; k++) {
         const double s = fabs(m->omega) > 1e-3 ? sign(m->omega) : m->omega / 1e-3;
@@ -157,9 +158,23 @@ void dcm_step(dcm_t *m, const dcm_params_t *p, double drive, double dt)
     const double u = drive > 1.0 ? 1.0 : (drive < -1.0 ? -1.0 : drive);
     const double a = drive_torque(p, u, m->load);
     if (m->held) {
-        step_held(m, p, a, dt);
+        step_held(m, p, a, damping(p), dt);
     } else {
-        step_free(m, p, a, dt);
+        step_free(m, p, a, damping(p), dt);
     }
     m->current = (u * p->v_supply - p->ke * m->omega) / p->r_ohm;
+}
+
+/* The smallest damping a coasting shaft is given: without viscous friction
+ * the solution would divide by zero; 1e-9 N·m·s/rad changes nothing else. */
+#define MIN_DAMPING 1e-9
+
+void dcm_coast(dcm_t *m, const dcm_params_t *p, double dt)
+{
+    if (m->held) {
+        step_held(m, p, -m->load, p->b, dt); /* no current, no electrical torque */
+    } else {
+        step_free(m, p, -m->load, p->b > MIN_DAMPING ? p->b : MIN_DAMPING, dt);
+    }
+    m->current = 0.0;
 }

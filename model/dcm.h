@@ -93,6 +93,13 @@ void dcm_kill_encoder(dcm_t *m, const dcm_params_t *p);
  */
 void dcm_step(dcm_t *m, const dcm_params_t *p, double drive, double dt);
 
+/**
+ * @brief Advance by @p dt seconds with the windings open (a disabled
+ *        driver, hal_motor_stop()): no current, no electrical torque or
+ *        braking; the shaft coasts against friction and the load.
+ */
+void dcm_coast(dcm_t *m, const dcm_params_t *p, double dt);
+
 /** @brief The encoder's count: a signed running total. */
 int32_t dcm_count(const dcm_t *m, const dcm_params_t *p);
 

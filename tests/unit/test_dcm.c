@@ -113,6 +113,22 @@ static void test_dcm_coasting_stops_and_does_not_reverse(void)
     TEST_ASSERT_DOUBLE_WITHIN(1e-9, theta0 + way, m.theta);
 }
 
+static void test_dcm_coasting_with_the_windings_open_brakes_on_friction_alone(void)
+{
+    for (int k = 0; k < 300; k++) {
+        dcm_step(&m, &p, 1.0, 1e-3);
+    }
+    /* No current: J·ω' = −b·ω − τc, ω(t) = −τc/b + (ω0 + τc/b)·e^{−b·t/J}. */
+    const double w0 = m.omega;
+    dcm_coast(&m, &p, 0.1);
+    const double want = -p.tau_c / p.b + (w0 + p.tau_c / p.b) * exp(-p.b * 0.1 / p.j);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, want, m.omega);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, m.current);
+    /* Slower than braking on the back-EMF: shorted windings would be near
+     * rest by now (τm = 86 ms). */
+    TEST_ASSERT_TRUE(m.omega > 0.5 * w0);
+}
+
 static void test_dcm_load_lowers_the_steady_speed_by_hand(void)
 {
     /* 30 % of stall torque at full drive: ω∞ = (Kt·V/R − τc − τL)/B. */
@@ -184,6 +200,7 @@ int main(void)
     RUN_TEST(test_dcm_angle_is_the_integral_of_the_speed);
     RUN_TEST(test_dcm_static_friction_holds_a_weak_drive);
     RUN_TEST(test_dcm_coasting_stops_and_does_not_reverse);
+    RUN_TEST(test_dcm_coasting_with_the_windings_open_brakes_on_friction_alone);
     RUN_TEST(test_dcm_load_lowers_the_steady_speed_by_hand);
     RUN_TEST(test_dcm_encoder_counts_1920_a_revolution);
     RUN_TEST(test_dcm_a_dead_encoder_keeps_its_count);
