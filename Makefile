@@ -198,7 +198,7 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 	  MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/mstc-fw \
 	  $(PY) -m pytest -q --durations=20 $(PYTEST_ARGS) tests/python
 # Directories (their *.py) and the Python tools without an extension.
-PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
+PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/wheel tools/gen-codec \
            tools/protocol-doc tools/gen-limits tools/flash tools/bench/board_budget \
            tools/bench/qemu_smoke \
            tools/quality/spdx tools/quality/coverage_check \
@@ -234,6 +234,7 @@ include mk/cross.mk
 include mk/bench.mk
 include mk/numerics.mk
 include mk/quality.mk
+include mk/wheel.mk
 
 .PHONY: clean help
 clean:  ## remove build outputs (keeps .venv and deps/)

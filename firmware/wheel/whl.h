@@ -69,7 +69,7 @@
 /** @} */
 
 /** @brief Fault bits (whl_t::faults, WHEEL_SPEED's fault field). */
-enum {
+enum whl_fault {
     WHL_FAULT_STALL_LEFT = 1u << 0,   /**< left wheel stalled */
     WHL_FAULT_STALL_RIGHT = 1u << 1,  /**< right wheel stalled */
     WHL_FAULT_ENCODER_LEFT = 1u << 2, /**< left encoder dead or implausible */

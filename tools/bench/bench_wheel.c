@@ -36,7 +36,7 @@ void bench_wheel_params(whl_params_t *p)
     ctl_params_t c;
     ctl_params_default(&c);
     *p = c.wheel;
-    p->ramp = num_from_float(250.0f); /* docs/wheel.md's ramp for this motor */
+    p->ramp = num_from_float(125.0f); /* docs/wheel.md's ramp for this motor */
 }
 
 size_t bench_wheel_record(bench_wheel_period_t *rec, size_t n)

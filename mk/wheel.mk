@@ -1,0 +1,38 @@
+# SPDX-License-Identifier: MIT
+# make wheel-figures: the measurements behind the wheel loop's design and the
+# figures of docs/wheel.md (tools/wheel/): the speed estimate's noise and lag,
+# window against tracking loop, and the closed loop against the DC motor
+# model in the acceptance's situations, in both numeric modes. Included by
+# the top Makefile after mk/compile.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
+# MODEL_SRCS and mk/numeric.mk's NUM_*_<mode>. Each mode is a build of
+# mk/compile.mk (wheel-<mode>).
+
+WHEEL_DIR := build/wheel
+# The wheel loop and what its defaults come from (the limits table).
+WHEEL_CORE_SRCS := firmware/wheel/whl.c firmware/ctrl/ctl_params.c firmware/ctrl/ctl_limits.c
+SRC_CFLAGS_tools/wheel := -Imodel
+
+# $(1): numeric mode.
+define WHEEL_RULES
+BUILD_CC_wheel-$(1) := $$(CC)
+BUILD_CFLAGS_wheel-$(1) := $$(CSTD) $$(OPT) $$(FW_INC) $$(NUM_CFLAGS_$(1))
+BUILD_DIR_wheel-$(1) := $(WHEEL_DIR)/$(1)/obj
+BUILD_SRCS_wheel-$(1) := tools/wheel/wheel_study.c $$(WHEEL_CORE_SRCS) $$(MODEL_SRCS) \
+  $$(NUM_SRCS_$(1))
+BUILD_DEPS_wheel-$(1) := $$(NUM_DEPS_$(1))
+BUILD_ORDER_wheel-$(1) := $$(STAMP)/apt-sim
+$$(eval $$(call BUILD,wheel-$(1)))
+$(WHEEL_DIR)/$(1)/wheel_study: $$(BUILD_OBJS_wheel-$(1))
+	$$(CC) $$^ -lm -o $$@
+$(WHEEL_DIR)/$(1)/.done: $(WHEEL_DIR)/$(1)/wheel_study
+	$$< estimator > $(WHEEL_DIR)/$(1)/estimator.txt
+	$$< response $(WHEEL_DIR)/$(1)
+	@touch $$@
+endef
+$(eval $(call WHEEL_RULES,float))
+$(eval $(call WHEEL_RULES,fixed))
+
+.PHONY: wheel-figures
+wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requirements.sha256  ## the wheel loop's estimator study and closed-loop figures: docs/wheel.md, docs/img/wheel-*.png
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig $(PY) tools/wheel/figures.py --doc docs/wheel.md \
+	  --img docs/img $(WHEEL_DIR)/float $(WHEEL_DIR)/fixed
