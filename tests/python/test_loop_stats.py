@@ -17,7 +17,7 @@ import pytest
 
 from mstc.cli.hil import check_lockstep, settled_stats
 from mstc.errors import ControllerError, FirmwareError
-from mstc.qemu import LOOP_STATS_SEQ, LOOP_STATS_WORDS, LoopStats
+from mstc.firmware.qemu import LOOP_STATS_SEQ, LOOP_STATS_WORDS, LoopStats
 
 ADDR = 0x20000100
 # Word offsets of stm32_loop_stats_t (hal/stm32/stm32_hal.h).
