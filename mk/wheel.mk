@@ -36,3 +36,26 @@ $(eval $(call WHEEL_RULES,fixed))
 wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requirements.sha256  ## the wheel loop's estimator study and closed-loop figures: docs/wheel.md, docs/img/wheel-*.png
 	MPLCONFIGDIR=$(CURDIR)/build/mplconfig $(PY) tools/wheel/figures.py --doc docs/wheel.md \
 	  --img docs/img $(WHEEL_DIR)/float $(WHEEL_DIR)/fixed
+
+# make wheel-sil: the firmware's wheel loop in the simulation (docs/wheel.md):
+# the paper's two scenarios under "mstc" through CAN, and WHEEL_SIL_COUNT
+# seeded scenes of every family of the standard suite in memory (mstc sweep),
+# each with `[actuator] model = "dc"`, in both numeric modes; results under
+# build/wheel/sil/ (summary.md of each sweep).
+WHEEL_SIL_COUNT ?= 50
+WHEEL_SIL := $(WHEEL_DIR)/sil
+.PHONY: wheel-sil
+wheel-sil: deps-sim libs-both $(KEY_FILE)  ## the paper's scenarios and a subset of every suite family on dc wheels under the firmware's wheel loop (WHEEL_SIL_COUNT=50): build/wheel/sil/
+	@rm -rf $(WHEEL_SIL) && mkdir -p $(WHEEL_SIL)/paper
+	@for s in paper-line paper-circle; do \
+	  sed -e 's/^strategy = "paper"/strategy = "mstc"/' -e '/^\[\[expected\]\]/,$$d' \
+	    sim/scenarios/$$s.toml > $(WHEEL_SIL)/paper/$$s-dc.toml; \
+	  printf '\n[actuator]\nmodel = "dc"\n' >> $(WHEEL_SIL)/paper/$$s-dc.toml; done
+	$(MSTC) sweep --generate-only --count $(WHEEL_SIL_COUNT) --out $(WHEEL_SIL) \
+	  sim/suites/standard.toml
+	@for f in $(WHEEL_SIL)/scenes/*/*.toml; do printf '\n[actuator]\nmodel = "dc"\n' >> $$f; done
+	@set -e; for m in float fixed; do \
+	  $(MSTC) sim --bus sil --lib build/host/$$m/libmstc_sil.so --key-file $(KEY_FILE) \
+	    --no-figures --out $(WHEEL_SIL)/paper/$$m $(WHEEL_SIL)/paper/*.toml; \
+	  $(MSTC) sweep -q --strategy mstc --gallery 0 --lib build/host/$$m/libmstc_sil.so \
+	    --out $(WHEEL_SIL)/$$m $(WHEEL_SIL)/scenes; done
