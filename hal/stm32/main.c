@@ -17,8 +17,9 @@
  * millisecond tick of hal_time (SysTick), every 1000/wheel_rate ms: the
  * encoders, the control step's last wheel speeds as setpoints, the motors
  * (wheel_cmd.h). Its faults stop the motors until the application is armed
- * again; they do not halt the application, whose odometry check notices a
- * robot that stops moving (docs/safety.md). */
+ * again; they do not halt the application (docs/wheel.md, "Design"), so a
+ * board under QEMU, whose encoders never count, still runs the plant's
+ * scenarios in lock-step (make pil). */
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
