@@ -35,9 +35,15 @@ from mstc.can.library import Library
 from mstc.can.protocol import wire_limits
 from mstc.errors import FirmwareError, ScenarioError
 from mstc.firmware.sil import SilController
-from mstc.firmware.wheels import Motor, WheelLoop, WheelParams, library_defaults
+from mstc.firmware.wheels import (
+    DcWheels,
+    Motor,
+    WheelLoop,
+    WheelParams,
+    library_defaults,
+    wheels_for,
+)
 from mstc.loop.lockstep import simulate
-from mstc.firmware.wheels import DcWheels, wheels_for
 from mstc.model import Params, Pose, Strategy
 from mstc.plant.plant import Integrator, UnicyclePlant
 from mstc.plant.scenario import load_scenario, parse_scenario

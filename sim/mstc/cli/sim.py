@@ -12,9 +12,9 @@ from mstc.can import secoc
 from mstc.can.library import LIB_ENV
 from mstc.cli.common import add_key_argument, library, run_scenarios
 from mstc.firmware.sil import SilController
+from mstc.firmware.wheels import wheels_for
 from mstc.loop.lockstep import CanController, simulate
 from mstc.loop.result import RunResult
-from mstc.firmware.wheels import wheels_for
 from mstc.plant.scenario import Scenario
 from mstc.report.outputs import BusLog
 from mstc.report.progress import ProgressBar

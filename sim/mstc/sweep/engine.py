@@ -39,9 +39,9 @@ from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
 from mstc.errors import DependencyError, FirmwareError
 from mstc.firmware.sil import SilController
+from mstc.firmware.wheels import wheels_for
 from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
-from mstc.firmware.wheels import wheels_for
 from mstc.model import Controller, Strategy
 from mstc.plant.scenario import Scenario, parse_scenario
 from mstc.report.outputs import events_json
