@@ -36,6 +36,7 @@ _Static_assert(COMM_ID_HEARTBEAT == MSTC_DBC_HEARTBEAT_FRAME_ID, "HEARTBEAT id")
 _Static_assert(COMM_ID_AUTH_STATUS == MSTC_DBC_AUTH_STATUS_FRAME_ID, "AUTH_STATUS id");
 _Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
 _Static_assert(COMM_ID_WHEEL_SPEED == MSTC_DBC_WHEEL_SPEED_FRAME_ID, "WHEEL_SPEED id");
+_Static_assert(COMM_WHEEL_FAULTS_MASK == 15u, "WHEEL_SPEED_faults: 4 bits (mstc.dbc)");
 /* So are the enumerations that go on the wire unchanged. */
 _Static_assert(COMM_PARAM_MAX_WHEEL_SPEED ==
                        MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE &&
@@ -569,9 +570,16 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
 
 int comm_encode_wheel_speed(comm_t *c, const kin_wheels_t *w, hal_can_frame_t *f)
 {
+    return comm_encode_wheel_speed_faults(c, w, 0u, f);
+}
+
+int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t faults,
+                                   hal_can_frame_t *f)
+{
     const struct mstc_dbc_wheel_speed_t s = {
         .wheel_speed_left = raw_from_num(c, w->left, &s_wheel),
         .wheel_speed_right = raw_from_num(c, w->right, &s_wheel),
+        .wheel_speed_faults = (uint8_t)(faults & COMM_WHEEL_FAULTS_MASK),
     };
     (void)mstc_dbc_wheel_speed_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_WHEEL_SPEED), f);

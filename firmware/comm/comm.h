@@ -314,6 +314,14 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
  *         that measures its own wheels (mstc.dbc names the sender of each
  *         setup); the spare bits are 0. */
 int comm_encode_wheel_speed(comm_t *c, const kin_wheels_t *w, hal_can_frame_t *f);
+/** @brief The bits WHEEL_SPEED_faults carries: a wheel loop's WHL_FAULT_*
+ *         (firmware/wheel/whl.h, the same bit order). */
+#define COMM_WHEEL_FAULTS_MASK 0x0Fu
+/** @brief WHEEL_SPEED as comm_encode_wheel_speed(), with the sender's wheel
+ *         loop faults @p faults (COMM_WHEEL_FAULTS_MASK of them) in
+ *         WHEEL_SPEED_faults: a board that runs its own wheel loop. */
+int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t faults,
+                                   hal_can_frame_t *f);
 /**
  * @brief STATUS from the status of a step.
  *

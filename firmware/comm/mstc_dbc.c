@@ -713,6 +713,7 @@ int mstc_dbc_wheel_speed_pack(
     dst_p[4] |= pack_left_shift_u32(wheel_speed_right, 2u, 0xfcu);
     dst_p[5] |= pack_right_shift_u32(wheel_speed_right, 6u, 0xffu);
     dst_p[6] |= pack_right_shift_u32(wheel_speed_right, 14u, 0x0fu);
+    dst_p[6] |= pack_left_shift_u8(src_p->wheel_speed_faults, 4u, 0xf0u);
 
     return (8);
 }
@@ -749,6 +750,7 @@ int mstc_dbc_wheel_speed_unpack(
     }
 
     dst_p->wheel_speed_right = (int32_t)wheel_speed_right;
+    dst_p->wheel_speed_faults = unpack_right_shift_u8(src_p[6], 4u, 0xf0u);
 
     return (0);
 }
@@ -802,6 +804,16 @@ bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_range(int32_t value)
 bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_phys_range(float value)
 {
     return ((value >= -128.0f) && (value <= 127.9990234375f));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
 }
 
 int mstc_dbc_obstacle_pack(

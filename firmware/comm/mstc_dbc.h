@@ -142,6 +142,15 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_STRATEGY_CHOICE (14u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_ACCEL_CHOICE (15u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_TAU_CHOICE (16u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_KP_CHOICE (17u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_KI_CHOICE (18u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_MOTOR_TAU_CHOICE (20u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_COUNTS_CHOICE (21u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RATE_CHOICE (22u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_WINDOW_CHOICE (23u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RAMP_CHOICE (24u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_R_M_CHOICE (0u)
@@ -161,6 +170,15 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_STRATEGY_CHOICE (14u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_ACCEL_CHOICE (15u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_TAU_CHOICE (16u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_KP_CHOICE (17u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_KI_CHOICE (18u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_MOTOR_TAU_CHOICE (20u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_COUNTS_CHOICE (21u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RATE_CHOICE (22u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_WINDOW_CHOICE (23u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RAMP_CHOICE (24u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE (0u)
@@ -222,6 +240,15 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_STRATEGY_CHOICE (14u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_ACCEL_CHOICE (15u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_TAU_CHOICE (16u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_KP_CHOICE (17u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_KI_CHOICE (18u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_MOTOR_TAU_CHOICE (20u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_COUNTS_CHOICE (21u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RATE_CHOICE (22u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_WINDOW_CHOICE (23u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RAMP_CHOICE (24u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_OK_CHOICE (0u)
@@ -277,6 +304,7 @@ extern "C" {
 #define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_COUNTER_NAME "WHEEL_SPEED_Counter"
 #define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_LEFT_NAME "WHEEL_SPEED_left"
 #define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_RIGHT_NAME "WHEEL_SPEED_right"
+#define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_FAULTS_NAME "WHEEL_SPEED_faults"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_CRC_NAME "OBSTACLE_CRC"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_COUNTER_NAME "OBSTACLE_Counter"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_ID_NAME "OBSTACLE_id"
@@ -534,7 +562,7 @@ struct mstc_dbc_step_t {
 /**
  * Signals in message WHEEL_SPEED.
  *
- * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it: the plant in simulation (SIL, HIL, replay), standing for the motor drivers; on a robot, the motor drivers, or the motor-controller board itself when it runs the wheel loop (it then sends what its encoders measure). Lock-step: sent before STEP, like odometry. Once they have been valid the firmware expects them: missing or stale while the wheels move, they halt it as stale odometry does (STATUS_halt 7, docs/safety.md). Bits 12..15 and 52..63 are spare.
+ * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it: the plant in simulation (SIL, HIL, replay), standing for the motor drivers; on a robot, the motor drivers, or the motor-controller board itself when it runs the wheel loop (it then sends what its encoders measure). Lock-step: sent before STEP, like odometry. Once they have been valid the firmware expects them: missing or stale while the wheels move, they halt it as stale odometry does (STATUS_halt 7, docs/safety.md). Bits 12..15 and 56..63 are spare.
  *
  * All signal values are as on the CAN bus.
  */
@@ -566,6 +594,15 @@ struct mstc_dbc_wheel_speed_t {
      * Offset: 0
      */
     int32_t wheel_speed_right;
+
+    /**
+     * The sending board's wheel loop (docs/wheel.md), latched until the next re-arm, while they last its motors are stopped: bit 0 left wheel stalled, bit 1 right wheel stalled (full drive without motion in its direction for wheel_stall_time), bit 2 left encoder, bit 3 right encoder (drive without a single count for 0.1 s, or more counts than the wheel can turn). 0 from a plant or a motor driver.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t wheel_speed_faults;
 };
 
 /**
@@ -1936,6 +1973,28 @@ bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_range(int32_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_phys_range(float value);
 
 /**
  * Pack message OBSTACLE.

@@ -166,7 +166,7 @@ void mstc_sil_fw_tick(uint64_t now_us);
 
 /**
  * @brief Where one field of a struct of this header lies, so that a binding
- *        (sim/mstc/firmware.py) can check its own copy of the struct at load
+ *        (sim/mstc/can/library.py) can check its own copy of the struct at load
  *        time instead of reading garbage after one side changed.
  */
 typedef struct {
@@ -175,6 +175,17 @@ typedef struct {
     uint32_t offset;   /**< offsetof [bytes]; 0 for the whole struct */
     uint32_t size;     /**< sizeof the field (or the struct) [bytes] */
 } mstc_sil_layout_t;
+
+/** @brief A layout table's entry for struct type @p t as a whole, and for
+ *         its field @p f. */
+#define MSTC_SIL_LAYOUT_STRUCT(t)                                                                  \
+    {                                                                                              \
+#t, NULL, 0u, (uint32_t)sizeof(t)                                                          \
+    }
+#define MSTC_SIL_LAYOUT_FIELD(t, f)                                                                \
+    {                                                                                              \
+#t, #f, (uint32_t)offsetof(t, f), (uint32_t)sizeof(((t *)NULL)->f)                         \
+    }
 
 /**
  * @brief The layout of every struct above: for each, one entry for the whole

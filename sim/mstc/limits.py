@@ -18,6 +18,7 @@ other way round.
 from __future__ import annotations
 
 import enum
+import itertools
 import math
 import struct
 import tomllib
@@ -26,7 +27,10 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
-TABLE_PATH = Path(__file__).parent / "ctl_params.toml"
+from mstc.errors import TableError
+from mstc.model import PARAMS_TABLE
+
+TABLE_PATH = PARAMS_TABLE
 """The table: firmware/ctrl/ctl_params.toml (a link to it in the source tree,
 its copy in an installed package)."""
 DBC_PATH = Path(__file__).parent / "can" / "mstc.dbc"
@@ -102,10 +106,6 @@ class Table:
         raise KeyError(name)
 
 
-class TableError(ValueError):
-    """The table file itself is malformed."""
-
-
 @cache
 def _value_table(name: str) -> tuple[str, ...]:
     """The names of the DBC's global value table @p name, by raw value 0, 1, ..."""
@@ -149,15 +149,17 @@ def _limit(entry: Mapping[str, object], where: str) -> Limit:
 def load_table(path: Path = TABLE_PATH) -> Table:
     """Read and check the table.
 
-    :raises TableError: it is malformed: indices not 0..n-1, a parameter no
-        ctl_params_t member holds (the firmware's check reads every row), a
-        relation naming an unknown parameter, an unknown operator, a default
-        outside its range.
+    :raises TableError: it is malformed: indices not rising from 0 (an
+        index may be left out: reserved for a parameter not in the table yet,
+        which the firmware answers unknown_index), a parameter no ctl_params_t
+        member holds (the firmware's check reads every row), a relation naming
+        an unknown parameter, an unknown operator, a default outside its range.
     """
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     params = tuple(_limit(e, f"{path}: param {i}") for i, e in enumerate(data.get("param", [])))
-    if [p.index for p in params] != list(range(len(params))):
-        raise TableError(f"{path}: the indices must be 0, 1, ... in order")
+    indices = [p.index for p in params]
+    if indices[:1] != [0] or any(b <= a for a, b in itertools.pairwise(indices)):
+        raise TableError(f"{path}: the indices must rise from 0, in order")
     for p in params:
         if not p.held:
             raise TableError(f"{path}: {p.name}: no ctl_params_t member holds it (member)")

@@ -86,7 +86,8 @@ MSG(obstacle_vel, FIELD(obstacle_vel, obstacle_vel_crc), FIELD(obstacle_vel, obs
     FIELD(obstacle_vel, obstacle_vel_id), FIELD(obstacle_vel, obstacle_vel_vx),
     FIELD(obstacle_vel, obstacle_vel_vy))
 MSG(wheel_speed, FIELD(wheel_speed, wheel_speed_crc), FIELD(wheel_speed, wheel_speed_counter),
-    FIELD(wheel_speed, wheel_speed_left), FIELD(wheel_speed, wheel_speed_right))
+    FIELD(wheel_speed, wheel_speed_left), FIELD(wheel_speed, wheel_speed_right),
+    FIELD(wheel_speed, wheel_speed_faults))
 MSG(param_set, FIELD(param_set, param_set_crc), FIELD(param_set, param_set_counter),
     FIELD(param_set, param_set_index), FIELD(param_set, param_set_value))
 MSG(param_get, FIELD(param_get, param_get_crc), FIELD(param_get, param_get_counter),
@@ -277,7 +278,7 @@ static num_t num(double v) { return num_from_float((float)v); }
 /**
  * Encode a frame the firmware sends, from physical inputs:
  *   WHEEL_CMD       step, left, right
- *   WHEEL_SPEED     left, right
+ *   WHEEL_SPEED     left, right, faults
  *   STATUS          mode, side (avd_side_t), active obstacle, ctl faults, e,
  *                   distance (of the only obstacle remembered, id max(active, 1)),
  *                   step, frame_faults, halt
@@ -301,7 +302,7 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
     }
     case COMM_ID_WHEEL_SPEED: {
         const kin_wheels_t w = { num(in[0]), num(in[1]) };
-        rc = comm_encode_wheel_speed(&comm, &w, &f);
+        rc = comm_encode_wheel_speed_faults(&comm, &w, (uint8_t)in[2], &f);
         break;
     }
     case COMM_ID_STATUS: {

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""The plant's wheels (sim/mstc/sim/actuator.py, docs/scenarios.md [actuator])
+"""The plant's wheels (sim/mstc/plant/actuator.py, docs/scenarios.md [actuator])
 against hand computation: the lag, the acceleration limit, the encoder's
 quantisation, the delay; the scenario loader handing the firmware its
 parameters; and runs end to end with the actuator, in memory and over CAN.
@@ -20,15 +20,21 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc.can.lockstep import CanController
+from mstc.can.protocol import wire_limits
 from mstc.errors import ScenarioError
-from mstc.firmware import SilController
-from mstc.sim.actuator import Actuator, ActuatorSpec, substeps
-from mstc.sim.plant import Integrator, Pose, UnicyclePlant
-from mstc.sim.run import simulate
-from mstc.sim.scenario import IDEAL_WHEEL_ACCEL, load_scenario
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import CanController, simulate
+from mstc.model import Pose
+from mstc.plant.actuator import Actuator, substeps
+from mstc.plant.plant import Integrator, UnicyclePlant
+from mstc.plant.scenario import DC_HANDED, IDEAL_WHEEL_ACCEL, ActuatorSpec, Scenario
+from mstc.plant.scenario import load_scenario as load_with_wire
 
 R, TRACK, DT = 0.05, 0.3, 0.02
+
+
+def load_scenario(path: Path) -> Scenario:
+    return load_with_wire(path, wire_limits())
 
 
 def wheels(spec: ActuatorSpec, delay: int = 0) -> Actuator:
@@ -156,8 +162,17 @@ Write = Callable[[Mapping[str, object], str], Path]
 
 def test_no_actuator_hands_the_firmware_ideal_wheels(write_scenario: Write) -> None:
     s = load_scenario(write_scenario(_scene({}), "ideal"))
-    assert s.actuator is None
+    assert s.actuator == ActuatorSpec("ideal")
     assert (s.params.wheel_accel, s.params.wheel_tau) == (IDEAL_WHEEL_ACCEL, 0.0)
+
+
+def test_dc_wheels_are_handed_the_motors_acceleration_and_a_slower_lag(
+    write_scenario: Write,
+) -> None:
+    s = load_scenario(write_scenario(_scene({"actuator": {"model": "dc"}}), "dc"))
+    assert s.actuator == ActuatorSpec("dc")
+    assert (s.params.wheel_accel, s.params.wheel_tau) == (125.0, 0.06)
+    assert DC_HANDED == {"wheel_accel": 125.0, "wheel_tau": 0.06}
 
 
 def test_the_actuator_is_handed_to_the_firmware_unless_params_say_otherwise(
@@ -165,7 +180,9 @@ def test_the_actuator_is_handed_to_the_firmware_unless_params_say_otherwise(
 ) -> None:
     act = {"time_constant": 0.1, "max_accel": 10.0, "encoder_counts": 1920, "delay": 2}
     s = load_scenario(write_scenario(_scene({"actuator": act}), "sluggish"))
-    assert s.actuator == ActuatorSpec(0.1, 10.0, 1920, 2)
+    assert s.actuator == ActuatorSpec("lag", 0.1, 10.0, 1920, 2)
+    explicit = _scene({"actuator": {"model": "lag", **act}})
+    assert load_scenario(write_scenario(explicit, "explicit")).actuator == s.actuator
     # wheel_tau = time_constant + delay × dt = 0.1 + 0.04
     assert s.params.wheel_accel == 10.0
     assert s.params.wheel_tau == pytest.approx(0.14, abs=1e-15)
@@ -183,6 +200,8 @@ def test_the_actuator_is_handed_to_the_firmware_unless_params_say_otherwise(
         ({"encoder_counts": 0}, "actuator.encoder_counts: must be >= 1"),
         ({"delay": 1.5}, "actuator.delay: must be an integer"),
         ({"lag": 0.1}, "actuator.lag: unknown key"),
+        ({"model": "dc", "max_accel": 20.0}, 'actuator.max_accel: belongs to model "lag"'),
+        ({"model": "ideal", "delay": 1}, 'actuator.delay: belongs to model "lag"'),
         ({"max_accel": 0.5}, "actuator.max_accel: hands the firmware wheel_accel = 0.5"),
         ({"time_constant": 2.0}, "actuator.time_constant: hands the firmware wheel_tau = 2"),
     ],
@@ -218,7 +237,7 @@ def test_a_run_with_the_actuator_hands_the_firmware_what_the_wheels_measure(
     controller.step_values = spy  # type: ignore[method-assign]
     result = simulate(scenario, controller)
     assert given[0] == (0.0, 0.0)
-    mirror = wheels(ActuatorSpec(0.06, 20.0, 1920))
+    mirror = wheels(ActuatorSpec("lag", 0.06, 20.0, 1920))
     for k, (left, right) in enumerate(commands[:-1]):
         assert given[k + 1] == mirror.step(left, right)
     # The rate limiter (20 rad/s² at 0.02 s: 0.4 rad/s a period) on every

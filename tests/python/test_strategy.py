@@ -31,9 +31,11 @@ from pathlib import Path
 
 import pytest
 
-from mstc.controller import EventKind
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
+from mstc.model import EventKind
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import controller_for
 from mstc.sweep.metrics import Metrics, evaluate
 from mstc.sweep.suite import ActuatorProfile, Family, load_suite, scene_text
@@ -76,7 +78,7 @@ def _runs(
             stem = family.scene_name(i) if actuator is None else f"{name}-{actuator.name}-{i:04d}"
             path = tmp / f"{stem}.toml"
             path.write_text(scene_text(SUITE, family, i, actuator=actuator))
-            scenario = load_scenario(path)
+            scenario = load_scenario(path, wire_limits())
             results = []
             for mode in ("float", "fixed"):
                 run, controller = controller_for(scenario, "mstc", str(libs[mode]))
@@ -173,7 +175,8 @@ def test_mstc_on_sluggish_wheels_is_safe_and_activates_at_most_twice(
     runs = _runs(name, libs, scenes_dir, SLUGGISH)
     alike = 0
     for scene, result, fixed, m in runs:
-        assert result.scenario.actuator is not None and result.scenario.params.wheel_accel == 10.0
+        assert result.scenario.actuator.model == "lag"
+        assert result.scenario.params.wheel_accel == 10.0
         for mode, metrics in (("float", m), ("fixed", evaluate(fixed))):
             if not any(o.moving for o in result.scenario.obstacles):
                 assert not metrics.contact, f"{scene} ({mode}): contact"
@@ -196,4 +199,4 @@ def test_a_suite_scene_runs_mstc_by_default(tmp_path: Path) -> None:
     path = tmp_path / "s.toml"
     path.write_text(scene_text(SUITE, _family("isolated"), 0))
     assert "strategy" not in path.read_text()
-    assert load_scenario(path).params.strategy.value == "mstc"
+    assert load_scenario(path, wire_limits()).params.strategy.value == "mstc"

@@ -482,7 +482,7 @@ static void test_app_safety_every_parameter_reads_back_its_default(void)
     feed(tf_param_get(16));
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.06f, tf_last_param_value().param_value_value);
-    feed(tf_param_get(17));
+    feed(tf_param_get(26)); /* 17..25: the wheel loop's (firmware/wheel) */
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
@@ -786,7 +786,7 @@ static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     /* And an index the table does not hold. */
-    (void)set_param(17, 0.0f);
+    (void)set_param(26, 0.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 

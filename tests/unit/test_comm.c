@@ -612,6 +612,19 @@ static void test_comm_encode_wheel_speed(void)
     assert_frame(golden, COMM_ID_WHEEL_SPEED, &f);
 }
 
+static void test_comm_encode_wheel_speed_with_wheel_loop_faults(void)
+{
+    /* As above, with faults 0b1010 (right stall, left encoder) at bits
+     * 52..55: the high nibble of byte 6, 0xA0 | 0x0F. CRC-8H2F over data ID
+     * 0x1105 (low byte first) and bytes 1..7: 0xC4 (a bitwise Python CRC,
+     * the one that gives 0x89 above). Bits beyond the four are dropped. */
+    static const uint8_t golden[8] = { 0xC4, 0x00, 0x00, 0x2A, 0xFC, 0xFF, 0xAF, 0x00 };
+    const kin_wheels_t w = { tu_num(10.5), tu_num(-0x1p-10) };
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_wheel_speed_faults(&c, &w, 0xFAu, &f));
+    assert_frame(golden, COMM_ID_WHEEL_SPEED, &f);
+}
+
 static void test_comm_encode_status(void)
 {
     /* mode avoid (bits 12..13), side right (2, bits 14..15), obstacle 2
@@ -908,6 +921,7 @@ int main(void)
     RUN_TEST(test_comm_decode_passes_invalid_reports_on);
     RUN_TEST(test_comm_encode_wheel_cmd);
     RUN_TEST(test_comm_encode_wheel_speed);
+    RUN_TEST(test_comm_encode_wheel_speed_with_wheel_loop_faults);
     RUN_TEST(test_comm_encode_status);
     RUN_TEST(test_comm_status_distance_is_the_nearest_when_tracking);
     RUN_TEST(test_comm_status_distance_saturates_and_says_none);

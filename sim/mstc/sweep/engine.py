@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import hashlib
+import importlib.util
 import io
 import math
 import multiprocessing
@@ -34,13 +35,16 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
-from mstc.controller import Controller
-from mstc.errors import FirmwareError
-from mstc.firmware import LIB_ENV, SilController
-from mstc.params import Strategy
+from mstc.can.library import LIB_ENV
+from mstc.can.protocol import wire_limits
+from mstc.errors import DependencyError, FirmwareError
+from mstc.firmware.sil import SilController
+from mstc.firmware.wheels import wheels_for
+from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
+from mstc.model import Controller, Strategy
+from mstc.plant.scenario import DC_HANDED, Scenario, parse_scenario
 from mstc.report.outputs import events_json
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import Scenario, parse_scenario
 from mstc.sweep.dwa import DwaConfig, DwaController
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, evaluate
 
@@ -141,11 +145,11 @@ def worker_library(lib: str) -> str:
 
 
 def actuator_name(scenario: Scenario) -> str:
-    """The actuator column of a run: the suite's profile, else ``ideal``
-    without an ``[actuator]`` table, ``custom`` with one."""
+    """The actuator column of a run: the suite's profile, else the
+    ``[actuator]``'s model (``ideal`` without the table)."""
     if scenario.meta.actuator:
         return scenario.meta.actuator
-    return "ideal" if scenario.actuator is None else "custom"
+    return scenario.actuator.model
 
 
 def controller_for(scenario: Scenario, strategy: str, lib: str) -> tuple[Scenario, Controller]:
@@ -164,10 +168,11 @@ def dwa_config(scenario: Scenario) -> DwaConfig:
     robot r·a m/s² and 2·r·a/L rad/s²), never more than DWA's own."""
     config = DwaConfig()
     act = scenario.actuator
-    if act is None or not math.isfinite(act.max_accel):
+    accel = {"lag": act.max_accel, "dc": DC_HANDED["wheel_accel"]}.get(act.model, math.inf)
+    if not math.isfinite(accel):
         return config
     p = scenario.params
-    linear = p.wheel_radius * act.max_accel
+    linear = p.wheel_radius * accel
     return dataclasses.replace(
         config,
         max_accel=min(config.max_accel, linear),
@@ -182,11 +187,11 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
     row["seed"] = "" if scene.seed is None else str(scene.seed)
     try:
         data = tomllib.loads(scene.text)
-        scenario = parse_scenario(data, scene.source)
+        scenario = parse_scenario(data, scene.source, wire_limits())
         row["family"] = scenario.meta.family or scene.family
         row["actuator"] = actuator_name(scenario)
         scenario, controller = controller_for(scenario, strategy, lib)
-        result = simulate(scenario, controller)
+        result = simulate(scenario, controller, wheels=wheels_for(scenario, lib))
         metrics = evaluate(result)
     except Exception as exc:  # any failure of one scene is its row, not the sweep's end
         row["error"] = _one_line(exc)
@@ -345,11 +350,27 @@ def _isolate(
     return []
 
 
+def require_dask() -> None:
+    """Dask's ``distributed`` is installed (the extra ``mstc[cluster]``).
+
+    :raises DependencyError: it is not.
+    """
+    if importlib.util.find_spec("distributed") is None:
+        raise DependencyError(
+            "a Dask cluster needs Dask's distributed, which is not installed: "
+            "pip install 'mstc[cluster]' (docs/sweeps.md)"
+        )
+
+
 def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
     """Run @p jobs on the Dask cluster at @p scheduler (``tcp://host:port``).
     Dask retries the tasks of a dead worker elsewhere; a batch that keeps
     killing workers is run again job by job, and the job that still does
-    becomes an error row."""
+    becomes an error row.
+
+    :raises DependencyError: Dask is not installed.
+    """
+    require_dask()
     from distributed import Client, as_completed
     from distributed.scheduler import KilledWorker
 

@@ -1,0 +1,540 @@
+# SPDX-License-Identifier: MIT
+"""The lock-step loop: the plant's time is the firmware's.
+
+:func:`simulate` runs a scenario in closed loop around any
+:class:`~mstc.model.Controller`, one control step per period of simulated
+time: the firmware's step in process (:class:`mstc.firmware.sil.SilController`),
+a baseline (:class:`mstc.sweep.dwa.DwaController`), or the firmware behind a
+python-can bus, :class:`CanController` (docs/protocol.md). That one
+implements the step with frames: each call sends the robot's odometry, the
+reference, the obstacles the sensor reports and a STEP frame, then reads the
+firmware's answers up to the WHEEL_CMD that echoes the step. The same code
+drives the in-process firmware (``can.Bus(interface="mstc-sil")``),
+``mstc-fw`` on SocketCAN and a board. The real-time loop
+(:mod:`mstc.loop.realtime`) shares all but the clock.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import can
+import numpy as np
+
+from mstc.can import secoc
+from mstc.can.dbc import tables
+from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc
+from mstc.errors import ControllerError, FrameDropped, SimulationError
+from mstc.loop.result import (
+    PROGRESS_UPDATES,
+    TRACE_COLUMNS,
+    RunResult,
+    Trace,
+    distances,
+    fault_counts,
+)
+from mstc.model import (
+    Controller,
+    Event,
+    Fault,
+    Mode,
+    Obstacle,
+    Params,
+    Pose,
+    Progress,
+    Status,
+    StepResult,
+    StepValues,
+    param_values,
+    wrap_angle,
+)
+from mstc.plant.plant import WheelDrive
+from mstc.plant.scenario import Scenario
+from mstc.plant.world import make_world
+
+# ------------------------------------------------------------------ the loop
+
+StepFunction = Callable[
+    [Pose, Pose, float, float, Sequence[Obstacle], int, tuple[float, float] | None], StepValues
+]
+
+
+def step_values(controller: Controller) -> StepFunction:
+    """@p controller's step, its result as :data:`~mstc.model.StepValues`: the
+    controller's own ``step_values`` when it has one (the firmware's, which
+    skips building the Status and StepResult objects), else its ``step``
+    with the values read from the result."""
+    own: StepFunction | None = getattr(controller, "step_values", None)
+    if own is not None:
+        return own
+    step = controller.step
+
+    def values(
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        seen: Sequence[Obstacle],
+        t_us: int,
+        wheel_speeds: tuple[float, float] | None,
+    ) -> StepValues:
+        result = step(robot, ref, v_r, w_r, seen, t_us, wheel_speeds)
+        s = result.status
+        left, right = result.wheel_left, result.wheel_right
+        return left, right, s.mode, int(s.faults), s.e1, s.e2, s.e3, s.e, result.events
+
+    return values
+
+
+def simulate(
+    scenario: Scenario,
+    controller: Controller,
+    progress: Progress | None = None,
+    wheels: WheelDrive | None = None,
+) -> RunResult:
+    """Run a scenario in closed loop.
+
+    For k = 0..N (N = round(duration/dt)), at t = k·dt: the sensor scans from
+    the robot's pose at the start of the period (obstacles where they are at
+    t); the controller steps on that pose (with odometry noise, when the
+    scenario has some), the reference pose and the scan; the row is
+    recorded; then robot and reference are integrated over dt, the robot with
+    the wheel speeds commanded ``delay`` periods earlier (standing still
+    before the first), or, with an ``[actuator]`` of model "lag", by its
+    wheels in substeps (:mod:`mstc.plant.actuator`), or by @p wheels; the
+    speeds those wheels measure go to the next step (``wheel_speeds``, the
+    WHEEL_SPEED frame). The run ends with the row of step N, so the trace
+    spans t = 0 to the duration and the minimum distances include the final
+    state.
+
+    The trace is written into an array of the run's size, taken once: a run of
+    N steps holds about (15 + obstacles) × 8 bytes per step, whatever the
+    controller (the scenario loader bounds N, :data:`~mstc.plant.scenario.MAX_STEPS`).
+
+    :param scenario: the scenario.
+    :param controller: a freshly initialised controller for its parameters.
+    :param progress: told how many steps are done, now and then, and closed
+        when the run ends.
+    :param wheels: wheels with dynamics of their own (the scenario's
+        ``[actuator]``, e.g. :class:`mstc.firmware.wheels.DcWheels`) that move
+        the robot instead of the ideal ones.
+
+    :returns: The trace, the events and the minimum distance to each obstacle.
+
+    :raises SimulationError: the plant's state became non-finite.
+    """
+    sim = scenario.sim
+    imp = scenario.imperfections
+    world = make_world(scenario)
+    plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
+    odometry_rng = world.odometry_rng
+    moving = any(o.moving for o in obstacles)
+    v_r, w_r = ref.v, ref.w
+    steps = sim.steps
+    odometry_noise = None
+    if imp.position_noise or imp.heading_noise:
+        sigma = np.array([imp.position_noise, imp.position_noise, imp.heading_noise])
+        odometry_noise = (odometry_rng.standard_normal((steps + 1, 3)) * sigma).tolist()
+    pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
+    actuator = world.actuator
+    measured_wheels: tuple[float, float] | None = None
+    if actuator is not None or wheels is not None:
+        measured_wheels = (0.0, 0.0)
+
+    values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
+    modes: list[Mode] = []
+    events: list[Event] = []
+    fault_masks: list[int] = []
+    clock = time.perf_counter_ns
+    spent = 0
+    step = step_values(controller)
+    body_velocity = plant.body_velocity
+    scan, ref_step = sensor.scan, ref.step
+    plant_step: Callable[[float, float, float], object] = plant.step
+    if wheels is not None:
+        drive = wheels.drive
+
+        def driven(left: float, right: float, dt: float) -> object:
+            drive(plant, left, right, dt)
+            return None
+
+        plant_step = driven
+
+    dt, dt_us = sim.dt, sim.dt_us
+    tick = max((steps + 1) // PROGRESS_UPDATES, 1)
+    try:
+        for k in range(steps + 1):
+            t_us = k * dt_us
+            t = t_us / 1e6
+            robot, reference = plant.pose, ref.pose
+            seen = scan(robot, t)
+            measured = robot
+            if odometry_noise is not None:
+                nx, ny, nt = odometry_noise[k]
+                measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
+            start = clock()
+            left, right, mode, faults, e1, e2, e3, e, emitted = step(
+                measured, reference, v_r, w_r, seen, t_us, measured_wheels
+            )
+            spent += clock() - start
+            v, w = body_velocity(left, right)
+            values[k] = (t, *robot, *reference, v, w, v_r, w_r, e1, e2, e3, e)
+            modes.append(mode)
+            if emitted:
+                events.extend(emitted)
+            if faults:
+                fault_masks.append(faults)
+            if k < steps:
+                if actuator is not None:
+                    measured_wheels = actuator.step(left, right)
+                else:
+                    if pending:
+                        pending.append((left, right))
+                        left, right = pending.popleft()
+                    plant_step(left, right, dt)
+                    if wheels is not None:
+                        measured_wheels = wheels.measured
+                ref_step(dt)
+            if progress is not None and (k + 1) % tick == 0:
+                progress.update(k + 1)
+    finally:
+        if progress is not None:
+            progress.close()
+
+    if not np.isfinite(values[:, 1:7]).all():
+        k = int(np.argmin(np.isfinite(values[:, 1:7]).all(axis=1)))
+        raise SimulationError(
+            f"{scenario.path}: the plant's state became non-finite at t = {values[k, 0]:g} s"
+        )
+    distance, obstacle_xy = distances(values, obstacles, moving)
+    return RunResult(
+        scenario=scenario,
+        trace=Trace(values, tuple(modes), distance, obstacle_xy),
+        events=tuple(events),
+        min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
+        faults=fault_counts(fault_masks),
+        step_time=spent / 1e9 / (steps + 1),
+    )
+
+
+# ------------------------------------------------------------------ through CAN
+
+STEP_MODULO = 1 << 16
+"""The STEP and WHEEL_CMD step counter wraps here."""
+TIME_MODULO = 1 << 32
+"""STEP and EVENT times [µs] wrap here (71.6 minutes)."""
+
+ARM_INDEX = tables().arm_index
+"""PARAM_SET index of the arm command in the package's DBC (value 1 arms, 0
+disarms; docs/safety.md). A controller uses its own DBC's."""
+REARM_FRAMES = 5
+"""Good frames in a row each input needs before the firmware accepts the arm
+command (APP_REARM_FRAMES in firmware/app/app.h)."""
+
+
+def _param_value(index: int) -> Callable[[Frame], bool]:
+    """Matches the firmware's PARAM_VALUE answer about parameter @p index."""
+    return lambda f: f.name == "PARAM_VALUE" and f.signals["index"] == index
+
+
+@dataclass
+class Traffic:
+    """What crossed the bus, for bus.log and the report."""
+
+    frames: list[tuple[can.Message, bool]] = field(default_factory=list)
+    """Every frame in bus order, with True for the ones this side sent."""
+    firmware_drops: dict[str, int] = field(default_factory=dict)
+    """The firmware's latest STATUS_COUNTERS."""
+
+
+def unauthenticated(what: str) -> ControllerError:
+    """The error of a command the firmware refused as unauthenticated."""
+    return ControllerError(
+        f"the firmware refuses {what} as unauthenticated: does it have the key the "
+        f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
+        "docs/safety.md, 'The key'"
+    )
+
+
+class CanController:
+    """The firmware's control step through CAN frames, lock-step (a
+    :class:`~mstc.model.Controller`).
+
+    :param bus: the bus the firmware is on.
+    :param params: parameters, sent with PARAM_SET before the first step.
+    :param timeout: how long to wait for an answer [s] (wall time).
+    :param sim_time_stamps: stamp sent frames with the simulated time (for the
+        in-process bus, whose answers carry the same stamp), else wall time.
+    :param protocol: the protocol side to use (its DBC gives the parameter
+        indexes and value tables); default: the package's DBC.
+    :param key: the firmware's key; default: :func:`mstc.can.secoc.load_key`.
+    :raises DbcError: the DBC lacks an entry the controller names.
+    """
+
+    def __init__(
+        self,
+        bus: can.BusABC,
+        params: Params,
+        *,
+        timeout: float = 2.0,
+        sim_time_stamps: bool = False,
+        clock: Callable[[], float] = time.time,
+        protocol: Protocol | None = None,
+        key: bytes | None = None,
+    ) -> None:
+        self.bus = bus
+        self.params = params
+        self.timeout = timeout
+        self.sim_time_stamps = sim_time_stamps
+        self.clock = clock
+        self.proto = protocol if protocol is not None else Protocol(node=None)
+        self.tables = self.proto.tables
+        self.auth = secoc.Authenticator(secoc.load_key() if key is None else key)
+        self.traffic = Traffic()
+        self._now = 0.0
+        self._steps = 0
+        self._armed = False
+        self._configure()
+
+    # ------------------------------------------------------------ the bus
+
+    def _send(self, msg: can.Message) -> None:
+        msg.timestamp = self._now if self.sim_time_stamps else self.clock()
+        self.bus.send(msg)
+        self.traffic.frames.append((msg, True))
+
+    def _recv(self, deadline: float) -> Frame | None:
+        """The next frame that passes the E2E checks, or None at the deadline."""
+        while True:
+            left = deadline - time.monotonic()
+            msg = self.bus.recv(timeout=max(left, 0.0))
+            if msg is None:
+                if left <= 0:
+                    return None
+                continue
+            self.traffic.frames.append((msg, False))
+            try:
+                frame = self.proto.decode(msg)
+            except FrameDropped:
+                continue  # counted in self.proto.drops
+            if frame.name == "STATUS_COUNTERS":
+                self.traffic.firmware_drops = {k: int(v) for k, v in frame.signals.items()}
+            self.auth.sync(frame)
+            return frame
+
+    def _sync(self) -> None:
+        """Learn the firmware's freshness value: a PARAM_GET (which changes
+        nothing) is answered by PARAM_VALUE and AUTH_STATUS."""
+        self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+
+    def command(self, index: int, value: float, what: str) -> Frame:
+        """An authenticated PARAM_SET; the firmware's PARAM_VALUE.
+
+        :raises ControllerError: no answer, or the firmware could not
+            authenticate it (another key, most likely).
+        """
+        for msg in self.auth.param_set(self.proto, index, value):
+            self._send(msg)
+        answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
+        # AUTH_STATUS follows every PARAM_VALUE: read it now, so that the
+        # freshness is current and the log keeps the bus's order.
+        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+        if answer.signals["result"] == self.tables.param_result.value("unauthenticated"):
+            raise unauthenticated(what)
+        return answer
+
+    def _configure(self) -> None:
+        """PARAM_SET every parameter; retry the ones the firmware rejects
+        because another one has not changed yet (D_s < D_act must hold at
+        every moment)."""
+        self._sync()
+        pending = param_values(self.params)
+        pending["strategy"] = float(self.tables.strategy.value(str(self.params.strategy)))
+        while pending:
+            rejected: dict[str, float] = {}
+            for name, value in pending.items():
+                index = self.tables.param_index.value(name)
+                answer = self.command(index, value, f"PARAM_SET {name}")
+                if answer.signals["result"] != self.tables.param_ok:
+                    rejected[name] = value
+            if len(rejected) == len(pending):
+                raise ControllerError(f"the firmware rejects the parameters {sorted(rejected)}")
+            pending = rejected
+
+    def _send_inputs(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
+        self._send_odometry(robot)
+        self._send_reference(ref, v_r, w_r)
+
+    def _send_odometry(self, robot: Pose) -> can.Message:
+        """ODOM_XY and ODOM_THETA; returns the ODOM_XY frame."""
+        xy = self.proto.encode("ODOM_XY", x=robot.x, y=robot.y)
+        self._send(xy)
+        self._send(self.proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)))
+        return xy
+
+    def _send_reference(self, ref: Pose, v_r: float, w_r: float) -> None:
+        enc = self.proto.encode
+        self._send(enc("REF_XY", x=ref.x, y=ref.y))
+        self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+
+    def _send_obstacles(self, obstacles: Sequence[Obstacle]) -> None:
+        """One OBSTACLE frame per reported obstacle; right after it, for a
+        moving obstacle only, its OBSTACLE_VEL (docs/protocol.md: the firmware
+        keeps 0 for the others)."""
+        enc = self.proto.encode
+        for o in obstacles:
+            self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
+            if o.vx or o.vy:
+                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
+
+    def _arm(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
+        """Arm the firmware before the first step (docs/safety.md): it starts
+        halted and accepts the arm command once each input has arrived
+        REARM_FRAMES times in a row. No STEP is sent, so no control step runs
+        and the run's first step is still step 0 at its own time."""
+        for _ in range(REARM_FRAMES):
+            self._send_inputs(robot, ref, v_r, w_r)
+        answer = self.command(self.tables.arm_index, 1.0, "the arm command")
+        if answer.signals["result"] != self.tables.param_ok:
+            raise ControllerError(
+                f"the firmware refuses to arm (result {answer.signals['result']})"
+            )
+        self._armed = True
+
+    def _await(self, match: Callable[[Frame], bool], what: str) -> Frame:
+        deadline = time.monotonic() + self.timeout
+        while (frame := self._recv(deadline)) is not None:
+            if match(frame):
+                return frame
+        raise ControllerError(f"no {what} from the firmware within {self.timeout} s")
+
+    # ------------------------------------------------------------ a step
+
+    def step(
+        self,
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        obstacles: Sequence[Obstacle],
+        t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
+    ) -> StepResult:
+        """One lock-step exchange (see :meth:`mstc.model.Controller.step`)."""
+        self._now = t_us / 1e6
+        if not self._armed:
+            self._arm(robot, ref, v_r, w_r)
+        step = self._steps % STEP_MODULO
+        self._steps += 1
+        enc = self.proto.encode
+        self._send_inputs(robot, ref, v_r, w_r)
+        if wheel_speeds is not None:
+            self._send(enc("WHEEL_SPEED", left=wheel_speeds[0], right=wheel_speeds[1], faults=0))
+        self._send_obstacles(obstacles)
+        self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
+
+        events: list[Event] = []
+        status: Frame | None = None
+        trk: Frame | None = None
+        deadline = time.monotonic() + self.timeout
+        while True:
+            frame = self._recv(deadline)
+            if frame is None:
+                raise ControllerError(
+                    f"no WHEEL_CMD for step {step} (t = {t_us / 1e6:.6f} s) within {self.timeout} s"
+                )
+            s = frame.signals
+            if frame.name == "EVENT":
+                events.append(self._decode_event(frame, t_us - t_us % TIME_MODULO))
+            elif frame.name == "STATUS":
+                status = frame
+            elif frame.name == "STATUS_TRK":
+                trk = frame
+            elif frame.name == "WHEEL_CMD" and s["step"] == step:
+                break
+        if status is None or trk is None:
+            raise ControllerError(f"step {step}: WHEEL_CMD came without STATUS and STATUS_TRK")
+        left, right = float(s["left"]), float(s["right"])
+        return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
+
+    # ------------------------------------------------------------ telemetry
+
+    def _decode_event(self, frame: Frame, base_us: int) -> Event:
+        """An EVENT frame; its 32-bit time [µs] is added to @p base_us."""
+        s = frame.signals
+        raw_us = round(s["time"] * 1e6)
+        return Event(
+            base_us + raw_us,
+            self.tables.event_kind[int(s["kind"])],
+            int(s["obstacle"]),
+            self.tables.side[int(s["side"])],
+        )
+
+    def _decode_status(self, status: Frame, trk: Frame, left: float, right: float) -> Status:
+        """A step's STATUS and STATUS_TRK, with the body velocity of its wheel
+        commands [rad/s]."""
+        p = self.params
+        st = status.signals
+        return Status(
+            mode=self.tables.mode[int(st["mode"])],
+            active_obstacle=int(st["obstacle"]),
+            side=self.tables.side[int(st["side"])],
+            faults=Fault(int(st["faults"])),
+            e1=float(trk.signals["e1"]),
+            e2=float(trk.signals["e2"]),
+            e3=float(trk.signals["e3"]),
+            e=float(st["e"]),
+            v=p.wheel_radius * (left + right) / 2,
+            w=p.wheel_radius * (right - left) / p.track_width,
+        )
+
+
+PRIME_STEP = STEP_MODULO - 1
+"""Step number of the STEP frame that :func:`enter_lockstep` sends."""
+
+
+def enter_lockstep(bus: can.BusABC, timeout: float = 2.0) -> list[tuple[can.Message, bool]]:
+    """Switch a board's main loop (hal/stm32/main.c) to lock-step before a
+    :class:`CanController` takes the bus.
+
+    A board steps on its own timer until the first STEP frame; from then on
+    only STEP frames run steps (docs/hil.md). Left in real-time mode during
+    the configuration and the arming, its timer would run steps of its own
+    between the plant's frames, and a step with the arm accepted but before
+    the plant's first STEP. So one STEP goes first: step PRIME_STEP at time
+    0, answered like any (the application is not armed yet: it stands
+    still). Its alive counter is 15, the one before the 0 of a fresh
+    CanController's first STEP, so the board's E2E receiver sees one
+    unbroken STEP sequence; the plant's step 0 then finds the same state as
+    in the host builds, which have no timer.
+
+    :returns: every frame that crossed the bus meanwhile (True: sent), for
+        the bus log.
+    :raises ControllerError: no WHEEL_CMD for that STEP within @p timeout.
+    """
+    proto = Protocol(node=None)
+    msg = proto.encode("STEP", step=PRIME_STEP, time=0, raw=True)
+    data = bytearray(msg.data)
+    data[1] = (data[1] & 0xF0) | (COUNTER_MODULO - 1)
+    data[0] = e2e_crc(proto.data_id(msg.arbitration_id), data)
+    msg.data = data
+    msg.timestamp = time.time()
+    bus.send(msg)
+    frames: list[tuple[can.Message, bool]] = [(msg, True)]
+    deadline = time.monotonic() + timeout
+    while (left := deadline - time.monotonic()) > 0:
+        got = bus.recv(timeout=left)
+        if got is None:
+            continue
+        frames.append((got, False))
+        try:
+            frame = proto.decode(got)
+        except FrameDropped:
+            continue
+        if frame.name == "WHEEL_CMD" and frame.signals["step"] == PRIME_STEP:
+            return frames
+    raise ControllerError(f"no WHEEL_CMD for the STEP that starts lock-step within {timeout} s")

@@ -1,0 +1,70 @@
+# SPDX-License-Identifier: MIT
+"""Range sensor: which obstacles the robot sees (Definition 1 of the paper),
+with the imperfections a real one has when a scenario asks for them."""
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from mstc.model import Obstacle, Pose
+
+
+class RangeSensor:
+    """Reports every obstacle whose centre is within ``d_det`` of the robot.
+
+    Ideal by default. A scenario's ``[imperfections]`` (docs/scenarios.md) add
+    Gaussian noise on the reported centres and random dropouts, drawn from
+    @p rng: one draw of every obstacle's noise and dropout per scan, in range
+    or not, so that the draws of a step do not depend on what was seen.
+
+    :param obstacles: the obstacles of the world (their positions at t = 0).
+    :param d_det: sensor range [m]; an obstacle at exactly this distance is seen.
+    :param noise: standard deviation of the noise on reported x and y [m].
+    :param dropout: probability that an obstacle in range is not reported.
+    :param rng: the random stream; required when noise or dropout is not 0.
+    """
+
+    def __init__(
+        self,
+        obstacles: Sequence[Obstacle],
+        d_det: float,
+        *,
+        noise: float = 0.0,
+        dropout: float = 0.0,
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        self.obstacles = tuple(obstacles)
+        self.d_det = d_det
+        self.noise = noise
+        self.dropout = dropout
+        if (noise or dropout) and rng is None:
+            raise ValueError("a noisy sensor needs a random stream (rng)")
+        self.rng = rng
+        self._moving = any(o.moving for o in self.obstacles)
+
+    def world(self, t: float) -> tuple[Obstacle, ...]:
+        """Where the obstacles are at time @p t [s]."""
+        if not self._moving:
+            return self.obstacles
+        return tuple(o.at(t) for o in self.obstacles)
+
+    def scan(self, pose: Pose, t: float = 0.0) -> list[Obstacle]:
+        """Obstacles seen from ``pose`` at time @p t [s], in world order."""
+        if self.rng is None:
+            # Obstacle.distance inlined (the same math.hypot): a scan a step.
+            x, y, d_det, hypot = pose.x, pose.y, self.d_det, math.hypot
+            return [o for o in self.world(t) if hypot(o.x - x, o.y - y) <= d_det]
+        world = self.world(t)
+        n = len(world)
+        noise = self.rng.standard_normal((n, 2)) * self.noise if self.noise else None
+        kept = self.rng.random(n) >= self.dropout if self.dropout else None
+        result = []
+        for i, o in enumerate(world):
+            if o.distance(pose) > self.d_det or (kept is not None and not kept[i]):
+                continue
+            if noise is not None:
+                o = replace(o, x=o.x + float(noise[i, 0]), y=o.y + float(noise[i, 1]))
+            result.append(o)
+        return result
