@@ -18,6 +18,7 @@ from mstc.can.library import LIB_ENV
 from mstc.can.protocol import DBC_PATH, load_database, wire_limits
 from mstc.errors import (
     EXIT_OK,
+    BusError,
     ControllerError,
     FirmwareError,
     LogError,
@@ -141,6 +142,7 @@ def run_scenarios(
 
     :param quiet: no progress display (a run longer than a second shows one).
     :raises UsageError: a scenario cannot be run (:func:`load_all`).
+    :raises BusError: @p run_one could not open its bus.
     :raises RunError: a run failed with an :class:`MstcError` or an exception
         of @p failures: the error, named with the scenario's file.
     :raises WriteError: an output could not be written.
@@ -153,6 +155,8 @@ def run_scenarios(
         bar = ProgressBar(scenario.sim.steps + 1, scenario.name, "steps", enabled=not quiet)
         try:
             firmware, result, log = run_one(scenario, bar)
+        except BusError:
+            raise  # the bus's fault, not the scenario's: it names the bus
         except caught as exc:  # named with its scenario, for main's one error line
             raise RunError(run_failure(scenario, exc)) from exc
         results.append((result, log))
@@ -170,9 +174,12 @@ def run_scenarios(
 
 
 def add_log_arguments(
-    parser: argparse.ArgumentParser, metavar: str = "LOG", what: str = "the bus log"
+    parser: argparse.ArgumentParser,
+    metavar: str = "LOG",
+    what: str = "the bus log, or a run's folder (its bus.log is read)",
 ) -> None:
-    """The log and how to read it (``mstc replay``, ``play``, ``plot``, ``export``)."""
+    """The log and how to read it (``mstc replay``, ``play``, ``plot``, ``export``):
+    a bus log, or a run's folder, whose bus.log is read (:func:`run_log`)."""
     parser.add_argument("log", metavar=metavar, type=Path, help=what)
     parser.add_argument(
         "--format",
@@ -203,6 +210,19 @@ def add_log_arguments(
     )
 
 
+def run_log(path: Path) -> Path:
+    """The bus log @p path names: itself, or for a run's folder (what ``mstc
+    sim`` and ``mstc hil`` write) the ``bus.log`` in it.
+
+    :raises UsageError: a folder without a bus.log.
+    """
+    if not path.is_dir():
+        return path
+    if not (path / "bus.log").is_file():
+        raise UsageError(f"{path} is a folder without a bus.log: not a run folder")
+    return path / "bus.log"
+
+
 def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog]:
     """The DBC and the log, decoded (``mstc plot``, ``export``), with the
     problems of both printed.
@@ -226,7 +246,9 @@ def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog]:
     :raises DbcLoadError: the DBC cannot be loaded.
     :raises DbcError: it lacks a name the Python side uses (:mod:`mstc.can.dbc`).
     :raises LogError: the log cannot be used, or with ``--strict`` has problems.
+    :raises UsageError: a folder without a bus.log (:func:`run_log`).
     """
+    args.log = run_log(args.log)
     db = load_database(args.dbc)
     tables(db)  # it names everything the Python side names (mstc.can.dbc)
     log = read_log(args.log, db, args.format, max_problems=max(args.max_problems, 0))

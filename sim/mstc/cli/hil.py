@@ -19,6 +19,7 @@ from mstc.cli.sim import add_output_arguments
 from mstc.errors import ControllerError, UsageError
 from mstc.firmware.process import start_firmware, stop_firmware
 from mstc.firmware.qemu import ICOUNT, BoardVm, LoopStats
+from mstc.logs.play import open_bus
 from mstc.loop.lockstep import CanController, enter_lockstep, simulate
 from mstc.loop.realtime import (
     COMM_LOSS_TAIL,
@@ -72,7 +73,9 @@ control step counted under QEMU's -icount.
 
 exit status: 0 done; 1 the firmware could not be started, did not answer or
 refused the parameters, or an output could not be written; 2 bad arguments,
-a bad scenario file, or an output folder that cannot be used.
+a bad scenario file, or an output folder that cannot be used; 3 the bus
+cannot be opened (the error says why: no SocketCAN in this kernel, no such
+interface, an interface down).
 
 examples:
   .venv/bin/mstc hil --channel vcan0 --fw build/host/mstc-fw \\
@@ -164,7 +167,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def _run_one(
     args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog]:
-    bus = can.Bus(interface=args.interface, channel=args.channel)
+    bus = open_bus(args.interface, args.channel)
     period_ms = round(1000.0 / args.rate_hz) if args.realtime else None
     firmware = (
         start_firmware(args.fw, args.channel, args.key_source, period_ms=period_ms)
