@@ -39,6 +39,11 @@ memory, 2.6 kB per step through CAN (the frames kept for bus.log), and 1.3 to
 2 ms per step through CAN, so 2 to 3 minutes at the limit (docs/scenarios.md)."""
 
 
+MAX_HEADING_NOISE = math.pi
+"""The largest ``heading_noise`` [rad]: the heading is an angle, and a wrapped
+normal of standard deviation π is already all but uniform on the circle."""
+
+
 @dataclass(frozen=True)
 class ImperfectionSpec:
     """What a real robot adds to the ideal loop (``[imperfections]``). The
@@ -529,6 +534,12 @@ def _parse_imperfections(c: _Checker, value: object) -> ImperfectionSpec:
     for key in _IMPERFECTION_NOISES:
         if key in table:
             values[key] = c.non_negative(table[key], f"imperfections.{key}")
+    if values.get("heading_noise", 0.0) > MAX_HEADING_NOISE:
+        raise c.fail(
+            "imperfections.heading_noise",
+            f"must be at most π = {MAX_HEADING_NOISE:.6g} rad (a heading is an angle: "
+            f"wider noise is no noisier), got {values['heading_noise']:g}",
+        )
     if "seed" in table:
         values["seed"] = c.integer(table["seed"], "imperfections.seed")
     if "sensor_range" in table:
