@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -25,8 +26,9 @@ from conftest import SCENARIOS, TEST_KEY_FILE
 from mstc.can.protocol import wire_limits
 from mstc.cli import main
 from mstc.cli.common import run_scenarios
-from mstc.errors import MstcError
-from mstc.plant.scenario import load_scenario
+from mstc.errors import ExpectationError, MstcError
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import Scenario, load_scenario
 from test_realtime import run_virtual
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -102,3 +104,22 @@ def test_a_real_time_run_that_ends_halted_fails(tmp_path: Path, sil_lib: Path) -
     assert info.value.exit_status != 0
     last = str(info.value).splitlines()[-1]
     assert str(path) in last and "halted" in last, last
+
+
+def test_a_comm_loss_trial_halts_as_asked_and_passes(tmp_path: Path, sil_lib: Path) -> None:
+    """--stop-odometry-at asks for the halt; the events expected after the
+    cut cannot happen and are not judged, the ones before are."""
+    path = SCENARIOS / "paper-line.toml"
+    scenario = load_scenario(path, wire_limits())
+    run = run_virtual(scenario, sil_lib, stop_odometry_at=3.5)
+    assert run.result.halt == 2  # odometry (docs/safety.md)
+
+    def run_one(s: Scenario, bar: object) -> tuple[str, RunResult, None]:
+        return ("virtual firmware", replace(run.result, scenario=s), None)
+
+    assert run_scenarios([path], tmp_path / "a", False, run_one, (), stop_at=3.5) == 0
+    # The detection of O2 at 3.10 s is judged: expected a step later, it misses.
+    late = tmp_path / "late.toml"
+    late.write_text(path.read_text().replace("t = 3.10\n", "t = 3.12\n"))
+    with pytest.raises(ExpectationError, match=r"detect O2 expected at 3.12 s"):
+        run_scenarios([late], tmp_path / "b", False, run_one, (), stop_at=3.5)

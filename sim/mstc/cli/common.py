@@ -20,6 +20,7 @@ from mstc.errors import (
     EXIT_OK,
     BusError,
     ControllerError,
+    ExpectationError,
     FirmwareError,
     LogError,
     MstcError,
@@ -32,7 +33,7 @@ from mstc.loop.result import RunResult
 from mstc.plant.scenario import Scenario, changed_params, load_scenarios
 from mstc.report.outputs import RUN_FILES, BusLog, folder_problem, write_outputs
 from mstc.report.progress import ProgressBar
-from mstc.report.table import format_report
+from mstc.report.table import format_report, missed
 
 ROOT = Path(__file__).resolve().parents[3]
 """The repository, when the package runs from its source tree."""
@@ -136,16 +137,25 @@ def run_scenarios(
     failures: tuple[type[BaseException], ...],
     *,
     quiet: bool = False,
+    slack: float = 0.0,
+    stop_at: float | None = None,
 ) -> int:
     """Validate every scenario file, run each with @p run_one, then write each
-    run's outputs under @p out and print its table.
+    run's outputs under @p out and print its table; then judge each run
+    against its scenario's expectations (:func:`~mstc.report.table.missed`).
 
     :param quiet: no progress display (a run longer than a second shows one).
+    :param slack: how much further than its tolerance [s] an expected event
+        may be (real time).
+    :param stop_at: a comm-loss trial's time [s] (see
+        :func:`~mstc.report.table.missed`).
     :raises UsageError: a scenario cannot be run (:func:`load_all`).
     :raises BusError: @p run_one could not open its bus.
     :raises RunError: a run failed with an :class:`MstcError` or an exception
         of @p failures: the error, named with the scenario's file.
     :raises WriteError: an output could not be written.
+    :raises ExpectationError: a run missed its expectations (its outputs are
+        written): one line per such run, naming its file.
     """
     scenarios = load_all(paths, out)
     results: list[tuple[RunResult, BusLog | None]] = []
@@ -167,6 +177,13 @@ def run_scenarios(
         print(format_report(result, folder))
         if log is not None:
             print(f"  bus           {log.describe()}")
+    misses = [
+        f"{result.scenario.path}: missed its expectations: {'; '.join(problems)}"
+        for result, _ in results
+        if (problems := missed(result, slack, stop_at))
+    ]
+    if misses:
+        raise ExpectationError("\n".join(misses))
     return EXIT_OK
 
 

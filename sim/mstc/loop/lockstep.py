@@ -113,7 +113,9 @@ def simulate(
     :param progress: told how many steps are done, now and then, and closed
         when the run ends.
 
-    :returns: The trace, the events and the minimum distance to each obstacle.
+    :returns: The trace, the events and the minimum distance to each obstacle;
+        the firmware's halt state at the end when the controller keeps one
+        (its ``halt``: :class:`CanController`).
 
     Whatever the controller, the pose and the obstacles it is given are
     checked against the ranges of the frames that carry them (ODOM_XY,
@@ -210,6 +212,7 @@ def simulate(
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
         faults=fault_counts(fault_masks),
         step_time=spent / 1e9 / (steps + 1),
+        halt=getattr(controller, "halt", None),
     )
 
 
@@ -290,6 +293,8 @@ class CanController:
         self._now = 0.0
         self._steps = 0
         self._armed = False
+        self.halt: int | None = None
+        """STATUS_halt of the latest step (0 running), None before the first."""
         self._configure()
 
     # ------------------------------------------------------------ the bus
@@ -448,6 +453,7 @@ class CanController:
                 break
         if status is None or trk is None:
             raise ControllerError(f"step {step}: WHEEL_CMD came without STATUS and STATUS_TRK")
+        self.halt = int(status.signals["halt"])
         left, right = float(s["left"]), float(s["right"])
         return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
 

@@ -130,6 +130,8 @@ class ExpectedEvent:
     """1-based obstacle number."""
     side: Side | None
     """Set on activate only."""
+    tolerance: float = 0.0
+    """How far the run's event may be from t and still meet it [s]."""
 
     @property
     def t_us(self) -> int:
@@ -630,7 +632,8 @@ def _parse_expected(
     result = []
     for i, entry in enumerate(entries, start=1):
         prefix = f"expected[{i}]"
-        c.keys(entry, prefix, ("t", "event", "obstacle"), ("t", "event", "obstacle", "side"))
+        allowed = ("t", "event", "obstacle", "side", "tolerance")
+        c.keys(entry, prefix, ("t", "event", "obstacle"), allowed)
         t = c.number(entry["t"], f"{prefix}.t")
         if not 0.0 <= t <= sim.duration:
             raise c.fail(
@@ -650,5 +653,6 @@ def _parse_expected(
             side = Side(c.choice(entry["side"], f"{prefix}.side", tuple(Side)))
         elif "side" in entry:
             raise c.fail(f"{prefix}.side", f"only activate events have a side, not {event}")
-        result.append(ExpectedEvent(t, event, obstacle, side))
+        tolerance = c.non_negative(entry.get("tolerance", 0.0), f"{prefix}.tolerance")
+        result.append(ExpectedEvent(t, event, obstacle, side, tolerance))
     return tuple(result)
