@@ -178,6 +178,10 @@ class DependencyError(MstcError):
     exit_status = EXIT_USAGE
 
 
+class ClusterError(MstcError):
+    """A Dask cluster that cannot be reached."""
+
+
 class LogError(MstcError):
     """A log that cannot be used at all (fatal: nothing is replayed)."""
 

@@ -244,4 +244,4 @@ def test_an_empty_suite_file_is_refused_not_counted(
     captured = capsys.readouterr()
     assert "scene files" not in captured.out
     err = captured.err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith(f"error: {empty}: ") and "empty" in err[0]
+    assert len(err) == 1 and err[0].startswith(f"error: {empty}: not a suite file"), err
