@@ -47,17 +47,6 @@ FILES = {
 }
 
 
-@pytest.fixture(scope="module")
-def mstc_fw() -> Path:
-    value = os.environ.get("MSTC_FW")
-    if not value or not Path(value).is_file():
-        pytest.fail(
-            f"MSTC_FW={value!r}: run `make test-python` (it builds build/host/mstc-fw)",
-            pytrace=False,
-        )
-    return Path(value)
-
-
 def _python(path: Path) -> bool:
     try:
         key = read_key(path)
