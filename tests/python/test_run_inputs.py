@@ -108,5 +108,5 @@ def test_plot_takes_a_run_folder_as_export_does(
     err = _errors(capsys)
     assert (
         len(err) == 1
-        and err[0] == f"error: {empty} is a folder without a bus.log: not a run folder"
+        and err[0] == f"error: {empty} is a directory without a bus.log: not a run folder"
     )

@@ -237,7 +237,7 @@ def run_log(path: Path) -> Path:
     if not path.is_dir():
         return path
     if not (path / "bus.log").is_file():
-        raise UsageError(f"{path} is a folder without a bus.log: not a run folder")
+        raise UsageError(f"{path} is a directory without a bus.log: not a run folder")
     return path / "bus.log"
 
 
