@@ -52,6 +52,7 @@ from mstc.model import (
     param_values,
     wrap_angle,
 )
+from mstc.plant.plant import WheelDrive
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import make_world
 
@@ -90,7 +91,10 @@ def _not_carried(pair: tuple[SignalRange, SignalRange], x: float, y: float) -> S
 
 
 def simulate(
-    scenario: Scenario, controller: Controller, progress: Progress | None = None
+    scenario: Scenario,
+    controller: Controller,
+    progress: Progress | None = None,
+    wheels: WheelDrive | None = None,
 ) -> RunResult:
     """Run a scenario in closed loop.
 
@@ -112,6 +116,9 @@ def simulate(
     :param controller: a freshly initialised controller for its parameters.
     :param progress: told how many steps are done, now and then, and closed
         when the run ends.
+    :param wheels: wheels with dynamics of their own (the scenario's
+        ``[actuator]``, e.g. :class:`mstc.firmware.wheels.DcWheels`) that move
+        the robot instead of the ideal ones.
 
     :returns: The trace, the events and the minimum distance to each obstacle;
         the firmware's halt state at the end when the controller keeps one
@@ -149,7 +156,17 @@ def simulate(
     spent = 0
     step = step_values(controller)
     body_velocity = plant.body_velocity
-    scan, plant_step, ref_step = sensor.scan, plant.step, ref.step
+    scan, ref_step = sensor.scan, ref.step
+    plant_step: Callable[[float, float, float], object] = plant.step
+    if wheels is not None:
+        drive = wheels.drive
+
+        def driven(left: float, right: float, dt: float) -> object:
+            drive(plant, left, right, dt)
+            return None
+
+        plant_step = driven
+
     dt, dt_us = sim.dt, sim.dt_us
     tick = max((steps + 1) // PROGRESS_UPDATES, 1)
     wire = wire_limits()
