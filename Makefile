@@ -198,10 +198,9 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 	  MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/mstc-fw \
 	  $(PY) -m pytest -q --durations=20 $(PYTEST_ARGS) tests/python
 # Directories (their *.py) and the Python tools without an extension.
-PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/wheel tools/gen-codec \
-           tools/protocol-doc tools/gen-limits tools/flash \
-           tools/quality/spdx tools/quality/coverage_check \
-           tools/quality/fuzz_seeds
+PY_LINT := sim tests/python tools/gen-codec tools/protocol-doc tools/gen-limits tools/flash \
+           tools/numerics/fit-atan tools/svd/svd2c tools/wheel/figures tools/vm/vcan-roundtrip \
+           tools/quality/spdx tools/quality/coverage-check tools/quality/fuzz-seeds
 # C: every tracked source but the generated codec (.clang-format).
 C_FORMAT = $(filter-out firmware/comm/mstc_dbc.%,$(shell git ls-files '*.c' '*.h'))
 lint: deps-sim $(STAMP)/apt-test  ## ruff (lint, format) over the Python code, clang-format over the C code, SPDX lines

@@ -99,8 +99,8 @@ ifneq ($$(IMG_SVD_$(3)),)
 ifeq ($(1),$(3))
 # Register header and vector table from the vendor's SVD (tools/svd/).
 $$(IMG_GEN_$(1))/stm32_regs.h $$(IMG_GEN_$(1))/stm32_vectors.c &: $$(IMG_SVD_$(1)) \
-    tools/svd/svd2c.py deps/svd/.sha256 | .venv/.requirements.sha256
-	$$(PY) tools/svd/svd2c.py $$(IMG_SVD_$(1)) deps/svd $$(IMG_GEN_$(1))
+    tools/svd/svd2c deps/svd/.sha256 | .venv/.requirements.sha256
+	$$(PY) tools/svd/svd2c $$(IMG_SVD_$(1)) deps/svd $$(IMG_GEN_$(1))
 endif
 # The generated vector table: the board's compile, its object in gen/.
 $$(IMG_OBJ_$(1))/gen/stm32_vectors.o: $$(IMG_GEN_$(1))/stm32_vectors.c \

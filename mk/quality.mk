@@ -9,7 +9,7 @@
 #   make fuzz [FUZZ_SECONDS=60]  every libFuzzer harness (clang, ASan, UBSan)
 #                                for FUZZ_SECONDS each; corpus: fuzz/corpus/
 #   make coverage                unit tests with gcov; gcovr report and the
-#                                thresholds of tools/quality/coverage_check
+#                                thresholds of tools/quality/coverage-check
 #   make static-analysis         cppcheck + MISRA addon, clang-tidy
 #   make warnings                the firmware under WARN with clang (host)
 #                                and arm-none-eabi-gcc, both numeric modes
@@ -91,7 +91,7 @@ coverage: deps-test $(COV_TESTS)  ## unit tests under gcov; gcovr report, thresh
 	  --exclude-unreachable-branches --json-summary $(COV_DIR)/summary.json \
 	  --html-details $(COV_DIR)/index.html --txt $(COV_DIR)/coverage.txt $(COV_DIR)/obj
 	@cat $(COV_DIR)/coverage.txt
-	@$(PY) tools/quality/coverage_check $(COV_DIR)/summary.json
+	@$(PY) tools/quality/coverage-check $(COV_DIR)/summary.json
 
 # ----------------------------------------------------------- static analysis
 # The firmware's own sources: the generated codec is checked by its golden

@@ -34,7 +34,7 @@ $(eval $(call WHEEL_RULES,fixed))
 
 .PHONY: wheel-figures
 wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requirements.sha256  ## the wheel loop's estimator study and closed-loop figures: docs/wheel.md, docs/img/wheel-*.png
-	MPLCONFIGDIR=$(CURDIR)/build/mplconfig $(PY) tools/wheel/figures.py --doc docs/wheel.md \
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig $(PY) tools/wheel/figures --doc docs/wheel.md \
 	  --img docs/img $(WHEEL_DIR)/float $(WHEEL_DIR)/fixed
 
 # make wheel-sil: the firmware's wheel loop in the simulation (docs/wheel.md):
