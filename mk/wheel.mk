@@ -29,8 +29,7 @@ $(WHEEL_DIR)/$(1)/.done: $(WHEEL_DIR)/$(1)/wheel_study
 	$$< response $(WHEEL_DIR)/$(1)
 	@touch $$@
 endef
-$(eval $(call WHEEL_RULES,float))
-$(eval $(call WHEEL_RULES,fixed))
+$(foreach m,$(NUM_MODES),$(eval $(call WHEEL_RULES,$(m))))
 
 .PHONY: wheel-figures
 wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requirements.sha256  ## the wheel loop's estimator study and closed-loop figures: docs/wheel.md, docs/img/wheel-*.png
@@ -54,7 +53,7 @@ wheel-sil: deps-sim libs-both $(KEY_FILE)  ## the paper's scenarios and a subset
 	$(MSTC) sweep --generate-only --count $(WHEEL_SIL_COUNT) --out $(WHEEL_SIL) \
 	  sim/suites/standard.toml
 	@for f in $(WHEEL_SIL)/scenes/*/*.toml; do printf '\n[actuator]\nmodel = "dc"\n' >> $$f; done
-	@set -e; for m in float fixed; do \
+	@set -e; for m in $(NUM_MODES); do \
 	  $(MSTC) sim --bus sil --lib build/host/$$m/libmstc_sil.so --key-file $(KEY_FILE) \
 	    --no-figures --out $(WHEEL_SIL)/paper/$$m $(WHEEL_SIL)/paper/*.toml; \
 	  $(MSTC) sweep -q --strategy mstc --gallery 0 --lib build/host/$$m/libmstc_sil.so \
