@@ -3,9 +3,9 @@
 # figures of docs/wheel.md (tools/wheel/): the speed estimate's noise and lag,
 # window against tracking loop, and the closed loop against the DC motor
 # model in the acceptance's situations, in both numeric modes. Included by
-# the top Makefile after mk/compile.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
-# MODEL_SRCS and mk/numeric.mk's NUM_*_<mode>. Each mode is a build of
-# mk/compile.mk (wheel-<mode>).
+# the top Makefile after mk/host.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
+# mk/host.mk's MODEL_SRCS and mk/numeric.mk's NUM_MODES, NUM_*_<mode>. Each
+# mode is a build of mk/compile.mk (wheel-<mode>).
 
 WHEEL_DIR := build/wheel
 # The wheel loop and what its defaults come from (the limits table).
