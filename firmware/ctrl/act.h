@@ -58,6 +58,9 @@ typedef struct {
     num_t law_accel;  /**< ACT_LAW_SHARE × r a: the laws' linear acceleration [m/s²] */
     num_t gamma;      /**< ACT_LAW_SHARE × 2 r a / L: their angular acceleration [rad/s²] */
     num_t sqrt_gamma; /**< sqrt(gamma) [rad/s] */
+    num_t side;       /**< min(1, 2 l / L): the share of r a a point l ahead of the
+                           axle can accelerate across the heading (cbf.c) */
+    num_t inv_side;   /**< 1 / side */
 } act_limits_t;
 
 /** @brief The wheels as the firmware knows them. */
@@ -71,8 +74,10 @@ typedef struct {
 void act_init(act_t *a);
 
 /** @brief The constants of the wheels' parameters (@p kin, @p accel =
- *         wheel_accel > 0) into a->lim: once per parameter set. */
-void act_configure(act_t *a, const kin_params_t *kin, num_t accel);
+ *         wheel_accel > 0) and of the point @p lever ahead of the axle that
+ *         the safety filter steers (> 0) into a->lim: once per parameter
+ *         set. */
+void act_configure(act_t *a, const kin_params_t *kin, num_t accel, num_t lever);
 
 /** @brief The wheels were commanded @p w by someone else (a halt's ramp):
  *         the next command starts from there, and so does the estimate. */

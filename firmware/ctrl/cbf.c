@@ -41,6 +41,8 @@ typedef struct {
     num_t brake_t;   /* T_b [s]; 0: no braking margin */
     num_t reach_add; /* |shift|_1 + |q|_1 T_b: what slack_sure adds [m] */
     num_t inv_accel; /* 1 / a_v [s²/m]: the look-ahead point's acceleration */
+    num_t side;      /* across the heading: a_v side at most */
+    num_t inv_side;  /* 1 / side */
     num_t q1;        /* |qx| + |qy| [m/s] */
     cbf_t *f;        /* the step's constraint cache; NULL: none */
 } lookahead_t;
@@ -68,7 +70,14 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
     const num_t sigma = num_div(num_neg(along), d);
     num_t t = fr->brake_t;
     if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
-        t = num_max(t, num_mul(sigma, fr->inv_accel));
+        /* Away from the obstacle (along Δ, at angle β to the heading) the
+         * look-ahead point accelerates at a_v max(|cos β|, side |sin β|) at
+         * most, a_v side at least. */
+        const num_t along_h = num_abs(num_add(num_mul(dx, fr->c), num_mul(dy, fr->s)));
+        const num_t across = num_abs(num_sub(num_mul(dy, fr->c), num_mul(dx, fr->s)));
+        const num_t share =
+            num_max(num_div(num_max(along_h, num_mul(fr->side, across)), d), fr->side);
+        t = num_max(t, num_div(num_mul(sigma, fr->inv_accel), share));
     }
     return num_mul(sigma, t);
 }
@@ -118,7 +127,7 @@ static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, 
     if (ov > NUM_ZERO) {
         const num_t qw = num_add(fr->q1, ov);
         extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
-                        num_mul(num_mul(qw, qw), fr->inv_accel));
+                        num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
     }
     const num_t reach = num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra),
                                 num_mul(CBF_TWO_OVER_ALPHA, rel));
@@ -142,6 +151,8 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
     fr->brake_t = NUM_ZERO;
     fr->reach_add = NUM_ZERO;
     fr->inv_accel = NUM_ZERO;
+    fr->side = NUM_ONE;
+    fr->inv_side = NUM_ONE;
     fr->q1 = NUM_ZERO;
     if (m != NULL) {
         fr->plx = num_add(fr->plx, m->shift_x);
@@ -150,6 +161,8 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
         fr->qy = m->qy;
         fr->brake_t = m->brake_t;
         fr->inv_accel = m->inv_accel;
+        fr->side = m->side;
+        fr->inv_side = m->inv_side;
         fr->q1 = num_add(num_abs(m->qx), num_abs(m->qy));
         fr->reach_add = num_add(num_add(num_abs(m->shift_x), num_abs(m->shift_y)),
                                 num_mul(num_add(num_abs(m->qx), num_abs(m->qy)), m->brake_t));

@@ -67,7 +67,11 @@ typedef struct {
     num_t qx, qy;           /**< look-ahead velocity u of the command in force [m/s] */
     num_t brake_t;          /**< T_b [s] (act_brake_time()) */
     num_t inv_accel;        /**< 1 / a_v: a_v = r wheel_accel, how fast the
-                                 look-ahead point's speed can change [s²/m] */
+                                 look-ahead point's speed can change along
+                                 the heading [s²/m] */
+    num_t side;             /**< across the heading it changes at a_v side at
+                                 most (act_limits_t) */
+    num_t inv_side;         /**< 1 / side */
 } cbf_motion_t;
 
 /** @brief One obstacle's constraint on the command: g1 v + g2 l ω >= b. */

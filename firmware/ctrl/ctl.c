@@ -31,7 +31,7 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     msw_init(&c->msw, robot_width(&c->p));
     cbf_init(&c->cbf);
     act_init(&c->act);
-    act_configure(&c->act, &c->p.kin, c->p.wheel_accel);
+    act_configure(&c->act, &c->p.kin, c->p.wheel_accel, CBF_LOOKAHEAD);
     c->last_t_us = 0u;
     c->stepped = false;
     return rc;
@@ -48,7 +48,7 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
         const sup_params_t sp = sup_params_of(p);
         sup_set_params(&c->sup, &sp);
         c->msw.width = robot_width(p);
-        act_configure(&c->act, &p->kin, p->wheel_accel);
+        act_configure(&c->act, &p->kin, p->wheel_accel, CBF_LOOKAHEAD);
         if (new_strategy) {
             msw_reset(&c->msw);
             cbf_reset(&c->cbf);
@@ -301,6 +301,8 @@ static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, 
     lookahead_velocity(wn->vc, wn->wc, cos_th, sin_th, NUM_ONE, &m->qx, &m->qy);
     m->brake_t = wn->brake_t;
     m->inv_accel = c->act.lim.inv_av;
+    m->side = c->act.lim.side;
+    m->inv_side = c->act.lim.inv_side;
 }
 
 /* The rate limiter and the braking guard (cbf_guard()). */

@@ -140,12 +140,18 @@ static void test_act_configure_derives_the_limits_once(void)
      * 1/a_v = 1; the laws' share (ACT_LAW_SHARE 0.5): a' = 0.5 m/s²,
      * γ' = 2 × 0.5 / 0.3 = 3.3333 rad/s², sqrt(γ') = 1.8257. */
     const kin_params_t kin = { tu_num(0.05), tu_num(0.3), tu_num(100.0) };
-    act_configure(&a, &kin, tu_num(20.0));
+    act_configure(&a, &kin, tu_num(20.0), tu_num(0.05));
     TEST_ASSERT_NUM_WITHIN(TOL, 0.05, a.lim.inv_accel);
     TEST_ASSERT_NUM_WITHIN(TOL, 1.0, a.lim.inv_av);
     TEST_ASSERT_NUM_WITHIN(TOL, 0.5, a.lim.law_accel);
     TEST_ASSERT_NUM_WITHIN(TOL, 10.0 / 3.0, a.lim.gamma);
     TEST_ASSERT_NUM_WITHIN(TOL, sqrt(10.0 / 3.0), a.lim.sqrt_gamma);
+    /* A point 0.05 m ahead of the axle: across the heading 2 × 0.05 / 0.3 of
+     * r a; a lever beyond half the track is capped at 1. */
+    TEST_ASSERT_NUM_WITHIN(TOL, 1.0 / 3.0, a.lim.side);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-6, 2e-3), 3.0, a.lim.inv_side);
+    act_configure(&a, &kin, tu_num(20.0), tu_num(0.2));
+    TEST_ASSERT_NUM_WITHIN(TOL, 1.0, a.lim.side);
 }
 
 static void test_act_sync_sets_command_and_estimate(void)

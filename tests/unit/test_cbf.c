@@ -123,9 +123,26 @@ static void test_cbf_braking_margin_widens_the_barrier_while_closing(void)
      * faster than braking nulls (a_v = 1 m/s²: σ/a_v = 1 s > T_b = 0.36 s):
      * the margin is σ × 1 s = 1 m, ρ = 1.4, h = 0.9025 − 1.96 = −1.0575. */
     const sup_entry_t moving = entry(1, 1.0, 0.0, 0.35, -0.5, 0);
-    m = (cbf_motion_t){ .qx = tu_num(0.5), .brake_t = tu_num(0.36), .inv_accel = tu_num(1.0) };
+    m = (cbf_motion_t){ .qx = tu_num(0.5),
+                        .brake_t = tu_num(0.36),
+                        .inv_accel = tu_num(1.0),
+                        .side = tu_num(1.0 / 3.0),
+                        .inv_side = tu_num(3.0) };
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &moving, &h, &ax, &ay);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -1.0575, h);
+    /* A robot at rest, an obstacle coming at 0.5 m/s: head on (centre
+     * (1.05, 0), Δ along the heading) the look-ahead point gets away at
+     * a_v = 1 m/s²: σ/a_v = 0.5 s > T_b, margin 0.25 m, ρ = 0.65, h = 1 −
+     * 0.4225 = 0.5775. From the side (centre (0.05, 1), coming down: Δ
+     * across the heading) only at a_v side = 1/3 m/s² (act_configure()):
+     * 1.5 s, margin 0.75 m, ρ = 1.15, h = 1 − 1.3225 = −0.3225. */
+    m.qx = NUM_ZERO;
+    const sup_entry_t ahead = entry(1, 1.05, 0.0, 0.35, -0.5, 0);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &ahead, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), 0.5775, h);
+    const sup_entry_t beside = entry(1, 0.05, 1.0, 0.35, 0, -0.5);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &beside, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -0.3225, h);
     m = (cbf_motion_t){ .shift_x = tu_num(0.1) };
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.5625, h);
