@@ -25,6 +25,7 @@ void cbf_reset(cbf_t *f)
     f->active = false;
     f->infeasible = false;
     f->cached = 0u;
+    f->doomed = 0u;
 }
 
 /* One obstacle's constraint on (v, ω): a·u = g1 v + g2 l ω >= b, with
@@ -43,6 +44,7 @@ typedef struct {
     num_t inv_accel; /* 1 / a_v [s²/m]: the look-ahead point's acceleration */
     num_t side;      /* across the heading: a_v side at most */
     num_t inv_side;  /* 1 / side */
+    num_t gap;       /* D_s − R_m − R_ob: an obstacle's d_s less its contact distance */
     num_t q1;        /* |qx| + |qy| [m/s] */
     cbf_t *f;        /* the step's constraint cache; NULL: none */
 } lookahead_t;
@@ -53,7 +55,8 @@ typedef struct {
  * along the path stops the closing in T_b), σ max(T_b, σ/a_v) for a moving
  * one (nulling a closing speed the robot does not cause takes σ/a_v). The
  * root only for an obstacle that closes. */
-static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx, num_t dy, num_t d2)
+static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx, num_t dy, num_t d2,
+                          bool *doomed)
 {
     if (fr->brake_t <= NUM_ZERO) {
         return NUM_ZERO;
@@ -77,17 +80,26 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
         const num_t across = num_abs(num_sub(num_mul(dy, fr->c), num_mul(dx, fr->s)));
         const num_t share =
             num_max(num_div(num_max(along_h, num_mul(fr->side, across)), d), fr->side);
-        t = num_max(t, num_div(num_mul(sigma, fr->inv_accel), share));
+        const num_t shed = num_div(num_mul(sigma, fr->inv_accel), share);
+        t = num_max(t, shed);
+        /* Closing faster than the robot can null before the bodies touch
+         * (its centre l behind p_l): d − l − (R_m + r) < σ²/(2 a_β). */
+        const num_t touch = num_sub(o->d_s, fr->gap);
+        *doomed =
+            num_sub(num_sub(d, CBF_LOOKAHEAD), touch) < num_mul(num_mul(sigma, shed), NUM_C(0.5));
     }
     return num_mul(sigma, t);
 }
 
-static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constraint_t *k, num_t *h)
+static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constraint_t *k, num_t *h,
+                          bool *doomed)
 {
     const num_t dx = num_sub(fr->plx, o->o.x);
     const num_t dy = num_sub(fr->ply, o->o.y);
     const num_t d2 = num_add(num_mul(dx, dx), num_mul(dy, dy));
-    const num_t rho = num_add(num_add(o->d_s, CBF_LOOKAHEAD), brake_margin(fr, o, dx, dy, d2));
+    *doomed = false;
+    const num_t rho =
+        num_add(num_add(o->d_s, CBF_LOOKAHEAD), brake_margin(fr, o, dx, dy, d2, doomed));
     *h = num_sub(d2, num_mul(rho, rho));
     const num_t ax = num_add(dx, dx);
     const num_t ay = num_add(dy, dy);
@@ -153,6 +165,7 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
     fr->inv_accel = NUM_ZERO;
     fr->side = NUM_ONE;
     fr->inv_side = NUM_ONE;
+    fr->gap = NUM_ZERO;
     fr->q1 = NUM_ZERO;
     if (m != NULL) {
         fr->plx = num_add(fr->plx, m->shift_x);
@@ -163,6 +176,7 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
         fr->inv_accel = m->inv_accel;
         fr->side = m->side;
         fr->inv_side = m->inv_side;
+        fr->gap = m->gap;
         fr->q1 = num_add(num_abs(m->qx), num_abs(m->qy));
         fr->reach_add = num_add(num_add(num_abs(m->shift_x), num_abs(m->shift_y)),
                                 num_mul(num_add(num_abs(m->qx), num_abs(m->qy)), m->brake_t));
@@ -175,7 +189,8 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
     lookahead_t fr;
     frame_of(robot, cos_th, sin_th, m, &fr);
     constraint_t k;
-    constraint_of(&fr, o, &k, h);
+    bool doomed;
+    constraint_of(&fr, o, &k, h, &doomed);
     *ax = num_add(num_sub(fr.plx, o->o.x), num_sub(fr.plx, o->o.x));
     *ay = num_add(num_sub(fr.ply, o->o.y), num_sub(fr.ply, o->o.y));
 }
@@ -191,8 +206,12 @@ static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_
     const uint16_t bit = (uint16_t)(1u << i);
     if ((fr->f->cached & bit) == 0u) {
         num_t h;
-        constraint_of(fr, &e[i], &fr->f->k[i], &h);
+        bool doomed;
+        constraint_of(fr, &e[i], &fr->f->k[i], &h, &doomed);
         fr->f->cached = (uint16_t)(fr->f->cached | bit);
+        if (doomed) {
+            fr->f->doomed = (uint16_t)(fr->f->doomed | bit);
+        }
     }
     *k = fr->f->k[i];
     return true;
@@ -322,6 +341,7 @@ void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const c
     frame_of(robot, cos_th, sin_th, m, &fr);
     fr.f = f;
     f->cached = 0u;
+    f->doomed = 0u;
     constraint_t k;
     const int first = most_violated(&fr, e, dist, n, *v, *w, &k);
     if (first >= 0) {
@@ -405,4 +425,30 @@ bool cbf_guard(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t
     a->cmd = base;
     (void)act_limit(a, g->accel, g->dt, wheels);
     return true;
+}
+
+uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const kin_params_t *kin,
+                        const kin_wheels_t *base, num_t step)
+{
+    /* a·u = g1 v + g2 l ω with v = r (u_L + u_R)/2, ω = r (u_R − u_L)/L:
+     * c_L = r (g1/2 − g2 l/L), c_R = r (g1/2 + g2 l/L). */
+    const num_t lever = num_div(CBF_LOOKAHEAD, kin->track_width);
+    for (uint8_t i = 0; i < n; i++) {
+        const sup_entry_t *o = &e[i];
+        if ((f->doomed & (uint16_t)(1u << i)) == 0u ||
+            (o->o.vx == NUM_ZERO && o->o.vy == NUM_ZERO)) {
+            continue;
+        }
+        const cbf_constraint_t *k = &f->k[i];
+        const num_t half = num_mul(k->g1, NUM_C(0.5));
+        const num_t turn = num_mul(k->g2, lever);
+        const num_t cl = num_mul(kin->wheel_radius, num_sub(half, turn));
+        const num_t cr = num_mul(kin->wheel_radius, num_add(half, turn));
+        const num_t best = num_add(num_add(num_mul(cl, base->left), num_mul(cr, base->right)),
+                                   num_mul(step, num_add(num_abs(cl), num_abs(cr))));
+        if (num_sub(k->b, best) > CBF_TOLERANCE) {
+            return o->o.id;
+        }
+    }
+    return 0u;
 }

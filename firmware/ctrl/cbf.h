@@ -72,6 +72,8 @@ typedef struct {
     num_t side;             /**< across the heading it changes at a_v side at
                                  most (act_limits_t) */
     num_t inv_side;         /**< 1 / side */
+    num_t gap;              /**< D_s − R_m − R_ob: an obstacle's d_s less its
+                                 contact distance R_m + r [m] */
 } cbf_motion_t;
 
 /** @brief One obstacle's constraint on the command: g1 v + g2 l ω >= b. */
@@ -86,6 +88,8 @@ typedef struct {
     bool active;     /**< an intervention episode is running */
     bool infeasible; /**< the previous step found a constraint it could not meet */
     uint16_t cached; /**< bit i: k[i] holds entry i's constraint of this step */
+    uint16_t doomed; /**< bit i: and its obstacle closes faster than the robot
+                          can null before the bodies touch (cbf_unreachable()) */
     cbf_constraint_t k[SUP_MAX_OBSTACLES];
 } cbf_t;
 
@@ -193,5 +197,19 @@ typedef struct {
  */
 bool cbf_guard(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t *dist, uint8_t n,
                kin_wheels_t *wheels);
+
+/**
+ * @brief A moving obstacle that no command within the wheels' limits keeps
+ *        away this period: of the constraints cbf_step() computed this step
+ *        (the cache in @p f), one of a moving obstacle that every wheel
+ *        command within @p step [rad/s] of @p base (the rate limiter's box)
+ *        falls short of by more than the filter's tolerance. A constraint is
+ *        linear in the wheel speeds, so its largest value over the box is
+ *        at a corner: a·u(base) + step (|c_L| + |c_R|), c_L, c_R its
+ *        coefficients on the left and right wheel.
+ * @return the obstacle's id, or 0 when there is none.
+ */
+uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const kin_params_t *kin,
+                        const kin_wheels_t *base, num_t step);
 
 #endif /* MSTC_CBF_H */

@@ -303,6 +303,7 @@ static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, 
     m->inv_accel = c->act.lim.inv_av;
     m->side = c->act.lim.side;
     m->inv_side = c->act.lim.inv_side;
+    m->gap = num_sub(c->p.d_s, num_add(c->p.r_m, c->p.r_ob));
 }
 
 /* The rate limiter and the braking guard (cbf_guard()). */
@@ -401,10 +402,19 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     cbf_motion_t motion;
     filter_motion(c, &wn, cos_th, sin_th, &motion);
     cbf_result_t fr;
+    const bool was_infeasible = c->cbf.infeasible;
     cbf_step(&c->cbf, &in->robot, cos_th, sin_th, &motion, c->sup.obs, st->distance, c->sup.n_obs,
              &v, &w, &fr);
     if (fr.changed) {
         wheels_for(c, v, w, &out->wheels, &st->faults);
+    }
+    /* A moving obstacle no command within the wheels' limits keeps away. */
+    const uint8_t unreachable = cbf_unreachable(&c->cbf, c->sup.obs, c->sup.n_obs, &c->p.kin,
+                                                &c->act.cmd, num_mul(c->p.wheel_accel, wn.dt));
+    if (unreachable != 0u) {
+        fr.infeasible = true;
+        fr.new_infeasible = !was_infeasible;
+        c->cbf.infeasible = true;
     }
     if (limit_and_guard(c, &wn, st->distance, &out->wheels)) {
         fr.changed = true;
@@ -423,10 +433,11 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
         }
     }
     if (fr.new_infeasible && n_ev < SUP_MAX_EVENTS) {
-        out->events[n_ev] = (sup_event_t){ .t_us = in->t_us,
-                                           .kind = (uint8_t)SUP_EVENT_INFEASIBLE,
-                                           .obstacle = fr.obstacle,
-                                           .side = (int8_t)AVD_SIDE_NONE };
+        out->events[n_ev] =
+            (sup_event_t){ .t_us = in->t_us,
+                           .kind = (uint8_t)SUP_EVENT_INFEASIBLE,
+                           .obstacle = unreachable != 0u ? unreachable : fr.obstacle,
+                           .side = (int8_t)AVD_SIDE_NONE };
         n_ev++;
     }
     out->n_events = n_ev;

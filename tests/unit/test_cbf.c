@@ -559,6 +559,57 @@ static void test_cbf_keeps_the_barrier_non_negative_in_closed_loop(void)
     TEST_ASSERT_TRUE_MESSAGE(worst_d >= -TU_TOL(1e-6, 1e-4), msg);
 }
 
+/* cbf_unreachable(): a robot at rest heading +x (r = 0.05 m, L = 0.3 m,
+ * 20 rad/s² at 0.02 s: each wheel within 0.4 rad/s of zero this period),
+ * an obstacle (d_s 0.35 m, contact at 0.30 m: gap 0.05) coming at it.
+ * From the side, centre (0.05, 0.6) coming down at 0.5 m/s: Δ = (0, −0.6),
+ * σ = 0.5 m/s, and across the heading p_l leaves at a_v/3 = 1/3 m/s²:
+ * σ/a_β = 1.5 s, braking covers σ²/(2 a_β) = 0.375 m > d − l − 0.30 =
+ * 0.25 m: doomed. Its constraint, ρ = 0.4 + 0.5 × 1.5 = 1.15, h = 0.36 −
+ * 1.3225 = −0.9625, g1 = 0, g2 = −1.2, b = 0.6 + 20 × 0.9625 = 19.85; on
+ * the wheels c_L = 0.05 × 1.2 × 0.05/0.3 = 0.01, c_R = −0.01: at best
+ * 0.4 × 0.02 = 0.008 < 19.85: obstacle 1. At 0.2 m/s (σ²/(2a_β) = 0.06 m)
+ * it is not doomed; head on at 0.5 m/s (a_β = 1 m/s²: 0.125 m) neither. */
+static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keeps_away(void)
+{
+    const kin_params_t kin = { tu_num(0.05), tu_num(0.3), tu_num(100.0) };
+    const pose_t p = tu_pose(0, 0, 0);
+    const cbf_motion_t m = { .brake_t = tu_num(0.36),
+                             .inv_accel = tu_num(1.0),
+                             .side = tu_num(1.0 / 3.0),
+                             .inv_side = tu_num(3.0),
+                             .gap = tu_num(0.05) };
+    const kin_wheels_t rest = { NUM_ZERO, NUM_ZERO };
+    const struct {
+        double x, y, vx, vy;
+        uint8_t want;
+    } cases[] = {
+        { 0.05, 0.6, 0.0, -0.5, 1u },
+        { 0.05, 0.6, 0.0, -0.2, 0u },
+        { 0.65, 0.0, -0.5, 0.0, 0u },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const sup_entry_t o = entry(1, cases[i].x, cases[i].y, 0.35, cases[i].vx, cases[i].vy);
+        const num_t dist = tu_num(sqrt(cases[i].x * cases[i].x + cases[i].y * cases[i].y));
+        cbf_init(&f);
+        num_t v = NUM_ZERO;
+        num_t w = NUM_ZERO;
+        cbf_result_t r;
+        cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, &o, &dist, 1, &v, &w, &r);
+        TEST_ASSERT_EQUAL_UINT8(cases[i].want,
+                                cbf_unreachable(&f, &o, 1, &kin, &rest, tu_num(0.4)));
+    }
+    /* A static obstacle is never reported: braking is the guard's. */
+    const sup_entry_t still = entry(1, 0.05, 0.4, 0.35, 0, 0);
+    const num_t dist = tu_num(sqrt(0.05 * 0.05 + 0.4 * 0.4));
+    cbf_init(&f);
+    num_t v = tu_num(0.5);
+    num_t w = NUM_ZERO;
+    cbf_result_t r;
+    cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, &still, &dist, 1, &v, &w, &r);
+    TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, &still, 1, &kin, &rest, tu_num(0.4)));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -573,6 +624,7 @@ int main(void)
     RUN_TEST(test_cbf_meets_two_constraints_at_their_vertex);
     RUN_TEST(test_cbf_brakes_along_the_path_when_two_constraints_are_not_enough);
     RUN_TEST(test_cbf_reports_a_squeeze_it_cannot_escape);
+    RUN_TEST(test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keeps_away);
     RUN_TEST(test_cbf_on_random_states_the_barrier_never_falls_faster_than_its_bound);
     RUN_TEST(test_cbf_keeps_the_barrier_non_negative_in_closed_loop);
     return UNITY_END();
