@@ -342,7 +342,6 @@ static uint8_t nearest_id(const ctl_t *c, const ctl_status_t *st)
 static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
-    take_reports(c, in, true, out);
     size_t n_ev = out->n_events;
     const num_t cos_th = num_cos(in->robot.theta);
     const num_t sin_th = num_sin(in->robot.theta);
@@ -494,6 +493,9 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
         return;
     }
     if (ctl_is_mstc(&c->p)) {
+        /* The reports first, from here: their screening copy is off the
+         * stack before mstc_step's frame is on it (the F103's stack). */
+        take_reports(c, in, true, out);
         mstc_step(c, in, out);
     } else {
         paper_step(c, in, out);
