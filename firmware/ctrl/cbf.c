@@ -432,6 +432,9 @@ uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const k
 {
     /* a·u = g1 v + g2 l ω with v = r (u_L + u_R)/2, ω = r (u_R − u_L)/L:
      * c_L = r (g1/2 − g2 l/L), c_R = r (g1/2 + g2 l/L). */
+    if (f->doomed == 0u) {
+        return 0u; /* nearly always: no division */
+    }
     const num_t lever = num_div(CBF_LOOKAHEAD, kin->track_width);
     for (uint8_t i = 0; i < n; i++) {
         const sup_entry_t *o = &e[i];
