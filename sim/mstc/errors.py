@@ -77,3 +77,9 @@ class SendError(MstcError):
 class SimulationError(MstcError):
     """A closed-loop run that could not go on: the plant's state became
     non-finite, or the loop raised."""
+
+
+class RosError(MstcError):
+    """The ROS 2 side cannot run: its packages are not installed
+    (``pip install 'mstc[ros]'``), or a bridge parameter, the bus or the
+    firmware behind it is not usable."""

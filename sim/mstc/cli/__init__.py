@@ -13,9 +13,9 @@ import sys
 from collections.abc import Sequence
 
 from mstc import __version__
-from mstc.cli import export, hil, play, plot, replay, sim, sweep
+from mstc.cli import export, hil, play, plot, replay, ros, sim, sweep
 
-COMMANDS = (sim, hil, replay, play, plot, sweep, export)
+COMMANDS = (sim, hil, replay, play, plot, sweep, export, ros)
 """The subcommands, in the order ``mstc --help`` lists them."""
 
 
@@ -35,7 +35,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``mstc``; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # Everything after `mstc ros` is ROS's (--ros-args -p ...), which
+    # argparse would take for options of its own.
+    passed: list[str] = []
+    if argv[:1] == [ros.NAME] and argv[1:2] not in (["-h"], ["--help"]):
+        argv, passed = argv[:1], argv[1:]
     args = build_parser().parse_args(argv)
+    if passed:
+        args.ros_args = passed
     try:
         status: int = args.run(args)
     except KeyboardInterrupt:
