@@ -68,7 +68,6 @@ ODOM_STEP_SLACK = 0.01
 (1 - this) periods after the last step's."""
 
 
-
 class Inputs:
     """The latest of each input, as the bridge will send it."""
 
@@ -120,14 +119,16 @@ def _kv(key: str, value: object) -> KeyValue:
     return KeyValue(key=key, value=str(value))
 
 
-def open_bus(interface: str, channel: str, bitrate: int, lib: str, key: bytes) -> can.BusABC:
-    """The python-can bus of the parameters.
+def open_bus(interface: str, channel: str, bitrate: int, lib: str) -> can.BusABC:
+    """The python-can bus of the parameters. The firmware in process
+    (mstc-sil) has the key a board would have: $MSTC_KEY, $MSTC_KEY_FILE or
+    keys/device.key, whatever the bridge's key_file.
 
     :raises RosError: it cannot be opened (the message says why).
     """
     kwargs: dict[str, Any] = {"interface": interface}
     if interface == "mstc-sil":
-        kwargs.update(key=key, lib=lib or None)
+        kwargs["lib"] = lib or None
         if channel:
             kwargs["channel"] = channel
     else:
@@ -156,7 +157,9 @@ class Bridge(Node):
             key = secoc.load_key(Path(key_path) if key_path else None)
         except secoc.AuthKeyError as exc:
             raise RosError(str(exc)) from exc
-        self.bus = open_bus(interface, str(p("can_channel")), int(p("can_bitrate")), str(p("sil_lib")), key)
+        self.bus = open_bus(
+            interface, str(p("can_channel")), int(p("can_bitrate")), str(p("sil_lib"))
+        )
         step_source = str(p("step_source")) or ("timer" if interface == "mstc-sil" else "none")
         if step_source not in STEP_SOURCES:
             raise RosError(f"step_source {step_source!r}: one of {', '.join(STEP_SOURCES)}")
