@@ -7,10 +7,11 @@ import argparse
 from pathlib import Path
 
 from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_log_arguments, error, load_decoded
+from mstc.errors import RosError
 from mstc.logs.export import export_mcap, format_summary
 
 NAME = "export"
-HELP = "write a run or a bus log as an MCAP file (Foxglove: 3D path, plots, CAN signals)"
+HELP = "write a run or a bus log as an MCAP file (Foxglove) or a rosbag2 (ROS 2 tools)"
 
 _EPILOG = """\
 RUN_DIR is a folder mstc sim or mstc hil wrote (its bus.log is read); LOG is
@@ -21,12 +22,19 @@ stamped with the log's time. Open it in Foxglove: its 3D panel shows the
 paths and obstacles in the frame "world"; a Plot panel takes any signal, e.g.
 /can/STATUS.e. See docs/replay.md.
 
+With --rosbag2 the run becomes a rosbag2 folder (MCAP storage) of standard ROS 2
+messages in the frames odom and base_link: /odom, /tf, /reference,
+/reference/path, /obstacles, /cmd_wheels, /mstc/status, /mstc/events and every
+raw frame on /can/frames (can_msgs/msg/Frame), for ros2 bag play, rviz2, rqt
+(docs/ros2.md).
+
 exit status: 0 written; 1 the file cannot be written; 2 bad arguments, or a
 log that cannot be used (with --strict, any problem in it).
 
 examples:
   .venv/bin/mstc export tests/data/paper-line.log --mcap build/paper-line.mcap
   .venv/bin/mstc export build/sim/paper-line --mcap build/sim/paper-line/run.mcap
+  .venv/bin/mstc export build/sim/paper-line --rosbag2 build/sim/paper-line/rosbag2
 """
 
 
@@ -35,13 +43,19 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser = commands.add_parser(
         NAME,
         help=HELP,
-        description="Export a run folder or a CAN bus log to MCAP, decoded with the DBC.",
+        description="Export a run folder or a CAN bus log to MCAP or rosbag2, decoded with the DBC.",
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_log_arguments(parser, "RUN_DIR|LOG", "a run's folder (its bus.log is read), or a bus log")
-    parser.add_argument(
-        "--mcap", metavar="OUT", type=Path, required=True, help="the MCAP file to write"
+    formats = parser.add_mutually_exclusive_group(required=True)
+    formats.add_argument("--mcap", metavar="OUT", type=Path, help="the MCAP file to write")
+    formats.add_argument(
+        "--rosbag2",
+        metavar="OUT",
+        type=Path,
+        help="the rosbag2 folder to write (MCAP storage, standard ROS 2 messages; needs "
+        "the extra mstc[ros]; docs/ros2.md)",
     )
     parser.set_defaults(run=run)
 
@@ -54,14 +68,23 @@ def run(args: argparse.Namespace) -> int:
         if not args.log.is_file():
             error(f"{source} is a folder without a bus.log: not a run folder")
             return EXIT_USAGE
+    if args.rosbag2 is not None:
+        try:
+            from mstc.ros import bag
+        except RosError as exc:
+            error(str(exc))
+            return EXIT_USAGE
     loaded = load_decoded(args)
     if isinstance(loaded, int):
         return loaded
     db, decoded = loaded
+    out = args.mcap if args.rosbag2 is None else args.rosbag2
     try:
-        summary = export_mcap(decoded, db, args.mcap)
+        if args.rosbag2 is None:
+            print(format_summary(export_mcap(decoded, db, out), source))
+        else:
+            print(bag.format_summary(bag.export_rosbag2(decoded, db, out), source))
     except OSError as exc:
-        error(f"cannot write {args.mcap}: {exc}")
+        error(f"cannot write {out}: {exc}")
         return EXIT_FAILED
-    print(format_summary(summary, source))
     return EXIT_OK

@@ -1,0 +1,453 @@
+# SPDX-License-Identifier: MIT
+"""Export a decoded bus log as a rosbag2 (MCAP storage), the ROS 2 tools'
+format (``ros2 bag play``, rviz2, rqt, Foxglove), with rosbags: no ROS
+installation needed.
+
+Standard message types only, in REP-105 frames (``odom``, ``base_link``),
+each message stamped (header and record time) with the bus time stamp of the
+frame it comes from; for what a control step gives, that step's WHEEL_CMD:
+
+=====================  ================================  =======================================
+topic                  type                              messages
+=====================  ================================  =======================================
+``/odom``              nav_msgs/msg/Odometry             each step: the odometry the firmware
+                                                         used; twist: the body velocity of the
+                                                         step's wheel command
+``/tf``                tf2_msgs/msg/TFMessage            each step: odom → base_link
+``/reference``         geometry_msgs/msg/PoseStamped     each step: the reference
+``/reference/path``    nav_msgs/msg/Path                 once, at the first step: the whole
+                                                         reference path (transient local)
+``/obstacles``         visualization_msgs/msg/MarkerArray each step: DELETEALL, then a CYLINDER
+                                                         per obstacle the step was sent (its id
+                                                         the obstacle's) and an ARROW of its
+                                                         velocity (1 s) for a moving one: the
+                                                         bridge's own input format
+``/cmd_wheels``        sensor_msgs/msg/JointState        each step: the wheel speed commands
+``/mstc/status``       diagnostic_msgs/msg/               each step: every STATUS and STATUS_TRK
+                       DiagnosticArray                   signal, mode and halt as names
+``/mstc/events``       diagnostic_msgs/msg/               each switching event, at its step
+                       DiagnosticArray
+``/can/frames``        can_msgs/msg/Frame                every frame of the log, raw
+=====================  ================================  =======================================
+
+can_msgs/msg/Frame is ros_canopen's (ROS 2 branches; ros2_socketcan uses it
+too), registered in the typestore from its .msg definition, since rosbags
+ships only the standard distribution's types.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from cantools.database.can import Database
+
+from mstc.can.dbc import numeric_values
+from mstc.logs.decode import DecodedLog
+
+try:
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+    from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    from rosbags.typesys.base import Nodetype
+    from rosbags.typesys.store import Typestore
+except ImportError as exc:  # the extra mstc[ros]
+    from mstc.errors import RosError
+    from mstc.ros import INSTALL_HINT
+
+    raise RosError(f"mstc export --rosbag2 needs rosbags: {INSTALL_HINT}") from exc
+
+CAN_FRAME_TYPE = "can_msgs/msg/Frame"
+CAN_FRAME_MSG = """\
+std_msgs/Header header
+uint32 id
+bool is_rtr
+bool is_extended
+bool is_error
+uint8 dlc
+uint8[8] data
+"""
+"""can_msgs/msg/Frame (ros-industrial/ros_canopen, BSD; ROS 2 branches)."""
+STORE = Stores.ROS2_KILTED
+"""The type definitions written into the bag (Kilted's; the standard
+messages used here are the same from Humble on)."""
+WORLD = "odom"
+BASE = "base_link"
+JOINTS = ("left_wheel_joint", "right_wheel_joint")
+OBSTACLE_HEIGHT = 0.3
+"""Height of the obstacles' cylinders [m] (the plant is planar)."""
+
+_NUMPY = {
+    "bool": np.bool_,
+    "byte": np.uint8,
+    "char": np.uint8,
+    "octet": np.uint8,
+    "uint8": np.uint8,
+    "int8": np.int8,
+    "uint16": np.uint16,
+    "int16": np.int16,
+    "uint32": np.uint32,
+    "int32": np.int32,
+    "uint64": np.uint64,
+    "int64": np.int64,
+    "float32": np.float32,
+    "float64": np.float64,
+}
+
+
+@dataclass
+class BagSummary:
+    """What an export wrote."""
+
+    path: Path
+    messages: dict[str, int] = field(default_factory=dict)
+    """Messages by topic."""
+    start_ns: int = 0
+    end_ns: int = 0
+
+    @property
+    def total(self) -> int:
+        return sum(self.messages.values())
+
+
+def typestore() -> Typestore:
+    """Kilted's types with can_msgs/msg/Frame."""
+    store = get_typestore(STORE)
+    store.register(get_types_from_msg(CAN_FRAME_MSG, CAN_FRAME_TYPE))
+    return store
+
+
+class _Messages:
+    """Builds messages of a typestore, every field not given at its default
+    (zero, empty), as rclpy's constructors do."""
+
+    def __init__(self, store: Typestore) -> None:
+        self.store = store
+
+    def _default(self, node: tuple[Any, Any]) -> Any:
+        kind, detail = node
+        if kind == Nodetype.BASE:
+            name = detail[0]
+            if name == "string":
+                return ""
+            if name == "bool":
+                return False
+            return 0.0 if name.startswith("float") else 0
+        if kind == Nodetype.NAME:
+            return self.make(detail)
+        sub, length = detail
+        if kind == Nodetype.ARRAY:
+            if sub[0] == Nodetype.BASE and sub[1][0] in _NUMPY:
+                return np.zeros(length, dtype=_NUMPY[sub[1][0]])
+            return [self._default(sub) for _ in range(length)]
+        if sub[0] == Nodetype.BASE and sub[1][0] in _NUMPY:
+            return np.zeros(0, dtype=_NUMPY[sub[1][0]])
+        return []
+
+    def make(self, msgtype: str, **values: Any) -> Any:
+        _, fields = self.store.fielddefs[msgtype]
+        args = {
+            name: values[name] if name in values else self._default(node) for name, node in fields
+        }
+        unknown = set(values) - set(args)
+        if unknown:
+            raise KeyError(f"{msgtype} has no field {sorted(unknown)}")
+        return self.store.types[msgtype](**args)
+
+    def header(self, ns: int, frame_id: str) -> Any:
+        stamp = self.make("builtin_interfaces/msg/Time", sec=ns // 10**9, nanosec=ns % 10**9)
+        return self.make("std_msgs/msg/Header", stamp=stamp, frame_id=frame_id)
+
+    def pose(self, x: float, y: float, theta: float, z: float = 0.0) -> Any:
+        return self.make(
+            "geometry_msgs/msg/Pose",
+            position=self.make("geometry_msgs/msg/Point", x=x, y=y, z=z),
+            orientation=self.make(
+                "geometry_msgs/msg/Quaternion", z=math.sin(theta / 2), w=math.cos(theta / 2)
+            ),
+        )
+
+    def vector(self, x: float, y: float, z: float = 0.0) -> Any:
+        return self.make("geometry_msgs/msg/Vector3", x=x, y=y, z=z)
+
+    def kv(self, key: str, value: object) -> Any:
+        return self.make("diagnostic_msgs/msg/KeyValue", key=key, value=str(value))
+
+
+def _ns(seconds: float) -> int:
+    return round(seconds * 1e9)
+
+
+class _Bag:
+    """Connections by topic; messages held and written in time order."""
+
+    def __init__(self, writer: Writer, store: Typestore) -> None:
+        self.writer = writer
+        self.store = store
+        self.connections: dict[str, Any] = {}
+        self.pending: list[tuple[int, int, str, Any]] = []
+
+    def add(self, topic: str, ns: int, msg: Any, *, latched: bool = False) -> None:
+        if topic not in self.connections:
+            qos = []
+            if latched:
+                # rosbag2 plays a transient-local topic back as such (a latched path).
+                forever = QosTime(sec=0x7FFFFFFF, nsec=0xFFFFFFFF)
+                qos = [
+                    Qos(
+                        history=QosHistory.KEEP_LAST,
+                        depth=1,
+                        reliability=QosReliability.RELIABLE,
+                        durability=QosDurability.TRANSIENT_LOCAL,
+                        deadline=forever,
+                        lifespan=forever,
+                        liveliness=QosLiveliness.AUTOMATIC,
+                        liveliness_lease_duration=forever,
+                        avoid_ros_namespace_conventions=False,
+                    )
+                ]
+            self.connections[topic] = self.writer.add_connection(
+                topic, msg.__msgtype__, typestore=self.store, offered_qos_profiles=qos
+            )
+        self.pending.append((ns, len(self.pending), topic, msg))
+
+    def finish(self, summary: BagSummary) -> None:
+        counts: Counter[str] = Counter()
+        for ns, _, topic, msg in sorted(self.pending, key=lambda m: (m[0], m[1])):
+            data = self.store.serialize_cdr(msg, msg.__msgtype__)
+            self.writer.write(self.connections[topic], ns, data)
+            counts[topic] += 1
+        summary.messages = dict(counts)
+        if self.pending:
+            summary.start_ns = min(m[0] for m in self.pending)
+            summary.end_ns = max(m[0] for m in self.pending)
+
+
+def _obstacle_reports(decoded: DecodedLog, db: Database) -> dict[int, list[tuple[int, ...]]]:
+    """The OBSTACLE (and OBSTACLE_VEL) frames of each step, by the log row of
+    its WHEEL_CMD: (id, x, y, radius, vx, vy) for each, as the firmware got them."""
+    log = decoded.log
+    ids = {m.name: m for m in db.messages}
+    obstacle, velocity, wheel = ids["OBSTACLE"], ids["OBSTACLE_VEL"], ids["WHEEL_CMD"]
+    reports: dict[int, list[tuple[Any, ...]]] = {}
+    pending: dict[int, list[float]] = {}
+    for row in range(len(log)):
+        if log.extended[row]:
+            continue
+        fid = int(log.frame_id[row])
+        if fid not in (obstacle.frame_id, velocity.frame_id, wheel.frame_id):
+            continue
+        if fid == wheel.frame_id:
+            reports[row] = [tuple(v) for v in pending.values()]
+            pending = {}
+            continue
+        message = obstacle if fid == obstacle.frame_id else velocity
+        try:
+            s = numeric_values(message, log.data[row, : int(log.dlc[row])].tobytes())
+        except Exception:  # cantools raises several kinds on bad data
+            continue
+        if message is obstacle:
+            pending[int(s["id"])] = [int(s["id"]), s["x"], s["y"], s["radius"], 0.0, 0.0]
+        elif int(s["id"]) in pending:
+            pending[int(s["id"])][4:6] = [s["vx"], s["vy"]]
+    return reports
+
+
+def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> BagSummary:
+    """Write @p decoded (and its log's raw frames) as a rosbag2 folder @p out.
+
+    :raises OSError: @p out cannot be written, or exists already (rosbag2
+        never overwrites).
+    """
+    store = typestore()
+    m = _Messages(store)
+    summary = BagSummary(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        writer = Writer(out, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
+        writer.open()
+    except WriterError as exc:
+        raise OSError(str(exc)) from exc
+    bag = _Bag(writer, store)
+    log = decoded.log
+
+    for row in range(len(log)):
+        n = int(log.dlc[row])
+        data = np.zeros(8, dtype=np.uint8)
+        data[:n] = log.data[row, :n]
+        ns = _ns(float(log.time[row]))
+        frame = m.make(
+            CAN_FRAME_TYPE,
+            header=m.header(ns, log.channel[row]),
+            id=int(log.frame_id[row]),
+            is_extended=bool(log.extended[row]),
+            dlc=n,
+            data=data,
+        )
+        bag.add("/can/frames", ns, frame)
+
+    trace = decoded.trace
+    stamps = [_ns(float(s)) for s in decoded.stamps]
+    columns = {c: i for i, c in enumerate(decoded.status_columns)}
+    path_poses = []
+    for k, ns in enumerate(stamps):
+        x, y, th = (float(trace[c][k]) for c in ("x", "y", "theta"))
+        xr, yr, thr = (float(trace[c][k]) for c in ("x_r", "y_r", "theta_r"))
+        row = decoded.status_rows[k]
+        if all(map(math.isfinite, (x, y, th))):
+            odom = m.make(
+                "nav_msgs/msg/Odometry",
+                header=m.header(ns, WORLD),
+                child_frame_id=BASE,
+                pose=m.make("geometry_msgs/msg/PoseWithCovariance", pose=m.pose(x, y, th)),
+                twist=m.make(
+                    "geometry_msgs/msg/TwistWithCovariance",
+                    twist=m.make(
+                        "geometry_msgs/msg/Twist",
+                        linear=m.vector(float(trace["v"][k]), 0.0),
+                        angular=m.vector(0.0, 0.0, float(trace["w"][k])),
+                    ),
+                ),
+            )
+            bag.add("/odom", ns, odom)
+            transform = m.make(
+                "geometry_msgs/msg/TransformStamped",
+                header=m.header(ns, WORLD),
+                child_frame_id=BASE,
+                transform=m.make(
+                    "geometry_msgs/msg/Transform",
+                    translation=m.vector(x, y),
+                    rotation=m.pose(x, y, th).orientation,
+                ),
+            )
+            bag.add("/tf", ns, m.make("tf2_msgs/msg/TFMessage", transforms=[transform]))
+        if all(map(math.isfinite, (xr, yr, thr))):
+            ref = m.make(
+                "geometry_msgs/msg/PoseStamped",
+                header=m.header(ns, WORLD),
+                pose=m.pose(xr, yr, thr),
+            )
+            bag.add("/reference", ns, ref)
+            path_poses.append(ref)
+        wheels = [float(row[columns["wheel_left"]]), float(row[columns["wheel_right"]])]
+        cmd = m.make(
+            "sensor_msgs/msg/JointState",
+            header=m.header(ns, BASE),
+            name=list(JOINTS),
+            velocity=np.array(wheels, dtype=np.float64),
+        )
+        bag.add("/cmd_wheels", ns, cmd)
+        bag.add("/mstc/status", ns, _status(m, decoded, k, ns))
+    if path_poses:
+        first = _ns(float(decoded.stamps[0]))
+        path = m.make("nav_msgs/msg/Path", header=m.header(first, WORLD), poses=path_poses)
+        bag.add("/reference/path", first, path, latched=True)
+
+    reports = _obstacle_reports(decoded, db)
+    for row, obstacles in sorted(reports.items()):
+        ns = _ns(float(log.time[row]))
+        markers = [m.make("visualization_msgs/msg/Marker", header=m.header(ns, WORLD), action=3)]
+        for oid, x, y, r, vx, vy in obstacles:
+            markers.append(
+                m.make(
+                    "visualization_msgs/msg/Marker",
+                    header=m.header(ns, WORLD),
+                    ns="obstacles",
+                    id=int(oid),
+                    type=3,  # CYLINDER
+                    action=0,  # ADD
+                    pose=m.pose(x, y, 0.0, OBSTACLE_HEIGHT / 2),
+                    scale=m.vector(2 * r, 2 * r, OBSTACLE_HEIGHT),
+                    color=m.make("std_msgs/msg/ColorRGBA", r=0.84, g=0.15, b=0.16, a=0.8),
+                )
+            )
+            if vx or vy:
+                points = [
+                    m.make("geometry_msgs/msg/Point", x=x, y=y),
+                    m.make("geometry_msgs/msg/Point", x=x + vx, y=y + vy),
+                ]
+                markers.append(
+                    m.make(
+                        "visualization_msgs/msg/Marker",
+                        header=m.header(ns, WORLD),
+                        ns="obstacles/velocity",
+                        id=int(oid),
+                        type=0,  # ARROW
+                        action=0,
+                        points=points,
+                        scale=m.vector(0.03, 0.06, 0.0),
+                        color=m.make("std_msgs/msg/ColorRGBA", r=0.84, g=0.15, b=0.16, a=1.0),
+                    )
+                )
+        bag.add("/obstacles", ns, m.make("visualization_msgs/msg/MarkerArray", markers=markers))
+
+    # An event is stamped like the step that emitted it (as mstc export --mcap).
+    step_us = np.round(trace["t"] * 1e6)
+    for event in decoded.events:
+        k = min(int(np.searchsorted(step_us, event.t_us)), len(step_us) - 1)
+        ns = stamps[k]
+        side = f" {event.side}" if event.side else ""
+        status = m.make(
+            "diagnostic_msgs/msg/DiagnosticStatus",
+            level=0,
+            name="mstc: event",
+            message=f"{event.kind} O{event.obstacle}{side}",
+            hardware_id=log.channel[0] if log.channel else "",
+            values=[
+                m.kv("kind", event.kind),
+                m.kv("obstacle", event.obstacle),
+                m.kv("side", event.side or ""),
+                m.kv("t", f"{event.t:.6f}"),
+            ],
+        )
+        array = m.make(
+            "diagnostic_msgs/msg/DiagnosticArray", header=m.header(ns, BASE), status=[status]
+        )
+        bag.add("/mstc/events", ns, array)
+    bag.finish(summary)
+    writer.close()
+    return summary
+
+
+def _status(m: _Messages, decoded: DecodedLog, k: int, ns: int) -> Any:
+    """One step's STATUS and STATUS_TRK as a DiagnosticArray (level: OK
+    running, WARN not armed, ERROR halted for another reason)."""
+    row = decoded.status_rows[k]
+    values = dict(zip(decoded.status_columns, row, strict=True))
+    halt = str(values.get("halt", ""))
+    level = 0 if halt in ("none", "") else (1 if halt == "not_armed" else 2)
+    message = str(decoded.trace.mode[k]) if level == 0 else f"halted: {halt}"
+    skip = {"t", "step"}
+    status = m.make(
+        "diagnostic_msgs/msg/DiagnosticStatus",
+        level=level,
+        name="mstc: controller",
+        message=message,
+        hardware_id=decoded.log.channel[0] if decoded.log.channel else "",
+        values=[m.kv(c, v) for c, v in values.items() if c not in skip],
+    )
+    return m.make("diagnostic_msgs/msg/DiagnosticArray", header=m.header(ns, BASE), status=[status])
+
+
+def format_summary(summary: BagSummary, source: Path) -> str:
+    """What ``mstc export --rosbag2`` prints."""
+    span = (summary.end_ns - summary.start_ns) / 1e9
+    lines = [
+        f"export: {source} -> {summary.path}/ (rosbag2, MCAP): {summary.total:,} messages on "
+        f"{len(summary.messages)} topics, {summary.start_ns / 1e9:.6f} .. "
+        f"{summary.end_ns / 1e9:.6f} s ({span:g} s)"
+    ]
+    width = max((len(t) for t in summary.messages), default=0)
+    lines += [f"  {t:<{width}}  {n:>8,}" for t, n in sorted(summary.messages.items())]
+    return "\n".join(lines)
