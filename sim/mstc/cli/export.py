@@ -43,7 +43,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser = commands.add_parser(
         NAME,
         help=HELP,
-        description="Export a run folder or a CAN bus log to MCAP or rosbag2, decoded with the DBC.",
+        description="Export a run folder or a bus log to MCAP or rosbag2, decoded with the DBC.",
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -51,6 +51,7 @@ from mstc.logs.decode import DecodedLog
 
 try:
     from rosbags.interfaces import (
+        Nodetype,
         Qos,
         QosDurability,
         QosHistory,
@@ -60,7 +61,6 @@ try:
     )
     from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from rosbags.typesys.base import Nodetype
     from rosbags.typesys.store import Typestore
 except ImportError as exc:  # the extra mstc[ros]
     from mstc.errors import RosError
@@ -299,12 +299,12 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> BagSummary:
 
     trace = decoded.trace
     stamps = [_ns(float(s)) for s in decoded.stamps]
-    columns = {c: i for i, c in enumerate(decoded.status_columns)}
+    columns = [decoded.status_columns.index(c) for c in ("wheel_left", "wheel_right")]
+    trace_wheels = np.array([[row[i] for i in columns] for row in decoded.status_rows], dtype=float)
     path_poses = []
     for k, ns in enumerate(stamps):
         x, y, th = (float(trace[c][k]) for c in ("x", "y", "theta"))
         xr, yr, thr = (float(trace[c][k]) for c in ("x_r", "y_r", "theta_r"))
-        row = decoded.status_rows[k]
         if all(map(math.isfinite, (x, y, th))):
             odom = m.make(
                 "nav_msgs/msg/Odometry",
@@ -340,7 +340,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> BagSummary:
             )
             bag.add("/reference", ns, ref)
             path_poses.append(ref)
-        wheels = [float(row[columns["wheel_left"]]), float(row[columns["wheel_right"]])]
+        wheels = [float(trace_wheels[k, 0]), float(trace_wheels[k, 1])]
         cmd = m.make(
             "sensor_msgs/msg/JointState",
             header=m.header(ns, BASE),

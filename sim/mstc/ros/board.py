@@ -147,7 +147,7 @@ class Board:
         """One protected frame, or None (counted) when a value cannot be sent:
         non-finite, or outside its signal's range."""
         try:
-            return self.proto.encode(name, **signals)
+            return self.proto.encode(name, signals)
         except ValueError:  # SignalRangeError, and NaN on the way to an integer
             self.counts.refused_inputs += 1
             return None
@@ -252,17 +252,23 @@ class Board:
         if name == "AUTH_STATUS":
             self.auth.sync(frame)
             self.counts.auth_refused = int(s["refused"])
-            last = self.proto.message("AUTH_STATUS").get_signal_by_name("AUTH_STATUS_last")
-            self.counts.auth_last = str((last.choices or {}).get(int(s["last"]), int(s["last"])))
+            self.counts.auth_last = self._choice("AUTH_STATUS", "last", s["last"])
         elif name == "STATUS_COUNTERS":
             self.counts.firmware_drops = {k: int(v) for k, v in s.items()}
         elif name == "HEARTBEAT":
-            state = self.proto.message("HEARTBEAT").get_signal_by_name("HEARTBEAT_state")
-            self.counts.heartbeat = str((state.choices or {}).get(int(s["state"]), s["state"]))
+            self.counts.heartbeat = self._choice("HEARTBEAT", "state", s["state"])
         elif name == "PARAM_VALUE":
             self._answers.append(frame)
             self._answer.notify_all()
         self.on_frame(frame)
+
+    def _choice(self, message: str, signal: str, raw: float) -> str:
+        """The value table's name of @p raw, else the number."""
+        choices = self.proto.message(message).get_signal_by_name(f"{message}_{signal}").choices
+        for number, name in (choices or {}).items():
+            if number == int(raw):
+                return str(name)
+        return str(int(raw))
 
     @property
     def drops(self) -> dict[str, int]:
