@@ -229,3 +229,22 @@ def test_commands_with_another_key_are_refused_and_counted(
         assert status["auth_last"] == "mac"
     executor.shutdown()
     node.destroy_node()
+
+
+def test_the_robots_parameters_file_is_read(ros_context: None, tmp_path: Path) -> None:
+    """sim/mstc/ros/launch/mstc_bridge.yaml (the robot's: socketcan can0)
+    parses as the bridge's parameters; this machine has no can0, and the
+    bridge says so in one line."""
+    params = ROOT / "sim" / "mstc" / "ros" / "launch" / "mstc_bridge.yaml"
+    done = subprocess.run(
+        [sys.executable, "-m", "mstc", "ros", "--ros-args", "--params-file", str(params)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=dict(os.environ),
+    )
+    assert done.returncode == 2, done.stderr
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert errors == [errors[0]] and errors[0].startswith(
+        "error: cannot open the CAN bus socketcan can0"
+    ), done.stderr

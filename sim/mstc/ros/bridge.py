@@ -232,9 +232,15 @@ class Bridge(Node):
         return self.get_parameter(name).value
 
     def destroy_node(self) -> None:
-        """Stop the CAN side, then the node."""
-        self.board.stop()
-        self.bus.shutdown()
+        """Stop the CAN side, then the node (also of a node whose start
+        failed half-way: rclpy's shutdown destroys it too)."""
+        board: Board | None = getattr(self, "board", None)
+        if board is not None:
+            board.stop()
+        bus: can.BusABC | None = getattr(self, "bus", None)
+        if bus is not None:
+            bus.shutdown()
+            self.bus = None  # type: ignore[assignment]  # shut down once
         super().destroy_node()
 
     # ------------------------------------------------------- parameters
