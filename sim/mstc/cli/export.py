@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         if args.rosbag2 is None:
             print(format_summary(export_mcap(decoded, db, out), source))
         else:
-            print(bag.format_summary(bag.export_rosbag2(decoded, db, out), source))
+            print(format_summary(bag.export_rosbag2(decoded, db, out), source))
     except OSError as exc:
         error(f"cannot write {out}: {exc}")
         return EXIT_FAILED

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +47,7 @@ from cantools.database.can import Database
 
 from mstc.can.dbc import numeric_values
 from mstc.logs.decode import DecodedLog
+from mstc.logs.export import ExportSummary
 
 try:
     from rosbags.interfaces import (
@@ -104,21 +104,6 @@ _NUMPY = {
     "float32": np.float32,
     "float64": np.float64,
 }
-
-
-@dataclass
-class BagSummary:
-    """What an export wrote."""
-
-    path: Path
-    messages: dict[str, int] = field(default_factory=dict)
-    """Messages by topic."""
-    start_ns: int = 0
-    end_ns: int = 0
-
-    @property
-    def total(self) -> int:
-        return sum(self.messages.values())
 
 
 def typestore() -> Typestore:
@@ -222,7 +207,7 @@ class _Bag:
             )
         self.pending.append((ns, len(self.pending), topic, msg))
 
-    def finish(self, summary: BagSummary) -> None:
+    def finish(self, summary: ExportSummary) -> None:
         counts: Counter[str] = Counter()
         for ns, _, topic, msg in sorted(self.pending, key=lambda m: (m[0], m[1])):
             data = self.store.serialize_cdr(msg, msg.__msgtype__)
@@ -264,7 +249,7 @@ def _obstacle_reports(decoded: DecodedLog, db: Database) -> dict[int, list[tuple
     return reports
 
 
-def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> BagSummary:
+def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's raw frames) as a rosbag2 folder @p out.
 
     :raises OSError: @p out cannot be written, or exists already (rosbag2
@@ -272,7 +257,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> BagSummary:
     """
     store = typestore()
     m = _Messages(store)
-    summary = BagSummary(out)
+    summary = ExportSummary(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
         writer = Writer(out, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
@@ -438,16 +423,3 @@ def _status(m: _Messages, decoded: DecodedLog, k: int, ns: int) -> Any:
         values=[m.kv(c, v) for c, v in values.items() if c not in skip],
     )
     return m.make("diagnostic_msgs/msg/DiagnosticArray", header=m.header(ns, BASE), status=[status])
-
-
-def format_summary(summary: BagSummary, source: Path) -> str:
-    """What ``mstc export --rosbag2`` prints."""
-    span = (summary.end_ns - summary.start_ns) / 1e9
-    lines = [
-        f"export: {source} -> {summary.path}/ (rosbag2, MCAP): {summary.total:,} messages on "
-        f"{len(summary.messages)} topics, {summary.start_ns / 1e9:.6f} .. "
-        f"{summary.end_ns / 1e9:.6f} s ({span:g} s)"
-    ]
-    width = max((len(t) for t in summary.messages), default=0)
-    lines += [f"  {t:<{width}}  {n:>8,}" for t, n in sorted(summary.messages.items())]
-    return "\n".join(lines)
