@@ -1,14 +1,16 @@
 # SPDX-License-Identifier: MIT
-"""``mstc export``: a run or a bus log as an MCAP file, for Foxglove."""
+"""``mstc export``: a run or a bus log as an MCAP file, for Foxglove, or as a
+rosbag2, for the ROS 2 tools."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_log_arguments, error, load_decoded
-from mstc.errors import RosError
+from mstc.cli.common import add_log_arguments, load_decoded
+from mstc.errors import EXIT_OK, UsageError
 from mstc.logs.export import export_mcap, format_summary
+from mstc.ros import require
 
 NAME = "export"
 HELP = "write a run or a bus log as an MCAP file (Foxglove) or a rosbag2 (ROS 2 tools)"
@@ -26,10 +28,11 @@ With --rosbag2 the run becomes a rosbag2 folder (MCAP storage) of standard ROS 2
 messages in the frames odom and base_link: /odom, /tf, /reference,
 /reference/path, /obstacles, /cmd_wheels, /mstc/status, /mstc/events and every
 raw frame on /can/frames (can_msgs/msg/Frame), for ros2 bag play, rviz2, rqt
-(docs/ros2.md).
+(docs/ros2.md). It needs the extra mstc[ros].
 
-exit status: 0 written; 1 the file cannot be written; 2 bad arguments, or a
-log that cannot be used (with --strict, any problem in it).
+exit status: 0 written; 1 the file cannot be written (a rosbag2 folder that
+exists already); 2 bad arguments, a log that cannot be used (with --strict, any
+problem in it), or --rosbag2 without rosbags installed.
 
 examples:
   .venv/bin/mstc export tests/data/paper-line.log --mcap build/paper-line.mcap
@@ -61,30 +64,20 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
-    """Decode the log and write the MCAP file."""
+    """Decode the log and write the MCAP file or the rosbag2."""
     source = args.log
     if source.is_dir():
         args.log = source / "bus.log"
         if not args.log.is_file():
-            error(f"{source} is a folder without a bus.log: not a run folder")
-            return EXIT_USAGE
+            raise UsageError(f"{source} is a folder without a bus.log: not a run folder")
     if args.rosbag2 is not None:
-        try:
-            from mstc.ros import bag
-        except RosError as exc:
-            error(str(exc))
-            return EXIT_USAGE
-    loaded = load_decoded(args)
-    if isinstance(loaded, int):
-        return loaded
-    db, decoded = loaded
-    out = args.mcap if args.rosbag2 is None else args.rosbag2
-    try:
-        if args.rosbag2 is None:
-            print(format_summary(export_mcap(decoded, db, out), source))
-        else:
-            print(format_summary(bag.export_rosbag2(decoded, db, out), source))
-    except OSError as exc:
-        error(f"cannot write {out}: {exc}")
-        return EXIT_FAILED
+        require("rosbags")  # before the log is read: a missing extra is said at once
+        from mstc.ros.bag import export_rosbag2
+
+        db, decoded = load_decoded(args)
+        summary = export_rosbag2(decoded, db, args.rosbag2)
+    else:
+        db, decoded = load_decoded(args)
+        summary = export_mcap(decoded, db, args.mcap)
+    print(format_summary(summary, source))
     return EXIT_OK
