@@ -9,7 +9,7 @@ CYLINDER per obstacle, as a perception node does) and its odometry
 (nav_msgs/Odometry, odom -> base_link), both stamped t_k; it waits for the
 wheel command stamped t_k on cmd_wheels (sensor_msgs/JointState), moves the
 robot with it for one period (the scenario's unicycle and integrator,
-mstc.sim.plant) and goes on with t_(k+1). The reference is the scenario's
+mstc.plant.plant) and goes on with t_(k+1). The reference is the scenario's
 virtual robot as a path (nav_msgs/Path: its poses every period), published
 once. It records its poses and the bridge's events (mstc/events).
 """
@@ -29,9 +29,9 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 from visualization_msgs.msg import Marker, MarkerArray
 
-from mstc.sim.plant import Pose
-from mstc.sim.run import make_world
-from mstc.sim.scenario import Scenario
+from mstc.model import Pose
+from mstc.plant.scenario import Scenario
+from mstc.plant.world import make_world
 
 START_NS = 1_000_000_000
 """Sim time of the first sample [ns] (a stamp of 0 reads as 'unset' to some tools)."""

@@ -32,8 +32,9 @@ from rclpy.node import Node
 from std_srvs.srv import SetBool
 
 from conftest import ROOT, SCENARIOS
-from mstc.params import param_values
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.model import param_values
+from mstc.plant.scenario import load_scenario
 from ros_plant import PlantNode
 
 PROFILE = ROOT / "tests" / "data" / "fastdds-loopback.xml"
@@ -119,7 +120,7 @@ def test_paper_table_over_ros2(name: str, ros_context: None, sil_lib: Path, tmp_
     its side, within 3 control periods of the paper's time (counted from
     that step), nothing else, and the robot never nearer an obstacle than
     D_s."""
-    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     firmware = [f"firmware.{k}:={v!r}" for k, v in param_values(scenario.params).items()]
     firmware.append(f"firmware.strategy:={scenario.params.strategy}")
     log = tmp_path / "bridge.log"
@@ -234,7 +235,8 @@ def test_commands_with_another_key_are_refused_and_counted(
 def test_the_robots_parameters_file_is_read(ros_context: None, tmp_path: Path) -> None:
     """sim/mstc/ros/launch/mstc_bridge.yaml (the robot's: socketcan can0)
     parses as the bridge's parameters; this machine has no can0, and the
-    bridge says so in one line."""
+    bridge says so in one line, with the exit status of a bus that cannot be
+    opened (3, mstc.errors.BusError)."""
     params = ROOT / "sim" / "mstc" / "ros" / "launch" / "mstc_bridge.yaml"
     done = subprocess.run(
         [sys.executable, "-m", "mstc", "ros", "--ros-args", "--params-file", str(params)],
@@ -243,7 +245,7 @@ def test_the_robots_parameters_file_is_read(ros_context: None, tmp_path: Path) -
         timeout=120,
         env=dict(os.environ),
     )
-    assert done.returncode == 2, done.stderr
+    assert done.returncode == 3, done.stderr
     errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert errors == [errors[0]] and errors[0].startswith(
         "error: cannot open the CAN bus socketcan can0"

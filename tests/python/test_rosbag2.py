@@ -24,8 +24,9 @@ import pytest
 from rosbags.highlevel import AnyReader
 
 from conftest import SCENARIOS
+from mstc.can.protocol import wire_limits
 from mstc.cli import main
-from mstc.sim.scenario import load_scenario
+from mstc.plant.scenario import load_scenario
 
 SCENARIO = SCENARIOS / "paper-line.toml"
 TYPES = {
@@ -136,7 +137,7 @@ def test_wheel_commands_give_the_traces_velocity(run: tuple[Path, Path, str]) ->
     """v = r (ω_R + ω_L)/2 and ω = r (ω_R − ω_L)/L of the JointState's
     speeds are the trace's v and ω."""
     folder, bag, _ = run
-    params = load_scenario(SCENARIO).params
+    params = load_scenario(SCENARIO, wire_limits()).params
     r, track = params.wheel_radius, params.track_width
     rows = trace_rows(folder)
     cmds = messages(bag, "/cmd_wheels")
@@ -186,7 +187,7 @@ def test_obstacles_are_those_the_sensor_saw(run: tuple[Path, Path, str]) -> None
     """Each step's MarkerArray holds the obstacles within D_det of the
     robot, as the scenario's ideal sensor reports them, at their place."""
     folder, bag, _ = run
-    scenario = load_scenario(SCENARIO)
+    scenario = load_scenario(SCENARIO, wire_limits())
     rows = trace_rows(folder)
     arrays = messages(bag, "/obstacles")
     assert len(arrays) == len(rows)

@@ -6,9 +6,9 @@ from __future__ import annotations
 import argparse
 import os
 
-from mstc.cli.common import DEFAULT_LIB, EXIT_OK, EXIT_USAGE, error
-from mstc.errors import RosError
-from mstc.firmware import LIB_ENV
+from mstc.can.library import LIB_ENV
+from mstc.cli.common import find_library
+from mstc.errors import EXIT_OK
 from mstc.ros import require
 from mstc.ros.parameters import describe
 
@@ -16,9 +16,10 @@ NAME = "ros"
 HELP = "bridge a CAN bus with the firmware on it to ROS 2 topics (a node Nav2 can drive)"
 
 _EPILOG = f"""\
-Everything after `mstc ros` goes to ROS 2: parameters with --ros-args -p NAME:=VALUE
-or --params-file FILE, remappings with -r FROM:=TO. Topics, types and frames:
-docs/ros2.md. The bridge's parameters:
+Everything after --ros-args goes to ROS 2, as for any ROS 2 node: parameters
+with -p NAME:=VALUE or --params-file FILE, remappings with -r FROM:=TO, the log
+level with --log-level LEVEL. Topics, types and frames: docs/ros2.md. The
+bridge's parameters:
 
 {describe()}
 
@@ -29,8 +30,8 @@ Arm with `ros2 service call /mstc_bridge/arm std_srvs/srv/SetBool "{{data: true}
 
 Needs the extra mstc[ros] (pip install 'mstc[ros]'; `make venv` installs it).
 
-exit status: 0 stopped (Ctrl-C); 2 ROS 2 not installed, a bad parameter, a bus
-that cannot be opened, or a firmware that does not answer.
+exit status: 0 stopped (Ctrl-C); 1 the firmware does not answer on the bus;
+2 ROS 2 not installed, a bad parameter or no key; 3 a bus that cannot be opened.
 
 examples:
   .venv/bin/mstc ros                       # the firmware in process, on the bridge's timer
@@ -48,27 +49,31 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    # ROS's own convention: what follows --ros-args is ROS's, options included.
     parser.add_argument(
-        "ros_args",
+        "--ros-args",
+        dest="ros_args",
         nargs=argparse.REMAINDER,
-        metavar="--ros-args ...",
-        help="ROS 2 arguments: parameters, remappings, log level",
+        default=[],
+        metavar="ARG",
+        help="ROS 2 arguments, to the end of the line: parameters, remappings, log level",
     )
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the bridge until interrupted."""
-    try:
-        require("rclpy", "nav_msgs.msg", "visualization_msgs.msg", "diagnostic_msgs.msg")
-        require("sensor_msgs.msg", "std_srvs.srv")
-        from mstc.ros.bridge import run as run_bridge
+    """Run the bridge until interrupted.
 
-        # The in-process firmware defaults to the source tree's build, as mstc sim's does.
-        if LIB_ENV not in os.environ and DEFAULT_LIB is not None and DEFAULT_LIB.is_file():
-            os.environ[LIB_ENV] = str(DEFAULT_LIB)
-        run_bridge(args.ros_args)
-    except RosError as exc:
-        error(str(exc))
-        return EXIT_USAGE
+    :raises DependencyError: ROS 2 is not installed.
+    :raises MstcError: the bridge cannot start (:class:`mstc.ros.bridge.Bridge`).
+    """
+    require("rclpy", "nav_msgs.msg", "visualization_msgs.msg", "diagnostic_msgs.msg")
+    require("sensor_msgs.msg", "std_srvs.srv")
+    from mstc.ros.bridge import run as run_bridge
+
+    # The in-process firmware defaults to the source tree's build, as mstc sim's does.
+    lib = find_library(None)
+    if lib is not None:
+        os.environ.setdefault(LIB_ENV, str(lib))
+    run_bridge(["--ros-args", *args.ros_args] if args.ros_args else [])
     return EXIT_OK

@@ -1,18 +1,22 @@
 # SPDX-License-Identifier: MIT
 """ROS 2 at the edge of mstc (docs/ros2.md): the bridge node ``mstc ros``
 (:mod:`~mstc.ros.bridge`), its CAN side (:mod:`~mstc.ros.board`), the
-reference it makes of a path (:mod:`~mstc.ros.reference`), a plant node for
-trying it without a robot (:mod:`~mstc.ros.plant`), and runs written as
-rosbag2 (:mod:`~mstc.ros.bag`).
+reference it makes of a path (:mod:`~mstc.ros.reference`), its parameters
+(:mod:`~mstc.ros.parameters`), and runs written as rosbag2
+(:mod:`~mstc.ros.bag`).
 
-Optional: the ROS 2 packages come with the extra ``mstc[ros]``. Nothing else
-in mstc imports this package, and importing it imports no ROS package;
-:func:`require` says in one line what to install when they are missing.
+Optional: the ROS 2 packages come with the extra ``mstc[ros]``. Only the
+command line (:mod:`mstc.cli`) imports this package (its layer is right
+under the command's, docs/architecture.md), and importing it, its board,
+reference and parameters imports no ROS package; :func:`require` says in one
+line what to install when they are missing.
 """
 
 from __future__ import annotations
 
 import importlib
+
+from mstc.errors import DependencyError
 
 INSTALL_HINT = (
     "pip install 'mstc[ros]' (the ROS 2 Kilted wheels: ros-rclpy, ros-rmw-fastrtps-cpp and "
@@ -25,12 +29,10 @@ def require(*modules: str) -> None:
     """Import @p modules, or raise one line naming what is missing and how
     to install it.
 
-    :raises RosError: a module cannot be imported.
+    :raises DependencyError: a module cannot be imported.
     """
-    from mstc.errors import RosError
-
     for name in modules:
         try:
             importlib.import_module(name)
         except ImportError as exc:
-            raise RosError(f"{exc.name or name} is not installed: {INSTALL_HINT}") from exc
+            raise DependencyError(f"{exc.name or name} is not installed: {INSTALL_HINT}") from exc

@@ -44,29 +44,25 @@ from typing import Any
 
 import numpy as np
 from cantools.database.can import Database
+from rosbags.interfaces import (
+    Nodetype,
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
+from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
 
 from mstc.can.dbc import numeric_values
+from mstc.errors import WriteError, writing
 from mstc.logs.decode import DecodedLog
-from mstc.logs.export import ExportSummary
-
-try:
-    from rosbags.interfaces import (
-        Nodetype,
-        Qos,
-        QosDurability,
-        QosHistory,
-        QosLiveliness,
-        QosReliability,
-        QosTime,
-    )
-    from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from rosbags.typesys.store import Typestore
-except ImportError as exc:  # the extra mstc[ros]
-    from mstc.errors import RosError
-    from mstc.ros import INSTALL_HINT
-
-    raise RosError(f"mstc export --rosbag2 needs rosbags: {INSTALL_HINT}") from exc
+from mstc.logs.export import OBSTACLE_HEIGHT, ExportSummary
+from mstc.ros import diagnostics
+from mstc.ros.parameters import PARAMETERS
 
 CAN_FRAME_TYPE = "can_msgs/msg/Frame"
 CAN_FRAME_MSG = """\
@@ -82,11 +78,12 @@ uint8[8] data
 STORE = Stores.ROS2_KILTED
 """The type definitions written into the bag (Kilted's; the standard
 messages used here are the same from Humble on)."""
-WORLD = "odom"
-BASE = "base_link"
-JOINTS = ("left_wheel_joint", "right_wheel_joint")
-OBSTACLE_HEIGHT = 0.3
-"""Height of the obstacles' cylinders [m] (the plant is planar)."""
+WORLD = str(PARAMETERS["world_frame"][0])
+"""The frame of odometry, reference and obstacles: the bridge's default (odom)."""
+BASE = str(PARAMETERS["base_frame"][0])
+"""The robot's frame: the bridge's default (base_link)."""
+JOINTS = (str(PARAMETERS["left_wheel_joint"][0]), str(PARAMETERS["right_wheel_joint"][0]))
+"""The wheels' JointState names: the bridge's defaults."""
 
 _NUMPY = {
     "bool": np.bool_,
@@ -174,45 +171,69 @@ def _ns(seconds: float) -> int:
     return round(seconds * 1e9)
 
 
-class _Bag:
-    """Connections by topic; messages held and written in time order."""
+_LATCHED = [
+    # rosbag2 plays a transient-local topic back as such (a latched path).
+    Qos(
+        history=QosHistory.KEEP_LAST,
+        depth=1,
+        reliability=QosReliability.RELIABLE,
+        durability=QosDurability.TRANSIENT_LOCAL,
+        deadline=QosTime(sec=0x7FFFFFFF, nsec=0xFFFFFFFF),
+        lifespan=QosTime(sec=0x7FFFFFFF, nsec=0xFFFFFFFF),
+        liveliness=QosLiveliness.AUTOMATIC,
+        liveliness_lease_duration=QosTime(sec=0x7FFFFFFF, nsec=0xFFFFFFFF),
+        avoid_ros_namespace_conventions=False,
+    )
+]
+"""The offered QoS of a latched topic (forever: the largest duration)."""
 
-    def __init__(self, writer: Writer, store: Typestore) -> None:
-        self.writer = writer
+
+class _Bag:
+    """Messages by topic, held, then written in time order."""
+
+    def __init__(self, store: Typestore) -> None:
         self.store = store
-        self.connections: dict[str, Any] = {}
+        self.types: dict[str, str] = {}
+        """Message type of each topic, in the order they came."""
+        self.latched: set[str] = set()
         self.pending: list[tuple[int, int, str, Any]] = []
 
     def add(self, topic: str, ns: int, msg: Any, *, latched: bool = False) -> None:
-        if topic not in self.connections:
-            qos = []
-            if latched:
-                # rosbag2 plays a transient-local topic back as such (a latched path).
-                forever = QosTime(sec=0x7FFFFFFF, nsec=0xFFFFFFFF)
-                qos = [
-                    Qos(
-                        history=QosHistory.KEEP_LAST,
-                        depth=1,
-                        reliability=QosReliability.RELIABLE,
-                        durability=QosDurability.TRANSIENT_LOCAL,
-                        deadline=forever,
-                        lifespan=forever,
-                        liveliness=QosLiveliness.AUTOMATIC,
-                        liveliness_lease_duration=forever,
-                        avoid_ros_namespace_conventions=False,
-                    )
-                ]
-            self.connections[topic] = self.writer.add_connection(
-                topic, msg.__msgtype__, typestore=self.store, offered_qos_profiles=qos
-            )
+        self.types.setdefault(topic, msg.__msgtype__)
+        if latched:
+            self.latched.add(topic)
         self.pending.append((ns, len(self.pending), topic, msg))
 
-    def finish(self, summary: ExportSummary) -> None:
-        counts: Counter[str] = Counter()
-        for ns, _, topic, msg in sorted(self.pending, key=lambda m: (m[0], m[1])):
-            data = self.store.serialize_cdr(msg, msg.__msgtype__)
-            self.writer.write(self.connections[topic], ns, data)
-            counts[topic] += 1
+    def write(self, out: Path, summary: ExportSummary) -> None:
+        """Write the bag folder @p out; count its messages into @p summary.
+
+        :raises WriteError: @p out cannot be written, or exists already
+            (rosbag2 never overwrites).
+        """
+        with writing(str(out)):
+            out.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                writer = Writer(
+                    out, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP
+                )
+                writer.open()
+            except WriterError as exc:
+                raise WriteError(f"cannot write {out}: {exc}") from exc
+            connections = {
+                topic: writer.add_connection(
+                    topic,
+                    msgtype,
+                    typestore=self.store,
+                    offered_qos_profiles=_LATCHED if topic in self.latched else [],
+                )
+                for topic, msgtype in self.types.items()
+            }
+            counts: Counter[str] = Counter()
+            for ns, _, topic, msg in sorted(self.pending, key=lambda m: (m[0], m[1])):
+                data = self.store.serialize_cdr(msg, msg.__msgtype__)
+                writer.write(connections[topic], ns, data)
+                counts[topic] += 1
+            writer.close()
         summary.messages = dict(counts)
         if self.pending:
             summary.start_ns = min(m[0] for m in self.pending)
@@ -252,19 +273,13 @@ def _obstacle_reports(decoded: DecodedLog, db: Database) -> dict[int, list[tuple
 def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's raw frames) as a rosbag2 folder @p out.
 
-    :raises OSError: @p out cannot be written, or exists already (rosbag2
+    :raises WriteError: @p out cannot be written, or exists already (rosbag2
         never overwrites).
     """
     store = typestore()
     m = _Messages(store)
     summary = ExportSummary(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        writer = Writer(out, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
-        writer.open()
-    except WriterError as exc:
-        raise OSError(str(exc)) from exc
-    bag = _Bag(writer, store)
+    bag = _Bag(store)
     log = decoded.log
 
     for row in range(len(log)):
@@ -382,42 +397,38 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
     for event in decoded.events:
         k = min(int(np.searchsorted(step_us, event.t_us)), len(step_us) - 1)
         ns = stamps[k]
-        side = f" {event.side}" if event.side else ""
+        message, values = diagnostics.event_status(event)
         status = m.make(
             "diagnostic_msgs/msg/DiagnosticStatus",
-            level=0,
-            name="mstc: event",
-            message=f"{event.kind} O{event.obstacle}{side}",
+            level=diagnostics.OK,
+            name=diagnostics.EVENT,
+            message=message,
             hardware_id=log.channel[0] if log.channel else "",
-            values=[
-                m.kv("kind", event.kind),
-                m.kv("obstacle", event.obstacle),
-                m.kv("side", event.side or ""),
-                m.kv("t", f"{event.t:.6f}"),
-            ],
+            values=[m.kv(k, v) for k, v in values],
         )
         array = m.make(
             "diagnostic_msgs/msg/DiagnosticArray", header=m.header(ns, BASE), status=[status]
         )
         bag.add("/mstc/events", ns, array)
-    bag.finish(summary)
-    writer.close()
+    bag.write(out, summary)
     return summary
 
 
 def _status(m: _Messages, decoded: DecodedLog, k: int, ns: int) -> Any:
-    """One step's STATUS and STATUS_TRK as a DiagnosticArray (level: OK
-    running, WARN not armed, ERROR halted for another reason)."""
+    """One step's STATUS and STATUS_TRK as a DiagnosticArray, its level and
+    message as the bridge's (:func:`mstc.ros.diagnostics.controller_level`);
+    STALE for a step before the first STATUS."""
     row = decoded.status_rows[k]
     values = dict(zip(decoded.status_columns, row, strict=True))
     halt = str(values.get("halt", ""))
-    level = 0 if halt in ("none", "") else (1 if halt == "not_armed" else 2)
-    message = str(decoded.trace.mode[k]) if level == 0 else f"halted: {halt}"
+    level, message = diagnostics.STALE, "no STATUS yet"
+    if halt:
+        level, message = diagnostics.controller_level(str(decoded.trace.mode[k]), halt)
     skip = {"t", "step"}
     status = m.make(
         "diagnostic_msgs/msg/DiagnosticStatus",
         level=level,
-        name="mstc: controller",
+        name=diagnostics.CONTROLLER,
         message=message,
         hardware_id=decoded.log.channel[0] if decoded.log.channel else "",
         values=[m.kv(c, v) for c, v in values.items() if c not in skip],

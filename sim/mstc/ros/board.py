@@ -23,15 +23,22 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import can
 
 from mstc.can import secoc
-from mstc.can.lockstep import STEP_MODULO, TIME_MODULO, unauthenticated
-from mstc.can.protocol import DropReason, Frame, FrameDropped, Protocol
-from mstc.errors import ControllerError
-from mstc.sim.plant import wrap_angle
-from mstc.sim.sensor import Obstacle
+from mstc.can.protocol import DropReason, Frame, Protocol
+from mstc.errors import ControllerError, FrameDropped
+from mstc.loop.lockstep import (
+    STEP_MODULO,
+    obstacle_frames,
+    odometry_frames,
+    reference_frames,
+    step_frame,
+    unauthenticated,
+)
+from mstc.model import Obstacle, Pose
 
 READ_TIMEOUT = 0.1
 """How long the reader thread waits for a frame before it looks whether it
@@ -143,47 +150,36 @@ class Board:
                 self._drain()
         return ok
 
-    def encode(self, name: str, **signals: float | int) -> can.Message | None:
-        """One protected frame, or None (counted) when a value cannot be sent:
-        non-finite, or outside its signal's range."""
+    def _encoded(self, encode: Callable[[], list[can.Message]]) -> list[can.Message]:
+        """The frames @p encode gives, or none (counted) when a value cannot
+        be sent: non-finite, or outside its signal's range."""
         try:
-            return self.proto.encode(name, signals)
+            return encode()
         except ValueError:  # SignalRangeError, and NaN on the way to an integer
             self.counts.refused_inputs += 1
-            return None
+            return []
 
-    def odometry(self, x: float, y: float, theta: float) -> list[can.Message]:
+    def odometry(self, robot: Pose) -> list[can.Message]:
         """ODOM_XY and ODOM_THETA (both or neither)."""
-        xy = self.encode("ODOM_XY", x=x, y=y)
-        th = self.encode("ODOM_THETA", theta=wrap_angle(theta)) if xy is not None else None
-        return [xy, th] if xy is not None and th is not None else []
+        return self._encoded(partial(odometry_frames, self.proto, robot))
 
-    def reference(self, x: float, y: float, theta: float, v: float, w: float) -> list[can.Message]:
+    def reference(self, ref: Pose, v_r: float, w_r: float) -> list[can.Message]:
         """REF_XY and REF_MOTION (both or neither)."""
-        xy = self.encode("REF_XY", x=x, y=y)
-        motion = (
-            self.encode("REF_MOTION", theta=wrap_angle(theta), v=v, w=w) if xy is not None else None
-        )
-        return [xy, motion] if xy is not None and motion is not None else []
+        return self._encoded(partial(reference_frames, self.proto, ref, v_r, w_r))
 
     def obstacles(self, obstacles: Sequence[Obstacle]) -> list[can.Message]:
-        """An OBSTACLE frame for each, followed by OBSTACLE_VEL for a moving one."""
+        """An OBSTACLE frame for each, followed by OBSTACLE_VEL for a moving
+        one; an obstacle that cannot be sent is left out."""
         frames: list[can.Message] = []
         for o in obstacles:
-            msg = self.encode("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius)
-            if msg is None:
-                continue
-            frames.append(msg)
-            if o.moving:
-                vel = self.encode("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy)
-                frames += [vel] if vel is not None else []
+            frames += self._encoded(partial(obstacle_frames, self.proto, o))
         return frames
 
     def step(self, t_us: int) -> tuple[int, can.Message]:
         """The next STEP frame, at firmware time @p t_us; and its step number."""
         step = self.steps % STEP_MODULO
         self.steps += 1
-        return step, self.proto.encode("STEP", step=step, time=t_us % TIME_MODULO, raw=True)
+        return step, step_frame(self.proto, step, t_us)
 
     # ------------------------------------------------------------ commands
 

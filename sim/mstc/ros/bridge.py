@@ -53,13 +53,13 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mstc.can import secoc
 from mstc.can.protocol import Frame
-from mstc.controller import Fault
-from mstc.errors import ControllerError, MstcError, RosError
+from mstc.errors import BusError, DependencyError, MstcError, UsageError
+from mstc.loop.lockstep import decode_event
+from mstc.model import Event, Fault, Obstacle, Pose
+from mstc.ros import diagnostics
 from mstc.ros.board import Board
 from mstc.ros.parameters import FIRMWARE_PREFIX, PARAMETERS, STEP_SOURCES
 from mstc.ros.reference import PathReference, ReferenceSample, StampedReference
-from mstc.sim.plant import Pose
-from mstc.sim.sensor import Obstacle
 
 NODE_NAME = "mstc_bridge"
 OBSTACLE_IDS = range(1, 16)
@@ -97,7 +97,7 @@ class StepState:
     """Node time of the last step [ns]."""
     status: dict[str, float | int] = field(default_factory=dict)
     trk: dict[str, float | int] = field(default_factory=dict)
-    events: list[Frame] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
     running: bool | None = None
     """The firmware's latest step ran (STATUS_halt none)."""
     wheels: tuple[float, float] = (0.0, 0.0)
@@ -116,16 +116,13 @@ def _yaw(q: Any) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
-def _kv(key: str, value: object) -> KeyValue:
-    return KeyValue(key=key, value=str(value))
-
-
 def open_bus(interface: str, channel: str, bitrate: int, lib: str) -> can.BusABC:
     """The python-can bus of the parameters. The firmware in process
     (mstc-sil) has the key a board would have: $MSTC_KEY, $MSTC_KEY_FILE or
     keys/device.key, whatever the bridge's key_file.
 
-    :raises RosError: it cannot be opened (the message says why).
+    :raises UsageError: a channel is needed and not given.
+    :raises BusError: it cannot be opened (the message says why).
     """
     kwargs: dict[str, Any] = {"interface": interface}
     if interface == "mstc-sil":
@@ -134,18 +131,26 @@ def open_bus(interface: str, channel: str, bitrate: int, lib: str) -> can.BusABC
             kwargs["channel"] = channel
     else:
         if not channel:
-            raise RosError(f"can_interface {interface} needs can_channel (can0, /dev/ttyACM0, ...)")
+            raise UsageError(
+                f"can_interface {interface} needs can_channel (can0, /dev/ttyACM0, ...)"
+            )
         kwargs["channel"] = channel
         if interface == "slcan":
             kwargs["bitrate"] = bitrate
     try:
         return can.Bus(**kwargs)
     except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
-        raise RosError(f"cannot open the CAN bus {interface} {channel}: {exc}") from exc
+        raise BusError(f"cannot open the CAN bus {interface} {channel}: {exc}") from exc
 
 
 class Bridge(Node):
-    """The bridge node; see the module's description."""
+    """The bridge node; see the module's description.
+
+    :raises UsageError: a parameter the bridge cannot use.
+    :raises AuthKeyError: no key in key_file (or the default's places).
+    :raises BusError: the bus cannot be opened.
+    :raises ControllerError: the firmware does not answer on it.
+    """
 
     def __init__(self, **node_kwargs: Any) -> None:
         super().__init__(NODE_NAME, **node_kwargs)
@@ -153,20 +158,20 @@ class Bridge(Node):
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
         p = self._param
         interface = str(p("can_interface"))
+        step_source = str(p("step_source")) or ("timer" if interface == "mstc-sil" else "none")
+        if step_source not in STEP_SOURCES:
+            raise UsageError(f"step_source {step_source!r}: one of {', '.join(STEP_SOURCES)}")
+        reference_source = str(p("reference_source"))
+        if reference_source not in ("plan", "reference"):
+            raise UsageError(f"reference_source {reference_source!r}: plan or reference")
+        reliability = str(p("qos_reliability"))
+        if reliability not in ("reliable", "best_effort"):
+            raise UsageError(f"qos_reliability {reliability!r}: reliable or best_effort")
         key_path = str(p("key_file"))
-        try:
-            key = secoc.load_key(Path(key_path) if key_path else None)
-        except secoc.AuthKeyError as exc:
-            raise RosError(str(exc)) from exc
+        key = secoc.load_key(Path(key_path) if key_path else None)
         self.bus = open_bus(
             interface, str(p("can_channel")), int(p("can_bitrate")), str(p("sil_lib"))
         )
-        step_source = str(p("step_source")) or ("timer" if interface == "mstc-sil" else "none")
-        if step_source not in STEP_SOURCES:
-            raise RosError(f"step_source {step_source!r}: one of {', '.join(STEP_SOURCES)}")
-        reference_source = str(p("reference_source"))
-        if reference_source not in ("plan", "reference"):
-            raise RosError(f"reference_source {reference_source!r}: plan or reference")
         self.step_source = step_source
         self.reference_source = reference_source
         self.period = 1.0 / float(p("rate_hz"))
@@ -185,9 +190,6 @@ class Bridge(Node):
         )
 
         depth = int(p("qos_depth"))
-        reliability = str(p("qos_reliability"))
-        if reliability not in ("reliable", "best_effort"):
-            raise RosError(f"qos_reliability {reliability!r}: reliable or best_effort")
         qin = QoSProfile(
             depth=depth,
             reliability=ReliabilityPolicy.RELIABLE
@@ -206,7 +208,7 @@ class Bridge(Node):
             try:
                 from tf2_msgs.msg import TFMessage
             except ImportError as exc:
-                raise RosError(
+                raise DependencyError(
                     "publish_tf needs tf2_msgs, which this ROS 2 installation lacks "
                     "(a ROS 2 desktop install has it; the PyPI wheels do not)"
                 ) from exc
@@ -288,7 +290,7 @@ class Bridge(Node):
             return f"{name}: a number, not {value!r}"
         try:
             answer = self.board.command(tables.param_index.value(name), float(value))
-        except (ControllerError, MstcError) as exc:
+        except MstcError as exc:  # no answer, not authenticated
             return str(exc)
         if answer.signals["result"] != tables.param_ok:
             result = tables.param_result.name_of(int(answer.signals["result"]))
@@ -314,7 +316,7 @@ class Bridge(Node):
         tables = self.board.tables
         try:
             answer = self.board.command(tables.arm_index, 1.0 if request.data else 0.0)
-        except (ControllerError, MstcError) as exc:
+        except MstcError as exc:  # no answer, not authenticated
             response.success, response.message = False, str(exc)
             return response
         result = tables.param_result.name_of(int(answer.signals["result"])) or "?"
@@ -410,7 +412,7 @@ class Bridge(Node):
         if odom is None or not self.inputs.odom_new:
             return []
         self.inputs.odom_new = False
-        frames = self.board.odometry(*odom)
+        frames = self.board.odometry(odom)
         if self.step_source == "none":
             self.board.send(frames)
         return frames
@@ -424,7 +426,7 @@ class Bridge(Node):
             self.inputs.plan_tau += dt
         ref = self._reference()
         if ref is not None:
-            frames += self.board.reference(*ref.pose, ref.v, ref.w)
+            frames += self.board.reference(ref.pose, ref.v, ref.w)
         timeout = float(self._param("obstacle_timeout"))
         if time.monotonic() - self.inputs.obstacles_at <= timeout:
             frames += self.board.obstacles(self.inputs.obstacles)
@@ -457,7 +459,10 @@ class Bridge(Node):
         st = self.state
         name = frame.name
         if name == "EVENT":
-            st.events.append(frame)
+            try:
+                st.events.append(decode_event(self.board.tables, frame, 0))
+            except KeyError:  # a kind or side this DBC does not name: another firmware's
+                self._drop(f"EVENT of unknown kind {frame.signals['kind']} or side")
         elif name == "STATUS":
             st.status = frame.signals
         elif name == "STATUS_TRK":
@@ -482,18 +487,9 @@ class Bridge(Node):
         st = self.state
         tables = self.board.tables
         statuses = []
-        for e in st.events:
-            s = e.signals
-            kind = tables.event_kind.get(int(s["kind"]))
-            side = tables.side.get(int(s["side"]))
-            text = f"{kind} O{int(s['obstacle'])}" + (f" {side}" if side else "")
-            values = [
-                _kv("kind", kind),
-                _kv("obstacle", int(s["obstacle"])),
-                _kv("side", side or ""),
-                _kv("t", f"{float(s['time']):.6f}"),
-            ]
-            statuses.append(self._status("mstc: event", DiagnosticStatus.OK, text, values))
+        for event in st.events:
+            text, values = diagnostics.event_status(event)
+            statuses.append(self._status(diagnostics.EVENT, diagnostics.OK, text, values))
         st.events = []
         if st.status:
             halt = int(st.status["halt"])
@@ -501,8 +497,8 @@ class Bridge(Node):
             if running != st.running:
                 reason = tables.halt.name_of(halt) or str(halt)
                 text = "running" if running else f"halted: {reason}"
-                level = DiagnosticStatus.OK if running else DiagnosticStatus.WARN
-                statuses.append(self._status("mstc: bridge", level, text, [_kv("halt", reason)]))
+                level = diagnostics.OK if running else diagnostics.WARN
+                statuses.append(self._status(diagnostics.BRIDGE, level, text, [("halt", reason)]))
                 st.running = running
         if statuses:
             self.events_pub.publish(DiagnosticArray(header=self._header(stamp), status=statuses))
@@ -513,14 +509,14 @@ class Bridge(Node):
         return Header(stamp=stamp, frame_id=self.frames["base_frame"])
 
     def _status(
-        self, name: str, level: bytes, message: str, values: Sequence[KeyValue]
+        self, name: str, level: int, message: str, values: Sequence[tuple[str, object]]
     ) -> DiagnosticStatus:
         return DiagnosticStatus(
-            level=level,
+            level=bytes([level]),  # a byte field: rclpy wants bytes
             name=name,
             message=message,
             hardware_id=str(self.bus.channel_info),
-            values=list(values),
+            values=[KeyValue(key=k, value=str(v)) for k, v in values],
         )
 
     def _publish_tf(self, stamp: Time) -> None:
@@ -551,9 +547,8 @@ class Bridge(Node):
         tables = self.board.tables
         st = self.state
         counts = self.board.counts
-        values: list[KeyValue] = []
-        level = DiagnosticStatus.STALE
-        message = "no control step yet"
+        values: list[tuple[str, object]] = []
+        level, message = diagnostics.STALE, "no control step yet"
         if st.status:
             s = st.status
             mode = tables.mode.get(int(s["mode"]))
@@ -561,52 +556,44 @@ class Bridge(Node):
             faults = Fault(int(s["faults"]))
             side = tables.side.get(int(s["side"]))
             values += [
-                _kv("mode", mode),
-                _kv("halt", halt),
-                _kv("side", side or ""),
-                _kv("obstacle", int(s["obstacle"])),
-                _kv("faults", "|".join(str(f.name).lower() for f in Fault if f in faults)),
-                _kv("e", f"{float(s['e']):.4f}"),
-                _kv("distance", f"{float(s['distance']):.3f}"),
+                ("mode", mode),
+                ("halt", halt),
+                ("side", side or ""),
+                ("obstacle", int(s["obstacle"])),
+                ("faults", "|".join(str(f.name).lower() for f in Fault if f in faults)),
+                ("e", f"{float(s['e']):.4f}"),
+                ("distance", f"{float(s['distance']):.3f}"),
             ]
-            values += [_kv(k, f"{float(st.trk[k]):.4f}") for k in ("e1", "e2", "e3") if st.trk]
-            values += [_kv("wheel_left", st.wheels[0]), _kv("wheel_right", st.wheels[1])]
-            if int(s["halt"]) == 0:
-                level, message = DiagnosticStatus.OK, str(mode)
-            elif halt == "not_armed":
-                level, message = DiagnosticStatus.WARN, "not armed"
-            else:
-                level, message = DiagnosticStatus.ERROR, f"halted: {halt}"
-        values += [_kv("heartbeat", counts.heartbeat)]
+            values += [(k, f"{float(st.trk[k]):.4f}") for k in ("e1", "e2", "e3") if st.trk]
+            values += [("wheel_left", st.wheels[0]), ("wheel_right", st.wheels[1])]
+            level, message = diagnostics.controller_level(str(mode), halt)
+        values += [("heartbeat", counts.heartbeat)]
         # E2E failures: frames the bridge dropped, and those the firmware did.
-        values += [_kv(f"bridge_dropped_{k}", v) for k, v in self.board.drops.items()]
-        values += [_kv(f"firmware_dropped_{k}", v) for k, v in counts.firmware_drops.items()]
+        values += [(f"bridge_dropped_{k}", v) for k, v in self.board.drops.items()]
+        values += [(f"firmware_dropped_{k}", v) for k, v in counts.firmware_drops.items()]
         # MAC failures: authenticated commands the firmware refused.
-        values += [_kv("auth_refused", counts.auth_refused), _kv("auth_last", counts.auth_last)]
+        values += [("auth_refused", counts.auth_refused), ("auth_last", counts.auth_last)]
         values += [
-            _kv("frames_sent", counts.sent),
-            _kv("frames_received", counts.received),
-            _kv("send_failures", counts.send_failures),
-            _kv("inputs_refused", counts.refused_inputs),
+            ("frames_sent", counts.sent),
+            ("frames_received", counts.received),
+            ("send_failures", counts.send_failures),
+            ("inputs_refused", counts.refused_inputs),
         ]
-        values += [_kv(f"input_dropped: {k}", v) for k, v in self.dropped_inputs.items()]
+        values += [(f"input_dropped: {k}", v) for k, v in self.dropped_inputs.items()]
         now = self.get_clock().now().to_msg()
-        status = self._status("mstc: controller", level, message, values)
+        status = self._status(diagnostics.CONTROLLER, level, message, values)
         self.status_pub.publish(DiagnosticArray(header=self._header(now), status=[status]))
 
 
 def run(args: Sequence[str]) -> int:
     """Run the bridge until interrupted; @p args are ROS's (``--ros-args ...``).
 
-    :raises RosError: a parameter or the bus is wrong, or the firmware does not answer.
+    :raises MstcError: the bridge cannot start (see :class:`Bridge`).
     """
     rclpy.init(args=["mstc-ros", *args])
     node: Bridge | None = None
     try:
-        try:
-            node = Bridge()
-        except ControllerError as exc:
-            raise RosError(str(exc)) from exc
+        node = Bridge()
         rclpy.spin(node)
     except KeyboardInterrupt:
         pass

@@ -22,7 +22,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from mstc.sim.plant import Pose, wrap_angle
+from mstc.model import Pose, wrap_angle
 
 VERTEX_TOLERANCE = 1e-9
 """An arc length within this of a vertex [m] is at the vertex: rounding in
