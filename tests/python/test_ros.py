@@ -29,12 +29,15 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from std_srvs.srv import SetBool
 
 from conftest import ROOT, SCENARIOS
 from mstc.can.protocol import wire_limits
+from mstc.errors import UsageError
 from mstc.model import param_values
 from mstc.plant.scenario import load_scenario
+from mstc.ros.bridge import Bridge
 from ros_plant import PlantNode
 
 PROFILE = ROOT / "tests" / "data" / "fastdds-loopback.xml"
@@ -250,3 +253,41 @@ def test_the_robots_parameters_file_is_read(ros_context: None, tmp_path: Path) -
     assert errors == [errors[0]] and errors[0].startswith(
         "error: cannot open the CAN bus socketcan can0"
     ), done.stderr
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "message"),
+    [
+        ("rate_hz", 0.0, "rate_hz 0.0: a positive number"),
+        ("command_timeout", -1.0, "command_timeout -1.0: a positive number"),
+        ("qos_depth", -3, "qos_depth -3: at least 1"),
+        ("step_source", "bogus", "step_source 'bogus': one of odom, timer, none"),
+        ("rate_hz", "fast", "Trying to set parameter 'rate_hz' to 'fast' of type 'STRING'"),
+    ],
+)
+def test_a_bad_parameter_is_a_usage_error(
+    name: str, value: object, message: str, ros_context: None
+) -> None:
+    """Refused before the key is read or the bus opened, in one line
+    (before, rate_hz 0 ended in a ZeroDivisionError, a negative qos_depth in
+    rcl's error about the DDS type, a string for a number in rclpy's
+    exception)."""
+    with pytest.raises(UsageError) as refused:
+        Bridge(namespace="bad_parameter", parameter_overrides=[Parameter(name, value=value)])
+    assert str(refused.value).startswith(message)
+    assert "\n" not in str(refused.value)
+
+
+def test_ros_arguments_rcl_cannot_parse_are_a_usage_error() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "mstc", "ros", "--ros-args", "-p", "bad"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=dict(os.environ),
+    )
+    assert done.returncode == 2, done.stderr
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert errors == [
+        "error: ROS arguments --ros-args -p bad: Couldn't parse parameter override rule: '-p bad'"
+    ], done.stderr

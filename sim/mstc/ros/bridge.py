@@ -43,6 +43,7 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -64,6 +65,8 @@ from mstc.ros.reference import PathReference, ReferenceSample, StampedReference
 NODE_NAME = "mstc_bridge"
 OBSTACLE_IDS = range(1, 16)
 """The firmware's obstacle ids (OBSTACLE_id, 4 bits)."""
+POSITIVE_PARAMETERS = ("rate_hz", "status_rate_hz", "command_timeout", "plan_speed")
+"""The parameters that must be positive (and finite)."""
 ODOM_STEP_SLACK = 0.01
 """With step_source odom, a step runs for the first odometry at least
 (1 - this) periods after the last step's."""
@@ -155,8 +158,16 @@ class Bridge(Node):
     def __init__(self, **node_kwargs: Any) -> None:
         super().__init__(NODE_NAME, **node_kwargs)
         for name, (default, text) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=text))
+            try:
+                self.declare_parameter(name, default, ParameterDescriptor(description=text))
+            except ParameterException as exc:  # given with another type than the default's
+                raise UsageError(str(exc)) from exc
         p = self._param
+        for name in POSITIVE_PARAMETERS:
+            if not (math.isfinite(float(p(name))) and float(p(name)) > 0):
+                raise UsageError(f"{name} {p(name)!r}: a positive number")
+        if int(p("qos_depth")) < 1:
+            raise UsageError(f"qos_depth {p('qos_depth')!r}: at least 1")
         interface = str(p("can_interface"))
         step_source = str(p("step_source")) or ("timer" if interface == "mstc-sil" else "none")
         if step_source not in STEP_SOURCES:
@@ -213,10 +224,13 @@ class Bridge(Node):
                     "(a ROS 2 desktop install has it; the PyPI wheels do not)"
                 ) from exc
             self.tf_pub = self.create_publisher(TFMessage, "tf", qout)
-        self.create_subscription(Odometry, "odom", self._on_odom, qin)
         self.create_subscription(PathMsg, "plan", self._on_plan, qin)
         self.create_subscription(PoseStamped, "reference", self._on_reference, qin)
         self.create_subscription(MarkerArray, "obstacles", self._on_obstacles, qin)
+        # Odometry last: rclpy's executor takes a node's ready messages in the
+        # order of its subscriptions, so obstacles that arrived with the
+        # odometry that steps the firmware (step_source odom) go with that step.
+        self.create_subscription(Odometry, "odom", self._on_odom, qin)
         self.create_service(SetBool, "~/arm", self._on_arm)
 
         self.board.start()
@@ -590,7 +604,11 @@ def run(args: Sequence[str]) -> int:
 
     :raises MstcError: the bridge cannot start (see :class:`Bridge`).
     """
-    rclpy.init(args=["mstc-ros", *args])
+    try:
+        rclpy.init(args=["mstc-ros", *args])
+    except RuntimeError as exc:  # rclpy's RCLError: arguments rcl cannot parse
+        why = str(exc).removeprefix("failed to initialize rcl: ").split(". Error:")[0]
+        raise UsageError(f"ROS arguments {' '.join(args)}: {why}") from exc
     node: Bridge | None = None
     try:
         node = Bridge()
