@@ -84,6 +84,20 @@ def bridge(sil_lib: Path, log: Path, *params: str) -> Iterator[subprocess.Popen[
                 proc.wait()
 
 
+def mstc_ros_fails(*ros_args: str) -> tuple[int, list[str], str]:
+    """``mstc ros --ros-args ROS_ARGS`` as its own process, which should not
+    start: its exit status, its ``error:`` lines and all it wrote on stderr."""
+    done = subprocess.run(
+        [sys.executable, "-m", "mstc", "ros", "--ros-args", *ros_args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=dict(os.environ),
+    )
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    return done.returncode, errors, done.stderr
+
+
 def spin_until(
     executor: SingleThreadedExecutor, done: Callable[[], bool], timeout: float, what: str, log: Path
 ) -> None:
@@ -241,18 +255,11 @@ def test_the_robots_parameters_file_is_read(ros_context: None, tmp_path: Path) -
     bridge says so in one line, with the exit status of a bus that cannot be
     opened (3, mstc.errors.BusError)."""
     params = ROOT / "sim" / "mstc" / "ros" / "launch" / "mstc_bridge.yaml"
-    done = subprocess.run(
-        [sys.executable, "-m", "mstc", "ros", "--ros-args", "--params-file", str(params)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=dict(os.environ),
-    )
-    assert done.returncode == 3, done.stderr
-    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
-    assert errors == [errors[0]] and errors[0].startswith(
+    status, errors, stderr = mstc_ros_fails("--params-file", str(params))
+    assert status == 3, stderr
+    assert len(errors) == 1 and errors[0].startswith(
         "error: cannot open the CAN bus socketcan can0"
-    ), done.stderr
+    ), stderr
 
 
 @pytest.mark.parametrize(
@@ -279,15 +286,8 @@ def test_a_bad_parameter_is_a_usage_error(
 
 
 def test_ros_arguments_rcl_cannot_parse_are_a_usage_error() -> None:
-    done = subprocess.run(
-        [sys.executable, "-m", "mstc", "ros", "--ros-args", "-p", "bad"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=dict(os.environ),
-    )
-    assert done.returncode == 2, done.stderr
-    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    status, errors, stderr = mstc_ros_fails("-p", "bad")
+    assert status == 2, stderr
     assert errors == [
         "error: ROS arguments --ros-args -p bad: Couldn't parse parameter override rule: '-p bad'"
-    ], done.stderr
+    ], stderr
