@@ -8,7 +8,7 @@ import argparse
 from pathlib import Path
 
 from mstc.cli.common import add_log_arguments, load_decoded
-from mstc.errors import EXIT_OK, UsageError
+from mstc.errors import EXIT_OK
 from mstc.logs.export import export_mcap, format_summary
 from mstc.ros import require
 
@@ -66,10 +66,6 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def run(args: argparse.Namespace) -> int:
     """Decode the log and write the MCAP file or the rosbag2."""
     source = args.log
-    if source.is_dir():
-        args.log = source / "bus.log"
-        if not args.log.is_file():
-            raise UsageError(f"{source} is a folder without a bus.log: not a run folder")
     if args.rosbag2 is not None:
         require("rosbags")  # before the log is read: a missing extra is said at once
         from mstc.ros.bag import export_rosbag2
