@@ -257,9 +257,9 @@ def test_the_robots_parameters_file_is_read(ros_context: None, tmp_path: Path) -
     params = ROOT / "sim" / "mstc" / "ros" / "launch" / "mstc_bridge.yaml"
     status, errors, stderr = mstc_ros_fails("--params-file", str(params))
     assert status == 3, stderr
-    assert len(errors) == 1 and errors[0].startswith(
-        "error: cannot open the CAN bus socketcan can0"
-    ), stderr
+    assert len(errors) == 1 and errors[0].startswith("error: cannot open socketcan bus 'can0'"), (
+        stderr
+    )
 
 
 @pytest.mark.parametrize(

@@ -54,7 +54,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mstc.can import secoc
 from mstc.can.protocol import Frame
-from mstc.errors import BusError, DependencyError, MstcError, UsageError
+from mstc.errors import DependencyError, MstcError, UsageError
+from mstc.logs.play import open_bus as open_can_bus
 from mstc.loop.lockstep import decode_event
 from mstc.model import Event, Fault, Obstacle, Pose
 from mstc.ros import diagnostics
@@ -125,25 +126,17 @@ def open_bus(interface: str, channel: str, bitrate: int, lib: str) -> can.BusABC
     keys/device.key, whatever the bridge's key_file.
 
     :raises UsageError: a channel is needed and not given.
-    :raises BusError: it cannot be opened (the message says why).
+    :raises BusError: it cannot be opened (:func:`mstc.logs.play.open_bus`
+        says why, with a hint for the usual SocketCAN causes).
     """
-    kwargs: dict[str, Any] = {"interface": interface}
+    config: dict[str, Any] = {}
     if interface == "mstc-sil":
-        kwargs["lib"] = lib or None
-        if channel:
-            kwargs["channel"] = channel
-    else:
-        if not channel:
-            raise UsageError(
-                f"can_interface {interface} needs can_channel (can0, /dev/ttyACM0, ...)"
-            )
-        kwargs["channel"] = channel
-        if interface == "slcan":
-            kwargs["bitrate"] = bitrate
-    try:
-        return can.Bus(**kwargs)
-    except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
-        raise BusError(f"cannot open the CAN bus {interface} {channel}: {exc}") from exc
+        config["lib"] = lib or None
+    elif not channel:
+        raise UsageError(f"can_interface {interface} needs can_channel (can0, /dev/ttyACM0, ...)")
+    elif interface == "slcan":
+        config["bitrate"] = bitrate
+    return open_can_bus(interface, channel or None, **config)
 
 
 class Bridge(Node):
