@@ -25,7 +25,7 @@ import can
 import numpy as np
 
 from mstc.can import secoc
-from mstc.can.dbc import tables
+from mstc.can.dbc import Tables, tables
 from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc, wire_limits
 from mstc.errors import ControllerError, FrameDropped, SignalRangeError, SimulationError
 from mstc.loop.result import (
@@ -263,6 +263,60 @@ class Traffic:
     """The firmware's latest STATUS_COUNTERS."""
 
 
+def odometry_frames(proto: Protocol, robot: Pose) -> list[can.Message]:
+    """ODOM_XY and ODOM_THETA of @p robot, its heading wrapped.
+
+    :raises SignalRangeError: a value the frames cannot carry (non-finite too).
+    """
+    return [
+        proto.encode("ODOM_XY", x=robot.x, y=robot.y),
+        proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)),
+    ]
+
+
+def reference_frames(proto: Protocol, ref: Pose, v_r: float, w_r: float) -> list[can.Message]:
+    """REF_XY and REF_MOTION of the reference @p ref moving at (@p v_r, @p w_r).
+
+    :raises SignalRangeError: a value the frames cannot carry.
+    """
+    return [
+        proto.encode("REF_XY", x=ref.x, y=ref.y),
+        proto.encode("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r),
+    ]
+
+
+def obstacle_frames(proto: Protocol, obstacle: Obstacle) -> list[can.Message]:
+    """The OBSTACLE frame of a reported obstacle; right after it, for a moving
+    obstacle only, its OBSTACLE_VEL (docs/protocol.md: the firmware keeps 0
+    for the others).
+
+    :raises SignalRangeError: a value the frames cannot carry.
+    """
+    o = obstacle
+    frames = [proto.encode("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius)]
+    if o.moving:
+        frames.append(proto.encode("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
+    return frames
+
+
+def step_frame(proto: Protocol, step: int, t_us: int) -> can.Message:
+    """The STEP frame of control step @p step (its number taken modulo
+    :data:`STEP_MODULO`) at firmware time @p t_us (modulo :data:`TIME_MODULO`)."""
+    return proto.encode("STEP", step=step % STEP_MODULO, time=t_us % TIME_MODULO, raw=True)
+
+
+def decode_event(tables: Tables, frame: Frame, base_us: int) -> Event:
+    """An EVENT frame as an :class:`~mstc.model.Event`; its 32-bit time [µs]
+    is added to @p base_us."""
+    s = frame.signals
+    return Event(
+        base_us + round(s["time"] * 1e6),
+        tables.event_kind[int(s["kind"])],
+        int(s["obstacle"]),
+        tables.side[int(s["side"])],
+    )
+
+
 def unauthenticated(what: str) -> ControllerError:
     """The error of a command the firmware refused as unauthenticated."""
     return ControllerError(
@@ -386,25 +440,20 @@ class CanController:
 
     def _send_odometry(self, robot: Pose) -> can.Message:
         """ODOM_XY and ODOM_THETA; returns the ODOM_XY frame."""
-        xy = self.proto.encode("ODOM_XY", x=robot.x, y=robot.y)
+        xy, theta = odometry_frames(self.proto, robot)
         self._send(xy)
-        self._send(self.proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)))
+        self._send(theta)
         return xy
 
     def _send_reference(self, ref: Pose, v_r: float, w_r: float) -> None:
-        enc = self.proto.encode
-        self._send(enc("REF_XY", x=ref.x, y=ref.y))
-        self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+        for msg in reference_frames(self.proto, ref, v_r, w_r):
+            self._send(msg)
 
     def _send_obstacles(self, obstacles: Sequence[Obstacle]) -> None:
-        """One OBSTACLE frame per reported obstacle; right after it, for a
-        moving obstacle only, its OBSTACLE_VEL (docs/protocol.md: the firmware
-        keeps 0 for the others)."""
-        enc = self.proto.encode
+        """Each reported obstacle's frames (:func:`obstacle_frames`)."""
         for o in obstacles:
-            self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
-            if o.vx or o.vy:
-                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
+            for msg in obstacle_frames(self.proto, o):
+                self._send(msg)
 
     def _arm(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
         """Arm the firmware before the first step (docs/safety.md): it starts
@@ -444,10 +493,9 @@ class CanController:
             self._arm(robot, ref, v_r, w_r)
         step = self._steps % STEP_MODULO
         self._steps += 1
-        enc = self.proto.encode
         self._send_inputs(robot, ref, v_r, w_r)
         self._send_obstacles(obstacles)
-        self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
+        self._send(step_frame(self.proto, step, t_us))
 
         events: list[Event] = []
         status: Frame | None = None
@@ -461,7 +509,7 @@ class CanController:
                 )
             s = frame.signals
             if frame.name == "EVENT":
-                events.append(self._decode_event(frame, t_us - t_us % TIME_MODULO))
+                events.append(decode_event(self.tables, frame, t_us - t_us % TIME_MODULO))
             elif frame.name == "STATUS":
                 status = frame
             elif frame.name == "STATUS_TRK":
@@ -475,17 +523,6 @@ class CanController:
         return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
 
     # ------------------------------------------------------------ telemetry
-
-    def _decode_event(self, frame: Frame, base_us: int) -> Event:
-        """An EVENT frame; its 32-bit time [µs] is added to @p base_us."""
-        s = frame.signals
-        raw_us = round(s["time"] * 1e6)
-        return Event(
-            base_us + raw_us,
-            self.tables.event_kind[int(s["kind"])],
-            int(s["obstacle"]),
-            self.tables.side[int(s["side"])],
-        )
 
     def _decode_status(self, status: Frame, trk: Frame, left: float, right: float) -> Status:
         """A step's STATUS and STATUS_TRK, with the body velocity of its wheel

@@ -38,7 +38,7 @@ import numpy as np
 
 from mstc.can.protocol import COUNTER_MODULO, Frame
 from mstc.errors import ControllerError, FrameDropped
-from mstc.loop.lockstep import REARM_FRAMES, CanController, unauthenticated
+from mstc.loop.lockstep import REARM_FRAMES, CanController, decode_event, unauthenticated
 from mstc.loop.result import PROGRESS_UPDATES, RunResult, Trace, distances, fault_counts
 from mstc.loop.timing import FirmwareStep, OdomSent, analyse
 from mstc.model import Event, Mode, Obstacle, Params, Pose, Progress
@@ -207,7 +207,7 @@ class RealtimeLink(CanController):
             return None
         name = frame.name
         if name == "EVENT":
-            self._pending_events.append(self._decode_event(frame, 0))
+            self._pending_events.append(decode_event(self.tables, frame, 0))
         elif name == "STATUS":
             self._pending_status = frame
         elif name == "STATUS_TRK":
