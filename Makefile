@@ -49,7 +49,7 @@ fw_srcs = $(FW_SRCS) $(NUM_SRCS_$(1)) $(AUTH_SRCS)
 $(STAMP)/apt-%: tools/setup/debian-sim.txt tools/setup/debian-%.txt | $(STAMP)
 	@tools/setup/apt-install $^
 	@touch $@
-.venv/.requirements.sha256: requirements.txt $(STAMP)/apt-sim
+.venv/.requirements.sha256: requirements.txt pyproject.toml $(STAMP)/apt-sim
 	@tools/setup/venv
 venv: .venv/.requirements.sha256
 # Third-party C sources (Unity, libfixmath, Mbed TLS): tools/setup/sources.lock.
