@@ -17,7 +17,7 @@ from mstc.plant.scenario import Scenario
 from mstc.plant.sensor import RangeSensor
 
 
-def _streams(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
+def random_streams(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
     """Independent random streams of a scene (odometry, sensor), so that one
     imperfection's draws do not move when another is switched on."""
     odometry, sensor = np.random.SeedSequence(seed).spawn(2)
@@ -49,7 +49,7 @@ def make_world(scenario: Scenario) -> World:
         scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
     )
     obstacles = scenario.obstacles
-    odometry_rng, sensor_rng = _streams(imp.seed)
+    odometry_rng, sensor_rng = random_streams(imp.seed)
     sensor = RangeSensor(
         obstacles,
         p.d_det if imp.sensor_range is None else imp.sensor_range,
