@@ -108,14 +108,21 @@ def simulate_batch(
     table["radius"] = world.radius
     table["vx"], table["vy"] = world.vx, world.vy
     table["x"], table["y"] = world.ox0, world.oy0
-    table_moves = world.moving is not None or bool(world._obstacle_sigma.any())
+    table_moves = world.moving is not None or world.noisy
+    reported = inputs["reported"]
     bits = np.left_shift(np.uint32(1), np.arange(width, dtype=np.uint32))
     outputs = controller.outputs
+    out_left, out_right = outputs["wheel_left"], outputs["wheel_right"]
+    out_mode, out_events = outputs["mode"], outputs["n_events"]
+    straight = not world.w_r.any()
+    if straight:  # the references' headings never change
+        ref[:, 2] = wrap(world.theta_r)
 
     events: list[list[Event]] = [[] for _ in range(n)]
     nearest = np.full((n, width), np.inf)
     near_dx = np.zeros((n, width))
     near_dy = np.zeros((n, width))
+    closer = np.empty((n, width), dtype=bool)
     bad_at = np.full(n, -1, dtype=np.int64)
     last = int(world.steps.max(initial=0))
     uniform = bool((world.steps == last).all())
@@ -134,54 +141,41 @@ def simulate_batch(
         seen, rx, ry = world.scan(k, h, dx, dy, ox, oy)
         mx, my, mth = world.measured(k)
         robot[:, 0], robot[:, 1], robot[:, 2] = mx, my, wrap(mth)
-        ref[:, 0], ref[:, 1], ref[:, 2] = world.x_r, world.y_r, wrap(world.theta_r)
+        ref[:, 0], ref[:, 1] = world.x_r, world.y_r
+        if not straight:
+            ref[:, 2] = wrap(world.theta_r)
         t_us_in[:] = t_us
-        inputs["reported"] = seen @ bits if width > 1 else seen[:, 0] * bits[0]
+        reported[:] = seen @ bits
         if table_moves:
             table["x"], table["y"] = rx, ry
         start = clock()
         controller.step(None if uniform else active)
         spent += clock() - start
-        scene_steps += int(active.sum()) if not uniform else n
+        scene_steps += n if uniform else int(active.sum())
 
-        left, right = outputs["wheel_left"], outputs["wheel_right"]
         emitted = []
-        for i in np.flatnonzero(outputs["n_events"]).tolist():
+        for i in np.flatnonzero(out_events).tolist():
             if active[i]:
                 got = controller.events(i)
                 events[i].extend(got)
                 emitted.append((i, got))
-        closer = h < nearest
+        np.less(h, nearest, out=closer)
         if not uniform:
             closer &= active[:, None]
-        if closer.any():
-            nearest = np.where(closer, h, nearest)
-            near_dx = np.where(closer, dx, near_dx)
-            near_dy = np.where(closer, dy, near_dy)
-        finite = np.isfinite(x + y + world.theta + world.x_r + world.y_r + world.theta_r)
+        np.copyto(nearest, h, where=closer)
+        np.copyto(near_dx, dx, where=closer)
+        np.copyto(near_dy, dy, where=closer)
+        finite = np.isfinite(x + y + world.theta)
         if not finite.all():
             bad_at = np.where((bad_at < 0) & ~finite & active, k, bad_at)
-        _, w = world.body_velocity(left, right)
+        left, right = out_left.copy(), out_right.copy()
+        v, w = world.body_velocity(left, right)
         if watch is not None:
             watch(
-                BatchStep(
-                    k,
-                    t,
-                    active,
-                    x,
-                    y,
-                    world.x_r,
-                    world.y_r,
-                    h,
-                    dx,
-                    dy,
-                    outputs["mode"],
-                    w,
-                    emitted,
-                )
+                BatchStep(k, t, active, x, y, world.x_r, world.y_r, h, dx, dy, out_mode, w, emitted)
             )
         if k < last:
-            world.advance(k, left, right)
+            world.advance(k, left, right, v, w)
 
     step_time = spent / 1e9 / max(1, scene_steps)
     runs = []

@@ -35,7 +35,7 @@ from mstc.plant.plant import Integrator
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import random_streams
 
-CHUNK = 64
+CHUNK = 128
 """Steps of random draws made at once per scene."""
 
 _TAU, _PI = math.tau, math.pi
@@ -186,11 +186,12 @@ class BatchWorld:
 
     def _draw(self, k0: int) -> None:
         """The random draws of steps k0 .. k0 + chunk - 1 of every noisy scene,
-        from its own streams in the per-scene loop's order: the odometry's
-        ``standard_normal((steps + 1, 3)) * σ`` (a chunk of its rows); the
-        sensor's, per step, ``standard_normal((n, 2)) * σ`` when it has noise,
-        then ``random(n)`` when it drops reports (n: the scene's obstacles,
-        in range or not)."""
+        from its own streams, the numbers the per-scene loop draws: the
+        odometry's ``standard_normal((steps + 1, 3)) * σ`` (a chunk of its
+        rows); the sensor's ``standard_normal((n, 2)) * σ`` and its dropouts'
+        ``random(n)`` a step, each from its stream (n: the scene's obstacles,
+        in range or not). A stream's draws of consecutive calls are those of
+        one call of their total size, so a chunk of steps is one call."""
         c, n, m = self._chunk, self.n, self.width
         if self._odometry is None:
             self._odometry = np.zeros((n, c, 3))
@@ -201,21 +202,15 @@ class BatchWorld:
         for i, streams in enumerate(self._streams):
             if streams is None:
                 continue
-            odometry_rng, sensor_rng = streams
+            odometry_rng, noise_rng, dropout_rng = streams
             if self._odometry_noisy[i]:
                 odo[i] = odometry_rng.standard_normal((c, 3)) * self._odometry_sigma[i]
-            if not self._sensor_noisy[i]:
-                continue
             count = int(self.count[i])
-            sigma, dropout = self._obstacle_sigma[i], self._dropout[i]
-            if sigma and dropout:  # interleaved: one step at a time
-                for j in range(c):
-                    noise[i, j, :count] = sensor_rng.standard_normal((count, 2)) * sigma
-                    kept[i, j, :count] = sensor_rng.random(count) >= dropout
-            elif sigma:
-                noise[i, :, :count] = sensor_rng.standard_normal((c, count, 2)) * sigma
-            else:
-                kept[i, :, :count] = sensor_rng.random((c, count)) >= dropout
+            if self._obstacle_sigma[i]:
+                draws = noise_rng.standard_normal((c, count, 2))
+                noise[i, :, :count] = draws * self._obstacle_sigma[i]
+            if self._dropout[i]:
+                kept[i, :, :count] = dropout_rng.random((c, count)) >= self._dropout[i]
         self._chunk_start = k0
 
     # -------------------------------------------------------------- one step
@@ -281,22 +276,31 @@ class BatchWorld:
         w = self.wheel_radius * (right - left) / self.track_width
         return v, w
 
-    def advance(self, k: int, left: np.ndarray, right: np.ndarray) -> None:
-        """Step @p k's commands (left, right wheel speeds [rad/s]) given: move
-        every robot over its period with the commands of ``delay`` periods
-        before (standing still before the first), and every reference."""
+    def advance(
+        self,
+        k: int,
+        left: np.ndarray,
+        right: np.ndarray,
+        v: np.ndarray | None = None,
+        w: np.ndarray | None = None,
+    ) -> None:
+        """Step @p k's commands (left, right wheel speeds [rad/s], and their
+        body velocity @p v, @p w when the caller has it) given: move every
+        robot over its period with the commands of ``delay`` periods before
+        (standing still before the first), and every reference."""
         if self._commands.shape[1] > 1:
             depth = self._commands.shape[1]
             rows = np.arange(self.n)
             self._commands[rows, k % depth, 0] = left
             self._commands[rows, k % depth, 1] = right
             back = k - self.delay
-            at = back % depth
-            old = self._commands[rows, at]
+            old = self._commands[rows, back % depth]
             late = back >= 0
             left = np.where(self.delay > 0, np.where(late, old[:, 0], 0.0), left)
             right = np.where(self.delay > 0, np.where(late, old[:, 1], 0.0), right)
-        v, w = self.body_velocity(left, right)
+            v = w = None
+        if v is None or w is None:
+            v, w = self.body_velocity(left, right)
         self.x, self.y, self.theta = integrate(
             self.x, self.y, self.theta, v, w, self.dt, self.euler
         )

@@ -54,7 +54,7 @@ import numpy as np
 from mstc.loop.batched import BatchRun, BatchStep
 from mstc.loop.result import RunResult
 from mstc.model import Event, EventKind, Mode
-from mstc.plant.batch import exact_hypot, near_threshold
+from mstc.plant.batch import exact_hypot
 from mstc.plant.scenario import Scenario
 
 REJOIN_ERROR = 0.05
@@ -204,9 +204,10 @@ def most_activations(events: tuple[Event, ...]) -> int:
 class RunningMetrics:
     """The metrics of many runs of a batched loop (:func:`evaluate`'s, the
     same bits), computed from each step's arrays as the run goes (a
-    :data:`mstc.loop.batched.Watch`): running minima, sums in step order,
-    counters, and each scene's rejoin passes judged as they end. Nothing is
-    kept per step.
+    :data:`mstc.loop.batched.Watch`): sums in step order, counters, and each
+    scene's rejoin passes judged as they end; contact, clearance and D_s
+    from the loop's smallest distance to each obstacle (D_s is kept at every
+    step exactly when it is kept at the closest). Nothing is kept per step.
 
     :param scenarios: the batch's scenes, in its order.
     :param width: the batch's obstacle table width.
@@ -218,20 +219,31 @@ class RunningMetrics:
         self.scenarios = scenarios
         self.steps = np.array([s.sim.steps for s in scenarios], dtype=np.int64)
         self.dt_us = np.array([s.sim.dt_us for s in scenarios], dtype=np.int64)
-        self._safe = np.full((n, width), -np.inf)
-        self._act = np.full((n, width), -np.inf)
+        act = np.full((n, width), -np.inf)
         for i, s in enumerate(scenarios):
             for j, o in enumerate(s.obstacles):
-                self._safe[i, j] = s.params.safe_distance(o.radius)
-                self._act[i, j] = s.params.activation_distance(o.radius)
-        number = {m: k for k, m in modes.items()}
-        self._avoid, self._blocked = number[Mode.AVOID], number[Mode.BLOCKED]
+                act[i, j] = s.params.activation_distance(o.radius)
+        # Within two ulps of D_act numpy's hypot may decide otherwise than
+        # math.hypot (mstc.plant.batch.near_threshold): below _act_lo surely
+        # near, up to _act_hi maybe.
+        tol = 2.0 * np.spacing(np.abs(act))
+        self._act = act
+        self._act_lo, self._act_hi = act - tol, act + tol
+        top = max(modes) + 1
+        self._busy_mode = np.zeros(top, dtype=bool)
+        self._avoid_mode = np.zeros(top, dtype=np.int64)
+        for number, mode in modes.items():
+            self._busy_mode[number] = mode in _BUSY
+            self._avoid_mode[number] = mode is Mode.AVOID
+        self._blocked = next(k for k, m in modes.items() if m is Mode.BLOCKED)
         # The first step of each scene's window of BLOCKED_WINDOW at its end.
         self._window = np.empty(n, dtype=np.int64)
         for i, s in enumerate(scenarios):
             t = np.arange(s.sim.steps + 1) * s.sim.dt_us / 1e6
             self._window[i] = int(np.flatnonzero(t >= t[-1] - BLOCKED_WINDOW)[0])
-        self.ds_kept = np.ones(n, dtype=bool)
+        self._uniform_window = (
+            int(self._window[0]) if (self._window == self._window[0]).all() else None
+        )
         self._last_busy = np.full(n, -1, dtype=np.int64)
         self._prev_busy = np.zeros(n, dtype=bool)
         self._in_pass = np.zeros(n, dtype=bool)
@@ -239,6 +251,7 @@ class RunningMetrics:
         self._pass_t0 = np.zeros(n)
         self._pass_a = np.zeros(n, dtype=np.int64)
         self._last_bad = np.full(n, -1, dtype=np.int64)
+        """The last step with a tracking error of REJOIN_ERROR or more."""
         self._judged = np.zeros(n, dtype=bool)
         self._failed = np.zeros(n, dtype=bool)
         self._err2 = np.zeros(n)
@@ -253,92 +266,118 @@ class RunningMetrics:
         self._final_error = np.zeros(n)
         self._final_mode = np.zeros(n, dtype=np.int32)
         self._prev: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._last = int(self.steps.max(initial=0))
+        self._uniform = bool((self.steps == self._last).all())
 
     def _t(self, k: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Step @p k's time of the scenes @p rows [s], as the trace has it."""
         return k * self.dt_us[rows] / 1e6
 
-    def _close(self, rows: np.ndarray, b: np.ndarray) -> None:
+    def _close(self, rows: np.ndarray, b: int) -> None:
         """Judge the passes of @p rows, which end at step @p b (_rejoined)."""
         if not len(rows):
             return
         t0, a, bad = self._pass_t0[rows], self._pass_a[rows], self._last_bad[rows]
         back_from = np.where(bad < a, a, bad + 1)
         back = (back_from <= b) & (self._t(back_from, rows) <= t0 + REJOIN_WINDOW + 1e-9)
-        failed = ~back & (self._t(b, rows) >= t0 + REJOIN_WINDOW - 1e-9)
+        failed = ~back & (self._t(np.full(len(rows), b), rows) >= t0 + REJOIN_WINDOW - 1e-9)
         self._judged[rows] |= back
         self._failed[rows] |= failed
         self._in_pass[rows] = False
 
     def __call__(self, s: BatchStep) -> None:
         """Take step @p s of the batch."""
-        k, active = s.k, s.active
+        k = s.k
+        uniform = self._uniform
+        active = s.active
         h = s.distance
-        kept = h >= self._safe
-        near = h <= self._act
-        unsure = near_threshold(h, self._safe) | near_threshold(h, self._act)
-        unsure &= active[:, None]
+        near = h <= self._act_lo
+        unsure = (h <= self._act_hi) ^ near
         if unsure.any():
             idx = np.nonzero(unsure)
-            exact = exact_hypot(s.dx[idx], s.dy[idx])
-            kept[idx] = exact >= self._safe[idx]
-            near[idx] = exact <= self._act[idx]
-        self.ds_kept &= kept.all(axis=1) | ~active
-        mode = np.array(s.mode, dtype=np.int32)
-        busy = near.any(axis=1) | (mode == self._avoid) | (mode == self._blocked)
+            near[idx] = exact_hypot(s.dx[idx], s.dy[idx]) <= self._act[idx]
+        mode = s.mode
+        busy = near.any(axis=1) | self._busy_mode[mode]
+        if not uniform:
+            busy &= active
         error = np.hypot(s.x - s.x_r, s.y - s.y_r)
-        ends = active & (k == self.steps)
-        running = active & (k < self.steps)
 
         # Rejoin passes (_rejoined): a busy step ends the pass under way (the
         # stretch before a run's first busy step is no pass); a free step
         # after a busy one starts one; a run without a busy step is one pass.
-        busy_now = active & busy
         if k == 0:
-            free = active & ~busy
+            free = ~busy if uniform else active & ~busy
             self._in_pass |= free
             self._initial |= free
         else:
-            closing = busy_now & self._in_pass & ~self._initial
-            rows = np.flatnonzero(closing)
-            self._close(rows, np.full(len(rows), k - 1, dtype=np.int64))
-            dropped = busy_now & self._initial
-            self._in_pass &= ~dropped
-            self._initial &= ~dropped
-            starting = active & ~busy & ~self._in_pass & self._prev_busy
-            if starting.any():
-                rows = np.flatnonzero(starting)
-                self._in_pass[rows] = True
-                self._pass_t0[rows] = self._t(np.full(len(rows), k - 1), rows)
-                self._pass_a[rows] = k
-                self._last_bad[rows] = -1
-        self._last_bad = np.where(
-            active & ~busy & self._in_pass & (error >= REJOIN_ERROR), k, self._last_bad
-        )
-        if ends.any():
+            change = busy != self._prev_busy
+            if not uniform:
+                change &= active
+            if change.any():
+                closing = change & busy & self._in_pass
+                self._close(np.flatnonzero(closing & ~self._initial), k - 1)
+                dropped = closing & self._initial
+                self._in_pass &= ~dropped
+                self._initial &= ~dropped
+                starting = np.flatnonzero(change & ~busy)
+                if len(starting):
+                    self._in_pass[starting] = True
+                    self._pass_t0[starting] = self._t(np.full(len(starting), k - 1), starting)
+                    self._pass_a[starting] = k
+        np.copyto(self._last_bad, k, where=error >= REJOIN_ERROR)
+        np.copyto(self._last_busy, k, where=busy)
+        ends = (k == self.steps) if not uniform else None
+        if uniform and k == self._last:
+            self._close(np.flatnonzero(self._in_pass), k)
+        elif ends is not None and ends.any():
             rows = np.flatnonzero(ends & self._in_pass)
-            self._close(rows, np.full(len(rows), k, dtype=np.int64))
-        self._last_busy = np.where(busy_now, k, self._last_busy)
-        self._prev_busy = np.where(active, busy, self._prev_busy)
+            for b in np.unique(self.steps[rows]).tolist():
+                self._close(rows[self.steps[rows] == b], int(b))
+        self._prev_busy = busy if uniform else np.where(active, busy, self._prev_busy)
 
         # Sums in step order, counters.
-        self._err2 = np.where(active, self._err2 + error * error, self._err2)
+        if uniform:
+            self._err2 += error * error
+        else:
+            self._err2 += np.where(active, error * error, 0.0)
         if self._prev is not None:
             px, py, prx, pry = self._prev
             seg = np.hypot(s.x - px, s.y - py)
             ref_seg = np.hypot(s.x_r - prx, s.y_r - pry)
-            self._path = np.where(active, self._path + seg, self._path)
-            self._ref_path = np.where(active, self._ref_path + ref_seg, self._ref_path)
-            window = active & (k - 1 >= self._window)
-            self._win_path = np.where(window, self._win_path + seg, self._win_path)
-            self._win_ref_path = np.where(window, self._win_ref_path + ref_seg, self._win_ref_path)
-            self._switches += active & (mode != self._prev_mode)
+            changed = mode != self._prev_mode
+            if uniform:
+                self._path += seg
+                self._ref_path += ref_seg
+                self._switches += changed
+            else:
+                self._path += np.where(active, seg, 0.0)
+                self._ref_path += np.where(active, ref_seg, 0.0)
+                self._switches += changed & active
+            if self._uniform_window is not None and uniform:
+                if k - 1 >= self._uniform_window:
+                    self._win_path += seg
+                    self._win_ref_path += ref_seg
+            else:
+                window = active & (k - 1 >= self._window)
+                self._win_path += np.where(window, seg, 0.0)
+                self._win_ref_path += np.where(window, ref_seg, 0.0)
         self._prev = (s.x, s.y, s.x_r, s.y_r)
-        self._abs_w = np.where(running, self._abs_w + np.abs(s.w), self._abs_w)
-        self._avoid_steps += running & (mode == self._avoid)
-        self._prev_mode = np.where(active, mode, self._prev_mode)
-        self._final_error = np.where(ends, error, self._final_error)
-        self._final_mode = np.where(ends, mode, self._final_mode)
+        if uniform:
+            if k < self._last:
+                self._abs_w += np.abs(s.w)
+                self._avoid_steps += self._avoid_mode[mode]
+            self._prev_mode = np.array(mode, dtype=np.int32)
+            if k == self._last:
+                self._final_error = error
+                self._final_mode = np.array(mode, dtype=np.int32)
+        else:
+            running = active & (k < self.steps)
+            self._abs_w += np.where(running, np.abs(s.w), 0.0)
+            self._avoid_steps += np.where(running, self._avoid_mode[mode], 0)
+            self._prev_mode = np.where(active, mode, self._prev_mode)
+            assert ends is not None
+            self._final_error = np.where(ends, error, self._final_error)
+            self._final_mode = np.where(ends, mode, self._final_mode)
 
     def result(self, i: int, run: BatchRun) -> Metrics:
         """The metrics of scene @p i, whose run left @p run."""
@@ -346,20 +385,16 @@ class RunningMetrics:
         p = s.params
         dt = s.sim.dt
         radii = [o.radius for o in s.obstacles]
-        min_clearance = min(
-            (d - (p.r_m + r) for d, r in zip(run.min_distance, radii, strict=True)),
-            default=math.inf,
-        )
+        pairs = list(zip(run.min_distance, radii, strict=True))
+        min_clearance = min((d - (p.r_m + r) for d, r in pairs), default=math.inf)
         last_busy = int(self._last_busy[i])
         ref_moved, moved = float(self._win_ref_path[i]), float(self._win_path[i])
         ref_length = float(self._ref_path[i])
-        rejoined = (
-            False if self._failed[i] else True if self._judged[i] else None
-        )  # _rejoined's verdict
+        rejoined = False if self._failed[i] else True if self._judged[i] else None
         return Metrics(
             contact=min_clearance < 0.0,
             min_clearance=min_clearance,
-            ds_kept=bool(self.ds_kept[i]),
+            ds_kept=all(d >= p.safe_distance(r) for d, r in pairs),
             rejoined=rejoined,
             blocked=int(self._final_mode[i]) == self._blocked
             or (ref_moved > 0.0 and moved < BLOCKED_SHARE * ref_moved),
