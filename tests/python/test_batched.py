@@ -105,7 +105,7 @@ def test_poses_are_the_per_scene_loops_bit_for_bit(any_lib: str) -> None:
             xs: list[float] = []
             ys: list[float] = []
 
-            def keep(step: BatchStep) -> None:
+            def keep(step: BatchStep, xs: list[float] = xs, ys: list[float] = ys) -> None:
                 xs.append(float(step.x[0]))
                 ys.append(float(step.y[0]))
 

@@ -190,7 +190,8 @@ def numpy_dtype(ctype: Any) -> np.dtype[Any]:
         return np.dtype((numpy_dtype(ctype._type_), (ctype._length_,)))
     if isinstance(ctype, type) and issubclass(ctype, ctypes._Pointer):
         return np.dtype(np.uintp)
-    return np.dtype(ctype)
+    scalar: np.dtype[Any] = np.dtype(ctype)
+    return scalar
 
 
 BATCH_INPUT_DTYPE = numpy_dtype(BatchInputStruct)

@@ -352,7 +352,7 @@ def run_local(
     workers: int,
     emit: Emit,
     engine: str = "scene",
-    batch: int = BATCH,
+    batch_size: int = BATCH,
 ) -> None:
     """Run @p jobs on a pool of @p workers processes with @p engine, calling
     @p emit for each outcome as it comes. Workers start fresh (spawn) and
@@ -365,7 +365,7 @@ def run_local(
         try:
             futures = {
                 pool.submit(run_batch, b, lib, engine): b
-                for b in engine_batches(pending, workers, engine, batch)
+                for b in engine_batches(pending, workers, engine, batch_size)
             }
             broken = False
             while futures:
@@ -431,7 +431,7 @@ def run_dask(
     scheduler: str,
     emit: Emit,
     engine: str = "scene",
-    batch: int = BATCH,
+    batch_size: int = BATCH,
 ) -> None:
     """Run @p jobs with @p engine on the Dask cluster at @p scheduler
     (``tcp://host:port``): a task is a batch of jobs.
@@ -449,7 +449,7 @@ def run_dask(
         workers = max(1, len(client.scheduler_info()["workers"]))
         todo = {
             client.submit(run_batch, b, lib, engine, pure=False): b
-            for b in engine_batches(jobs, workers, engine, batch)
+            for b in engine_batches(jobs, workers, engine, batch_size)
         }
         queue = as_completed(list(todo))
         for fut in queue:

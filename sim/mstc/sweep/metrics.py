@@ -271,7 +271,8 @@ class RunningMetrics:
 
     def _t(self, k: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Step @p k's time of the scenes @p rows [s], as the trace has it."""
-        return k * self.dt_us[rows] / 1e6
+        t: np.ndarray = k * self.dt_us[rows] / 1e6
+        return t
 
     def _close(self, rows: np.ndarray, b: int) -> None:
         """Judge the passes of @p rows, which end at step @p b (_rejoined)."""
@@ -326,7 +327,7 @@ class RunningMetrics:
                     self._pass_a[starting] = k
         np.copyto(self._last_bad, k, where=error >= REJOIN_ERROR)
         np.copyto(self._last_busy, k, where=busy)
-        ends = (k == self.steps) if not uniform else None
+        ends: np.ndarray | None = None if uniform else np.asarray(k == self.steps)
         if uniform and k == self._last:
             self._close(np.flatnonzero(self._in_pass), k)
         elif ends is not None and ends.any():
