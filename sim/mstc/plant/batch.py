@@ -181,6 +181,14 @@ class BatchWorld:
         self._chunk_start = -1
         self.noisy = bool(self._odometry_noisy.any() or self._sensor_noisy.any())
         """Whether any scene draws random numbers."""
+        self._ref_step: tuple[np.ndarray, np.ndarray] | None = None
+        if not self.w_r.any():
+            # ω_r = 0 everywhere: θ_r + 0·dt is θ_r, so each period adds the
+            # same terms to x_r and y_r that integrate() adds (v cos θ dt, or
+            # the chord's), computed once with its formulas.
+            zero = np.zeros(n)
+            nx, ny, _ = integrate(zero, zero, self.theta_r, self.v_r, self.w_r, self.dt, self.euler)
+            self._ref_step = (nx, ny)
 
     # -------------------------------------------------------------- random draws
 
@@ -304,6 +312,10 @@ class BatchWorld:
         self.x, self.y, self.theta = integrate(
             self.x, self.y, self.theta, v, w, self.dt, self.euler
         )
-        self.x_r, self.y_r, self.theta_r = integrate(
-            self.x_r, self.y_r, self.theta_r, self.v_r, self.w_r, self.dt, self.euler
-        )
+        if self._ref_step is not None:  # straight: the same increments every period
+            self.x_r = self.x_r + self._ref_step[0]
+            self.y_r = self.y_r + self._ref_step[1]
+        else:
+            self.x_r, self.y_r, self.theta_r = integrate(
+                self.x_r, self.y_r, self.theta_r, self.v_r, self.w_r, self.dt, self.euler
+            )
