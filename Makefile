@@ -191,8 +191,7 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 	  $(PY) -m pytest -q --durations=20 $(PYTEST_ARGS) tests/python
 # Directories (their *.py) and the Python tools without an extension.
 PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
-           tools/protocol-doc tools/gen-limits tools/flash tools/bench/board_budget \
-           tools/bench/qemu_smoke \
+           tools/protocol-doc tools/gen-limits tools/flash \
            tools/quality/spdx tools/quality/coverage_check \
            tools/quality/fuzz_seeds
 # C: every tracked source but the generated codec (.clang-format).

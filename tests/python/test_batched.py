@@ -7,7 +7,7 @@ batched code (its own plant objects, math's functions, one ctypes call per
 step), so its rows and events.json are the expected values. The batched
 engine is built to take the same operations in the same order and draw the
 same random numbers, so the expected agreement is exact, bit for bit; the
-full-size check (2,000 scenes per family) is tools/bench/engine_agreement.py.
+full-size check (2,000 scenes per family) is python -m mstc.bench.agreement.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 """The board images (mk/firmware.mk): both build with the cross compiler and
 warnings as errors, fit the budgets (flash <= 32 KiB, RAM <= 8 KiB, worst-case
 stack within its reservation), the blank port links, and both images run
-their control loop under QEMU (tools/bench/qemu_smoke says what that covers
+their control loop under QEMU (mstc.bench.qemu_smoke says what that covers
 and what QEMU cannot: no RCC, no bxCAN).
 
 Needs the cross toolchain and qemu-system-arm (tools/setup/debian-test.txt)

@@ -2,7 +2,7 @@
 /* The benchmark on a Cortex-M under QEMU (make bench): instructions of
  * ctl_step, counted with SysTick under `-icount shift=0`, where the counter
  * (processor clock, 25 MHz) advances once per 40 executed instructions, the
- * same every run. Prints `key value` lines for tools/bench/report.py on the
+ * same every run. Prints `key value` lines for mstc.bench.ctl_step on the
  * semihosting console, then exits QEMU. */
 #include <stdio.h>
 #include <stdlib.h>

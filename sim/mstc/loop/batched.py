@@ -3,7 +3,8 @@
 
 The loop of :func:`mstc.loop.lockstep.simulate`, run for N scenes together:
 the worlds as arrays (:class:`mstc.plant.batch.BatchWorld`), the firmware's
-controllers stepped in one call (:class:`mstc.firmware.sil.SilBatch`). At each
+controllers stepped in one call (a :class:`BatchController`: the firmware's
+is :class:`mstc.firmware.sil.SilBatch`). At each
 step k every scene that has not ended (k ≤ its N) does what the per-scene
 loop does, in the same order: the sensor scans from the robot's true pose at
 the start of the period, the controller steps on the odometry's pose, the
@@ -23,13 +24,36 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 
-from mstc.firmware.sil import SilBatch
-from mstc.model import Event
+from mstc.model import Event, Mode
 from mstc.plant.batch import BatchWorld, exact_hypot, wrap
 from mstc.plant.scenario import Scenario
+
+
+class BatchController(Protocol):
+    """N controllers stepped in one call (:class:`mstc.firmware.sil.SilBatch`),
+    on structured arrays laid out as ``mstc_sil_batch_input_t`` and
+    ``mstc_sil_output_t`` (hal/sil/mstc_sil.h)."""
+
+    n: int
+    """Controllers, inputs and outputs."""
+    inputs: np.ndarray[Any, Any]
+    """The inputs of the next step, one per controller (the caller fills them)."""
+    outputs: np.ndarray[Any, Any]
+    """The outputs of the last step."""
+    modes: dict[int, Mode]
+    """Mode by the output's number."""
+
+    def step(self, active: np.ndarray | None = None) -> None:
+        """One control step of every controller (of those where @p active)."""
+        ...
+
+    def events(self, i: int) -> tuple[Event, ...]:
+        """The events controller @p i emitted in the last step."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -84,7 +108,7 @@ class BatchRun:
 
 
 def simulate_batch(
-    scenarios: Sequence[Scenario], controller: SilBatch, watch: Watch | None = None
+    scenarios: Sequence[Scenario], controller: BatchController, watch: Watch | None = None
 ) -> list[BatchRun]:
     """Run every scenario in closed loop with its controller of @p controller
     (one per scenario, in order), as :func:`mstc.loop.lockstep.simulate`

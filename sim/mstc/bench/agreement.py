@@ -2,12 +2,12 @@
 """The two sweep engines compared (issue 22): the same scenes swept with
 ``--engine scene`` (the reference) and ``--engine batched``.
 
-  engine_agreement.py runs DIR_SCENE DIR_BATCHED
+  python -m mstc.bench.agreement runs DIR_SCENE DIR_BATCHED
       every row of the two runs.csv and every events.json, family by family:
       rows alike (all but the measured step_us), events.json alike, and the
       verdicts the issue names (events: kind, obstacle, side, order;
       contact; D_s kept; rejoined); every difference listed
-  engine_agreement.py poses --lib LIB SCENARIO...
+  python -m mstc.bench.agreement poses --lib LIB SCENARIO...
       the robot's pose at every step of each scenario under both engines
       (paper and mstc): the largest difference [m]
 
@@ -124,7 +124,9 @@ def compare_poses(lib: str, paths: list[Path]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.agreement", description=__doc__.splitlines()[0]
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     runs = sub.add_parser("runs")
     runs.add_argument("scene_dir", type=Path)

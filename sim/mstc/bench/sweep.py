@@ -4,8 +4,8 @@ the per-scene one on the standard suite's families, scene-steps per second of
 one scene in memory, sweeps on every core, and the same sweeps on a local
 Dask cluster.
 
-  sweep_bench.py run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
-  sweep_bench.py report --doc docs/performance.md build/bench/sweep.json
+  python -m mstc.bench.sweep run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
+  python -m mstc.bench.sweep report --doc docs/performance.md build/bench/sweep.json
 
 A benchmark, not a test: it prints and writes figures and fails on nothing.
 Beside each wall time it gives the CPU time of every process that did the
@@ -26,8 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from report import update_doc  # tools/bench/report.py, beside this script
-
+from mstc.bench import ROOT
+from mstc.bench.doc import report, write_result
 from mstc.can.protocol import wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
@@ -35,12 +35,11 @@ from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import Job, Scene, library_sha256, run_batch, run_jobs_batched, run_sweep
 from mstc.sweep.suite import generate, load_suite, scene_text
 
-ROOT = Path(__file__).resolve().parents[2]
 LINE = ROOT / "sim" / "scenarios" / "paper-line.toml"
 STANDARD = ROOT / "sim" / "suites" / "standard.toml"
 BATCHED_TARGET = 1_000_000
 """Scene-steps per CPU-second of the batched engine, ideal wheels, "mstc" (issue 22)."""
-BEGIN = "<!-- bench:sweep:begin (written by make bench, tools/bench/sweep_bench.py) -->"
+BEGIN = "<!-- bench:sweep:begin (written by make bench, mstc.bench.sweep) -->"
 END = "<!-- bench:sweep:end -->"
 # Paper-like scenes: a straight reference at about the paper's speed, two
 # obstacles near it, 20 s at 50 Hz (1,001 steps), Table 1, forward Euler.
@@ -261,7 +260,7 @@ def section(r: dict[str, object]) -> str:
         f"Measured on {r['cpus']} cores (load average {r['load']} at the start, "
         f"{r['load_end']} at the end: the wall times "
         "are only as quiet as the machine was). `make bench` runs "
-        "`tools/bench/sweep_bench.py`. CPU time is that of every process doing the work "
+        "`python -m mstc.bench.sweep`. CPU time is that of every process doing the work "
         "(the bench, the pool's or the Dask cluster's workers, the Dask scheduler): on a "
         "shared machine wall time also counts the waits for a core, CPU time does not, so "
         "the targets are judged on CPU time, with wall time beside it. CPU time is steadier, "
@@ -325,7 +324,9 @@ def section(r: dict[str, object]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.sweep", description=__doc__.splitlines()[0]
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     run = sub.add_parser("run")
     run.add_argument("--lib", required=True)
@@ -356,13 +357,10 @@ def main(argv: list[str] | None = None) -> int:
             "sweep_batched": sweep_times(lib, a.batched_scenes, a.workers, a.repeats, "batched"),
         }
         result["load_end"] = f"{os.getloadavg()[0]:.1f}"
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps(result, indent=1) + "\n")
+        write_result(a.out, result)
         print(section(result))
         return 0
-    body = section(json.loads(a.result.read_text()))
-    update_doc(a.doc, body, BEGIN, END)
-    print(body)
+    report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
     return 0
 
 

@@ -1,8 +1,8 @@
-#!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""qemu_smoke: run a board image under QEMU and check that its control loop runs.
+"""Run a board image under QEMU and check that its control loop runs
+(``make firmware-smoke``).
 
-Usage: qemu_smoke [--seconds S] [--min-steps N] IMAGE_DIR...
+Usage: python -m mstc.bench.qemu_smoke [--seconds S] [--min-steps N] IMAGE_DIR...
 
 IMAGE_DIR is build/firmware/<board> (mstc.elf), the bxCAN image. The image is
 the real one, unchanged: the same bytes that `make flash` writes. QEMU 7.2
@@ -53,6 +53,7 @@ import sys
 import time
 from pathlib import Path
 
+from mstc.bench import ROOT
 from mstc.errors import FirmwareError
 from mstc.firmware.qemu import CROSS, MACHINES, BoardVm, board_of
 
@@ -63,7 +64,6 @@ CPU = {
 TIM3 = 0x40000400  # same address on the F1, F2 and F4
 COMM_STATE_READY = 1  # comm_state_t
 COMM_HALT_NOT_ARMED = 1  # comm_halt_t
-ROOT = Path(__file__).resolve().parents[2]
 HSI_HZ = {"stm32f405": 16_000_000, "stm32f103": 8_000_000}
 ENODEV = 19
 CFSR, HFSR = 0xE000ED28, 0xE000ED2C
@@ -157,12 +157,14 @@ def smoke(image_dir: Path, seconds: float, min_steps: int) -> bool:
     return ok
 
 
-def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.qemu_smoke", description=__doc__.split("\n\n")[0]
+    )
     ap.add_argument("--seconds", type=float, default=2.0, help="run time before the checks")
     ap.add_argument("--min-steps", type=int, default=10)
     ap.add_argument("image_dir", nargs="+", type=Path)
-    args = ap.parse_args(argv[1:])
+    args = ap.parse_args(argv)
     if shutil.which("qemu-system-arm") is None:
         print("qemu-system-arm is missing (Debian: qemu-system-arm)")
         return 1
@@ -173,4 +175,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(main())
