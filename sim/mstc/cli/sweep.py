@@ -236,7 +236,7 @@ def run(args: argparse.Namespace) -> int:
     seen: dict[str, Path] = {}
     for scenario in loaded:
         path = scenario.path
-        scene = Scene.from_file(path)
+        scene = replace(Scene.from_file(path), scenario=scenario)
         first = seen.setdefault(scene.name, path)
         if first != path:
             problems.append(

@@ -361,26 +361,31 @@ class SilBatch:
         if rc != 0:
             raise FirmwareError(f"mstc_sil_step_batch failed with {rc}")
 
-    def events(self, i: int) -> tuple[Event, ...]:
-        """The events controller @p i emitted in the last step.
+    def events(self, rows: Sequence[int]) -> list[tuple[Event, ...]]:
+        """The events each controller of @p rows emitted in the last step
+        (its output's table read once, whole columns at a time).
 
         :raises FirmwareError: a value outside the ABI.
         """
-        out = self.outputs[i]
-        n_events = int(out["n_events"])
-        if not n_events:
-            return ()
+        if not len(rows):
+            return []
+        out = self.outputs[np.asarray(rows, dtype=np.intp)]
+        counts = out["n_events"].tolist()
+        table = out["events"]
+        t_us, kind = table["t_us"].tolist(), table["kind"].tolist()
+        obstacle, side = table["obstacle"].tolist(), table["side"].tolist()
+        kinds = self._kinds
         try:
-            if n_events > MAX_EVENTS:
-                raise KeyError(f"n_events {n_events}")
-            return tuple(
-                Event(
-                    int(ev["t_us"]),
-                    self._kinds[int(ev["kind"])],
-                    int(ev["obstacle"]),
-                    _SIDES[int(ev["side"])],
+            got = []
+            for r, n in enumerate(counts):
+                if n > MAX_EVENTS:
+                    raise KeyError(f"n_events {n}")
+                got.append(
+                    tuple(
+                        Event(t_us[r][j], kinds[kind[r][j]], obstacle[r][j], _SIDES[side[r][j]])
+                        for j in range(n)
+                    )
                 )
-                for ev in out["events"][:n_events]
-            )
+            return got
         except (KeyError, ValueError) as exc:
             raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc

@@ -51,8 +51,8 @@ class BatchController(Protocol):
         """One control step of every controller (of those where @p active)."""
         ...
 
-    def events(self, i: int) -> tuple[Event, ...]:
-        """The events controller @p i emitted in the last step."""
+    def events(self, rows: Sequence[int]) -> list[tuple[Event, ...]]:
+        """The events each controller of @p rows emitted in the last step."""
         ...
 
 
@@ -73,11 +73,11 @@ class BatchStep:
     x_r: np.ndarray
     """The reference's pose [m]."""
     y_r: np.ndarray
-    distance: np.ndarray
-    """(N, width): centre distance to each obstacle [m] by numpy's hypot of
-    :attr:`dx`, :attr:`dy` (within an ulp of the per-scene ``math.hypot``;
-    refine a decision near a threshold with :func:`mstc.plant.batch.exact_hypot`);
-    infinite for the padding."""
+    distance2: np.ndarray
+    """(N, width): squared centre distance to each obstacle [m²],
+    ``dx·dx + dy·dy`` (decide against a threshold with
+    :class:`mstc.plant.batch.Within`, which takes ``math.hypot`` where the
+    per-scene code's decision could differ); infinite for the padding."""
     dx: np.ndarray
     dy: np.ndarray
     mode: np.ndarray
@@ -161,8 +161,8 @@ def simulate_batch(
         ox, oy = world.obstacles_at(t)
         dx = ox - x[:, None]
         dy = oy - y[:, None]
-        h = np.hypot(dx, dy)
-        seen, rx, ry = world.scan(k, h, dx, dy, ox, oy)
+        d2 = dx * dx + dy * dy
+        seen, rx, ry = world.scan(k, d2, dx, dy, ox, oy)
         mx, my, mth = world.measured(k)
         robot[:, 0], robot[:, 1], robot[:, 2] = mx, my, wrap(mth)
         ref[:, 0], ref[:, 1] = world.x_r, world.y_r
@@ -177,16 +177,14 @@ def simulate_batch(
         spent += clock() - start
         scene_steps += n if uniform else int(active.sum())
 
-        emitted = []
-        for i in np.flatnonzero(out_events).tolist():
-            if active[i]:
-                got = controller.events(i)
-                events[i].extend(got)
-                emitted.append((i, got))
-        np.less(h, nearest, out=closer)
+        rows = np.flatnonzero(out_events if uniform else out_events * active).tolist()
+        emitted = list(zip(rows, controller.events(rows), strict=True))
+        for i, got in emitted:
+            events[i].extend(got)
+        np.less(d2, nearest, out=closer)
         if not uniform:
             closer &= active[:, None]
-        np.copyto(nearest, h, where=closer)
+        np.copyto(nearest, d2, where=closer)
         np.copyto(near_dx, dx, where=closer)
         np.copyto(near_dy, dy, where=closer)
         finite = np.isfinite(x + y + world.theta)
@@ -196,7 +194,9 @@ def simulate_batch(
         v, w = world.body_velocity(left, right)
         if watch is not None:
             watch(
-                BatchStep(k, t, active, x, y, world.x_r, world.y_r, h, dx, dy, out_mode, w, emitted)
+                BatchStep(
+                    k, t, active, x, y, world.x_r, world.y_r, d2, dx, dy, out_mode, w, emitted
+                )
             )
         if k < last:
             world.advance(k, left, right, v, w)

@@ -11,13 +11,13 @@ sensor reports is a mask (in range, not dropped) over that table.
 Every update is the per-scene code's formula, evaluated in the same order
 with the same functions (numpy's ``cos`` and ``sin`` give libm's bits, as
 ``math``'s do), so a scene moves here as it moves alone, bit for bit. The one
-function whose numpy version differs from the one the per-scene code calls
-is the distance: ``math.hypot`` (CPython's own, correctly rounded) against
-numpy's ``hypot`` (libm's, within one ulp of it). Distances are taken with
-numpy's and, wherever a decision depends on one (the sensor's range here,
-D_s and D_act in the metrics), those within two ulps of the threshold are
-taken again with ``math.hypot`` (:func:`exact_hypot`), so every decision is
-the per-scene one.
+function without a numpy twin is the distance the per-scene code takes,
+``math.hypot`` (CPython's own, correctly rounded, where numpy's ``hypot`` is
+libm's, within an ulp of it and slow). Distances here are squared,
+``dx·dx + dy·dy``, and each decision against a distance (the sensor's range;
+D_act in the metrics) is taken on them with a relative margin
+(:class:`Within`): the few within it of the threshold are decided again with
+``math.hypot``, so every decision is the per-scene one.
 
 The random draws are the per-scene ones too: each scene has the streams of
 :func:`mstc.plant.world.random_streams` and draws from them the numbers the
@@ -54,10 +54,35 @@ def exact_hypot(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
     return np.array(list(map(math.hypot, dx.tolist(), dy.tolist())), dtype=float)
 
 
-def near_threshold(h: np.ndarray, threshold: np.ndarray | float) -> np.ndarray:
-    """Where numpy's hypot @p h may fall on the other side of @p threshold than
-    ``math.hypot``: within two ulps of it (the two differ by at most one)."""
-    return np.abs(h - threshold) <= 2.0 * np.spacing(np.abs(threshold))
+MARGIN = 1e-12
+"""Relative margin on a squared threshold within which :class:`Within` asks
+``math.hypot``: far wider than the rounding of dx·dx + dy·dy and of the
+threshold's square (a few 1e-16), far narrower than the distance moves in a
+step."""
+
+
+class Within:
+    """``math.hypot(dx, dy) <= threshold``, decided from squared distances.
+
+    :param threshold: (N, width) or broadcastable: the thresholds [m].
+    """
+
+    def __init__(self, threshold: np.ndarray) -> None:
+        self.threshold = threshold
+        square = threshold * threshold
+        # A negative threshold holds no distance: nothing is within it.
+        self._sure = np.where(threshold >= 0.0, square * (1.0 - MARGIN), -1.0)
+        self._maybe = np.where(threshold >= 0.0, square * (1.0 + MARGIN), -1.0)
+
+    def __call__(self, d2: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        """Which squared distances @p d2 (of @p dx, @p dy) are within."""
+        within = d2 <= self._sure
+        unsure = (d2 <= self._maybe) ^ within
+        if unsure.any():
+            idx = np.nonzero(unsure)
+            limit = np.broadcast_to(self.threshold, d2.shape)[idx]
+            within[idx] = exact_hypot(dx[idx], dy[idx]) <= limit
+        return within
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
@@ -159,6 +184,7 @@ class BatchWorld:
                 for s, m_ in zip(sc, imp, strict=True)
             ]
         )
+        self._in_range = Within(self.sensor_range[:, None])
         self.delay = np.array([m_.delay for m_ in imp], dtype=np.int64)
         depth = int(self.delay.max(initial=0)) + 1
         self._commands = np.zeros((n, depth, 2))
@@ -234,17 +260,19 @@ class BatchWorld:
         return ox, oy
 
     def scan(
-        self, k: int, h: np.ndarray, dx: np.ndarray, dy: np.ndarray, ox: np.ndarray, oy: np.ndarray
+        self,
+        k: int,
+        d2: np.ndarray,
+        dx: np.ndarray,
+        dy: np.ndarray,
+        ox: np.ndarray,
+        oy: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """What the sensor reports at step @p k, from the centre distances @p h
-        (numpy's hypot of @p dx, @p dy) and the centres @p ox, @p oy: the
+        """What the sensor reports at step @p k, from the squared centre
+        distances @p d2 (of @p dx, @p dy) and the centres @p ox, @p oy: the
         reported mask (in range, ``<=``, and not dropped) and the reported
         centres (with their noise)."""
-        seen = h <= self.sensor_range[:, None]
-        unsure = near_threshold(h, self.sensor_range[:, None])
-        if unsure.any():
-            idx = np.nonzero(unsure)
-            seen[idx] = exact_hypot(dx[idx], dy[idx]) <= self.sensor_range[idx[0]]
+        seen = self._in_range(d2, dx, dy)
         if not self.noisy:
             return seen, ox, oy
         j = self._step_draws(k)

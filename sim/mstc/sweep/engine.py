@@ -3,10 +3,12 @@
 Dask cluster, resumable.
 
 Work is cut into batches of (scene, strategy) jobs. A batch carries each
-scene's name and the text of its file, never a loaded object: every worker
-process loads the firmware library itself (ctypes handles do not travel),
-parses the scene, runs it and sends back one small row and the text of
-events.json per job. The client writes DIR/<strategy>/<scene>/events.json,
+scene's name, the text of its file and, when the client has parsed it (as
+``mstc sweep`` does to validate every scene first), the parsed scenario:
+plain data, never a controller. Every worker process loads the firmware
+library itself (ctypes handles do not travel), parses the scenes it was sent
+unparsed, runs them and sends back one small row and the text of events.json
+per job. The client writes DIR/<strategy>/<scene>/events.json,
 then appends the row to DIR/runs.csv, so a row on disk always has its
 events.json and ``--resume`` can skip it. When all is done runs.csv is
 rewritten in plan order (scene order, then strategy order), the same
@@ -84,6 +86,10 @@ class Scene:
     text: str
     family: str = ""
     seed: int | None = None
+    scenario: Scenario | None = None
+    """The file parsed, when the client has parsed it already (``mstc sweep``
+    validates every scene before it runs any): the worker then takes it
+    rather than parsing the text again."""
 
     @classmethod
     def from_file(cls, path: Path) -> Scene:
@@ -102,6 +108,15 @@ class Scene:
             family if isinstance(family, str) else "",
             seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
         )
+
+    def parsed(self) -> Scenario:
+        """The scenario: :attr:`scenario`, else the text parsed.
+
+        :raises ScenarioError: the text is not a valid scenario.
+        """
+        if self.scenario is not None:
+            return self.scenario
+        return parse_scenario(tomllib.loads(self.text), self.source, wire_limits())
 
 
 Job = tuple[Scene, str]
@@ -168,8 +183,7 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
     """Run one scene with one strategy; the result (None on failure) and its row."""
     row = _new_row(scene, strategy)
     try:
-        data = tomllib.loads(scene.text)
-        scenario = parse_scenario(data, scene.source, wire_limits())
+        scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
         scenario, controller = controller_for(scenario, strategy, lib)
         result = simulate(scenario, controller)
@@ -221,7 +235,7 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
             continue
         row = _new_row(scene, strategy)
         try:
-            scenario = parse_scenario(tomllib.loads(scene.text), scene.source, wire_limits())
+            scenario = scene.parsed()
         except Exception as exc:  # as run_job: a scene's failure is its row
             row["error"] = _one_line(exc)
             outcomes[index] = Outcome(scene.name, strategy, row, None, sha)

@@ -54,7 +54,7 @@ import numpy as np
 from mstc.loop.batched import BatchRun, BatchStep
 from mstc.loop.result import RunResult
 from mstc.model import Event, EventKind, Mode
-from mstc.plant.batch import exact_hypot
+from mstc.plant.batch import Within
 from mstc.plant.scenario import Scenario
 
 REJOIN_ERROR = 0.05
@@ -219,16 +219,12 @@ class RunningMetrics:
         self.scenarios = scenarios
         self.steps = np.array([s.sim.steps for s in scenarios], dtype=np.int64)
         self.dt_us = np.array([s.sim.dt_us for s in scenarios], dtype=np.int64)
-        act = np.full((n, width), -np.inf)
+        act = np.full((n, width), -1.0)  # the padding: never near
         for i, s in enumerate(scenarios):
             for j, o in enumerate(s.obstacles):
                 act[i, j] = s.params.activation_distance(o.radius)
-        # Within two ulps of D_act numpy's hypot may decide otherwise than
-        # math.hypot (mstc.plant.batch.near_threshold): below _act_lo surely
-        # near, up to _act_hi maybe.
-        tol = 2.0 * np.spacing(np.abs(act))
-        self._act = act
-        self._act_lo, self._act_hi = act - tol, act + tol
+        self._near = Within(act)
+        """Within D_act, as the per-scene code decides it."""
         top = max(modes) + 1
         self._busy_mode = np.zeros(top, dtype=bool)
         self._avoid_mode = np.zeros(top, dtype=np.int64)
@@ -291,12 +287,7 @@ class RunningMetrics:
         k = s.k
         uniform = self._uniform
         active = s.active
-        h = s.distance
-        near = h <= self._act_lo
-        unsure = (h <= self._act_hi) ^ near
-        if unsure.any():
-            idx = np.nonzero(unsure)
-            near[idx] = exact_hypot(s.dx[idx], s.dy[idx]) <= self._act[idx]
+        near = self._near(s.distance2, s.dx, s.dy)
         mode = s.mode
         busy = near.any(axis=1) | self._busy_mode[mode]
         if not uniform:
