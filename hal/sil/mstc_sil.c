@@ -264,12 +264,19 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 
 size_t mstc_sil_batch_stride(void) { return (sizeof(ctl_t) + 15u) & ~(size_t)15u; }
 
-/* A table that fits, and no reported bit beyond it (n <= 16: the shift is
- * defined). */
+/* A table that fits, and nothing reported beyond it. */
 static bool batch_input_valid(const mstc_sil_batch_input_t *in)
 {
     const uint32_t n = in->in.n_obstacles;
-    return n <= MSTC_SIL_MAX_OBSTACLES && (in->reported >> n) == 0u;
+    if (n > MSTC_SIL_MAX_OBSTACLES) {
+        return false;
+    }
+    for (uint32_t j = n; j < MSTC_SIL_MAX_OBSTACLES; j++) {
+        if (in->reported[j] != 0u) {
+            return false;
+        }
+    }
+    return true;
 }
 
 int mstc_sil_step_batch(void *mem, size_t n, const mstc_sil_batch_input_t *in,
@@ -295,7 +302,7 @@ int mstc_sil_step_batch(void *mem, size_t n, const mstc_sil_batch_input_t *in,
         mstc_sil_obstacle_t seen[MSTC_SIL_MAX_OBSTACLES];
         uint32_t count = 0u;
         for (uint32_t j = 0; j < in[i].in.n_obstacles; j++) {
-            if ((in[i].reported >> j) & 1u) {
+            if (in[i].reported[j] != 0u) {
                 seen[count++] = in[i].table[j];
             }
         }

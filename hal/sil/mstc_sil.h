@@ -109,9 +109,10 @@ typedef struct {
     /** The step's inputs; in.n_obstacles is the number of entries of
      *  @ref table (at most MSTC_SIL_MAX_OBSTACLES), in.obstacles is ignored. */
     mstc_sil_input_t in;
-    /** Bit i set: table[i] is reported this step. The step gets the reported
+    /** Not 0: table[i] is reported this step (a byte per entry, so that a
+     *  numpy bool mask is copied in as it is). The step gets the reported
      *  entries in table order, as mstc_sil_step() would get that list. */
-    uint32_t reported;
+    uint8_t reported[MSTC_SIL_MAX_OBSTACLES];
     mstc_sil_obstacle_t table[MSTC_SIL_MAX_OBSTACLES];
 } mstc_sil_batch_input_t;
 
@@ -131,8 +132,8 @@ size_t mstc_sil_batch_stride(void);
  * @param active NULL: every controller steps; else only those whose byte is
  *        not 0 (the others, and their outputs, are left as they are).
  * @retval 0 done. @retval -EINVAL a NULL pointer, or an input with more than
- *         MSTC_SIL_MAX_OBSTACLES table entries or a reported bit beyond its
- *         table: then no controller has stepped.
+ *         MSTC_SIL_MAX_OBSTACLES table entries or an entry reported beyond
+ *         its table: then no controller has stepped.
  */
 int mstc_sil_step_batch(void *mem, size_t n, const mstc_sil_batch_input_t *in,
                         const uint8_t *active, mstc_sil_output_t *out);

@@ -171,7 +171,8 @@ def test_a_reported_entry_beyond_the_table_is_refused(sil_lib: Path) -> None:
     params = load_scenario(PAPER[0], wire_limits()).params
     batch = SilBatch([params, params], str(sil_lib))
     batch.inputs["in"]["n_obstacles"] = 2
-    batch.inputs["reported"] = [0b11, 0b100]  # the second reports entry 3 of 2
+    batch.inputs["reported"][0, :2] = 1
+    batch.inputs["reported"][1, 2] = 1  # the second reports entry 3 of 2
     with pytest.raises(FirmwareError, match="mstc_sil_step_batch failed"):
         batch.step()
 
@@ -190,7 +191,7 @@ def test_one_batched_step_is_the_single_step(any_lib: str) -> None:
     table = batch.inputs["table"][0]
     for j, o in enumerate([Obstacle(1, 9.0, 9.0, 0.1), *obstacles]):
         table[j] = (o.id, o.x, o.y, o.radius, o.vx, o.vy)
-    given["reported"] = 0b110  # the far one is not reported
+    given["reported"][1:3] = 1  # the far one, entry 0, is not reported
     batch.step()
     want = single.step(Pose(0.1, 0.05, 0.2), Pose(0.2, 0.0, 0.0), 0.5, 0.0, obstacles, 20000)
     out = batch.outputs[0]

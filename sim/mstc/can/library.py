@@ -150,12 +150,12 @@ class FrameStruct(AbiStruct):
 
 class BatchInputStruct(AbiStruct):
     """``mstc_sil_batch_input_t``: one scene of a batched step, its obstacle
-    table inline and the reported entries as a mask."""
+    table inline and the reported entries as a mask (a byte each)."""
 
     c_name = "mstc_sil_batch_input_t"
     _fields_ = [
         ("in", InputStruct),
-        ("reported", ctypes.c_uint32),
+        ("reported", ctypes.c_uint8 * MAX_OBSTACLES),
         ("table", ObstacleStruct * MAX_OBSTACLES),
     ]
 
