@@ -27,7 +27,7 @@ BOARD ?= stm32f405
 CROSS_COMPILE ?= arm-none-eabi-
 IMG_CC := $(CROSS_COMPILE)gcc
 IMG_OBJCOPY := $(CROSS_COMPILE)objcopy
-# -Os: the images must fit 32 KB of flash (docs/porting.md, budgets).
+# -Os: the images must fit 64 KB of flash (docs/porting.md, budgets).
 # -fno-math-errno: sqrtf is the M4F's VSQRT instruction rather than a call
 # that also sets errno (the firmware reads no errno; num_sqrt never passes a
 # negative), the same correctly rounded result in less flash. It deletes no

@@ -81,4 +81,18 @@ typedef struct {
 /** @brief Written by the main loop only. */
 extern volatile stm32_loop_stats_t stm32_loop_stats;
 
+/** @brief What the wheel loop has done (hal/stm32/main.c), for a debugger:
+ *         words only. */
+typedef struct {
+    uint32_t periods;        /**< wheel periods run */
+    uint32_t overruns;       /**< periods skipped because the main loop was late */
+    uint32_t closed_loop;    /**< 1: encoders read; 0: open loop (no encoders) */
+    uint32_t faults;         /**< WHL_FAULT_* bits of the last period */
+    int32_t speed_mrad_s[2]; /**< measured speeds of the last period [mrad/s] */
+    uint32_t cycles_max;     /**< longest period, encoders to motors [core cycles] */
+} stm32_wheel_stats_t;
+
+/** @brief Written by the main loop only. */
+extern volatile stm32_wheel_stats_t stm32_wheel_stats;
+
 #endif /* STM32_HAL_H */

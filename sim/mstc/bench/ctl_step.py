@@ -51,6 +51,11 @@ Result = dict[str, Any]
 """One build's results, parsed (:func:`parse`)."""
 
 PERIOD_S = 0.020
+# The wheel loop (firmware/wheel, issue 20): instructions per period, both
+# wheels, and the board that runs each build at 1 kHz.
+WHEEL_TARGETS = {"m4f-float": 400, "m3-fixed": 800}
+WHEEL_BOARDS = {"m4f-float": ("STM32F405", 168_000_000), "m3-fixed": ("STM32F103", 72_000_000)}
+WHEEL_RATE_HZ = 1000
 CYCLES_PER_INSTRUCTION = 2  # the assumed upper bound
 
 
@@ -342,6 +347,10 @@ def section(results: dict[str, Result]) -> str:
                 )
         w("")
 
+    wheel = wheel_section(results)
+    if wheel:
+        w(wheel)
+
     w("### Events and distances each build produced\n")
     w("| build | scenario | events (t [s]: kind, obstacle, side) | min distance [m] |")
     w("|---|---|---|---|")
@@ -376,6 +385,46 @@ def section(results: dict[str, Result]) -> str:
         "measure again)."
     )
     return "\n".join(out) + "\n"
+
+
+def wheel_section(results: dict[str, Result]) -> str:
+    """The wheel loop's figures (tools/bench/bench_wheel.c), or "" without."""
+    rows = []
+    for cfg, (label, machine, _) in TARGETS.items():
+        r = results.get(cfg)
+        if r is None or "wheel" not in r:
+            continue
+        f = r["wheel"].split()
+        mean, largest, differ = float(f[5]), float(f[7]), int(f[3])
+        target = WHEEL_TARGETS.get(cfg)
+        tgt = "—" if target is None else f"≤ {target}: {'met' if mean <= target else '**missed**'}"
+        share = "—"
+        if cfg in WHEEL_BOARDS:
+            board, clock = WHEEL_BOARDS[cfg]
+            one = mean * WHEEL_RATE_HZ / clock * 100.0
+            share = f"{board} at {clock / 1e6:.0f} MHz: {one:.2f} % ({2 * one:.2f} % at 2 cycles)"
+        ok = "" if differ == 0 else " (**replay differs**)"
+        rows.append(
+            f"| {label} (`{cfg}`){ok} | {machine} | **{fmt_int(mean)}** | {fmt_int(largest)} "
+            f"| {tgt} | {share} |"
+        )
+    if not rows:
+        return ""
+    head = [
+        "### Wheel loop: instructions per period, both wheels\n",
+        "`whl_step` for both wheels (firmware/wheel: speed from the encoder counts, "
+        "setpoint ramp, PI with feed-forward, anti-windup, the fault checks), replayed over "
+        "3,000 recorded periods of its closed loop at 1 kHz against two DC motor models "
+        "(tools/bench/bench_wheel.c: the default motor of docs/wheel.md through a start, a "
+        "turn with a 30 %-of-stall load, a reversal and a stop), timed like the control step "
+        "above, less the same loop around an empty step. The share of the core is at the "
+        "board's clock and the default rate, 1 kHz, at one cycle per instruction (and at "
+        "two, the bound the board images' budget assumes).\n",
+        "| build | QEMU machine | instructions/period (mean) | largest period (±40) "
+        "| target | share of the core at 1 kHz |",
+        "|---|---|---:|---:|---|---|",
+    ]
+    return "\n".join(head + rows) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:

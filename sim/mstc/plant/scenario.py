@@ -40,6 +40,11 @@ memory, 2.6 kB per step through CAN (the frames kept for bus.log), and 1.3 to
 2 ms per step through CAN, so 2 to 3 minutes at the limit (docs/scenarios.md)."""
 
 
+MAX_HEADING_NOISE = math.pi
+"""The largest ``heading_noise`` [rad]: the heading is an angle, and a wrapped
+normal of standard deviation π is already all but uniform on the circle."""
+
+
 @dataclass(frozen=True)
 class ImperfectionSpec:
     """What a real robot adds to the ideal loop (``[imperfections]``). The
@@ -126,11 +131,27 @@ class ExpectedEvent:
     """1-based obstacle number."""
     side: Side | None
     """Set on activate only."""
+    tolerance: float = 0.0
+    """How far the run's event may be from t and still meet it [s]."""
 
     @property
     def t_us(self) -> int:
         """[µs]."""
         return round(self.t * 1e6)
+
+
+ACTUATOR_MODELS = ("ideal", "dc")
+"""Values of ``[actuator] model``: "ideal" wheels turn at their command at once
+(the plant's own), "dc" are DC gearmotors under the firmware's own wheel loop
+(:class:`mstc.firmware.wheels.DcWheels`, docs/wheel.md)."""
+
+
+@dataclass(frozen=True)
+class ActuatorSpec:
+    """The wheels (``[actuator]``)."""
+
+    model: str = "ideal"
+    """One of :data:`ACTUATOR_MODELS`."""
 
 
 @dataclass(frozen=True)
@@ -148,6 +169,7 @@ class Scenario:
     expected: tuple[ExpectedEvent, ...]
     imperfections: ImperfectionSpec = ImperfectionSpec()
     meta: MetaSpec = MetaSpec()
+    actuator: ActuatorSpec = ActuatorSpec()
 
     @property
     def name(self) -> str:
@@ -164,6 +186,7 @@ _TOP_KEYS = (
     "imperfections",
     "meta",
     "expected",
+    "actuator",
 )
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
@@ -427,6 +450,7 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
         expected=expected,
         imperfections=_parse_imperfections(c, data.get("imperfections", {})),
         meta=_parse_meta(c, data.get("meta", {})),
+        actuator=_parse_actuator(c, data.get("actuator", {})),
     )
 
 
@@ -435,6 +459,17 @@ def _violation(p: Params) -> Violation | None:
     """The limits table's verdict on @p p, remembered: a sweep's scenes share
     a few parameter sets, and the check costs more than parsing the file."""
     return violation(params_values(p))
+
+
+def _parse_actuator(c: _Checker, value: object) -> ActuatorSpec:
+    table = c.table(value, "actuator")
+    c.keys(table, "actuator", (), ("model",))
+    model = table.get("model", "ideal")
+    if model not in ACTUATOR_MODELS:
+        raise c.fail(
+            "actuator.model", f"must be one of {', '.join(ACTUATOR_MODELS)}, got {model!r}"
+        )
+    return ActuatorSpec(str(model))
 
 
 def _parse_params(c: _Checker, value: object) -> Params:
@@ -538,6 +573,12 @@ def _parse_imperfections(c: _Checker, value: object) -> ImperfectionSpec:
     for key in _IMPERFECTION_NOISES:
         if key in table:
             values[key] = c.non_negative(table[key], f"imperfections.{key}")
+    if values.get("heading_noise", 0.0) > MAX_HEADING_NOISE:
+        raise c.fail(
+            "imperfections.heading_noise",
+            f"must be at most π = {MAX_HEADING_NOISE:.6g} rad (a heading is an angle: "
+            f"wider noise is no noisier), got {values['heading_noise']:g}",
+        )
     if "seed" in table:
         values["seed"] = c.integer(table["seed"], "imperfections.seed")
     if "sensor_range" in table:
@@ -628,7 +669,8 @@ def _parse_expected(
     result = []
     for i, entry in enumerate(entries, start=1):
         prefix = f"expected[{i}]"
-        c.keys(entry, prefix, ("t", "event", "obstacle"), ("t", "event", "obstacle", "side"))
+        allowed = ("t", "event", "obstacle", "side", "tolerance")
+        c.keys(entry, prefix, ("t", "event", "obstacle"), allowed)
         t = c.number(entry["t"], f"{prefix}.t")
         if not 0.0 <= t <= sim.duration:
             raise c.fail(
@@ -648,5 +690,6 @@ def _parse_expected(
             side = Side(c.choice(entry["side"], f"{prefix}.side", tuple(Side)))
         elif "side" in entry:
             raise c.fail(f"{prefix}.side", f"only activate events have a side, not {event}")
-        result.append(ExpectedEvent(t, event, obstacle, side))
+        tolerance = c.non_negative(entry.get("tolerance", 0.0), f"{prefix}.tolerance")
+        result.append(ExpectedEvent(t, event, obstacle, side, tolerance))
     return tuple(result)

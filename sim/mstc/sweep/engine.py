@@ -41,17 +41,20 @@ import io
 import math
 import multiprocessing
 import os
+import socket
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
+from typing import get_type_hints
 
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
-from mstc.errors import DependencyError, FirmwareError
+from mstc.errors import ClusterError, DependencyError, FirmwareError, UsageError
 from mstc.firmware.sil import SilBatch, SilController
+from mstc.firmware.wheels import wheels_for
 from mstc.loop.batched import simulate_batch
 from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
@@ -60,6 +63,7 @@ from mstc.plant.batch import table_width
 from mstc.plant.scenario import Scenario, parse_scenario
 from mstc.report.outputs import events_json, events_text
 from mstc.sweep.dwa import DwaController
+from mstc.sweep.folder import read_sources, text_sha256, write_sources
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, RunningMetrics, evaluate
 
 STRATEGIES = ("paper", "mstc", "dwa")
@@ -186,7 +190,7 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
         scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
         scenario, controller = controller_for(scenario, strategy, lib)
-        result = simulate(scenario, controller)
+        result = simulate(scenario, controller, wheels=wheels_for(scenario, lib))
         metrics = evaluate(result)
     except Exception as exc:  # any failure of one scene is its row, not the sweep's end
         row["error"] = _one_line(exc)
@@ -224,21 +228,23 @@ def _with_strategy(scenario: Scenario, strategy: str) -> Scenario:
 
 def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
     """Run @p jobs with the batched engine in this process: the firmware's
-    jobs together, the DWA's one by one; outcomes in job order."""
+    jobs with ideal wheels together; the DWA's, and those whose wheels run
+    the firmware's wheel loop (``[actuator] model = "dc"``, not batched),
+    one by one; outcomes in job order."""
     outcomes: dict[int, Outcome] = {}
     ready: list[tuple[int, Scenario, dict[str, str]]] = []
     for index, (scene, strategy) in enumerate(jobs):
-        if strategy == "dwa":
-            result, row = run_job(scene, strategy, lib)
-            events = events_json(result) if result is not None else None
-            outcomes[index] = Outcome(scene.name, strategy, row, events, sha)
-            continue
         row = _new_row(scene, strategy)
         try:
             scenario = scene.parsed()
         except Exception as exc:  # as run_job: a scene's failure is its row
             row["error"] = _one_line(exc)
             outcomes[index] = Outcome(scene.name, strategy, row, None, sha)
+            continue
+        if strategy == "dwa" or scenario.actuator.model != "ideal":
+            result, row = run_job(scene, strategy, lib)
+            events = events_json(result) if result is not None else None
+            outcomes[index] = Outcome(scene.name, strategy, row, events, sha)
             continue
         row["family"] = scenario.meta.family or scene.family
         ready.append((index, _with_strategy(scenario, strategy), row))
@@ -298,16 +304,40 @@ def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outc
 # ------------------------------------------------------------------ runs.csv
 
 
+_METRIC_TYPES = get_type_hints(Metrics)
+
+
+def _well_formed(row: dict[str, str]) -> bool:
+    """Whether @p row holds what this module writes: a failed run's metrics
+    empty, a finished run's each a value of its type."""
+    if row["error"]:
+        return all(row[c] == "" for c in ("steps", *METRIC_COLUMNS))
+    try:
+        int(row["steps"])
+        for name, kind in _METRIC_TYPES.items():
+            value = row[name]
+            if kind is bool or kind == bool | None:
+                if value not in ("0", "1") and (kind is bool or value != ""):
+                    return False
+            elif kind is int:
+                int(value)
+            else:
+                float(value)
+    except ValueError:
+        return False
+    return True
+
+
 def read_rows(path: Path) -> list[dict[str, str]]:
-    """The complete rows of a runs.csv (a line cut short by an interruption
-    is left out)."""
+    """The complete, well-formed rows of a runs.csv (a line cut short by an
+    interruption, or a value that is not one of its column, is left out)."""
     if not path.is_file():
         return []
     with path.open(newline="") as f:
         reader = csv.DictReader(f)
         if tuple(reader.fieldnames or ()) != ROW_COLUMNS:
             return []
-        return [r for r in reader if None not in r.values() and None not in r]
+        return [r for r in reader if None not in r.values() and None not in r and _well_formed(r)]
 
 
 def _row_text(row: dict[str, str]) -> str:
@@ -439,6 +469,38 @@ def require_dask() -> None:
         )
 
 
+SCHEDULER_TIMEOUT = 5.0
+"""How long :func:`check_scheduler` waits for a scheduler's port to answer [s]."""
+
+
+def check_scheduler(address: str) -> None:
+    """@p address is a Dask scheduler's, and its port answers (tcp:// and
+    tls://): a wrong or closed address is said at once, before anything runs,
+    not after the client's 30 s of retries.
+
+    :raises DependencyError: Dask is not installed.
+    :raises UsageError: @p address is not an address.
+    :raises ClusterError: nothing answers there.
+    """
+    require_dask()
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location) if scheme in ("tcp", "tls") else ("", 0)
+    except ValueError as exc:
+        raise UsageError(
+            f"--scheduler {address}: {exc} (expected tcp://HOST:PORT, docs/sweeps.md)"
+        ) from exc
+    if not host:
+        return
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT).close()
+    except OSError as exc:
+        why = exc.strerror or str(exc) or type(exc).__name__
+        raise ClusterError(f"cannot reach the Dask scheduler at {address}: {why}") from exc
+
+
 def run_dask(
     jobs: Sequence[Job],
     lib: str,
@@ -459,7 +521,11 @@ def run_dask(
     from distributed import Client, as_completed
     from distributed.scheduler import KilledWorker
 
-    with Client(scheduler, timeout="30s") as client:
+    try:
+        client = Client(scheduler, timeout="30s")
+    except OSError as exc:  # distributed's TimeoutError too
+        raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
+    with client:
         workers = max(1, len(client.scheduler_info()["workers"]))
         todo = {
             client.submit(run_batch, b, lib, engine, pure=False): b
@@ -513,8 +579,10 @@ def run_sweep(
 
     :param workers: processes of the local pool (ignored with @p scheduler).
     :param scheduler: a Dask scheduler's address, or None for the local pool.
-    :param resume: keep the rows of DIR/runs.csv (and their events.json) and
-        run only the jobs it lacks; otherwise start afresh.
+    :param resume: keep the rows of DIR/runs.csv (and their events.json) run
+        from the same scene text and library (DIR/sources.json:
+        :mod:`mstc.sweep.folder`) and run only the jobs it lacks; otherwise
+        start afresh.
     :param progress: called with (done, total) as jobs finish.
     :param engine: :data:`ENGINES` (the module's docstring).
     :param batch: most scenes of one batch of the batched engine.
@@ -527,18 +595,26 @@ def run_sweep(
     plan: list[Job] = [(scene, strategy) for scene in scenes for strategy in strategies]
     order = {(scene.name, strategy): i for i, (scene, strategy) in enumerate(plan)}
     rows: dict[tuple[str, str], dict[str, str]] = {}
+    local_sha = library_sha256(lib) if Path(lib).is_file() else ""
+    texts = {scene.name: text_sha256(scene.text) for scene in scenes}
     if resume:
+        before = read_sources(out)
+        ran_from = before.get("scenes")
+        ran_from = ran_from if isinstance(ran_from, dict) else {}
         for row in read_rows(runs):
             key = (row["scene"], row["strategy"])
             finished = (
                 bool(row["error"])
                 or (out / row["strategy"] / row["scene"] / "events.json").is_file()
             )
-            if key in order and finished:
+            same = ran_from.get(row["scene"]) == texts.get(row["scene"]) and (
+                row["strategy"] == "dwa" or before.get("library") == local_sha
+            )
+            if key in order and finished and same:
                 rows[key] = row
     write_rows(runs, sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])]))
+    write_sources(out, local_sha, texts)  # after runs.csv: it holds no row from before
     todo = [job for job in plan if (job[0].name, job[1]) not in rows]
-    local_sha = library_sha256(lib) if Path(lib).is_file() else ""
     total, done = len(plan), len(rows)
     if progress:
         progress(done, total)
