@@ -20,7 +20,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mstc.can.library import BATCH_INPUT_DTYPE, Library, check_layout, library_layout
+from mstc.can.library import (
+    BATCH_INPUT_DTYPE,
+    NUMPY_DTYPES,
+    Library,
+    check_layout,
+    library_layout,
+)
 from mstc.can.protocol import wire_limits
 from mstc.errors import FirmwareError
 from mstc.firmware.sil import SilBatch, SilController
@@ -205,7 +211,7 @@ def test_one_batched_step_is_the_single_step(any_lib: str) -> None:
 
 def test_the_batch_dtype_is_checked_against_the_library(sil_lib: Path) -> None:
     layout = library_layout(Library.open(sil_lib).dll)
-    check_layout(layout, str(sil_lib))  # the load did it too; it passes
+    check_layout(layout, str(sil_lib), dtypes=NUMPY_DTYPES)  # the load did it too; it passes
     shifted = np.dtype(
         {
             "names": list(BATCH_INPUT_DTYPE.names or ()),

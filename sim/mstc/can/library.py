@@ -290,7 +290,7 @@ def check_layout(
     layout: Layout,
     where: str,
     structs: Sequence[type[AbiStruct]] = ABI_STRUCTS,
-    dtypes: Mapping[str, np.dtype[Any]] = NUMPY_DTYPES,
+    dtypes: Mapping[str, np.dtype[Any]] | None = None,
 ) -> None:
     """Check @p structs and the numpy @p dtypes (by struct name) against the
     @p layout of the library at @p where.
@@ -300,7 +300,7 @@ def check_layout(
     """
     problems = []
     ours_by_name = [(s.c_name, struct_layout(s), "Python binding") for s in structs]
-    ours_by_name += [(n, dtype_layout(d), "numpy dtype") for n, d in dtypes.items()]
+    ours_by_name += [(n, dtype_layout(d), "numpy dtype") for n, d in (dtypes or {}).items()]
     for c_name, ours, side in ours_by_name:
         theirs = layout.get(c_name)
         if theirs is None:
