@@ -262,6 +262,58 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     return 0;
 }
 
+size_t mstc_sil_batch_stride(void) { return (sizeof(ctl_t) + 15u) & ~(size_t)15u; }
+
+/* A table that fits, and nothing reported beyond it. */
+static bool batch_input_valid(const mstc_sil_batch_input_t *in)
+{
+    const uint32_t n = in->in.n_obstacles;
+    if (n > MSTC_SIL_MAX_OBSTACLES) {
+        return false;
+    }
+    for (uint32_t j = n; j < MSTC_SIL_MAX_OBSTACLES; j++) {
+        if (in->reported[j] != 0u) {
+            return false;
+        }
+    }
+    return true;
+}
+
+int mstc_sil_step_batch(void *mem, size_t n, const mstc_sil_batch_input_t *in,
+                        const uint8_t *active, mstc_sil_output_t *out)
+{
+    if (n == 0u) {
+        return 0;
+    }
+    if (mem == NULL || in == NULL || out == NULL) {
+        return -EINVAL;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if ((active == NULL || active[i] != 0u) && !batch_input_valid(&in[i])) {
+            return -EINVAL;
+        }
+    }
+    const size_t stride = mstc_sil_batch_stride();
+    for (size_t i = 0; i < n; i++) {
+        if (active != NULL && active[i] == 0u) {
+            continue;
+        }
+        /* The reported entries, in table order: the list mstc_sil_step gets. */
+        mstc_sil_obstacle_t seen[MSTC_SIL_MAX_OBSTACLES];
+        uint32_t count = 0u;
+        for (uint32_t j = 0; j < in[i].in.n_obstacles; j++) {
+            if (in[i].reported[j] != 0u) {
+                seen[count++] = in[i].table[j];
+            }
+        }
+        mstc_sil_input_t one = in[i].in;
+        one.n_obstacles = count;
+        one.obstacles = seen;
+        (void)mstc_sil_step((unsigned char *)mem + i * stride, &one, &out[i]);
+    }
+    return 0;
+}
+
 /* The layout table of mstc_sil_layout(). A field added to a struct of
  * mstc_sil.h is added here too; the Python bindings refuse a library whose
  * table and their own structs disagree, naming the struct and field. */
@@ -323,6 +375,11 @@ static const mstc_sil_layout_t layout[] = {
     LAYOUT_FIELD(mstc_sil_output_t, distance),
     LAYOUT_FIELD(mstc_sil_output_t, n_events),
     LAYOUT_FIELD(mstc_sil_output_t, events),
+
+    LAYOUT_STRUCT(mstc_sil_batch_input_t),
+    LAYOUT_FIELD(mstc_sil_batch_input_t, in),
+    LAYOUT_FIELD(mstc_sil_batch_input_t, reported),
+    LAYOUT_FIELD(mstc_sil_batch_input_t, table),
 
     LAYOUT_STRUCT(mstc_sil_frame_t),
     LAYOUT_FIELD(mstc_sil_frame_t, id),

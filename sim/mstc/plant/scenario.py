@@ -22,13 +22,14 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import date, datetime, time
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mstc.errors import ScenarioError
-from mstc.limits import Limit, load_table, violation
+from mstc.limits import Limit, Violation, load_table, violation
 from mstc.model import EventKind, Obstacle, Params, Pose, Side, SignalRange, Strategy, WireLimits
 from mstc.plant.plant import Integrator
 
@@ -190,6 +191,7 @@ _TOP_KEYS = (
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
 
+@lru_cache(maxsize=1)
 def _param_keys() -> tuple[dict[str, Limit], dict[str, tuple[Limit, ...]]]:
     """The [params] keys, from the limits table (firmware/ctrl/ctl_params.toml):
     scalar keys (``R_m``; the Params attribute is the key in lower case), and
@@ -452,6 +454,13 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
     )
 
 
+@lru_cache(maxsize=64)
+def _violation(p: Params) -> Violation | None:
+    """The limits table's verdict on @p p, remembered: a sweep's scenes share
+    a few parameter sets, and the check costs more than parsing the file."""
+    return violation(params_values(p))
+
+
 def _parse_actuator(c: _Checker, value: object) -> ActuatorSpec:
     table = c.table(value, "actuator")
     c.keys(table, "actuator", (), ("model",))
@@ -493,7 +502,7 @@ def _parse_params(c: _Checker, value: object) -> Params:
             overrides[key] = gains
             key_of.update((limit.name, key) for limit in limits)
     p = Params(**overrides)
-    problem = violation(params_values(p))
+    problem = _violation(p)
     if problem is None:
         return p
     # Blame the first parameter concerned that the file sets (the one to

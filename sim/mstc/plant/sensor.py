@@ -15,15 +15,17 @@ class RangeSensor:
     """Reports every obstacle whose centre is within ``d_det`` of the robot.
 
     Ideal by default. A scenario's ``[imperfections]`` (docs/scenarios.md) add
-    Gaussian noise on the reported centres and random dropouts, drawn from
-    @p rng: one draw of every obstacle's noise and dropout per scan, in range
-    or not, so that the draws of a step do not depend on what was seen.
+    Gaussian noise on the reported centres, drawn from @p rng, and random
+    dropouts, drawn from @p dropout_rng (else from @p rng too, after the
+    noise): one draw of every obstacle's noise and dropout per scan, in
+    range or not, so that the draws of a step do not depend on what was seen.
 
     :param obstacles: the obstacles of the world (their positions at t = 0).
     :param d_det: sensor range [m]; an obstacle at exactly this distance is seen.
     :param noise: standard deviation of the noise on reported x and y [m].
     :param dropout: probability that an obstacle in range is not reported.
     :param rng: the random stream; required when noise or dropout is not 0.
+    :param dropout_rng: a stream of the dropouts' own (None: @p rng).
     """
 
     def __init__(
@@ -34,6 +36,7 @@ class RangeSensor:
         noise: float = 0.0,
         dropout: float = 0.0,
         rng: np.random.Generator | None = None,
+        dropout_rng: np.random.Generator | None = None,
     ) -> None:
         self.obstacles = tuple(obstacles)
         self.d_det = d_det
@@ -42,6 +45,7 @@ class RangeSensor:
         if (noise or dropout) and rng is None:
             raise ValueError("a noisy sensor needs a random stream (rng)")
         self.rng = rng
+        self.dropout_rng = dropout_rng or rng
         self._moving = any(o.moving for o in self.obstacles)
 
     def world(self, t: float) -> tuple[Obstacle, ...]:
@@ -59,7 +63,10 @@ class RangeSensor:
         world = self.world(t)
         n = len(world)
         noise = self.rng.standard_normal((n, 2)) * self.noise if self.noise else None
-        kept = self.rng.random(n) >= self.dropout if self.dropout else None
+        kept = None
+        if self.dropout:
+            assert self.dropout_rng is not None  # checked in __init__
+            kept = self.dropout_rng.random(n) >= self.dropout
         result = []
         for i, o in enumerate(world):
             if o.distance(pose) > self.d_det or (kept is not None and not kept[i]):
