@@ -75,3 +75,9 @@ int hal_sys_watchdog_start(uint32_t timeout_ms)
 void hal_sys_watchdog_kick(void) { hal_fake.kicks++; }
 
 hal_reset_cause_t hal_sys_reset_cause(void) { return hal_fake.reset_cause; }
+
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    *nonce = hal_fake.boot_nonce++;
+    return hal_fake.boot_nonce_rc;
+}

@@ -30,6 +30,8 @@ typedef struct {
     hal_reset_cause_t reset_cause;
     hal_can_status_t can_status; /**< returned by hal_can_status() */
     int can_status_rc;           /**< its return value (0) */
+    uint32_t boot_nonce;         /**< returned by hal_sys_boot_nonce(), then incremented */
+    int boot_nonce_rc;           /**< its return value (0) */
 } hal_fake_t;
 
 extern hal_fake_t hal_fake;

@@ -125,8 +125,14 @@ int main(void)
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
     }
     (void)app_init(&app, NULL);
-    /* Freshness from 0: a reset forgets it (docs/safety.md, "Limits"). */
-    app_set_key(&app, device_key, 0u);
+    /* A session of its own for this start (docs/safety.md, "Sessions"):
+     * every command signed before the reset is refused. A source that
+     * failed gives session 0, which the status shows (AUTH_STATUS). */
+    uint32_t session;
+    if (hal_sys_boot_nonce(&session) != 0) {
+        session = 0u;
+    }
+    app_set_key(&app, device_key, session);
     (void)stm32_tick_start(BOARD_CONTROL_PERIOD_US);
     (void)hal_sys_watchdog_start(BOARD_WATCHDOG_MS);
 
