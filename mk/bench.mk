@@ -88,7 +88,7 @@ BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 # Real time: one mstc hil --realtime run per paper scenario against
 # mstc-fw --realtime, its timing.json figures (tools/bench/realtime_bench.py).
 $(BENCH_DIR)/can-realtime.json: build/host/mstc-fw tools/bench/realtime_bench.py \
-    $(wildcard sim/mstc/sim/*.py sim/mstc/can/*.py) | deps-hil
+    $(wildcard sim/mstc/loop/*.py sim/mstc/plant/*.py sim/mstc/can/*.py) | deps-hil
 	MSTC_KEY_FILE=$(TEST_KEY_FILE) MPLCONFIGDIR=$(CURDIR)/build/mplconfig \
 	  tools/vm/with-vcan --timeout 1200 -- \
 	  $(PY) tools/bench/realtime_bench.py run --fw build/host/mstc-fw --out $@

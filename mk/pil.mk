@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 # Processor in the loop (docs/hil.md): the board images built with CAN=slcan,
-# unchanged but for that transport, under qemu-system-arm (sim/mstc/qemu.py),
+# unchanged but for that transport, under qemu-system-arm (sim/mstc/firmware/qemu.py),
 # driven by the plant through python-can's slcan interface in lock-step
 # (`mstc hil --qemu`). Included by the top Makefile after mk/firmware.mk;
 # uses MSTC, SCENARIO, the img-<board>-slcan rules and KEY_FILE (mk/auth.mk:
@@ -37,7 +37,7 @@ pil: deps-sim $(addprefix img-,$(addsuffix -slcan,$(PIL_BOARDS)))  ## the paper'
 PIL_PAPER := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 PIL_STAMPS := $(foreach b,$(PIL_ALL),build/pil/$(b)/.paper)
 build/pil/%/.paper: build/firmware/%-slcan/mstc.elf $(PIL_PAPER) sim/mstc/cli/hil.py \
-    sim/mstc/qemu.py sim/mstc/can/lockstep.py | .venv/.requirements.sha256
+    sim/mstc/firmware/qemu.py sim/mstc/loop/lockstep.py | .venv/.requirements.sha256
 	$(MSTC) hil --qemu build/firmware/$*-slcan --key-file $(KEY_FILE) --no-figures \
 	  --out build/pil/$* $(PIL_PAPER)
 	@touch $@

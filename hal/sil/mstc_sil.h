@@ -166,7 +166,7 @@ void mstc_sil_fw_tick(uint64_t now_us);
 
 /**
  * @brief Where one field of a struct of this header lies, so that a binding
- *        (sim/mstc/firmware.py) can check its own copy of the struct at load
+ *        (sim/mstc/can/library.py) can check its own copy of the struct at load
  *        time instead of reading garbage after one side changed.
  */
 typedef struct {

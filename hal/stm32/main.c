@@ -80,15 +80,37 @@ static void motors_from_last_step(void)
     (void)hal_motor_set(wheel_cmd_from_speed(w->left, max), wheel_cmd_from_speed(w->right, max));
 }
 
+/* The main loop's updates of stm32_loop_stats go between these two: the
+ * sequence word is odd while any other word may be half updated (a seqlock,
+ * stm32_hal.h). The barriers keep the compiler and the core from moving a
+ * word's write across the sequence word's; the main loop is the only writer,
+ * so no interrupt masking is needed. */
+static void stats_begin(void)
+{
+    stm32_loop_stats.seq++;
+    cm_dsb();
+}
+
+static void stats_end(void)
+{
+    cm_dsb();
+    stm32_loop_stats.seq++;
+}
+
 /* After each control step, which took @p cycles (@p first: the first of its
- * mode, real-time or lock-step, which restarts the cycle statistics):
- * motors, LED, statistics, watchdog. */
-static void after_step(uint32_t cycles, bool first, bool can_ok)
+ * mode, real-time or lock-step, which restarts the cycle statistics;
+ * @p by_frame: run by a STEP frame): motors, LED, statistics, watchdog. */
+static void after_step(uint32_t cycles, bool first, bool by_frame, bool can_ok)
 {
     static uint32_t steps;
     volatile stm32_loop_stats_t *st = &stm32_loop_stats;
     motors_from_last_step();
     led_step(++steps, can_ok);
+    stats_begin();
+    if (by_frame) {
+        st->lockstep = 1u;
+        st->frame_steps++;
+    }
     if (first) {
         st->step_cycles_min = cycles;
         st->step_cycles_max = 0u;
@@ -102,6 +124,7 @@ static void after_step(uint32_t cycles, bool first, bool can_ok)
     st->step_cycles_sum_lo = lo;
     st->steps = steps;
     st->overruns = stm32_tick_overruns();
+    stats_end();
     hal_sys_watchdog_kick();
 }
 
@@ -113,13 +136,17 @@ int main(void)
     stm32_time_init(board_clocks()->sysclk_hz);
     (void)hal_motor_init();
 
+    stats_begin();
     stm32_loop_stats.reset_cause = (uint32_t)hal_sys_reset_cause();
     stm32_loop_stats.sysclk_hz = board_clocks()->sysclk_hz;
+    stats_end();
 
     /* CAN failing to start is not fatal: the loop, the watchdog and the LED
      * still run, and the LED says so. */
     const int can_rc = hal_can_open(NULL);
+    stats_begin();
     stm32_loop_stats.can_open = can_rc;
+    stats_end();
     bool can_ok = can_rc == 0;
     if (can_ok) {
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
@@ -147,10 +174,7 @@ int main(void)
             (void)app_on_frame(&app, &f);
             const uint32_t cycles = stm32_time_cycles() - c0;
             if (app.steps != before) {
-                const bool first = stm32_loop_stats.lockstep == 0u;
-                stm32_loop_stats.lockstep = 1u;
-                stm32_loop_stats.frame_steps++;
-                after_step(cycles, first, can_ok);
+                after_step(cycles, stm32_loop_stats.lockstep == 0u, true, can_ok);
             }
         }
         const uint32_t periods = stm32_tick_take();
@@ -161,7 +185,7 @@ int main(void)
             t_us += (uint64_t)periods * BOARD_CONTROL_PERIOD_US;
             const uint32_t c0 = stm32_time_cycles();
             app_control_tick(&app, t_us);
-            after_step(stm32_time_cycles() - c0, stm32_loop_stats.steps == 0u, can_ok);
+            after_step(stm32_time_cycles() - c0, stm32_loop_stats.steps == 0u, false, can_ok);
         }
         /* Sleep until the next interrupt unless work arrived meanwhile. */
         const uint32_t primask = cm_irq_save();

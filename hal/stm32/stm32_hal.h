@@ -46,7 +46,15 @@ bool stm32_can_rx_pending(void);
 uint32_t stm32_can_bitrate(void);
 
 /** @brief What the main loop has done, for a debugger (and the QEMU smoke
- *         test, tools/bench/qemu_smoke): words only, so its layout is plain. */
+ *         test, tools/bench/qemu_smoke): words only, so its layout is plain.
+ *
+ * A debugger reads these words while the board runs, one at a time, so a
+ * read can fall between two of the main loop's writes (a step counted in
+ * `frame_steps` but not yet in `steps`). `seq` makes every copy a reader
+ * keeps consistent, as a seqlock does: the main loop, the only writer, makes
+ * it odd before it changes any other word and even again after the last,
+ * with a barrier each time; a reader keeps a copy only when `seq` read before
+ * it and `seq` read after it are the same even number (sim/mstc/qemu.py). */
 typedef struct {
     uint32_t steps;       /**< control steps run */
     uint32_t overruns;    /**< control periods skipped because the loop was late */
@@ -64,6 +72,10 @@ typedef struct {
     uint32_t step_cycles_max;
     uint32_t step_cycles_sum_lo; /**< sum over the steps, low word ... */
     uint32_t step_cycles_sum_hi; /**< ... and high word */
+    /** Sequence word: incremented before the main loop changes any word
+     *  above (odd while it does) and again after (even); a seqlock, see
+     *  above. Last, so that the words above keep their offsets. */
+    uint32_t seq;
 } stm32_loop_stats_t;
 
 /** @brief Written by the main loop only. */

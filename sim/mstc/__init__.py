@@ -1,26 +1,28 @@
 # SPDX-License-Identifier: MIT
 """mstc: the plant, the CAN harness and the log tools of the mstc firmware.
 
-Laid out by job:
+Laid out in layers, one folder per feature (docs/architecture.md, "The
+Python package"), each importing only from the layers below it:
 
-- :mod:`mstc.sim`: the kinematic plant (:mod:`~mstc.sim.plant`), the paper's
-  virtual reference robot (:mod:`~mstc.sim.reference`), the range sensor
-  (:mod:`~mstc.sim.sensor`), scenario files (:mod:`~mstc.sim.scenario`,
-  docs/scenarios.md) and the closed loop (:func:`~mstc.sim.run.simulate`);
-- :mod:`mstc.can`: the protocol from the DBC (:mod:`~mstc.can.protocol`), the
-  python-can interface ``mstc-sil`` (:mod:`~mstc.can.silbus`) and the
-  lock-step controller that drives the firmware through frames
-  (:mod:`~mstc.can.lockstep`);
-- :mod:`mstc.logs`: bus logs: reading, decoding, replay through the firmware,
-  playback onto a bus;
+- :mod:`mstc.model` and :mod:`mstc.errors`, the ground floor: the domain
+  types (pose, obstacle, parameters, the step's result, the
+  :class:`~mstc.model.Controller` and :class:`~mstc.model.Progress`
+  protocols) and every error, derived from :class:`mstc.errors.MstcError`;
+- :mod:`mstc.can`: the DBC, the protocol from it, SecOC, the python-can
+  interface ``mstc-sil`` and the firmware library's bindings;
+  :mod:`mstc.limits`: the parameters' limits table;
+- :mod:`mstc.plant`: the kinematic plant, the paper's reference robot, the
+  range sensor, scenario files (docs/scenarios.md);
+  :mod:`mstc.firmware`: the firmware in process, as ``mstc-fw``, under QEMU;
+- :mod:`mstc.loop`: the closed loops, lock-step
+  (:func:`~mstc.loop.lockstep.simulate`, in memory or through frames) and
+  real time, with its timing;
+- :mod:`mstc.logs`: bus logs: one module per format, decoding, replay
+  through the firmware, playback onto a bus, MCAP export;
 - :mod:`mstc.report`: what a run leaves on disk, the report tables, figures
-  and progress;
+  and progress bars;
+- :mod:`mstc.sweep`: scenario suites and sweeps;
 - :mod:`mstc.cli`: the ``mstc`` command, one module per subcommand.
-
-The firmware's controller is reached through the
-:class:`~mstc.controller.Controller` protocol; :mod:`mstc.firmware` holds the
-bindings of the firmware library (in-process, ``libmstc_sil.so``). Every error
-raised on purpose derives from :class:`mstc.errors.MstcError`.
 """
 
 __version__ = "0.1.0"

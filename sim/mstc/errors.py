@@ -1,22 +1,48 @@
 # SPDX-License-Identifier: MIT
-"""The errors of mstc, in one place.
+"""The errors of mstc, in one place, and the exit statuses of the command.
 
-Every error the package raises on purpose derives from :class:`MstcError`,
-so a caller can catch them all; each subclass names what failed. The
-command line (:mod:`mstc.cli`) turns them into one ``error: ...`` line and an
-exit status.
+Every error the package raises on purpose derives from :class:`MstcError`, so
+a caller can catch them all; each subclass names what failed, in a message of
+one line (or one line per problem, for the errors that gather several). The
+command line (:func:`mstc.cli.main`) catches them in one place, prints each
+line as ``error: ...`` and exits with the error's :attr:`~MstcError.exit_status`.
+
+This module imports nothing but the standard library, so every layer of the
+package can raise its errors (docs/architecture.md, "The Python package").
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import enum
+from collections.abc import Iterator
+from contextlib import contextmanager
 
-if TYPE_CHECKING:
-    from mstc.logs.play import PlayStats
+EXIT_OK = 0
+"""Done."""
+EXIT_FAILED = 1
+"""The run failed: the firmware could not be run, its frames differ from a
+log's, a send failed, or an output could not be written."""
+EXIT_USAGE = 2
+"""Bad arguments or bad input (a scenario file, a log): nothing was run."""
+EXIT_NO_TARGET = 3
+"""The firmware library cannot be loaded (``mstc replay``), or the bus cannot
+be opened (``mstc play``)."""
+EXIT_INTERRUPTED = 130
+"""Interrupted (Ctrl-C)."""
 
 
 class MstcError(Exception):
     """Base of every error mstc raises on purpose."""
+
+    exit_status = EXIT_FAILED
+    """The command's exit status when this error ends it."""
+
+
+class UsageError(MstcError, ValueError):
+    """Bad arguments, or several bad inputs, found before anything ran: one
+    line per problem."""
+
+    exit_status = EXIT_USAGE
 
 
 class ScenarioError(MstcError, ValueError):
@@ -27,6 +53,8 @@ class ScenarioError(MstcError, ValueError):
     :param problem: what is wrong.
     """
 
+    exit_status = EXIT_USAGE
+
     def __init__(self, path: str, key: str | None, problem: str) -> None:
         self.path = path
         self.key = key
@@ -36,9 +64,12 @@ class ScenarioError(MstcError, ValueError):
         super().__init__(" ".join(f"{where}: {problem}".split()))
 
 
-class FirmwareError(MstcError):
-    """The firmware library or executable cannot be loaded or started, rejects
-    its parameters, or a step fails."""
+class SuiteError(ScenarioError):
+    """A suite file that cannot be used (same one-line form as a scenario's)."""
+
+
+class TableError(MstcError, ValueError):
+    """The limits table (firmware/ctrl/ctl_params.toml) itself is malformed."""
 
 
 class DbcError(MstcError):
@@ -51,6 +82,8 @@ class DbcError(MstcError):
     :param problem: what is wrong with it.
     """
 
+    exit_status = EXIT_USAGE
+
     def __init__(self, dbc: str, table: str, entry: str, problem: str) -> None:
         self.dbc = dbc
         self.table = table
@@ -58,22 +91,114 @@ class DbcError(MstcError):
         super().__init__(f"{dbc}: value table {table}: {problem}")
 
 
+class DbcLoadError(MstcError):
+    """A DBC file that cannot be loaded: missing, unreadable, or not a valid DBC."""
+
+    exit_status = EXIT_USAGE
+
+
+class SignalRangeError(MstcError, ValueError):
+    """A value its signal cannot carry: refused by the encoder instead of clipped.
+
+    :param frame: message name, e.g. ``"OBSTACLE"``.
+    :param signal: the signal's short name, e.g. ``"id"``.
+    :param value: the value asked for.
+    :param limits: the range it must lie in.
+    :param unit: the signal's unit, or what the range is of (``"raw, 4 bits"``).
+    """
+
+    def __init__(
+        self, frame: str, signal: str, value: float, limits: tuple[float, float], unit: str
+    ) -> None:
+        lo, hi = limits
+        what = f" {unit}" if unit else ""
+        super().__init__(
+            f"{frame}.{signal} = {value:.10g}{what} is outside its range "
+            f"[{lo:.10g}, {hi:.10g}]{what}: not sent"
+        )
+        self.frame = frame
+        self.signal = signal
+        self.value = value
+        self.limits = limits
+
+
+class FrameDropped(MstcError):
+    """A received frame failed a check; it has been counted in
+    :attr:`mstc.can.protocol.Protocol.drops`.
+
+    :param reason: why (a :class:`mstc.can.protocol.DropReason`).
+    """
+
+    def __init__(self, reason: enum.Enum, frame_id: int, detail: str) -> None:
+        super().__init__(f"frame 0x{frame_id:03X} dropped ({reason.value}): {detail}")
+        self.reason = reason
+        self.frame_id = frame_id
+
+
+class AuthKeyError(MstcError):
+    """No key for authenticated commands, or not a key."""
+
+    exit_status = EXIT_USAGE
+
+
+class FirmwareError(MstcError):
+    """The firmware library or executable cannot be loaded or started, rejects
+    its parameters, or a step fails."""
+
+
 class ControllerError(MstcError):
     """The firmware did not answer as the protocol says."""
-
-
-class LogError(MstcError):
-    """A log that cannot be used at all (fatal: nothing is replayed)."""
-
-
-class SendError(MstcError):
-    """A frame could not be sent; :attr:`stats` says how far the play came."""
-
-    def __init__(self, message: str, stats: PlayStats) -> None:
-        super().__init__(message)
-        self.stats = stats
 
 
 class SimulationError(MstcError):
     """A closed-loop run that could not go on: the plant's state became
     non-finite, or the loop raised."""
+
+
+class RunError(MstcError):
+    """A scenario's run that failed, named with its file (the command line's
+    account of a :class:`FirmwareError`, :class:`ControllerError`, a bus error...)."""
+
+
+class DependencyError(MstcError):
+    """An optional dependency that is not installed (an extra of the package:
+    ``pip install 'mstc[cluster]'``)."""
+
+    exit_status = EXIT_USAGE
+
+
+class LogError(MstcError):
+    """A log that cannot be used at all (fatal: nothing is replayed)."""
+
+    exit_status = EXIT_USAGE
+
+
+class BusError(MstcError):
+    """A bus that cannot be opened."""
+
+    exit_status = EXIT_NO_TARGET
+
+
+class SendError(MstcError):
+    """A frame could not be sent."""
+
+
+class OutputError(MstcError):
+    """An output folder that cannot be written without leaving OUT or destroying
+    files mstc did not write; nothing is written."""
+
+    exit_status = EXIT_USAGE
+
+
+class WriteError(MstcError):
+    """An output that could not be written (the file system said no)."""
+
+
+@contextmanager
+def writing(what: str) -> Iterator[None]:
+    """Turn an :class:`OSError` raised while writing @p what into a
+    :class:`WriteError`: ``cannot write <what>: <why>``."""
+    try:
+        yield
+    except OSError as exc:
+        raise WriteError(f"cannot write {what}: {exc}") from exc

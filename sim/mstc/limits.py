@@ -26,7 +26,10 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
-TABLE_PATH = Path(__file__).parent / "ctl_params.toml"
+from mstc.errors import TableError
+from mstc.model import PARAMS_TABLE
+
+TABLE_PATH = PARAMS_TABLE
 """The table: firmware/ctrl/ctl_params.toml (a link to it in the source tree,
 its copy in an installed package)."""
 DBC_PATH = Path(__file__).parent / "can" / "mstc.dbc"
@@ -100,10 +103,6 @@ class Table:
             if p.name == name:
                 return p
         raise KeyError(name)
-
-
-class TableError(ValueError):
-    """The table file itself is malformed."""
 
 
 @cache

@@ -23,10 +23,12 @@ import pytest
 from cryptography.hazmat.primitives.ciphers import algorithms
 from cryptography.hazmat.primitives.cmac import CMAC
 
-from mstc.can.protocol import Frame, FrameDropped, Protocol
-from mstc.sim.plant import UnicyclePlant, wrap_angle
-from mstc.sim.reference import ReferenceRobot
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import Frame, Protocol, wire_limits
+from mstc.errors import FrameDropped
+from mstc.model import wrap_angle
+from mstc.plant.plant import UnicyclePlant
+from mstc.plant.reference import ReferenceRobot
+from mstc.plant.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 TEST_KEY = bytes.fromhex("2b7e151628aed2a6abf7158809cf4f3c")
@@ -220,9 +222,9 @@ def test_wrong_key_replayed_and_stale_commands_are_refused_and_counted(tool: Too
 
 
 def test_a_replayed_16_frame_odometry_loop_halts_over_the_sil_frame_path(sil_lib: Path) -> None:
-    from mstc.can.lockstep import CanController
+    from mstc.loop.lockstep import CanController
 
-    s = load_scenario(ROOT / "sim" / "scenarios" / "paper-line.toml")
+    s = load_scenario(ROOT / "sim" / "scenarios" / "paper-line.toml", wire_limits())
     p = s.params
     with can.Bus(interface="mstc-sil", lib=str(sil_lib), key=TEST_KEY) as bus:
         ctl = CanController(bus, p, sim_time_stamps=True, key=TEST_KEY)

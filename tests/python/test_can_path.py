@@ -16,13 +16,13 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc.can.lockstep import CanController
-from mstc.can.protocol import Protocol
+from mstc.can.protocol import Protocol, wire_limits
 from mstc.cli import main
 from mstc.errors import ControllerError
-from mstc.firmware import SilController
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import load_scenario
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import CanController, simulate
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
@@ -39,7 +39,7 @@ def _events(result: RunResult) -> list[tuple[int, str, int, str | None]]:
 
 @pytest.fixture(scope="module", params=NAMES)
 def both_paths(request: pytest.FixtureRequest, sil_lib: Path) -> tuple[RunResult, RunResult]:
-    scenario = load_scenario(SCENARIOS / f"{request.param}.toml")
+    scenario = load_scenario(SCENARIOS / f"{request.param}.toml", wire_limits())
     memory = simulate(scenario, SilController(scenario.params, sil_lib))
     with can.Bus(interface="mstc-sil", lib=str(sil_lib)) as bus:
         frames = simulate(scenario, CanController(bus, scenario.params, sim_time_stamps=True))
@@ -149,7 +149,7 @@ def test_missing_library_is_a_clear_error(tmp_path: Path) -> None:
 
 
 def test_corrupt_frames_are_dropped_counted_and_reported(sil_lib: Path) -> None:
-    scenario = load_scenario(SCENARIOS / "paper-line.toml")
+    scenario = load_scenario(SCENARIOS / "paper-line.toml", wire_limits())
     with can.Bus(interface="mstc-sil", lib=str(sil_lib)) as bus:
         ctl = CanController(bus, scenario.params, sim_time_stamps=True)
         bad = ctl.proto.encode("ODOM_XY", x=1.0, y=2.0)
@@ -181,7 +181,7 @@ def test_no_answer_is_a_clear_error(sil_lib: Path) -> None:
         def _recv_internal(self, timeout: float | None) -> tuple[None, bool]:
             return None, False
 
-    scenario = load_scenario(SCENARIOS / "paper-line.toml")
+    scenario = load_scenario(SCENARIOS / "paper-line.toml", wire_limits())
     with pytest.raises(ControllerError, match="no AUTH_STATUS"):
         CanController(Silent(), scenario.params, timeout=0.05)
 
@@ -189,9 +189,7 @@ def test_no_answer_is_a_clear_error(sil_lib: Path) -> None:
 def test_moving_obstacles_send_obstacle_vel_and_the_strategy_is_set(
     sil_lib: Path, tmp_path: Path
 ) -> None:
-    from mstc.params import Params, Strategy
-    from mstc.sim.plant import Pose
-    from mstc.sim.sensor import Obstacle
+    from mstc.model import Obstacle, Params, Pose, Strategy
 
     proto = Protocol(node=None)
     with can.Bus(interface="mstc-sil", lib=str(sil_lib)) as bus:

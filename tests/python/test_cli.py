@@ -12,8 +12,8 @@ import pytest
 from conftest import SCENARIOS
 from mstc.cli import main
 from mstc.errors import FirmwareError
-from mstc.firmware import SilController
-from mstc.params import Params
+from mstc.firmware.sil import SilController
+from mstc.model import Params
 
 TRACE_HEADER = "t,x,y,theta,x_r,y_r,theta_r,v,w,v_r,w_r,mode,e1,e2,e3,e,d1,d2".split(",")
 FIGURES = ("path", "position_error", "angle_error", "v", "w", "distance", "overview")

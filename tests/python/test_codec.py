@@ -33,7 +33,8 @@ from cantools.database.can import Message, Signal
 from cantools.database.can.c_source import camel_to_snake_case
 
 from conftest import build_shim
-from mstc.can.protocol import DLC, DropReason, FrameDropped, Protocol, load_database
+from mstc.can.protocol import DLC, DropReason, Protocol, load_database
+from mstc.errors import FrameDropped
 
 ROOT = Path(__file__).resolve().parents[2]
 SEED = 4

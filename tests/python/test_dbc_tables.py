@@ -6,10 +6,10 @@ side does with it. What "follows" means, table by table:
 
 - PARAM_SET/GET/VALUE_index: a renumbered parameter is written with its new
   index (CanController) and read back under its name (decode_log); a renamed
-  one that :data:`mstc.params.PARAM_NAMES` names is a DbcError naming the DBC,
+  one that :data:`mstc.model.PARAM_NAMES` names is a DbcError naming the DBC,
   the table and the entry, before anything is sent.
 - STATUS_mode, EVENT_kind, STATUS_side/EVENT_side: a renumbered entry is
-  decoded into the same :class:`~mstc.controller.Mode`, EventKind or Side; a
+  decoded into the same :class:`~mstc.model.Mode`, EventKind or Side; a
   renamed one that an enum member names is a DbcError.
 - PARAM_VALUE_result ``ok`` and PARAM index ``arm``: same as the parameters.
 - Entries the code does not name (STATUS_halt reasons, HEARTBEAT states):
@@ -31,14 +31,13 @@ import pytest
 
 from logfiles import DATA, DBC
 from mstc.can.dbc import load_database, tables
-from mstc.can.lockstep import CanController
 from mstc.can.protocol import Protocol
 from mstc.cli import main
-from mstc.controller import Event, EventKind, Mode, Side
 from mstc.errors import DbcError
 from mstc.logs.decode import decode_log
 from mstc.logs.read import read_log
-from mstc.params import PARAM_NAMES, Params
+from mstc.loop.lockstep import CanController
+from mstc.model import PARAM_NAMES, Event, EventKind, Mode, Params, Side
 
 
 def edited_dbc(tmp_path: Path, *edits: tuple[str, str]) -> Path:

@@ -10,12 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mstc.controller import Mode
-from mstc.params import Params
-from mstc.sim.plant import Pose
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
-from mstc.sim.sensor import Obstacle
+from mstc.can.protocol import wire_limits
+from mstc.loop.lockstep import simulate
+from mstc.model import Mode, Obstacle, Params, Pose
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.dwa import DwaConfig, DwaController
 from mstc.sweep.metrics import evaluate
 
@@ -34,7 +32,9 @@ def straight(write: WriteScenario, obstacles: list[dict[str, object]], name: str
 
 
 def test_decisions_keep_the_acceleration_limits(write_scenario: WriteScenario) -> None:
-    s = load_scenario(straight(write_scenario, [{"position": [2.0, 0.05]}], "limits"))
+    s = load_scenario(
+        straight(write_scenario, [{"position": [2.0, 0.05]}], "limits"), wire_limits()
+    )
     r = simulate(s, DwaController(s.params))
     c = DwaConfig()
     v, w = r.trace["v"][::5], r.trace["w"][::5]  # one decision every 0.1 s
@@ -47,7 +47,7 @@ def test_decisions_keep_the_acceleration_limits(write_scenario: WriteScenario) -
 
 
 def test_follows_a_free_straight_reference(write_scenario: WriteScenario) -> None:
-    s = load_scenario(straight(write_scenario, [], "free"))
+    s = load_scenario(straight(write_scenario, [], "free"), wire_limits())
     m = evaluate(simulate(s, DwaController(s.params)))
     assert m.final_error < 0.2 and 0.95 < m.path_ratio < 1.05
     assert m.avoid_time == 0.0
@@ -59,7 +59,9 @@ def test_an_obstacle_on_the_path_is_never_touched(
 ) -> None:
     # Exactly head-on, DWA stops in front of it (a local minimum of its
     # cost, docs/sweeps.md); slightly off the path it goes by. Neither touches.
-    s = load_scenario(straight(write_scenario, [{"position": [2.0, lateral]}], "ahead"))
+    s = load_scenario(
+        straight(write_scenario, [{"position": [2.0, lateral]}], "ahead"), wire_limits()
+    )
     m = evaluate(simulate(s, DwaController(s.params)))
     assert not m.contact and m.avoid_time > 0.0
 

@@ -45,14 +45,15 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc.can.lockstep import ARM_INDEX, CanController
-from mstc.can.protocol import Frame, FrameDropped, Protocol
-from mstc.cli.hil import start_firmware, stop_firmware
-from mstc.sim.plant import UnicyclePlant, wrap_angle
-from mstc.sim.reference import ReferenceRobot
-from mstc.sim.run import world_obstacles
-from mstc.sim.scenario import Scenario, load_scenario
-from mstc.sim.sensor import RangeSensor
+from mstc.can.protocol import Frame, Protocol, wire_limits
+from mstc.errors import FrameDropped
+from mstc.firmware.process import start_firmware, stop_firmware
+from mstc.loop.lockstep import ARM_INDEX, CanController
+from mstc.model import wrap_angle
+from mstc.plant.plant import UnicyclePlant
+from mstc.plant.reference import ReferenceRobot
+from mstc.plant.scenario import Scenario, load_scenario
+from mstc.plant.sensor import RangeSensor
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "sim" / "scenarios" / "paper-line.toml"
@@ -108,7 +109,7 @@ class Loop:
         )
         r = scenario.reference
         self.ref = ReferenceRobot(r.pose, r.v, r.w, scenario.sim.integrator)
-        self.obstacles = world_obstacles(scenario)
+        self.obstacles = scenario.obstacles
         self.sensor = RangeSensor(self.obstacles, p.d_det)
         self.k = 0
         self.wheels = (0.0, 0.0)
@@ -241,7 +242,7 @@ def open_bus() -> Iterator[can.BusABC]:
 
 @pytest.fixture(scope="module")
 def scenario() -> Scenario:
-    return load_scenario(SCENARIO)
+    return load_scenario(SCENARIO, wire_limits())
 
 
 # ---------------------------------------------------------------------- cut

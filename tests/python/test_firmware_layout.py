@@ -14,8 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from mstc.errors import FirmwareError
-from mstc.firmware import (
+from mstc.can.library import (
     ABI_STRUCTS,
     AbiStruct,
     FrameStruct,
@@ -24,6 +23,7 @@ from mstc.firmware import (
     check_layout,
     library_layout,
 )
+from mstc.errors import FirmwareError
 
 
 @pytest.fixture(params=["float", "fixed"])
@@ -116,12 +116,12 @@ def test_a_library_that_changed_a_struct_is_refused_at_load(
 ) -> None:
     # The library, seen by bindings whose obstacle struct has two fields more:
     # what a branch adding a field on the Python side only would meet.
-    import mstc.firmware as firmware
+    import mstc.can.library as library
 
     copy = tmp_path / "libmstc_sil.so"  # not opened before in this process
     shutil.copyfile(sil_lib, copy)
     more = tuple(ObstacleWithAcceleration if s is ObstacleStruct else s for s in ABI_STRUCTS)
-    monkeypatch.setattr(firmware, "ABI_STRUCTS", more)
+    monkeypatch.setattr(library, "ABI_STRUCTS", more)
     with pytest.raises(FirmwareError, match=r"mstc_sil_obstacle_t\.ax: in the Python binding only"):
         Library.open(copy)
 
@@ -140,7 +140,7 @@ def test_a_missing_library_is_a_clear_error(tmp_path: Path) -> None:
 def test_field_packer_reads_and_writes_what_ctypes_does() -> None:
     # The packer's offsets come from the ctypes descriptors: a value packed at
     # each field reads back through the ctypes attribute, and the reverse.
-    from mstc.firmware import OutputStruct, field_packer
+    from mstc.can.library import OutputStruct, field_packer
 
     names = ("wheel_left", "mode", "faults", "e", "n_events")
     packer = field_packer(OutputStruct, names)
@@ -156,10 +156,8 @@ def test_field_packer_reads_and_writes_what_ctypes_does() -> None:
 def test_step_values_is_step_as_a_tuple(any_lib: Path) -> None:
     # Two controllers on the same inputs, one through step, one through
     # step_values (the in-memory loop's): the same values, step after step.
-    from mstc.firmware import SilController
-    from mstc.params import Params
-    from mstc.sim.plant import Pose
-    from mstc.sim.sensor import Obstacle
+    from mstc.firmware.sil import SilController
+    from mstc.model import Obstacle, Params, Pose
 
     a, b = SilController(Params(), any_lib), SilController(Params(), any_lib)
     obstacles = [Obstacle(1, 1.0, 0.05, 0.1), Obstacle(2, 2.5, -0.2, 0.15)]

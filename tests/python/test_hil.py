@@ -27,10 +27,11 @@ import cantools
 import numpy as np
 import pytest
 
-from mstc.firmware import SilController
+from mstc.can.protocol import wire_limits
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.plant.scenario import load_scenario
 from mstc.report.outputs import event_record
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
 from test_realtime import check_ramp
 
 pytestmark = pytest.mark.vm
@@ -124,7 +125,7 @@ def hil_out(hil_runs: HilRuns) -> Path:
 
 @pytest.mark.parametrize("name", NAMES)
 def test_hil_gives_the_in_memory_events_exactly(hil_out: Path, sil_lib: Path, name: str) -> None:
-    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     memory = simulate(scenario, SilController(scenario.params, sil_lib))
     got = json.loads((hil_out / name / "events.json").read_text())
     assert got["events"] == [event_record(e) for e in memory.events]
@@ -214,7 +215,7 @@ def how_it_ran(folder: Path) -> str:
 def test_realtime_hil_keeps_the_lock_step_events_and_distances(
     hil_runs: HilRuns, name: str
 ) -> None:
-    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     lock = json.loads((hil_runs.folder("lockstep") / name / "events.json").read_text())["events"]
     folder = hil_runs.folder("realtime") / name
     real = json.loads((folder / "events.json").read_text())

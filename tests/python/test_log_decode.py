@@ -17,13 +17,13 @@ import pytest
 
 from conftest import SCENARIOS
 from logfiles import DATA, DBC, FIGURES, NAMES, log_lines, split, write
-from mstc.can.protocol import Protocol
+from mstc.can.protocol import Protocol, wire_limits
 from mstc.cli import main
-from mstc.controller import EventKind, Side
 from mstc.logs.decode import decode_log
 from mstc.logs.read import read_log
-from mstc.report.plots import plot_all
-from mstc.sim.scenario import load_scenario
+from mstc.model import EventKind, Side
+from mstc.plant.scenario import load_scenario
+from mstc.report.plots import PlotData, plot_all
 
 # ------------------------------------------------------- decode and plot
 
@@ -125,7 +125,7 @@ def test_logplot_writes_tables_and_figures(
 
 @pytest.mark.parametrize("name", NAMES)
 def test_paper_logs_decode_to_the_papers_events(name: str, db: object) -> None:
-    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     log = read_log(DATA / f"{name}.log", db)  # type: ignore[arg-type]
     d = decode_log(log, db)  # type: ignore[arg-type]
     got = sorted((e.t_us, e.kind, e.obstacle, e.side) for e in d.events)
@@ -149,7 +149,7 @@ def test_paper_logs_decode_to_the_papers_events(name: str, db: object) -> None:
 
 def test_paper_log_figures(tmp_path: Path, db: object) -> None:
     log = read_log(DATA / "paper-circle.log", db)  # type: ignore[arg-type]
-    written = plot_all(decode_log(log, db).plot_data(), tmp_path)  # type: ignore[arg-type]
+    written = plot_all(PlotData.from_log(decode_log(log, db)), tmp_path)  # type: ignore[arg-type]
     assert [p.stem for p in written] == list(FIGURES)
     assert all(p.stat().st_size > 20_000 for p in written)
 

@@ -17,9 +17,11 @@ import numpy as np
 import pytest
 
 from conftest import to_toml
-from mstc.firmware import SilController
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
@@ -30,7 +32,7 @@ REPORT: list[str] = []
 
 
 def _run_both(path: Path, libs: dict[str, Path]) -> tuple[RunResult, RunResult]:
-    scenario = load_scenario(path)
+    scenario = load_scenario(path, wire_limits())
     return tuple(
         simulate(scenario, SilController(scenario.params, libs[m]))  # type: ignore[return-value]
         for m in ("float", "fixed")

@@ -12,10 +12,12 @@ from pathlib import Path
 import pytest
 
 from conftest import SCENARIOS
-from mstc.controller import EventKind
-from mstc.firmware import SilController
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import Scenario, load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
+from mstc.model import EventKind
+from mstc.plant.scenario import Scenario, load_scenario
 
 # (t [s], event, obstacle, side), paper section 5 (docs/equations.md).
 PAPER = {
@@ -48,7 +50,7 @@ def run(scenario: Scenario, lib: Path) -> RunResult:
 def euler_run(request: pytest.FixtureRequest, sil_lib: Path) -> tuple[str, RunResult]:
     """The scenario file as it is: Euler, dt = 0.02 s."""
     name = request.param
-    return name, run(load_scenario(SCENARIOS / f"{name}.toml"), sil_lib)
+    return name, run(load_scenario(SCENARIOS / f"{name}.toml", wire_limits()), sil_lib)
 
 
 @pytest.fixture(scope="module", params=NAMES)
@@ -63,7 +65,7 @@ def exact_run(
     assert (n_dt, n_int) == (1, 1)
     path = tmp_path_factory.mktemp("exact") / f"{name}-exact.toml"
     path.write_text(text)
-    return name, run(load_scenario(path), sil_lib)
+    return name, run(load_scenario(path, wire_limits()), sil_lib)
 
 
 Row = tuple[int, str, int, str | None]
@@ -85,7 +87,7 @@ def events(result: RunResult) -> list[Row]:
 
 @pytest.mark.parametrize("name", NAMES)
 def test_scenario_files_hold_the_papers_setup_and_times(name: str) -> None:
-    s = load_scenario(SCENARIOS / f"{name}.toml")
+    s = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     assert (s.sim.dt, str(s.sim.integrator)) == (0.02, "euler")
     expected = [(e.t, str(e.event), e.obstacle, e.side and str(e.side)) for e in s.expected]
     assert expected == PAPER[name]

@@ -19,14 +19,15 @@ from typing import Any
 import numpy as np
 import pytest
 
+from mstc.can.protocol import wire_limits
 from mstc.errors import FirmwareError, ScenarioError
-from mstc.firmware import SilController
+from mstc.firmware.sil import SilController
 from mstc.limits import Held, load_table, violation
-from mstc.params import Params
+from mstc.loop.result import RunResult, Trace
+from mstc.model import Obstacle, Params, Pose
+from mstc.plant.plant import Integrator
+from mstc.plant.scenario import ReferenceSpec, Scenario, SimSpec, load_scenario
 from mstc.report.table import format_report
-from mstc.sim.plant import Integrator, Pose
-from mstc.sim.run import RunResult, Trace
-from mstc.sim.scenario import ObstacleSpec, ReferenceSpec, Scenario, SimSpec, load_scenario
 
 WriteScenario = Callable[[Mapping[str, object], str], Path]
 
@@ -45,7 +46,7 @@ def with_params(**params: object) -> dict[str, Any]:
 def refusal(write_scenario: WriteScenario, doc: Mapping[str, object]) -> ScenarioError:
     path = write_scenario(doc, "hostile")
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
+        load_scenario(path, wire_limits())
     assert str(path) in str(info.value), "the error names the file"
     return info.value
 
@@ -93,7 +94,7 @@ def _report_line(params: Params, min_distance: float) -> str:
         path=Path("hostile.toml"),
         robot=Pose(0.0, 0.0, 0.0),
         reference=ReferenceSpec(Pose(0.1, 0.0, 0.0), 0.5, 0.0),
-        obstacles=(ObstacleSpec(3.0, 0.05, 0.1),),
+        obstacles=(Obstacle(1, 3.0, 0.05, 0.1),),
         sim=SimSpec(1.0, 0.02, Integrator.EULER),
         params=params,
         expected=(),

@@ -41,13 +41,12 @@ from pathlib import Path
 import can
 import pytest
 
-from mstc.can.lockstep import CanController, enter_lockstep
-from mstc.can.protocol import load_database
+from mstc.can.protocol import load_database, wire_limits
 from mstc.cli.hil import SLCAN_BITRATE
-from mstc.qemu import BoardVm
-from mstc.report.outputs import write_events, write_trace
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
+from mstc.firmware.qemu import BoardVm
+from mstc.loop.lockstep import CanController, enter_lockstep, simulate
+from mstc.plant.scenario import load_scenario
+from mstc.report.outputs import events_json, write_trace_csv
 from test_board_images import make
 from test_faults import _cut_trial
 from test_paper import D_S, PAPER
@@ -113,14 +112,14 @@ def test_pil_board_ran_one_step_per_step_frame_and_none_on_its_timer(
 def _host_run(lib: Path, name: str, out: Path) -> Path:
     """The scenario through the host build over CAN in process (mstc sim's
     path); its events.json and trace.csv in @p out."""
-    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib))
     try:
         result = simulate(scenario, CanController(bus, scenario.params, sim_time_stamps=True))
     finally:
         bus.shutdown()
-    write_events(result, out / "events.json")
-    write_trace(result, out / "trace.csv")
+    (out / "events.json").write_text(events_json(result))
+    write_trace_csv(result.trace, [o.id for o in scenario.obstacles], out / "trace.csv")
     return out
 
 
@@ -213,7 +212,7 @@ def test_f103_image_halts_within_3_periods_and_ramps_down_when_odometry_is_cut(
     # The images hold the device key (make pil builds them with it), not the
     # test key the other tests use (conftest.py).
     monkeypatch.setenv("MSTC_KEY_FILE", str(DEVICE_KEY_FILE))
-    scenario = load_scenario(SCENARIOS / "paper-line.toml")
+    scenario = load_scenario(SCENARIOS / "paper-line.toml", wire_limits())
     with BoardVm(PIL.parent / "firmware" / "stm32f103-slcan", serial=True) as vm:
         bus = can.Bus(
             interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0

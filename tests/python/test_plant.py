@@ -5,9 +5,10 @@ import math
 
 import pytest
 
-from mstc.sim.plant import Integrator, Pose, UnicyclePlant, body_velocity, integrate
-from mstc.sim.reference import ReferenceRobot
-from mstc.sim.sensor import Obstacle, RangeSensor
+from mstc.model import Obstacle, Pose
+from mstc.plant.plant import Integrator, UnicyclePlant, body_velocity, integrate
+from mstc.plant.reference import ReferenceRobot
+from mstc.plant.sensor import RangeSensor
 
 
 def run(pose: Pose, v: float, w: float, dt: float, steps: int, integrator: Integrator) -> Pose:

@@ -8,7 +8,7 @@ import io
 
 import pytest
 
-from mstc.report.progress import Progress
+from mstc.report.progress import ProgressBar
 
 # ------------------------------------------------------------- progress
 
@@ -24,7 +24,7 @@ def test_progress_is_plain_lines_every_tenth_when_not_a_terminal(
     monkeypatch.delenv("CI", raising=False)
     now = [0.0]
     stream = io.StringIO()
-    p = Progress(1000, "replay", stream=stream, clock=lambda: now[0])
+    p = ProgressBar(1000, "replay", stream=stream, clock=lambda: now[0])
     for done in range(0, 1001, 10):
         now[0] = done / 100  # 10 s in all
         p.update(done)
@@ -43,7 +43,7 @@ def test_progress_is_a_bar_with_eta_on_a_terminal(monkeypatch: pytest.MonkeyPatc
     monkeypatch.delenv("CI", raising=False)
     now = [0.0]
     stream = Tty()
-    p = Progress(400, "replay", stream=stream, clock=lambda: now[0])
+    p = ProgressBar(400, "replay", stream=stream, clock=lambda: now[0])
     now[0] = 2.0
     p.update(100)
     text = stream.getvalue()
@@ -59,7 +59,7 @@ def test_progress_is_plain_in_ci_even_on_a_terminal(monkeypatch: pytest.MonkeyPa
     monkeypatch.setenv("CI", "true")
     now = [5.0]
     stream = Tty()
-    p = Progress(10, "replay", stream=stream, clock=lambda: now[0])
+    p = ProgressBar(10, "replay", stream=stream, clock=lambda: now[0])
     now[0] = 7.0
     p.update(5)
     assert stream.getvalue() == "replay: 50% (5/10 frames), 00:02 elapsed, 00:02 left\n"
@@ -67,10 +67,10 @@ def test_progress_is_plain_in_ci_even_on_a_terminal(monkeypatch: pytest.MonkeyPa
 
 def test_short_or_quiet_runs_show_no_progress() -> None:
     stream = Tty()
-    p = Progress(10, "replay", stream=stream, clock=lambda: 0.5, plain=False)
+    p = ProgressBar(10, "replay", stream=stream, clock=lambda: 0.5, plain=False)
     p.update(5)
     p.close()
-    quiet = Progress(10, "replay", stream=stream, clock=lambda: 9.0, enabled=False)
+    quiet = ProgressBar(10, "replay", stream=stream, clock=lambda: 9.0, enabled=False)
     quiet.update(5)
     quiet.close()
     assert stream.getvalue() == ""

@@ -17,14 +17,8 @@ import pytest
 from cantools.database.can import Message
 
 from mstc.can.dbc import E2E_SIGNALS, short_name
-from mstc.can.protocol import (
-    DLC,
-    Protocol,
-    SignalRangeError,
-    e2e_crc,
-    physical_range,
-    to_raw,
-)
+from mstc.can.protocol import DLC, Protocol, e2e_crc, physical_range, to_raw
+from mstc.errors import SignalRangeError
 
 SEED = 15
 N_RANDOM = 300

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""The real-time plant (mstc.sim.realtime, mstc.can.realtime, mstc.sim.timing)
+"""The real-time loop (mstc.loop.realtime, mstc.loop.timing)
 against the firmware library on a virtual clock: deterministic.
 
 :class:`VirtualFirmware` is a python-can bus around the SIL firmware
@@ -30,15 +30,16 @@ import cantools
 import pytest
 
 from mstc.can import secoc
-from mstc.can.realtime import RealtimeLink
+from mstc.can.protocol import wire_limits
 from mstc.cli import main
-from mstc.firmware import SilController
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.loop.realtime import RealtimeLink, simulate_realtime
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import Scenario, load_scenario
 from mstc.report.outputs import write_outputs
 from mstc.report.plots import plot_timing
 from mstc.report.table import format_report
-from mstc.sim.realtime import simulate_realtime
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "sim" / "scenarios"
@@ -289,7 +290,7 @@ def short(tmp_path_factory: pytest.TempPathFactory) -> Scenario:
         "[[obstacles]]\nposition = [1.3, 0.6]\n"
         '[sim]\nduration = 3.0\ndt = 0.02\nintegrator = "exact"\n'
     )
-    return load_scenario(path)
+    return load_scenario(path, wire_limits())
 
 
 def _arc(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[float, ...]:
@@ -478,7 +479,7 @@ def check_ramp(ramp: list[tuple[float, float, float]], decel_step: float, lsb: f
 
 
 def test_comm_loss_halts_within_three_periods_and_ramps_down(sil_lib: Path) -> None:
-    scenario = load_scenario(SCENARIOS / "paper-line.toml")
+    scenario = load_scenario(SCENARIOS / "paper-line.toml", wire_limits())
     run = run_virtual(scenario, sil_lib, stop_odometry_at=1.0)
     rec = run.bus.record
     start = run_start(rec)
@@ -518,7 +519,7 @@ def test_comm_loss_halts_within_three_periods_and_ramps_down(sil_lib: Path) -> N
 def lockstep(sil_lib: Path) -> dict[str, RunResult]:
     out = {}
     for name in ("paper-line", "paper-circle"):
-        scenario = load_scenario(SCENARIOS / f"{name}.toml")
+        scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
         out[name] = simulate(scenario, SilController(scenario.params, sil_lib))
     return out
 
@@ -530,7 +531,7 @@ def test_paper_scenarios_in_real_time_keep_the_lock_step_events(
     """With the delays of a loaded machine (1 to 12 ms back, jittered), the
     events are those of lock-step within ±3 control periods and no obstacle
     comes closer than D_s."""
-    scenario = load_scenario(SCENARIOS / f"{name}.toml")
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
     jitter = random.Random(name)
     run = run_virtual(scenario, sil_lib, phase=0.0037, from_fw=lambda: jitter.uniform(0.001, 0.012))
     got, want = run.result.events, lockstep[name].events

@@ -14,12 +14,13 @@ from typing import Any
 import pytest
 
 from conftest import to_toml
+from mstc.can.protocol import wire_limits
 from mstc.cli import main
-from mstc.firmware import SilController
-from mstc.report.progress import Progress
-from mstc.sim import scenario as scenario_module
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.plant import scenario as scenario_module
+from mstc.plant.scenario import load_scenario
+from mstc.report.progress import ProgressBar
 
 SHORT: dict[str, Any] = {
     "robot": {"pose": [0.0, 0.0, 0.0]},
@@ -60,16 +61,19 @@ def test_the_steps_limit_is_documented_and_reachable(tmp_path: Path) -> None:
         "reference": {"pose": [0.1, 0.1, 0.0], "v": 0.5, "w": 0.5},
         "sim": {"duration": 2000.0, "dt": 0.02, "integrator": "euler"},
     }
-    assert load_scenario(write(tmp_path, "limit.toml", doc)).sim.steps == scenario_module.MAX_STEPS
+    assert (
+        load_scenario(write(tmp_path, "limit.toml", doc), wire_limits()).sim.steps
+        == scenario_module.MAX_STEPS
+    )
     doc["sim"]["duration"] = 2000.02
     with pytest.raises(ValueError, match="100,000 control steps"):
-        load_scenario(write(tmp_path, "over.toml", doc))
+        load_scenario(write(tmp_path, "over.toml", doc), wire_limits())
 
 
 def test_long_runs_show_progress(tmp_path: Path, sil_lib: Path) -> None:
-    scenario = load_scenario(write(tmp_path, "s.toml", SHORT))
+    scenario = load_scenario(write(tmp_path, "s.toml", SHORT), wire_limits())
     stream = io.StringIO()
-    bar = Progress(scenario.sim.steps + 1, "sim s", "steps", stream=stream, plain=True,
+    bar = ProgressBar(scenario.sim.steps + 1, "sim s", "steps", stream=stream, plain=True,
                    delay=0.0, clock=FakeClock())  # fmt: skip
     result = simulate(scenario, SilController(scenario.params, sil_lib), progress=bar)
     lines = stream.getvalue().splitlines()

@@ -25,7 +25,8 @@ import can
 import pytest
 
 from mstc.can import secoc
-from mstc.can.protocol import FrameDropped, Protocol
+from mstc.can.protocol import Protocol
+from mstc.errors import FrameDropped
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = (ROOT / "README.md", ROOT / "docs" / "safety.md")

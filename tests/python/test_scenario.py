@@ -11,12 +11,12 @@ from typing import Any
 import pytest
 
 from conftest import SCENARIOS
+from mstc.can.protocol import wire_limits
 from mstc.cli import main
-from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
-from mstc.params import Params, Strategy
-from mstc.sim.plant import Integrator, Pose
-from mstc.sim.scenario import load_scenario
+from mstc.model import EventKind, Params, Pose, Side, Strategy
+from mstc.plant.plant import Integrator
+from mstc.plant.scenario import load_scenario
 
 WriteScenario = Callable[[Mapping[str, object], str], Path]
 
@@ -55,7 +55,7 @@ def edit(path: str, value: object = None, *, delete: bool = False) -> dict[str, 
 def test_valid_file_loads_with_table_1_defaults_and_overrides(
     write_scenario: WriteScenario,
 ) -> None:
-    s = load_scenario(write_scenario(VALID, "valid"))
+    s = load_scenario(write_scenario(VALID, "valid"), wire_limits())
     assert s.name == "valid"
     assert s.robot == Pose(0.0, 2.5, 0.5)
     assert s.reference.pose == Pose(0.1, 2.6, 0.7)
@@ -81,7 +81,7 @@ def test_table_1_defaults() -> None:
 def test_minimal_file_without_obstacles_params_or_expected(write_scenario: WriteScenario) -> None:
     doc = {k: v for k, v in VALID.items() if k not in ("obstacles", "params", "expected")}
     doc["reference"] = {"pose": [0, 0, 0], "v": 1, "w": -1}  # integers are numbers
-    s = load_scenario(write_scenario(doc, "minimal"))
+    s = load_scenario(write_scenario(doc, "minimal"), wire_limits())
     assert s.obstacles == ()
     assert s.expected == ()
     assert s.params == Params()
@@ -90,13 +90,13 @@ def test_minimal_file_without_obstacles_params_or_expected(write_scenario: Write
 
 def test_obstacle_radius_defaults_to_the_overridden_r_ob(write_scenario: WriteScenario) -> None:
     # 0.05: D_s (0.3 here) must stay >= R_m + R_ob (docs/safety.md).
-    s = load_scenario(write_scenario(edit("params.R_ob", 0.05), "r_ob"))
+    s = load_scenario(write_scenario(edit("params.R_ob", 0.05), "r_ob"), wire_limits())
     assert s.obstacles[0].radius == 0.05
 
 
 def test_paper_scenarios_load() -> None:
     for name in ("paper-line", "paper-circle"):
-        s = load_scenario(SCENARIOS / f"{name}.toml")
+        s = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
         assert s.params == Params(strategy=Strategy.PAPER)
         assert (s.sim.dt, s.sim.integrator) == (0.02, Integrator.EULER)
 
@@ -292,7 +292,7 @@ def test_moving_obstacles_imperfections_strategy_and_meta_load(
         "delay": 2,
     }
     doc["meta"] = {"family": "cluster", "seed": 2000001, "index": 1}
-    s = load_scenario(write_scenario(doc, "full"))
+    s = load_scenario(write_scenario(doc, "full"), wire_limits())
     assert [(o.vx, o.vy, o.moving) for o in s.obstacles] == [
         (0.0, 0.0, False),
         (0.25, -0.5, True),
@@ -312,7 +312,7 @@ def test_moving_obstacles_imperfections_strategy_and_meta_load(
 def test_without_the_new_keys_a_scene_is_ideal_static_and_mstc(
     write_scenario: WriteScenario,
 ) -> None:
-    s = load_scenario(write_scenario(VALID, "plain"))
+    s = load_scenario(write_scenario(VALID, "plain"), wire_limits())
     assert not any(o.moving for o in s.obstacles)
     assert s.params.strategy is Strategy.MSTC
     imp = s.imperfections
@@ -339,7 +339,7 @@ def test_bad_file_raises_one_line_naming_file_and_key(
     _, doc, key, problem = bad_case
     path = write_scenario(doc, "bad")
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
+        load_scenario(path, wire_limits())
     check_message(str(info.value), path, key, problem)
 
 
@@ -348,12 +348,14 @@ def test_values_at_the_frames_limits_load(write_scenario: WriteScenario) -> None
     doc["reference"] = {"pose": [-125.0, 125.0, -50.0], "v": -15.99, "w": 15.99}  # a 1 m circle
     doc["obstacles"] = [{"position": [127.99, -128.0], "radius": 2.55}] * 15
     doc["expected"] = []
-    s = load_scenario(write_scenario(doc, "limits"))
+    s = load_scenario(write_scenario(doc, "limits"), wire_limits())
     assert len(s.obstacles) == 15
     assert s.obstacles[0].radius == 2.55
     # 0.15 m is 15.000000000000002 cm in binary: still a whole number of centimetres.
     assert (
-        load_scenario(write_scenario(edit("obstacles[2].radius", 0.15), "cm")).obstacles[1].radius
+        load_scenario(write_scenario(edit("obstacles[2].radius", 0.15), "cm"), wire_limits())
+        .obstacles[1]
+        .radius
         == 0.15
     )
 
@@ -407,16 +409,16 @@ def test_the_reference_is_refused_exactly_when_its_path_leaves_the_frames_range(
     path = write_scenario(doc, "arc")
     if leaves:
         with pytest.raises(ScenarioError) as info:
-            load_scenario(path)
+            load_scenario(path, wire_limits())
         check_message(str(info.value), path, "reference", "REF_XY")
     else:
-        load_scenario(path)
+        load_scenario(path, wire_limits())
 
 
 def test_missing_file(tmp_path: Path) -> None:
     path = tmp_path / "absent.toml"
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
+        load_scenario(path, wire_limits())
     check_message(str(info.value), path, None, "cannot read")
 
 
@@ -428,7 +430,7 @@ def test_toml_syntax_error(tmp_path: Path, text: str) -> None:
     path = tmp_path / "syntax.toml"
     path.write_bytes(text.encode("latin-1"))
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
+        load_scenario(path, wire_limits())
     message = str(info.value)
     assert "\n" not in message
     assert message.startswith(f"{path}: ")

@@ -29,12 +29,13 @@ import pytest
 
 from conftest import to_toml
 from logfiles import DBC
-from mstc.can.lockstep import CanController
+from mstc.can.protocol import wire_limits
 from mstc.cli import main
 from mstc.errors import ScenarioError
-from mstc.firmware import SilController
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import load_scenario
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import CanController, simulate
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import load_scenario
 from test_numeric_modes import _random_scenario
 
 SCENES = 42
@@ -152,10 +153,10 @@ def test_accepted_scenes_agree_through_frames_and_in_memory(
     path.write_text(to_toml(doc))
     if beyond is not None:
         with pytest.raises(ScenarioError) as info:
-            load_scenario(path)
+            load_scenario(path, wire_limits())
         assert str(info.value).startswith(f"{path}: {beyond}: "), str(info.value)
         return
-    scenario = load_scenario(path)
+    scenario = load_scenario(path, wire_limits())
     memory = simulate(scenario, SilController(scenario.params, sil_lib))
     with can.Bus(interface="mstc-sil", lib=str(sil_lib)) as bus:
         frames = simulate(scenario, CanController(bus, scenario.params, sim_time_stamps=True))

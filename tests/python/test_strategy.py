@@ -21,9 +21,11 @@ from pathlib import Path
 
 import pytest
 
-from mstc.controller import EventKind
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
+from mstc.model import EventKind
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import controller_for
 from mstc.sweep.metrics import Metrics, evaluate
 from mstc.sweep.suite import Family, load_suite, scene_text
@@ -59,7 +61,7 @@ def _runs(
         for i in range(SCENES):
             path = tmp / f"{family.scene_name(i)}.toml"
             path.write_text(scene_text(SUITE, family, i))
-            scenario = load_scenario(path)
+            scenario = load_scenario(path, wire_limits())
             results = []
             for mode in ("float", "fixed"):
                 run, controller = controller_for(scenario, "mstc", str(libs[mode]))
@@ -144,4 +146,4 @@ def test_a_suite_scene_runs_mstc_by_default(tmp_path: Path) -> None:
     path = tmp_path / "s.toml"
     path.write_text(scene_text(SUITE, _family("isolated"), 0))
     assert "strategy" not in path.read_text()
-    assert load_scenario(path).params.strategy.value == "mstc"
+    assert load_scenario(path, wire_limits()).params.strategy.value == "mstc"

@@ -11,9 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from mstc.params import Params
-from mstc.sim.scenario import MAX_OBSTACLES, Scenario, load_scenario
-from mstc.sweep.suite import SuiteError, generate, load_suite
+from mstc.can.protocol import wire_limits
+from mstc.errors import SuiteError
+from mstc.model import Params
+from mstc.plant.scenario import Scenario, load_scenario
+from mstc.sweep.suite import generate, load_suite
 
 ROOT = Path(__file__).resolve().parents[2]
 STANDARD = ROOT / "sim" / "suites" / "standard.toml"
@@ -35,7 +37,7 @@ def scenes(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[Scenario]
     files = generate(suite, tmp / "scenes")
     by_family: dict[str, list[Scenario]] = {}
     for f in files:
-        by_family.setdefault(f.family, []).append(load_scenario(f.path))
+        by_family.setdefault(f.family, []).append(load_scenario(f.path, wire_limits()))
     return by_family
 
 
@@ -70,7 +72,7 @@ def test_every_scene_is_a_valid_scenario_with_at_most_15_obstacles(
     for family, items in scenes.items():
         assert len(items) == 12
         for s in items:
-            assert 0 < len(s.obstacles) <= MAX_OBSTACLES, s.path
+            assert 0 < len(s.obstacles) <= 15, s.path
             assert s.meta.family == family and s.meta.seed is not None
             assert s.sim.dt == 0.02 and s.sim.duration == 30.0
 

@@ -13,12 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mstc.controller import Fault, Mode, Status, StepResult
+from mstc.can.protocol import wire_limits
 from mstc.errors import SimulationError
-from mstc.sim.plant import Pose
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
-from mstc.sim.sensor import Obstacle
+from mstc.loop.lockstep import simulate
+from mstc.model import Fault, Mode, Obstacle, Pose, Status, StepResult
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.metrics import evaluate
 
 WriteScenario = Callable[[Mapping[str, object], str], Path]
@@ -82,7 +81,7 @@ def test_trivial_run_path_length_and_integral_of_w(write_scenario: WriteScenario
     # v = 0.5 m/s, ω = 0.2 rad/s for 100 periods of 0.02 s: every Euler step
     # is 0.01 m long, so the path is 1.0 m; ∫|ω|dt = 0.2 · 2 = 0.4 rad. The
     # reference (0.25 m/s straight) runs 0.5 m: path ratio 2.
-    s = load_scenario(scene(write_scenario, ref_v=0.25))
+    s = load_scenario(scene(write_scenario, ref_v=0.25), wire_limits())
     m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.2))))
     assert m.path_ratio == pytest.approx(2.0, rel=1e-12)
     assert m.int_abs_w == pytest.approx(0.4, rel=1e-12)
@@ -93,7 +92,9 @@ def test_trivial_run_path_length_and_integral_of_w(write_scenario: WriteScenario
 def test_a_run_through_an_obstacle_touches(write_scenario: WriteScenario) -> None:
     # Straight along y = 0 at 0.5 m/s over an obstacle centred on (1, 0):
     # centre distance reaches ~0, clearance 0 − (0.2 + 0.1) = −0.3.
-    s = load_scenario(scene(write_scenario, obstacles=[{"position": [1.0, 0.0]}], duration=3.0))
+    s = load_scenario(
+        scene(write_scenario, obstacles=[{"position": [1.0, 0.0]}], duration=3.0), wire_limits()
+    )
     m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.0))))
     assert m.contact and not m.ds_kept
     assert m.min_clearance == pytest.approx(-0.3, abs=1e-9)
@@ -101,14 +102,16 @@ def test_a_run_through_an_obstacle_touches(write_scenario: WriteScenario) -> Non
 
 def test_passing_at_0_32_m_keeps_no_d_s_but_does_not_touch(write_scenario: WriteScenario) -> None:
     # Lateral offset 0.32 m: clearance 0.32 − 0.3 = 0.02 m, below D_s = 0.35.
-    s = load_scenario(scene(write_scenario, obstacles=[{"position": [1.0, 0.32]}], duration=3.0))
+    s = load_scenario(
+        scene(write_scenario, obstacles=[{"position": [1.0, 0.32]}], duration=3.0), wire_limits()
+    )
     m = evaluate(simulate(s, Scripted(lambda k: (0.5, 0.0))))
     assert not m.contact and not m.ds_kept
     assert m.min_clearance == pytest.approx(0.02, abs=1e-9)
 
 
 def test_a_robot_that_stands_does_not_rejoin_and_is_blocked(write_scenario: WriteScenario) -> None:
-    s = load_scenario(scene(write_scenario, duration=12.0))
+    s = load_scenario(scene(write_scenario, duration=12.0), wire_limits())
     m = evaluate(simulate(s, Scripted(lambda k: (0.0, 0.0))))
     assert not m.rejoined and m.blocked
     assert m.final_error == pytest.approx(6.0, rel=1e-9)  # the reference ran 0.5 · 12 m
@@ -121,7 +124,8 @@ def test_rejoin_window_counts_from_the_last_obstacle(write_scenario: WriteScenar
     # under 0.05 m... never: the robot stays 1 m behind after t = 6 s. A
     # run whose error returns to 0 within the window rejoins.
     behind = load_scenario(
-        scene(write_scenario, obstacles=[{"position": [1.0, 0.45]}], duration=20.0, name="b")
+        scene(write_scenario, obstacles=[{"position": [1.0, 0.45]}], duration=20.0, name="b"),
+        wire_limits(),
     )
     m = evaluate(simulate(behind, Scripted(lambda k: (0.0, 0.0) if 200 <= k < 300 else (0.5, 0.0))))
     assert m.t_last == pytest.approx(2.4, abs=0.021)
@@ -144,7 +148,7 @@ def test_the_last_obstacle_is_also_the_last_step_busy_with_one(
     # the controller reports avoiding at steps 100-149 (t = 2.00-2.98 s),
     # then blocked at step 300 (t = 6 s): t_last is that step. Stopping by
     # p3 is no obstacle: t_last stays 0.
-    s = load_scenario(scene(write_scenario, duration=8.0))
+    s = load_scenario(scene(write_scenario, duration=8.0), wire_limits())
 
     def busy(k: int) -> Mode:
         return Mode.AVOID if 100 <= k < 150 else Mode.BLOCKED if k == 300 else Mode.TRACK
@@ -175,7 +179,11 @@ def test_rejoin_is_not_judged_before_its_window_ends(
         duration=duration,
         name=f"w{duration}",
     )
-    m = evaluate(simulate(load_scenario(path), Scripted(lambda k: (0.5 if k < 200 else 0.25, 0.0))))
+    m = evaluate(
+        simulate(
+            load_scenario(path, wire_limits()), Scripted(lambda k: (0.5 if k < 200 else 0.25, 0.0))
+        )
+    )
     assert m.t_last == pytest.approx(2.42, abs=1e-9)
     assert m.rejoined is want and not m.blocked
 
@@ -213,7 +221,9 @@ def test_rejoin_is_judged_on_every_pass(
     def busy(k: int) -> Mode:
         return Mode.AVOID if 100 <= k < 150 or second <= k < second + 50 else Mode.TRACK
 
-    s = load_scenario(scene(write_scenario, duration=duration, name=f"p{len(catch_up_after)}"))
+    s = load_scenario(
+        scene(write_scenario, duration=duration, name=f"p{len(catch_up_after)}"), wire_limits()
+    )
     m = evaluate(simulate(s, Scripted(speed, busy)))
     assert m.t_last == pytest.approx((second + 49) * 0.02, abs=1e-9)
     assert m.rejoined is want and not m.blocked
@@ -232,7 +242,7 @@ def test_moving_obstacle_distance_is_measured_at_the_same_step(
         duration=2.0,
         ref_v=0.0,
     )
-    s = load_scenario(path)
+    s = load_scenario(path, wire_limits())
     ctl = Scripted(lambda k: (0.0, 0.0))
     r = simulate(s, ctl)
     k = np.arange(101)
@@ -246,7 +256,7 @@ def test_moving_obstacle_distance_is_measured_at_the_same_step(
 
 
 def test_delay_holds_the_robot_for_whole_periods(write_scenario: WriteScenario) -> None:
-    s = load_scenario(scene(write_scenario, extra={"imperfections": {"delay": 3}}))
+    s = load_scenario(scene(write_scenario, extra={"imperfections": {"delay": 3}}), wire_limits())
     r = simulate(s, Scripted(lambda k: (0.5, 0.0)))
     x = r.trace["x"]
     # Periods 0..2 run the zero commands queued before the start: x moves
@@ -257,7 +267,7 @@ def test_delay_holds_the_robot_for_whole_periods(write_scenario: WriteScenario) 
 
 def test_odometry_noise_reaches_the_controller_not_the_plant(write_scenario: WriteScenario) -> None:
     extra = {"imperfections": {"seed": 3, "position_noise": 0.01, "heading_noise": 0.02}}
-    s = load_scenario(scene(write_scenario, extra=extra))
+    s = load_scenario(scene(write_scenario, extra=extra), wire_limits())
     ctl = Scripted(lambda k: (0.5, 0.0))
     r = simulate(s, ctl)
     assert list(r.trace["y"]) == [0.0] * 101  # the plant runs straight
@@ -279,6 +289,6 @@ def test_odometry_noise_reaches_the_controller_not_the_plant(write_scenario: Wri
 
 
 def test_non_finite_state_is_a_simulation_error(write_scenario: WriteScenario) -> None:
-    s = load_scenario(scene(write_scenario))
+    s = load_scenario(scene(write_scenario), wire_limits())
     with pytest.raises(SimulationError, match="non-finite"):
         simulate(s, Scripted(lambda k: (math.inf, 0.0) if k == 10 else (0.5, 0.0)))

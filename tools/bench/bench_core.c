@@ -143,7 +143,7 @@ void bench_record(const bench_scenario_t *s, bench_step_t *steps, bench_run_t *r
         for (size_t j = 0; j < out.n_events && run->n_events < BENCH_MAX_EVENTS; j++) {
             run->events[run->n_events++] = out.events[j];
         }
-        /* Plant: differential drive, forward Euler (as sim/mstc/sim/plant.py). */
+        /* Plant: differential drive, forward Euler (as sim/mstc/plant/plant.py). */
         const double wl = bench_dbl(out.wheels.left);
         const double wr = bench_dbl(out.wheels.right);
         const double v = r * (wr + wl) / 2.0;

@@ -32,11 +32,10 @@ from pathlib import Path
 import can
 from report import update_doc  # tools/bench/report.py, beside this script
 
-from mstc.can.lockstep import CanController
-from mstc.can.protocol import Protocol
-from mstc.firmware import SilController
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import Protocol, wire_limits
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import CanController, simulate
+from mstc.plant.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -54,7 +53,7 @@ def _median_rate(runs: int, one_run: Callable[[], float]) -> tuple[float, list[f
 def bench_sil(lib: Path, runs: int) -> dict[str, object]:
     """Closed-loop steps per second of the paper's line scenario: through
     frames with the mstc-sil interface, and in memory."""
-    scenario = load_scenario(SCENARIO)
+    scenario = load_scenario(SCENARIO, wire_limits())
     steps = scenario.sim.steps + 1
 
     def frames() -> float:

@@ -6,7 +6,7 @@ scenario against mstc-fw --realtime over SocketCAN, and its timing figures.
         --fw build/host/mstc-fw --out build/bench/can-realtime.json
     realtime_bench.py report --doc docs/performance.md build/bench/can-realtime.json
 
-The run is `mstc hil --realtime` (mstc.sim.realtime): the figures are those
+The run is `mstc hil --realtime` (mstc.loop.realtime): the figures are those
 of its timing.json (docs/hil.md, "Real time").
 """
 
@@ -24,11 +24,11 @@ import can
 from report import update_doc  # tools/bench/report.py, beside this script
 
 from mstc.can import secoc
-from mstc.can.realtime import RealtimeLink
-from mstc.cli.hil import start_firmware, stop_firmware
+from mstc.can.protocol import wire_limits
+from mstc.firmware.process import start_firmware, stop_firmware
+from mstc.loop.realtime import RealtimeLink, simulate_realtime
+from mstc.plant.scenario import load_scenario
 from mstc.report.table import match_events
-from mstc.sim.realtime import simulate_realtime
-from mstc.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = [ROOT / "sim" / "scenarios" / f"{n}.toml" for n in ("paper-line", "paper-circle")]
@@ -40,7 +40,7 @@ def bench(fw: Path, channel: str) -> dict[str, object]:
     """One real-time run per scenario, each on a fresh mstc-fw."""
     runs = []
     for path in SCENARIOS:
-        scenario = load_scenario(path)
+        scenario = load_scenario(path, wire_limits())
         bus = can.Bus(interface="socketcan", channel=channel)
         # The firmware gets the key the plant authenticates with (mstc hil does the same).
         proc = start_firmware(fw, channel, secoc.key_file(), period_ms=20)

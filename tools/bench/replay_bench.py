@@ -39,14 +39,13 @@ try:
     import can
     from report import update_doc  # tools/bench/report.py, beside this script
 
-    from mstc.can.lockstep import CanController
-    from mstc.can.protocol import load_database
-    from mstc.can.silbus import LIB_ENV
+    from mstc.can.library import LIB_ENV
+    from mstc.can.protocol import load_database, wire_limits
     from mstc.logs.candump import write_candump
     from mstc.logs.read import read_log
     from mstc.logs.replay import replay
-    from mstc.sim.run import simulate
-    from mstc.sim.scenario import load_scenario
+    from mstc.loop.lockstep import CanController, simulate
+    from mstc.plant.scenario import load_scenario
 except ImportError as e:
     sys.exit(f"replay_bench: {e}; run it with .venv/bin/python (make venv)")
 
@@ -61,7 +60,7 @@ RATIO_TARGET = 5.0
 def record(path: Path, lib: Path) -> None:
     """Run the circle scenario for DURATION_S through the in-process firmware
     and write every frame to @p path (candump -L)."""
-    scenario = load_scenario(SCENARIO)
+    scenario = load_scenario(SCENARIO, wire_limits())
     scenario = dataclasses.replace(
         scenario, sim=dataclasses.replace(scenario.sim, duration=DURATION_S)
     )

@@ -26,9 +26,10 @@ from pathlib import Path
 
 from report import update_doc  # tools/bench/report.py, beside this script
 
-from mstc.firmware import SilController
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import Scene, run_sweep
 from mstc.sweep.suite import generate, load_suite
 
@@ -58,7 +59,7 @@ lateral = [-0.4, 0.4]
 def steps_per_second(lib: str, runs: int) -> dict[str, float]:
     """The paper's line scene (2 obstacles, 1,001 steps) run in memory in this
     process, @p runs times: median steps per second, wall and CPU time."""
-    scenario = load_scenario(LINE)
+    scenario = load_scenario(LINE, wire_limits())
     wall, cpu = [], []
     for _ in range(runs):
         ctl = SilController(scenario.params, lib)

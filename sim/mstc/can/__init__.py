@@ -1,3 +1,7 @@
 # SPDX-License-Identifier: MIT
-"""The CAN side: the protocol from the DBC, the python-can interface
-``mstc-sil`` and the lock-step controller."""
+"""What speaks CAN: the DBC and its value tables (:mod:`~mstc.can.dbc`), the
+protocol from it (:mod:`~mstc.can.protocol`), authenticated commands
+(:mod:`~mstc.can.secoc`), and the python-can interface ``mstc-sil``
+(:mod:`~mstc.can.silbus`) with the firmware library's bindings
+(:mod:`~mstc.can.library`). It imports nothing of the package above the
+ground floor (:mod:`mstc.model`, :mod:`mstc.errors`)."""

@@ -4,8 +4,8 @@ Python side.
 
 The Python side names things: the parameters it writes (``R_m``, ``arm``), the
 answer it checks for (``ok``), the modes, event kinds and sides it decodes
-into :class:`~mstc.controller.Mode`, :class:`~mstc.controller.EventKind` and
-:class:`~mstc.controller.Side`. It holds none of their numbers: they are
+into :class:`~mstc.model.Mode`, :class:`~mstc.model.EventKind` and
+:class:`~mstc.model.Side`. It holds none of their numbers: they are
 looked up here, in the DBC's value tables (``VAL_`` of a signal,
 ``VAL_TABLE_`` for a global one), once per loaded DBC, as the firmware's C
 side gets them from the codec generated from the same file.
@@ -13,7 +13,7 @@ side gets them from the codec generated from the same file.
 What an edit of the DBC does to the Python side:
 
 - an entry renumbered: followed (the new number is written and decoded);
-- an entry renamed that the Python side names (a :data:`~mstc.params.PARAM_NAMES`
+- an entry renamed that the Python side names (a :data:`~mstc.model.PARAM_NAMES`
   parameter, ``arm``, ``ok``, a member of one of the enums above):
   :class:`~mstc.errors.DbcError` when the tables are built, naming the DBC,
   the table and the entry;
@@ -39,9 +39,8 @@ from typing import TypeVar
 import cantools
 from cantools.database.can import Database, Message
 
-from mstc.controller import EventKind, Mode, Side
-from mstc.errors import DbcError
-from mstc.params import PARAM_NAMES
+from mstc.errors import DbcError, DbcLoadError
+from mstc.model import PARAM_NAMES, EventKind, Mode, Side
 
 DBC_PATH = Path(__file__).parent / "mstc.dbc"
 """The protocol's DBC, shipped in the package (firmware/comm/mstc.dbc)."""
@@ -98,10 +97,16 @@ def e2e_data_ids(db: Database) -> dict[int, int]:
 
 
 def load_database(path: Path = DBC_PATH) -> Database:
-    """Load the protocol's DBC, strictly (overlapping signals are an error)."""
-    db = cantools.database.load_file(path, strict=True)
+    """Load the protocol's DBC, strictly (overlapping signals are an error).
+
+    :raises DbcLoadError: the file cannot be read or is not a valid CAN DBC.
+    """
+    try:
+        db = cantools.database.load_file(path, strict=True)
+    except Exception as exc:  # cantools raises several kinds on a bad file
+        raise DbcLoadError(f"cannot load the DBC {path}: {exc}") from exc
     if not isinstance(db, Database):
-        raise TypeError(f"{path} is not a CAN database")
+        raise DbcLoadError(f"cannot load the DBC {path}: not a CAN database")
     _SOURCES[db] = str(path)
     return db
 
@@ -188,7 +193,7 @@ class Tables:
     side: dict[int, Side | None]
     """STATUS_side and EVENT_side (the same table); ``none`` is None."""
     param_indexes: dict[str, int]
-    """PARAM_SET index of each :data:`~mstc.params.PARAM_NAMES` parameter."""
+    """PARAM_SET index of each :data:`~mstc.model.PARAM_NAMES` parameter."""
     arm_index: int
     """PARAM_SET index of the arm command (value 1 arms, 0 disarms)."""
     param_ok: int

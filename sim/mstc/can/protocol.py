@@ -12,12 +12,12 @@ increments for every frame of that identifier.
 objects and checks and decodes received ones, with the same rules as the
 firmware: values are rounded to the nearest raw value (halves away from zero),
 never wrapped. A value beyond its signal's range (or NaN) is refused with
-:class:`SignalRangeError` rather than saturated as comm.c does, so that the
+:class:`~mstc.errors.SignalRangeError` rather than saturated as comm.c does, so that the
 plant never hands the firmware something other than what it simulates
 without saying so; ``saturate=True`` applies the firmware's rule instead (the
 tests that compare the two encoders use it). A received frame with an
 unknown identifier, a wrong length, a bad CRC or a repeated or too far
-advanced counter is counted and dropped (:class:`FrameDropped`).
+advanced counter is counted and dropped (:class:`~mstc.errors.FrameDropped`).
 
 Signals are named without their message prefix: ``x`` for ``ODOM_XY_x``.
 """
@@ -38,7 +38,8 @@ from cantools.database.can import Message, Signal
 from mstc.can.dbc import DBC_PATH as DBC_PATH
 from mstc.can.dbc import E2E_SIGNALS, Tables, e2e_data_ids, short_name, tables
 from mstc.can.dbc import load_database as load_database
-from mstc.errors import MstcError
+from mstc.errors import FrameDropped, SignalRangeError
+from mstc.model import SignalRange, WireLimits
 
 DLC = 8
 """Length of every frame [bytes]."""
@@ -112,40 +113,6 @@ class DropReason(enum.Enum):
     """Alive counter repeated, or advanced by more than MAX_COUNTER_JUMP."""
 
 
-class SignalRangeError(MstcError, ValueError):
-    """A value its signal cannot carry: refused by the encoder instead of clipped.
-
-    :param frame: message name, e.g. ``"OBSTACLE"``.
-    :param signal: the signal's short name, e.g. ``"id"``.
-    :param value: the value asked for.
-    :param limits: the range it must lie in.
-    :param unit: the signal's unit, or what the range is of (``"raw, 4 bits"``).
-    """
-
-    def __init__(
-        self, frame: str, signal: str, value: float, limits: tuple[float, float], unit: str
-    ) -> None:
-        lo, hi = limits
-        what = f" {unit}" if unit else ""
-        super().__init__(
-            f"{frame}.{signal} = {value:.10g}{what} is outside its range "
-            f"[{lo:.10g}, {hi:.10g}]{what}: not sent"
-        )
-        self.frame = frame
-        self.signal = signal
-        self.value = value
-        self.limits = limits
-
-
-class FrameDropped(MstcError):
-    """A received frame failed a check; it has been counted in :attr:`Protocol.drops`."""
-
-    def __init__(self, reason: DropReason, frame_id: int, detail: str) -> None:
-        super().__init__(f"frame 0x{frame_id:03X} dropped ({reason.value}): {detail}")
-        self.reason = reason
-        self.frame_id = frame_id
-
-
 @dataclass(frozen=True)
 class Frame:
     """A received frame that passed every check."""
@@ -213,6 +180,30 @@ def physical_range(signal: Signal) -> tuple[float, float]:
         return float(signal.minimum), float(signal.maximum)
     lo, hi = raw_range(signal)
     return lo * signal.scale + signal.offset, hi * signal.scale + signal.offset
+
+
+@functools.cache
+def wire_limits(path: Path = DBC_PATH) -> WireLimits:
+    """The ranges of the signals a scenario's values travel in, from the DBC at
+    @p path (read once): what the scenario loader is handed
+    (:func:`mstc.plant.scenario.load_scenario`)."""
+    db = load_database(path)
+
+    def signal(message: str, name: str) -> SignalRange:
+        s = db.get_message_by_name(message).get_signal_by_name(f"{message}_{name}")
+        lo, hi = physical_range(s)
+        return SignalRange(f"{message}.{name}", lo, hi, s.unit or "", float(s.scale))
+
+    return WireLimits(
+        robot=(signal("ODOM_XY", "x"), signal("ODOM_XY", "y")),
+        reference=(signal("REF_XY", "x"), signal("REF_XY", "y")),
+        v=signal("REF_MOTION", "v"),
+        w=signal("REF_MOTION", "w"),
+        obstacle=(signal("OBSTACLE", "x"), signal("OBSTACLE", "y")),
+        radius=signal("OBSTACLE", "radius"),
+        velocity=(signal("OBSTACLE_VEL", "vx"), signal("OBSTACLE_VEL", "vy")),
+        ids=signal("OBSTACLE", "id"),
+    )
 
 
 def _round_half_away(x: float) -> int:

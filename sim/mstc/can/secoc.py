@@ -30,7 +30,7 @@ from cryptography.hazmat.primitives.ciphers import algorithms
 from cryptography.hazmat.primitives.cmac import CMAC
 
 from mstc.can.protocol import Frame, Protocol
-from mstc.errors import MstcError
+from mstc.errors import AuthKeyError
 
 ROOT = Path(__file__).resolve().parents[3]
 """The repository."""
@@ -50,10 +50,6 @@ DEFAULT_KEY_FILE = ROOT / "keys" / "device.key"
 """The device key `make key` generates (git-ignored)."""
 TEST_KEY_FILE = ROOT / "tests" / "data" / "test.key"
 """The published test key of the tests and the committed logs."""
-
-
-class AuthKeyError(MstcError):
-    """No key, or not a key."""
 
 
 def parse_key(text: str, source: str) -> bytes:

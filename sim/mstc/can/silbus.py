@@ -28,9 +28,8 @@ from typing import Any
 import can
 
 from mstc.can import secoc
-from mstc.errors import FirmwareError
-from mstc.firmware import FRAME_DATA, FrameStruct, Library
-from mstc.firmware import LIB_ENV as LIB_ENV
+from mstc.can.library import FRAME_DATA, FrameStruct, Library
+from mstc.errors import AuthKeyError, FirmwareError
 
 
 class SilBus(can.BusABC):
@@ -41,7 +40,7 @@ class SilBus(can.BusABC):
     :param key: the firmware's key (16 bytes); default: :func:`mstc.can.secoc.load_key`.
     :param freshness: the firmware's freshness value at start (0, as after a reset).
     :raises can.CanInitializationError: the library cannot be loaded (its
-        bindings, :class:`mstc.firmware.Library`, say why), the firmware
+        bindings, :class:`mstc.can.library.Library`, say why), the firmware
         started, or the key read.
     """
 
@@ -67,7 +66,7 @@ class SilBus(can.BusABC):
             raise can.CanInitializationError(f"mstc-sil: firmware init failed ({rc})")
         try:
             key = secoc.load_key() if key is None else key
-        except secoc.AuthKeyError as exc:
+        except AuthKeyError as exc:
             raise can.CanInitializationError(f"mstc-sil: {exc}") from exc
         if self._lib.mstc_sil_fw_set_key(key, len(key), freshness) != 0:
             raise can.CanInitializationError(

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""What every subcommand of ``mstc`` shares: exit statuses, the error line,
-the firmware library's default, and loading scenario files."""
+"""What every subcommand of ``mstc`` shares: the firmware library's default,
+the key, loading scenario files and bus logs, and running scenarios."""
 
 from __future__ import annotations
 
@@ -14,34 +14,24 @@ from cantools.database.can import Database
 
 from mstc.can import secoc
 from mstc.can.dbc import tables
-from mstc.can.protocol import DBC_PATH, load_database
+from mstc.can.library import LIB_ENV
+from mstc.can.protocol import DBC_PATH, load_database, wire_limits
 from mstc.errors import (
+    EXIT_OK,
     ControllerError,
-    DbcError,
     FirmwareError,
     LogError,
     MstcError,
-    ScenarioError,
+    RunError,
+    UsageError,
 )
-from mstc.firmware import LIB_ENV
 from mstc.logs.decode import DecodedLog, decode_log
 from mstc.logs.read import FORMATS, FrameLog, ProblemList, read_log
-from mstc.report.outputs import RUN_FILES, BusLog, OutputError, output_folder, write_outputs
-from mstc.report.progress import Progress
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import Scenario, changed_params, load_scenarios
+from mstc.report.outputs import RUN_FILES, BusLog, folder_problem, write_outputs
+from mstc.report.progress import ProgressBar
 from mstc.report.table import format_report
-from mstc.sim.run import RunResult
-from mstc.sim.scenario import Scenario, changed_params, load_scenario
-
-EXIT_OK = 0
-EXIT_FAILED = 1
-"""The run failed: the firmware could not be run, its frames differ from a
-log's, a send failed, or an output could not be written."""
-EXIT_USAGE = 2
-"""Bad arguments or bad input (a scenario file, a log): nothing was run."""
-EXIT_NO_TARGET = 3
-"""The firmware library cannot be loaded, or the bus cannot be opened."""
-EXIT_INTERRUPTED = 130
-"""Interrupted (Ctrl-C)."""
 
 ROOT = Path(__file__).resolve().parents[3]
 """The repository, when the package runs from its source tree."""
@@ -55,33 +45,37 @@ one; None when the package is installed outside its source tree (no build
 to default to)."""
 
 
-def error(message: str) -> None:
-    """Print one ``error: ...`` line on stderr."""
-    print(f"error: {message}", file=sys.stderr)
-
-
-def library(given: Path | None) -> Path:
-    """The firmware library: @p given, else $MSTC_SIL_LIB, else :data:`DEFAULT_LIB`.
-
-    :raises FirmwareError: none given and there is no default, or it does not exist.
-    """
+def find_library(given: Path | None) -> Path | None:
+    """The firmware library: @p given, else $MSTC_SIL_LIB, else :data:`DEFAULT_LIB`
+    when it exists; None when none of them names one."""
     if given is not None:
         return Path(given)
     env = os.environ.get(LIB_ENV)
     if env:
         return Path(env)
+    if DEFAULT_LIB is not None and DEFAULT_LIB.is_file():
+        return DEFAULT_LIB
+    return None
+
+
+def library(given: Path | None) -> Path:
+    """The firmware library (:func:`find_library`).
+
+    :raises FirmwareError: none given and there is no default, or it does not exist.
+    """
+    found = find_library(given)
+    if found is not None:
+        return found
     if DEFAULT_LIB is None:
         raise FirmwareError(
             "no firmware library: this mstc is installed outside its source tree, so there "
             f"is no default build; name one with --lib PATH or {LIB_ENV} (`make lib` in the "
             "source tree builds build/host/float/libmstc_sil.so)"
         )
-    if not DEFAULT_LIB.is_file():
-        raise FirmwareError(
-            f"no firmware library: {DEFAULT_LIB} does not exist; build it with `make lib`, "
-            f"or name one with --lib PATH or {LIB_ENV}"
-        )
-    return DEFAULT_LIB
+    raise FirmwareError(
+        f"no firmware library: {DEFAULT_LIB} does not exist; build it with `make lib`, "
+        f"or name one with --lib PATH or {LIB_ENV}"
+    )
 
 
 def add_key_argument(parser: argparse.ArgumentParser) -> None:
@@ -96,40 +90,26 @@ def add_key_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def load_key(args: argparse.Namespace) -> bytes | None:
-    """The key ``--key-file`` or the defaults name; None after an error line."""
-    try:
-        return secoc.load_key(args.key_file)
-    except secoc.AuthKeyError as exc:
-        error(str(exc))
-        return None
+def load_all(paths: Sequence[Path], out: Path) -> list[Scenario]:
+    """Every scenario, checked to be runnable: a valid file, no two that would
+    write the same output folder, a folder that can be written
+    (:func:`~mstc.report.outputs.output_folder`).
 
-
-def load_all(paths: Sequence[Path], out: Path) -> list[Scenario] | None:
-    """Every scenario, or None after printing each problem: a bad file, any two
-    that would write the same output folder, a folder that cannot be written
-    (:func:`~mstc.report.outputs.output_folder`)."""
-    scenarios = []
-    ok = True
-    for path in paths:
-        try:
-            scenarios.append(load_scenario(path))
-        except ScenarioError as exc:
-            error(str(exc))
-            ok = False
+    :raises UsageError: one line per problem.
+    """
+    scenarios, problems = load_scenarios(paths, wire_limits())
     seen: dict[str, Path] = {}
     for scenario in scenarios:
         first = seen.setdefault(scenario.name, scenario.path)
         if first != scenario.path:
-            error(f"{first} and {scenario.path} would both write {out / scenario.name}/")
-            ok = False
+            problems.append(f"{first} and {scenario.path} would both write {out / scenario.name}/")
             continue
-        try:
-            output_folder(out, scenario.name, RUN_FILES)
-        except OutputError as exc:
-            error(f"{scenario.path}: {exc}")
-            ok = False
-    return scenarios if ok else None
+        problem = folder_problem(out, scenario.name, RUN_FILES)
+        if problem is not None:
+            problems.append(f"{scenario.path}: {problem}")
+    if problems:
+        raise UsageError("\n".join(problems))
+    return scenarios
 
 
 def run_failure(scenario: Scenario, exc: BaseException) -> str:
@@ -142,7 +122,7 @@ def run_failure(scenario: Scenario, exc: BaseException) -> str:
     return text
 
 
-RunOne = Callable[[Scenario, Progress], tuple[str, RunResult, "BusLog | None"]]
+RunOne = Callable[[Scenario, ProgressBar], tuple[str, RunResult, "BusLog | None"]]
 """Runs one scenario, telling the progress display how far it is: (what
 firmware ran, the result, the bus log if any)."""
 
@@ -157,33 +137,28 @@ def run_scenarios(
     quiet: bool = False,
 ) -> int:
     """Validate every scenario file, run each with @p run_one, then write each
-    run's outputs under @p out and print its table. An :class:`MstcError` or
-    an exception of @p failures ends the command with one error line naming
-    the scenario's file (EXIT_FAILED).
+    run's outputs under @p out and print its table.
 
     :param quiet: no progress display (a run longer than a second shows one).
+    :raises UsageError: a scenario cannot be run (:func:`load_all`).
+    :raises RunError: a run failed with an :class:`MstcError` or an exception
+        of @p failures: the error, named with the scenario's file.
+    :raises WriteError: an output could not be written.
     """
     scenarios = load_all(paths, out)
-    if scenarios is None:
-        return EXIT_USAGE
     results: list[tuple[RunResult, BusLog | None]] = []
     firmware = ""
     caught: tuple[type[BaseException], ...] = (MstcError, *failures)
     for scenario in scenarios:
-        bar = Progress(scenario.sim.steps + 1, scenario.name, "steps", enabled=not quiet)
+        bar = ProgressBar(scenario.sim.steps + 1, scenario.name, "steps", enabled=not quiet)
         try:
             firmware, result, log = run_one(scenario, bar)
-        except caught as exc:
-            error(run_failure(scenario, exc))
-            return EXIT_FAILED
+        except caught as exc:  # named with its scenario, for main's one error line
+            raise RunError(run_failure(scenario, exc)) from exc
         results.append((result, log))
     print(f"firmware: {firmware}")
     for result, log in results:
-        try:
-            folder = write_outputs(result, out, log, figures=figures)
-        except (OSError, OutputError) as exc:
-            error(f"cannot write the outputs of {result.scenario.path}: {exc}")
-            return EXIT_FAILED
+        folder = write_outputs(result, out, log, figures=figures)
         print()
         print(format_report(result, folder))
         if log is not None:
@@ -228,47 +203,36 @@ def add_log_arguments(
     )
 
 
-def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog] | int:
+def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog]:
     """The DBC and the log, decoded (``mstc plot``, ``export``), with the
-    problems of both printed; or an exit status."""
-    loaded = load_log(args)
-    if isinstance(loaded, int):
-        return loaded
-    db, log = loaded
-    try:
-        bar = Progress(len(log), "decode", "frames", enabled=not args.quiet)
-        decoded = decode_log(log, db, bar, max_problems=max(args.max_problems, 0))
-    except ValueError as exc:
-        error(str(exc))
-        return EXIT_USAGE
+    problems of both printed.
+
+    :raises MstcError: see :func:`load_log`; :class:`LogError` also for a log
+        without a control step, and with ``--strict`` for one with frames not
+        decoded.
+    """
+    db, log = load_log(args)
+    bar = ProgressBar(len(log), "decode", "frames", enabled=not args.quiet)
+    decoded = decode_log(log, db, bar, max_problems=max(args.max_problems, 0))
     print_problems(decoded.problems, args.log)
     if decoded.problems.total and args.strict:
-        error(f"{args.log}: {decoded.problems.total:,} frames not decoded (--strict)")
-        return EXIT_USAGE
+        raise LogError(f"{args.log}: {decoded.problems.total:,} frames not decoded (--strict)")
     return db, decoded
 
 
-def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog] | int:
-    """The DBC and the log, with its problems printed; or an exit status."""
-    try:
-        db = load_database(args.dbc)
-    except Exception as exc:  # cantools raises several kinds on a bad DBC
-        error(f"cannot load the DBC {args.dbc}: {exc}")
-        return EXIT_USAGE
-    try:
-        tables(db)  # it names everything the Python side names (mstc.can.dbc)
-    except DbcError as exc:
-        error(str(exc))
-        return EXIT_USAGE
-    try:
-        log = read_log(args.log, db, args.format, max_problems=max(args.max_problems, 0))
-    except LogError as exc:
-        error(str(exc))
-        return EXIT_USAGE
+def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog]:
+    """The DBC and the log, with its problems printed.
+
+    :raises DbcLoadError: the DBC cannot be loaded.
+    :raises DbcError: it lacks a name the Python side uses (:mod:`mstc.can.dbc`).
+    :raises LogError: the log cannot be used, or with ``--strict`` has problems.
+    """
+    db = load_database(args.dbc)
+    tables(db)  # it names everything the Python side names (mstc.can.dbc)
+    log = read_log(args.log, db, args.format, max_problems=max(args.max_problems, 0))
     print_problems(log.problems, args.log)
     if log.problems.total and args.strict:
-        error(f"{args.log}: {log.problems.total:,} problems in the log (--strict)")
-        return EXIT_USAGE
+        raise LogError(f"{args.log}: {log.problems.total:,} problems in the log (--strict)")
     return db, log
 
 

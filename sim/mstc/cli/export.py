@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_log_arguments, error, load_decoded
+from mstc.cli.common import add_log_arguments, load_decoded
+from mstc.errors import EXIT_OK, UsageError
 from mstc.logs.export import export_mcap, format_summary
 
 NAME = "export"
@@ -52,16 +53,8 @@ def run(args: argparse.Namespace) -> int:
     if source.is_dir():
         args.log = source / "bus.log"
         if not args.log.is_file():
-            error(f"{source} is a folder without a bus.log: not a run folder")
-            return EXIT_USAGE
-    loaded = load_decoded(args)
-    if isinstance(loaded, int):
-        return loaded
-    db, decoded = loaded
-    try:
-        summary = export_mcap(decoded, db, args.mcap)
-    except OSError as exc:
-        error(f"cannot write {args.mcap}: {exc}")
-        return EXIT_FAILED
+            raise UsageError(f"{source} is a folder without a bus.log: not a run folder")
+    db, decoded = load_decoded(args)
+    summary = export_mcap(decoded, db, args.mcap)
     print(format_summary(summary, source))
     return EXIT_OK

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import select
-import subprocess
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,17 +14,23 @@ from pathlib import Path
 import can
 
 from mstc.can import secoc
-from mstc.can.lockstep import CanController, enter_lockstep
-from mstc.can.realtime import RealtimeLink
-from mstc.cli.common import EXIT_USAGE, add_key_argument, error, load_key, run_scenarios
+from mstc.cli.common import add_key_argument, run_scenarios
 from mstc.cli.sim import add_output_arguments
-from mstc.errors import ControllerError, FirmwareError
-from mstc.qemu import ICOUNT, BoardVm, LoopStats
+from mstc.errors import ControllerError, UsageError
+from mstc.firmware.process import start_firmware, stop_firmware
+from mstc.firmware.qemu import ICOUNT, BoardVm, LoopStats
+from mstc.loop.lockstep import CanController, enter_lockstep, simulate
+from mstc.loop.realtime import (
+    COMM_LOSS_TAIL,
+    DEFAULT_PHASE,
+    DEFAULT_RATE_HZ,
+    RealtimeLink,
+    simulate_realtime,
+)
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import Scenario
 from mstc.report.outputs import BusLog
-from mstc.report.progress import Progress
-from mstc.sim.realtime import COMM_LOSS_TAIL, DEFAULT_PHASE, DEFAULT_RATE_HZ, simulate_realtime
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import Scenario
+from mstc.report.progress import ProgressBar
 
 NAME = "hil"
 HELP = "run scenario files over SocketCAN (or another python-can bus) against mstc-fw or a board"
@@ -157,51 +161,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
-def start_firmware(
-    exe: Path,
-    channel: str,
-    key_file: Path | None = None,
-    timeout: float = 30.0,
-    *,
-    period_ms: int | None = None,
-) -> subprocess.Popen[str]:
-    """Start ``exe --can channel [--key-file key_file]`` (with ``--realtime
-    --period-ms`` when @p period_ms is given) and wait until it is on the bus
-    (its first line on stderr says so). Without @p key_file it takes its key
-    from the environment, as the tools do.
-
-    :raises FirmwareError: it exited or said nothing in @p timeout seconds.
-    """
-    if not exe.is_file():
-        raise FirmwareError(f"--fw {exe}: no such file (make fw builds build/host/mstc-fw)")
-    cmd = [str(exe), "--can", channel]
-    if key_file is not None:
-        cmd += ["--key-file", str(key_file)]
-    if period_ms is not None:
-        cmd += ["--realtime", "--period-ms", str(period_ms)]
-    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-    assert proc.stderr is not None
-    ready, _, _ = select.select([proc.stderr], [], [], timeout)
-    line = proc.stderr.readline() if ready else ""
-    if " mode on " not in line:
-        proc.kill()
-        said = (line + proc.stderr.read()).strip() or "no answer"
-        raise FirmwareError(f"{exe} did not start on {channel}: {said}")
-    return proc
-
-
-def stop_firmware(proc: subprocess.Popen[str]) -> None:
-    """Stop a firmware process started by :func:`start_firmware`."""
-    proc.terminate()
-    try:
-        proc.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-
-
 def _run_one(
-    args: argparse.Namespace, scenario: Scenario, bar: Progress
+    args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog]:
     bus = can.Bus(interface=args.interface, channel=args.channel)
     period_ms = round(1000.0 / args.rate_hz) if args.realtime else None
@@ -260,7 +221,9 @@ def settled_stats(vm: BoardVm, start: LoopStats, steps: int, timeout: float = 2.
     """The board's loop statistics once they count the @p steps on STEP
     frames the plant saw since @p start, or at @p timeout. The main loop
     counts a step after the application has sent its WHEEL_CMD, so the plant
-    may read the memory before the last one is counted."""
+    may read the memory before the last one is counted. Each copy is
+    consistent (:meth:`LoopStats.read`): a step counted in ``frame_steps`` is
+    counted in ``steps`` too."""
     deadline = time.monotonic() + timeout
     end = vm.stats()
     while end.frame_steps - start.frame_steps < steps and time.monotonic() < deadline:
@@ -289,7 +252,7 @@ def loop_record(vm: BoardVm, start: LoopStats, end: LoopStats) -> dict[str, obje
 
     Cycles are SysTick counts at the core clock QEMU models; under -icount
     shift=0 one instruction takes 1 ns of virtual time, so a count is
-    10⁹ / core_hz instructions (sim/mstc/qemu.py). The mean is over the run's
+    10⁹ / core_hz instructions (mstc.firmware.qemu). The mean is over the run's
     steps; the maximum over every lock-step step (the one before arming too).
     """
     n = end.frame_steps - start.frame_steps
@@ -313,7 +276,7 @@ def loop_record(vm: BoardVm, start: LoopStats, end: LoopStats) -> dict[str, obje
 
 
 def _run_on_qemu(
-    args: argparse.Namespace, scenario: Scenario, bar: Progress
+    args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog]:
     with BoardVm(args.qemu, serial=True) as vm:
         bus = can.Bus(
@@ -364,21 +327,17 @@ def _check_realtime(args: argparse.Namespace) -> str | None:
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each over the bus, then write and report."""
     if args.fw is not None and args.interface != "socketcan":
-        error("--fw starts mstc-fw, which runs on SocketCAN only (--interface socketcan)")
-        return EXIT_USAGE
+        raise UsageError(
+            "--fw starts mstc-fw, which runs on SocketCAN only (--interface socketcan)"
+        )
     if args.qemu is not None and args.fw is not None:
-        error("--qemu runs a board image, --fw a process: one or the other")
-        return EXIT_USAGE
+        raise UsageError("--qemu runs a board image, --fw a process: one or the other")
     if args.qemu is not None and args.realtime:
-        error("--qemu runs a board image in lock-step: --realtime needs --fw or a board")
-        return EXIT_USAGE
+        raise UsageError("--qemu runs a board image in lock-step: --realtime needs --fw or a board")
     problem = _check_realtime(args)
     if problem is not None:
-        error(problem)
-        return EXIT_USAGE
-    args.key = load_key(args)
-    if args.key is None:
-        return EXIT_USAGE
+        raise UsageError(problem)
+    args.key = secoc.load_key(args.key_file)
     # mstc-fw gets the same key: the file it came from (None: from $MSTC_KEY,
     # which the process inherits).
     args.key_source = secoc.key_file(args.key_file)
@@ -388,6 +347,6 @@ def run(args: argparse.Namespace) -> int:
         args.out,
         not args.no_figures,
         lambda scenario, bar: run_one(args, scenario, bar),
-        (FirmwareError, ControllerError, can.CanError, OSError),
+        (can.CanError, OSError),
         quiet=args.quiet,
     )

@@ -4,26 +4,14 @@
 from __future__ import annotations
 
 import argparse
-import errno
 import math
 import sys
 
-import can
-
-from mstc.cli.common import (
-    EXIT_FAILED,
-    EXIT_INTERRUPTED,
-    EXIT_NO_TARGET,
-    EXIT_OK,
-    EXIT_USAGE,
-    add_log_arguments,
-    error,
-    load_log,
-)
-from mstc.errors import SendError
-from mstc.logs.play import IdFilter, Player, PlayStats, select
+from mstc.cli.common import add_log_arguments, load_log
+from mstc.errors import EXIT_OK, UsageError
+from mstc.logs.play import IdFilter, Player, open_bus, select
 from mstc.logs.replay import firmware_ids
-from mstc.report.progress import Progress
+from mstc.report.progress import ProgressBar
 
 NAME = "play"
 HELP = "play a bus log onto a bus with its original timing, like canplayer"
@@ -92,31 +80,6 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run, parser=parser)
 
 
-_ERRNO_HINTS = {
-    errno.EAFNOSUPPORT: "this kernel has no SocketCAN (modules can, can-raw); "
-    "docs/hil.md runs it in a VM",
-    errno.ENODEV: "no such interface; a virtual one is made with "
-    "`ip link add dev {channel} type vcan && ip link set up {channel}`",
-    errno.ENETDOWN: "the interface is down: `ip link set up {channel}`",
-    errno.EPERM: "not permitted: run as a user allowed to open CAN sockets",
-}
-
-
-def open_bus(interface: str, channel: str) -> can.BusABC | str:
-    """The bus, or why it cannot be opened."""
-    try:
-        return can.Bus(interface=interface, channel=channel)
-    except (can.CanError, OSError, ValueError, ImportError) as exc:
-        text = f"cannot open {interface} bus {channel!r}: {exc}"
-        code = getattr(exc, "errno", None) or getattr(exc, "error_code", None)
-        hint = _ERRNO_HINTS.get(code) if isinstance(code, int) else None
-        if hint is None and isinstance(exc.__cause__, OSError):
-            hint = _ERRNO_HINTS.get(exc.__cause__.errno or 0)
-        if hint is not None:
-            text += f" ({hint.format(channel=channel)})"
-        return text
-
-
 def run(args: argparse.Namespace) -> int:
     """Play the log onto the bus."""
     parser: argparse.ArgumentParser = args.parser
@@ -125,28 +88,18 @@ def run(args: argparse.Namespace) -> int:
         parser.error(f"--rate must be > 0 (inf: back to back), got {args.rate}")
     if loops < 0:
         parser.error(f"--loop must be >= 0 (0: until interrupted), got {loops}")
-    loaded = load_log(args)
-    if isinstance(loaded, int):
-        return loaded
-    db, log = loaded
-    id_filter = None
-    if args.id_filter is not None:
-        try:
-            id_filter = IdFilter.parse(args.id_filter, db)
-        except ValueError as exc:
-            parser.error(str(exc))
+    db, log = load_log(args)
+    id_filter = IdFilter.parse(args.id_filter, db) if args.id_filter is not None else None
     inputs, _ = firmware_ids(db)
     frames = select(log, inputs=None if args.all else inputs, id_filter=id_filter)
     what = "every frame" if args.all else "the firmware's input frames"
     if not frames:
-        error(f"{args.log}: nothing to send ({what}, ID filter {args.id_filter or 'none'})")
-        return EXIT_USAGE
+        raise UsageError(
+            f"{args.log}: nothing to send ({what}, ID filter {args.id_filter or 'none'})"
+        )
     bus = open_bus(args.interface, args.channel)
-    if isinstance(bus, str):
-        error(bus)
-        return EXIT_NO_TARGET
     total = len(frames) * loops if loops else len(frames)
-    bar = Progress(total, "play", "frames", enabled=not args.quiet and loops != 0)
+    bar = ProgressBar(total, "play", "frames", enabled=not args.quiet and loops != 0)
     player = Player(bus, rate=rate, loops=loops)
     span = frames[-1].timestamp - frames[0].timestamp
     print(
@@ -154,22 +107,17 @@ def run(args: argparse.Namespace) -> int:
         f"rate {rate:g}, {'until interrupted' if loops == 0 else f'{loops} loop(s)'}, "
         f"onto {args.interface} {args.channel}"
     )
-    status = EXIT_OK
-    stats: PlayStats
     try:
-        stats = player.play(frames, bar)
-    except SendError as exc:
-        error(str(exc))
-        stats, status = exc.stats, EXIT_FAILED
-    except KeyboardInterrupt:
-        stats, status = PlayStats(), EXIT_INTERRUPTED
-        print("\ninterrupted", file=sys.stderr)
+        player.play(frames, bar)
     finally:
         bar.close()
         bus.shutdown()
-    if status != EXIT_INTERRUPTED:
-        print(
-            f"  sent {stats.sent:,} frames in {stats.loops} loop(s), {stats.seconds:.3f} s; "
-            f"latest send {stats.late_max * 1e3:.3f} ms behind its time"
-        )
-    return status
+        # How far it came, unless interrupted: after every frame, or up to a
+        # failed send (whose error main() prints).
+        if not isinstance(sys.exception(), KeyboardInterrupt):
+            stats = player.stats
+            print(
+                f"  sent {stats.sent:,} frames in {stats.loops} loop(s), {stats.seconds:.3f} s; "
+                f"latest send {stats.late_max * 1e3:.3f} ms behind its time"
+            )
+    return EXIT_OK

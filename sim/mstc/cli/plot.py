@@ -6,26 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mstc.cli.common import (
-    EXIT_FAILED,
-    EXIT_OK,
-    EXIT_USAGE,
-    add_log_arguments,
-    error,
-    load_decoded,
-)
-from mstc.errors import ScenarioError
-from mstc.logs.decode import (
-    PLOT_FILES,
-    format_events,
-    output_name,
-    write_events_json,
-    write_status_csv,
-    write_trace_csv,
-)
-from mstc.report.outputs import OutputError, fresh_folder, output_folder
-from mstc.report.plots import plot_all
-from mstc.sim.scenario import ExpectedEvent, load_scenario
+from mstc.can.protocol import wire_limits
+from mstc.cli.common import add_log_arguments, load_decoded
+from mstc.errors import EXIT_OK
+from mstc.logs.decode import output_name
+from mstc.plant.scenario import ExpectedEvent, load_scenario
+from mstc.report.logplot import PLOT_FILES, format_events, write_log_outputs
+from mstc.report.outputs import output_folder
 
 NAME = "plot"
 HELP = "decode a bus log: events, status, trace and the paper's figures"
@@ -91,29 +78,9 @@ def run(args: argparse.Namespace) -> int:
     """Decode the log, write the tables and figures, print the events."""
     expected: tuple[ExpectedEvent, ...] = ()
     if args.scenario is not None:
-        try:
-            expected = load_scenario(args.scenario).expected
-        except ScenarioError as exc:
-            error(str(exc))
-            return EXIT_USAGE
-    try:
-        output_folder(args.out, output_name(args.log), PLOT_FILES)
-    except OutputError as exc:
-        error(f"{args.log}: {exc}")
-        return EXIT_USAGE
-    loaded = load_decoded(args)
-    if isinstance(loaded, int):
-        return loaded
-    _, decoded = loaded
-    try:
-        folder = fresh_folder(args.out, decoded.name, PLOT_FILES)
-        write_events_json(decoded, folder / "events.json")
-        write_trace_csv(decoded, folder / "trace.csv")
-        write_status_csv(decoded, folder / "status.csv")
-        if not args.no_figures:
-            plot_all(decoded.plot_data(), folder)
-    except (OSError, OutputError) as exc:
-        error(f"cannot write the outputs into {folder}: {exc}")
-        return EXIT_FAILED
+        expected = load_scenario(args.scenario, wire_limits()).expected
+    output_folder(args.out, output_name(args.log), PLOT_FILES, source=str(args.log))
+    _, decoded = load_decoded(args)
+    folder = write_log_outputs(decoded, args.out, figures=not args.no_figures)
     print(format_events(decoded, expected, folder))
     return EXIT_OK

@@ -4,26 +4,14 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from mstc.cli.common import (
-    EXIT_FAILED,
-    EXIT_INTERRUPTED,
-    EXIT_NO_TARGET,
-    EXIT_OK,
-    EXIT_USAGE,
-    add_key_argument,
-    add_log_arguments,
-    error,
-    library,
-    load_key,
-    load_log,
-)
-from mstc.errors import FirmwareError
-from mstc.firmware import LIB_ENV
+from mstc.can import secoc
+from mstc.can.library import LIB_ENV
+from mstc.cli.common import add_key_argument, add_log_arguments, library, load_log
+from mstc.errors import EXIT_FAILED, EXIT_NO_TARGET, EXIT_OK, FirmwareError, UsageError
 from mstc.logs.replay import format_difference, format_summary, replay
-from mstc.report.progress import Progress
+from mstc.report.progress import ProgressBar
 
 NAME = "replay"
 HELP = "feed a bus log through the firmware and compare what it sends, bit for bit"
@@ -91,37 +79,25 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="exit 0 when nothing was compared (the log holds no frame the firmware sends)",
     )
     add_key_argument(parser)
-    parser.set_defaults(run=run)
+    # The firmware that cannot be loaded or started is "no target" here.
+    parser.set_defaults(run=run, exit_status={FirmwareError: EXIT_NO_TARGET})
 
 
 def run(args: argparse.Namespace) -> int:
     """Replay the log and print the first difference and a summary."""
-    loaded = load_log(args)
-    if isinstance(loaded, int):
-        return loaded
-    db, log = loaded
-    key = load_key(args)
-    if key is None:
-        return EXIT_USAGE
+    db, log = load_log(args)
+    key = secoc.load_key(args.key_file)
 
-    def progress(total: int) -> Progress:
-        return Progress(total, "replay", "input frames", enabled=not args.quiet)
+    def progress(total: int) -> ProgressBar:
+        return ProgressBar(total, "replay", "input frames", enabled=not args.quiet)
 
-    try:
-        result = replay(log, db, library(args.lib), progress=progress, key=key)
-    except FirmwareError as exc:
-        error(str(exc))
-        return EXIT_NO_TARGET
-    except KeyboardInterrupt:
-        print("\ninterrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    result = replay(log, db, library(args.lib), progress=progress, key=key)
     if result.first is not None:
         print(format_difference(result.first, log, db))
     print(format_summary(result, db))
     if result.nothing_compared and not args.allow_empty:
-        error(
+        raise UsageError(
             f"{args.log}: nothing compared: the log holds no frame the firmware sends and the "
             "firmware sent none for its inputs (a log of another bus?); --allow-empty accepts it"
         )
-        return EXIT_USAGE
     return EXIT_OK if result.identical else EXIT_FAILED

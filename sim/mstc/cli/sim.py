@@ -8,14 +8,15 @@ from pathlib import Path
 
 import can
 
-from mstc.can.lockstep import CanController
-from mstc.cli.common import EXIT_USAGE, add_key_argument, library, load_key, run_scenarios
-from mstc.errors import ControllerError, FirmwareError
-from mstc.firmware import LIB_ENV, SilController
+from mstc.can import secoc
+from mstc.can.library import LIB_ENV
+from mstc.cli.common import add_key_argument, library, run_scenarios
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import CanController, simulate
+from mstc.loop.result import RunResult
+from mstc.plant.scenario import Scenario
 from mstc.report.outputs import BusLog
-from mstc.report.progress import Progress
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import Scenario
+from mstc.report.progress import ProgressBar
 
 NAME = "sim"
 HELP = "run scenario files against the firmware in process"
@@ -118,7 +119,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def _run_one(
-    args: argparse.Namespace, scenario: Scenario, bar: Progress
+    args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog | None]:
     lib = library(args.lib)
     if args.bus == "memory":
@@ -136,14 +137,12 @@ def _run_one(
 
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each, then write and report."""
-    args.key = load_key(args) if args.bus == "sil" else None
-    if args.bus == "sil" and args.key is None:
-        return EXIT_USAGE
+    args.key = secoc.load_key(args.key_file) if args.bus == "sil" else None
     return run_scenarios(
         args.scenarios,
         args.out,
         not args.no_figures,
         lambda scenario, bar: _run_one(args, scenario, bar),
-        (FirmwareError, ControllerError, can.CanError),
+        (can.CanError,),
         quiet=args.quiet,
     )

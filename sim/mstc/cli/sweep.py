@@ -8,19 +8,20 @@ import argparse
 import os
 import sys
 import time
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 
-from mstc.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, error, library
-from mstc.errors import FirmwareError, ScenarioError
-from mstc.firmware import LIB_ENV, SilController
-from mstc.params import Params
-from mstc.report.progress import Progress
-from mstc.sim.run import RunResult
-from mstc.sim.scenario import load_scenario
-from mstc.sweep.engine import STRATEGIES, Scene, run_job, run_sweep
-from mstc.sweep.suite import Family, Suite, generate, load_suite
+from mstc.can.library import LIB_ENV
+from mstc.can.protocol import wire_limits
+from mstc.cli.common import find_library, library
+from mstc.errors import EXIT_OK, UsageError, writing
+from mstc.firmware.sil import SilController
+from mstc.loop.result import RunResult
+from mstc.model import Params
+from mstc.plant.scenario import load_scenarios
+from mstc.report.progress import ProgressBar
+from mstc.sweep.engine import STRATEGIES, Scene, require_dask, run_job, run_sweep
+from mstc.sweep.suite import Family, Suite, generate, is_suite, load_suite
 from mstc.sweep.summary import write_summary
 
 NAME = "sweep"
@@ -142,26 +143,22 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
-def _is_suite(path: Path) -> bool:
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        return False  # the scenario loader says what is wrong
-    return "family" in data or "suite" in data
+def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]]:
+    """The scenario files to run (suites generated first).
 
-
-def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]] | None:
-    """The scenario files to run (suites generated first), or None after an error."""
+    :raises UsageError: a folder without scenario files, an unknown family.
+    :raises SuiteError: a bad suite file.
+    :raises WriteError: the scene files cannot be written.
+    """
     files: list[Path] = []
     suites: list[Suite] = []
     for path in args.inputs:
         if path.is_dir():
             found = sorted(p for p in path.rglob("*.toml") if p.is_file())
             if not found:
-                error(f"{path}: no scenario files (*.toml) in this folder")
-                return None
+                raise UsageError(f"{path}: no scenario files (*.toml) in this folder")
             files += found
-        elif path.is_file() and _is_suite(path):
+        elif path.is_file() and is_suite(path):
             suite = load_suite(path)
             if args.count is not None:
                 suite = replace(
@@ -170,10 +167,11 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]] | N
             known = {f.name for f in suite.families}
             for name in args.family or ():
                 if name not in known:
-                    error(f"{path}: no family {name!r} (families: {', '.join(sorted(known))})")
-                    return None
+                    families = ", ".join(sorted(known))
+                    raise UsageError(f"{path}: no family {name!r} (families: {families})")
             wanted = tuple(args.family) if args.family else None
-            files += [f.path for f in generate(suite, args.out / "scenes", wanted)]
+            with writing("the scene files"):
+                files += [f.path for f in generate(suite, args.out / "scenes", wanted)]
             suites.append(suite)
         else:
             files.append(path)
@@ -189,85 +187,63 @@ def run(args: argparse.Namespace) -> int:
     strategies = [s.strip() for s in args.strategy.split(",") if s.strip()]
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown or not strategies:
-        error(
+        raise UsageError(
             f"--strategy: unknown {', '.join(unknown) or '(none)'} (known: {', '.join(STRATEGIES)})"
         )
-        return EXIT_USAGE
     if args.jobs < 1:
-        error("--jobs must be at least 1")
-        return EXIT_USAGE
-    try:
-        found = _scene_files(args)
-    except ScenarioError as exc:
-        error(str(exc))
-        return EXIT_USAGE
-    except OSError as exc:
-        error(f"cannot write the scene files: {exc}")
-        return EXIT_FAILED
-    if found is None:
-        return EXIT_USAGE
-    files, suites = found
+        raise UsageError("--jobs must be at least 1")
+    if args.scheduler is not None:
+        require_dask()
+    files, suites = _scene_files(args)
     if args.generate_only:
         print(f"{len(files)} scene files in {args.out / 'scenes'}/")
         return EXIT_OK
 
     # Every scene is validated here, before anything runs, like `mstc sim`.
+    loaded, problems = load_scenarios(files, wire_limits())
     scenes: list[Scene] = []
     seen: dict[str, Path] = {}
-    ok = True
-    for path in files:
-        try:
-            load_scenario(path)
-            scene = Scene.from_file(path)
-        except (ScenarioError, OSError) as exc:
-            error(str(exc))
-            ok = False
-            continue
+    for scenario in loaded:
+        path = scenario.path
+        scene = Scene.from_file(path)
         first = seen.setdefault(scene.name, path)
         if first != path:
-            error(f"{first} and {path} would both write {args.out}/<strategy>/{scene.name}/")
-            ok = False
+            problems.append(
+                f"{first} and {path} would both write {args.out}/<strategy>/{scene.name}/"
+            )
         scenes.append(scene)
-    if not ok:
-        return EXIT_USAGE
+    if problems:
+        raise UsageError("\n".join(problems))
 
-    try:
-        given = library(args.lib)
+    # The DWA baseline alone needs no firmware library.
+    given = library(args.lib) if set(strategies) != {"dwa"} else find_library(args.lib)
+    if given is not None:
         # Absolute: workers (and a cluster's) may run in another directory.
         lib = str(given.resolve())
         firmware = f"{given} ({SilController(Params(), lib).numeric})"
-    except FirmwareError as exc:
-        if set(strategies) != {"dwa"}:
-            error(str(exc))
-            return EXIT_FAILED
+    else:
         lib, firmware = str(args.lib or ""), "none (dwa only)"
 
     where = args.scheduler or f"{args.jobs} local processes"
     print(f"sweep: {len(scenes)} scenes × {', '.join(strategies)} on {where}; firmware {firmware}")
-    bar = Progress(
+    bar = ProgressBar(
         len(scenes) * len(strategies), "sweep", "runs", delay=0.5, enabled=not args.quiet
     )
     start = time.monotonic()
     try:
-        result = run_sweep(
-            scenes,
-            strategies,
-            args.out,
-            lib,
-            workers=args.jobs,
-            scheduler=args.scheduler,
-            resume=args.resume,
-            progress=lambda done, total: bar.update(done),
-        )
-    except FirmwareError as exc:
+        with writing("the outputs"):
+            result = run_sweep(
+                scenes,
+                strategies,
+                args.out,
+                lib,
+                workers=args.jobs,
+                scheduler=args.scheduler,
+                resume=args.resume,
+                progress=lambda done, total: bar.update(done),
+            )
+    finally:
         bar.close()
-        error(str(exc))
-        return EXIT_FAILED
-    except OSError as exc:
-        bar.close()
-        error(f"cannot write the outputs: {exc}")
-        return EXIT_FAILED
-    bar.close()
     elapsed = time.monotonic() - start
 
     by_name = {s.name: s for s in scenes}
@@ -276,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
         return run_job(by_name[row["scene"]], row["strategy"], lib)[0]
 
     title = ", ".join(s.name for s in suites) or ", ".join(str(p) for p in args.inputs)
-    try:
+    with writing("the summary"):
         summary = write_summary(
             result.rows,
             strategies,
@@ -286,9 +262,6 @@ def run(args: argparse.Namespace) -> int:
             gallery=args.gallery,
             rerun=rerun,
         )
-    except OSError as exc:
-        error(f"cannot write the summary: {exc}")
-        return EXIT_FAILED
     _print_table(result.rows, strategies)
     errors = sum(1 for r in result.rows if r["error"])
     print(

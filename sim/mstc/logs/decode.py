@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""Decode a bus log into what a simulation reports: events, status, trace, figures.
+"""Decode a bus log into what a simulation reports: events, status, trace.
 
 From the frames alone, with the DBC through cantools, so that a run recorded
 on a real board is analysed exactly like a simulation:
@@ -24,11 +24,8 @@ the reader's, the decoder's problems are all counted and the first ones kept.
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import statistics
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,7 +34,7 @@ from cantools.database.can import Database, Message
 
 from mstc.can.dbc import E2E_SIGNALS, e2e_data_ids, numeric_values, short_name, tables
 from mstc.can.protocol import e2e_crc
-from mstc.controller import Event, Fault, Mode
+from mstc.errors import LogError
 from mstc.logs.read import (
     DEFAULT_MAX_PROBLEMS,
     MAX_TIME_S,
@@ -46,21 +43,22 @@ from mstc.logs.read import (
     ProblemKind,
     ProblemList,
 )
-from mstc.params import PARAM_NAMES, Params, with_param_values
-from mstc.report.outputs import FIGURES, event_record
-from mstc.report.plots import PlotData
-from mstc.report.progress import Progress
-from mstc.report.table import match_events
-from mstc.sim.run import TRACE_COLUMNS, Trace
-from mstc.sim.scenario import ExpectedEvent
-from mstc.sim.sensor import Obstacle
+from mstc.loop.result import TRACE_COLUMNS, Trace
+from mstc.model import (
+    PARAM_NAMES,
+    Event,
+    Fault,
+    Mode,
+    Obstacle,
+    Params,
+    Progress,
+    with_param_values,
+)
 
 TIME_MODULO = 1 << 32
 """STEP and EVENT times [µs] wrap here."""
 
 _INPUT_COLUMNS = ("x", "y", "theta", "x_r", "y_r", "theta_r", "v_r", "w_r")
-PLOT_FILES = ("events.json", "trace.csv", "status.csv", *(f"{stem}.png" for stem in FIGURES))
-"""Every file ``mstc plot`` writes into its folder."""
 _WHEEL_COLUMNS = ("wheel_left", "wheel_right", "v", "w")
 
 
@@ -109,19 +107,6 @@ class DecodedLog:
     def name(self) -> str:
         """The name of its output folder: see :func:`output_name`."""
         return output_name(self.log.path)
-
-    def plot_data(self) -> PlotData:
-        """The figures' input, as a simulation's."""
-        title = f"{self.name} (bus log, {len(self.steps)} steps"
-        title += f", dt = {self.dt:g} s)" if self.dt else ")"
-        return PlotData(
-            name=self.name,
-            title=title,
-            trace=self.trace,
-            events=self.events,
-            params=self.params,
-            obstacles=self.obstacles,
-        )
 
 
 def output_name(path: Path) -> str:
@@ -316,7 +301,7 @@ def decode_log(
 
     :param progress: told how many frames are done, now and then.
     :param max_problems: problems to keep (all are counted).
-    :raises ValueError: the log has no WHEEL_CMD frame: no control step to show.
+    :raises LogError: the log has no WHEEL_CMD frame: no control step to show.
     :raises DbcError: the DBC lacks an entry the decoder names (:mod:`mstc.can.dbc`).
     """
     dec = _Decoder(log, db, max_problems)
@@ -324,7 +309,7 @@ def decode_log(
     if progress is not None:
         progress.close()
     if not dec.rows:
-        raise ValueError(f"{log.path}: no WHEEL_CMD frame: no control step to decode")
+        raise LogError(f"{log.path}: no WHEEL_CMD frame: no control step to decode")
     params, used = _params(dec.param_values)
     obstacles = tuple(
         Obstacle(
@@ -455,105 +440,3 @@ def decode_log(
         dt=round(dt, 6),
         stamps=np.array([r["stamp"] for r in rows], dtype=float),
     )
-
-
-# ------------------------------------------------------------------ outputs
-
-
-def write_status_csv(decoded: DecodedLog, path: Path) -> None:
-    """status.csv: one row per control step (:attr:`DecodedLog.status_columns`)."""
-    with path.open("w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(decoded.status_columns)
-        for row in decoded.status_rows:
-            writer.writerow([repr(c) if isinstance(c, float) else c for c in row])
-
-
-def write_trace_csv(decoded: DecodedLog, path: Path) -> None:
-    """trace.csv in the format of a simulation's (docs/scenarios.md), with the
-    distance columns named by obstacle id."""
-    trace = decoded.trace
-    m = TRACE_COLUMNS.index("w_r") + 1
-    header = [
-        *TRACE_COLUMNS[:m],
-        "mode",
-        *TRACE_COLUMNS[m:],
-        *(f"d{o.id}" for o in decoded.obstacles),
-    ]
-    with path.open("w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(header)
-        for values, mode, dist in zip(trace.values, trace.mode, trace.distance, strict=True):
-            row = [repr(float(x)) for x in values]
-            writer.writerow([*row[:m], str(mode), *row[m:], *(repr(float(d)) for d in dist)])
-
-
-def write_events_json(decoded: DecodedLog, path: Path) -> None:
-    """events.json in the format of a simulation's; ``obstacles`` adds the ids
-    the ``min_distance`` entries belong to."""
-    lines = [json.dumps(event_record(e)) for e in decoded.events]
-    events = "[\n" + ",\n".join(f"  {line}" for line in lines) + "\n]" if lines else "[]"
-    min_distance = json.dumps([round(d, 4) for d in decoded.min_distance])
-    ids = json.dumps([o.id for o in decoded.obstacles])
-    path.write_text(f'{{"events": {events}, "min_distance": {min_distance}, "obstacles": {ids}}}\n')
-
-
-_NONE = "—"
-
-
-def format_events(
-    decoded: DecodedLog,
-    expected: Sequence[ExpectedEvent] = (),
-    folder: Path | None = None,
-) -> str:
-    """The table ``make sim`` prints, from the log: events (beside @p expected,
-    with the difference in control steps), minimum distances against D_s,
-    faults, modes, the firmware's drop counters."""
-    log = decoded.log
-    dt_us = round(decoded.dt * 1e6)
-    obstacles = {o.id: o for o in decoded.obstacles}
-    row = "  {:<9} {:<9} {:<6} {:>9}  {:>14}  {:>9}  {}"
-    span = float(decoded.trace["t"][-1] - decoded.trace["t"][0])
-    lines = [
-        f"{decoded.name}: {log.path} (bus log, {len(decoded.steps)} steps, {span:g} s"
-        + (f", dt {decoded.dt:g} s" if decoded.dt else "")
-        + f", {len(decoded.obstacles)} obstacles)",
-        row.format("event", "obstacle", "side", "t log [s]", "t expected [s]", "Δ [steps]", "note"),
-    ]
-    for m in match_events(decoded.events, tuple(expected)):
-        side = m.simulated.side if m.simulated else (m.expected.side if m.expected else None)
-        t_log = f"{m.simulated.t:.2f}" if m.simulated else _NONE
-        t_exp = f"{m.expected.t:.2f}" if m.expected else _NONE
-        steps = _NONE
-        if m.simulated and m.expected and dt_us:
-            d = (m.simulated.t_us - m.expected.t_us) / dt_us
-            steps = (f"{round(d):+d}" if d else "0") if d == round(d) else f"{d:+.1f}"
-        note = ""
-        if m.simulated is None:
-            note = "not reproduced"
-        elif m.expected is None:
-            note = "not expected" if expected else ""
-        elif m.expected.side != m.simulated.side:
-            note = f"side differs: expected {m.expected.side}"
-        cells = (m.kind, f"O{m.obstacle}", side or "", t_log, t_exp, steps, note)
-        lines.append(row.format(*cells).rstrip())
-    if not decoded.events and not expected:
-        lines.append("  (no events)")
-    p = decoded.params
-    for i, (o, d) in enumerate(zip(decoded.obstacles, decoded.min_distance, strict=True)):
-        d_s = p.safe_distance(obstacles[o.id].radius)
-        verdict = "ok" if d >= d_s else "BELOW D_s"
-        label = "min distance" if i == 0 else ""
-        lines.append(f"  {label:<13} O{o.id} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
-    for fault, count in decoded.faults.items():
-        lines.append(f"  {'fault':<13} {str(fault.name).lower()} in {count} steps")
-    modes = ", ".join(f"{mode} {n}" for mode, n in decoded.modes.items())
-    lines.append(f"  {'steps':<13} {modes}")
-    if decoded.counters:
-        counts = ", ".join(f"{k} {v}" for k, v in decoded.counters.items())
-        lines.append(f"  {'fw dropped':<13} {counts} (last STATUS_COUNTERS)")
-    from_log = ", ".join(decoded.params_from_log) or "none: Table 1 defaults"
-    lines.append(f"  {'params':<13} from the log: {from_log}")
-    if folder is not None:
-        lines.append(f"  {'output':<13} {folder}/")
-    return "\n".join(lines)

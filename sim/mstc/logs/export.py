@@ -62,6 +62,7 @@ from mcap.writer import Writer
 from mcap_protobuf.schema import register_schema
 
 from mstc.can.dbc import short_name, signal_values
+from mstc.errors import writing
 from mstc.logs.decode import DecodedLog
 
 WORLD = "world"
@@ -265,77 +266,78 @@ def _scene(decoded: DecodedLog, ns: int, paths: dict[str, list[Pose]]) -> SceneU
 def export_mcap(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's frames, decoded with @p db) to @p out.
 
-    :raises OSError: @p out cannot be written.
+    :raises WriteError: @p out cannot be written.
     """
     summary = ExportSummary(out)
     left_out: Counter[str] = Counter()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with out.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="", library="mstc export")
-        mcap = _Mcap(writer, summary)
+    with writing(str(out)):
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with out.open("wb") as stream:
+            writer = Writer(stream)
+            writer.start(profile="", library="mstc export")
+            mcap = _Mcap(writer, summary)
 
-        for message, ns, signals in _frames(decoded, db, left_out):
-            topic = f"/can/{message.name}"
-            mcap.json_channel(topic, message_schema(message))
-            mcap.add(topic, ns, json.dumps(signals).encode())
+            for message, ns, signals in _frames(decoded, db, left_out):
+                topic = f"/can/{message.name}"
+                mcap.json_channel(topic, message_schema(message))
+                mcap.add(topic, ns, json.dumps(signals).encode())
 
-        trace = decoded.trace
-        columns = {
-            "robot": (trace["x"], trace["y"], trace["theta"]),
-            "reference": (trace["x_r"], trace["y_r"], trace["theta_r"]),
-        }
-        known = np.ones(len(decoded.stamps), dtype=bool)
-        for xs, ys, thetas in columns.values():
-            known &= np.isfinite(xs) & np.isfinite(ys) & np.isfinite(thetas)
-        steps = np.flatnonzero(known)
-        stamps = [_ns(float(decoded.stamps[k])) for k in steps]
-        paths: dict[str, list[Pose]] = {}
-        for name, (xs, ys, thetas) in columns.items():
-            paths[name] = [_pose(float(xs[k]), float(ys[k]), float(thetas[k])) for k in steps]
-        left_out["steps without a pose"] = len(known) - len(steps)
+            trace = decoded.trace
+            columns = {
+                "robot": (trace["x"], trace["y"], trace["theta"]),
+                "reference": (trace["x_r"], trace["y_r"], trace["theta_r"]),
+            }
+            known = np.ones(len(decoded.stamps), dtype=bool)
+            for xs, ys, thetas in columns.values():
+                known &= np.isfinite(xs) & np.isfinite(ys) & np.isfinite(thetas)
+            steps = np.flatnonzero(known)
+            stamps = [_ns(float(decoded.stamps[k])) for k in steps]
+            paths: dict[str, list[Pose]] = {}
+            for name, (xs, ys, thetas) in columns.items():
+                paths[name] = [_pose(float(xs[k]), float(ys[k]), float(thetas[k])) for k in steps]
+            left_out["steps without a pose"] = len(known) - len(steps)
 
-        if len(steps):
-            first = stamps[0]
-            for name, poses in paths.items():
-                mcap.proto(
-                    f"/{name}/path",
-                    first,
-                    PosesInFrame(timestamp=_stamp(first), frame_id=WORLD, poses=poses),
-                )
-            mcap.proto("/scene", first, _scene(decoded, first, paths))
-        for i, ns in enumerate(stamps):
-            for name, poses in paths.items():
-                pose = poses[i]
-                mcap.proto(
-                    f"/{name}/pose",
-                    ns,
-                    PoseInFrame(timestamp=_stamp(ns), frame_id=WORLD, pose=pose),
-                )
-                mcap.proto(
-                    "/tf",
-                    ns,
-                    FrameTransform(
-                        timestamp=_stamp(ns),
-                        parent_frame_id=WORLD,
-                        child_frame_id=name,
-                        translation=pose.position,
-                        rotation=pose.orientation,
-                    ),
-                )
+            if len(steps):
+                first = stamps[0]
+                for name, poses in paths.items():
+                    mcap.proto(
+                        f"/{name}/path",
+                        first,
+                        PosesInFrame(timestamp=_stamp(first), frame_id=WORLD, poses=poses),
+                    )
+                mcap.proto("/scene", first, _scene(decoded, first, paths))
+            for i, ns in enumerate(stamps):
+                for name, poses in paths.items():
+                    pose = poses[i]
+                    mcap.proto(
+                        f"/{name}/pose",
+                        ns,
+                        PoseInFrame(timestamp=_stamp(ns), frame_id=WORLD, pose=pose),
+                    )
+                    mcap.proto(
+                        "/tf",
+                        ns,
+                        FrameTransform(
+                            timestamp=_stamp(ns),
+                            parent_frame_id=WORLD,
+                            child_frame_id=name,
+                            translation=pose.position,
+                            rotation=pose.orientation,
+                        ),
+                    )
 
-        # An event is stamped like the step that emitted it (the first step
-        # at or after its time, for a log cut short).
-        step_us = np.round(trace["t"] * 1e6)
-        for event in decoded.events:
-            k = min(int(np.searchsorted(step_us, event.t_us)), len(step_us) - 1)
-            ns = _ns(float(decoded.stamps[k]))
-            side = f" {event.side}" if event.side else ""
-            text = f"{event.kind} O{event.obstacle}{side} at t = {event.t:.6g} s"
-            log = Log(timestamp=_stamp(ns), level=Log.INFO, message=text, name="mstc")
-            mcap.proto("/events", ns, log)
-        mcap.finish()
-    summary.not_exported = {k: v for k, v in left_out.items() if v}
+            # An event is stamped like the step that emitted it (the first step
+            # at or after its time, for a log cut short).
+            step_us = np.round(trace["t"] * 1e6)
+            for event in decoded.events:
+                k = min(int(np.searchsorted(step_us, event.t_us)), len(step_us) - 1)
+                ns = _ns(float(decoded.stamps[k]))
+                side = f" {event.side}" if event.side else ""
+                text = f"{event.kind} O{event.obstacle}{side} at t = {event.t:.6g} s"
+                log = Log(timestamp=_stamp(ns), level=Log.INFO, message=text, name="mstc")
+                mcap.proto("/events", ns, log)
+            mcap.finish()
+        summary.not_exported = {k: v for k, v in left_out.items() if v}
     return summary
 
 

@@ -16,6 +16,7 @@ clock on python-can's ``virtual`` interface.
 
 from __future__ import annotations
 
+import errno
 import itertools
 import re
 import time
@@ -25,9 +26,9 @@ from dataclasses import dataclass
 import can
 from cantools.database.can import Database
 
-from mstc.errors import SendError
+from mstc.errors import BusError, SendError, UsageError
 from mstc.logs.read import FrameLog
-from mstc.report.progress import Progress
+from mstc.model import Progress
 
 SEND_TIMEOUT_S = 1.0
 """How long one send may wait for room in the interface's queue [s]."""
@@ -52,30 +53,30 @@ class IdFilter:
         identifiers (``0x`` optional) or inclusive ranges of them, or message
         names of @p db.
 
-        :raises ValueError: an item is none of these, or a range is reversed.
+        :raises UsageError: an item is none of these, or a range is reversed.
         """
         ranges = []
         for item in (part.strip() for part in text.split(",")):
             if not item:
-                raise ValueError(f"empty item in ID filter {text!r}")
+                raise UsageError(f"empty item in ID filter {text!r}")
             if db is not None and item in {m.name for m in db.messages}:
                 frame_id = db.get_message_by_name(item).frame_id
                 ranges.append((frame_id, frame_id))
                 continue
             bounds = item.split("-")
             if len(bounds) > 2:
-                raise ValueError(f"bad range {item!r} in ID filter (write LOW-HIGH)")
+                raise UsageError(f"bad range {item!r} in ID filter (write LOW-HIGH)")
             try:
                 values = [_hex_id(b) for b in bounds]
             except ValueError:
                 names = " or a message name" if db is not None else ""
-                raise ValueError(
+                raise UsageError(
                     f"bad item {item!r} in ID filter: want a hex identifier "
                     f"(0x100), a range (0x104-0x110){names}"
                 ) from None
             lo, hi = values[0], values[-1]
             if lo > hi:
-                raise ValueError(f"reversed range {item!r} in ID filter")
+                raise UsageError(f"reversed range {item!r} in ID filter")
             ranges.append((lo, hi))
         return cls(tuple(ranges))
 
@@ -158,13 +159,17 @@ class Player:
         self.loops = loops
         self.clock = clock
         self.sleep = sleep
+        self.stats = PlayStats()
+        """What the current (or last) :meth:`play` did so far."""
 
     def play(self, frames: Sequence[can.Message], progress: Progress | None = None) -> PlayStats:
         """Send @p frames, :attr:`loops` times, each loop on the frames' time line.
 
+        :returns: What the play did; also in :attr:`stats` as it goes, so that
+            a play that failed or was interrupted can say how far it came.
         :raises SendError: a frame could not be sent.
         """
-        stats = PlayStats()
+        stats = self.stats = PlayStats()
         if not frames:
             return stats
         begin = self.clock()
@@ -183,10 +188,39 @@ class Player:
                     self.bus.send(msg, timeout=SEND_TIMEOUT_S)
                 except can.CanError as exc:
                     stats.seconds = self.clock() - begin
-                    raise SendError(f"cannot send {msg.arbitration_id:03X}: {exc}", stats) from exc
+                    raise SendError(f"cannot send {msg.arbitration_id:03X}: {exc}") from exc
                 stats.sent += 1
                 if progress is not None:
                     progress.update(stats.sent)
             stats.loops += 1
         stats.seconds = self.clock() - begin
         return stats
+
+
+_ERRNO_HINTS = {
+    errno.EAFNOSUPPORT: "this kernel has no SocketCAN (modules can, can-raw); "
+    "docs/hil.md runs it in a VM",
+    errno.ENODEV: "no such interface; a virtual one is made with "
+    "`ip link add dev {channel} type vcan && ip link set up {channel}`",
+    errno.ENETDOWN: "the interface is down: `ip link set up {channel}`",
+    errno.EPERM: "not permitted: run as a user allowed to open CAN sockets",
+}
+
+
+def open_bus(interface: str, channel: str) -> can.BusABC:
+    """The python-can bus @p interface on @p channel.
+
+    :raises BusError: it cannot be opened; the error says why, with a hint
+        for the usual SocketCAN causes.
+    """
+    try:
+        return can.Bus(interface=interface, channel=channel)
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        text = f"cannot open {interface} bus {channel!r}: {exc}"
+        code = getattr(exc, "errno", None) or getattr(exc, "error_code", None)
+        hint = _ERRNO_HINTS.get(code) if isinstance(code, int) else None
+        if hint is None and isinstance(exc.__cause__, OSError):
+            hint = _ERRNO_HINTS.get(exc.__cause__.errno or 0)
+        if hint is not None:
+            text += f" ({hint.format(channel=channel)})"
+        raise BusError(text) from exc

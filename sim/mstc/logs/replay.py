@@ -41,11 +41,11 @@ import numpy as np
 from cantools.database.can import Database, Message
 
 from mstc.can.dbc import E2E_SIGNALS, short_name, signal_values
+from mstc.can.library import FRAME_DATA, FrameStruct, Library
 from mstc.can.silbus import SilBus
 from mstc.errors import FirmwareError
-from mstc.firmware import FRAME_DATA, FrameStruct, Library
 from mstc.logs.read import FrameLog, LogFrame, where_in
-from mstc.report.progress import Progress
+from mstc.model import Progress
 
 FW_NODE = "FW"
 """The firmware's node in the DBC."""

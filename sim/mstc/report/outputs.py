@@ -11,19 +11,15 @@ other file, or that is a symbolic link, is refused, never cleared.
 
 import csv
 import json
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from mstc.controller import Event
-from mstc.errors import MstcError
+from mstc.errors import OutputError, writing
 from mstc.logs.candump import write_candump
-from mstc.sim.run import TRACE_COLUMNS, RunResult
-
-if TYPE_CHECKING:
-    from mstc.can.lockstep import CanController
-
+from mstc.loop.lockstep import CanController
+from mstc.loop.result import TRACE_COLUMNS, RunResult, Trace
+from mstc.model import Event
 
 FIGURES = ("path", "position_error", "angle_error", "v", "w", "distance", "overview")
 """Stems of the PNG figures :func:`mstc.report.plots.plot_all` writes."""
@@ -41,29 +37,15 @@ RUN_FILES = (
 """Every file a run of ``mstc sim`` or ``mstc hil`` writes into its folder."""
 
 
-class OutputError(MstcError):
-    """An output folder that cannot be written without leaving OUT or destroying
-    files mstc did not write; nothing is written."""
-
-
-def output_folder(out: Path, name: str, owned: Collection[str]) -> Path:
-    """``out/name``, once sure that writing there stays inside @p out and
-    destroys nothing but what an earlier run wrote.
-
-    :param out: the output folder the user named (--out).
-    :param name: the folder's name: a scenario's file stem, a log's name.
-    :param owned: the files such a run writes (and a rerun may remove).
-    :raises OutputError: @p name is not a plain folder name (``""``, ``.``,
-        ``..``, a path); the folder is a symbolic link or not a folder; it
-        holds anything but files of @p owned.
-    """
+def folder_problem(out: Path, name: str, owned: Collection[str]) -> str | None:
+    """Why ``out/name`` cannot be written (see :func:`output_folder`), or None."""
     if name in ("", ".", "..") or Path(name).name != name:
-        raise OutputError(f"{name!r} cannot name a folder inside --out {out}: rename the file")
+        return f"{name!r} cannot name a folder inside --out {out}: rename the file"
     folder = out / name
     if folder.is_symlink():
-        raise OutputError(f"{folder} is a symbolic link: mstc writes into real folders only")
+        return f"{folder} is a symbolic link: mstc writes into real folders only"
     if folder.exists() and not folder.is_dir():
-        raise OutputError(f"{folder} exists and is not a folder")
+        return f"{folder} exists and is not a folder"
     if folder.is_dir():
         others = sorted(
             p.name
@@ -72,11 +54,30 @@ def output_folder(out: Path, name: str, owned: Collection[str]) -> Path:
         )
         if others:
             shown = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
-            raise OutputError(
+            return (
                 f"{folder} holds files mstc did not write ({shown}): not cleared; "
                 "move them or choose another --out"
             )
-    return folder
+    return None
+
+
+def output_folder(out: Path, name: str, owned: Collection[str], source: str = "") -> Path:
+    """``out/name``, once sure that writing there stays inside @p out and
+    destroys nothing but what an earlier run wrote.
+
+    :param out: the output folder the user named (--out).
+    :param name: the folder's name: a scenario's file stem, a log's name.
+    :param owned: the files such a run writes (and a rerun may remove).
+    :param source: what the outputs are of (a scenario or log file), named
+        first in the error.
+    :raises OutputError: @p name is not a plain folder name (``""``, ``.``,
+        ``..``, a path); the folder is a symbolic link or not a folder; it
+        holds anything but files of @p owned.
+    """
+    problem = folder_problem(out, name, owned)
+    if problem is not None:
+        raise OutputError(f"{source}: {problem}" if source else problem)
+    return out / name
 
 
 def fresh_folder(out: Path, name: str, owned: Collection[str]) -> Path:
@@ -98,7 +99,7 @@ class BusLog:
     """The frames of a run through CAN, and what was dropped."""
 
     channel: str
-    controller: "CanController"
+    controller: CanController
 
     @property
     def files(self) -> dict[str, str]:
@@ -134,30 +135,34 @@ def event_record(event: Event) -> dict[str, object]:
     return record
 
 
-def events_json(result: RunResult) -> str:
+def events_text(
+    events: Sequence[Event], min_distance: Sequence[float], obstacles: Sequence[int] | None = None
+) -> str:
     """The text of events.json: ``{"events": [...], "min_distance": [...]}``,
-    one event a line.
+    one event a line; with @p obstacles, ``"obstacles": [...]`` too, the ids
+    the min_distance entries belong to (a bus log's, whose ids need not be
+    1, 2, ...).
 
     min_distance is in m, rounded to 4 decimals, one entry per obstacle in
     file order.
     """
-    lines = [json.dumps(event_record(e)) for e in result.events]
-    events = "[\n" + ",\n".join(f"  {line}" for line in lines) + "\n]" if lines else "[]"
-    min_distance = json.dumps([round(d, 4) for d in result.min_distance])
-    return f'{{"events": {events}, "min_distance": {min_distance}}}\n'
+    lines = [json.dumps(event_record(e)) for e in events]
+    text = "[\n" + ",\n".join(f"  {line}" for line in lines) + "\n]" if lines else "[]"
+    distance = json.dumps([round(d, 4) for d in min_distance])
+    ids = f', "obstacles": {json.dumps(list(obstacles))}' if obstacles is not None else ""
+    return f'{{"events": {text}, "min_distance": {distance}{ids}}}\n'
 
 
-def write_events(result: RunResult, path: Path) -> None:
-    """Write events.json (:func:`events_json`)."""
-    path.write_text(events_json(result))
+def events_json(result: RunResult) -> str:
+    """The text of a run's events.json (:func:`events_text`)."""
+    return events_text(result.events, result.min_distance)
 
 
-def write_trace(result: RunResult, path: Path) -> None:
-    """Write trace.csv: the numeric columns, mode, and d1..dN [m]."""
-    trace = result.trace
-    n = trace.distance.shape[1]
+def write_trace_csv(trace: Trace, obstacles: Sequence[int], path: Path) -> None:
+    """Write trace.csv: the numeric columns, mode, and the distance to each
+    obstacle, d<id> [m] (d1..dN for a scenario's)."""
     m = _MODE_COLUMN
-    header = [*TRACE_COLUMNS[:m], "mode", *TRACE_COLUMNS[m:], *(f"d{i + 1}" for i in range(n))]
+    header = [*TRACE_COLUMNS[:m], "mode", *TRACE_COLUMNS[m:], *(f"d{i}" for i in obstacles)]
     with path.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(header)
@@ -174,20 +179,26 @@ def write_outputs(
     time, after removing what an earlier run left there (:func:`fresh_folder`).
 
     :returns: That folder.
-    :raises OutputError: the folder cannot be used (:func:`output_folder`).
+    :raises WriteError: the folder cannot be used (:func:`output_folder`) or
+        written.
     """
-    folder = fresh_folder(out_dir, result.scenario.name, RUN_FILES)
-    write_events(result, folder / "events.json")
-    write_trace(result, folder / "trace.csv")
-    if result.timing is not None:
-        (folder / "timing.json").write_text(json.dumps(result.timing.to_json(), indent=1) + "\n")
-    if bus_log is not None:
-        frames = [m for m, _ in bus_log.controller.traffic.frames]
-        write_candump(folder / "bus.log", frames, bus_log.channel)
-        for name, text in bus_log.files.items():
-            (folder / name).write_text(text)
-    if figures:
-        from mstc.report.plots import plot_all  # matplotlib: slow to import, so only when drawing
+    scenario = result.scenario
+    with writing(f"the outputs of {scenario.path}"):
+        folder = fresh_folder(out_dir, scenario.name, RUN_FILES)
+        (folder / "events.json").write_text(events_json(result))
+        ids = [o.id for o in scenario.obstacles]
+        write_trace_csv(result.trace, ids, folder / "trace.csv")
+        if result.timing is not None:
+            timing = json.dumps(result.timing.to_json(), indent=1) + "\n"
+            (folder / "timing.json").write_text(timing)
+        if bus_log is not None:
+            frames = [m for m, _ in bus_log.controller.traffic.frames]
+            write_candump(folder / "bus.log", frames, bus_log.channel)
+            for name, text in bus_log.files.items():
+                (folder / name).write_text(text)
+        if figures:
+            # matplotlib: slow to import, so only when drawing
+            from mstc.report.plots import plot_all
 
-        plot_all(result, folder)
+            plot_all(result, folder)
     return folder

@@ -17,11 +17,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
 
-from mstc.controller import Event, EventKind
-from mstc.params import Params
-from mstc.sim.run import RunResult, Trace, world_obstacles
-from mstc.sim.sensor import Obstacle
-from mstc.sim.timing import Timing
+from mstc.logs.decode import DecodedLog
+from mstc.loop.result import RunResult, Trace
+from mstc.loop.timing import Timing
+from mstc.model import Event, EventKind, Obstacle, Params
 
 _ROBOT = "tab:blue"
 _REFERENCE = "0.35"
@@ -50,7 +49,7 @@ class PlotData:
     """What the figures draw: a run's trace and events, the parameters, and the
     obstacles of the distance columns. Made from a simulation by
     :meth:`from_run`, or from a bus log (mstc.logs.decode), so that both are
-    drawn alike."""
+    drawn alike (:meth:`from_log`)."""
 
     name: str
     """Names the figures (the scenario's or the log's file stem)."""
@@ -73,7 +72,21 @@ class PlotData:
             trace=result.trace,
             events=result.events,
             params=scenario.params,
-            obstacles=world_obstacles(scenario),
+            obstacles=scenario.obstacles,
+        )
+
+    @classmethod
+    def from_log(cls, decoded: DecodedLog) -> Self:
+        """The figures of a decoded bus log, drawn as a simulation's."""
+        title = f"{decoded.name} (bus log, {len(decoded.steps)} steps"
+        title += f", dt = {decoded.dt:g} s)" if decoded.dt else ")"
+        return cls(
+            name=decoded.name,
+            title=title,
+            trace=decoded.trace,
+            events=decoded.events,
+            params=decoded.params,
+            obstacles=decoded.obstacles,
         )
 
 

@@ -47,8 +47,9 @@ class _Bar(tqdm):  # type: ignore[type-arg]  # tqdm is generic over its iterable
         self.start_t = self.last_print_t = clock()
 
 
-class Progress:
-    """Reports how far a run of @p total units has come.
+class ProgressBar:
+    """Reports how far a run of @p total units has come (a
+    :class:`mstc.model.Progress`).
 
     :param total: units of the whole run (frames, say); 0 shows nothing.
     :param label: what runs, first on each line (``"replay"``).

@@ -4,10 +4,9 @@
 from dataclasses import dataclass
 from pathlib import Path
 
-from mstc.controller import Event, EventKind, Fault
-from mstc.params import Params
-from mstc.sim.run import RunResult
-from mstc.sim.scenario import ExpectedEvent
+from mstc.loop.result import RunResult
+from mstc.model import Event, EventKind, Fault, Params
+from mstc.plant.scenario import ExpectedEvent
 
 _NONE = "—"
 _FAULT_NAMES = {

@@ -5,7 +5,7 @@
   generate, written as ordinary scenario files;
 - :mod:`~mstc.sweep.metrics`: what one run is judged by (a row of runs.csv);
 - :mod:`~mstc.sweep.dwa`: the Dynamic Window Approach, the baseline a user
-  would pick instead, behind the same :class:`~mstc.controller.Controller`;
+  would pick instead, behind the same :class:`~mstc.model.Controller`;
 - :mod:`~mstc.sweep.engine`: running many scenes, for several strategies, on
   a process pool or a Dask cluster, with resume;
 - :mod:`~mstc.sweep.summary`: summary.md, its rates, intervals and figures.

@@ -3,7 +3,7 @@
 
 PythonRobotics' ``dynamic_window_approach.py`` (Atsushi Sakai), vectorised
 with numpy and adapted to this robot and to a moving goal. It runs in Python
-behind the same :class:`~mstc.controller.Controller` as the firmware, so the
+behind the same :class:`~mstc.model.Controller` as the firmware, so the
 sweep judges it on the same plant, sensor, scenes and metrics. Kept in
 Python on purpose: it is a reference to compare against, not firmware.
 
@@ -51,10 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mstc.controller import Fault, Mode, Status, StepResult
-from mstc.params import Params
-from mstc.sim.plant import Pose, wrap_angle
-from mstc.sim.sensor import Obstacle
+from mstc.model import Fault, Mode, Obstacle, Params, Pose, Status, StepResult, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -89,7 +86,7 @@ class DwaConfig:
 
 
 class DwaController:
-    """DWA behind :class:`mstc.controller.Controller`.
+    """DWA behind :class:`mstc.model.Controller`.
 
     :param params: the robot (R_m, wheel radius, track width, wheel limit).
     :param config: DWA's parameters.
@@ -197,7 +194,7 @@ class DwaController:
         obstacles: Sequence[Obstacle],
         t_us: int,
     ) -> StepResult:
-        """One control period (see :meth:`mstc.controller.Controller.step`): a
+        """One control period (see :meth:`mstc.model.Controller.step`): a
         new decision every ``config.period``, the last one held in between."""
         p = self.params
         if self._next_us is None or t_us >= self._next_us:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import hashlib
+import importlib.util
 import io
 import math
 import multiprocessing
@@ -34,13 +35,15 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
-from mstc.controller import Controller
-from mstc.errors import FirmwareError
-from mstc.firmware import LIB_ENV, SilController
-from mstc.params import Strategy
+from mstc.can.library import LIB_ENV
+from mstc.can.protocol import wire_limits
+from mstc.errors import DependencyError, FirmwareError
+from mstc.firmware.sil import SilController
+from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
+from mstc.model import Controller, Strategy
+from mstc.plant.scenario import Scenario, parse_scenario
 from mstc.report.outputs import events_json
-from mstc.sim.run import RunResult, simulate
-from mstc.sim.scenario import Scenario, parse_scenario
 from mstc.sweep.dwa import DwaController
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, evaluate
 
@@ -143,7 +146,7 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
     row["seed"] = "" if scene.seed is None else str(scene.seed)
     try:
         data = tomllib.loads(scene.text)
-        scenario = parse_scenario(data, scene.source)
+        scenario = parse_scenario(data, scene.source, wire_limits())
         row["family"] = scenario.meta.family or scene.family
         scenario, controller = controller_for(scenario, strategy, lib)
         result = simulate(scenario, controller)
@@ -303,11 +306,27 @@ def _isolate(
     return []
 
 
+def require_dask() -> None:
+    """Dask's ``distributed`` is installed (the extra ``mstc[cluster]``).
+
+    :raises DependencyError: it is not.
+    """
+    if importlib.util.find_spec("distributed") is None:
+        raise DependencyError(
+            "a Dask cluster needs Dask's distributed, which is not installed: "
+            "pip install 'mstc[cluster]' (docs/sweeps.md)"
+        )
+
+
 def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
     """Run @p jobs on the Dask cluster at @p scheduler (``tcp://host:port``).
     Dask retries the tasks of a dead worker elsewhere; a batch that keeps
     killing workers is run again job by job, and the job that still does
-    becomes an error row."""
+    becomes an error row.
+
+    :raises DependencyError: Dask is not installed.
+    """
+    require_dask()
     from distributed import Client, as_completed
     from distributed.scheduler import KilledWorker
 

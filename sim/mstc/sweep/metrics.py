@@ -46,8 +46,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from mstc.controller import EventKind, Mode
-from mstc.sim.run import RunResult
+from mstc.loop.result import RunResult
+from mstc.model import EventKind, Mode
 
 REJOIN_ERROR = 0.05
 """Tracking error under which the robot is back on its reference [m]."""

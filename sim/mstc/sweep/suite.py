@@ -21,19 +21,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mstc.errors import ScenarioError
-from mstc.params import Params
-from mstc.sim.plant import Integrator
-from mstc.sim.scenario import MAX_OBSTACLES
+from mstc.can.protocol import wire_limits
+from mstc.errors import SuiteError
+from mstc.model import Params
+from mstc.plant.plant import Integrator
 
 SEED_STRIDE = 1_000_000
 """Scene i of a family with seed s is drawn with seed s·SEED_STRIDE + i."""
 MAX_TRIES = 1000
 """Draws of one obstacle before the generator gives up on a scene's geometry."""
-
-
-class SuiteError(ScenarioError):
-    """A suite file that cannot be used (same one-line form as a scenario's)."""
 
 
 Range = tuple[float, float]
@@ -188,6 +184,17 @@ def _range(
     return (lo, hi)
 
 
+def is_suite(path: Path) -> bool:
+    """Whether @p path is a suite file (a TOML file with ``[family.<name>]`` or
+    ``[suite]`` tables) rather than a scenario; a file that is not TOML is not
+    (the scenario loader then says what is wrong with it)."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    return "family" in data or "suite" in data
+
+
 def load_suite(path: str | Path) -> Suite:
     """Read and validate a suite file.
 
@@ -254,8 +261,9 @@ def _family(fail: Callable[[str, str], SuiteError], fname: str, table: Mapping[s
         raise fail(f"{prefix}.radius", "radii must be > 0")
     most = draws["wall"][1] * 2 if kind == "narrow" else draws.get("obstacles", (0, 1))[1]
     most += 1 if kind == "start_active" else 0
-    if most > MAX_OBSTACLES:
-        raise fail(prefix, f"up to {most} obstacles a scene, at most {MAX_OBSTACLES}")
+    carried = wire_limits().max_obstacles
+    if most > carried:
+        raise fail(prefix, f"up to {most} obstacles a scene, at most {carried}")
     imperfections = _table(fail, table.get("imperfections", {}), f"{prefix}.imperfections")
     _unknown(fail, imperfections, f"{prefix}.imperfections", _IMPERFECTIONS)
     imp = {

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.axes import Axes
 
-from mstc.sim.run import RunResult
+from mstc.loop.result import RunResult
 
 Z95 = 1.959963984540054
 """The standard normal quantile of a two-sided 95 % interval."""

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """Timing of a real-time run, measured from what crossed the bus (timing.json).
 
-The real-time plant (:mod:`mstc.sim.realtime`) records every ODOM_XY frame it
+The real-time loop (:mod:`mstc.loop.realtime`) records every ODOM_XY frame it
 sent (:class:`OdomSent`) and every control step the firmware reported
 (:class:`FirmwareStep`: its WHEEL_CMD, with the STATUS and STATUS_TRK that
 came before it), each stamped with the plant's clock. :func:`analyse` turns
@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mstc.controller import Event, Status
+from mstc.model import Event, Status
 
 STEP_MODULO = 1 << 16
 """The WHEEL_CMD step counter wraps here."""

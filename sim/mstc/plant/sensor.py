@@ -4,44 +4,11 @@ with the imperfections a real one has when a scenario asks for them."""
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from mstc.sim.plant import Pose
-
-
-@dataclass(frozen=True)
-class Obstacle:
-    """A circular obstacle, as the world holds it and as the sensor reports it."""
-
-    id: int
-    """1-based index in the scenario file, stable over the run."""
-    x: float
-    """Centre [m] (at t = 0 in the world; where it was seen in a report)."""
-    y: float
-    """Centre [m]."""
-    radius: float
-    """[m], > 0."""
-    vx: float = 0.0
-    """Constant velocity [m/s]; 0 for a static obstacle."""
-    vy: float = 0.0
-    """[m/s]."""
-
-    @property
-    def moving(self) -> bool:
-        """Whether the obstacle moves."""
-        return self.vx != 0.0 or self.vy != 0.0
-
-    def at(self, t: float) -> "Obstacle":
-        """The obstacle at time @p t [s]: moved by its velocity (itself when static)."""
-        if not self.moving:
-            return self
-        return replace(self, x=self.x + self.vx * t, y=self.y + self.vy * t)
-
-    def distance(self, pose: Pose) -> float:
-        """Centre-to-centre distance D_r to a robot at ``pose`` [m], eq. (5)."""
-        return math.hypot(self.x - pose.x, self.y - pose.y)
+from mstc.model import Obstacle, Pose
 
 
 class RangeSensor:

@@ -2,7 +2,8 @@
 """The virtual reference robot of the paper (section 3.1): a unicycle moving at
 constant (v_r, ω_r), integrated with the same scheme as the robot."""
 
-from mstc.sim.plant import Integrator, Pose, integrate
+from mstc.model import Pose
+from mstc.plant.plant import Integrator, integrate
 
 
 class ReferenceRobot:

@@ -8,17 +8,18 @@ O1, O2) and what is wrong with it.
 
 A scenario must also fit the frames that carry it to the firmware over CAN
 (firmware/comm/mstc.dbc): poses, speeds, obstacle positions, radii and ids
-are checked against the ranges of their signals, read from the DBC, so that
-``--bus sil`` never clips what ``--bus memory`` passes exactly; and a run is
-bounded by :data:`MAX_STEPS`.
+are checked against the ranges of their signals, so that ``--bus sil`` never
+clips what ``--bus memory`` passes exactly. The loader does not read the DBC
+itself: its caller hands it those ranges (:class:`~mstc.model.WireLimits`,
+from :func:`mstc.can.protocol.wire_limits`). A run is bounded by
+:data:`MAX_STEPS`.
 """
 
 import difflib
-import functools
 import math
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import date, datetime, time
 from pathlib import Path
@@ -26,110 +27,16 @@ from typing import Any
 
 import numpy as np
 
-from mstc.can.protocol import load_database, physical_range
-from mstc.controller import EventKind, Side
 from mstc.errors import ScenarioError
 from mstc.limits import Limit, load_table, violation
-from mstc.params import Params, Strategy
-from mstc.sim.plant import Integrator, Pose
+from mstc.model import EventKind, Obstacle, Params, Pose, Side, SignalRange, Strategy, WireLimits
+from mstc.plant.plant import Integrator
 
 MAX_STEPS = 100_000
 """Control steps one scenario may have: N = round(duration / dt) (the run has
 N + 1 rows). It bounds a run's time and memory: about 0.15 kB per step in
 memory, 2.6 kB per step through CAN (the frames kept for bus.log), and 1.3 to
 2 ms per step through CAN, so 2 to 3 minutes at the limit (docs/scenarios.md)."""
-
-
-@dataclass(frozen=True)
-class SignalRange:
-    """What one signal of the protocol carries, for the loader's messages."""
-
-    name: str
-    """``MESSAGE.signal``, e.g. ``ODOM_XY.x``."""
-    lo: float
-    hi: float
-    unit: str
-    scale: float
-    """The step between two values it carries."""
-
-    def __contains__(self, value: object) -> bool:
-        return isinstance(value, int | float) and self.lo <= value <= self.hi
-
-    def text(self) -> str:
-        """``[-128, 127.9999847] m (what ODOM_XY.x carries)``."""
-        unit = f" {self.unit}" if self.unit else ""
-        return f"[{self.lo:.10g}, {self.hi:.10g}]{unit} (what {self.name} carries)"
-
-
-@dataclass(frozen=True)
-class WireLimits:
-    """The ranges of the signals a scenario's values travel in."""
-
-    robot: tuple[SignalRange, SignalRange]
-    """x, y of ODOM_XY."""
-    reference: tuple[SignalRange, SignalRange]
-    """x, y of REF_XY."""
-    v: SignalRange
-    w: SignalRange
-    obstacle: tuple[SignalRange, SignalRange]
-    """x, y of OBSTACLE."""
-    radius: SignalRange
-    velocity: tuple[SignalRange, SignalRange]
-    """vx, vy of OBSTACLE_VEL."""
-    ids: SignalRange
-    """OBSTACLE's id: obstacles are numbered 1.. in file order."""
-
-    @property
-    def max_obstacles(self) -> int:
-        """Obstacles a scenario may hold: one per id the frames carry."""
-        return int(self.ids.hi - self.ids.lo + 1)
-
-
-@functools.cache
-def wire_limits() -> WireLimits:
-    """The ranges of firmware/comm/mstc.dbc (read once)."""
-    db = load_database()
-
-    def signal(message: str, name: str) -> SignalRange:
-        s = db.get_message_by_name(message).get_signal_by_name(f"{message}_{name}")
-        lo, hi = physical_range(s)
-        return SignalRange(f"{message}.{name}", lo, hi, s.unit or "", float(s.scale))
-
-    return WireLimits(
-        robot=(signal("ODOM_XY", "x"), signal("ODOM_XY", "y")),
-        reference=(signal("REF_XY", "x"), signal("REF_XY", "y")),
-        v=signal("REF_MOTION", "v"),
-        w=signal("REF_MOTION", "w"),
-        obstacle=(signal("OBSTACLE", "x"), signal("OBSTACLE", "y")),
-        radius=signal("OBSTACLE", "radius"),
-        velocity=(signal("OBSTACLE_VEL", "vx"), signal("OBSTACLE_VEL", "vy")),
-        ids=signal("OBSTACLE", "id"),
-    )
-
-
-MAX_OBSTACLES = wire_limits().max_obstacles
-"""Obstacles one scenario may hold: one per id the OBSTACLE frame carries (1..15)."""
-
-
-@dataclass(frozen=True)
-class ObstacleSpec:
-    """An obstacle of the scenario."""
-
-    x: float
-    """Centre [m]."""
-    y: float
-    """Centre [m]."""
-    radius: float
-    """[m]."""
-    vx: float = 0.0
-    """Constant velocity [m/s]; the centre is at (x + vx t, y + vy t)."""
-    vy: float = 0.0
-    """[m/s]."""
-
-    @property
-    def moving(self) -> bool:
-        """Whether the obstacle moves."""
-        return self.vx != 0.0 or self.vy != 0.0
 
 
 @dataclass(frozen=True)
@@ -233,7 +140,8 @@ class Scenario:
     robot: Pose
     """Initial robot pose."""
     reference: ReferenceSpec
-    obstacles: tuple[ObstacleSpec, ...]
+    obstacles: tuple[Obstacle, ...]
+    """Numbered from 1 in file order (their ids), where they are at t = 0."""
     sim: SimSpec
     params: Params
     expected: tuple[ExpectedEvent, ...]
@@ -436,10 +344,11 @@ def _join(prefix: str, key: str) -> str:
     return f"{prefix}.{key}" if prefix else key
 
 
-def load_scenario(path: str | Path) -> Scenario:
+def load_scenario(path: str | Path, wire: WireLimits) -> Scenario:
     """Read and validate a scenario file.
 
     :param path: the TOML file; error messages name it as given.
+    :param wire: what the frames carry (:func:`mstc.can.protocol.wire_limits`).
 
     :returns: The scenario.
 
@@ -457,14 +366,31 @@ def load_scenario(path: str | Path) -> Scenario:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(name, None, f"TOML syntax error: {exc}") from exc
-    return parse_scenario(data, name)
+    return parse_scenario(data, name, wire)
 
 
-def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
+def load_scenarios(
+    paths: Sequence[str | Path], wire: WireLimits
+) -> tuple[list[Scenario], list[str]]:
+    """Every valid scenario file of @p paths, and the problem of each that is
+    not (its :class:`ScenarioError`'s line), so that a caller can report them
+    all at once."""
+    scenarios: list[Scenario] = []
+    problems: list[str] = []
+    for path in paths:
+        try:
+            scenarios.append(load_scenario(path, wire))
+        except ScenarioError as exc:
+            problems.append(str(exc))
+    return scenarios, problems
+
+
+def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> Scenario:
     """Validate parsed TOML as a scenario.
 
     :param data: the parsed document.
     :param path: the file it came from, for error messages and the output name.
+    :param wire: what the frames carry (:func:`mstc.can.protocol.wire_limits`).
 
     :raises ScenarioError: the document is not a valid scenario.
     """
@@ -472,7 +398,6 @@ def parse_scenario(data: Mapping[str, object], path: str) -> Scenario:
     c.keys(data, "", _TOP_REQUIRED, _TOP_KEYS)
 
     params = _parse_params(c, data.get("params", {}))
-    wire = wire_limits()
 
     robot = c.table(data["robot"], "robot")
     c.keys(robot, "robot", ("pose",), ("pose",))
@@ -557,7 +482,7 @@ def _pose(c: _Checker, value: object, key: str, carried: tuple[SignalRange, Sign
 
 def _parse_obstacles(
     c: _Checker, value: object, params: Params, wire: WireLimits
-) -> tuple[ObstacleSpec, ...]:
+) -> tuple[Obstacle, ...]:
     entries = c.array_of_tables(value, "obstacles")
     if len(entries) > wire.max_obstacles:
         ids = wire.ids
@@ -589,7 +514,7 @@ def _parse_obstacles(
             vx, vy = c.numbers(entry["velocity"], f"{prefix}.velocity", ("vx", "vy"))
             c.within(vx, f"{prefix}.velocity", wire.velocity[0], "element vx ")
             c.within(vy, f"{prefix}.velocity", wire.velocity[1], "element vy ")
-        result.append(ObstacleSpec(x, y, radius, vx, vy))
+        result.append(Obstacle(i, x, y, radius, vx, vy))
     return tuple(result)
 
 
@@ -657,7 +582,7 @@ def _parse_sim(c: _Checker, value: object) -> SimSpec:
 
 def reference_path(reference: ReferenceSpec, sim: SimSpec) -> tuple[np.ndarray, np.ndarray]:
     """x and y of the reference at every step k = 0..N, as
-    :class:`~mstc.sim.reference.ReferenceRobot` integrates it (θ_k = θ_0 + k ω dt)."""
+    :class:`~mstc.plant.reference.ReferenceRobot` integrates it (θ_k = θ_0 + k ω dt)."""
     v, w, dt = reference.v, reference.w, sim.dt
     theta = reference.pose.theta + w * dt * np.arange(sim.steps)
     if sim.integrator is Integrator.EULER:

@@ -10,24 +10,8 @@ precision, whatever the firmware's numeric mode.
 
 import math
 from enum import StrEnum
-from typing import NamedTuple
 
-
-class Pose(NamedTuple):
-    """Pose in the world frame."""
-
-    x: float
-    """[m]"""
-    y: float
-    """[m]"""
-    theta: float
-    """Heading [rad], not wrapped: it grows continuously as the robot turns."""
-
-
-def wrap_angle(a: float) -> float:
-    """Angle @p a wrapped into (-π, π], as a heading sensor reports it."""
-    w = math.remainder(a, math.tau)
-    return math.pi if w == -math.pi else w
+from mstc.model import Pose
 
 
 class Integrator(StrEnum):

@@ -1,29 +1,189 @@
 # SPDX-License-Identifier: MIT
-"""The firmware behind a python-can bus, in lock-step (docs/protocol.md).
+"""The lock-step loop: the plant's time is the firmware's.
 
-:class:`CanController` implements :class:`mstc.controller.Controller` with
-frames: each call sends the robot's odometry, the reference, the obstacles the
-sensor reports and a STEP frame, then reads the firmware's answers up to the
-WHEEL_CMD that echoes the step. The same code drives the in-process firmware
-(``can.Bus(interface="mstc-sil")``), ``mstc-fw`` on SocketCAN and a board.
+:func:`simulate` runs a scenario in closed loop around any
+:class:`~mstc.model.Controller`, one control step per period of simulated
+time: the firmware's step in process (:class:`mstc.firmware.sil.SilController`),
+a baseline (:class:`mstc.sweep.dwa.DwaController`), or the firmware behind a
+python-can bus, :class:`CanController` (docs/protocol.md). That one
+implements the step with frames: each call sends the robot's odometry, the
+reference, the obstacles the sensor reports and a STEP frame, then reads the
+firmware's answers up to the WHEEL_CMD that echoes the step. The same code
+drives the in-process firmware (``can.Bus(interface="mstc-sil")``),
+``mstc-fw`` on SocketCAN and a board. The real-time loop
+(:mod:`mstc.loop.realtime`) shares all but the clock.
 """
 
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import can
+import numpy as np
 
 from mstc.can import secoc
 from mstc.can.dbc import tables
-from mstc.can.protocol import COUNTER_MODULO, Frame, FrameDropped, Protocol, e2e_crc
-from mstc.controller import Event, Fault, Status, StepResult
-from mstc.errors import ControllerError
-from mstc.params import Params, param_values
-from mstc.sim.plant import Pose, wrap_angle
-from mstc.sim.sensor import Obstacle
+from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc
+from mstc.errors import ControllerError, FrameDropped, SimulationError
+from mstc.loop.result import (
+    PROGRESS_UPDATES,
+    TRACE_COLUMNS,
+    RunResult,
+    Trace,
+    distances,
+    fault_counts,
+)
+from mstc.model import (
+    Controller,
+    Event,
+    Fault,
+    Mode,
+    Obstacle,
+    Params,
+    Pose,
+    Progress,
+    Status,
+    StepResult,
+    StepValues,
+    param_values,
+    wrap_angle,
+)
+from mstc.plant.scenario import Scenario
+from mstc.plant.world import make_world
+
+# ------------------------------------------------------------------ the loop
+
+StepFunction = Callable[[Pose, Pose, float, float, Sequence[Obstacle], int], StepValues]
+
+
+def step_values(controller: Controller) -> StepFunction:
+    """@p controller's step, its result as :data:`~mstc.model.StepValues`: the
+    controller's own ``step_values`` when it has one (the firmware's, which
+    skips building the Status and StepResult objects), else its ``step``
+    with the values read from the result."""
+    own: StepFunction | None = getattr(controller, "step_values", None)
+    if own is not None:
+        return own
+    step = controller.step
+
+    def values(
+        robot: Pose, ref: Pose, v_r: float, w_r: float, seen: Sequence[Obstacle], t_us: int
+    ) -> StepValues:
+        result = step(robot, ref, v_r, w_r, seen, t_us)
+        s = result.status
+        left, right = result.wheel_left, result.wheel_right
+        return left, right, s.mode, int(s.faults), s.e1, s.e2, s.e3, s.e, result.events
+
+    return values
+
+
+def simulate(
+    scenario: Scenario, controller: Controller, progress: Progress | None = None
+) -> RunResult:
+    """Run a scenario in closed loop.
+
+    For k = 0..N (N = round(duration/dt)), at t = k·dt: the sensor scans from
+    the robot's pose at the start of the period (obstacles where they are at
+    t); the controller steps on that pose (with odometry noise, when the
+    scenario has some), the reference pose and the scan; the row is
+    recorded; then robot and reference are integrated over dt, the robot with
+    the wheel speeds commanded ``delay`` periods earlier (standing still
+    before the first). The run ends with the row of step N, so the trace
+    spans t = 0 to the duration and the minimum distances include the final
+    state.
+
+    The trace is written into an array of the run's size, taken once: a run of
+    N steps holds about (15 + obstacles) × 8 bytes per step, whatever the
+    controller (the scenario loader bounds N, :data:`~mstc.plant.scenario.MAX_STEPS`).
+
+    :param scenario: the scenario.
+    :param controller: a freshly initialised controller for its parameters.
+    :param progress: told how many steps are done, now and then, and closed
+        when the run ends.
+
+    :returns: The trace, the events and the minimum distance to each obstacle.
+
+    :raises SimulationError: the plant's state became non-finite.
+    """
+    sim = scenario.sim
+    imp = scenario.imperfections
+    world = make_world(scenario)
+    plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
+    odometry_rng = world.odometry_rng
+    moving = any(o.moving for o in obstacles)
+    v_r, w_r = ref.v, ref.w
+    steps = sim.steps
+    odometry_noise = None
+    if imp.position_noise or imp.heading_noise:
+        sigma = np.array([imp.position_noise, imp.position_noise, imp.heading_noise])
+        odometry_noise = (odometry_rng.standard_normal((steps + 1, 3)) * sigma).tolist()
+    pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
+
+    values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
+    modes: list[Mode] = []
+    events: list[Event] = []
+    fault_masks: list[int] = []
+    clock = time.perf_counter_ns
+    spent = 0
+    step = step_values(controller)
+    body_velocity = plant.body_velocity
+    scan, plant_step, ref_step = sensor.scan, plant.step, ref.step
+    dt, dt_us = sim.dt, sim.dt_us
+    tick = max((steps + 1) // PROGRESS_UPDATES, 1)
+    try:
+        for k in range(steps + 1):
+            t_us = k * dt_us
+            t = t_us / 1e6
+            robot, reference = plant.pose, ref.pose
+            seen = scan(robot, t)
+            measured = robot
+            if odometry_noise is not None:
+                nx, ny, nt = odometry_noise[k]
+                measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
+            start = clock()
+            left, right, mode, faults, e1, e2, e3, e, emitted = step(
+                measured, reference, v_r, w_r, seen, t_us
+            )
+            spent += clock() - start
+            v, w = body_velocity(left, right)
+            values[k] = (t, *robot, *reference, v, w, v_r, w_r, e1, e2, e3, e)
+            modes.append(mode)
+            if emitted:
+                events.extend(emitted)
+            if faults:
+                fault_masks.append(faults)
+            if k < steps:
+                if pending:
+                    pending.append((left, right))
+                    left, right = pending.popleft()
+                plant_step(left, right, dt)
+                ref_step(dt)
+            if progress is not None and (k + 1) % tick == 0:
+                progress.update(k + 1)
+    finally:
+        if progress is not None:
+            progress.close()
+
+    if not np.isfinite(values[:, 1:7]).all():
+        k = int(np.argmin(np.isfinite(values[:, 1:7]).all(axis=1)))
+        raise SimulationError(
+            f"{scenario.path}: the plant's state became non-finite at t = {values[k, 0]:g} s"
+        )
+    distance, obstacle_xy = distances(values, obstacles, moving)
+    return RunResult(
+        scenario=scenario,
+        trace=Trace(values, tuple(modes), distance, obstacle_xy),
+        events=tuple(events),
+        min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
+        faults=fault_counts(fault_masks),
+        step_time=spent / 1e9 / (steps + 1),
+    )
+
+
+# ------------------------------------------------------------------ through CAN
 
 STEP_MODULO = 1 << 16
 """The STEP and WHEEL_CMD step counter wraps here."""
@@ -63,7 +223,8 @@ def unauthenticated(what: str) -> ControllerError:
 
 
 class CanController:
-    """The firmware's control step through CAN frames, lock-step.
+    """The firmware's control step through CAN frames, lock-step (a
+    :class:`~mstc.model.Controller`).
 
     :param bus: the bus the firmware is on.
     :param params: parameters, sent with PARAM_SET before the first step.
@@ -225,7 +386,7 @@ class CanController:
         obstacles: Sequence[Obstacle],
         t_us: int,
     ) -> StepResult:
-        """One lock-step exchange (see :meth:`Controller.step`)."""
+        """One lock-step exchange (see :meth:`mstc.model.Controller.step`)."""
         self._now = t_us / 1e6
         if not self._armed:
             self._arm(robot, ref, v_r, w_r)

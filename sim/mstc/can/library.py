@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: MIT
-"""The firmware library's bindings, in one place, and its control step in-process.
+"""The firmware library's bindings, in one place.
 
 ``libmstc_sil.so`` (``make lib``; the ABI is ``hal/sil/mstc_sil.h``) is reached
 through ctypes by three users: the in-memory controller
-(:class:`SilController`), the python-can interface ``mstc-sil``
-(:mod:`mstc.can.silbus`) and the replay (:mod:`mstc.logs.replay`). All of them
-open it with :meth:`Library.open`, which declares the signatures and checks
-every structure below against the layout the library exports
+(:class:`mstc.firmware.sil.SilController`), the python-can interface
+``mstc-sil`` (:mod:`mstc.can.silbus`) and the replay (:mod:`mstc.logs.replay`).
+All of them open it with :meth:`Library.open`, which declares the signatures
+and checks every structure below against the layout the library exports
 (``mstc_sil_layout()``: each struct's size, each field's offset and size), so
 a field added or changed on one side only is a :class:`FirmwareError` naming
 the struct and the field, never garbage read at the wrong offset. Adding a
@@ -14,34 +14,19 @@ field means adding it to the C struct (and its row of the layout table in
 mstc_sil.c) and to the struct here.
 
 The library converts to and from the firmware's numeric type at this
-boundary: everything here is double or an integer. Its modes and event kinds
-are the firmware's ``sup_mode_t`` and ``sup_event_kind_t``, which the firmware
-asserts equal to the DBC's STATUS_mode and EVENT_kind values, so they are
-decoded with the DBC's value tables (:mod:`mstc.can.dbc`); its sides are the
-sign of α (``avd_side_t``: 1 left, -1 right, 0 none), a geometric convention
-rather than a wire value.
+boundary: everything here is double or an integer.
 """
 
 from __future__ import annotations
 
 import ctypes
-import errno
-import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from struct import Struct
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
-from mstc.can.dbc import tables
-from mstc.controller import Event, Fault, Side, Status, StepResult
 from mstc.errors import FirmwareError
-from mstc.params import Params, Strategy
-from mstc.sim.plant import Pose
-from mstc.sim.sensor import Obstacle
-
-if TYPE_CHECKING:
-    from mstc.sim.run import StepValues
 
 LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no path is given."""
@@ -52,12 +37,6 @@ MAX_EVENTS = 18
 """MSTC_SIL_MAX_EVENTS (checked through the size of ``mstc_sil_output_t.events``)."""
 FRAME_DATA = 8
 """Data bytes of ``mstc_sil_frame_t``."""
-_ALIGN = 16
-"""Alignment the controller memory needs."""
-
-_TAU, _PI = math.tau, math.pi
-_SIDES = {0: None, 1: Side.LEFT, -1: Side.RIGHT}
-"""``avd_side_t``, the sign of α in eq. (10)-(12): not a wire value."""
 
 
 class AbiStruct(ctypes.Structure):
@@ -220,31 +199,6 @@ def field_packer(c_struct: type[ctypes.Structure], names: Sequence[str]) -> Stru
     return Struct(fmt)
 
 
-_INPUT = field_packer(InputStruct, ("robot", "ref", "v_r", "w_r", "t_us", "n_obstacles"))
-"""The scalars of one step's input, after which its obstacle pointer follows."""
-_OBSTACLE = field_packer(ObstacleStruct, ("id", "x", "y", "radius", "vx", "vy"))
-_OBSTACLE_SIZE = ctypes.sizeof(ObstacleStruct)
-_OUTPUT = field_packer(
-    OutputStruct,
-    (
-        "wheel_left",
-        "wheel_right",
-        "mode",
-        "active_obstacle",
-        "side",
-        "faults",
-        "e1",
-        "e2",
-        "e3",
-        "e",
-        "v",
-        "w",
-        "n_events",
-    ),
-)
-"""One step's output but its obstacle table and events."""
-
-
 def library_layout(dll: ctypes.CDLL) -> Layout:
     """The layout the library exports (``mstc_sil_layout``)."""
     fn = dll["mstc_sil_layout"]
@@ -300,7 +254,7 @@ def check_layout(
                 )
     if problems:
         raise FirmwareError(
-            f"{where} does not match the Python bindings (mstc.firmware against "
+            f"{where} does not match the Python bindings (mstc.can.library against "
             "hal/sil/mstc_sil.h): " + "; ".join(problems)
         )
 
@@ -396,205 +350,3 @@ class Library:
         fn.argtypes = [ctypes.c_void_p]
         fn.restype = ctypes.c_int
         return fn
-
-
-def _c_params(p: Params) -> ParamsStruct:
-    return ParamsStruct(
-        r_m=p.r_m,
-        r_ob=p.r_ob,
-        d_det=p.d_det,
-        d_act=p.d_act,
-        d_s=p.d_s,
-        trk_k=(ctypes.c_double * 3)(*p.tracking_gains),
-        avd_k=(ctypes.c_double * 2)(*p.avoidance_gains),
-        wheel_radius=p.wheel_radius,
-        track_width=p.track_width,
-        max_wheel_speed=p.max_wheel_speed,
-        strategy=tables().strategy.value(str(p.strategy)),
-    )
-
-
-_FAULTS: dict[int, Fault] = {}
-
-
-def _fault(mask: int) -> Fault:
-    """Fault(mask), remembered: building an IntFlag costs more than a step."""
-    fault = _FAULTS.get(mask)
-    if fault is None:
-        fault = _FAULTS[mask] = Fault(mask)
-    return fault
-
-
-class SilController:
-    """The firmware's control step in this process (a :class:`~mstc.controller.Controller`).
-
-    Each instance owns one controller's memory, so several can run side by side.
-
-    :param params: controller parameters.
-    :param lib_path: path of ``libmstc_sil.so``; None reads it from the
-        environment variable ``MSTC_SIL_LIB``.
-
-    :raises FirmwareError: no library, it cannot be loaded, or it rejects ``params``.
-    """
-
-    def __init__(self, params: Params, lib_path: str | os.PathLike[str] | None = None) -> None:
-        library = Library.open(lib_path)
-        self._lib = library.dll
-        self.lib_path = library.path
-        self.numeric: str = library.numeric
-        """The firmware's numeric mode, "float" or "fixed"."""
-        self._tables = tables()
-        size = self._lib.mstc_sil_size()
-        # Caller-owned memory, 16-byte aligned: over-allocate and offset.
-        self._mem = (ctypes.c_uint8 * (size + _ALIGN))()
-        address = ctypes.addressof(self._mem)
-        self._state = ctypes.c_void_p(address + (-address % _ALIGN))
-        c_params = _c_params(params)
-        rc = self._lib.mstc_sil_init(self._state, ctypes.byref(c_params))
-        if rc == -errno.EINVAL:
-            raise FirmwareError(
-                f"the firmware rejected the parameters (mstc_sil_init returned -EINVAL): {params}"
-            )
-        if rc != 0:
-            raise FirmwareError(f"mstc_sil_init failed with {rc}")
-        self._in = InputStruct()
-        self._out = OutputStruct()
-        self._obstacles = (ObstacleStruct * MAX_OBSTACLES)()
-        self._in.obstacles = self._obstacles
-        # Made once: byref and the attribute look-ups cost as much as the step.
-        self._in_ref = ctypes.byref(self._in)
-        self._out_ref = ctypes.byref(self._out)
-        self._step = self._lib.mstc_sil_step
-        self._modes = self._tables.mode
-
-    @staticmethod
-    def defaults(lib_path: str | os.PathLike[str] | None = None) -> Params:
-        """The parameters the firmware uses by default (mstc_sil_defaults)."""
-        lib = Library.open(lib_path).dll
-        c = ParamsStruct()
-        lib.mstc_sil_defaults(ctypes.byref(c))
-        return Params(
-            r_m=c.r_m,
-            r_ob=c.r_ob,
-            d_det=c.d_det,
-            d_act=c.d_act,
-            d_s=c.d_s,
-            tracking_gains=(c.trk_k[0], c.trk_k[1], c.trk_k[2]),
-            avoidance_gains=(c.avd_k[0], c.avd_k[1]),
-            wheel_radius=c.wheel_radius,
-            track_width=c.track_width,
-            max_wheel_speed=c.max_wheel_speed,
-            strategy=tables().strategy.members(Strategy)[c.strategy],
-        )
-
-    def step(
-        self,
-        robot: Pose,
-        ref: Pose,
-        v_r: float,
-        w_r: float,
-        obstacles: Sequence[Obstacle],
-        t_us: int,
-    ) -> StepResult:
-        """One control step (see :meth:`mstc.controller.Controller.step`).
-
-        :raises FirmwareError: more than MAX_OBSTACLES obstacles, or the library
-            refused the step or returned a value outside its ABI.
-        """
-        left, right, mode, active, side, faults, e1, e2, e3, e, v, w, n_events = self._call(
-            robot, ref, v_r, w_r, obstacles, t_us
-        )
-        try:
-            status = Status(
-                mode=self._modes[mode],
-                active_obstacle=active,
-                side=_SIDES[side],
-                faults=_fault(faults),
-                e1=e1,
-                e2=e2,
-                e3=e3,
-                e=e,
-                v=v,
-                w=w,
-            )
-        except (KeyError, ValueError) as exc:
-            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
-        return StepResult(left, right, status, self._events(n_events))
-
-    def step_values(
-        self,
-        robot: Pose,
-        ref: Pose,
-        v_r: float,
-        w_r: float,
-        obstacles: Sequence[Obstacle],
-        t_us: int,
-    ) -> StepValues:
-        """:meth:`step`, its result as the plain tuple the in-memory loop
-        records (:data:`mstc.sim.run.StepValues`): building the Status and
-        StepResult objects costs more than the firmware's step.
-
-        :raises FirmwareError: as :meth:`step`.
-        """
-        left, right, mode, _, side, faults, e1, e2, e3, e, _, _, n_events = self._call(
-            robot, ref, v_r, w_r, obstacles, t_us
-        )
-        try:
-            decoded, _ = self._modes[mode], _SIDES[side]
-        except KeyError as exc:
-            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
-        return left, right, decoded, faults, e1, e2, e3, e, self._events(n_events)
-
-    def _call(
-        self,
-        robot: Pose,
-        ref: Pose,
-        v_r: float,
-        w_r: float,
-        obstacles: Sequence[Obstacle],
-        t_us: int,
-    ) -> tuple[Any, ...]:
-        """Run the step; the scalars of its output (:data:`_OUTPUT`'s fields)."""
-        if len(obstacles) > MAX_OBSTACLES:
-            raise FirmwareError(f"{len(obstacles)} obstacles reported, at most {MAX_OBSTACLES}")
-        # Headings cross the boundary wrapped (wrap_angle, inlined: it costs
-        # as much as the step), as a sensor reports them, so float32 keeps
-        # its resolution on long runs.
-        theta = math.remainder(robot.theta, _TAU)
-        theta_r = math.remainder(ref.theta, _TAU)
-        _INPUT.pack_into(
-            self._in,
-            0,
-            robot.x,
-            robot.y,
-            _PI if theta == -_PI else theta,
-            ref.x,
-            ref.y,
-            _PI if theta_r == -_PI else theta_r,
-            v_r,
-            w_r,
-            t_us,
-            len(obstacles),
-        )
-        pack, table = _OBSTACLE.pack_into, self._obstacles
-        for i, o in enumerate(obstacles):
-            pack(table, i * _OBSTACLE_SIZE, o.id, o.x, o.y, o.radius, o.vx, o.vy)
-        rc = self._step(self._state, self._in_ref, self._out_ref)
-        if rc != 0:
-            raise FirmwareError(f"mstc_sil_step failed with {rc} at t_us={t_us}")
-        return _OUTPUT.unpack_from(self._out)
-
-    def _events(self, n_events: int) -> tuple[Event, ...]:
-        """The @p n_events events of the last step's output."""
-        if not n_events:
-            return ()
-        kinds = self._tables.event_kind
-        try:
-            if n_events > MAX_EVENTS:
-                raise KeyError(f"n_events {n_events}")
-            return tuple(
-                Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
-                for ev in self._out.events[:n_events]
-            )
-        except (KeyError, ValueError) as exc:
-            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc

@@ -36,6 +36,7 @@ import socket
 import subprocess
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -117,7 +118,9 @@ class Monitor:
 
 
 LOOP_STATS_WORDS = 11
-"""Words of stm32_loop_stats_t (hal/stm32/stm32_hal.h)."""
+"""Words of stm32_loop_stats_t (hal/stm32/stm32_hal.h) before its sequence word."""
+LOOP_STATS_SEQ = 4 * LOOP_STATS_WORDS
+"""Offset of the sequence word ``seq``, the struct's last [bytes]."""
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,38 @@ class LoopStats:
             step_cycles_max=w[8],
             step_cycles_sum=w[9] | (w[10] << 32),
         )
+
+    @classmethod
+    def read(
+        cls, words: Callable[[int, int], list[int]], addr: int, timeout: float = 2.0
+    ) -> LoopStats:
+        """One consistent copy of the statistics at @p addr, read through
+        @p words (address, count → 32-bit words) while the board runs.
+
+        The board's main loop makes the sequence word odd before it changes
+        any other word and even again after the last (a seqlock,
+        hal/stm32/stm32_hal.h). Each call of @p words is a separate monitor
+        command, done before the next begins, so reading ``seq``, then the
+        words, then ``seq`` again orders the three reads; within one command
+        the order of the words is QEMU's (a memcpy), hence ``seq`` alone. If
+        both readings of ``seq`` are the same even number, no update was under
+        way while the words were read, nor began before the second reading:
+        the copy is one the board held at some moment. Otherwise read again.
+
+        :raises FirmwareError: no consistent copy within @p timeout [s].
+        """
+        deadline = time.monotonic() + timeout
+        seq = words(addr + LOOP_STATS_SEQ, 1)[0]
+        while True:
+            w = words(addr, LOOP_STATS_WORDS)
+            after = words(addr + LOOP_STATS_SEQ, 1)[0]
+            if after == seq and seq % 2 == 0:
+                return cls.from_words(w)
+            if time.monotonic() > deadline:
+                raise FirmwareError(
+                    f"stm32_loop_stats kept changing for {timeout} s (sequence word {after})"
+                )
+            seq = after
 
     @property
     def measured_steps(self) -> int:
@@ -239,9 +274,8 @@ class BoardVm:
             raise FirmwareError(f"{self.elf} has no symbol {name}") from None
 
     def stats(self) -> LoopStats:
-        """stm32_loop_stats now."""
-        addr = self.address("stm32_loop_stats")
-        return LoopStats.from_words(self.monitor.words(addr, LOOP_STATS_WORDS))
+        """stm32_loop_stats now: a consistent copy (:meth:`LoopStats.read`)."""
+        return LoopStats.read(self.monitor.words, self.address("stm32_loop_stats"))
 
     def core_hz(self) -> int:
         """The core clock QEMU models for this machine [Hz] (SysTick's

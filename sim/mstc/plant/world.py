@@ -1,0 +1,60 @@
+# SPDX-License-Identifier: MIT
+"""The world a scenario makes: the robot, the reference, the obstacles and the
+sensor at t = 0, with the scenario's imperfections. Both loops
+(:mod:`mstc.loop.lockstep`, :mod:`mstc.loop.realtime`) run in it, whatever
+their clock."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mstc.model import Obstacle
+from mstc.plant.plant import UnicyclePlant
+from mstc.plant.reference import ReferenceRobot
+from mstc.plant.scenario import Scenario
+from mstc.plant.sensor import RangeSensor
+
+
+def _streams(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
+    """Independent random streams of a scene (odometry, sensor), so that one
+    imperfection's draws do not move when another is switched on."""
+    odometry, sensor = np.random.SeedSequence(seed).spawn(2)
+    return np.random.Generator(np.random.PCG64(odometry)), np.random.Generator(
+        np.random.PCG64(sensor)
+    )
+
+
+@dataclass(frozen=True)
+class World:
+    """What a run moves and senses, whatever its clock."""
+
+    plant: UnicyclePlant
+    reference: ReferenceRobot
+    obstacles: tuple[Obstacle, ...]
+    sensor: RangeSensor
+    odometry_rng: np.random.Generator
+    """The stream of the odometry noise (the sensor has its own)."""
+
+
+def make_world(scenario: Scenario) -> World:
+    """The robot, the reference, the obstacles and the sensor at t = 0, with
+    the scenario's imperfections (docs/scenarios.md)."""
+    p = scenario.params
+    sim = scenario.sim
+    imp = scenario.imperfections
+    plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
+    ref = ReferenceRobot(
+        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
+    )
+    obstacles = scenario.obstacles
+    odometry_rng, sensor_rng = _streams(imp.seed)
+    sensor = RangeSensor(
+        obstacles,
+        p.d_det if imp.sensor_range is None else imp.sensor_range,
+        noise=imp.obstacle_noise,
+        dropout=imp.dropout,
+        rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
+    )
+    return World(plant, ref, obstacles, sensor, odometry_rng)

@@ -1,3 +1,0 @@
-# SPDX-License-Identifier: MIT
-"""The kinematic plant, the reference robot, the range sensor, scenario files
-and the closed loop."""
