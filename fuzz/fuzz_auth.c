@@ -128,7 +128,7 @@ static void verify_alone(const uint8_t *r, uint64_t *own_now)
         uint8_t want[AUTH_MAC_LEN];
         auth_mac(&before, data_id, &r[4], before.session, fv, want);
         check(fv == before.fv + 1u && memcmp(want, mac, AUTH_MAC_LEN) == 0);
-        check(!(before.locked && *own_now < before.locked_until_us));
+        check(*own_now >= before.locked_until_us);
         check(own.refused == before.refused && own.fails == 0u);
     } else {
         check(own.refused == before.refused + 1u ||
@@ -137,7 +137,7 @@ static void verify_alone(const uint8_t *r, uint64_t *own_now)
     if (res == AUTH_MAC) {
         check(fv == before.fv + 1u);
     }
-    check(!own.locked || own.locked_until_us <= *own_now + AUTH_LOCK_US);
+    check(own.locked_until_us <= *own_now + AUTH_LOCK_US);
     check(own.fails <= AUTH_LOCK_TRIES);
 }
 

@@ -33,16 +33,9 @@ int app_init(app_t *a, const ctl_params_t *p)
 
 void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session)
 {
+    /* At start (app.h): the challenge is issued at time 0, as app_init()
+     * leaves challenge_us. */
     auth_set_key(&a->auth, key, session);
-    a->challenge_us = a->now_us;
-}
-
-/* The application's time moves to @p t_us (never back). */
-static void clock_to(app_t *a, uint64_t t_us)
-{
-    if (t_us > a->now_us) {
-        a->now_us = t_us;
-    }
 }
 
 /* A frame that cannot be queued is lost; the bus is the only way out, so
@@ -308,17 +301,8 @@ static void send_auth_status(app_t *a)
     send(&f[1]);
 }
 
-/* A challenge was decided (or expired): the next one is issued now. A spent
- * session is followed by a new one; without a value for it, nothing more is
- * accepted (AUTH_NO_KEY). */
-static void next_challenge(app_t *a)
-{
-    a->challenge_us = a->now_us;
-    uint32_t session;
-    if (auth_spent(&a->auth) && hal_sys_boot_nonce(&session) == 0) {
-        auth_new_session(&a->auth, session);
-    }
-}
+/* A challenge was decided (or expired): the next one is issued now. */
+static void next_challenge(app_t *a) { a->challenge_us = a->now_us; }
 
 /* PARAM_SET (with @p set) or PARAM_GET: answer PARAM_VALUE with the value in
  * force afterwards, then AUTH_STATUS. A PARAM_SET that is not @p authentic
@@ -499,16 +483,26 @@ void app_control_tick(app_t *a, uint64_t now_us)
 
 void app_housekeeping(app_t *a, uint64_t now_us)
 {
-    clock_to(a, now_us);
+    if (now_us > a->now_us) {
+        a->now_us = now_us; /* the application's time: never back */
+    }
     if (now_us < a->next_housekeeping_us) {
         return;
     }
     a->next_housekeeping_us = now_us + APP_HOUSEKEEPING_PERIOD_US;
-    if (a->now_us - a->challenge_us >= APP_AUTH_CHALLENGE_US) {
+    uint32_t session;
+    if (auth_spent(&a->auth) && hal_sys_boot_nonce(&session) == 0) {
+        /* 2^20 decisions: a new session (without a value for one, nothing
+         * more is accepted: AUTH_NO_KEY). */
+        auth_new_session(&a->auth, session);
+        next_challenge(a);
+    } else if (a->now_us - a->challenge_us >= APP_AUTH_CHALLENGE_US) {
         /* Unused for that long: a command signed for it and held back by a
          * node on the bus would be accepted late. Replace it. */
-        auth_expire(&a->auth);
+        auth_refuse(&a->auth, AUTH_EXPIRED);
         next_challenge(a);
+    } else {
+        /* the challenge stands */
     }
     hal_can_frame_t f;
     (void)comm_encode_heartbeat(&a->comm, a->state, &f);

@@ -173,10 +173,10 @@ typedef struct {
 int app_init(app_t *a, const ctl_params_t *p);
 
 /**
- * @brief Give the device key: PARAM_SET is acted on only when authenticated
- *        under @p key for the current challenge of session @p session, a
- *        value for this start (hal_sys_boot_nonce(); docs/safety.md,
- *        "Sessions").
+ * @brief Give the device key, at start (after app_init(), before the first
+ *        frame): PARAM_SET is acted on only when authenticated under @p key
+ *        for the current challenge of session @p session, a value for this
+ *        start (hal_sys_boot_nonce(); docs/safety.md, "Sessions").
  */
 void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session);
 

@@ -174,7 +174,9 @@ static void use_up(auth_t *s, auth_result_t outcome)
 
 void auth_refuse(auth_t *s, auth_result_t why)
 {
-    if (s->refused < AUTH_REFUSED_MAX) {
+    if (why == AUTH_EXPIRED) {
+        /* no command came: not a refusal */
+    } else if (s->refused < AUTH_REFUSED_MAX) {
         s->refused++;
     } else {
         s->refused_saturated = true;
@@ -182,18 +184,13 @@ void auth_refuse(auth_t *s, auth_result_t why)
     use_up(s, why);
 }
 
-void auth_expire(auth_t *s) { use_up(s, AUTH_EXPIRED); }
-
 auth_result_t auth_verify(auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DATA_LEN],
                           uint32_t fv, const uint8_t mac[AUTH_MAC_LEN], uint64_t now_us)
 {
-    if (s->locked && now_us >= s->locked_until_us) {
-        s->locked = false;
-    }
     auth_result_t r;
     if (!s->keyed || auth_spent(s)) {
         r = AUTH_NO_KEY;
-    } else if (s->locked) {
+    } else if (now_us < s->locked_until_us) {
         r = AUTH_LOCKED;
     } else if (fv != s->fv + 1u) {
         /* Signed for another moment: a recorded command, or a sender that
@@ -210,7 +207,6 @@ auth_result_t auth_verify(auth_t *s, uint16_t data_id, const uint8_t data[AUTH_D
             s->fails++;
         }
         if (s->fails >= AUTH_LOCK_TRIES) {
-            s->locked = true;
             s->locked_until_us = now_us + AUTH_LOCK_US;
         }
     }

@@ -16,7 +16,7 @@
  * accepts exactly one value, the one after the last it decided (fv + 1), in
  * the current session, a value drawn at every start (hal_sys_entropy()).
  * Every decision uses the challenge up, accepted or refused (auth_verify(),
- * auth_refuse(), auth_expire()): a command is accepted only for the moment
+ * auth_refuse()): a command is accepted only for the moment
  * it was signed for, never after a later command, a refusal, an expiry or a
  * restart. The receiver publishes the challenge in an authenticated status
  * (auth_status_mac(): its own MAC, under another data ID), so that a sender
@@ -75,15 +75,14 @@ typedef struct {
     uint8_t key[AUTH_KEY_LEN];
     uint8_t k1[AUTH_CMAC_LEN]; /**< CMAC subkeys (RFC 4493, Generate_Subkey) */
     uint8_t k2[AUTH_CMAC_LEN];
-    bool keyed;             /**< a key was given */
-    uint32_t session;       /**< drawn at start, and when a session's values are spent */
-    uint32_t fv;            /**< last freshness value decided: the challenge is fv + 1 */
-    uint8_t outcome;        /**< auth_result_t of the decision of fv */
-    uint16_t refused;       /**< refusals, up to AUTH_REFUSED_MAX */
-    bool refused_saturated; /**< refused stopped at AUTH_REFUSED_MAX: more came */
-    uint8_t fails;          /**< MAC checks failed in a row */
-    bool locked;            /**< refusing everything unchecked until locked_until_us */
-    uint64_t locked_until_us;
+    bool keyed;               /**< a key was given */
+    uint32_t session;         /**< drawn at start, and when a session's values are spent */
+    uint32_t fv;              /**< last freshness value decided: the challenge is fv + 1 */
+    uint8_t outcome;          /**< auth_result_t of the decision of fv */
+    uint16_t refused;         /**< refusals, up to AUTH_REFUSED_MAX */
+    bool refused_saturated;   /**< refused stopped at AUTH_REFUSED_MAX: more came */
+    uint8_t fails;            /**< MAC checks failed in a row */
+    uint64_t locked_until_us; /**< refusing everything unchecked before this time */
 } auth_t;
 
 /** @brief No key (every command refused with AUTH_NO_KEY), session 0, freshness 0. */
@@ -133,11 +132,12 @@ void auth_status_mac(const auth_t *s, uint16_t data_id, uint8_t mac[AUTH_MAC_LEN
 auth_result_t auth_verify(auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DATA_LEN],
                           uint32_t fv, const uint8_t mac[AUTH_MAC_LEN], uint64_t now_us);
 
-/** @brief Refuse the challenge for @p why (not AUTH_OK): counted, used up. */
+/**
+ * @brief Decide the challenge without a command for it, as @p why (not
+ *        AUTH_OK): used up, and counted unless @p why is AUTH_EXPIRED (it
+ *        expired unused: no command was refused).
+ */
 void auth_refuse(auth_t *s, auth_result_t why);
-
-/** @brief The challenge expired unused: used up (outcome AUTH_EXPIRED), not counted. */
-void auth_expire(auth_t *s);
 
 /** @brief Whether the session's freshness values are spent (a new session is due). */
 static inline bool auth_spent(const auth_t *s) { return s->fv >= AUTH_FV_MAX; }

@@ -70,14 +70,6 @@ void board_motor_enable(bool on);
  *         call and returns the same value afterwards. */
 uint32_t board_reset_flags(void);
 
-/**
- * @brief A value for this start (hal_sys_boot_nonce(); docs/safety.md,
- *        "Sessions"): the F405's TRNG, the F103's counter in its backup
- *        registers.
- * @retval 0 a value. @retval -EIO the source failed.
- */
-int board_boot_nonce(uint32_t *nonce);
-
 /** @brief Freeze the watchdog and timers while a debugger halts the core, and
  *         keep the debug port alive in sleep (DBGMCU). */
 void board_debug_init(void);

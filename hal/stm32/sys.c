@@ -39,4 +39,4 @@ void hal_sys_watchdog_kick(void) { IWDG->KR = KEY_RELOAD; }
 
 hal_reset_cause_t hal_sys_reset_cause(void) { return stm32_reset_cause(board_reset_flags()); }
 
-int hal_sys_boot_nonce(uint32_t *nonce) { return board_boot_nonce(nonce); }
+/* hal_sys_boot_nonce(): in each board's board.c (a TRNG, or a counter). */

@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "board.h"
+#include "hal/hal_sys.h"
 
 /* PLL (RM0008 §7.2, §7.3.2): HSE (not divided) × 9 = 72 MHz. AHB /1 = 72 MHz;
  * APB1 /2 = 36 MHz (max 36); APB2 /1 = 72 MHz; ADC /6 = 12 MHz (max 14).
@@ -167,7 +168,7 @@ uint32_t board_reset_flags(void)
     return flags;
 }
 
-int board_boot_nonce(uint32_t *nonce)
+int hal_sys_boot_nonce(uint32_t *nonce)
 {
     /* No TRNG on the F1. A 32-bit counter in backup registers DR1 (high
      * half) and DR2 (low half), one more at every call: the backup domain

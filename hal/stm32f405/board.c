@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "board.h"
+#include "hal/hal_sys.h"
 
 /* PLL (RM0090 §7.2.3, §7.3.2): VCO input HSE / M = 2 MHz (the value RM0090
  * recommends to limit jitter), VCO = 2 MHz × N = 336 MHz (100..432), SYSCLK =
@@ -198,7 +199,7 @@ uint32_t board_reset_flags(void)
  * comes every 40 periods of its 48 MHz clock (RM0090 24.3), under 1 µs. */
 #define RNG_POLLS 4000u
 
-int board_boot_nonce(uint32_t *nonce)
+int hal_sys_boot_nonce(uint32_t *nonce)
 {
     RCC->AHB2ENR |= RCC_AHB2ENR_RNGEN_Msk;
     RNG->CR |= RNG_CR_RNGEN_Msk;

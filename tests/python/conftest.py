@@ -46,6 +46,15 @@ def firmware_cflags() -> list[str]:
     return done.stdout.split()
 
 
+AUTH_SOURCES = [
+    "firmware/auth/auth.c",
+    "deps/mbedtls/library/aes.c",
+    "deps/mbedtls/library/platform_util.c",
+]
+"""What comm.c's status frame needs (its MAC: auth.c over Mbed TLS's AES,
+mk/auth.mk's AUTH_SRCS), for the shims that compile comm.c."""
+
+
 def build_shim(sources: list[str], out: Path, what: str) -> Path:
     """Compile @p sources (paths from the repository) with the firmware's flags
     into the shared library @p out; fail the test, loudly, when it cannot."""

@@ -171,7 +171,10 @@ class Tool:
         self.take(self.bus.send(self.bus.proto.encode("PARAM_GET", index=ARM)))
 
     def command(self, index: int, value: float) -> tuple[list[can.Message], list[Frame]]:
-        """The tool's command, sent; the frames it is made of and the answers."""
+        """The tool's command, sent after reading the firmware's state (as
+        the tools do when they have no fresh one); the frames it is made of
+        and the answers."""
+        self.sync()
         msgs = self.auth.param_set(self.bus.proto, index, value)
         got = self.bus.send_all(msgs)
         self.take(got)

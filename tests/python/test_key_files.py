@@ -69,7 +69,7 @@ def test_a_key_file_others_can_read_is_warned_about(tmp_path: Path) -> None:
     key.write_text("000102030405060708090a0b0c0d0e0f\n")
     key.chmod(0o644)
     r = subprocess.run(
-        [str(ROOT / "tools" / "setup" / "device-key"), str(key), "--header", str(tmp_path / "k.h")],
+        [str(ROOT / "tools" / "setup" / "device-key"), str(key), "--bin", str(tmp_path / "k.bin")],
         capture_output=True,
         text=True,
     )

@@ -21,9 +21,10 @@ from pathlib import Path
 
 import pytest
 
+from mstc.can.protocol import wire_limits
 from mstc.errors import MstcError
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
+from mstc.loop.lockstep import simulate
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import controller_for
 
 R_M = 0.2
@@ -51,7 +52,7 @@ def test_a_large_obstacle_within_d_det_is_avoided_or_the_set_refused(
         "large-obstacle",
     )
     try:
-        scenario = load_scenario(path)
+        scenario = load_scenario(path, wire_limits())
     except MstcError as exc:
         message = str(exc)
         assert "\n" not in message and "D_det" in message, message

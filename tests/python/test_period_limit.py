@@ -18,9 +18,10 @@ from pathlib import Path
 
 import pytest
 
+from mstc.can.protocol import wire_limits
 from mstc.errors import MstcError
-from mstc.sim.run import simulate
-from mstc.sim.scenario import load_scenario
+from mstc.loop.lockstep import simulate
+from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import controller_for
 
 D_S = 0.35
@@ -45,7 +46,7 @@ def test_a_long_period_keeps_d_s_or_is_refused(
         "long-period",
     )
     try:
-        scenario = load_scenario(path)
+        scenario = load_scenario(path, wire_limits())
     except MstcError as exc:
         message = str(exc)
         assert "\n" not in message and "sim.dt" in message, message

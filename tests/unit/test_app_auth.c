@@ -346,10 +346,14 @@ static void test_app_auth_failed_checks_lock_out_and_the_lock_ends(void)
 
 static void test_app_auth_a_spent_session_is_followed_by_a_new_one(void)
 {
+    /* The last value of the session decided: nothing is accepted until the
+     * next housekeeping starts a new session. */
     hal_fake.boot_nonce = 0xABCD0000u;
     app.auth.fv = AUTH_FV_MAX - 1u;
     feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
     feed(tf_param_auth(AUTH_FV_MAX, (const uint8_t[4]){ 0, 0, 0, 0 }));
+    TEST_ASSERT_EQUAL_UINT32(AUTH_FV_MAX, last_auth_status().freshness);
+    app_housekeeping(&app, 0u);
     const auth_status_t st = last_auth_status();
     TEST_ASSERT_EQUAL_HEX32(0xABCD0000u, st.session);
     TEST_ASSERT_EQUAL_UINT32(0u, st.freshness);
@@ -358,6 +362,8 @@ static void test_app_auth_a_spent_session_is_followed_by_a_new_one(void)
     app.auth.fv = AUTH_FV_MAX - 1u;
     feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
     feed(tf_param_auth(AUTH_FV_MAX, (const uint8_t[4]){ 0, 0, 0, 0 }));
+    app_housekeeping(&app, APP_HOUSEKEEPING_PERIOD_US);
+    TEST_ASSERT_EQUAL_HEX32(0xABCD0000u, last_auth_status().session);
     hal_can_frame_t f[2];
     tf_freshness = app.auth.fv;
     tf_param_set_auth(COMM_PARAM_D_S, 0.4f, f);

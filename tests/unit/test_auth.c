@@ -131,7 +131,7 @@ static void test_auth_status_mac_covers_session_freshness_outcome_and_count(void
     /* A command with a wrong MAC (fv 1, one refusal), then an expiry (fv 2,
      * outcome expired, not counted). */
     TEST_ASSERT_EQUAL_INT(AUTH_MAC, auth_verify(&s, DATA_ID, arm_data, 1u, arm_mac_other_key, 0u));
-    auth_expire(&s);
+    auth_refuse(&s, AUTH_EXPIRED);
     auth_status_mac(&s, STATUS_DATA_ID, mac);
     TEST_ASSERT_EQUAL_HEX8_ARRAY(after, mac, AUTH_MAC_LEN);
     s.fv = 5u;
@@ -170,7 +170,7 @@ static void test_auth_every_refusal_uses_the_challenge_up(void)
     TEST_ASSERT_EQUAL_INT(AUTH_STALE, auth_verify(&s, DATA_ID, arm_data, 1u, arm_mac_fv1, 0u));
     auth_init(&s);
     auth_set_key(&s, key, SESSION);
-    auth_expire(&s);
+    auth_refuse(&s, AUTH_EXPIRED);
     TEST_ASSERT_EQUAL_UINT16(0u, s.refused); /* not a refusal */
     TEST_ASSERT_EQUAL_UINT8(AUTH_EXPIRED, s.outcome);
     TEST_ASSERT_EQUAL_INT(AUTH_STALE, auth_verify(&s, DATA_ID, arm_data, 1u, arm_mac_fv1, 0u));
@@ -247,11 +247,11 @@ static void test_auth_four_failed_checks_lock_for_ten_seconds(void)
     uint8_t mac[AUTH_MAC_LEN];
     const uint64_t t0 = 1000000u;
     for (unsigned k = 0; k < AUTH_LOCK_TRIES; k++) {
-        TEST_ASSERT_FALSE(s.locked);
+        TEST_ASSERT_EQUAL_UINT64(0u, s.locked_until_us);
         TEST_ASSERT_EQUAL_INT(AUTH_MAC,
                               auth_verify(&s, DATA_ID, arm_data, s.fv + 1u, arm_mac_other_key, t0));
     }
-    TEST_ASSERT_TRUE(s.locked);
+    TEST_ASSERT_EQUAL_UINT64(t0 + 10000000u, s.locked_until_us);
     /* Locked: even the genuine command is refused, unchecked, until 10 s on. */
     mac_for(s.fv + 1u, mac);
     TEST_ASSERT_EQUAL_INT(AUTH_LOCKED, auth_verify(&s, DATA_ID, arm_data, s.fv + 1u, mac, t0));
@@ -275,7 +275,6 @@ static void test_auth_after_a_lock_each_failure_locks_again(void)
     const uint64_t t1 = t0 + AUTH_LOCK_US;
     TEST_ASSERT_EQUAL_INT(AUTH_MAC,
                           auth_verify(&s, DATA_ID, arm_data, s.fv + 1u, arm_mac_other_key, t1));
-    TEST_ASSERT_TRUE(s.locked);
     TEST_ASSERT_EQUAL_UINT64(t1 + AUTH_LOCK_US, s.locked_until_us);
     /* Stale or missing ones teach nothing: they do not lock. */
     auth_init(&s);
@@ -284,7 +283,8 @@ static void test_auth_after_a_lock_each_failure_locks_again(void)
         TEST_ASSERT_EQUAL_INT(AUTH_STALE, auth_verify(&s, DATA_ID, arm_data, 0u, arm_mac_fv1, t0));
         auth_refuse(&s, AUTH_MISSING);
     }
-    TEST_ASSERT_FALSE(s.locked);
+    TEST_ASSERT_EQUAL_UINT64(0u, s.locked_until_us);
+    TEST_ASSERT_EQUAL_UINT8(0u, s.fails);
 }
 
 static void test_auth_a_spent_session_accepts_nothing(void)
