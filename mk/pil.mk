@@ -31,7 +31,7 @@ $(PIL_IMAGES)/%/mstc.elf: build/firmware/%/mstc.elf $(SIM_KEY_BIN) tools/setup/i
 
 pil: deps-sim $(foreach b,$(PIL_BOARDS),img-$(b)-slcan $(PIL_IMAGES)/$(b)-slcan/mstc.elf)  ## the paper's scenarios on the slcan board images under QEMU, lock-step (BOARD=...: one) -> build/pil/
 	@set -e; for b in $(PIL_BOARDS); do \
-	  echo "== $$b: build/firmware/$$b-slcan under QEMU (the simulations' key)"; \
+	  echo "== $$b: $(PIL_IMAGES)/$$b-slcan under QEMU (build/firmware/$$b-slcan with the simulations' key)"; \
 	  $(MSTC) hil --qemu $(PIL_IMAGES)/$$b-slcan --key-file $(SIM_KEY_FILE) --no-figures \
 	    --out build/pil/$$b $(SCENARIO); \
 	  $(if $(filter-out $(SCENARIO),$(PIL_PAPER))$(filter-out $(PIL_PAPER),$(SCENARIO)),,touch build/pil/$$b/.paper;) \

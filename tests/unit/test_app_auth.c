@@ -101,6 +101,17 @@ static bool sent_status_with(unsigned last)
     return false;
 }
 
+/* A genuine command for the firmware's current challenge, as a tool that
+ * read the status sends it. */
+static void genuine(uint8_t index, float value)
+{
+    hal_can_frame_t f[2];
+    tf_freshness = app.auth.fv;
+    tf_param_set_auth(index, value, f);
+    feed(f[0]);
+    feed(f[1]);
+}
+
 /* --------------------------------------------------------------- the loop */
 
 /* A kinematic robot beside the firmware: it moves with the WHEEL_CMD of each
@@ -324,22 +335,15 @@ static void test_app_auth_failed_checks_lock_out_and_the_lock_ends(void)
         feed(tf_param_auth(app.auth.fv + 1u, junk));
         TEST_ASSERT_EQUAL_UINT(AUTH_MAC, last_auth_status().last);
     }
-    hal_can_frame_t f[2];
-    tf_freshness = app.auth.fv;
-    tf_param_set_auth(COMM_PARAM_ARM, 1.0f, f);
-    feed(f[0]);
-    feed(f[1]);
+    genuine(COMM_PARAM_ARM, 1.0f);
     TEST_ASSERT_EQUAL_UINT(AUTH_LOCKED, last_auth_status().last);
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
     /* 10 s of control steps later (500 at 20 ms), accepted. */
     for (unsigned k = 0; k < 501u; k++) {
         full_step();
     }
-    tf_freshness = app.auth.fv;
-    tf_param_set_auth(COMM_PARAM_ARM, 1.0f, f);
     hal_fake.n_sent = 0;
-    feed(f[0]);
-    feed(f[1]);
+    genuine(COMM_PARAM_ARM, 1.0f);
     TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, COMM_PARAM_OK));
     TEST_ASSERT_EQUAL_UINT(5u, last_auth_status().refused);
 }
@@ -364,11 +368,7 @@ static void test_app_auth_a_spent_session_is_followed_by_a_new_one(void)
     feed(tf_param_auth(AUTH_FV_MAX, (const uint8_t[4]){ 0, 0, 0, 0 }));
     app_housekeeping(&app, APP_HOUSEKEEPING_PERIOD_US);
     TEST_ASSERT_EQUAL_HEX32(0xABCD0000u, last_auth_status().session);
-    hal_can_frame_t f[2];
-    tf_freshness = app.auth.fv;
-    tf_param_set_auth(COMM_PARAM_D_S, 0.4f, f);
-    feed(f[0]);
-    feed(f[1]);
+    genuine(COMM_PARAM_D_S, 0.4f);
     TEST_ASSERT_EQUAL_UINT(AUTH_NO_KEY, last_auth_status().last);
 }
 
