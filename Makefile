@@ -91,6 +91,14 @@ TEST_SRCS_test_slcan := hal/stm32/slcan_codec.c
 SRC_CFLAGS_tests/unit/test_bxcan.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_stm32_calc.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_slcan.c := -Ihal/stm32
+# The DC motor model (model/: a plant, not firmware) that the wheel loop is
+# tested against, here, and simulated against, in the SIL library.
+MODEL_SRCS := $(sort $(wildcard model/*.c))
+TEST_SRCS_test_dcm := $(MODEL_SRCS)
+TEST_SRCS_test_whl := $(MODEL_SRCS)
+SRC_CFLAGS_tests/unit/test_dcm.c := -Imodel
+SRC_CFLAGS_tests/unit/test_whl.c := -Imodel
+SRC_CFLAGS_hal/sil := -Imodel
 TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
 SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
@@ -105,7 +113,7 @@ $(eval $(call BUILD,host))
 
 FW_OBJS := $(call build_objs,host,$(FW_SRCS) $(NUM_SRCS) $(AUTH_SRCS))
 SIL_OBJS := $(call build_objs,host,$(SIL_SRCS))
-$(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS)
+$(B)/libmstc_sil.so: $(FW_OBJS) $(SIL_OBJS) $(call build_objs,host,$(MODEL_SRCS))
 	$(CC) -shared -Wl,--no-undefined -o $@ $^ -lm
 .PHONY: lib
 lib: $(B)/libmstc_sil.so  ## build the firmware as a shared library (SIL)
@@ -190,9 +198,8 @@ test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric mod
 	  MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/mstc-fw \
 	  $(PY) -m pytest -q --durations=20 $(PYTEST_ARGS) tests/python
 # Directories (their *.py) and the Python tools without an extension.
-PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/gen-codec \
-           tools/protocol-doc tools/gen-limits tools/flash tools/bench/board_budget \
-           tools/bench/qemu_smoke \
+PY_LINT := sim tests/python tools/bench tools/numerics tools/svd tools/wheel tools/gen-codec \
+           tools/protocol-doc tools/gen-limits tools/flash \
            tools/quality/spdx tools/quality/coverage_check \
            tools/quality/fuzz_seeds
 # C: every tracked source but the generated codec (.clang-format).
@@ -226,6 +233,7 @@ include mk/cross.mk
 include mk/bench.mk
 include mk/numerics.mk
 include mk/quality.mk
+include mk/wheel.mk
 
 .PHONY: clean help
 clean:  ## remove build outputs (keeps .venv and deps/)

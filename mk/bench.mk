@@ -3,7 +3,7 @@
 # counted with SysTick under -icount; and on the board images in the loop,
 # mk/pil.mk) and nanoseconds per step on the host,
 # over a recorded closed loop of the paper's scenarios; prints a table and
-# writes it into docs/performance.md (tools/bench/report.py). Results are
+# writes it into docs/performance.md (python -m mstc.bench.ctl_step). Results are
 # cached in build/bench/*.txt and remade when their image or program changes.
 # Uses from the Makefile: CC, CSTD, OPT, FW_INC, PY, STAMP, CORE_SRCS
 # (ctl_step's sources: no protocol, no application), the venv rule; from
@@ -15,14 +15,16 @@ BENCH_SCENARIOS := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 QEMU_ARM ?= qemu-system-arm
 QEMU_MACHINE_m4f := mps2-an386
 QEMU_MACHINE_m3 := mps2-an385
-BENCH_TARGET_SRCS := tools/bench/startup.c tools/bench/bench_core.c tools/bench/bench_target.c
+# The wheel loop's benchmark runs against the DC motor model (model/dcm.c).
+BENCH_TARGET_SRCS := tools/bench/startup.c tools/bench/bench_core.c tools/bench/bench_target.c \
+  tools/bench/bench_wheel.c $(MODEL_SRCS)
 BENCH_HOST_SRCS := tools/bench/bench_core.c tools/bench/bench_host.c
 # The benchmark's sources include the scenarios generated into BENCH_DIR.
-SRC_CFLAGS_tools/bench := -Itools/bench -I$(BENCH_DIR)
+SRC_CFLAGS_tools/bench := -Itools/bench -I$(BENCH_DIR) -Imodel
 
-$(BENCH_DIR)/scenarios.h: tools/bench/gen_scenarios.py $(BENCH_SCENARIOS) | .venv/.requirements.sha256
+$(BENCH_DIR)/scenarios.h: sim/mstc/bench/scenarios.py $(BENCH_SCENARIOS) | .venv/.requirements.sha256
 	@mkdir -p $(@D)
-	$(PY) tools/bench/gen_scenarios.py $@ $(BENCH_SCENARIOS)
+	$(PY) -m mstc.bench.scenarios $@ $(BENCH_SCENARIOS)
 
 # Cortex-M images: the benchmark compiled as the cross build of the config,
 # linked with its library. $(1): config <cpu>-<mode> of mk/cross.mk; $(2): cpu.
@@ -76,37 +78,37 @@ BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) 
 
 # CAN: steps per second through frames in process, and lock-step round trips
 # over vcan (in the VM where the host has no CAN) beside a bare round trip to
-# a C echo built on hal/linux, all measured in one run (tools/bench/can_bench.py).
+# a C echo built on hal/linux, all measured in one run (python -m mstc.bench.canbus).
 $(BENCH_DIR)/can_echo: $(call build_objs,bench-host-float,$(BENCH_ECHO_SRCS))
 	$(CC) $^ -o $@
-$(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so tools/bench/can_bench.py | .venv/.requirements.sha256
-	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) tools/bench/can_bench.py sil --lib $< --out $@
-$(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo tools/bench/can_bench.py | deps-hil
-	tools/vm/with-vcan --timeout 1200 -- $(PY) tools/bench/can_bench.py hil \
+$(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so sim/mstc/bench/canbus.py | .venv/.requirements.sha256
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) -m mstc.bench.canbus sil --lib $< --out $@
+$(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo sim/mstc/bench/canbus.py | deps-hil
+	tools/vm/with-vcan --timeout 1200 -- $(PY) -m mstc.bench.canbus hil \
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 # Real time: one mstc hil --realtime run per paper scenario against
-# mstc-fw --realtime, its timing.json figures (tools/bench/realtime_bench.py).
-$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw tools/bench/realtime_bench.py \
+# mstc-fw --realtime, its timing.json figures (python -m mstc.bench.realtime).
+$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw sim/mstc/bench/realtime.py \
     $(wildcard sim/mstc/loop/*.py sim/mstc/plant/*.py sim/mstc/can/*.py) | deps-hil
 	MSTC_KEY_FILE=$(TEST_KEY_FILE) MPLCONFIGDIR=$(CURDIR)/build/mplconfig \
 	  tools/vm/with-vcan --timeout 1200 -- \
-	  $(PY) tools/bench/realtime_bench.py run --fw build/host/mstc-fw --out $@
+	  $(PY) -m mstc.bench.realtime run --fw build/host/mstc-fw --out $@
 
 # Sweeps: scene-steps per second in memory, 1,000 paper-like scenes on every
-# core, the same on a local Dask cluster (tools/bench/sweep_bench.py).
-$(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so tools/bench/sweep_bench.py | .venv/.requirements.sha256
-	$(PY) tools/bench/sweep_bench.py run --lib $< --out $@
+# core, the same on a local Dask cluster (python -m mstc.bench.sweep).
+$(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so sim/mstc/bench/sweep.py | .venv/.requirements.sha256
+	$(PY) -m mstc.bench.sweep run --lib $< --out $@
 
 .PHONY: bench
 bench: $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) $(BENCH_DIR)/sweep.json $(BENCH_DIR)/can-realtime.json | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN, sweep and real-time figures: docs/performance.md
-	@$(PY) tools/bench/report.py --doc docs/performance.md --pil build/pil $(BENCH_RESULTS)
-	@$(PY) tools/bench/can_bench.py report --doc docs/performance.md $(BENCH_CAN)
-	@$(PY) tools/bench/sweep_bench.py report --doc docs/performance.md $(BENCH_DIR)/sweep.json
-	@$(PY) tools/bench/realtime_bench.py report --doc docs/performance.md \
+	@$(PY) -m mstc.bench.ctl_step --doc docs/performance.md --pil build/pil $(BENCH_RESULTS)
+	@$(PY) -m mstc.bench.canbus report --doc docs/performance.md $(BENCH_CAN)
+	@$(PY) -m mstc.bench.sweep report --doc docs/performance.md $(BENCH_DIR)/sweep.json
+	@$(PY) -m mstc.bench.realtime report --doc docs/performance.md \
 	  $(BENCH_DIR)/can-realtime.json
 	@$(MAKE) --no-print-directory replay-bench
 	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt
-	@$(PY) tools/bench/report.py --doc docs/performance.md \
+	@$(PY) -m mstc.bench.doc --doc docs/performance.md \
 	  --text "boards:Board images: flash, RAM and stack against the budgets (make firmware-budget)" \
 	  < $(BENCH_DIR)/boards.txt

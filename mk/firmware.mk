@@ -13,21 +13,21 @@
 #                                   -> build/firmware/<board>-slcan/ (docs/hil.md)
 #   make firmware-all               the three, then the budget check
 #   make firmware-budget            flash, RAM, stack of the four STM32 images vs. the budgets
-#   make firmware-smoke             both images under QEMU (tools/bench/qemu_smoke)
+#   make firmware-smoke             both images under QEMU (python -m mstc.bench.qemu_smoke)
 #   make flash BOARD=... [FLASH_TOOL=openocd|st-flash|pyocd] [FLASH_DRY_RUN=1]
 #
 # Each board picks its numeric mode in hal/<board>/board.mk (BOARD_NUMERIC),
 # whatever NUMERIC is; BOARD_NUMERIC=float|fixed on the command line
 # overrides it. Outputs in build/firmware/<board>/: mstc.elf, mstc.bin,
 # mstc.hex, mstc.map, size.txt (bytes per module), and obj-<numeric>/ with a
-# .su file per object (-fstack-usage: frame sizes, for tools/bench/board_budget).
+# .su file per object (-fstack-usage: frame sizes, for python -m mstc.bench.budget).
 
 IMG_BOARDS := stm32f405 stm32f103 template
 BOARD ?= stm32f405
 CROSS_COMPILE ?= arm-none-eabi-
 IMG_CC := $(CROSS_COMPILE)gcc
 IMG_OBJCOPY := $(CROSS_COMPILE)objcopy
-# -Os: the images must fit 32 KB of flash (docs/porting.md, budgets).
+# -Os: the images must fit 64 KB of flash (docs/porting.md, budgets).
 # -fno-math-errno: sqrtf is the M4F's VSQRT instruction rather than a call
 # that also sets errno (the firmware reads no errno; num_sqrt never passes a
 # negative), the same correctly rounded result in less flash. It deletes no
@@ -124,9 +124,9 @@ $$(IMG_DIR_$(1))/mstc.bin: $$(IMG_DIR_$(1))/mstc.elf
 	$$(IMG_OBJCOPY) -O binary $$< $$@
 $$(IMG_DIR_$(1))/mstc.hex: $$(IMG_DIR_$(1))/mstc.elf
 	$$(IMG_OBJCOPY) -O ihex $$< $$@
-$$(IMG_DIR_$(1))/size.txt: $$(IMG_DIR_$(1))/mstc.elf tools/bench/board_budget \
+$$(IMG_DIR_$(1))/size.txt: $$(IMG_DIR_$(1))/mstc.elf sim/mstc/bench/budget.py \
     | .venv/.requirements.sha256
-	$$(PY) tools/bench/board_budget --modules $$(IMG_DIR_$(1)) > $$@
+	$$(PY) -m mstc.bench.budget --modules $$(IMG_DIR_$(1)) > $$@
 .PHONY: img-$(1)
 img-$(1): $$(addprefix $$(IMG_DIR_$(1))/,mstc.elf mstc.bin mstc.hex size.txt)
 endef
@@ -153,13 +153,13 @@ firmware: img-$(IMG)  ## build a board image: BOARD=stm32f405|stm32f103|template
 # The STM32 images, bxCAN and slcan, whose budgets are checked.
 BUDGET_IMGS := stm32f405 stm32f103 stm32f405-slcan stm32f103-slcan
 firmware-all: $(addprefix img-,$(IMG_BOARDS) $(BUDGET_IMGS))  ## build every board image, then check the budgets
-	@$(PY) tools/bench/board_budget $(addprefix build/firmware/,$(BUDGET_IMGS))
+	@$(PY) -m mstc.bench.budget $(addprefix build/firmware/,$(BUDGET_IMGS))
 
 firmware-budget: $(addprefix img-,$(BUDGET_IMGS))  ## flash, RAM and stack of the board images vs. budgets
-	@$(PY) tools/bench/board_budget $(addprefix build/firmware/,$(BUDGET_IMGS))
+	@$(PY) -m mstc.bench.budget $(addprefix build/firmware/,$(BUDGET_IMGS))
 
 firmware-smoke: img-stm32f405 img-stm32f103  ## run both board images under QEMU: does the loop run?
-	@$(PY) tools/bench/qemu_smoke build/firmware/stm32f405 build/firmware/stm32f103
+	@$(PY) -m mstc.bench.qemu_smoke build/firmware/stm32f405 build/firmware/stm32f103
 
 # make flash BOARD=... [FLASH_TOOL=openocd|st-flash|pyocd] [FLASH_DRY_RUN=1]
 # [FLASH_ARGS="--interface cmsis-dap.cfg"]: tools/flash says how each works.

@@ -47,5 +47,5 @@ replay-logs: deps-sim $(B)/libmstc_sil.so  ## re-record tests/data/*.log: make s
 	cp build/replay-logs/paper-circle/bus.log tests/data/paper-circle.log
 
 replay-bench: deps-sim $(B)/libmstc_sil.so  ## replay throughput on a 10-minute log (recorded once into build/)
-	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) tools/bench/replay_bench.py --lib $(B)/libmstc_sil.so \
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) -m mstc.bench.replay --lib $(B)/libmstc_sil.so \
 	  --doc docs/performance.md

@@ -458,6 +458,7 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
     }
     case COMM_ID_PARAM_SET: on_param_set(a, &m); break;
     case COMM_ID_PARAM_AUTH: on_param_auth(a, &m); break;
+    case COMM_ID_WHEEL_SPEED: break; /* not used yet */
     default: /* COMM_ID_PARAM_GET: comm_decode only returns frames the firmware receives */
         on_param(a, m.u.param_get, false, false, 0.0f);
         break;

@@ -36,6 +36,8 @@ _Static_assert(COMM_ID_HEARTBEAT == MSTC_DBC_HEARTBEAT_FRAME_ID, "HEARTBEAT id")
 _Static_assert(COMM_ID_AUTH_STATUS == MSTC_DBC_AUTH_STATUS_FRAME_ID, "AUTH_STATUS id");
 _Static_assert(COMM_ID_AUTH_CHALLENGE == MSTC_DBC_AUTH_CHALLENGE_FRAME_ID, "AUTH_CHALLENGE id");
 _Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
+_Static_assert(COMM_ID_WHEEL_SPEED == MSTC_DBC_WHEEL_SPEED_FRAME_ID, "WHEEL_SPEED id");
+_Static_assert(COMM_WHEEL_FAULTS_MASK == 15u, "WHEEL_SPEED_faults: 4 bits (mstc.dbc)");
 /* So are the enumerations that go on the wire unchanged. */
 _Static_assert(COMM_PARAM_MAX_WHEEL_SPEED ==
                        MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE &&
@@ -95,8 +97,9 @@ typedef struct {
     bool rx;          /* received by the firmware; the others it only sends */
 } frame_t;
 
-/* Indexed like comm_t's counter arrays. */
-/* Two pairs a row; AUTH_CHALLENGE added at the end, on a row of its own. */
+/* Indexed like comm_t's counter arrays. WHEEL_SPEED is received, and sent by
+ * a board that measures its own wheels (mstc.dbc). Two pairs a row;
+ * WHEEL_SPEED and AUTH_CHALLENGE added at the end, on rows of their own. */
 /* clang-format off */
 static const frame_t frames[COMM_N_FRAMES] = {
     { COMM_ID_ODOM_XY, 0x1100u, true },      { COMM_ID_ODOM_THETA, 0x1101u, true },
@@ -108,6 +111,7 @@ static const frame_t frames[COMM_N_FRAMES] = {
     { COMM_ID_STATUS_TRK, 0x1182u, false },  { COMM_ID_STATUS_COUNTERS, 0x1183u, false },
     { COMM_ID_EVENT, 0x1184u, false },       { COMM_ID_HEARTBEAT, 0x1185u, false },
     { COMM_ID_AUTH_STATUS, 0x1186u, false }, { COMM_ID_PARAM_VALUE, 0x1190u, false },
+    { COMM_ID_WHEEL_SPEED, 0x1105u, true },
     { COMM_ID_AUTH_CHALLENGE, COMM_AUTH_CHALLENGE_DATA_ID, false },
 };
 /* clang-format on */
@@ -206,7 +210,7 @@ static const scale_t s_ref_theta = SIGNED_BITS(15, 18); /* REF_MOTION theta [rad
 static const scale_t s_ref_vw = SIGNED_BITS(12, 17);    /* REF_MOTION v [m/s], w [rad/s] */
 static const scale_t s_obs_xy = SIGNED_BITS(12, 20);    /* OBSTACLE x, y [m] */
 static const scale_t s_obs_v = SIGNED_BITS(10, 16);     /* OBSTACLE_VEL vx, vy [m/s] */
-static const scale_t s_wheel = SIGNED_BITS(10, 18);     /* WHEEL_CMD [rad/s] */
+static const scale_t s_wheel = SIGNED_BITS(10, 18);     /* WHEEL_CMD, WHEEL_SPEED [rad/s] */
 static const scale_t s_angle13 = SIGNED_BITS(13, 16);   /* STATUS e, STATUS_TRK e3 [rad] */
 static const scale_t s_err = SIGNED_BITS(10, 16);       /* STATUS_TRK e1, e2 [m] */
 static const scale_t s_distance = { 10, 0, 65535 };     /* STATUS distance [m] */
@@ -392,6 +396,13 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
             m->u.param_auth.mac[i] = d[4u + i];
         }
         break;
+    case COMM_ID_WHEEL_SPEED: {
+        struct mstc_dbc_wheel_speed_t s;
+        (void)mstc_dbc_wheel_speed_unpack(&s, d, FRAME_LEN);
+        m->u.wheel_speed.left = num_from_raw(s.wheel_speed_left, &s_wheel);
+        m->u.wheel_speed.right = num_from_raw(s.wheel_speed_right, &s_wheel);
+        break;
+    }
     default: { /* COMM_ID_PARAM_GET, the last frame comm_decode() lets through */
         struct mstc_dbc_param_get_t s;
         (void)mstc_dbc_param_get_unpack(&s, d, FRAME_LEN);
@@ -562,6 +573,24 @@ int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_c
     };
     (void)mstc_dbc_wheel_cmd_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_WHEEL_CMD), f);
+    return 0;
+}
+
+int comm_encode_wheel_speed(comm_t *c, const kin_wheels_t *w, hal_can_frame_t *f)
+{
+    return comm_encode_wheel_speed_faults(c, w, 0u, f);
+}
+
+int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t faults,
+                                   hal_can_frame_t *f)
+{
+    const struct mstc_dbc_wheel_speed_t s = {
+        .wheel_speed_left = raw_from_num(c, w->left, &s_wheel),
+        .wheel_speed_right = raw_from_num(c, w->right, &s_wheel),
+        .wheel_speed_faults = (uint8_t)(faults & COMM_WHEEL_FAULTS_MASK),
+    };
+    (void)mstc_dbc_wheel_speed_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_WHEEL_SPEED), f);
     return 0;
 }
 

@@ -46,6 +46,7 @@ enum {
     COMM_ID_REF_XY = 0x102,
     COMM_ID_REF_MOTION = 0x103,
     COMM_ID_STEP = 0x104,
+    COMM_ID_WHEEL_SPEED = 0x105,
     COMM_ID_OBSTACLE = 0x110,
     COMM_ID_OBSTACLE_VEL = 0x111,
     COMM_ID_PARAM_SET = 0x120,
@@ -68,7 +69,7 @@ enum {
 #define COMM_AUTH_CHALLENGE_DATA_ID 0x1187u
 
 /** @brief Number of distinct frames in the protocol. */
-#define COMM_N_FRAMES 19u
+#define COMM_N_FRAMES 20u
 
 /** @brief Parameter indices of PARAM_SET / PARAM_GET / PARAM_VALUE. */
 typedef enum {
@@ -178,6 +179,7 @@ typedef struct {
             uint8_t mac[AUTH_MAC_LEN]; /**< bytes 4..7: the truncated CMAC */
         } param_auth;                  /**< PARAM_AUTH */
         uint8_t param_get;             /**< PARAM_GET index */
+        kin_wheels_t wheel_speed;      /**< WHEEL_SPEED: measured [rad/s] */
     } u;
 } comm_msg_t;
 
@@ -308,6 +310,18 @@ const comm_rx_t *comm_rx(const comm_t *c, uint32_t id);
 
 /** @brief WHEEL_CMD: wheel speeds echoing @p step. */
 int comm_encode_wheel_cmd(comm_t *c, uint16_t step, const kin_wheels_t *w, hal_can_frame_t *f);
+/** @brief WHEEL_SPEED: the measured wheel speeds @p w [rad/s], for a board
+ *         that measures its own wheels (mstc.dbc names the sender of each
+ *         setup); the spare bits are 0. */
+int comm_encode_wheel_speed(comm_t *c, const kin_wheels_t *w, hal_can_frame_t *f);
+/** @brief The bits WHEEL_SPEED_faults carries: a wheel loop's WHL_FAULT_*
+ *         (firmware/wheel/whl.h, the same bit order). */
+#define COMM_WHEEL_FAULTS_MASK 0x0Fu
+/** @brief WHEEL_SPEED as comm_encode_wheel_speed(), with the sender's wheel
+ *         loop faults @p faults (COMM_WHEEL_FAULTS_MASK of them) in
+ *         WHEEL_SPEED_faults: a board that runs its own wheel loop. */
+int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t faults,
+                                   hal_can_frame_t *f);
 /**
  * @brief STATUS from the status of a step.
  *

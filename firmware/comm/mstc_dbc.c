@@ -689,6 +689,133 @@ bool mstc_dbc_step_step_time_is_in_phys_range(float value)
     return ((value >= 0.0f) && (value <= 4294.967295f));
 }
 
+int mstc_dbc_wheel_speed_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_wheel_speed_t *src_p,
+    size_t size)
+{
+    uint32_t wheel_speed_left;
+    uint32_t wheel_speed_right;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->wheel_speed_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->wheel_speed_counter, 0u, 0x0fu);
+    wheel_speed_left = (uint32_t)src_p->wheel_speed_left;
+    dst_p[2] |= pack_left_shift_u32(wheel_speed_left, 0u, 0xffu);
+    dst_p[3] |= pack_right_shift_u32(wheel_speed_left, 8u, 0xffu);
+    dst_p[4] |= pack_right_shift_u32(wheel_speed_left, 16u, 0x03u);
+    wheel_speed_right = (uint32_t)src_p->wheel_speed_right;
+    dst_p[4] |= pack_left_shift_u32(wheel_speed_right, 2u, 0xfcu);
+    dst_p[5] |= pack_right_shift_u32(wheel_speed_right, 6u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(wheel_speed_right, 14u, 0x0fu);
+    dst_p[6] |= pack_left_shift_u8(src_p->wheel_speed_faults, 4u, 0xf0u);
+
+    return (8);
+}
+
+int mstc_dbc_wheel_speed_unpack(
+    struct mstc_dbc_wheel_speed_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    uint32_t wheel_speed_left;
+    uint32_t wheel_speed_right;
+
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->wheel_speed_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->wheel_speed_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    wheel_speed_left = unpack_right_shift_u32(src_p[2], 0u, 0xffu);
+    wheel_speed_left |= unpack_left_shift_u32(src_p[3], 8u, 0xffu);
+    wheel_speed_left |= unpack_left_shift_u32(src_p[4], 16u, 0x03u);
+
+    if ((wheel_speed_left & (1u << 17)) != 0u) {
+        wheel_speed_left |= 0xfffc0000u;
+    }
+
+    dst_p->wheel_speed_left = (int32_t)wheel_speed_left;
+    wheel_speed_right = unpack_right_shift_u32(src_p[4], 2u, 0xfcu);
+    wheel_speed_right |= unpack_left_shift_u32(src_p[5], 6u, 0xffu);
+    wheel_speed_right |= unpack_left_shift_u32(src_p[6], 14u, 0x0fu);
+
+    if ((wheel_speed_right & (1u << 17)) != 0u) {
+        wheel_speed_right |= 0xfffc0000u;
+    }
+
+    dst_p->wheel_speed_right = (int32_t)wheel_speed_right;
+    dst_p->wheel_speed_faults = unpack_right_shift_u8(src_p[6], 4u, 0xf0u);
+
+    return (0);
+}
+
+int mstc_dbc_wheel_speed_init(struct mstc_dbc_wheel_speed_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_wheel_speed_t));
+
+    return 0;
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_left_is_in_range(int32_t value)
+{
+    return ((value >= -131072) && (value <= 131071));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_left_is_in_phys_range(float value)
+{
+    return ((value >= -128.0f) && (value <= 127.9990234375f));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_range(int32_t value)
+{
+    return ((value >= -131072) && (value <= 131071));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_phys_range(float value)
+{
+    return ((value >= -128.0f) && (value <= 127.9990234375f));
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
 int mstc_dbc_obstacle_pack(
     uint8_t *dst_p,
     const struct mstc_dbc_obstacle_t *src_p,

@@ -51,6 +51,7 @@ extern "C" {
 #define MSTC_DBC_REF_XY_FRAME_ID (0x102u)
 #define MSTC_DBC_REF_MOTION_FRAME_ID (0x103u)
 #define MSTC_DBC_STEP_FRAME_ID (0x104u)
+#define MSTC_DBC_WHEEL_SPEED_FRAME_ID (0x105u)
 #define MSTC_DBC_OBSTACLE_FRAME_ID (0x110u)
 #define MSTC_DBC_OBSTACLE_VEL_FRAME_ID (0x111u)
 #define MSTC_DBC_PARAM_SET_FRAME_ID (0x120u)
@@ -72,6 +73,7 @@ extern "C" {
 #define MSTC_DBC_REF_XY_LENGTH (8u)
 #define MSTC_DBC_REF_MOTION_LENGTH (8u)
 #define MSTC_DBC_STEP_LENGTH (8u)
+#define MSTC_DBC_WHEEL_SPEED_LENGTH (8u)
 #define MSTC_DBC_OBSTACLE_LENGTH (8u)
 #define MSTC_DBC_OBSTACLE_VEL_LENGTH (8u)
 #define MSTC_DBC_PARAM_SET_LENGTH (8u)
@@ -93,6 +95,7 @@ extern "C" {
 #define MSTC_DBC_REF_XY_IS_EXTENDED (0)
 #define MSTC_DBC_REF_MOTION_IS_EXTENDED (0)
 #define MSTC_DBC_STEP_IS_EXTENDED (0)
+#define MSTC_DBC_WHEEL_SPEED_IS_EXTENDED (0)
 #define MSTC_DBC_OBSTACLE_IS_EXTENDED (0)
 #define MSTC_DBC_OBSTACLE_VEL_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_SET_IS_EXTENDED (0)
@@ -114,6 +117,7 @@ extern "C" {
 #define MSTC_DBC_REF_XY_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_REF_MOTION_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_STEP_CYCLE_TIME_MS (20u)
+#define MSTC_DBC_WHEEL_SPEED_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_OBSTACLE_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_OBSTACLE_VEL_CYCLE_TIME_MS (20u)
 #define MSTC_DBC_WHEEL_CMD_CYCLE_TIME_MS (20u)
@@ -140,6 +144,15 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_STRATEGY_CHOICE (14u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_KP_CHOICE (17u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_KI_CHOICE (18u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_MOTOR_TAU_CHOICE (20u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_COUNTS_CHOICE (21u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RATE_CHOICE (22u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_WINDOW_CHOICE (23u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RAMP_CHOICE (24u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_R_M_CHOICE (0u)
@@ -157,6 +170,15 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_STRATEGY_CHOICE (14u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_KP_CHOICE (17u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_KI_CHOICE (18u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_MOTOR_TAU_CHOICE (20u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_COUNTS_CHOICE (21u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RATE_CHOICE (22u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_WINDOW_CHOICE (23u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RAMP_CHOICE (24u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE (0u)
@@ -216,6 +238,15 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_STRATEGY_CHOICE (14u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_KP_CHOICE (17u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_KI_CHOICE (18u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_MOTOR_TAU_CHOICE (20u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_COUNTS_CHOICE (21u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RATE_CHOICE (22u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_WINDOW_CHOICE (23u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RAMP_CHOICE (24u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_ARM_CHOICE (128u)
 
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_OK_CHOICE (0u)
@@ -231,6 +262,7 @@ extern "C" {
 #define MSTC_DBC_REF_XY_NAME "REF_XY"
 #define MSTC_DBC_REF_MOTION_NAME "REF_MOTION"
 #define MSTC_DBC_STEP_NAME "STEP"
+#define MSTC_DBC_WHEEL_SPEED_NAME "WHEEL_SPEED"
 #define MSTC_DBC_OBSTACLE_NAME "OBSTACLE"
 #define MSTC_DBC_OBSTACLE_VEL_NAME "OBSTACLE_VEL"
 #define MSTC_DBC_PARAM_SET_NAME "PARAM_SET"
@@ -267,6 +299,11 @@ extern "C" {
 #define MSTC_DBC_STEP_STEP_COUNTER_NAME "STEP_Counter"
 #define MSTC_DBC_STEP_STEP_STEP_NAME "STEP_step"
 #define MSTC_DBC_STEP_STEP_TIME_NAME "STEP_time"
+#define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_CRC_NAME "WHEEL_SPEED_CRC"
+#define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_COUNTER_NAME "WHEEL_SPEED_Counter"
+#define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_LEFT_NAME "WHEEL_SPEED_left"
+#define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_RIGHT_NAME "WHEEL_SPEED_right"
+#define MSTC_DBC_WHEEL_SPEED_WHEEL_SPEED_FAULTS_NAME "WHEEL_SPEED_faults"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_CRC_NAME "OBSTACLE_CRC"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_COUNTER_NAME "OBSTACLE_Counter"
 #define MSTC_DBC_OBSTACLE_OBSTACLE_ID_NAME "OBSTACLE_id"
@@ -524,6 +561,52 @@ struct mstc_dbc_step_t {
      * Offset: 0
      */
     uint32_t step_time;
+};
+
+/**
+ * Signals in message WHEEL_SPEED.
+ *
+ * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it: the plant in simulation (SIL, HIL, replay), standing for the motor drivers; on a robot, the motor drivers, or the motor-controller board itself when it runs the wheel loop (it then sends what its encoders measure). Lock-step: sent before STEP, like odometry. Bits 12..15 and 56..63 are spare.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_wheel_speed_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t wheel_speed_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t wheel_speed_counter;
+
+    /**
+     * Range: -131072..131071 (-128..127.99902 rad/s)
+     * Scale: 0.0009765625
+     * Offset: 0
+     */
+    int32_t wheel_speed_left;
+
+    /**
+     * Range: -131072..131071 (-128..127.99902 rad/s)
+     * Scale: 0.0009765625
+     * Offset: 0
+     */
+    int32_t wheel_speed_right;
+
+    /**
+     * The sending board's wheel loop (docs/wheel.md), latched until the next re-arm, while they last its motors are stopped: bit 0 left wheel stalled, bit 1 right wheel stalled (full drive without motion in its direction for wheel_stall_time), bit 2 left encoder, bit 3 right encoder (drive without a single count for 0.1 s, or more counts than the wheel can turn). 0 from a plant or a motor driver.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t wheel_speed_faults;
 };
 
 /**
@@ -1817,6 +1900,153 @@ bool mstc_dbc_step_step_time_is_in_range(uint32_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_step_step_time_is_in_phys_range(float value);
+
+/**
+ * Pack message WHEEL_SPEED.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_wheel_speed_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_wheel_speed_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message WHEEL_SPEED.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_wheel_speed_unpack(
+    struct mstc_dbc_wheel_speed_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from WHEEL_SPEED.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_wheel_speed_init(struct mstc_dbc_wheel_speed_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_left_is_in_range(int32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_left_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_range(int32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_right_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_wheel_speed_wheel_speed_faults_is_in_phys_range(float value);
 
 /**
  * Pack message OBSTACLE.

@@ -19,6 +19,7 @@
 #include "ctrl/sup.h"
 #include "ctrl/trk.h"
 #include "kin/kin.h"
+#include "wheel/whl.h"
 
 /** @brief Values of ctl_params_t::strategy (the DBC's value table Strategy). */
 enum {
@@ -28,8 +29,9 @@ enum {
 
 /**
  * @brief Every parameter PARAM_SET sets: Table 1, the wheel geometry, the
- *        deceleration of a halt and the switch strategy. Their limits are one
- *        table, ctl_params.toml (docs/safety.md, "Parameters").
+ *        deceleration of a halt, the switch strategy and the wheel loop's.
+ *        Their limits are one table, ctl_params.toml (docs/safety.md,
+ *        "Parameters").
  */
 typedef struct {
     num_t r_m;   /**< robot radius R_m [m] */
@@ -48,6 +50,10 @@ typedef struct {
     /** CTL_STRATEGY_PAPER or CTL_STRATEGY_MSTC, held as a number like every
      *  parameter the table checks (an enumerated one: a whole number). */
     num_t strategy;
+    /** The boards' wheel-speed loop (firmware/wheel, PARAM_SET 17..): not
+     *  used by the control step; in the set for its checks (wheel_ramp is
+     *  bounded by max_wheel_decel). */
+    whl_params_t wheel;
 } ctl_params_t;
 
 /** @brief Operators of a relation between parameters. */

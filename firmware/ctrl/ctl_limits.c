@@ -19,8 +19,20 @@ const ctl_limit_t ctl_limits[CTL_N_PARAMS] = {
     { NUM_C(0.02), NUM_C(4.0), NUM_C(0.3), true, true, false },     /* 11 track_width [m] */
     { NUM_C(1.0), NUM_C(127.99), NUM_C(100.0), true, true, false }, /* 12 max_wheel_speed [rad/s] */
     { NUM_C(1.25), NUM_C(10000.0), NUM_C(125.0), true, false,
-      false },                                                /* 13 max_wheel_decel [rad/s²] */
-    { NUM_C(0.0), NUM_C(1.0), NUM_C(1.0), true, true, true }, /* 14 strategy */
+      false },                                                    /* 13 max_wheel_decel [rad/s²] */
+    { NUM_C(0.0), NUM_C(1.0), NUM_C(1.0), true, true, true },     /* 14 strategy */
+    { NUM_C(0.0), NUM_C(0.0), NUM_C(0.0), false, false, false },  /* 15 reserved */
+    { NUM_C(0.0), NUM_C(0.0), NUM_C(0.0), false, false, false },  /* 16 reserved */
+    { NUM_C(0.0), NUM_C(10.0), NUM_C(0.219), true, true, false }, /* 17 wheel_kp [s/rad] */
+    { NUM_C(0.0), NUM_C(1000.0), NUM_C(6.19), true, true, false }, /* 18 wheel_ki [1/rad] */
+    { NUM_C(1.0), NUM_C(127.99), NUM_C(34.56), true, true,
+      false }, /* 19 wheel_free_speed [rad/s] */
+    { NUM_C(0.001), NUM_C(10.0), NUM_C(0.0856), true, true, false },   /* 20 wheel_motor_tau [s] */
+    { NUM_C(4.0), NUM_C(30000.0), NUM_C(1920.0), true, true, false },  /* 21 wheel_counts [1/rev] */
+    { NUM_C(100.0), NUM_C(1000.0), NUM_C(1000.0), true, true, false }, /* 22 wheel_rate [Hz] */
+    { NUM_C(0.001), NUM_C(0.032), NUM_C(0.01), true, true, false },    /* 23 wheel_window [s] */
+    { NUM_C(1.25), NUM_C(10000.0), NUM_C(10000.0), true, true, false }, /* 24 wheel_ramp [rad/s²] */
+    { NUM_C(0.05), NUM_C(10.0), NUM_C(0.5), true, true, false }, /* 25 wheel_stall_time [s] */
 };
 
 /* In the order they are checked: { lhs, op, factor, { rhs, rhs } }. */
@@ -35,6 +47,8 @@ const ctl_relation_t ctl_relations[CTL_N_RELATIONS] = {
     { CTL_P_R_M, CTL_REL_GE, NUM_C(0.5), { CTL_P_TRACK_WIDTH, CTL_P_NONE } },
     /* max_wheel_decel >= 1.25 × max_wheel_speed */
     { CTL_P_MAX_WHEEL_DECEL, CTL_REL_GE, NUM_C(1.25), { CTL_P_MAX_WHEEL_SPEED, CTL_P_NONE } },
+    /* wheel_ramp >= max_wheel_decel */
+    { CTL_P_WHEEL_RAMP, CTL_REL_GE, NUM_C(1.0), { CTL_P_MAX_WHEEL_DECEL, CTL_P_NONE } },
 };
 
 num_t *ctl_param_slot(ctl_params_t *p, unsigned index)
@@ -55,6 +69,15 @@ num_t *ctl_param_slot(ctl_params_t *p, unsigned index)
     case CTL_P_MAX_WHEEL_SPEED: return &p->kin.max_wheel_speed;
     case CTL_P_MAX_WHEEL_DECEL: return &p->max_wheel_decel;
     case CTL_P_STRATEGY: return &p->strategy;
+    case CTL_P_WHEEL_KP: return &p->wheel.kp;
+    case CTL_P_WHEEL_KI: return &p->wheel.ki;
+    case CTL_P_WHEEL_FREE_SPEED: return &p->wheel.free_speed;
+    case CTL_P_WHEEL_MOTOR_TAU: return &p->wheel.motor_tau;
+    case CTL_P_WHEEL_COUNTS: return &p->wheel.counts;
+    case CTL_P_WHEEL_RATE: return &p->wheel.rate;
+    case CTL_P_WHEEL_WINDOW: return &p->wheel.window;
+    case CTL_P_WHEEL_RAMP: return &p->wheel.ramp;
+    case CTL_P_WHEEL_STALL_TIME: return &p->wheel.stall_time;
     default: return NULL; /* unknown, or not held yet */
     }
 }

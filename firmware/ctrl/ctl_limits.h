@@ -11,27 +11,37 @@
 
 /** @brief Parameter indices. */
 enum {
-    CTL_P_R_M = 0,              /**< R_m [m] */
-    CTL_P_R_OB = 1,             /**< R_ob [m] */
-    CTL_P_D_DET = 2,            /**< D_det [m] */
-    CTL_P_D_ACT = 3,            /**< D_act [m] */
-    CTL_P_D_S = 4,              /**< D_s [m] */
-    CTL_P_TRK_K1 = 5,           /**< trk_k1 [1/s] */
-    CTL_P_TRK_K2 = 6,           /**< trk_k2 [1/m²] */
-    CTL_P_TRK_K3 = 7,           /**< trk_k3 [1/m] */
-    CTL_P_AVD_K1 = 8,           /**< avd_k1 [1/s] */
-    CTL_P_AVD_K2 = 9,           /**< avd_k2 [1/s] */
-    CTL_P_WHEEL_RADIUS = 10,    /**< wheel_radius [m] */
-    CTL_P_TRACK_WIDTH = 11,     /**< track_width [m] */
-    CTL_P_MAX_WHEEL_SPEED = 12, /**< max_wheel_speed [rad/s] */
-    CTL_P_MAX_WHEEL_DECEL = 13, /**< max_wheel_decel [rad/s²] */
-    CTL_P_STRATEGY = 14,        /**< strategy */
+    CTL_P_R_M = 0,               /**< R_m [m] */
+    CTL_P_R_OB = 1,              /**< R_ob [m] */
+    CTL_P_D_DET = 2,             /**< D_det [m] */
+    CTL_P_D_ACT = 3,             /**< D_act [m] */
+    CTL_P_D_S = 4,               /**< D_s [m] */
+    CTL_P_TRK_K1 = 5,            /**< trk_k1 [1/s] */
+    CTL_P_TRK_K2 = 6,            /**< trk_k2 [1/m²] */
+    CTL_P_TRK_K3 = 7,            /**< trk_k3 [1/m] */
+    CTL_P_AVD_K1 = 8,            /**< avd_k1 [1/s] */
+    CTL_P_AVD_K2 = 9,            /**< avd_k2 [1/s] */
+    CTL_P_WHEEL_RADIUS = 10,     /**< wheel_radius [m] */
+    CTL_P_TRACK_WIDTH = 11,      /**< track_width [m] */
+    CTL_P_MAX_WHEEL_SPEED = 12,  /**< max_wheel_speed [rad/s] */
+    CTL_P_MAX_WHEEL_DECEL = 13,  /**< max_wheel_decel [rad/s²] */
+    CTL_P_STRATEGY = 14,         /**< strategy */
+    CTL_P_WHEEL_KP = 17,         /**< wheel_kp [s/rad] */
+    CTL_P_WHEEL_KI = 18,         /**< wheel_ki [1/rad] */
+    CTL_P_WHEEL_FREE_SPEED = 19, /**< wheel_free_speed [rad/s] */
+    CTL_P_WHEEL_MOTOR_TAU = 20,  /**< wheel_motor_tau [s] */
+    CTL_P_WHEEL_COUNTS = 21,     /**< wheel_counts [1/rev] */
+    CTL_P_WHEEL_RATE = 22,       /**< wheel_rate [Hz] */
+    CTL_P_WHEEL_WINDOW = 23,     /**< wheel_window [s] */
+    CTL_P_WHEEL_RAMP = 24,       /**< wheel_ramp [rad/s²] */
+    CTL_P_WHEEL_STALL_TIME = 25, /**< wheel_stall_time [s] */
 };
 
-/** @brief Parameter indices are 0 .. CTL_N_PARAMS - 1. */
-#define CTL_N_PARAMS    15u
+/** @brief Parameter indices are 0 .. CTL_N_PARAMS - 1 (an index the
+ *         table leaves out is reserved: not held). */
+#define CTL_N_PARAMS    26u
 /** @brief Relations in ctl_relations[]. */
-#define CTL_N_RELATIONS 5u
+#define CTL_N_RELATIONS 6u
 /** @brief No parameter: the second term of a one-term relation. */
 #define CTL_P_NONE      0xFFu
 

@@ -81,3 +81,33 @@ int hal_sys_boot_nonce(uint32_t *nonce)
     *nonce = hal_fake.boot_nonce++;
     return hal_fake.boot_nonce_rc;
 }
+
+int hal_encoder_init(void) { return hal_fake.encoder_rc; }
+
+int hal_encoder_read(int32_t *left, int32_t *right)
+{
+    hal_fake.encoder_reads++;
+    const bool ok = hal_fake.encoder_rc == 0;
+    *left = ok ? hal_fake.encoder[0] : 0;
+    *right = ok ? hal_fake.encoder[1] : 0;
+    return hal_fake.encoder_rc;
+}
+
+int hal_motor_init(void) { return 0; }
+
+int hal_motor_set(int16_t left, int16_t right)
+{
+    hal_fake.motor[0] = left;
+    hal_fake.motor[1] = right;
+    hal_fake.motor_enabled = true;
+    hal_fake.motor_sets++;
+    return 0;
+}
+
+void hal_motor_stop(void)
+{
+    hal_fake.motor[0] = 0;
+    hal_fake.motor[1] = 0;
+    hal_fake.motor_enabled = false;
+    hal_fake.motor_stops++;
+}

@@ -8,9 +8,12 @@
 #ifndef HAL_FAKE_H
 #define HAL_FAKE_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "hal/hal_can.h"
+#include "hal/hal_encoder.h"
+#include "hal/hal_motor.h"
 #include "hal/hal_sys.h"
 
 #define HAL_FAKE_MAX_FRAMES 128u
@@ -32,6 +35,13 @@ typedef struct {
     int can_status_rc;           /**< its return value (0) */
     uint32_t boot_nonce;         /**< returned by hal_sys_boot_nonce(), then incremented */
     int boot_nonce_rc;           /**< its return value (0) */
+    int32_t encoder[2];          /**< counts hal_encoder_read() returns, left and right */
+    int encoder_rc;              /**< returned by hal_encoder_init() and _read() (0) */
+    unsigned encoder_reads;      /**< hal_encoder_read() calls */
+    int16_t motor[2];            /**< commands of the last hal_motor_set() */
+    bool motor_enabled;   /**< driver enabled: by hal_motor_set(), not since hal_motor_stop() */
+    unsigned motor_sets;  /**< hal_motor_set() calls */
+    unsigned motor_stops; /**< hal_motor_stop() calls */
 } hal_fake_t;
 
 extern hal_fake_t hal_fake;

@@ -278,14 +278,8 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 /* The layout table of mstc_sil_layout(). A field added to a struct of
  * mstc_sil.h is added here too; the Python bindings refuse a library whose
  * table and their own structs disagree, naming the struct and field. */
-#define LAYOUT_STRUCT(t)                                                                           \
-    {                                                                                              \
-#t, NULL, 0u, (uint32_t)sizeof(t)                                                          \
-    }
-#define LAYOUT_FIELD(t, f)                                                                         \
-    {                                                                                              \
-#t, #f, (uint32_t)offsetof(t, f), (uint32_t)sizeof(((t *)NULL)->f)                         \
-    }
+#define LAYOUT_STRUCT(t)   MSTC_SIL_LAYOUT_STRUCT(t)
+#define LAYOUT_FIELD(t, f) MSTC_SIL_LAYOUT_FIELD(t, f)
 
 static const mstc_sil_layout_t layout[] = {
     LAYOUT_STRUCT(mstc_sil_params_t),

@@ -176,6 +176,17 @@ typedef struct {
     uint32_t size;     /**< sizeof the field (or the struct) [bytes] */
 } mstc_sil_layout_t;
 
+/** @brief A layout table's entry for struct type @p t as a whole, and for
+ *         its field @p f. */
+#define MSTC_SIL_LAYOUT_STRUCT(t)                                                                  \
+    {                                                                                              \
+#t, NULL, 0u, (uint32_t)sizeof(t)                                                          \
+    }
+#define MSTC_SIL_LAYOUT_FIELD(t, f)                                                                \
+    {                                                                                              \
+#t, #f, (uint32_t)offsetof(t, f), (uint32_t)sizeof(((t *)NULL)->f)                         \
+    }
+
 /**
  * @brief The layout of every struct above: for each, one entry for the whole
  *        struct followed by one entry per field, in declaration order.

@@ -9,8 +9,8 @@
  *
  * Called from the main loop's start-up, in this order: board_clock_init(),
  * board_gpio_init(), then the drivers enable their peripherals through
- * board_can_enable() (bxCAN) or board_slcan_enable() (slcan), and
- * board_timers_enable().
+ * board_can_enable() (bxCAN) or board_slcan_enable() (slcan),
+ * board_timers_enable() and board_encoder_enable().
  */
 #ifndef STM32_BOARD_H
 #define STM32_BOARD_H
@@ -56,6 +56,10 @@ void board_slcan_enable(void);
 
 /** @brief Clocks of the control-period and PWM timers. */
 void board_timers_enable(void);
+
+/** @brief Clocks of the encoder timers (BOARD_ENC_*_TIM) and their pins, as
+ *         inputs with pull-ups. */
+void board_encoder_enable(void);
 
 /** @brief Status LED on or off. ISR or task; never blocks. */
 void board_led(bool on);

@@ -11,18 +11,30 @@
  * are the board's clock and the timer runs no more steps, so that each STEP
  * gives exactly one step, as in the host builds. The watchdog is then fed by
  * those steps: a plant that stops stepping for longer than its timeout
- * resets the board, which starts again in real-time mode, not armed. */
+ * resets the board, which starts again in real-time mode, not armed.
+ *
+ * The wheel loop (firmware/wheel, docs/wheel.md) runs in both modes on the
+ * millisecond tick of hal_time (SysTick), every 1000/wheel_rate ms: the
+ * encoders, the control step's last wheel speeds as setpoints, the motors
+ * (wheel_cmd.h). Its faults stop the motors until the application is armed
+ * again; they do not halt the application (docs/wheel.md, "Design"), so a
+ * board under QEMU, whose encoders never count, still runs the plant's
+ * scenarios in lock-step (make pil). */
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "app/app.h"
 #include "board.h"
 #include "comm/comm.h"
 #include "cortex_m.h"
 #include "hal/hal_can.h"
+#include "hal/hal_encoder.h"
 #include "hal/hal_motor.h"
 #include "hal/hal_sys.h"
+#include "hal/hal_time.h"
 #include "stm32_hal.h"
+#include "wheel/whl.h"
 #include "wheel_cmd.h"
 
 /* Static, not on the stack: its size is then in the RAM budget, not the
@@ -92,11 +104,75 @@ static void led_step(uint32_t steps, bool can_ok)
     board_led(((steps / k) & 1u) != 0u);
 }
 
-static void motors_from_last_step(void)
+/* ------------------------------------------------------------ wheel loop */
+
+static whl_t wheels;
+static whl_output_t wheel_out; /* of the last wheel period */
+static bool wheel_measured;    /* it read the encoders (not open loop) */
+volatile stm32_wheel_stats_t stm32_wheel_stats;
+
+static struct {
+    uint64_t next_ms;   /* the next period is due at this millisecond */
+    uint32_t period_ms; /* 1000 / wheel_rate, rounded, at least 1 */
+    uint8_t halt;       /* the application's halt at the last period */
+} wheel_sched;
+
+/* The wheel parameters in force in the application (PARAM_SET changes them
+ * between control steps). */
+static void wheel_params(void)
 {
+    const whl_params_t *p = &app.ctl.p.wheel;
+    if (memcmp(p, &wheels.p, sizeof *p) != 0) {
+        whl_set_params(&wheels, p);
+    }
+    const uint32_t ms = (whl_period_us(p) + 500u) / 1000u;
+    wheel_sched.period_ms = ms > 0u ? ms : 1u;
+}
+
+static bool wheel_due(void) { return hal_time_now_us() / 1000u >= wheel_sched.next_ms; }
+
+/* One wheel period if one is due: the last control step's wheel speeds,
+ * the encoders, the motors. A re-arm (the halt cleared) clears the wheel
+ * loop's faults. */
+static void wheel_period(void)
+{
+    const uint64_t now_ms = hal_time_now_us() / 1000u;
+    if (now_ms < wheel_sched.next_ms) {
+        return;
+    }
+    volatile stm32_wheel_stats_t *st = &stm32_wheel_stats;
+    const uint64_t late = (now_ms - wheel_sched.next_ms) / wheel_sched.period_ms;
+    st->overruns += (uint32_t)late;
+    wheel_sched.next_ms += (late + 1u) * wheel_sched.period_ms;
+    if (app.halt == (uint8_t)COMM_HALT_NONE && wheel_sched.halt != (uint8_t)COMM_HALT_NONE) {
+        whl_clear_faults(&wheels);
+    }
+    wheel_sched.halt = app.halt;
     const kin_wheels_t *w = app_last_wheels(&app);
-    const num_t max = app.ctl.p.kin.max_wheel_speed;
-    (void)hal_motor_set(wheel_cmd_from_speed(w->left, max), wheel_cmd_from_speed(w->right, max));
+    const uint32_t c0 = stm32_time_cycles();
+    wheel_measured = wheel_cmd_period(&wheels, w->left, w->right, &wheel_out) == 0;
+    const uint32_t cycles = stm32_time_cycles() - c0;
+    st->cycles_max = cycles > st->cycles_max ? cycles : st->cycles_max;
+    st->periods++;
+    st->closed_loop = wheel_measured ? 1u : 0u;
+    st->faults = wheel_out.faults;
+    st->speed_mrad_s[0] = (int32_t)(num_to_float(wheel_out.speed[0]) * 1000.0f);
+    st->speed_mrad_s[1] = (int32_t)(num_to_float(wheel_out.speed[1]) * 1000.0f);
+}
+
+/* Real-time mode, before each control step: what the encoders measure and
+ * the wheel loop's faults, on the bus (WHEEL_SPEED: the board sends it when
+ * it runs the wheel loop, mstc.dbc). Not in lock-step, where the plant's
+ * wheels are the robot's, and not open loop, where nothing is measured. */
+static void send_wheel_speed(void)
+{
+    if (!wheel_measured) {
+        return;
+    }
+    const kin_wheels_t w = { wheel_out.speed[0], wheel_out.speed[1] };
+    hal_can_frame_t f;
+    (void)comm_encode_wheel_speed_faults(&app.comm, &w, wheel_out.faults, &f);
+    (void)hal_can_send(&f);
 }
 
 /* The main loop's updates of stm32_loop_stats go between these two: the
@@ -123,7 +199,7 @@ static void after_step(uint32_t cycles, bool first, bool by_frame, bool can_ok)
 {
     static uint32_t steps;
     volatile stm32_loop_stats_t *st = &stm32_loop_stats;
-    motors_from_last_step();
+    wheel_params();
     led_step(++steps, can_ok);
     stats_begin();
     if (by_frame) {
@@ -154,6 +230,7 @@ int main(void)
     board_gpio_init();
     stm32_time_init(board_clocks()->sysclk_hz);
     (void)hal_motor_init();
+    (void)hal_encoder_init();
 
     stats_begin();
     stm32_loop_stats.reset_cause = (uint32_t)hal_sys_reset_cause();
@@ -171,12 +248,18 @@ int main(void)
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
     }
     (void)app_init(&app, NULL);
+    whl_init(&wheels, &app.ctl.p.wheel);
+    wheel_params();
+    wheel_sched.halt = app.halt;
     install_key();
     (void)stm32_tick_start(BOARD_CONTROL_PERIOD_US);
     (void)hal_sys_watchdog_start(BOARD_WATCHDOG_MS);
 
     uint64_t t_us = 0u;
     for (;;) {
+        /* The wheel loop first: its period is the shortest, and its
+         * encoder reads the more regular the better. */
+        wheel_period();
         /* Every received frame into the application (app_poll(), one frame
          * at a time, so that a STEP's step can be timed). */
         hal_can_frame_t f;
@@ -195,13 +278,14 @@ int main(void)
              * when this loop got to it: steps stay evenly spaced. Missed
              * periods are skipped (stm32_tick_overruns() counts them). */
             t_us += (uint64_t)periods * BOARD_CONTROL_PERIOD_US;
+            send_wheel_speed();
             const uint32_t c0 = stm32_time_cycles();
             app_control_tick(&app, t_us);
             after_step(stm32_time_cycles() - c0, stm32_loop_stats.steps == 0u, false, can_ok);
         }
         /* Sleep until the next interrupt unless work arrived meanwhile. */
         const uint32_t primask = cm_irq_save();
-        if (!stm32_can_rx_pending() && !stm32_tick_pending()) {
+        if (!stm32_can_rx_pending() && !stm32_tick_pending() && !wheel_due()) {
             cm_wfi();
         }
         cm_irq_restore(primask);

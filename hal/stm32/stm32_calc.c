@@ -82,6 +82,35 @@ uint32_t stm32_pwm_compare(int32_t cmd, int32_t full_scale, uint32_t arr)
     return (uint32_t)div64_u(mag * period + (uint32_t)full_scale / 2u, (uint32_t)full_scale, NULL);
 }
 
+int32_t stm32_encoder_step(uint32_t now, uint32_t last, unsigned bits)
+{
+    const uint32_t d = now - last;
+    /* Sign-extend the low @p bits (ODrive's encoder.cpp: the 16-bit
+     * difference cast to int16_t). */
+    return bits >= 32u ? (int32_t)d : (int32_t)(int16_t)(uint16_t)d;
+}
+
+/* TIMx_SMCR, TIMx_CCMR1 (input view), TIMx_CCER bit positions: RM0090
+ * §18.4.3, §18.4.7, §18.4.9 [RM0008 §15.4.3, §15.4.7, §15.4.9]. */
+#define SMCR_SMS_ENCODER3 3u
+#define CCMR1_CC1S_POS    0u
+#define CCMR1_IC1F_POS    4u
+#define CCMR1_CC2S_POS    8u
+#define CCMR1_IC2F_POS    12u
+#define CCxS_TI           1u
+#define CCER_CC1P         (1u << 1)
+
+stm32_encoder_regs_t stm32_encoder_regs(uint32_t filter, bool invert)
+{
+    const uint32_t f = filter & 0xFu;
+    return (stm32_encoder_regs_t){
+        .smcr = SMCR_SMS_ENCODER3,
+        .ccmr1 = (CCxS_TI << CCMR1_CC1S_POS) | (f << CCMR1_IC1F_POS) | (CCxS_TI << CCMR1_CC2S_POS) |
+                 (f << CCMR1_IC2F_POS),
+        .ccer = invert ? CCER_CC1P : 0u,
+    };
+}
+
 hal_reset_cause_t stm32_reset_cause(uint32_t csr)
 {
     if ((csr & (STM32_RCC_CSR_IWDGRSTF | STM32_RCC_CSR_WWDGRSTF)) != 0u) {

@@ -2,7 +2,7 @@
 /**
  * @file stm32_calc.h
  * @brief Board-independent computations of the STM32 ports: watchdog and
- *        timer settings, PWM compare values, reset cause. Pure functions,
+ *        timer settings, PWM compare values, encoder counts, reset cause. Pure functions,
  *        unit-tested on the host (tests/unit/test_stm32_calc.c).
  *
  * The IWDG and the general-purpose timers TIM2..TIM5 are the same IP on the
@@ -11,6 +11,7 @@
 #ifndef STM32_CALC_H
 #define STM32_CALC_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "hal/hal_sys.h"
@@ -58,6 +59,29 @@ int stm32_timer_period(uint32_t clk_hz, uint32_t period_us, stm32_timer_t *out, 
  *        else rounded to nearest.
  */
 uint32_t stm32_pwm_compare(int32_t cmd, int32_t full_scale, uint32_t arr);
+
+/**
+ * @brief Motion of an encoder counter between two reads: @p now − @p last
+ *        modulo 2^@p bits, taken as signed (two's complement of that width).
+ *        Right while the counter moved less than 2^(bits−1) counts between
+ *        the reads (hal_encoder.h). @p bits is 16 or 32.
+ */
+int32_t stm32_encoder_step(uint32_t now, uint32_t last, unsigned bits);
+
+/** @brief Register values of a timer in encoder mode. */
+typedef struct {
+    uint32_t smcr;  /**< SMS = 011: count on both edges of TI1 and TI2 (×4) */
+    uint32_t ccmr1; /**< CC1S = CC2S = 01 (ICx on TIx), IC1F = IC2F = filter */
+    uint32_t ccer;  /**< CC1P = invert: the counting direction reversed */
+} stm32_encoder_regs_t;
+
+/**
+ * @brief Encoder mode 3 (RM0090 §18.3.12 [RM0008 §15.3.12]): SMCR.SMS = 011,
+ *        CCMR1.CC1S = CC2S = 01, the input filter ICxF = @p filter (0..15:
+ *        the number of samples and their rate, RM0090 §18.4.7), CCER.CC1P
+ *        set when @p invert (TI1 inverted: the count runs the other way).
+ */
+stm32_encoder_regs_t stm32_encoder_regs(uint32_t filter, bool invert);
 
 /** @brief Reset flags of RCC_CSR, at the same positions on the F1 and F4
  *         (RM0090 §7.3.21 [§7.3.10]). */

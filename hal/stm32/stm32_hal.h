@@ -46,7 +46,7 @@ bool stm32_can_rx_pending(void);
 uint32_t stm32_can_bitrate(void);
 
 /** @brief What the main loop has done, for a debugger (and the QEMU smoke
- *         test, tools/bench/qemu_smoke): words only, so its layout is plain.
+ *         test, mstc.bench.qemu_smoke): words only, so its layout is plain.
  *
  * A debugger reads these words while the board runs, one at a time, so a
  * read can fall between two of the main loop's writes (a step counted in
@@ -54,7 +54,7 @@ uint32_t stm32_can_bitrate(void);
  * keeps consistent, as a seqlock does: the main loop, the only writer, makes
  * it odd before it changes any other word and even again after the last,
  * with a barrier each time; a reader keeps a copy only when `seq` read before
- * it and `seq` read after it are the same even number (sim/mstc/qemu.py). */
+ * it and `seq` read after it are the same even number (sim/mstc/firmware/qemu.py). */
 typedef struct {
     uint32_t steps;       /**< control steps run */
     uint32_t overruns;    /**< control periods skipped because the loop was late */
@@ -80,5 +80,19 @@ typedef struct {
 
 /** @brief Written by the main loop only. */
 extern volatile stm32_loop_stats_t stm32_loop_stats;
+
+/** @brief What the wheel loop has done (hal/stm32/main.c), for a debugger:
+ *         words only. */
+typedef struct {
+    uint32_t periods;        /**< wheel periods run */
+    uint32_t overruns;       /**< periods skipped because the main loop was late */
+    uint32_t closed_loop;    /**< 1: encoders read; 0: open loop (no encoders) */
+    uint32_t faults;         /**< WHL_FAULT_* bits of the last period */
+    int32_t speed_mrad_s[2]; /**< measured speeds of the last period [mrad/s] */
+    uint32_t cycles_max;     /**< longest period, encoders to motors [core cycles] */
+} stm32_wheel_stats_t;
+
+/** @brief Written by the main loop only. */
+extern volatile stm32_wheel_stats_t stm32_wheel_stats;
 
 #endif /* STM32_HAL_H */

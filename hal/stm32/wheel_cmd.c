@@ -2,6 +2,9 @@
 /* Wheel speed to motor command (see wheel_cmd.h). */
 #include "wheel_cmd.h"
 
+#include <errno.h>
+
+#include "hal/hal_encoder.h"
 #include "hal/hal_motor.h"
 
 int16_t wheel_cmd_from_speed(num_t speed, num_t max_speed)
@@ -25,6 +28,26 @@ int16_t wheel_cmd_from_speed(num_t speed, num_t max_speed)
     }
     if (ratio < 0.0f) {
         return (int16_t)(ratio * full - 0.5f);
+    }
+    return 0;
+}
+
+int wheel_cmd_period(whl_t *w, num_t left, num_t right, whl_output_t *out)
+{
+    int32_t count[2];
+    if (hal_encoder_read(&count[0], &count[1]) != 0) {
+        const int16_t l = wheel_cmd_from_speed(left, w->p.free_speed);
+        const int16_t r = wheel_cmd_from_speed(right, w->p.free_speed);
+        *out = (whl_output_t){ .cmd = { l, r } };
+        (void)hal_motor_set(l, r);
+        return -ENODEV;
+    }
+    const whl_input_t in = { { left, right }, { count[0], count[1] } };
+    whl_step(w, &in, out);
+    if (out->faults != 0u) {
+        hal_motor_stop();
+    } else {
+        (void)hal_motor_set(out->cmd[0], out->cmd[1]);
     }
     return 0;
 }

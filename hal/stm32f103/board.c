@@ -147,6 +147,25 @@ void board_timers_enable(void)
     (void)RCC->APB1ENR;
 }
 
+/* Encoder inputs: the timers read the pins as inputs (RM0008 §9.1.11),
+ * pulled up (open-collector encoders work without resistors of their own). */
+static void encoder_pin(GPIO_TypeDef *port, unsigned pin)
+{
+    pin_write(port, pin, true);
+    pin_cfg(port, pin, CFG_IN_PULL);
+}
+
+void board_encoder_enable(void)
+{
+    RCC->APB1ENR |= RCC_APB1ENR_TIM4EN_Msk;
+    RCC->APB2ENR |= RCC_APB2ENR_TIM1EN_Msk;
+    (void)RCC->APB2ENR;
+    encoder_pin(GPIOB, 6u);
+    encoder_pin(GPIOB, 7u);
+    encoder_pin(GPIOA, 8u);
+    encoder_pin(GPIOA, 9u);
+}
+
 void board_led(bool on) { pin_write(GPIOC, 13u, !on); }
 
 void board_motor_dir(unsigned wheel, bool forward)

@@ -21,6 +21,10 @@
  *   status LED     PC13  output, low = on
  *   USART2_TX      PA2   alternate push-pull, slcan images only (CAN=slcan)
  *   USART2_RX      PA3   input pull-up, slcan images only
+ *   encoder left   PB6   TIM4_CH1 (A, no remap), input pull-up
+ *                  PB7   TIM4_CH2 (B)
+ *   encoder right  PA8   TIM1_CH1 (A, no remap), input pull-up
+ *                  PA9   TIM1_CH2 (B)
  */
 #ifndef BOARD_CONFIG_H
 #define BOARD_CONFIG_H
@@ -66,6 +70,28 @@
 #define BOARD_TICK_IRQHandler TIM2_IRQHandler
 
 #define BOARD_PWM_TIM TIM3
+
+/* Wheel encoders (hal/stm32/encoder.c): timers in encoder mode, ×4. The C8
+ * has TIM1..TIM4 only, all 16 bits; TIM2 is the control tick and TIM3 the
+ * PWM, so left on TIM4 and right on TIM1 (an advanced timer: the same
+ * encoder interface, RM0008 §14.3.16). */
+#define BOARD_ENC_LEFT_TIM   TIM4
+#define BOARD_ENC_LEFT_BITS  16u
+#define BOARD_ENC_RIGHT_TIM  TIM1
+#define BOARD_ENC_RIGHT_BITS 16u
+/** @brief Input filter ICxF of both channels (RM0008 §15.4.7): 8 = f_DTS/8,
+ *         N = 6, an edge must hold 48 timer clocks (0.67 µs at 72 MHz): it
+ *         passes the 94 µs between edges of a 64 CPR encoder at 10,000 rpm
+ *         and rejects shorter glitches. */
+#define BOARD_ENC_FILTER     8u
+/** @brief Set where an encoder counts down while its wheel drives the robot
+ *         forward (a mirrored motor), or swap its A and B wires. */
+#ifndef BOARD_ENC_LEFT_INVERT
+#define BOARD_ENC_LEFT_INVERT false
+#endif
+#ifndef BOARD_ENC_RIGHT_INVERT
+#define BOARD_ENC_RIGHT_INVERT false
+#endif
 
 /* The slcan transport (CAN=slcan, hal/stm32/slcan.c): CAN frames as Lawicel
  * ASCII lines over USART2 (TX PA2, RX PA3), for a USB-serial adapter or

@@ -127,6 +127,8 @@ static void pin_write(GPIO_TypeDef *port, unsigned pin, bool high)
 }
 
 #define AF_TIM3   2u
+#define AF_TIM4   2u
+#define AF_TIM5   2u
 #define AF_USART2 7u
 #define AF_CAN1   9u
 
@@ -172,6 +174,24 @@ void board_timers_enable(void)
 {
     RCC->APB1ENR |= RCC_APB1ENR_TIM2EN_Msk | RCC_APB1ENR_TIM3EN_Msk;
     (void)RCC->APB1ENR;
+}
+
+/* Encoder inputs: alternate function, pulled up (open-collector encoders
+ * work without resistors of their own). */
+static void encoder_pin(GPIO_TypeDef *port, unsigned pin, uint32_t af)
+{
+    pin_af(port, pin, af);
+    pin_mode(port, pin, MODE_AF, SPEED_LOW, PULL_UP);
+}
+
+void board_encoder_enable(void)
+{
+    RCC->APB1ENR |= RCC_APB1ENR_TIM4EN_Msk | RCC_APB1ENR_TIM5EN_Msk;
+    (void)RCC->APB1ENR;
+    encoder_pin(GPIOB, 6u, AF_TIM4);
+    encoder_pin(GPIOB, 7u, AF_TIM4);
+    encoder_pin(GPIOA, 0u, AF_TIM5);
+    encoder_pin(GPIOA, 1u, AF_TIM5);
 }
 
 void board_led(bool on) { pin_write(GPIOB, 5u, on); }

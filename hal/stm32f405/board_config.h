@@ -21,6 +21,10 @@
  *   status LED     PB5   output, high = on
  *   USART2_TX      PA2   AF7, slcan images only (CAN=slcan)
  *   USART2_RX      PA3   AF7 with pull-up, slcan images only
+ *   encoder left   PB6   TIM4_CH1 (A), AF2, pull-up
+ *                  PB7   TIM4_CH2 (B), AF2, pull-up
+ *   encoder right  PA0   TIM5_CH1 (A), AF2, pull-up
+ *                  PA1   TIM5_CH2 (B), AF2, pull-up
  */
 #ifndef BOARD_CONFIG_H
 #define BOARD_CONFIG_H
@@ -64,6 +68,27 @@
 #define BOARD_TICK_IRQHandler TIM2_IRQHandler
 
 #define BOARD_PWM_TIM TIM3
+
+/* Wheel encoders (hal/stm32/encoder.c): timers in encoder mode, ×4. Left on
+ * TIM4 (16 bits), right on TIM5, one of the F405's two 32-bit timers
+ * (RM0090 §18.1; TIM2, the other, is the control tick). */
+#define BOARD_ENC_LEFT_TIM   TIM4
+#define BOARD_ENC_LEFT_BITS  16u
+#define BOARD_ENC_RIGHT_TIM  TIM5
+#define BOARD_ENC_RIGHT_BITS 32u
+/** @brief Input filter ICxF of both channels (RM0090 §18.4.7): 8 = f_DTS/8,
+ *         N = 6, an edge must hold 48 timer clocks (0.57 µs at 84 MHz): it
+ *         passes the 94 µs between edges of a 64 CPR encoder at 10,000 rpm
+ *         and rejects shorter glitches. */
+#define BOARD_ENC_FILTER     8u
+/** @brief Set where an encoder counts down while its wheel drives the robot
+ *         forward (a mirrored motor), or swap its A and B wires. */
+#ifndef BOARD_ENC_LEFT_INVERT
+#define BOARD_ENC_LEFT_INVERT false
+#endif
+#ifndef BOARD_ENC_RIGHT_INVERT
+#define BOARD_ENC_RIGHT_INVERT false
+#endif
 
 /* The slcan transport (CAN=slcan, hal/stm32/slcan.c): CAN frames as Lawicel
  * ASCII lines over USART2 (TX PA2, RX PA3), for a USB-serial adapter or

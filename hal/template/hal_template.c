@@ -18,6 +18,7 @@
 #include <stdint.h>
 
 #include "hal/hal_can.h"
+#include "hal/hal_encoder.h"
 #include "hal/hal_motor.h"
 #include "hal/hal_sys.h"
 #include "hal/hal_time.h"
@@ -143,6 +144,24 @@ int hal_motor_set(int16_t left, int16_t right)
 /* TODO: disable the driver and set duty 0. Must work from a fault handler:
  * no waiting, no state that a fault could have left inconsistent. */
 void hal_motor_stop(void) {}
+
+/* --------------------------------------------------------------- encoder */
+
+/* TODO: a timer per wheel counting the encoder's edges in hardware (STM32:
+ * encoder mode, hal/stm32/encoder.c), its pins as inputs with pull-ups and
+ * an input filter. Until then the port has no encoders: -ENODEV, and the
+ * main loop drives the motors open loop. */
+int hal_encoder_init(void) { return -ENODEV; }
+
+/* TODO: each counter's signed difference since the last read (sign-extended
+ * from the counter's width) added to a 32-bit running count. Called from the
+ * wheel loop only, at least once per HAL_ENCODER_MAX_STEP counts. */
+int hal_encoder_read(int32_t *left, int32_t *right)
+{
+    *left = 0;
+    *right = 0;
+    return -ENODEV;
+}
 
 /* ------------------------------------------------------ board (template.h) */
 

@@ -7,9 +7,11 @@
 
 #include "app/app.h"
 #include "hal/hal_can.h"
+#include "hal/hal_encoder.h"
 #include "hal/hal_motor.h"
 #include "hal/hal_sys.h"
 #include "template.h"
+#include "wheel/whl.h"
 
 /* TODO: the control period [µs] and the watchdog time-out [ms] (several
  * periods, at the watchdog oscillator's fastest tolerance). */
@@ -17,6 +19,33 @@
 #define WATCHDOG_MS       100u
 
 static app_t app; /* static: no heap, and its size shows in the RAM budget */
+static whl_t wheels;
+
+/* The wheel loop (firmware/wheel/whl.h, docs/wheel.md): the encoders, the
+ * last control step's wheel speeds, the motors. TODO: run it every
+ * 1000/wheel_rate ms from a millisecond tick, not once per control period
+ * (hal/stm32/main.c and wheel_cmd.c do). Without encoders the motors are
+ * driven open loop on the feed-forward. */
+static void wheel_period(void)
+{
+    const kin_wheels_t *sp = app_last_wheels(&app);
+    int32_t left;
+    int32_t right;
+    if (hal_encoder_read(&left, &right) != 0) {
+        const whl_params_t *p = &app.ctl.p.wheel;
+        (void)hal_motor_set(whl_motor_cmd(num_div(sp->left, p->free_speed)),
+                            whl_motor_cmd(num_div(sp->right, p->free_speed)));
+        return;
+    }
+    const whl_input_t in = { { sp->left, sp->right }, { left, right } };
+    whl_output_t out;
+    whl_step(&wheels, &in, &out);
+    if (out.faults != 0u) {
+        hal_motor_stop();
+    } else {
+        (void)hal_motor_set(out.cmd[0], out.cmd[1]);
+    }
+}
 
 int main(void)
 {
@@ -26,7 +55,9 @@ int main(void)
         /* TODO: the protocol's receive identifiers, as hal/stm32/main.c does. */
         (void)hal_can_set_filters(NULL, 0u);
     }
+    (void)hal_encoder_init();
     (void)app_init(&app, NULL);
+    whl_init(&wheels, &app.ctl.p.wheel);
     (void)template_tick_start(CONTROL_PERIOD_US);
     (void)hal_sys_watchdog_start(WATCHDOG_MS);
 
@@ -37,9 +68,8 @@ int main(void)
         if (periods > 0u) {
             t_us += (uint64_t)periods * CONTROL_PERIOD_US;
             app_control_tick(&app, t_us);
-            /* TODO: wheel speeds to motor commands, as hal/stm32/main.c
-             * does with app_last_wheels() and wheel_cmd_from_speed(). */
-            (void)hal_motor_set(0, 0);
+            whl_set_params(&wheels, &app.ctl.p.wheel);
+            wheel_period();
             hal_sys_watchdog_kick();
         }
         template_wait_for_event();

@@ -155,6 +155,11 @@ class SimulationError(MstcError):
     non-finite, or the loop raised."""
 
 
+class StackUnbounded(MstcError):
+    """A board image's call graph with a cycle (recursion): its stack depth has
+    no bound (:mod:`mstc.bench.budget`); the message is the cycle."""
+
+
 class RunError(MstcError):
     """A scenario's run that failed, named with its file (the command line's
     account of a :class:`FirmwareError`, :class:`ControllerError`, a bus error...)."""

@@ -18,6 +18,7 @@ other way round.
 from __future__ import annotations
 
 import enum
+import itertools
 import math
 import struct
 import tomllib
@@ -148,15 +149,17 @@ def _limit(entry: Mapping[str, object], where: str) -> Limit:
 def load_table(path: Path = TABLE_PATH) -> Table:
     """Read and check the table.
 
-    :raises TableError: it is malformed: indices not 0..n-1, a parameter no
-        ctl_params_t member holds (the firmware's check reads every row), a
-        relation naming an unknown parameter, an unknown operator, a default
-        outside its range.
+    :raises TableError: it is malformed: indices not rising from 0 (an
+        index may be left out: reserved for a parameter not in the table yet,
+        which the firmware answers unknown_index), a parameter no ctl_params_t
+        member holds (the firmware's check reads every row), a relation naming
+        an unknown parameter, an unknown operator, a default outside its range.
     """
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     params = tuple(_limit(e, f"{path}: param {i}") for i, e in enumerate(data.get("param", [])))
-    if [p.index for p in params] != list(range(len(params))):
-        raise TableError(f"{path}: the indices must be 0, 1, ... in order")
+    indices = [p.index for p in params]
+    if indices[:1] != [0] or any(b <= a for a, b in itertools.pairwise(indices)):
+        raise TableError(f"{path}: the indices must rise from 0, in order")
     for p in params:
         if not p.held:
             raise TableError(f"{path}: {p.name}: no ctl_params_t member holds it (member)")

@@ -85,6 +85,9 @@ MSG(obstacle, FIELD(obstacle, obstacle_crc), FIELD(obstacle, obstacle_counter),
 MSG(obstacle_vel, FIELD(obstacle_vel, obstacle_vel_crc), FIELD(obstacle_vel, obstacle_vel_counter),
     FIELD(obstacle_vel, obstacle_vel_id), FIELD(obstacle_vel, obstacle_vel_vx),
     FIELD(obstacle_vel, obstacle_vel_vy))
+MSG(wheel_speed, FIELD(wheel_speed, wheel_speed_crc), FIELD(wheel_speed, wheel_speed_counter),
+    FIELD(wheel_speed, wheel_speed_left), FIELD(wheel_speed, wheel_speed_right),
+    FIELD(wheel_speed, wheel_speed_faults))
 MSG(param_set, FIELD(param_set, param_set_crc), FIELD(param_set, param_set_counter),
     FIELD(param_set, param_set_index), FIELD(param_set, param_set_value))
 MSG(param_get, FIELD(param_get, param_get_crc), FIELD(param_get, param_get_counter),
@@ -127,6 +130,7 @@ static const msg_t msgs[] = {
     ENTRY(ref_xy, REF_XY),
     ENTRY(ref_motion, REF_MOTION),
     ENTRY(step, STEP),
+    ENTRY(wheel_speed, WHEEL_SPEED),
     ENTRY(obstacle, OBSTACLE),
     ENTRY(obstacle_vel, OBSTACLE_VEL),
     ENTRY(param_set, PARAM_SET),
@@ -278,6 +282,7 @@ static num_t num(double v) { return num_from_float((float)v); }
 /**
  * Encode a frame the firmware sends, from physical inputs:
  *   WHEEL_CMD       step, left, right
+ *   WHEEL_SPEED     left, right, faults
  *   STATUS          mode, side (avd_side_t), active obstacle, ctl faults, e,
  *                   distance (of the only obstacle remembered, id max(active, 1)),
  *                   step, frame_faults, halt
@@ -299,6 +304,11 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
     case COMM_ID_WHEEL_CMD: {
         const kin_wheels_t w = { num(in[1]), num(in[2]) };
         rc = comm_encode_wheel_cmd(&comm, (uint16_t)in[0], &w, &f);
+        break;
+    }
+    case COMM_ID_WHEEL_SPEED: {
+        const kin_wheels_t w = { num(in[0]), num(in[1]) };
+        rc = comm_encode_wheel_speed_faults(&comm, &w, (uint8_t)in[2], &f);
         break;
     }
     case COMM_ID_STATUS: {
@@ -366,7 +376,8 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
 /**
  * comm_decode() of a frame; on success @p out holds:
  *   ODOM_XY, REF_XY x, y; ODOM_THETA theta; REF_MOTION theta, v, w;
- *   STEP step, time_us; OBSTACLE id, x, y, radius; OBSTACLE_VEL id, vx, vy;
+ *   STEP step, time_us; WHEEL_SPEED left, right; OBSTACLE id, x, y, radius;
+ *   OBSTACLE_VEL id, vx, vy;
  *   PARAM_SET index, value; PARAM_GET index; PARAM_AUTH freshness, mac (bytes 4..7
  *   read little-endian, as the DBC's signal).
  * @retval comm_decode()'s result.
@@ -401,6 +412,10 @@ int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
         out[1] = (double)num_to_float(m.u.obstacle.x);
         out[2] = (double)num_to_float(m.u.obstacle.y);
         out[3] = (double)num_to_float(m.u.obstacle.radius);
+        break;
+    case COMM_ID_WHEEL_SPEED:
+        out[0] = (double)num_to_float(m.u.wheel_speed.left);
+        out[1] = (double)num_to_float(m.u.wheel_speed.right);
         break;
     case COMM_ID_OBSTACLE_VEL:
         out[0] = (double)m.u.obstacle_vel.id;

@@ -1,9 +1,10 @@
 # SPDX-License-Identifier: MIT
 """The board images (mk/firmware.mk): both build with the cross compiler and
-warnings as errors, fit the budgets (flash <= 32 KiB, RAM <= 8 KiB, worst-case
+warnings as errors, fit the budgets (flash <= 64 KiB, RAM <= 16 KiB, worst-case
 stack within its reservation), the blank port links, and both images run
-their control loop under QEMU (tools/bench/qemu_smoke says what that covers
-and what QEMU cannot: no RCC, no bxCAN).
+their control loop and their wheel loop under QEMU (mstc.bench.qemu_smoke
+says what that covers and what QEMU cannot: no RCC, no bxCAN, no encoder
+mode).
 
 Needs the cross toolchain and qemu-system-arm (tools/setup/debian-test.txt)
 and PyPI for the vendor SVD files (tools/svd/fetch): without them these fail,
@@ -51,3 +52,4 @@ def test_board_images_run_their_control_loop_under_qemu() -> None:
     assert r.returncode == 0, (r.stdout + r.stderr)[-4000:]
     assert r.stdout.count(": ok;") == 2, r.stdout
     assert r.stdout.count("ok   PWM compare") == 2, r.stdout
+    assert r.stdout.count("ok   wheel faults") == 2, r.stdout

@@ -51,6 +51,8 @@ DB = load_database()
 MESSAGES = sorted(DB.messages, key=lambda m: m.frame_id)
 FW_SENT = [m for m in MESSAGES if "FW" in m.senders]
 FW_RECEIVED = [m for m in MESSAGES if "FW" in m.receivers]
+FW_ONLY_SENT = [m for m in FW_SENT if m not in FW_RECEIVED]
+"""Frames the firmware sends and does not receive (WHEEL_SPEED it does both)."""
 ERRNO_OF = {
     DropReason.UNKNOWN: -errno.ENOENT,
     DropReason.LENGTH: -errno.EMSGSIZE,
@@ -296,6 +298,14 @@ def _wheel_cmd(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     return [step, left, right], {"step": step, "left": left, "right": right}
 
 
+def _wheel_speed(rng: random.Random) -> tuple[list[float], dict[str, float]]:
+    s = DB.get_message_by_name("WHEEL_SPEED").get_signal_by_name("WHEEL_SPEED_left")
+    left, right = _random_phys(rng, s), _random_phys(rng, s)
+    # A wheel loop's fault bits: four go on the wire, the rest are dropped.
+    faults = rng.randint(0, 255)
+    return [left, right, faults], {"left": left, "right": right, "faults": faults & 0xF}
+
+
 def _status_trk(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     m = DB.get_message_by_name("STATUS_TRK")
     e = [_random_phys(rng, m.get_signal_by_name(f"STATUS_TRK_e{i}")) for i in (1, 2, 3)]
@@ -353,6 +363,7 @@ def _auth_challenge(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 
 CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]] = {
     "WHEEL_CMD": _wheel_cmd,
+    "WHEEL_SPEED": _wheel_speed,
     "STATUS": _status,
     "STATUS_TRK": _status_trk,
     "STATUS_COUNTERS": _counters,
@@ -398,7 +409,9 @@ def test_comm_decodes_protocol_frames_to_cantools_values(shim: Shim, message: Me
         rc, got = shim.comm_decode(msg)
         assert rc == 0, f"{values}: {rc}"
         want = message.decode(bytes(msg.data), scaling=True, decode_choices=False)
-        names = [s.name for s in message.signals[2:]]
+        # The faults of a WHEEL_SPEED are a board's report to the tools; the
+        # firmware does not read them.
+        names = [s.name for s in message.signals[2:] if s.name != "WHEEL_SPEED_faults"]
         if message.name == "STEP":  # the firmware keeps the time in µs
             want[f"{prefix}time"] = round(want[f"{prefix}time"] * 1e6)
         if message.name == "OBSTACLE":
@@ -421,7 +434,7 @@ def _corrupt(rng: random.Random, msg: can.Message) -> can.Message:
         n = rng.randrange(DLC)
         return can.Message(arbitration_id=msg.arbitration_id, is_extended_id=False, data=data[:n])
     if kind == 2:  # an identifier the firmware does not receive
-        other = rng.choice([0x105, 0x7FF, *[m.frame_id for m in FW_SENT]])
+        other = rng.choice([0x106, 0x7FF, *[m.frame_id for m in FW_ONLY_SENT]])
         return can.Message(arbitration_id=other, is_extended_id=False, data=data)
     return msg
 

@@ -18,7 +18,8 @@ import pytest
 
 from logfiles import DATA, Run, index_of, log_lines, split, write
 from mstc.errors import LogError
-from mstc.logs.read import ProblemKind, read_log
+from mstc.logs.framelog import ProblemKind
+from mstc.logs.read import read_log
 
 # ------------------------------------------------------------- bad logs
 
@@ -252,7 +253,7 @@ def test_read_log_names_the_problem_of_an_unknown_format(tmp_path: Path, db: obj
         read_log(path, db, "mf4")  # type: ignore[arg-type]
 
 
-def test_columnar_and_line_parsers_agree(tmp_path: Path, db: object) -> None:
+def test_the_fast_and_the_line_parser_agree(tmp_path: Path, db: object) -> None:
     # One extra space after the first line sends the file down the line-by-line path.
     lines = log_lines("paper-circle")
     fast = read_log(DATA / "paper-circle.log", db)  # type: ignore[arg-type]
@@ -263,7 +264,7 @@ def test_columnar_and_line_parsers_agree(tmp_path: Path, db: object) -> None:
         assert np.array_equal(getattr(fast, column), getattr(slow, column)), column
     assert fast.channel == slow.channel
     assert list(fast.time[:3]) == [split(line)[0] for line in lines[:3]]
-    # Two channel names send it down the regular-expression path.
+    # Two channel names send it down the line-by-line path too.
     two = [line.replace(" sil0 ", " can1 ") if i % 2 else line for i, line in enumerate(lines)]
     mixed = read_log(write(tmp_path, two, "two.log"), db)  # type: ignore[arg-type]
     for column in ("time", "frame_id", "extended", "dlc", "data", "line"):
@@ -311,7 +312,7 @@ def _one_high_id(lines: list[str], at: int) -> list[str]:
 def test_a_three_digit_identifier_above_7ff_is_skipped_whatever_the_other_lines(
     tmp_path: Path, short_lines: list[str], db: object
 ) -> None:
-    # Every other line regular (the fast readers), or one other line irregular
+    # Every other line regular (the fast reader), or one other line irregular
     # (the line-by-line reader): the same rule, skipped as not a frame.
     regular = _one_high_id(short_lines, 30)
     irregular = list(regular)

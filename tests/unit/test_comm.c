@@ -157,11 +157,11 @@ static void test_comm_crc8h2f_of_nothing_is_init_xor_final(void)
 static void test_comm_data_ids_are_the_dbc_attribute(void)
 {
     static const uint32_t ids[] = {
-        COMM_ID_ODOM_XY,     COMM_ID_ODOM_THETA,      COMM_ID_REF_XY,         COMM_ID_REF_MOTION,
-        COMM_ID_STEP,        COMM_ID_OBSTACLE,        COMM_ID_OBSTACLE_VEL,   COMM_ID_PARAM_SET,
-        COMM_ID_PARAM_GET,   COMM_ID_PARAM_AUTH,      COMM_ID_WHEEL_CMD,      COMM_ID_STATUS,
-        COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,          COMM_ID_HEARTBEAT,
-        COMM_ID_AUTH_STATUS, COMM_ID_PARAM_VALUE,     COMM_ID_AUTH_CHALLENGE,
+        COMM_ID_ODOM_XY,     COMM_ID_ODOM_THETA,      COMM_ID_REF_XY,       COMM_ID_REF_MOTION,
+        COMM_ID_STEP,        COMM_ID_OBSTACLE,        COMM_ID_OBSTACLE_VEL, COMM_ID_PARAM_SET,
+        COMM_ID_PARAM_GET,   COMM_ID_PARAM_AUTH,      COMM_ID_WHEEL_CMD,    COMM_ID_STATUS,
+        COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,        COMM_ID_HEARTBEAT,
+        COMM_ID_AUTH_STATUS, COMM_ID_PARAM_VALUE,     COMM_ID_WHEEL_SPEED,  COMM_ID_AUTH_CHALLENGE,
     };
     TEST_ASSERT_EQUAL_UINT(COMM_N_FRAMES, sizeof ids / sizeof ids[0]);
     for (size_t i = 0; i < COMM_N_FRAMES; i++) {
@@ -170,7 +170,7 @@ static void test_comm_data_ids_are_the_dbc_attribute(void)
         TEST_ASSERT_EQUAL_HEX16(data_id_of(ids[i]), did);
     }
     uint16_t did = 0xABCD;
-    TEST_ASSERT_EQUAL_INT(-ENOENT, comm_data_id(0x105, &did));
+    TEST_ASSERT_EQUAL_INT(-ENOENT, comm_data_id(0x106, &did));
     TEST_ASSERT_EQUAL_HEX16(0xABCD, did);
 }
 
@@ -217,7 +217,7 @@ static void test_comm_decode_accepts_the_first_frame_whatever_its_counter(void)
 static void test_comm_decode_drops_an_unknown_identifier(void)
 {
     comm_msg_t m;
-    hal_can_frame_t f = sealed(0x105, zeros, 0);
+    hal_can_frame_t f = sealed(0x106, zeros, 0);
     TEST_ASSERT_EQUAL_INT(-ENOENT, comm_decode(&c, &f, &m));
     f.id = 0x7FF;
     TEST_ASSERT_EQUAL_INT(-ENOENT, comm_decode(&c, &f, &m));
@@ -489,6 +489,24 @@ static void test_comm_decode_obstacle_velocity(void)
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -1.25, m.u.obstacle_vel.vy);
 }
 
+static void test_comm_decode_wheel_speed(void)
+{
+    /* left 12.5 rad/s: raw 12800 (2^-10 rad/s) at bits 16..33; right
+     * -0.75 rad/s: raw -768 at 34..51; the spare bits 12..15 and 52..63 set,
+     * to show they are ignored. */
+    uint8_t payload[8] = { 0 };
+    set_field(payload, 12, 4, 0xF);
+    set_field(payload, 16, 18, 12800);
+    set_field(payload, 34, 18, -768);
+    set_field(payload, 52, 12, 0xFFF);
+    hal_can_frame_t f = sealed(COMM_ID_WHEEL_SPEED, payload, 5);
+    comm_msg_t m;
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_SPEED, m.id);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 12.5, m.u.wheel_speed.left);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -0.75, m.u.wheel_speed.right);
+}
+
 static void test_comm_decode_param_set_and_get(void)
 {
     /* PARAM_SET index 5, value 3.0f = 0x40400000 at bytes 3..6. */
@@ -580,6 +598,32 @@ static void test_comm_encode_wheel_cmd(void)
     hal_can_frame_t f;
     TEST_ASSERT_EQUAL_INT(0, comm_encode_wheel_cmd(&c, 0x1234, &w, &f));
     assert_frame(golden, COMM_ID_WHEEL_CMD, &f);
+}
+
+static void test_comm_encode_wheel_speed(void)
+{
+    /* left 10.5 rad/s: raw 10752 = 0x2A00 at bits 16..33; right -2^-10
+     * rad/s: raw -1, eighteen ones at 34..51; spare bits 0; counter 0.
+     * CRC-8H2F over data ID 0x1105 and bytes 1..7: 0x89 (a bitwise Python
+     * CRC; the payload is cantools' encoding). */
+    static const uint8_t golden[8] = { 0x89, 0x00, 0x00, 0x2A, 0xFC, 0xFF, 0x0F, 0x00 };
+    const kin_wheels_t w = { tu_num(10.5), tu_num(-0x1p-10) };
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_wheel_speed(&c, &w, &f));
+    assert_frame(golden, COMM_ID_WHEEL_SPEED, &f);
+}
+
+static void test_comm_encode_wheel_speed_with_wheel_loop_faults(void)
+{
+    /* As above, with faults 0b1010 (right stall, left encoder) at bits
+     * 52..55: the high nibble of byte 6, 0xA0 | 0x0F. CRC-8H2F over data ID
+     * 0x1105 (low byte first) and bytes 1..7: 0xC4 (a bitwise Python CRC,
+     * the one that gives 0x89 above). Bits beyond the four are dropped. */
+    static const uint8_t golden[8] = { 0xC4, 0x00, 0x00, 0x2A, 0xFC, 0xFF, 0xAF, 0x00 };
+    const kin_wheels_t w = { tu_num(10.5), tu_num(-0x1p-10) };
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_wheel_speed_faults(&c, &w, 0xFAu, &f));
+    assert_frame(golden, COMM_ID_WHEEL_SPEED, &f);
 }
 
 static void test_comm_encode_status(void)
@@ -934,10 +978,13 @@ int main(void)
     RUN_TEST(test_comm_decode_obstacle);
     RUN_TEST(test_comm_decode_radius_0_1_m_equals_the_r_ob_constant);
     RUN_TEST(test_comm_decode_obstacle_velocity);
+    RUN_TEST(test_comm_decode_wheel_speed);
     RUN_TEST(test_comm_decode_param_set_and_get);
     RUN_TEST(test_comm_decode_range_ends_are_exact);
     RUN_TEST(test_comm_decode_passes_invalid_reports_on);
     RUN_TEST(test_comm_encode_wheel_cmd);
+    RUN_TEST(test_comm_encode_wheel_speed);
+    RUN_TEST(test_comm_encode_wheel_speed_with_wheel_loop_faults);
     RUN_TEST(test_comm_encode_status);
     RUN_TEST(test_comm_status_distance_is_the_nearest_when_tracking);
     RUN_TEST(test_comm_status_distance_saturates_and_says_none);

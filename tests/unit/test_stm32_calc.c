@@ -1,26 +1,29 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the board-independent computations of the STM32 ports
- * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, reset cause, SysTick, USART
- * baud rate) and of the wheel-speed-to-motor-command glue
- * (hal/stm32/wheel_cmd.c), in both numeric modes.
+ * (hal/stm32/stm32_calc.c: watchdog, timer, PWM, encoder, reset cause,
+ * SysTick, USART baud rate) and of the wheel-speed-to-motor glue
+ * (hal/stm32/wheel_cmd.c, against the encoder and motor fakes of hal/fake),
+ * in both numeric modes.
  *
- * Both sources are pure (no register access), so the host test build compiles
- * and links them (TEST_SRCS_test_stm32_calc in the Makefile).
+ * Neither source touches a register, so the host test build compiles and
+ * links them (TEST_SRCS_test_stm32_calc in the Makefile).
  * Expected values are derived by hand beside each case from the reference
- * manuals' formulas (RM0090 §21.3.3 IWDG, §18.3.1 timer time base, §30.3.4
- * USART baud rate).
+ * manuals' formulas (RM0090 §21.3.3 IWDG, §18.3.1 timer time base, §18.3.12
+ * encoder interface, §30.3.4 USART baud rate).
  */
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
 
+#include "ctrl/ctl.h"
 #include "div64.h"
+#include "hal_fake.h"
 #include "stm32_calc.h"
 #include "unity.h"
 #include "wheel_cmd.h"
 
-void setUp(void) {}
+void setUp(void) { hal_fake_reset(); }
 void tearDown(void) {}
 
 /* ---------------------------------------------------------------- IWDG */
@@ -239,6 +242,106 @@ static void test_wheel_cmd_clamps_and_guards(void)
 #endif
 }
 
+/* ------------------------------------------------------------ encoder */
+
+static void test_stm32_encoder_step_sign_extends_16_bits(void)
+{
+    TEST_ASSERT_EQUAL_INT32(5, stm32_encoder_step(105u, 100u, 16u));
+    TEST_ASSERT_EQUAL_INT32(-5, stm32_encoder_step(95u, 100u, 16u));
+    /* Across the wrap: 0xFFFE → 0x0003 is +5, 0x0003 → 0xFFFE is −5. */
+    TEST_ASSERT_EQUAL_INT32(5, stm32_encoder_step(0x0003u, 0xFFFEu, 16u));
+    TEST_ASSERT_EQUAL_INT32(-5, stm32_encoder_step(0xFFFEu, 0x0003u, 16u));
+    /* The bound: 32,767 either way is right; 32,768 reads as −32,768. */
+    TEST_ASSERT_EQUAL_INT32(32767, stm32_encoder_step(32767u, 0u, 16u));
+    TEST_ASSERT_EQUAL_INT32(-32767, stm32_encoder_step(0u, 32767u, 16u));
+    TEST_ASSERT_EQUAL_INT32(-32768, stm32_encoder_step(32768u, 0u, 16u));
+    /* A 16-bit timer's register never has the upper half set; QEMU's does:
+     * it is ignored. */
+    TEST_ASSERT_EQUAL_INT32(3, stm32_encoder_step(0x12340003u, 0x56780000u, 16u));
+}
+
+static void test_stm32_encoder_step_takes_32_bits_whole(void)
+{
+    TEST_ASSERT_EQUAL_INT32(100000, stm32_encoder_step(100000u, 0u, 32u));
+    TEST_ASSERT_EQUAL_INT32(-2, stm32_encoder_step(0xFFFFFFFFu, 1u, 32u));
+}
+
+static void test_stm32_encoder_regs_hand_values(void)
+{
+    /* SMCR.SMS = 011; CCMR1: CC1S = 01 (bits 1:0), IC1F (7:4), CC2S = 01
+     * (9:8), IC2F (15:12): filter 8 gives 0x8181; CCER.CC1P (bit 1). */
+    const stm32_encoder_regs_t r = stm32_encoder_regs(8u, false);
+    TEST_ASSERT_EQUAL_HEX32(0x3u, r.smcr);
+    TEST_ASSERT_EQUAL_HEX32(0x8181u, r.ccmr1);
+    TEST_ASSERT_EQUAL_HEX32(0x0u, r.ccer);
+    const stm32_encoder_regs_t inv = stm32_encoder_regs(0xFu, true);
+    TEST_ASSERT_EQUAL_HEX32(0xF1F1u, inv.ccmr1);
+    TEST_ASSERT_EQUAL_HEX32(0x2u, inv.ccer);
+    /* Only the filter's four bits are taken. */
+    TEST_ASSERT_EQUAL_HEX32(0x1111u, stm32_encoder_regs(0x11u, false).ccmr1);
+}
+
+/* ----------------------------------------------------- wheel loop glue */
+
+static whl_t loop;
+
+static void loop_start(void)
+{
+    ctl_params_t c;
+    ctl_params_default(&c);
+    whl_init(&loop, &c.wheel);
+}
+
+static void test_wheel_period_reads_encoders_and_drives_the_motors(void)
+{
+    loop_start();
+    whl_output_t out;
+    /* At rest, setpoint 0: no drive, the driver enabled at duty 0. */
+    TEST_ASSERT_EQUAL_INT(0, wheel_cmd_period(&loop, NUM_ZERO, NUM_ZERO, &out));
+    TEST_ASSERT_EQUAL_UINT(1u, hal_fake.encoder_reads);
+    TEST_ASSERT_EQUAL_UINT(1u, hal_fake.motor_sets);
+    TEST_ASSERT_EQUAL_INT16(0, hal_fake.motor[0]);
+    /* 10 rad/s asked, the wheels not moving yet: the loop's commands go to
+     * the motors, forward on the left, backward on the right. */
+    TEST_ASSERT_EQUAL_INT(0, wheel_cmd_period(&loop, num_from_int(10), num_from_int(-10), &out));
+    TEST_ASSERT_TRUE(out.cmd[0] > 0 && out.cmd[1] < 0);
+    TEST_ASSERT_EQUAL_INT16(out.cmd[0], hal_fake.motor[0]);
+    TEST_ASSERT_EQUAL_INT16(out.cmd[1], hal_fake.motor[1]);
+    TEST_ASSERT_TRUE(hal_fake.motor_enabled);
+    TEST_ASSERT_EQUAL_UINT(0u, hal_fake.motor_stops);
+}
+
+static void test_wheel_period_stops_the_motors_on_a_fault(void)
+{
+    loop_start();
+    whl_output_t out;
+    (void)wheel_cmd_period(&loop, num_from_int(10), num_from_int(10), &out);
+    /* 1,000 counts in a period: more than the wheel can turn. */
+    hal_fake.encoder[0] = 1000;
+    TEST_ASSERT_EQUAL_INT(0, wheel_cmd_period(&loop, num_from_int(10), num_from_int(10), &out));
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_LEFT, out.faults);
+    TEST_ASSERT_EQUAL_UINT(1u, hal_fake.motor_stops);
+    TEST_ASSERT_FALSE(hal_fake.motor_enabled);
+    const unsigned sets = hal_fake.motor_sets;
+    (void)wheel_cmd_period(&loop, num_from_int(10), num_from_int(10), &out);
+    TEST_ASSERT_EQUAL_UINT(sets, hal_fake.motor_sets); /* stays stopped */
+    TEST_ASSERT_FALSE(hal_fake.motor_enabled);
+}
+
+static void test_wheel_period_without_encoders_drives_open_loop(void)
+{
+    loop_start();
+    hal_fake.encoder_rc = -ENODEV;
+    whl_output_t out;
+    /* 17.28 rad/s of a 34.56 rad/s free speed: half drive, 5000 (fixed:
+     * both held to 2^-16, the ratio still 0.5 within 2e-6). */
+    TEST_ASSERT_EQUAL_INT(-ENODEV, wheel_cmd_period(&loop, n(17.28), n(-34.56 / 4.0), &out));
+    TEST_ASSERT_EQUAL_INT16(5000, hal_fake.motor[0]);
+    TEST_ASSERT_EQUAL_INT16(-2500, hal_fake.motor[1]);
+    TEST_ASSERT_EQUAL_INT16(5000, out.cmd[0]);
+    TEST_ASSERT_EQUAL_UINT8(0u, out.faults);
+}
+
 /* ------------------------------------------------------------- div64 */
 
 static void test_div64_hand_values(void)
@@ -303,5 +406,11 @@ int main(void)
     RUN_TEST(test_stm32_usart_brr_rejects_out_of_range);
     RUN_TEST(test_wheel_cmd_scales_to_full_scale);
     RUN_TEST(test_wheel_cmd_clamps_and_guards);
+    RUN_TEST(test_stm32_encoder_step_sign_extends_16_bits);
+    RUN_TEST(test_stm32_encoder_step_takes_32_bits_whole);
+    RUN_TEST(test_stm32_encoder_regs_hand_values);
+    RUN_TEST(test_wheel_period_reads_encoders_and_drives_the_motors);
+    RUN_TEST(test_wheel_period_stops_the_motors_on_a_fault);
+    RUN_TEST(test_wheel_period_without_encoders_drives_open_loop);
     return UNITY_END();
 }

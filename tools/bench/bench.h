@@ -9,7 +9,7 @@
  *
  * The closed loop is the one of `make sim`: a forward-Euler unicycle plant in
  * double, a range sensor reporting obstacles within D_det, Table 1 parameters,
- * and the scenarios of sim/scenarios/ (tools/bench/gen_scenarios.py), each
+ * and the scenarios of sim/scenarios/ (python -m mstc.bench.scenarios), each
  * with its strategy ("paper" unless its [params] say otherwise). The load
  * scenes (bench_loads) add runs with 1, 4 and 8 obstacles in view, under
  * both strategies.

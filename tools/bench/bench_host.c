@@ -4,7 +4,7 @@
  * sequence is timed with the thread's CPU clock (time spent descheduled on a
  * busy machine does not count), less the same loop with an empty step; the
  * figure is the median of N_RUNS replays. Prints `key value` lines for
- * tools/bench/report.py. */
+ * mstc.bench.ctl_step. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>

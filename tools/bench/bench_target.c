@@ -2,13 +2,14 @@
 /* The benchmark on a Cortex-M under QEMU (make bench): instructions of
  * ctl_step, counted with SysTick under `-icount shift=0`, where the counter
  * (processor clock, 25 MHz) advances once per 40 executed instructions, the
- * same every run. Prints `key value` lines for tools/bench/report.py on the
+ * same every run. Prints `key value` lines for mstc.bench.ctl_step on the
  * semihosting console, then exits QEMU. */
 #include <stdio.h>
 #include <stdlib.h>
 
 #include "auth/auth.h"
 #include "bench.h"
+#include "bench_wheel.h"
 #include "scenarios.h"
 
 #if defined(NUM_FIXED)
@@ -266,6 +267,29 @@ static void authenticated_commands(void)
     printf("auth_status_instr %.0f\n", (double)t_status * ips / AUTH_RUNS);
 }
 
+/* ------------------------------------------------------------ wheel loop */
+
+static bench_wheel_period_t wheel_periods[BENCH_WHEEL_PERIODS];
+
+/* The wheel loop's closed loop recorded, its replay checked, then timed
+ * period by period, less the empty loop's. Prints `wheel periods N
+ * replay_differs N instr_per_period X max X`. */
+static void wheel(void)
+{
+    const size_t n = bench_wheel_record(wheel_periods, BENCH_WHEEL_PERIODS);
+    const size_t differ = bench_wheel_verify(wheel_periods, n);
+    uint64_t t_step = 0;
+    uint64_t t_max = 0;
+    uint64_t t_empty = 0;
+    uint64_t t_empty_max = 0;
+    bench_wheel_replay(wheel_periods, n, false, ticks, &t_step, &t_max);
+    bench_wheel_replay(wheel_periods, n, true, ticks, &t_empty, &t_empty_max);
+    const double base = (double)t_empty / (double)n;
+    printf("wheel periods %u replay_differs %u instr_per_period %.1f max %.0f\n", (unsigned)n,
+           (unsigned)differ, ((double)t_step - (double)t_empty) * ips / (double)n,
+           ((double)t_max - base) * ips);
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(void)
@@ -330,6 +354,8 @@ int main(void)
     print_by_mode("by_mode", sum, cnt, max, base);
 
     loads();
+
+    wheel();
 
     primitives();
     authenticated_commands();

@@ -199,9 +199,10 @@ def field_packer(c_struct: type[ctypes.Structure], names: Sequence[str]) -> Stru
     return Struct(fmt)
 
 
-def library_layout(dll: ctypes.CDLL) -> Layout:
-    """The layout the library exports (``mstc_sil_layout``)."""
-    fn = dll["mstc_sil_layout"]
+def library_layout(dll: ctypes.CDLL, function: str = "mstc_sil_layout") -> Layout:
+    """The layout the library exports (``mstc_sil_layout``, or @p function,
+    a table of the same kind: ``mstc_sil_wheels_layout``)."""
+    fn = dll[function]
     fn.argtypes = [ctypes.POINTER(ctypes.c_size_t)]
     fn.restype = ctypes.POINTER(_LayoutEntry)
     n = ctypes.c_size_t()

@@ -26,7 +26,8 @@ from mstc.errors import (
     UsageError,
 )
 from mstc.logs.decode import DecodedLog, decode_log
-from mstc.logs.read import FORMATS, FrameLog, ProblemList, read_log
+from mstc.logs.framelog import FrameLog, ProblemList
+from mstc.logs.read import FORMATS, read_log
 from mstc.loop.result import RunResult
 from mstc.plant.scenario import Scenario, changed_params, load_scenarios
 from mstc.report.outputs import RUN_FILES, BusLog, folder_problem, write_outputs

@@ -342,11 +342,20 @@ def run(args: argparse.Namespace) -> int:
     # which the process inherits).
     args.key_source = secoc.key_file(args.key_file)
     run_one = _run_on_qemu if args.qemu is not None else _run_one
+
+    def run_checked(scenario: Scenario, bar: ProgressBar) -> tuple[str, RunResult, BusLog]:
+        if scenario.actuator.model == "dc":
+            raise UsageError(
+                f'{scenario.path}: [actuator] model = "dc" runs the wheel loop in the '
+                "plant's process (mstc sim, mstc sweep); mstc hil has its firmware elsewhere"
+            )
+        return run_one(args, scenario, bar)
+
     return run_scenarios(
         args.scenarios,
         args.out,
         not args.no_figures,
-        lambda scenario, bar: run_one(args, scenario, bar),
+        run_checked,
         (can.CanError, OSError),
         quiet=args.quiet,
     )

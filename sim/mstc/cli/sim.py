@@ -12,6 +12,7 @@ from mstc.can import secoc
 from mstc.can.library import LIB_ENV
 from mstc.cli.common import add_key_argument, library, run_scenarios
 from mstc.firmware.sil import SilController
+from mstc.firmware.wheels import wheels_for
 from mstc.loop.lockstep import CanController, simulate
 from mstc.loop.result import RunResult
 from mstc.plant.scenario import Scenario
@@ -122,14 +123,15 @@ def _run_one(
     args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog | None]:
     lib = library(args.lib)
+    wheels = wheels_for(scenario, lib)
     if args.bus == "memory":
         controller = SilController(scenario.params, lib)
-        result = simulate(scenario, controller, bar)
+        result = simulate(scenario, controller, bar, wheels)
         return f"{controller.lib_path} ({controller.numeric})", result, None
     bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib), key=args.key)
     try:
         ctl = CanController(bus, scenario.params, sim_time_stamps=True, key=args.key)
-        result = simulate(scenario, ctl, bar)
+        result = simulate(scenario, ctl, bar, wheels)
     finally:
         bus.shutdown()
     return bus.channel_info, result, BusLog("sil0", ctl)

@@ -2,11 +2,11 @@
 """The board images under QEMU: boot one, reach its serial line and its memory.
 
 Everything mstc does with ``qemu-system-arm`` goes through here: the smoke
-test of the images (tools/bench/qemu_smoke) and processor-in-the-loop runs
+test of the images (mstc.bench.qemu_smoke) and processor-in-the-loop runs
 (``mstc hil --qemu``, docs/hil.md), which drive the slcan image
 (``make firmware CAN=slcan``) through python-can's ``slcan`` interface.
 
-QEMU 7.2 machines (what they emulate and what not: tools/bench/qemu_smoke):
+QEMU 7.2 machines (what they emulate and what not: mstc.bench.qemu_smoke):
 
 - stm32f405 on ``netduinoplus2`` (STM32F405RG, Cortex-M4F; core clock as QEMU
   models it: 168 MHz);

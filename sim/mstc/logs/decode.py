@@ -35,7 +35,7 @@ from cantools.database.can import Database, Message
 from mstc.can.dbc import E2E_SIGNALS, e2e_data_ids, numeric_values, short_name, tables
 from mstc.can.protocol import e2e_crc
 from mstc.errors import LogError
-from mstc.logs.read import (
+from mstc.logs.framelog import (
     DEFAULT_MAX_PROBLEMS,
     MAX_TIME_S,
     FrameLog,

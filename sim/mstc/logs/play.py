@@ -27,7 +27,7 @@ import can
 from cantools.database.can import Database
 
 from mstc.errors import BusError, SendError, UsageError
-from mstc.logs.read import FrameLog
+from mstc.logs.framelog import FrameLog
 from mstc.model import Progress
 
 SEND_TIMEOUT_S = 1.0

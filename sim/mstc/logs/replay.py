@@ -44,7 +44,7 @@ from mstc.can.dbc import E2E_SIGNALS, short_name, signal_values
 from mstc.can.library import FRAME_DATA, FrameStruct, Library
 from mstc.can.silbus import SilBus
 from mstc.errors import FirmwareError
-from mstc.logs.read import FrameLog, LogFrame, where_in
+from mstc.logs.framelog import FrameLog, LogFrame, where_in
 from mstc.model import Progress
 
 FW_NODE = "FW"

@@ -51,6 +51,7 @@ from mstc.model import (
     param_values,
     wrap_angle,
 )
+from mstc.plant.plant import WheelDrive
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import make_world
 
@@ -81,7 +82,10 @@ def step_values(controller: Controller) -> StepFunction:
 
 
 def simulate(
-    scenario: Scenario, controller: Controller, progress: Progress | None = None
+    scenario: Scenario,
+    controller: Controller,
+    progress: Progress | None = None,
+    wheels: WheelDrive | None = None,
 ) -> RunResult:
     """Run a scenario in closed loop.
 
@@ -103,6 +107,9 @@ def simulate(
     :param controller: a freshly initialised controller for its parameters.
     :param progress: told how many steps are done, now and then, and closed
         when the run ends.
+    :param wheels: wheels with dynamics of their own (the scenario's
+        ``[actuator]``, e.g. :class:`mstc.firmware.wheels.DcWheels`) that move
+        the robot instead of the ideal ones.
 
     :returns: The trace, the events and the minimum distance to each obstacle.
 
@@ -130,7 +137,17 @@ def simulate(
     spent = 0
     step = step_values(controller)
     body_velocity = plant.body_velocity
-    scan, plant_step, ref_step = sensor.scan, plant.step, ref.step
+    scan, ref_step = sensor.scan, ref.step
+    plant_step: Callable[[float, float, float], object] = plant.step
+    if wheels is not None:
+        drive = wheels.drive
+
+        def driven(left: float, right: float, dt: float) -> object:
+            drive(plant, left, right, dt)
+            return None
+
+        plant_step = driven
+
     dt, dt_us = sim.dt, sim.dt_us
     tick = max((steps + 1) // PROGRESS_UPDATES, 1)
     try:

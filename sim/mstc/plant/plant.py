@@ -10,6 +10,7 @@ precision, whatever the firmware's numeric mode.
 
 import math
 from enum import StrEnum
+from typing import Protocol
 
 from mstc.model import Pose
 
@@ -109,3 +110,14 @@ class UnicyclePlant:
         v, w = body_velocity(wheel_left, wheel_right, self.wheel_radius, self.track_width)
         self.pose = integrate(self.pose, v, w, dt, self.integrator)
         return self.pose
+
+
+class WheelDrive(Protocol):
+    """Wheels with dynamics of their own, in place of :meth:`UnicyclePlant.step`'s
+    ideal ones (a scenario's ``[actuator]``, docs/scenarios.md): they take
+    the control step's wheel speeds as setpoints and move the plant's pose
+    over the period as the wheels they model turn."""
+
+    def drive(self, plant: UnicyclePlant, left: float, right: float, dt: float) -> None:
+        """Setpoints @p left and @p right [rad/s] for @p dt [s]: move
+        ``plant.pose`` as the wheels turn meanwhile."""

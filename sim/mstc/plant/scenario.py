@@ -137,6 +137,20 @@ class ExpectedEvent:
         return round(self.t * 1e6)
 
 
+ACTUATOR_MODELS = ("ideal", "dc")
+"""Values of ``[actuator] model``: "ideal" wheels turn at their command at once
+(the plant's own), "dc" are DC gearmotors under the firmware's own wheel loop
+(:class:`mstc.firmware.wheels.DcWheels`, docs/wheel.md)."""
+
+
+@dataclass(frozen=True)
+class ActuatorSpec:
+    """The wheels (``[actuator]``)."""
+
+    model: str = "ideal"
+    """One of :data:`ACTUATOR_MODELS`."""
+
+
 @dataclass(frozen=True)
 class Scenario:
     """A validated scenario file."""
@@ -152,6 +166,7 @@ class Scenario:
     expected: tuple[ExpectedEvent, ...]
     imperfections: ImperfectionSpec = ImperfectionSpec()
     meta: MetaSpec = MetaSpec()
+    actuator: ActuatorSpec = ActuatorSpec()
 
     @property
     def name(self) -> str:
@@ -168,6 +183,7 @@ _TOP_KEYS = (
     "imperfections",
     "meta",
     "expected",
+    "actuator",
 )
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
@@ -430,7 +446,19 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
         expected=expected,
         imperfections=_parse_imperfections(c, data.get("imperfections", {})),
         meta=_parse_meta(c, data.get("meta", {})),
+        actuator=_parse_actuator(c, data.get("actuator", {})),
     )
+
+
+def _parse_actuator(c: _Checker, value: object) -> ActuatorSpec:
+    table = c.table(value, "actuator")
+    c.keys(table, "actuator", (), ("model",))
+    model = table.get("model", "ideal")
+    if model not in ACTUATOR_MODELS:
+        raise c.fail(
+            "actuator.model", f"must be one of {', '.join(ACTUATOR_MODELS)}, got {model!r}"
+        )
+    return ActuatorSpec(str(model))
 
 
 def _parse_params(c: _Checker, value: object) -> Params:

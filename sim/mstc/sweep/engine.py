@@ -39,6 +39,7 @@ from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
 from mstc.errors import DependencyError, FirmwareError
 from mstc.firmware.sil import SilController
+from mstc.firmware.wheels import wheels_for
 from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
 from mstc.model import Controller, Strategy
@@ -149,7 +150,7 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
         scenario = parse_scenario(data, scene.source, wire_limits())
         row["family"] = scenario.meta.family or scene.family
         scenario, controller = controller_for(scenario, strategy, lib)
-        result = simulate(scenario, controller)
+        result = simulate(scenario, controller, wheels=wheels_for(scenario, lib))
         metrics = evaluate(result)
     except Exception as exc:  # any failure of one scene is its row, not the sweep's end
         row["error"] = _one_line(exc)

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""Turn the benchmark's raw results into the table `make bench` prints and
-writes into docs/performance.md.
+"""The control step's benchmark: its raw results as the table `make bench`
+prints and writes into docs/performance.md.
 
 Inputs are the `key value` lines of tools/bench/bench_target.c (one file per
 Cortex-M image, run under QEMU) and tools/bench/bench_host.c (one per numeric
@@ -14,8 +13,10 @@ With --pil build/pil, the section also gives the instructions per control
 step the board images counted in the closed loop under QEMU (`make pil`:
 loop_stats.json of each board and scenario), beside ctl_step's.
 
-Usage: report.py --doc docs/performance.md [--pil build/pil] RESULT.txt...
+Usage: python -m mstc.bench.ctl_step --doc docs/performance.md [--pil build/pil] RESULT.txt...
 """
+
+from __future__ import annotations
 
 import argparse
 import json
@@ -23,8 +24,11 @@ import platform
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
-BEGIN = "<!-- bench:ctl_step:begin (written by make bench, tools/bench/report.py) -->"
+from mstc.bench.doc import report
+
+BEGIN = "<!-- bench:ctl_step:begin (written by make bench, mstc.bench.ctl_step) -->"
 END = "<!-- bench:ctl_step:end -->"
 
 # Cortex-M builds: config -> (label, QEMU machine, instruction target).
@@ -43,13 +47,21 @@ BOARDS = {
     "stm32f405": ("STM32F405, float", 168_000_000, "m4f-float"),
     "stm32f103": ("STM32F103, fixed Q16.16", 72_000_000, "m3-fixed"),
 }
+Result = dict[str, Any]
+"""One build's results, parsed (:func:`parse`)."""
+
 PERIOD_S = 0.020
+# The wheel loop (firmware/wheel, issue 20): instructions per period, both
+# wheels, and the board that runs each build at 1 kHz.
+WHEEL_TARGETS = {"m4f-float": 400, "m3-fixed": 800}
+WHEEL_BOARDS = {"m4f-float": ("STM32F405", 168_000_000), "m3-fixed": ("STM32F103", 72_000_000)}
+WHEEL_RATE_HZ = 1000
 CYCLES_PER_INSTRUCTION = 2  # the assumed upper bound
 
 
-def parse_pil(pil_dir: Path) -> dict[str, list[dict]]:
+def parse_pil(pil_dir: Path) -> dict[str, list[Result]]:
     """loop_stats.json of every board and scenario under @p pil_dir, by board."""
-    found: dict[str, list[dict]] = {}
+    found: dict[str, list[Result]] = {}
     for board in BOARDS:
         for path in sorted((pil_dir / board).glob("*/loop_stats.json")):
             record = json.loads(path.read_text())
@@ -58,7 +70,7 @@ def parse_pil(pil_dir: Path) -> dict[str, list[dict]]:
     return found
 
 
-def pil_section(pil: dict[str, list[dict]], results: dict) -> str:
+def pil_section(pil: dict[str, list[Result]], results: dict[str, Result]) -> str:
     """The subsection on the board images in the loop."""
     out = ["### The control step on the board images, in the loop\n"]
     w = out.append
@@ -106,9 +118,9 @@ def pil_section(pil: dict[str, list[dict]], results: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def parse(path: Path) -> dict:
+def parse(path: Path) -> Result:
     """One result file: scalars by key, and the repeated keys as lists."""
-    r: dict = {"scenario": [], "events": [], "by_mode": {}, "prim": {}, "load": []}
+    r: Result = {"scenario": [], "events": [], "by_mode": {}, "prim": {}, "load": []}
     for line in path.read_text().splitlines():
         key, _, rest = line.partition(" ")
         if key == "scenario":
@@ -177,9 +189,9 @@ def fmt_int(x: float) -> str:
     return f"{x:,.0f}"
 
 
-def section(results: dict) -> str:
+def section(results: dict[str, Result]) -> str:
     """The Markdown section."""
-    out = []
+    out: list[str] = []
     w = out.append
     w("## Control step: instructions on Cortex-M, time on the host\n")
     w(
@@ -335,6 +347,10 @@ def section(results: dict) -> str:
                 )
         w("")
 
+    wheel = wheel_section(results)
+    if wheel:
+        w(wheel)
+
     w("### Events and distances each build produced\n")
     w("| build | scenario | events (t [s]: kind, obstacle, side) | min distance [m] |")
     w("|---|---|---|---|")
@@ -371,57 +387,59 @@ def section(results: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def update_doc(doc: Path, body: str, begin: str = BEGIN, end: str = END) -> bool:
-    """Replace (or add) the section between @p begin and @p end in the
-    document; True when it changed. Other tools' sections are left alone."""
-    block = f"{begin}\n{body}{end}\n"
-    if doc.exists():
-        text = doc.read_text()
-        if begin in text and end in text:
-            pre, rest = text.split(begin, 1)
-            _, post = rest.split(end, 1)
-            new = pre + block + post.lstrip("\n")
-        else:
-            new = text.rstrip("\n") + "\n\n" + block
-    else:
-        new = (
-            "# Performance\n\n"
-            "Measured figures of the firmware, written by `make bench` (sections between "
-            "markers are generated; do not edit them by hand).\n\n" + block
+def wheel_section(results: dict[str, Result]) -> str:
+    """The wheel loop's figures (tools/bench/bench_wheel.c), or "" without."""
+    rows = []
+    for cfg, (label, machine, _) in TARGETS.items():
+        r = results.get(cfg)
+        if r is None or "wheel" not in r:
+            continue
+        f = r["wheel"].split()
+        mean, largest, differ = float(f[5]), float(f[7]), int(f[3])
+        target = WHEEL_TARGETS.get(cfg)
+        tgt = "—" if target is None else f"≤ {target}: {'met' if mean <= target else '**missed**'}"
+        share = "—"
+        if cfg in WHEEL_BOARDS:
+            board, clock = WHEEL_BOARDS[cfg]
+            one = mean * WHEEL_RATE_HZ / clock * 100.0
+            share = f"{board} at {clock / 1e6:.0f} MHz: {one:.2f} % ({2 * one:.2f} % at 2 cycles)"
+        ok = "" if differ == 0 else " (**replay differs**)"
+        rows.append(
+            f"| {label} (`{cfg}`){ok} | {machine} | **{fmt_int(mean)}** | {fmt_int(largest)} "
+            f"| {tgt} | {share} |"
         )
-    if doc.exists() and doc.read_text() == new:
-        return False
-    doc.parent.mkdir(parents=True, exist_ok=True)
-    doc.write_text(new)
-    return True
+    if not rows:
+        return ""
+    head = [
+        "### Wheel loop: instructions per period, both wheels\n",
+        "`whl_step` for both wheels (firmware/wheel: speed from the encoder counts, "
+        "setpoint ramp, PI with feed-forward, anti-windup, the fault checks), replayed over "
+        "3,000 recorded periods of its closed loop at 1 kHz against two DC motor models "
+        "(tools/bench/bench_wheel.c: the default motor of docs/wheel.md through a start, a "
+        "turn with a 30 %-of-stall load, a reversal and a stop), timed like the control step "
+        "above, less the same loop around an empty step. The share of the core is at the "
+        "board's clock and the default rate, 1 kHz, at one cycle per instruction (and at "
+        "two, the bound the board images' budget assumes).\n",
+        "| build | QEMU machine | instructions/period (mean) | largest period (±40) "
+        "| target | share of the core at 1 kHz |",
+        "|---|---|---:|---:|---|---|",
+    ]
+    return "\n".join(head + rows) + "\n"
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--doc", type=Path, required=True)
-    ap.add_argument(
-        "--text",
-        metavar="NAME:TITLE",
-        help="instead: put standard input, as preformatted text under ## TITLE, into the "
-        "document's section NAME (another tool's printed report)",
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.ctl_step", description=__doc__.splitlines()[0]
     )
+    ap.add_argument("--doc", type=Path, required=True)
     ap.add_argument(
         "--pil",
         type=Path,
         metavar="DIR",
         help="build/pil: add the board images' figures in the loop (make pil)",
     )
-    ap.add_argument("results", type=Path, nargs="*")
-    a = ap.parse_args()
-    if a.text:
-        name, _, title = a.text.partition(":")
-        body = f"## {title}\n\n```\n{sys.stdin.read().rstrip()}\n```\n"
-        begin = f"<!-- bench:{name}:begin (written by make bench) -->"
-        changed = update_doc(a.doc, body, begin, f"<!-- bench:{name}:end -->")
-        print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
-        return
-    if not a.results:
-        ap.error("no results")
+    ap.add_argument("results", type=Path, nargs="+")
+    a = ap.parse_args(argv)
     results = {}
     for p in a.results:
         r = parse(p)
@@ -434,10 +452,9 @@ def main() -> None:
         if not pil:
             sys.exit(f"error: {a.pil}: no loop_stats.json (make pil writes them)")
         body += "\n" + pil_section(pil, results)
-    print(body)
-    changed = update_doc(a.doc, body)
-    print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+    report(a.doc, body, BEGIN, END)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -2,8 +2,8 @@
 """Sweep throughput: scene-steps per second in memory, a 1,000-scene sweep
 on every core, and the same sweep on a local Dask cluster.
 
-  sweep_bench.py run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
-  sweep_bench.py report --doc docs/performance.md build/bench/sweep.json
+  python -m mstc.bench.sweep run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
+  python -m mstc.bench.sweep report --doc docs/performance.md build/bench/sweep.json
 
 A benchmark, not a test: it prints and writes figures and fails on nothing.
 Beside each wall time it gives the CPU time of every process that did the
@@ -24,8 +24,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from report import update_doc  # tools/bench/report.py, beside this script
-
+from mstc.bench import ROOT
+from mstc.bench.doc import report, write_result
 from mstc.can.protocol import wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
@@ -33,9 +33,8 @@ from mstc.plant.scenario import load_scenario
 from mstc.sweep.engine import Scene, run_sweep
 from mstc.sweep.suite import generate, load_suite
 
-ROOT = Path(__file__).resolve().parents[2]
 LINE = ROOT / "sim" / "scenarios" / "paper-line.toml"
-BEGIN = "<!-- bench:sweep:begin (written by make bench, tools/bench/sweep_bench.py) -->"
+BEGIN = "<!-- bench:sweep:begin (written by make bench, mstc.bench.sweep) -->"
 END = "<!-- bench:sweep:end -->"
 # Paper-like scenes: a straight reference at about the paper's speed, two
 # obstacles near it, 20 s at 50 Hz (1,001 steps), Table 1, forward Euler.
@@ -171,7 +170,7 @@ def section(r: dict[str, object]) -> str:
         f"Measured on {r['cpus']} cores (load average {r['load']} at the start, "
         f"{r['load_end']} at the end: the wall times "
         "are only as quiet as the machine was). `make bench` runs "
-        "`tools/bench/sweep_bench.py`. CPU time is that of every process doing the work "
+        "`python -m mstc.bench.sweep`. CPU time is that of every process doing the work "
         "(the bench, the pool's or the Dask cluster's workers, the Dask scheduler): on a "
         "shared machine wall time also counts the waits for a core, CPU time does not, so "
         "the targets are judged on CPU time, with wall time beside it. CPU time is steadier, "
@@ -212,7 +211,9 @@ def section(r: dict[str, object]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.sweep", description=__doc__.splitlines()[0]
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     run = sub.add_parser("run")
     run.add_argument("--lib", required=True)
@@ -235,13 +236,10 @@ def main(argv: list[str] | None = None) -> int:
             "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats),
         }
         result["load_end"] = f"{os.getloadavg()[0]:.1f}"
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        a.out.write_text(json.dumps(result, indent=1) + "\n")
+        write_result(a.out, result)
         print(section(result))
         return 0
-    body = section(json.loads(a.result.read_text()))
-    update_doc(a.doc, body, BEGIN, END)
-    print(body)
+    report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
     return 0
 
 

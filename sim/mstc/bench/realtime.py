@@ -2,9 +2,9 @@
 """Real-time HIL benchmark of mstc (make bench): one real-time run per paper
 scenario against mstc-fw --realtime over SocketCAN, and its timing figures.
 
-    tools/vm/with-vcan -- .venv/bin/python tools/bench/realtime_bench.py run \\
+    tools/vm/with-vcan -- .venv/bin/python -m mstc.bench.realtime run \\
         --fw build/host/mstc-fw --out build/bench/can-realtime.json
-    realtime_bench.py report --doc docs/performance.md build/bench/can-realtime.json
+    python -m mstc.bench.realtime report --doc docs/performance.md build/bench/can-realtime.json
 
 The run is `mstc hil --realtime` (mstc.loop.realtime): the figures are those
 of its timing.json (docs/hil.md, "Real time").
@@ -21,8 +21,9 @@ import time
 from pathlib import Path
 
 import can
-from report import update_doc  # tools/bench/report.py, beside this script
 
+from mstc.bench import ROOT
+from mstc.bench.doc import report, write_result
 from mstc.can import secoc
 from mstc.can.protocol import wire_limits
 from mstc.firmware.process import start_firmware, stop_firmware
@@ -30,9 +31,8 @@ from mstc.loop.realtime import RealtimeLink, simulate_realtime
 from mstc.plant.scenario import load_scenario
 from mstc.report.table import match_events
 
-ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = [ROOT / "sim" / "scenarios" / f"{n}.toml" for n in ("paper-line", "paper-circle")]
-BEGIN = "<!-- bench:realtime:begin (written by make bench, tools/bench/realtime_bench.py) -->"
+BEGIN = "<!-- bench:realtime:begin (written by make bench, mstc.bench.realtime) -->"
 END = "<!-- bench:realtime:end -->"
 
 
@@ -138,7 +138,9 @@ def section(r: dict[str, object]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.realtime", description=__doc__.split("\n\n")[0]
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     run = sub.add_parser("run", help="one real-time run per scenario over SocketCAN")
     run.add_argument("--fw", type=Path, required=True)
@@ -149,14 +151,9 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("result", type=Path)
     a = ap.parse_args(argv)
     if a.cmd == "report":
-        body = section(json.loads(a.result.read_text()))
-        print(body)
-        changed = update_doc(a.doc, body, BEGIN, END)
-        print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+        report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
         return 0
-    result = bench(a.fw, a.channel)
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(json.dumps(result, indent=1) + "\n")
+    write_result(a.out, bench(a.fw, a.channel))
     return 0
 
 

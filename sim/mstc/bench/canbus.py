@@ -3,10 +3,11 @@
 process (SIL), and lock-step round trips per second over SocketCAN (HIL)
 beside a bare round trip measured in the same run.
 
-    can_bench.py sil --lib build/host/float/libmstc_sil.so --out build/bench/can-sil.json
-    tools/vm/with-vcan -- .venv/bin/python tools/bench/can_bench.py hil \\
+    python -m mstc.bench.canbus sil --lib build/host/float/libmstc_sil.so \\
+        --out build/bench/can-sil.json
+    tools/vm/with-vcan -- .venv/bin/python -m mstc.bench.canbus hil \\
         --fw build/host/mstc-fw --echo build/bench/can_echo --out build/bench/can-hil.json
-    can_bench.py report --doc docs/performance.md build/bench/can-*.json
+    python -m mstc.bench.canbus report --doc docs/performance.md build/bench/can-*.json
 
 Every figure is the median of --runs runs. Over vcan the plant sends one STEP
 frame and waits for the answer that ends the exchange:
@@ -30,17 +31,16 @@ from collections.abc import Callable
 from pathlib import Path
 
 import can
-from report import update_doc  # tools/bench/report.py, beside this script
 
+from mstc.bench import ROOT
+from mstc.bench.doc import report, write_result
 from mstc.can.protocol import Protocol, wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import CanController, simulate
 from mstc.plant.scenario import load_scenario
 
-ROOT = Path(__file__).resolve().parents[2]
-
 SCENARIO = ROOT / "sim" / "scenarios" / "paper-line.toml"
-BEGIN = "<!-- bench:can:begin (written by make bench, tools/bench/can_bench.py) -->"
+BEGIN = "<!-- bench:can:begin (written by make bench, mstc.bench.canbus) -->"
 END = "<!-- bench:can:end -->"
 WHEEL_CMD = 0x180
 
@@ -194,7 +194,9 @@ def section(results: list[dict[str, object]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.canbus", description=__doc__.split("\n\n")[0]
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     s = sub.add_parser("sil", help="steps per second in process")
     s.add_argument("--lib", type=Path, required=True)
@@ -211,18 +213,14 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("results", type=Path, nargs="+")
     a = ap.parse_args(argv)
     if a.cmd == "report":
-        body = section([json.loads(p.read_text()) for p in a.results])
-        print(body)
-        changed = update_doc(a.doc, body, BEGIN, END)
-        print(f"{a.doc}: {'updated' if changed else 'unchanged'}")
+        report(a.doc, section([json.loads(p.read_text()) for p in a.results]), BEGIN, END)
         return 0
     result = (
         bench_sil(a.lib, a.runs)
         if a.cmd == "sil"
         else bench_hil(a.fw, a.echo, a.channel, a.runs, a.count)
     )
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(json.dumps(result, indent=1) + "\n")
+    write_result(a.out, result)
     return 0
 
 

@@ -1,8 +1,8 @@
-#!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""qemu_smoke: run a board image under QEMU and check that its control loop runs.
+"""Run a board image under QEMU and check that its control loop runs
+(``make firmware-smoke``).
 
-Usage: qemu_smoke [--seconds S] [--min-steps N] IMAGE_DIR...
+Usage: python -m mstc.bench.qemu_smoke [--seconds S] [--min-steps N] IMAGE_DIR...
 
 IMAGE_DIR is build/firmware/<board> (mstc.elf), the bxCAN image. The image is
 the real one, unchanged: the same bytes that `make flash` writes. QEMU 7.2
@@ -36,7 +36,9 @@ taken. Checks:
   compare registers (TIM3 CCR1/2) are 0: no motion without valid inputs;
 - the CPU is not parked in the fault handler (stm32_unhandled), and the
   fault status registers CFSR and HFSR are 0;
-- sysclk_hz and can_open have the values the missing emulation implies.
+- sysclk_hz and can_open have the values the missing emulation implies;
+- the wheel loop ran on its millisecond tick, on the encoders, and reports
+  the faults QEMU's timers give it (WHEEL_FAULTS below).
 
 QEMU's STM32 timer model schedules its alarms from the wrong origin (twice
 the current time), so the period it produces grows as the run goes on: the
@@ -53,6 +55,7 @@ import sys
 import time
 from pathlib import Path
 
+from mstc.bench import ROOT
 from mstc.errors import FirmwareError
 from mstc.firmware.qemu import CROSS, MACHINES, BoardVm, board_of
 
@@ -63,10 +66,16 @@ CPU = {
 TIM3 = 0x40000400  # same address on the F1, F2 and F4
 COMM_STATE_READY = 1  # comm_state_t
 COMM_HALT_NOT_ARMED = 1  # comm_halt_t
-ROOT = Path(__file__).resolve().parents[2]
 HSI_HZ = {"stm32f405": 16_000_000, "stm32f103": 8_000_000}
 ENODEV = 19
 CFSR, HFSR = 0xE000ED28, 0xE000ED2C
+# The wheel loop under QEMU (hal/stm32/encoder.c, docs/wheel.md): QEMU models
+# TIM2..TIM5 as counters of its own clock, whatever their mode, and not TIM1.
+# TIM4 and TIM5 then count far more a millisecond than a wheel can turn: the
+# loop's implausible-encoder fault (WHL_FAULT_ENCODER_*), motors stopped. The
+# F103's TIM1 reads 0: a wheel standing still, no fault while nothing drives it.
+WHEEL_FAULTS = {"stm32f405": 0x4 | 0x8, "stm32f103": 0x4}
+WHEEL_STATS_WORDS = 7  # stm32_wheel_stats_t (hal/stm32/stm32_hal.h)
 
 
 def app_offsets(board: str, numeric: str) -> dict[str, int]:
@@ -125,6 +134,9 @@ def smoke(image_dir: Path, seconds: float, min_steps: int) -> bool:
         state = mon.byte_at(app + off["state"])
         halt = mon.byte_at(app + off["halt"])
         ccr1, ccr2 = mon.words(TIM3 + 0x34, 2)
+        periods, _, closed_loop, wheel_faults = mon.words(
+            vm.address("stm32_wheel_stats"), WHEEL_STATS_WORDS
+        )[:4]
         regs = mon.cmd("info registers")
         m = re.search(r"R15=([0-9a-f]{8})", regs)
         pc = int(m.group(1), 16) if m else -1
@@ -138,6 +150,14 @@ def smoke(image_dir: Path, seconds: float, min_steps: int) -> bool:
         (state == COMM_STATE_READY, f"application state {state} (1: READY)"),
         (halt == COMM_HALT_NOT_ARMED, f"halt reason {halt} (1: not armed)"),
         (ccr1 == ccr2 == 0, f"PWM compare {ccr1}, {ccr2} (both 0: no motion without inputs)"),
+        (
+            periods >= 10 * st.steps and closed_loop == 1,
+            f"wheel periods {periods} (>= 10 per control step), on the encoders",
+        ),
+        (
+            wheel_faults == WHEEL_FAULTS[board],
+            f"wheel faults 0x{wheel_faults:x} (0x{WHEEL_FAULTS[board]:x}: what QEMU's timers give)",
+        ),
         (
             st.sysclk_hz == HSI_HZ[board],
             f"sysclk {st.sysclk_hz} Hz (HSI fallback: QEMU has no RCC)",
@@ -157,12 +177,14 @@ def smoke(image_dir: Path, seconds: float, min_steps: int) -> bool:
     return ok
 
 
-def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m mstc.bench.qemu_smoke", description=__doc__.split("\n\n")[0]
+    )
     ap.add_argument("--seconds", type=float, default=2.0, help="run time before the checks")
     ap.add_argument("--min-steps", type=int, default=10)
     ap.add_argument("image_dir", nargs="+", type=Path)
-    args = ap.parse_args(argv[1:])
+    args = ap.parse_args(argv)
     if shutil.which("qemu-system-arm") is None:
         print("qemu-system-arm is missing (Debian: qemu-system-arm)")
         return 1
@@ -173,4 +195,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(main())

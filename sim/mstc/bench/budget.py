@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""board_budget: flash, RAM and worst-case stack of the board images.
+"""Flash, RAM and worst-case stack of the board images (``make firmware-budget``).
 
 Usage:
-  board_budget IMAGE_DIR...            budget report; exit 1 when over budget
-  board_budget --modules IMAGE_DIR     bytes per module (the size report)
+  python -m mstc.bench.budget IMAGE_DIR...          budget report; exit 1 when over budget
+  python -m mstc.bench.budget --modules IMAGE_DIR   bytes per module (the size report)
 
 IMAGE_DIR is build/firmware/<board> as `make firmware` leaves it: mstc.elf,
 mstc.map, and obj-<numeric>/ with one .su file per object (-fstack-usage).
@@ -43,8 +42,13 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-FLASH_BUDGET = 32 * 1024
-RAM_BUDGET = 8 * 1024
+from mstc.errors import StackUnbounded
+
+# The smallest common STM32F103, the C8: 64 KB of flash and 20 KB of RAM
+# (issues 19 and 20: the actuator's prediction and the wheel loop took the
+# images past the former 32 KB).
+FLASH_BUDGET = 64 * 1024
+RAM_BUDGET = 16 * 1024
 FLASH_SECTIONS = (".isr_vector", ".auth_key", ".text", ".ARM.extab", ".ARM.exidx")
 RAM_SECTIONS = (".data", ".bss")
 CROSS = os.environ.get("CROSS_COMPILE", "arm-none-eabi-")
@@ -255,17 +259,13 @@ def read_su(obj_dir: Path, funcs: dict[str, Func]) -> None:
             f.dynamic = f.dynamic or kind.startswith("dynamic")
 
 
-class Unbounded(Exception):
-    pass
-
-
 def depth_of(
     name: str, funcs: dict[str, Func], memo: dict[str, tuple[int, list[str]]], stack: list[str]
 ) -> tuple[int, list[str]]:
     if name in memo:
         return memo[name]
     if name in stack:
-        raise Unbounded(" -> ".join(stack[stack.index(name) :] + [name]))
+        raise StackUnbounded(" -> ".join(stack[stack.index(name) :] + [name]))
     f = funcs.get(name)
     if f is None:
         return 0, [name + " (?)"]
@@ -369,7 +369,7 @@ def budget_report(dirs: list[Path]) -> int:
         s = sizes(d)
         try:
             st = stack_report(d)
-        except Unbounded as e:
+        except StackUnbounded as e:
             print(f"{d.name}: stack depth unbounded, recursion: {e}")
             failed = True
             continue
@@ -403,7 +403,8 @@ def budget_report(dirs: list[Path]) -> int:
     return 1 if failed else 0
 
 
-def main(argv: list[str]) -> int:
+def main(argv: list[str] | None = None) -> int:
+    argv = ["mstc.bench.budget", *(sys.argv[1:] if argv is None else argv)]
     if len(argv) >= 2 and argv[1] == "--modules":
         if len(argv) != 3:
             print(__doc__.split("\n\n")[1], file=sys.stderr)
@@ -420,4 +421,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(main())
