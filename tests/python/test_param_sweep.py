@@ -48,6 +48,8 @@ AFTER_CUT = round(STOP_S * 1e6 / DT_US) + 2
 ARM = 128
 TABLE = load_table()
 HELD = [p for p in TABLE.params if p.held]
+BY_INDEX = {p.index: p for p in TABLE.params}
+"""The table's rows by PARAM_SET index (an index may be left out: reserved)."""
 RESULTS = {0: "ok", 1: "unknown_index", 2: "out_of_range", 3: "rejected", 5: "armed"}
 KEY = secoc.load_key()  # the published test key (conftest.py)
 REPORT: list[str] = []
@@ -232,10 +234,15 @@ SPECIAL = [
 ]
 
 
+INDEXES = sorted(BY_INDEX)
+UNKNOWN = [next(i for i in range(ARM) if i not in BY_INDEX), 127, 200, 255]
+"""Indexes no row has: the first free one, and three far up."""
+
+
 def random_value(rng: random.Random, index: int, now: dict[int, float]) -> float:
     """A value for PARAM_SET @p index: in range, at and across range and
     relation ends, far off, or not a number at all."""
-    limit = TABLE.params[index] if index < len(TABLE.params) else None
+    limit = BY_INDEX.get(index)
     pick = rng.random()
     if limit is None or pick < 0.10:
         return rng.choice(SPECIAL)
@@ -316,11 +323,11 @@ class Trial:
         answer = next(param_value_of(w) for i, w in self.fw.send(f) if i == PARAM_VALUE)
         assert answer[0] == index
         result = RESULTS[answer[1]]
-        name = "arm" if index == ARM else TABLE.params[index].name if index < 15 else "unknown"
+        name = "arm" if index == ARM else BY_INDEX[index].name if index in BY_INDEX else "unknown"
         stats.sets[result] += 1
         if result == "ok":
             stats.accepted[name] += 1
-            if index < len(TABLE.params) and TABLE.params[index].held:
+            if index in BY_INDEX and BY_INDEX[index].held:
                 self.now[index] = answer[2]
 
     def read_back(self) -> dict[str, float]:
@@ -341,9 +348,9 @@ class Trial:
         if r < 0.1:
             self.param(ARM, rng.choice((1.0, 1.0, 0.0, 2.0, math.nan)), stats)
         elif r < 0.12:
-            self.param(rng.choice((15, 127, 200, 255)), random_value(rng, 99, self.now), stats)
+            self.param(rng.choice(UNKNOWN), random_value(rng, 99, self.now), stats)
         else:
-            index = rng.randrange(len(TABLE.params))
+            index = rng.choice(INDEXES)
             self.param(index, random_value(rng, index, self.now), stats)
 
     def run(self, seed: int, stats: Stats) -> None:

@@ -99,7 +99,7 @@ def read_key(path: Path) -> bytes:
     return parse_key(text, str(path))
 
 
-def key_file(path: Path | None = None) -> Path | None:
+def key_file(path: Path | None = None, default: Path = DEFAULT_KEY_FILE) -> Path | None:
     """The file :func:`load_key` takes the key from, None when it takes it
     from ``$MSTC_KEY``."""
     if path is not None:
@@ -108,21 +108,22 @@ def key_file(path: Path | None = None) -> Path | None:
         return None
     if os.environ.get(KEY_FILE_ENV):
         return Path(os.environ[KEY_FILE_ENV])
-    return DEFAULT_KEY_FILE
+    return default
 
 
-def load_key(path: Path | None = None) -> bytes:
+def load_key(path: Path | None = None, default: Path = DEFAULT_KEY_FILE) -> bytes:
     """The key to use: @p path if given, else ``$MSTC_KEY`` (hex), else the
-    file ``$MSTC_KEY_FILE``, else ``keys/device.key``.
+    file ``$MSTC_KEY_FILE``, else @p default: ``keys/device.key`` for a board,
+    :data:`SIM_KEY_FILE` for a simulation (which never signs with a device's).
 
     :raises AuthKeyError: none found, or not a key.
     """
-    source = key_file(path)
+    source = key_file(path, default)
     if source is None:
         return parse_key(os.environ[KEY_ENV], f"${KEY_ENV}")
-    if source == DEFAULT_KEY_FILE and not source.is_file():
+    if source == default and not source.is_file():
         raise AuthKeyError(
-            f"no key: {DEFAULT_KEY_FILE} does not exist (`make key` generates it), "
+            f"no key: {default} does not exist (`make key` generates it), "
             f"and neither {KEY_ENV} nor {KEY_FILE_ENV} is set (docs/safety.md, 'The key')"
         )
     return read_key(source)

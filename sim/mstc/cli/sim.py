@@ -139,7 +139,8 @@ def _run_one(
 
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each, then write and report."""
-    args.key = secoc.load_key(args.key_file) if args.bus == "sil" else None
+    # A simulation: the simulations' key by default, never a device's.
+    args.key = secoc.load_key(args.key_file, secoc.SIM_KEY_FILE) if args.bus == "sil" else None
     return run_scenarios(
         args.scenarios,
         args.out,
