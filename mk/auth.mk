@@ -7,8 +7,9 @@
 # like libfixmath; only aes.c and platform_util.c (mbedtls_platform_zeroize,
 # which wipes the key schedule) are compiled, configured by
 # firmware/auth/mbedtls-config/mbedtls/config.h. They compile clean under the
-# full WARN of every compiler the project uses. Every build that compiles the firmware
-# (FW_SRCS) compiles AUTH_SRCS with AUTH_CFLAGS, after AUTH_DEPS.
+# full WARN of every compiler the project uses. Every build that compiles the
+# firmware compiles AUTH_SRCS (the Makefile's fw_srcs) with AUTH_CFLAGS, after
+# AUTH_DEPS.
 #
 # The keys, generated from /dev/urandom on first use by
 # tools/setup/device-key (git-ignored, owner-only; a warning when others may
@@ -31,9 +32,8 @@ AUTH_CONFIG_INC := -Ifirmware/auth/mbedtls-config
 AUTH_CFLAGS := $(AUTH_CONFIG_INC) -I$(MBEDTLS_DIR)/include
 AUTH_DEPS := $(MBEDTLS_DIR)/.sha256
 
-$(MBEDTLS_DIR)/.sha256: tools/setup/sources.lock | $(STAMP)/apt-sim
-	@tools/setup/fetch-source mbedtls
-# The sources appear when the source package is fetched.
+# The sources appear when the source package is fetched (the Makefile's
+# deps/%/.sha256 rule).
 $(AUTH_SRCS): | $(MBEDTLS_DIR)/.sha256
 	@test -f $@ || { echo "error: $@ missing after fetching mbedtls" >&2; exit 1; }
 

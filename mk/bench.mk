@@ -7,8 +7,10 @@
 # cached in build/bench/*.txt and remade when their image or program changes.
 # Uses from the Makefile: CC, CSTD, OPT, FW_INC, PY, STAMP, CORE_SRCS
 # (ctl_step's sources: no protocol, no application), the venv rule; from
-# mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the libraries and
-# CROSS_FLAGS_<config>. Each program is a build of mk/compile.mk.
+# mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the configs, their
+# libraries and CROSS_FLAGS_<config>. Each program is a build of
+# mk/compile.mk. The benchmark's C program is tools/bench/ (bench_core.c; the
+# target's start-up and link script, the host's main; can_echo.c).
 
 BENCH_DIR := build/bench
 BENCH_SCENARIOS := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
@@ -27,35 +29,33 @@ $(BENCH_DIR)/scenarios.h: sim/mstc/bench/scenarios.py $(BENCH_SCENARIOS) | .venv
 	$(PY) -m mstc.bench.scenarios $@ $(BENCH_SCENARIOS)
 
 # Cortex-M images: the benchmark compiled as the cross build of the config,
-# linked with its library. $(1): config <cpu>-<mode> of mk/cross.mk; $(2): cpu.
+# linked with its library. $(1): config <cpu>-<mode> of mk/cross.mk.
 define BENCH_IMAGE_RULES
 BUILD_CC_bench-$(1) := $$(CROSS_CC)
 BUILD_CFLAGS_bench-$(1) := $$(CROSS_FLAGS_$(1)) -DBENCH_CONFIG='"$(1)"'
 BUILD_DIR_bench-$(1) := $(BENCH_DIR)/$(1)/obj
 BUILD_SRCS_bench-$(1) := $(BENCH_TARGET_SRCS)
-BUILD_DEPS_bench-$(1) := $(BENCH_DIR)/scenarios.h $$(NUM_DEPS_$(lastword $(subst -, ,$(1))))
+BUILD_DEPS_bench-$(1) := $(BENCH_DIR)/scenarios.h $$(NUM_DEPS_$(call cross_mode,$(1)))
 BUILD_ORDER_bench-$(1) := $$(STAMP)/apt-test
 $$(eval $$(call BUILD,bench-$(1)))
 $(BENCH_DIR)/$(1).elf: $$(BUILD_OBJS_bench-$(1)) build/cross/$(1)/libmstc_fw.a tools/bench/link.ld
-	$$(CROSS_CC) $$(CROSS_CPU_$(2)) $$(filter %.o %.a,$$^) --specs=rdimon.specs \
+	$$(CROSS_CC) $$(CROSS_CPU_$(call cross_cpu,$(1))) $$(filter %.o %.a,$$^) --specs=rdimon.specs \
 	  -T tools/bench/link.ld -Wl,--gc-sections -lm -o $$@
 $(BENCH_DIR)/$(1).txt: $(BENCH_DIR)/$(1).elf | $$(STAMP)/apt-test
-	timeout 600 $$(QEMU_ARM) -M $$(QEMU_MACHINE_$(2)) -nographic -monitor none -serial none \
-	  -semihosting-config enable=on,target=native -icount shift=0 -kernel $$< > $$@.tmp
+	timeout 600 $$(QEMU_ARM) -M $$(QEMU_MACHINE_$(call cross_cpu,$(1))) -nographic -monitor none \
+	  -serial none -semihosting-config enable=on,target=native -icount shift=0 -kernel $$< > $$@.tmp
 	@grep -q '^done$$$$' $$@.tmp || { cat $$@.tmp; echo "error: $$< did not finish" >&2; exit 1; }
 	@mv $$@.tmp $$@
 endef
-$(eval $(call BENCH_IMAGE_RULES,m4f-float,m4f))
-$(eval $(call BENCH_IMAGE_RULES,m3-fixed,m3))
-$(eval $(call BENCH_IMAGE_RULES,m3-float,m3))
+$(foreach c,$(CROSS_CONFIGS),$(eval $(call BENCH_IMAGE_RULES,$(c))))
 
 # Host programs, one per numeric mode: the control core and the benchmark.
-# $(1): mode; $(2): more sources the build compiles.
+# $(1): mode; the build also compiles BENCH_EXTRA_SRCS_<mode>.
 define BENCH_HOST_RULES
 BUILD_CC_bench-host-$(1) := $$(CC)
 BUILD_CFLAGS_bench-host-$(1) := $$(CSTD) $$(OPT) $$(FW_INC) $$(NUM_CFLAGS_$(1))
 BUILD_DIR_bench-host-$(1) := $(BENCH_DIR)/host-$(1)/obj
-BUILD_SRCS_bench-host-$(1) := $$(CORE_SRCS) $$(NUM_SRCS_$(1)) $(BENCH_HOST_SRCS) $(2)
+BUILD_SRCS_bench-host-$(1) := $$(CORE_SRCS) $$(NUM_SRCS_$(1)) $(BENCH_HOST_SRCS) $$(BENCH_EXTRA_SRCS_$(1))
 BUILD_DEPS_bench-host-$(1) := $$(NUM_DEPS_$(1))
 BUILD_ORDER_bench-host-$(1) := $$(STAMP)/apt-sim
 $$(eval $$(call BUILD,bench-host-$(1)))
@@ -70,11 +70,10 @@ endef
 # The CAN echo of the round-trip benchmark (below) is hal/linux's SocketCAN
 # driver behind a loop: compiled in the float host build.
 BENCH_ECHO_SRCS := tools/bench/can_echo.c hal/linux/hal_can_socketcan.c
-$(eval $(call BENCH_HOST_RULES,float,$(BENCH_ECHO_SRCS)))
-$(eval $(call BENCH_HOST_RULES,fixed,))
+BENCH_EXTRA_SRCS_float := $(BENCH_ECHO_SRCS)
+$(foreach m,$(NUM_MODES),$(eval $(call BENCH_HOST_RULES,$(m))))
 
-BENCH_RESULTS := $(foreach c,m4f-float m3-fixed m3-float,$(BENCH_DIR)/$(c).txt) \
-                 $(BENCH_DIR)/host-float.txt $(BENCH_DIR)/host-fixed.txt
+BENCH_RESULTS := $(foreach c,$(CROSS_CONFIGS) $(addprefix host-,$(NUM_MODES)),$(BENCH_DIR)/$(c).txt)
 
 # CAN: steps per second through frames in process, and lock-step round trips
 # over vcan (in the VM where the host has no CAN) beside a bare round trip to
@@ -101,14 +100,15 @@ $(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so sim/mstc/bench/sweep.py | .venv/.re
 	$(PY) -m mstc.bench.sweep run --lib $< --out $@
 
 .PHONY: bench
-bench: $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) $(BENCH_DIR)/sweep.json $(BENCH_DIR)/can-realtime.json | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN, sweep and real-time figures: docs/performance.md
+BENCH_ALL := $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) $(BENCH_DIR)/sweep.json \
+  $(BENCH_DIR)/can-realtime.json replay-bench $(addprefix img-,$(BUDGET_IMGS))
+bench: $(BENCH_ALL) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN, sweep and real-time figures: docs/performance.md
 	@$(PY) -m mstc.bench.ctl_step --doc docs/performance.md --pil build/pil $(BENCH_RESULTS)
 	@$(PY) -m mstc.bench.canbus report --doc docs/performance.md $(BENCH_CAN)
 	@$(PY) -m mstc.bench.sweep report --doc docs/performance.md $(BENCH_DIR)/sweep.json
 	@$(PY) -m mstc.bench.realtime report --doc docs/performance.md \
 	  $(BENCH_DIR)/can-realtime.json
-	@$(MAKE) --no-print-directory replay-bench
-	@$(MAKE) --no-print-directory firmware-budget | tee $(BENCH_DIR)/boards.txt
+	@$(BOARD_BUDGET) | tee $(BENCH_DIR)/boards.txt
 	@$(PY) -m mstc.bench.doc --doc docs/performance.md \
 	  --text "boards:Board images: flash, RAM and stack against the budgets (make firmware-budget)" \
 	  < $(BENCH_DIR)/boards.txt

@@ -2,8 +2,8 @@
 # How a C source of the project becomes an object, said once for every build
 # (host, unit tests, cross, board images, coverage, fuzzing, benchmark,
 # numerics), and compile_commands.json written from the same words. Included
-# by the Makefile after mk/numeric.mk; uses WARN, FW_INC, STAMP and
-# LIBFIXMATH_DIR, LIBFIXMATH_WARN.
+# by the Makefile before every build; uses WARN, and mk/numeric.mk's
+# LIBFIXMATH_DIR, LIBFIXMATH_WARN when a recipe runs.
 #
 # A build is a name N with:
 #   BUILD_CC_N      the compiler
@@ -38,7 +38,7 @@ build_cmd = $(strip $(BUILD_CC_$(1)) $(BUILD_CFLAGS_$(1)) \
     $(call src_cflags,$(2))),$(call src_cflags,$(2))) -MMD -MP -c $(2) -o $(3))
 
 # Build, source and object of every compile, in the order the builds are
-# declared (the host build first: clangd takes a file's first entry).
+# declared.
 COMPILES :=
 
 define BUILD
@@ -53,7 +53,8 @@ endef
 
 # ------------------------------------------------------ compile_commands.json
 # The exact command of every compile above, for clangd and clang-tidy
-# (`clang-tidy -p .`). Written from make's own variables rather than by
+# (`clang-tidy -p .`), the host builds first, NUMERIC's first (clangd takes
+# a file's first entry). Written from make's own variables rather than by
 # recording a build (Debian's bear): recording sees only what one run
 # actually compiled, so it would need a forced rebuild of every build, with
 # every toolchain and fetched source present, to list them all; here the
@@ -70,11 +71,13 @@ db_entry3 = {"directory": $(call json_str,$(CURDIR)), "file": $(call json_str,$(
   "output": $(call json_str,$(3)), "command": $(call json_str,$(call build_cmd,$(1),$(2),$(3)))}
 
 .PHONY: compile_commands.json print-cflags
+DB_COMPILES = $(filter host-$(NUMERIC)@%,$(COMPILES)) \
+  $(filter host-%,$(filter-out host-$(NUMERIC)@%,$(COMPILES))) $(filter-out host-%,$(COMPILES))
 compile_commands.json:  ## the command of every compile of every build, for clangd and clang-tidy
-	$(file >$@,[$(nl)$(call db_entry,$(firstword $(COMPILES)))$(foreach c,$(wordlist 2,$(words $(COMPILES)),$(COMPILES)),$(comma)$(nl)$(call db_entry,$(c)))$(nl)])
-	@echo "$@: $(words $(COMPILES)) compiles"
+	$(file >$@,[$(nl)$(call db_entry,$(firstword $(DB_COMPILES)))$(foreach c,$(wordlist 2,$(words $(DB_COMPILES)),$(DB_COMPILES)),$(comma)$(nl)$(call db_entry,$(c)))$(nl)])
+	@echo "$@: $(words $(DB_COMPILES)) compiles"
 
 # The host build's flags (NUMERIC's mode), which the pytest shims compile with
 # (tests/python/conftest.py).
 print-cflags:  ## print the host build's compile flags (NUMERIC's mode)
-	@echo '$(strip $(BUILD_CFLAGS_host) $(WARN))'
+	@echo '$(strip $(BUILD_CFLAGS_host-$(NUMERIC)) $(WARN))'

@@ -2,9 +2,10 @@
 # Board images: the firmware cross-compiled and linked for a board
 # (hal/<board>/), with its start-up, drivers and main loop; each board is a
 # build of mk/compile.mk (img-<board>). Included by the top Makefile after
-# mk/compile.mk. Uses from the Makefile: FW_INC, PY, STAMP, FW_SRCS, the venv
-# rule; from mk/numeric.mk the NUM_*_<mode> variables; from mk/auth.mk AUTH_*
-# and install_key (images are built without a key; `make flash` installs it).
+# mk/cross.mk (the toolchain). Uses from the Makefile: FW_INC, PY, STAMP,
+# fw_srcs, the venv rule; from mk/numeric.mk the NUM_*_<mode> variables; from
+# mk/auth.mk AUTH_* and install_key (images are built without a key; `make
+# flash` installs the device key into a private copy).
 #
 #   make firmware BOARD=stm32f405   Cortex-M4F, float   -> build/firmware/stm32f405/
 #   make firmware BOARD=stm32f103   Cortex-M3, fixed    -> build/firmware/stm32f103/
@@ -24,9 +25,6 @@
 
 IMG_BOARDS := stm32f405 stm32f103 template
 BOARD ?= stm32f405
-CROSS_COMPILE ?= arm-none-eabi-
-IMG_CC := $(CROSS_COMPILE)gcc
-IMG_OBJCOPY := $(CROSS_COMPILE)objcopy
 # -Os: the images must fit 64 KB of flash (docs/porting.md, budgets).
 # -fno-math-errno: sqrtf is the M4F's VSQRT instruction rather than a call
 # that also sets errno (the firmware reads no errno; num_sqrt never passes a
@@ -82,14 +80,13 @@ IMG_DIR_$(1) := build/firmware/$(1)
 IMG_OBJ_$(1) := build/firmware/$(1)/obj-$(2)
 IMG_GEN_$(1) := build/firmware/$(3)/gen
 IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(3)),$$(IMG_GEN_$(1))/stm32_regs.h)
-BUILD_CC_img-$(1) := $$(IMG_CC)
+BUILD_CC_img-$(1) := $$(CROSS_CC)
 BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections \
   -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(3)) \
   $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2)) \
   $$(AUTH_CFLAGS)
 BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
-BUILD_SRCS_img-$(1) := $$(FW_SRCS) $$(NUM_SRCS_$(2)) $$(AUTH_SRCS) $$(IMG_SRCS_$(3)) \
-  $$(STM32_CAN_SRCS_$(4))
+BUILD_SRCS_img-$(1) := $$(call fw_srcs,$(2)) $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))
 BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2)) $$(AUTH_DEPS)
 BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
 $$(eval $$(call BUILD,img-$(1)))
@@ -99,8 +96,8 @@ ifneq ($$(IMG_SVD_$(3)),)
 ifeq ($(1),$(3))
 # Register header and vector table from the vendor's SVD (tools/svd/).
 $$(IMG_GEN_$(1))/stm32_regs.h $$(IMG_GEN_$(1))/stm32_vectors.c &: $$(IMG_SVD_$(1)) \
-    tools/svd/svd2c.py deps/svd/.sha256 | .venv/.requirements.sha256
-	$$(PY) tools/svd/svd2c.py $$(IMG_SVD_$(1)) deps/svd $$(IMG_GEN_$(1))
+    tools/svd/svd2c deps/svd/.sha256 | .venv/.requirements.sha256
+	$$(PY) tools/svd/svd2c $$(IMG_SVD_$(1)) deps/svd $$(IMG_GEN_$(1))
 endif
 # The generated vector table: the board's compile, its object in gen/.
 $$(IMG_OBJ_$(1))/gen/stm32_vectors.o: $$(IMG_GEN_$(1))/stm32_vectors.c \
@@ -117,13 +114,13 @@ $$(IMG_DIR_$(1))/numeric.txt: FORCE
 	@echo $(2) | cmp -s - $$@ || echo $(2) > $$@
 $$(IMG_DIR_$(1))/mstc.elf: $$(IMG_OBJS_$(1)) $$(IMG_LD_$(3)) hal/stm32/sections.ld \
     $$(IMG_DIR_$(1))/numeric.txt
-	$$(IMG_CC) $$(IMG_CPU_$(3)) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
+	$$(CROSS_CC) $$(IMG_CPU_$(3)) -nostartfiles --specs=nano.specs -Wl,--gc-sections \
 	  -Wl,-Map=$$(IMG_DIR_$(1))/mstc.map -Wl,--no-warn-rwx-segments -Lhal/stm32 \
 	  -T$$(IMG_LD_$(3)) -o $$@ $$(IMG_OBJS_$(1)) -Wl,--start-group -lc -lm -lgcc -Wl,--end-group
 $$(IMG_DIR_$(1))/mstc.bin: $$(IMG_DIR_$(1))/mstc.elf
-	$$(IMG_OBJCOPY) -O binary $$< $$@
+	$$(CROSS_OBJCOPY) -O binary $$< $$@
 $$(IMG_DIR_$(1))/mstc.hex: $$(IMG_DIR_$(1))/mstc.elf
-	$$(IMG_OBJCOPY) -O ihex $$< $$@
+	$$(CROSS_OBJCOPY) -O ihex $$< $$@
 $$(IMG_DIR_$(1))/size.txt: $$(IMG_DIR_$(1))/mstc.elf sim/mstc/bench/budget.py \
     | .venv/.requirements.sha256
 	$$(PY) -m mstc.bench.budget --modules $$(IMG_DIR_$(1)) > $$@
@@ -150,13 +147,13 @@ deps/svd/.sha256: tools/svd/svd.lock tools/svd/fetch | .venv/.requirements.sha25
 firmware: img-$(IMG)  ## build a board image: BOARD=stm32f405|stm32f103|template [CAN=bxcan|slcan]
 	@cat build/firmware/$(IMG)/size.txt
 
-# The STM32 images, bxCAN and slcan, whose budgets are checked.
+# The STM32 images, bxCAN and slcan, whose budgets are checked (and make bench
+# reports).
 BUDGET_IMGS := stm32f405 stm32f103 stm32f405-slcan stm32f103-slcan
-firmware-all: $(addprefix img-,$(IMG_BOARDS) $(BUDGET_IMGS))  ## build every board image, then check the budgets
-	@$(PY) -m mstc.bench.budget $(addprefix build/firmware/,$(BUDGET_IMGS))
-
+BOARD_BUDGET := $(PY) -m mstc.bench.budget $(addprefix build/firmware/,$(BUDGET_IMGS))
+firmware-all: $(addprefix img-,$(IMG_BOARDS)) firmware-budget  ## build every board image, then check the budgets
 firmware-budget: $(addprefix img-,$(BUDGET_IMGS))  ## flash, RAM and stack of the board images vs. budgets
-	@$(PY) -m mstc.bench.budget $(addprefix build/firmware/,$(BUDGET_IMGS))
+	@$(BOARD_BUDGET)
 
 firmware-smoke: img-stm32f405 img-stm32f103  ## run both board images under QEMU: does the loop run?
 	@$(PY) -m mstc.bench.qemu_smoke build/firmware/stm32f405 build/firmware/stm32f103

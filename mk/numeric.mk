@@ -1,18 +1,25 @@
 # SPDX-License-Identifier: MIT
-# Numeric mode: float (default, single precision) or fixed (Q16.16).
-# Defines, for the Makefile and for mk/cross.mk, mk/firmware.mk, mk/bench.mk,
-# mk/numerics.mk, mk/quality.mk:
-#   NUM_CFLAGS  flags of every firmware, SIL and test compile in this mode
-#   NUM_SRCS    extra C sources compiled into every build in this mode
-#   NUM_DEPS    a file that must exist before any of them is compiled
-# and the same per mode, whatever NUMERIC is, as NUM_CFLAGS_<mode>,
-# NUM_SRCS_<mode>, NUM_DEPS_<mode> (the cross builds and the benchmark build
-# both modes at once).
+# Numeric modes: float (default, single precision) and fixed (Q16.16).
+# Included by the Makefile after mk/compile.mk. Defines NUMERIC, the mode of
+# the targets that build one (make lib, sim, test-unit, ...), NUM_MODES, and
+# per mode, for every build that compiles the firmware:
+#   NUM_CFLAGS_<mode>  flags of every compile in that mode
+#   NUM_SRCS_<mode>    extra C sources compiled into every build in that mode
+#   NUM_DEPS_<mode>    a file that must exist before any of them is compiled
 #
 # Fixed mode uses libfixmath (mul, div) built from its Debian source package
 # (tools/setup/sources.lock) with one configuration, LIBFIXMATH_CONFIG, for the
 # host and for the cross builds alike, so that they compute the same numbers
 # (firmware/num/num_fixed.h says why each macro is set or not).
+#
+#   make numerics   docs/numerics.md: the error of every fixed-point primitive
+#                   against libm in double precision (tools/numerics/numerics.c)
+
+NUM_MODES := float fixed
+NUMERIC ?= float
+ifeq ($(filter $(NUMERIC),$(NUM_MODES)),)
+$(error NUMERIC must be float or fixed, not '$(NUMERIC)')
+endif
 
 LIBFIXMATH_DIR := deps/libfixmath
 LIBFIXMATH_CONFIG := -DFIXMATH_NO_CACHE
@@ -33,10 +40,29 @@ NUM_CFLAGS_fixed := -DNUM_FIXED -I$(LIBFIXMATH_DIR) $(LIBFIXMATH_CONFIG)
 NUM_SRCS_fixed := $(LIBFIXMATH_SRCS)
 NUM_DEPS_fixed := $(LIBFIXMATH_DIR)/.sha256
 
-NUM_CFLAGS := $(NUM_CFLAGS_$(NUMERIC))
-NUM_SRCS := $(NUM_SRCS_$(NUMERIC))
-NUM_DEPS := $(NUM_DEPS_$(NUMERIC))
-
 # The sources appear when the source package is fetched (NUM_DEPS's rule).
 $(LIBFIXMATH_SRCS): | $(LIBFIXMATH_DIR)/.sha256
 	@test -f $@ || { echo "error: $@ missing after fetching libfixmath" >&2; exit 1; }
+
+# ------------------------------------------------------------------ numerics
+# The tool is built in fixed mode whatever NUMERIC is (a build of
+# mk/compile.mk: numerics); the document is remade when the tool or the
+# primitives change.
+NUMERICS_DIR := build/numerics
+BUILD_CC_numerics := $(CC)
+BUILD_CFLAGS_numerics := $(CSTD) $(OPT) $(FW_INC) $(NUM_CFLAGS_fixed)
+BUILD_DIR_numerics := $(NUMERICS_DIR)/obj
+BUILD_SRCS_numerics := tools/numerics/numerics.c firmware/num/num_fixed.c $(LIBFIXMATH_SRCS)
+BUILD_DEPS_numerics := $(NUM_DEPS_fixed)
+BUILD_ORDER_numerics := $(STAMP)/apt-sim
+$(eval $(call BUILD,numerics))
+
+$(NUMERICS_DIR)/numerics: $(BUILD_OBJS_numerics)
+	$(CC) $^ -lm -o $@
+
+docs/numerics.md: $(NUMERICS_DIR)/numerics
+	$< > $@.tmp
+	@mv $@.tmp $@
+
+.PHONY: numerics
+numerics: docs/numerics.md  ## errors of the fixed-point primitives against libm: docs/numerics.md

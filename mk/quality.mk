@@ -1,15 +1,16 @@
 # SPDX-License-Identifier: MIT
 # Quality checks of the firmware (docs/safety.md): fuzzing, coverage, static
 # analysis, the strict warning set on every compiler. Included by the top
-# Makefile after mk/compile.mk; fuzzing and coverage are builds of it. Uses
-# from the Makefile: WARN, CSTD, FW_INC, PY, B, STAMP, FW_SRCS, FAKE_SRCS,
-# UNIT_TESTS, UNITY_OBJ, UNIT_TEST_RULES, the venv and deps rules; from
-# mk/numeric.mk the NUM_*_<mode> variables and LIBFIXMATH_DIR.
+# Makefile after mk/host.mk and mk/cross.mk; fuzzing and coverage are builds
+# of mk/compile.mk. Uses from the Makefile: WARN, CSTD, FW_INC, PY, STAMP,
+# FW_SRCS, fw_srcs, the venv and deps rules; from mk/host.mk FAKE_SRCS, the
+# unit tests (UNIT_*, TEST_SRCS, UNITY_OBJ, UNIT_TEST_RULES); from
+# mk/numeric.mk the NUM_*_<mode> variables; from mk/cross.mk the toolchain.
 #
 #   make fuzz [FUZZ_SECONDS=60]  every libFuzzer harness (clang, ASan, UBSan)
 #                                for FUZZ_SECONDS each; corpus: fuzz/corpus/
 #   make coverage                unit tests with gcov; gcovr report and the
-#                                thresholds of tools/quality/coverage_check
+#                                thresholds of tools/quality/coverage-check
 #   make static-analysis         cppcheck + MISRA addon, clang-tidy
 #   make warnings                the firmware under WARN with clang (host)
 #                                and arm-none-eabi-gcc, both numeric modes
@@ -19,40 +20,37 @@ FUZZ_SECONDS ?= 60
 FUZZ_CC ?= clang
 FUZZ_DIR := build/fuzz
 FUZZ_SANITIZE := -fsanitize=fuzzer,address,undefined
-# name:source:numeric mode
-FUZZ_HARNESSES := frames:fuzz/fuzz_frames.c:float ctl:fuzz/fuzz_ctl.c:float \
-  ctl_fixed:fuzz/fuzz_ctl.c:fixed auth:fuzz/fuzz_auth.c:float slcan:fuzz/fuzz_slcan.c:float
-# Sources a harness needs beyond the firmware's: the board images' slcan
-# parser, which is not part of the firmware proper (hal/stm32).
+# The harnesses, in the order make fuzz runs them. Harness <name> is
+# fuzz/fuzz_<name>.c in float mode unless FUZZ_SRC_<name>, FUZZ_MODE_<name>
+# say otherwise, and links FUZZ_EXTRA_<name> beyond the firmware: the board
+# images' slcan parser, which is not part of the firmware proper (hal/stm32).
+FUZZ_NAMES := frames ctl ctl_fixed auth slcan
+FUZZ_SRC_ctl_fixed := fuzz/fuzz_ctl.c
+FUZZ_MODE_ctl_fixed := fixed
 FUZZ_EXTRA_slcan := hal/stm32/slcan_codec.c
 SRC_CFLAGS_fuzz/fuzz_slcan.c := -Ihal/stm32
-FUZZ_NAMES := $(foreach h,$(FUZZ_HARNESSES),$(word 1,$(subst :, ,$(h))))
+fuzz_srcs = $(or $(FUZZ_SRC_$(1)),fuzz/fuzz_$(1).c) $(FUZZ_EXTRA_$(1))
 FW_HDRS := $(wildcard firmware/*/*.h)
 
 # One build per numeric mode (fuzz-<mode>): the firmware, hal/fake and the
-# harnesses of that mode.
+# harnesses of that mode, each linked from them.
 define FUZZ_BUILD
+FUZZ_NAMES_$(1) := $$(foreach n,$$(FUZZ_NAMES),$$(if $$(filter $(1),$$(or $$(FUZZ_MODE_$$(n)),float)),$$(n)))
 BUILD_CC_fuzz-$(1) := $$(FUZZ_CC)
 BUILD_CFLAGS_fuzz-$(1) := $$(CSTD) -g -O1 $$(FUZZ_SANITIZE) -fno-sanitize-recover=all \
   -fno-omit-frame-pointer $$(FW_INC) -Ihal/fake $$(NUM_CFLAGS_$(1)) $$(AUTH_CFLAGS)
 BUILD_DIR_fuzz-$(1) := $$(FUZZ_DIR)/obj-$(1)
 BUILD_SRCS_fuzz-$(1) := $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(1)) $$(AUTH_SRCS) \
-  $$(sort $$(foreach h,$$(FUZZ_HARNESSES),$$(if $$(filter %:$(1),$$(h)),$$(word 2,$$(subst :, ,$$(h))) \
-    $$(FUZZ_EXTRA_$$(word 1,$$(subst :, ,$$(h)))))))
+  $$(sort $$(foreach n,$$(FUZZ_NAMES_$(1)),$$(call fuzz_srcs,$$(n))))
 BUILD_DEPS_fuzz-$(1) := $$(NUM_DEPS_$(1)) $$(AUTH_DEPS)
 BUILD_ORDER_fuzz-$(1) := $$(STAMP)/apt-test
 $$(eval $$(call BUILD,fuzz-$(1)))
-endef
-$(eval $(call FUZZ_BUILD,float))
-$(eval $(call FUZZ_BUILD,fixed))
-
-# $(1): name; $(2): harness source; $(3): numeric mode.
-define FUZZ_RULES
-$(FUZZ_DIR)/$(1): $$(call build_objs,fuzz-$(3),$(2) $$(FUZZ_EXTRA_$(1)) $$(FW_SRCS) $$(FAKE_SRCS) \
-    $$(NUM_SRCS_$(3)) $$(AUTH_SRCS))
+$$(foreach n,$$(FUZZ_NAMES_$(1)),$$(eval $$(FUZZ_DIR)/$$(n): $$(call build_objs,fuzz-$(1),$$(call \
+  fuzz_srcs,$$(n)) $$(FW_SRCS) $$(FAKE_SRCS) $$(NUM_SRCS_$(1)) $$(AUTH_SRCS))))
+$$(addprefix $$(FUZZ_DIR)/,$$(FUZZ_NAMES_$(1))):
 	$$(FUZZ_CC) $$(FUZZ_SANITIZE) $$^ -lm -o $$@
 endef
-$(foreach h,$(FUZZ_HARNESSES),$(eval $(call FUZZ_RULES,$(word 1,$(subst :, ,$(h))),$(word 2,$(subst :, ,$(h))),$(word 3,$(subst :, ,$(h))))))
+$(foreach m,$(NUM_MODES),$(eval $(call FUZZ_BUILD,$(m))))
 
 .PHONY: fuzz fuzz-build
 fuzz-build: $(addprefix $(FUZZ_DIR)/,$(FUZZ_NAMES))
@@ -75,11 +73,11 @@ COV_DIR := build/coverage
 BUILD_CC_cov := $(CC)
 BUILD_CFLAGS_cov := $(CSTD) -O0 -g --coverage $(FW_INC) $(AUTH_CFLAGS)
 BUILD_DIR_cov := $(COV_DIR)/obj
-BUILD_SRCS_cov := $(FW_SRCS) $(AUTH_SRCS) $(FAKE_SRCS) $(UNIT_SRCS) $(TEST_SRCS)
+BUILD_SRCS_cov := $(call fw_srcs,float) $(FAKE_SRCS) $(UNIT_SRCS) $(TEST_SRCS)
 BUILD_DEPS_cov := $(AUTH_DEPS)
 BUILD_ORDER_cov := $(STAMP)/apt-sim
 $(eval $(call BUILD,cov))
-$(eval $(call UNIT_TEST_RULES,cov,$(COV_DIR)/tests,$(FW_SRCS) $(AUTH_SRCS) $(FAKE_SRCS),--coverage))
+$(eval $(call UNIT_TEST_RULES,cov,$(COV_DIR)/tests,$(call fw_srcs,float) $(FAKE_SRCS),--coverage))
 COV_TESTS := $(addprefix $(COV_DIR)/tests/,$(UNIT_TESTS))
 
 .PHONY: coverage
@@ -91,7 +89,7 @@ coverage: deps-test $(COV_TESTS)  ## unit tests under gcov; gcovr report, thresh
 	  --exclude-unreachable-branches --json-summary $(COV_DIR)/summary.json \
 	  --html-details $(COV_DIR)/index.html --txt $(COV_DIR)/coverage.txt $(COV_DIR)/obj
 	@cat $(COV_DIR)/coverage.txt
-	@$(PY) tools/quality/coverage_check $(COV_DIR)/summary.json
+	@$(PY) tools/quality/coverage-check $(COV_DIR)/summary.json
 
 # ----------------------------------------------------------- static analysis
 # The firmware's own sources: the generated codec is checked by its golden
@@ -129,19 +127,15 @@ static-analysis: cppcheck clang-tidy  ## cppcheck with the MISRA addon, clang-ti
 # ------------------------------------------------------------------ warnings
 # Every firmware source under WARN with clang on the host and with the
 # cross compiler, in both numeric modes (gcc on the host: every build).
-WARN_MODES := float fixed
 $(SA_DIR)/warnings.ok: $(FW_SRCS) $(FW_HDRS) $(NUM_DEPS_fixed) $(AUTH_DEPS) | $(STAMP)/apt-test
 	@mkdir -p $(@D)
-	@set -e; for m in $(WARN_MODES); do \
-	  flags="$(CSTD) $(WARN) $(FW_INC)"; \
-	  [ $$m = fixed ] && flags="$$flags $(NUM_CFLAGS_fixed)"; \
+	@set -e; $(foreach m,$(NUM_MODES),flags="$(CSTD) $(WARN) $(FW_INC) $(NUM_CFLAGS_$(m)) $(AUTH_CFLAGS)"; \
 	  for f in $(FW_SRCS) $(AUTH_SRCS); do \
-	    clang $$flags $(AUTH_CFLAGS) -fsyntax-only $$f; \
-	    $(CROSS_CC) $$flags $(AUTH_CFLAGS) $(CROSS_CPU_m3) -fsyntax-only $$f; \
-	    $(CROSS_CC) $$flags $(AUTH_CFLAGS) $(CROSS_CPU_m4f) -fsyntax-only $$f; \
+	    clang $$flags -fsyntax-only $$f; \
+	    $(CROSS_CC) $$flags $(CROSS_CPU_m3) -fsyntax-only $$f; \
+	    $(CROSS_CC) $$flags $(CROSS_CPU_m4f) -fsyntax-only $$f; \
 	  done; \
-	  echo "warnings ($$m): clang, arm-none-eabi-gcc (M3, M4F): none"; \
-	done
+	  echo "warnings ($(m)): clang, arm-none-eabi-gcc (M3, M4F): none";)
 	@touch $@
 
 .PHONY: warnings quality

@@ -8,12 +8,11 @@
 #   make replay-logs                        re-record tests/data/*.log with make sim
 #   make replay-bench                       replay throughput (frames/s, median of 5)
 #
-# Uses from the Makefile: PY, B, NUMERIC, deps-sim and the library rule; from
-# mk/auth.mk SIM_KEY_FILE and TEST_KEY_FILE. The committed logs were recorded with
-# the published test key (their authenticated commands replay only under it);
-# `make replay LOG=...` replays with the simulations' key SIM_KEY_FILE, as
-# `make sim` records.
-
+# Uses from the Makefile: PY, NUMERIC, deps-sim; from mk/host.mk B and the
+# library rule; from mk/auth.mk SIM_KEY_FILE and TEST_KEY_FILE. The committed
+# logs were recorded with the published test key (their authenticated
+# commands replay only under it); `make replay LOG=...` replays with the
+# simulations' key SIM_KEY_FILE, as `make sim` records.
 
 REPLAY_LOGS := tests/data/paper-line.log tests/data/paper-circle.log
 

@@ -3,9 +3,9 @@
 # figures of docs/wheel.md (tools/wheel/): the speed estimate's noise and lag,
 # window against tracking loop, and the closed loop against the DC motor
 # model in the acceptance's situations, in both numeric modes. Included by
-# the top Makefile after mk/compile.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
-# MODEL_SRCS and mk/numeric.mk's NUM_*_<mode>. Each mode is a build of
-# mk/compile.mk (wheel-<mode>).
+# the top Makefile after mk/host.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
+# mk/host.mk's MODEL_SRCS and mk/numeric.mk's NUM_MODES, NUM_*_<mode>. Each
+# mode is a build of mk/compile.mk (wheel-<mode>).
 
 WHEEL_DIR := build/wheel
 # The wheel loop and what its defaults come from (the limits table).
@@ -29,12 +29,11 @@ $(WHEEL_DIR)/$(1)/.done: $(WHEEL_DIR)/$(1)/wheel_study
 	$$< response $(WHEEL_DIR)/$(1)
 	@touch $$@
 endef
-$(eval $(call WHEEL_RULES,float))
-$(eval $(call WHEEL_RULES,fixed))
+$(foreach m,$(NUM_MODES),$(eval $(call WHEEL_RULES,$(m))))
 
 .PHONY: wheel-figures
 wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requirements.sha256  ## the wheel loop's estimator study and closed-loop figures: docs/wheel.md, docs/img/wheel-*.png
-	MPLCONFIGDIR=$(CURDIR)/build/mplconfig $(PY) tools/wheel/figures.py --doc docs/wheel.md \
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig $(PY) tools/wheel/figures --doc docs/wheel.md \
 	  --img docs/img $(WHEEL_DIR)/float $(WHEEL_DIR)/fixed
 
 # make wheel-sil: the firmware's wheel loop in the simulation (docs/wheel.md):
@@ -54,7 +53,7 @@ wheel-sil: deps-sim libs-both $(KEY_FILE)  ## the paper's scenarios and a subset
 	$(MSTC) sweep --generate-only --count $(WHEEL_SIL_COUNT) --out $(WHEEL_SIL) \
 	  sim/suites/standard.toml
 	@for f in $(WHEEL_SIL)/scenes/*/*.toml; do printf '\n[actuator]\nmodel = "dc"\n' >> $$f; done
-	@set -e; for m in float fixed; do \
+	@set -e; for m in $(NUM_MODES); do \
 	  $(MSTC) sim --bus sil --lib build/host/$$m/libmstc_sil.so --key-file $(KEY_FILE) \
 	    --no-figures --out $(WHEEL_SIL)/paper/$$m $(WHEEL_SIL)/paper/*.toml; \
 	  $(MSTC) sweep -q --strategy mstc --gallery 0 --lib build/host/$$m/libmstc_sil.so \

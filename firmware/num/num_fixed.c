@@ -216,7 +216,7 @@ static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
 }
 
 /* Coefficients of atan(t) ≈ t·(A1 + A3·t² + … + A13·t¹²) on [0, 1], in
- * Q2.30: a minimax fit (tools/numerics/fit_atan.py), max error 2.48e-7 rad
+ * Q2.30: a minimax fit (tools/numerics/fit-atan), max error 2.48e-7 rad
  * (0.016 LSB) with the coefficients rounded as here. */
 #define ATAN_A1        1073737649
 #define ATAN_A3        (-357742515)

@@ -14,6 +14,6 @@ BOARD_SRCS := $(sort $(wildcard hal/template/*.c))
 BOARD_INC := -Ihal/template
 # TODO your MCU's memory map.
 BOARD_LD := hal/template/link.ld
-# Register header generated from a vendor SVD (tools/svd/svd2c.py): set to
+# Register header generated from a vendor SVD (tools/svd/svd2c): set to
 # hal/<yourboard>/svd.json to have build/firmware/<board>/gen/stm32_regs.h.
 BOARD_SVD :=

@@ -3,7 +3,7 @@
  * entry your toolchain and MCU expect. On a Cortex-M this is complete except
  * for the device's interrupt vectors: add one entry per interrupt the port
  * uses (the STM32 boards generate the whole table from the vendor's SVD,
- * tools/svd/svd2c.py). */
+ * tools/svd/svd2c). */
 #include <stdint.h>
 
 #include "hal/hal_motor.h"

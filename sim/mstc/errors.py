@@ -27,6 +27,10 @@ EXIT_USAGE = 2
 EXIT_NO_TARGET = 3
 """The firmware library cannot be loaded (``mstc replay``), or the bus cannot
 be opened (``mstc play``)."""
+EXIT_MISSED = 4
+"""The run was done, but missed what its scenario expects: an ``[[expected]]``
+event beyond its tolerance, or a firmware that ended the run halted
+(``mstc sim``, ``mstc hil``)."""
 EXIT_INTERRUPTED = 130
 """Interrupted (Ctrl-C)."""
 
@@ -165,11 +169,22 @@ class RunError(MstcError):
     account of a :class:`FirmwareError`, :class:`ControllerError`, a bus error...)."""
 
 
+class ExpectationError(MstcError):
+    """A run that missed what its scenario expects (one line per scenario);
+    its outputs are written."""
+
+    exit_status = EXIT_MISSED
+
+
 class DependencyError(MstcError):
     """An optional dependency that is not installed (an extra of the package:
     ``pip install 'mstc[cluster]'``)."""
 
     exit_status = EXIT_USAGE
+
+
+class ClusterError(MstcError):
+    """A Dask cluster that cannot be reached."""
 
 
 class LogError(MstcError):

@@ -91,6 +91,19 @@ def sil_lib() -> Path:
 
 
 @pytest.fixture(scope="session")
+def mstc_fw() -> Path:
+    """mstc-fw, the firmware on SocketCAN (MSTC_FW, which `make test-python`
+    sets); never skipped."""
+    value = os.environ.get("MSTC_FW")
+    if not value or not Path(value).is_file():
+        pytest.fail(
+            f"MSTC_FW={value!r}: run `make test-python` (it builds build/host/mstc-fw)",
+            pytrace=False,
+        )
+    return Path(value)
+
+
+@pytest.fixture(scope="session")
 def libs() -> dict[str, Path]:
     """Both numeric modes' firmware libraries, by mode ("float", "fixed"), from
     MSTC_SIL_LIB_FLOAT and MSTC_SIL_LIB_FIXED; never skipped."""

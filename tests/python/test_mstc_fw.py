@@ -4,22 +4,10 @@
 The CAN exchange itself is tested over vcan by tests/python/test_hil.py.
 """
 
-import os
 import subprocess
 from pathlib import Path
 
 import pytest
-
-
-@pytest.fixture(scope="module")
-def mstc_fw() -> Path:
-    value = os.environ.get("MSTC_FW")
-    if not value or not Path(value).is_file():
-        pytest.fail(
-            f"MSTC_FW={value!r}: run `make test-python` (it builds build/host/mstc-fw)",
-            pytrace=False,
-        )
-    return Path(value)
 
 
 def _run(exe: Path, *args: str) -> subprocess.CompletedProcess[str]:

@@ -274,6 +274,17 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
         "did you mean 'dropout'",
     ),
     "meta family not a string": (edit("meta.family", 3), "meta.family", "must be a string"),
+    # Issue 21, cases 9 and 13.
+    "heading noise above π": (
+        edit("imperfections.heading_noise", 3.2),
+        "imperfections.heading_noise",
+        "at most π",
+    ),
+    "negative tolerance": (
+        edit("expected[1].tolerance", -0.02),
+        "expected[1].tolerance",
+        ">= 0",
+    ),
 }
 
 

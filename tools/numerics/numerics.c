@@ -482,6 +482,6 @@ int main(void)
     printf("- sqrt: correctly rounded, but bit by bit, which takes more instructions than "
            "num_sqrt's Newton steps on a Cortex-M3 (docs/performance.md); and there is no "
            "hypot, while squaring in Q16.16 overflows beyond 181.\n\n");
-    printf("The polynomial of num_atan2 comes from `tools/numerics/fit_atan.py`.\n");
+    printf("The polynomial of num_atan2 comes from `tools/numerics/fit-atan`.\n");
     return 0;
 }

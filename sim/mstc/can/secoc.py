@@ -67,14 +67,20 @@ TEST_KEY_FILE = ROOT / "tests" / "data" / "test.key"
 """The published test key of the tests and the committed logs."""
 
 
+_BLANKS = re.compile(r"[ \t\r\v\f]")
+"""What a key ignores between its digits: C's isspace() but the line end."""
+
+
 def parse_key(text: str, source: str) -> bytes:
-    """The key in @p text: 32 hex digits; lines starting with ``#`` are comments.
+    """The key in @p text: 32 hex digits, blanks and line ends anywhere
+    ignored; a line whose first non-blank character is ``#`` is a comment.
+    mstc-fw (hal/linux/main.c) and tools/setup/device-key read the same
+    format (docs/safety.md, "The key"; tests/python/test_key_parsers.py).
 
     :raises AuthKeyError: anything else, naming @p source.
     """
-    digits = "".join(
-        line.strip() for line in text.splitlines() if not line.lstrip().startswith("#")
-    )
+    lines = (_BLANKS.sub("", line) for line in text.split("\n"))
+    digits = "".join(line for line in lines if not line.startswith("#"))
     if not re.fullmatch(r"[0-9a-fA-F]{32}", digits):
         raise AuthKeyError(
             f"{source}: expected 32 hex digits (an AES-128 key), got {len(digits)} characters"

@@ -18,7 +18,9 @@ from mstc.can.library import LIB_ENV
 from mstc.can.protocol import DBC_PATH, load_database, wire_limits
 from mstc.errors import (
     EXIT_OK,
+    BusError,
     ControllerError,
+    ExpectationError,
     FirmwareError,
     LogError,
     MstcError,
@@ -32,7 +34,7 @@ from mstc.loop.result import RunResult
 from mstc.plant.scenario import Scenario, changed_params, load_scenarios
 from mstc.report.outputs import RUN_FILES, BusLog, folder_problem, write_outputs
 from mstc.report.progress import ProgressBar
-from mstc.report.table import format_report
+from mstc.report.table import format_report, missed
 
 ROOT = Path(__file__).resolve().parents[3]
 """The repository, when the package runs from its source tree."""
@@ -137,15 +139,25 @@ def run_scenarios(
     failures: tuple[type[BaseException], ...],
     *,
     quiet: bool = False,
+    slack: float = 0.0,
+    stop_at: float | None = None,
 ) -> int:
     """Validate every scenario file, run each with @p run_one, then write each
-    run's outputs under @p out and print its table.
+    run's outputs under @p out and print its table; then judge each run
+    against its scenario's expectations (:func:`~mstc.report.table.missed`).
 
     :param quiet: no progress display (a run longer than a second shows one).
+    :param slack: how much further than its tolerance [s] an expected event
+        may be (real time).
+    :param stop_at: a comm-loss trial's time [s] (see
+        :func:`~mstc.report.table.missed`).
     :raises UsageError: a scenario cannot be run (:func:`load_all`).
+    :raises BusError: @p run_one could not open its bus.
     :raises RunError: a run failed with an :class:`MstcError` or an exception
         of @p failures: the error, named with the scenario's file.
     :raises WriteError: an output could not be written.
+    :raises ExpectationError: a run missed its expectations (its outputs are
+        written): one line per such run, naming its file.
     """
     scenarios = load_all(paths, out)
     results: list[tuple[RunResult, BusLog | None]] = []
@@ -155,6 +167,8 @@ def run_scenarios(
         bar = ProgressBar(scenario.sim.steps + 1, scenario.name, "steps", enabled=not quiet)
         try:
             firmware, result, log = run_one(scenario, bar)
+        except BusError:
+            raise  # the bus's fault, not the scenario's: it names the bus
         except caught as exc:  # named with its scenario, for main's one error line
             raise RunError(run_failure(scenario, exc)) from exc
         results.append((result, log))
@@ -165,6 +179,13 @@ def run_scenarios(
         print(format_report(result, folder))
         if log is not None:
             print(f"  bus           {log.describe()}")
+    misses = [
+        f"{result.scenario.path}: missed its expectations: {'; '.join(problems)}"
+        for result, _ in results
+        if (problems := missed(result, slack, stop_at))
+    ]
+    if misses:
+        raise ExpectationError("\n".join(misses))
     return EXIT_OK
 
 
@@ -172,9 +193,12 @@ def run_scenarios(
 
 
 def add_log_arguments(
-    parser: argparse.ArgumentParser, metavar: str = "LOG", what: str = "the bus log"
+    parser: argparse.ArgumentParser,
+    metavar: str = "LOG",
+    what: str = "the bus log, or a run's folder (its bus.log is read)",
 ) -> None:
-    """The log and how to read it (``mstc replay``, ``play``, ``plot``, ``export``)."""
+    """The log and how to read it (``mstc replay``, ``play``, ``plot``, ``export``):
+    a bus log, or a run's folder, whose bus.log is read (:func:`run_log`)."""
     parser.add_argument("log", metavar=metavar, type=Path, help=what)
     parser.add_argument(
         "--format",
@@ -205,6 +229,19 @@ def add_log_arguments(
     )
 
 
+def run_log(path: Path) -> Path:
+    """The bus log @p path names: itself, or for a run's folder (what ``mstc
+    sim`` and ``mstc hil`` write) the ``bus.log`` in it.
+
+    :raises UsageError: a folder without a bus.log.
+    """
+    if not path.is_dir():
+        return path
+    if not (path / "bus.log").is_file():
+        raise UsageError(f"{path} is a directory without a bus.log: not a run folder")
+    return path / "bus.log"
+
+
 def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog]:
     """The DBC and the log, decoded (``mstc plot``, ``export``), with the
     problems of both printed.
@@ -228,7 +265,9 @@ def load_log(args: argparse.Namespace) -> tuple[Database, FrameLog]:
     :raises DbcLoadError: the DBC cannot be loaded.
     :raises DbcError: it lacks a name the Python side uses (:mod:`mstc.can.dbc`).
     :raises LogError: the log cannot be used, or with ``--strict`` has problems.
+    :raises UsageError: a folder without a bus.log (:func:`run_log`).
     """
+    args.log = run_log(args.log)
     db = load_database(args.dbc)
     tables(db)  # it names everything the Python side names (mstc.can.dbc)
     log = read_log(args.log, db, args.format, max_problems=max(args.max_problems, 0))

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from mstc.cli.common import add_log_arguments, load_decoded
-from mstc.errors import EXIT_OK, UsageError
+from mstc.errors import EXIT_OK
 from mstc.logs.export import export_mcap, format_summary
 
 NAME = "export"
@@ -50,10 +50,6 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def run(args: argparse.Namespace) -> int:
     """Decode the log and write the MCAP file."""
     source = args.log
-    if source.is_dir():
-        args.log = source / "bus.log"
-        if not args.log.is_file():
-            raise UsageError(f"{source} is a folder without a bus.log: not a run folder")
     db, decoded = load_decoded(args)
     summary = export_mcap(decoded, db, args.mcap)
     print(format_summary(summary, source))

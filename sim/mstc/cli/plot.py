@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from mstc.can.protocol import wire_limits
-from mstc.cli.common import add_log_arguments, load_decoded
+from mstc.cli.common import add_log_arguments, load_decoded, run_log
 from mstc.errors import EXIT_OK
 from mstc.logs.decode import output_name
 from mstc.plant.scenario import ExpectedEvent, load_scenario
@@ -18,7 +18,9 @@ NAME = "plot"
 HELP = "decode a bus log: events, status, trace and the paper's figures"
 
 _EPILOG = """\
-Writes DIR/<log file stem>/ (for a run's bus.log, its folder's name):
+LOG is a bus log, or a run's folder (mstc sim or mstc hil wrote it), whose
+bus.log is read. Writes DIR/<log file stem>/ (for a run's bus.log, its
+folder's name):
 events.json and trace.csv in the formats of make sim (docs/scenarios.md),
 status.csv (one row per control step: the inputs, the wheel speeds and v, w,
 every STATUS and STATUS_TRK signal, the distance to each obstacle), and the
@@ -79,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     expected: tuple[ExpectedEvent, ...] = ()
     if args.scenario is not None:
         expected = load_scenario(args.scenario, wire_limits()).expected
+    args.log = run_log(args.log)
     output_folder(args.out, output_name(args.log), PLOT_FILES, source=str(args.log))
     _, decoded = load_decoded(args)
     folder = write_log_outputs(decoded, args.out, figures=not args.no_figures)

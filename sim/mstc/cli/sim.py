@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import can
@@ -11,6 +12,7 @@ import can
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
 from mstc.cli.common import add_key_argument, library, run_scenarios
+from mstc.errors import UsageError
 from mstc.firmware.sil import SilController
 from mstc.firmware.wheels import wheels_for
 from mstc.loop.lockstep import CanController, simulate
@@ -44,9 +46,14 @@ written, so that none is left from before. A folder holding any other file,
 a folder that is a symbolic link, and a file whose stem cannot name a folder
 inside DIR (a file called ...toml) are refused (exit 2) and left alone.
 
+A run that misses its scenario's [[expected]] events (one not reproduced,
+further from its time than its tolerance and --tolerance, or on the other
+side) says so on the last line, after its outputs are written, and exits 4.
+
 exit status: 0 done; 1 the firmware library failed or refused the scenario's
 parameters, the run failed, or an output could not be written; 2 bad
-arguments, a bad scenario file, or an output folder that cannot be used.
+arguments, a bad scenario file, or an output folder that cannot be used;
+4 a run missed its scenario's expectations.
 
 buses:
   sil     the firmware in process behind CAN frames: python-can's interface
@@ -66,8 +73,18 @@ else build/host/float/libmstc_sil.so.
 """
 
 
-def add_output_arguments(parser: argparse.ArgumentParser, default_out: str) -> None:
-    """--no-figures, --out and the scenario files (shared with ``mstc hil``)."""
+def add_output_arguments(
+    parser: argparse.ArgumentParser, default_out: str, default_tolerance: str = "0"
+) -> None:
+    """--no-figures, --out, --tolerance and the scenario files (shared with
+    ``mstc hil``)."""
+    parser.add_argument(
+        "--tolerance",
+        metavar="S",
+        type=float,
+        help="how much further than its own tolerance an [[expected]] event may be [s] "
+        f"(default: {default_tolerance})",
+    )
     parser.add_argument(
         "--no-figures",
         action="store_true",
@@ -137,8 +154,21 @@ def _run_one(
     return bus.channel_info, result, BusLog("sil0", ctl)
 
 
+def tolerance(args: argparse.Namespace, default: float = 0.0) -> float:
+    """--tolerance, or @p default [s].
+
+    :raises UsageError: not a time >= 0.
+    """
+    if args.tolerance is None:
+        return default
+    if not 0.0 <= args.tolerance < math.inf:
+        raise UsageError(f"--tolerance: expected a time >= 0 s, got {args.tolerance:g}")
+    return float(args.tolerance)
+
+
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each, then write and report."""
+    slack = tolerance(args)
     # A simulation: the simulations' key by default, never a device's.
     args.key = secoc.load_key(args.key_file, secoc.SIM_KEY_FILE) if args.bus == "sil" else None
     return run_scenarios(
@@ -148,4 +178,5 @@ def run(args: argparse.Namespace) -> int:
         lambda scenario, bar: _run_one(args, scenario, bar),
         (can.CanError,),
         quiet=args.quiet,
+        slack=slack,
     )

@@ -14,14 +14,15 @@ from pathlib import Path
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
 from mstc.cli.common import find_library, library
-from mstc.errors import EXIT_OK, UsageError, writing
+from mstc.errors import EXIT_OK, ScenarioError, SuiteError, UsageError, writing
 from mstc.firmware.sil import SilController
 from mstc.loop.result import RunResult
 from mstc.model import Params
-from mstc.plant.scenario import load_scenarios
+from mstc.plant.scenario import Scenario, load_scenario
 from mstc.report.progress import ProgressBar
-from mstc.sweep.engine import STRATEGIES, Scene, require_dask, run_job, run_sweep
-from mstc.sweep.suite import Family, Suite, generate, is_suite, load_suite
+from mstc.sweep.engine import STRATEGIES, Scene, check_scheduler, run_job, run_sweep
+from mstc.sweep.folder import locked
+from mstc.sweep.suite import MAX_COUNT, Family, Suite, generate, is_suite, load_suite
 from mstc.sweep.summary import write_summary
 
 NAME = "sweep"
@@ -42,6 +43,8 @@ Writes under DIR:
                                   medians per family and strategy, histograms
                                   (clearance.png, tracking_error.png) and the
                                   runs of smallest clearance (gallery/)
+  sources.json                    the sha256 of each scene's text and of the
+                                  library the rows were run with (--resume)
 
 strategies:
   paper   the paper's switch strategy in the firmware (in memory, C step)
@@ -50,11 +53,14 @@ strategies:
 
 A scene that fails (an exception, a non-finite state, a worker that dies) is
 a row with its error, never the end of the sweep. Interrupted, the sweep goes
-on where it stopped with --resume (same DIR and inputs).
+on where it stopped with --resume (same DIR and inputs): it keeps the rows run
+from the same scene files and library (DIR/sources.json) and runs the rest.
+One sweep at a time writes DIR (a lock on DIR/.lock): another is refused.
 
 exit status: 0 done (error rows included); 1 the firmware library could not
-be loaded or differs between workers, or an output could not be written;
-2 bad arguments, a bad suite or scenario file.
+be loaded or differs between workers, the Dask scheduler cannot be reached,
+or an output could not be written; 2 bad arguments, a bad suite or scenario
+file, or DIR in use by another sweep.
 
 examples:
   .venv/bin/mstc sweep --strategy paper,dwa --out build/sweep/standard \\
@@ -130,7 +136,10 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="only this family of the suites (repeatable)",
     )
     parser.add_argument(
-        "--count", metavar="N", type=int, help="scenes per family instead of the suite's counts"
+        "--count",
+        metavar="N",
+        type=int,
+        help=f"scenes per family instead of the suite's counts (1 to {MAX_COUNT:,})",
     )
     parser.add_argument(
         "--gallery",
@@ -143,15 +152,22 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
-def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]]:
-    """The scenario files to run (suites generated first).
+Origins = dict[Path, tuple[Path, str]]
+"""A generated scene file -> its suite file and family."""
 
-    :raises UsageError: a folder without scenario files, an unknown family.
+
+def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite], Origins]:
+    """The scenario files to run (suites generated first), and where the
+    generated ones come from.
+
+    :raises UsageError: a folder without scenario files, an unknown family,
+        with --generate-only an input that is not a suite.
     :raises SuiteError: a bad suite file.
     :raises WriteError: the scene files cannot be written.
     """
     files: list[Path] = []
     suites: list[Suite] = []
+    origins: Origins = {}
     for path in args.inputs:
         if path.is_dir():
             found = sorted(p for p in path.rglob("*.toml") if p.is_file())
@@ -171,11 +187,39 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite]]:
                     raise UsageError(f"{path}: no family {name!r} (families: {families})")
             wanted = tuple(args.family) if args.family else None
             with writing("the scene files"):
-                files += [f.path for f in generate(suite, args.out / "scenes", wanted)]
+                scenes = generate(suite, args.out / "scenes", wanted)
+            files += [f.path for f in scenes]
+            origins.update((f.path, (path, f.family)) for f in scenes)
             suites.append(suite)
+        elif args.generate_only:
+            raise UsageError(
+                f"{path}: not a suite file (no [family.<name>] table): --generate-only "
+                "writes the scenes of suites"
+            )
         else:
             files.append(path)
-    return files, suites
+    return files, suites, origins
+
+
+def _load(files: list[Path], origins: Origins) -> tuple[list[Scenario], list[str]]:
+    """Every scene, validated, and the problem of each that is not: a
+    generated scene's named with its suite and family (docs/sweeps.md), since
+    the suite is what to change."""
+    wire = wire_limits()
+    loaded, problems = [], []
+    for path in files:
+        try:
+            loaded.append(load_scenario(path, wire))
+        except ScenarioError as exc:
+            if path not in origins:
+                problems.append(str(exc))
+                continue
+            suite, family = origins[path]
+            where = f"scene {path.stem}: {exc.key}" if exc.key else f"scene {path.stem}"
+            problems.append(
+                str(SuiteError(str(suite), f"family.{family}", f"{where}: {exc.problem}"))
+            )
+    return loaded, problems
 
 
 def _with_count(family: Family, count: int) -> Family:
@@ -192,15 +236,22 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.jobs < 1:
         raise UsageError("--jobs must be at least 1")
+    if args.count is not None and not 1 <= args.count <= MAX_COUNT:
+        raise UsageError(f"--count: expected 1 to {MAX_COUNT:,} scenes a family, got {args.count}")
     if args.scheduler is not None:
-        require_dask()
-    files, suites = _scene_files(args)
+        check_scheduler(args.scheduler)
+    with locked(args.out):  # one sweep at a time in a folder
+        return _sweep(args, strategies)
+
+
+def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
+    files, suites, origins = _scene_files(args)
     if args.generate_only:
         print(f"{len(files)} scene files in {args.out / 'scenes'}/")
         return EXIT_OK
 
     # Every scene is validated here, before anything runs, like `mstc sim`.
-    loaded, problems = load_scenarios(files, wire_limits())
+    loaded, problems = _load(files, origins)
     scenes: list[Scene] = []
     seen: dict[str, Path] = {}
     for scenario in loaded:

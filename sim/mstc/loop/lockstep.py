@@ -26,8 +26,8 @@ import numpy as np
 
 from mstc.can import secoc
 from mstc.can.dbc import tables
-from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc
-from mstc.errors import ControllerError, FrameDropped, SimulationError
+from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc, wire_limits
+from mstc.errors import ControllerError, FrameDropped, SignalRangeError, SimulationError
 from mstc.loop.result import (
     PROGRESS_UPDATES,
     TRACE_COLUMNS,
@@ -45,6 +45,7 @@ from mstc.model import (
     Params,
     Pose,
     Progress,
+    SignalRange,
     Status,
     StepResult,
     StepValues,
@@ -81,6 +82,14 @@ def step_values(controller: Controller) -> StepFunction:
     return values
 
 
+def _not_carried(pair: tuple[SignalRange, SignalRange], x: float, y: float) -> SignalRangeError:
+    """The error the frame of @p pair would raise for (@p x, @p y), one of
+    which it does not carry (:func:`mstc.can.protocol.to_raw`'s)."""
+    signal, value = next((s, v) for s, v in zip(pair, (x, y), strict=True) if v not in s)
+    frame, name = signal.name.split(".")
+    return SignalRangeError(frame, name, value, (signal.lo, signal.hi), signal.unit)
+
+
 def simulate(
     scenario: Scenario,
     controller: Controller,
@@ -111,9 +120,19 @@ def simulate(
         ``[actuator]``, e.g. :class:`mstc.firmware.wheels.DcWheels`) that move
         the robot instead of the ideal ones.
 
-    :returns: The trace, the events and the minimum distance to each obstacle.
+    :returns: The trace, the events and the minimum distance to each obstacle;
+        the firmware's halt state at the end when the controller keeps one
+        (its ``halt``: :class:`CanController`).
+
+    Whatever the controller, the pose and the obstacles it is given are
+    checked against the ranges of the frames that carry them (ODOM_XY,
+    OBSTACLE), as the frames themselves check them: a noisy pose or report, or
+    a robot, beyond them stops the run with the frame's own error, so that a
+    scenario gives the same result in memory and through CAN
+    (docs/scenarios.md).
 
     :raises SimulationError: the plant's state became non-finite.
+    :raises SignalRangeError: a pose or an obstacle the frames do not carry.
     """
     sim = scenario.sim
     imp = scenario.imperfections
@@ -150,6 +169,10 @@ def simulate(
 
     dt, dt_us = sim.dt, sim.dt_us
     tick = max((steps + 1) // PROGRESS_UPDATES, 1)
+    wire = wire_limits()
+    (x_lo, x_hi), (y_lo, y_hi) = ((r.lo, r.hi) for r in wire.robot)
+    (ox_lo, ox_hi), (oy_lo, oy_hi) = ((r.lo, r.hi) for r in wire.obstacle)
+    roaming = moving or bool(imp.obstacle_noise)  # the loader checked the others
     try:
         for k in range(steps + 1):
             t_us = k * dt_us
@@ -160,6 +183,15 @@ def simulate(
             if odometry_noise is not None:
                 nx, ny, nt = odometry_noise[k]
                 measured = Pose(robot.x + nx, robot.y + ny, robot.theta + nt)
+            if not (x_lo <= measured.x <= x_hi and y_lo <= measured.y <= y_hi):
+                if not np.isfinite(robot).all():
+                    raise SimulationError(
+                        f"{scenario.path}: the plant's state became non-finite at t = {t:g} s"
+                    )
+                raise _not_carried(wire.robot, measured.x, measured.y)
+            for o in seen if roaming else ():
+                if not (ox_lo <= o.x <= ox_hi and oy_lo <= o.y <= oy_hi):
+                    raise _not_carried(wire.obstacle, o.x, o.y)
             start = clock()
             left, right, mode, faults, e1, e2, e3, e, emitted = step(
                 measured, reference, v_r, w_r, seen, t_us
@@ -197,6 +229,7 @@ def simulate(
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
         faults=fault_counts(fault_masks),
         step_time=spent / 1e9 / (steps + 1),
+        halt=getattr(controller, "halt", None),
     )
 
 
@@ -305,6 +338,8 @@ class CanController:
         self._now = 0.0
         self._steps = 0
         self._armed = False
+        self.halt: int | None = None
+        """STATUS_halt of the latest step (0 running), None before the first."""
         self._configure()
 
     # ------------------------------------------------------------ the bus
@@ -508,6 +543,7 @@ class CanController:
                 break
         if status is None or trk is None:
             raise ControllerError(f"step {step}: WHEEL_CMD came without STATUS and STATUS_TRK")
+        self.halt = int(status.signals["halt"])
         left, right = float(s["left"]), float(s["right"])
         return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
 

@@ -614,6 +614,7 @@ def _run(
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
         faults=fault_counts(s.status.faults for s in steps if s.status is not None),
         timing=timing,
+        halt=latest.halt,
     )
 
 

@@ -83,6 +83,10 @@ class RunResult:
     timing: Timing | None = None
     """A real-time run's timing (:mod:`mstc.loop.realtime`, timing.json);
     None in lock-step, where the plant's time is the firmware's."""
+    halt: int | None = None
+    """STATUS_halt of the firmware's last step of the run: 0 running, else why
+    it holds the robot (docs/safety.md); None where the run has no such
+    state (the control step in memory)."""
 
 
 def fault_counts(masks: Iterable[int]) -> dict[Fault, int]:

@@ -44,6 +44,11 @@ memory, 2.6 kB per step through CAN (the frames kept for bus.log), and 1.3 to
 2 ms per step through CAN, so 2 to 3 minutes at the limit (docs/scenarios.md)."""
 
 
+MAX_HEADING_NOISE = math.pi
+"""The largest ``heading_noise`` [rad]: the heading is an angle, and a wrapped
+normal of standard deviation π is already all but uniform on the circle."""
+
+
 @dataclass(frozen=True)
 class ImperfectionSpec:
     """What a real robot adds to the ideal loop (``[imperfections]``). The
@@ -130,6 +135,8 @@ class ExpectedEvent:
     """1-based obstacle number."""
     side: Side | None
     """Set on activate only."""
+    tolerance: float = 0.0
+    """How far the run's event may be from t and still meet it [s]."""
 
     @property
     def t_us(self) -> int:
@@ -562,6 +569,12 @@ def _parse_imperfections(c: _Checker, value: object) -> ImperfectionSpec:
     for key in _IMPERFECTION_NOISES:
         if key in table:
             values[key] = c.non_negative(table[key], f"imperfections.{key}")
+    if values.get("heading_noise", 0.0) > MAX_HEADING_NOISE:
+        raise c.fail(
+            "imperfections.heading_noise",
+            f"must be at most π = {MAX_HEADING_NOISE:.6g} rad (a heading is an angle: "
+            f"wider noise is no noisier), got {values['heading_noise']:g}",
+        )
     if "seed" in table:
         values["seed"] = c.integer(table["seed"], "imperfections.seed")
     if "sensor_range" in table:
@@ -658,7 +671,8 @@ def _parse_expected(
     result = []
     for i, entry in enumerate(entries, start=1):
         prefix = f"expected[{i}]"
-        c.keys(entry, prefix, ("t", "event", "obstacle"), ("t", "event", "obstacle", "side"))
+        allowed = ("t", "event", "obstacle", "side", "tolerance")
+        c.keys(entry, prefix, ("t", "event", "obstacle"), allowed)
         t = c.number(entry["t"], f"{prefix}.t")
         if not 0.0 <= t <= sim.duration:
             raise c.fail(
@@ -678,5 +692,6 @@ def _parse_expected(
             side = Side(c.choice(entry["side"], f"{prefix}.side", tuple(Side)))
         elif "side" in entry:
             raise c.fail(f"{prefix}.side", f"only activate events have a side, not {event}")
-        result.append(ExpectedEvent(t, event, obstacle, side))
+        tolerance = c.non_negative(entry.get("tolerance", 0.0), f"{prefix}.tolerance")
+        result.append(ExpectedEvent(t, event, obstacle, side, tolerance))
     return tuple(result)

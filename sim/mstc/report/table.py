@@ -4,6 +4,7 @@
 from dataclasses import dataclass
 from pathlib import Path
 
+from mstc.can.dbc import tables
 from mstc.loop.result import RunResult
 from mstc.model import Event, EventKind, Fault, Params
 from mstc.plant.scenario import ExpectedEvent
@@ -61,6 +62,37 @@ def _steps(match: Match, dt_us: int) -> str:
     if steps == round(steps):
         return f"{round(steps):+d}" if steps else "0"
     return f"{steps:+.1f}"
+
+
+def missed(result: RunResult, slack: float = 0.0, stop_at: float | None = None) -> list[str]:
+    """What @p result missed of its scenario's expectations, one phrase each:
+    an ``[[expected]]`` event not reproduced, further from its time than its
+    tolerance plus @p slack [s], or on the other side; a firmware that ended
+    the run halted. Empty when it met them all.
+
+    :param stop_at: a comm-loss trial's time [s]: the odometry stopped then,
+        so the halt was asked for and the events expected from then on are
+        not judged.
+    """
+    scenario = result.scenario
+    problems = []
+    for m in match_events(result.events, scenario.expected):
+        exp, sim = m.expected, m.simulated
+        if exp is None or (stop_at is not None and exp.t >= stop_at):
+            continue
+        what = f"{exp.event} O{exp.obstacle} expected at {exp.t:g} s"
+        allowed = exp.tolerance + slack
+        if sim is None:
+            problems.append(f"{what}: not reproduced")
+        elif abs(sim.t_us - exp.t_us) > round(allowed * 1e6):
+            steps = _steps(m, scenario.sim.dt_us)
+            problems.append(f"{what}: at {sim.t:g} s, Δ {steps} steps (tolerance {allowed:g} s)")
+        elif exp.side != sim.side:
+            problems.append(f"{what}: on the {sim.side}, expected on the {exp.side}")
+    if result.halt and stop_at is None:
+        reason = tables().halt.name_of(result.halt) or "?"
+        problems.append(f"the firmware ended the run halted (STATUS_halt {result.halt}, {reason})")
+    return problems
 
 
 def _note(match: Match, any_expected: bool) -> str:

@@ -28,16 +28,18 @@ import io
 import math
 import multiprocessing
 import os
+import socket
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
+from typing import get_type_hints
 
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
-from mstc.errors import DependencyError, FirmwareError
+from mstc.errors import ClusterError, DependencyError, FirmwareError, UsageError
 from mstc.firmware.sil import SilController
 from mstc.firmware.wheels import wheels_for
 from mstc.loop.lockstep import simulate
@@ -46,6 +48,7 @@ from mstc.model import Controller, Strategy
 from mstc.plant.scenario import Scenario, parse_scenario
 from mstc.report.outputs import events_json
 from mstc.sweep.dwa import DwaController
+from mstc.sweep.folder import read_sources, text_sha256, write_sources
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, evaluate
 
 STRATEGIES = ("paper", "mstc", "dwa")
@@ -205,16 +208,40 @@ def run_batch(jobs: Sequence[Job], lib: str) -> list[Outcome]:
 # ------------------------------------------------------------------ runs.csv
 
 
+_METRIC_TYPES = get_type_hints(Metrics)
+
+
+def _well_formed(row: dict[str, str]) -> bool:
+    """Whether @p row holds what this module writes: a failed run's metrics
+    empty, a finished run's each a value of its type."""
+    if row["error"]:
+        return all(row[c] == "" for c in ("steps", *METRIC_COLUMNS))
+    try:
+        int(row["steps"])
+        for name, kind in _METRIC_TYPES.items():
+            value = row[name]
+            if kind is bool or kind == bool | None:
+                if value not in ("0", "1") and (kind is bool or value != ""):
+                    return False
+            elif kind is int:
+                int(value)
+            else:
+                float(value)
+    except ValueError:
+        return False
+    return True
+
+
 def read_rows(path: Path) -> list[dict[str, str]]:
-    """The complete rows of a runs.csv (a line cut short by an interruption
-    is left out)."""
+    """The complete, well-formed rows of a runs.csv (a line cut short by an
+    interruption, or a value that is not one of its column, is left out)."""
     if not path.is_file():
         return []
     with path.open(newline="") as f:
         reader = csv.DictReader(f)
         if tuple(reader.fieldnames or ()) != ROW_COLUMNS:
             return []
-        return [r for r in reader if None not in r.values() and None not in r]
+        return [r for r in reader if None not in r.values() and None not in r and _well_formed(r)]
 
 
 def _row_text(row: dict[str, str]) -> str:
@@ -319,6 +346,38 @@ def require_dask() -> None:
         )
 
 
+SCHEDULER_TIMEOUT = 5.0
+"""How long :func:`check_scheduler` waits for a scheduler's port to answer [s]."""
+
+
+def check_scheduler(address: str) -> None:
+    """@p address is a Dask scheduler's, and its port answers (tcp:// and
+    tls://): a wrong or closed address is said at once, before anything runs,
+    not after the client's 30 s of retries.
+
+    :raises DependencyError: Dask is not installed.
+    :raises UsageError: @p address is not an address.
+    :raises ClusterError: nothing answers there.
+    """
+    require_dask()
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location) if scheme in ("tcp", "tls") else ("", 0)
+    except ValueError as exc:
+        raise UsageError(
+            f"--scheduler {address}: {exc} (expected tcp://HOST:PORT, docs/sweeps.md)"
+        ) from exc
+    if not host:
+        return
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT).close()
+    except OSError as exc:
+        why = exc.strerror or str(exc) or type(exc).__name__
+        raise ClusterError(f"cannot reach the Dask scheduler at {address}: {why}") from exc
+
+
 def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
     """Run @p jobs on the Dask cluster at @p scheduler (``tcp://host:port``).
     Dask retries the tasks of a dead worker elsewhere; a batch that keeps
@@ -331,7 +390,11 @@ def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
     from distributed import Client, as_completed
     from distributed.scheduler import KilledWorker
 
-    with Client(scheduler, timeout="30s") as client:
+    try:
+        client = Client(scheduler, timeout="30s")
+    except OSError as exc:  # distributed's TimeoutError too
+        raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
+    with client:
         workers = max(1, len(client.scheduler_info()["workers"]))
         todo = {client.submit(run_batch, b, lib, pure=False): b for b in batches(jobs, workers)}
         queue = as_completed(list(todo))
@@ -380,8 +443,10 @@ def run_sweep(
 
     :param workers: processes of the local pool (ignored with @p scheduler).
     :param scheduler: a Dask scheduler's address, or None for the local pool.
-    :param resume: keep the rows of DIR/runs.csv (and their events.json) and
-        run only the jobs it lacks; otherwise start afresh.
+    :param resume: keep the rows of DIR/runs.csv (and their events.json) run
+        from the same scene text and library (DIR/sources.json:
+        :mod:`mstc.sweep.folder`) and run only the jobs it lacks; otherwise
+        start afresh.
     :param progress: called with (done, total) as jobs finish.
 
     :raises FirmwareError: a worker ran another firmware library than @p lib
@@ -392,18 +457,26 @@ def run_sweep(
     plan: list[Job] = [(scene, strategy) for scene in scenes for strategy in strategies]
     order = {(scene.name, strategy): i for i, (scene, strategy) in enumerate(plan)}
     rows: dict[tuple[str, str], dict[str, str]] = {}
+    local_sha = library_sha256(lib) if Path(lib).is_file() else ""
+    texts = {scene.name: text_sha256(scene.text) for scene in scenes}
     if resume:
+        before = read_sources(out)
+        ran_from = before.get("scenes")
+        ran_from = ran_from if isinstance(ran_from, dict) else {}
         for row in read_rows(runs):
             key = (row["scene"], row["strategy"])
             finished = (
                 bool(row["error"])
                 or (out / row["strategy"] / row["scene"] / "events.json").is_file()
             )
-            if key in order and finished:
+            same = ran_from.get(row["scene"]) == texts.get(row["scene"]) and (
+                row["strategy"] == "dwa" or before.get("library") == local_sha
+            )
+            if key in order and finished and same:
                 rows[key] = row
     write_rows(runs, sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])]))
+    write_sources(out, local_sha, texts)  # after runs.csv: it holds no row from before
     todo = [job for job in plan if (job[0].name, job[1]) not in rows]
-    local_sha = library_sha256(lib) if Path(lib).is_file() else ""
     total, done = len(plan), len(rows)
     if progress:
         progress(done, total)

@@ -22,14 +22,19 @@ from pathlib import Path
 from typing import Any
 
 from mstc.can.protocol import wire_limits
-from mstc.errors import SuiteError
+from mstc.errors import ScenarioError, SuiteError
 from mstc.model import Params
 from mstc.plant.plant import Integrator
+from mstc.plant.scenario import parse_scenario
 
 SEED_STRIDE = 1_000_000
 """Scene i of a family with seed s is drawn with seed s·SEED_STRIDE + i."""
 MAX_TRIES = 1000
 """Draws of one obstacle before the generator gives up on a scene's geometry."""
+MAX_COUNT = 100_000
+"""Scenes a family may have: 0.5 to 1.5 kB of scene file each, so at most
+about 150 MB a family (and well below SEED_STRIDE, which keeps the streams of
+two families apart)."""
 
 
 Range = tuple[float, float]
@@ -230,7 +235,74 @@ def load_suite(path: str | Path) -> Suite:
         _family(fail, fname, _table(fail, value, f"family.{fname}"))
         for fname, value in families_table.items()
     )
+    _probe(fail, "suite.dt", dt, integrator)
+    for family in families:
+        _check_scenes(fail, family, dt, integrator)
     return Suite(Path(path), suite_name, dt, Integrator(integrator), families)
+
+
+def _probe(
+    fail: Callable[[str, str], SuiteError],
+    key: str,
+    dt: float,
+    integrator: str,
+    what: str = "",
+    **tables: object,
+) -> None:
+    """Give the scenario loader a scene of one step at the origin with
+    @p tables in it, and blame @p key (and @p what of it) for what it refuses:
+    a suite's ranges are checked with the loader's own rules."""
+    doc = {
+        "robot": {"pose": [0.0, 0.0, 0.0]},
+        "reference": {"pose": [0.0, 0.0, 0.0], "v": 0.0, "w": 0.0},
+        "sim": {"duration": dt, "dt": dt, "integrator": integrator},
+        **tables,
+    }
+    try:
+        parse_scenario(doc, key, wire_limits())
+    except ScenarioError as exc:
+        raise fail(key, what + exc.problem) from exc
+
+
+def _check_scenes(
+    fail: Callable[[str, str], SuiteError], family: Family, dt: float, integrator: str
+) -> None:
+    """What the loader will check in each scene of @p family, on the ends of
+    its ranges, naming the suite's key (docs/sweeps.md): the reference's speed
+    and turn rate, the obstacles' radii and speeds, the run's length and the
+    imperfections. Where a scene goes (its reference's path, its obstacles'
+    positions) depends on every draw at once: `mstc sweep` names the family
+    of a generated scene the loader refuses."""
+    prefix = f"family.{family.name}"
+    g = family.draws
+
+    def probe(key: str, what: str = "", **tables: object) -> None:
+        _probe(fail, f"{prefix}.{key}", dt, integrator, what, **tables)
+
+    def reference(v: float, w: float = 0.0) -> dict[str, object]:
+        return {"pose": [0.0, 0.0, 0.0], "v": v, "w": w}
+
+    for v in g["v_r"]:
+        probe("v_r", reference=reference(v))
+    for r in g["radius"]:  # drawn in whole centimetres
+        probe("radius", obstacles=[{"position": [5.0, 0.0], "radius": round(r, 2)}])
+    probe("duration", sim={"duration": g["duration"], "dt": dt, "integrator": integrator})
+    if family.kind == "circle":
+        if g["circle_radius"][0] <= 0.0:
+            raise fail(f"{prefix}.circle_radius", "radii must be > 0")
+        fastest = max(abs(v) for v in g["v_r"])
+        turn = reference(fastest, fastest / g["circle_radius"][0])
+        probe("circle_radius", "the reference's turn rate v_r / circle_radius ", reference=turn)
+    for s in g.get("speed", ()):
+        for v in (s, -s):  # either component, either way
+            probe(
+                "speed",
+                "an obstacle's velocity ",
+                obstacles=[{"position": [5.0, 0.0], "velocity": [v, v]}],
+            )
+    for key, ends in family.imperfections.items():
+        for end in ends:
+            probe(f"imperfections.{key}", imperfections={key: end})
 
 
 def _family(fail: Callable[[str, str], SuiteError], fname: str, table: Mapping[str, Any]) -> Family:
@@ -246,6 +318,10 @@ def _family(fail: Callable[[str, str], SuiteError], fname: str, table: Mapping[s
         value = table.get(key)
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise fail(f"{prefix}.{key}", "must be an integer >= 0 (required)")
+    if table["count"] > MAX_COUNT:
+        raise fail(
+            f"{prefix}.count", f"at most {MAX_COUNT:,} scenes a family, got {table['count']:,}"
+        )
     draws: dict[str, Any] = {}
     for key, default in defaults.items():
         value = table.get(key)
@@ -270,8 +346,6 @@ def _family(fail: Callable[[str, str], SuiteError], fname: str, table: Mapping[s
         key: _range(fail, value, f"{prefix}.imperfections.{key}", key == "delay")
         for key, value in imperfections.items()
     }
-    if "dropout" in imp and not 0.0 <= imp["dropout"][0] <= imp["dropout"][1] < 1.0:
-        raise fail(f"{prefix}.imperfections.dropout", "must be probabilities in [0, 1)")
     return Family(fname, kind, table["count"], table["seed"], draws, imp)
 
 

@@ -1,0 +1,112 @@
+# SPDX-License-Identifier: MIT
+"""A run's inputs, as issue 21's cases 9, 11 and 12 found them handled:
+
+- case 9: ``heading_noise = 1e308`` ended in a traceback (math domain error)
+  on both buses, not in one line;
+- case 11: ``position_noise = 1e6`` ran on ``--bus memory`` (its fault
+  mislabelled "non-finite input") and stopped on ``--bus sil`` with an
+  ODOM_XY range error, while docs/scenarios.md promises a scenario the same
+  result on every bus;
+- case 12: ``mstc hil`` without SocketCAN blamed the scenario
+  (``error: <scenario>.toml: [Errno 97] ...``); ``mstc plot <run folder>``
+  could not tell the log format while ``mstc export`` takes run folders.
+
+Each command's error is compared between the buses, or read for what it
+names, never against the code's own output.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from conftest import SCENARIOS
+from mstc.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+LOG = ROOT / "tests" / "data" / "paper-line.log"
+
+
+def _noisy(tmp_path: Path, table: str) -> Path:
+    """paper-line.toml with an [imperfections] table."""
+    text = (SCENARIOS / "paper-line.toml").read_text()
+    path = tmp_path / "noisy.toml"
+    path.write_text(text + f"\n[imperfections]\nseed = 1\n{table}\n")
+    return path
+
+
+def _sim(bus: str, scenario: Path, out: Path, lib: Path) -> list[str]:
+    return ["sim", "--bus", bus, "--lib", str(lib), "--no-figures", "-q", "--out", str(out),
+            str(scenario)]  # fmt: skip
+
+
+def _errors(capsys: pytest.CaptureFixture[str]) -> list[str]:
+    return capsys.readouterr().err.strip().splitlines()
+
+
+def test_an_absurd_heading_noise_is_one_line_on_every_bus(
+    tmp_path: Path, sil_lib: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scenario = _noisy(tmp_path, "heading_noise = 1e308")
+    for bus in ("memory", "sil"):
+        assert main(_sim(bus, scenario, tmp_path / bus, sil_lib)) == 2
+        err = _errors(capsys)
+        assert len(err) == 1 and err[0].startswith(
+            f"error: {scenario}: imperfections.heading_noise"
+        )
+
+
+@pytest.mark.parametrize(
+    ("table", "signal"),
+    [("position_noise = 1e6", "ODOM_XY."), ("obstacle_noise = 1e6", "OBSTACLE.")],
+)
+def test_noise_beyond_the_frames_gives_the_same_result_on_every_bus(
+    tmp_path: Path, sil_lib: Path, capsys: pytest.CaptureFixture[str], table: str, signal: str
+) -> None:
+    scenario = _noisy(tmp_path, table)
+    results = {}
+    for bus in ("memory", "sil"):
+        rc = main(_sim(bus, scenario, tmp_path / bus, sil_lib))
+        results[bus] = (rc, _errors(capsys))
+    assert results["memory"] == results["sil"]
+    rc, err = results["sil"]
+    assert rc == 1 and len(err) == 1, err
+    assert err[0].startswith(f"error: {scenario}: {signal}") and "outside its range" in err[0]
+    assert not (tmp_path / "memory" / "noisy").exists()  # nothing written, as on sil
+
+
+def test_hil_without_a_bus_blames_the_bus_not_the_scenario(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # No such interface on any machine: EAFNOSUPPORT where the kernel has no
+    # SocketCAN (this one), ENODEV where it has.
+    scenario = SCENARIOS / "paper-line.toml"
+    rc = main(["hil", "--channel", "mstcnosuch0", "--out", str(tmp_path), str(scenario)])
+    err = _errors(capsys)
+    assert rc == 3, err
+    assert len(err) == 1 and err[0].startswith("error: cannot open socketcan bus 'mstcnosuch0'")
+    assert str(scenario) not in err[0]
+    assert "SocketCAN" in err[0] or "no such interface" in err[0]
+
+
+def test_plot_takes_a_run_folder_as_export_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "paper-line"
+    run.mkdir()
+    shutil.copy(LOG, run / "bus.log")
+    out = tmp_path / "plots"
+    assert main(["plot", "--no-figures", "-q", "--out", str(out), str(run)]) == 0
+    assert (out / "paper-line" / "events.json").is_file()
+    # (mstc export: test_export.test_a_run_folder_is_read_through_its_bus_log)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    capsys.readouterr()
+    assert main(["plot", "--no-figures", "-q", "--out", str(out), str(empty)]) == 2
+    err = _errors(capsys)
+    assert (
+        len(err) == 1
+        and err[0] == f"error: {empty} is a directory without a bus.log: not a run folder"
+    )
