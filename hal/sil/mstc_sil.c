@@ -13,6 +13,7 @@
 #include "auth/auth.h"
 #include "ctrl/ctl.h"
 #include "hal/hal_can.h"
+#include "hal/hal_sys.h"
 #include "hal_sil.h"
 
 _Static_assert(MSTC_SIL_MAX_OBSTACLES == SUP_MAX_OBSTACLES, "obstacle table sizes differ");
@@ -148,12 +149,25 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p)
 
 _Static_assert(MSTC_SIL_KEY_LEN == AUTH_KEY_LEN, "key lengths differ");
 
-int mstc_sil_fw_set_key(const uint8_t *key, size_t len, uint32_t freshness)
+int mstc_sil_fw_set_key(const uint8_t *key, size_t len)
 {
     if (key == NULL || len != MSTC_SIL_KEY_LEN) {
         return -EINVAL;
     }
-    app_set_key(&app, key, freshness);
+    uint32_t session;
+    if (hal_sys_boot_nonce(&session) != 0) {
+        return -EIO;
+    }
+    app_set_key(&app, key, session);
+    return 0;
+}
+
+int mstc_sil_fw_set_session(uint32_t session)
+{
+    if (!app.auth.keyed) {
+        return -EINVAL;
+    }
+    auth_new_session(&app.auth, session);
     return 0;
 }
 
@@ -165,8 +179,7 @@ int mstc_sil_cmac(const uint8_t *key, const uint8_t *msg, size_t len, uint8_t *m
     auth_t s;
     auth_init(&s);
     auth_set_key(&s, key, 0u);
-    auth_cmac(&s, msg, len, mac);
-    return 0;
+    return auth_cmac(&s, msg, len, mac);
 }
 
 int mstc_sil_fw_send(const mstc_sil_frame_t *f)

@@ -158,19 +158,27 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p);
 
 /**
  * @brief Give the firmware instance its key for authenticated commands
- *        (app_set_key()); the next command must carry a freshness value
- *        above @p freshness. Without one, every PARAM_SET is refused.
- *        mstc_sil_fw_init() forgets it.
+ *        (app_set_key()), with a session drawn from the OS
+ *        (hal_sys_boot_nonce()), as a board's start draws one. Without a
+ *        key, every PARAM_SET is refused. mstc_sil_fw_init() forgets it.
  * @retval 0 done. @retval -EINVAL NULL or @p len is not MSTC_SIL_KEY_LEN.
+ * @retval -EIO the OS gave no random value.
  */
-int mstc_sil_fw_set_key(const uint8_t *key, size_t len, uint32_t freshness);
+int mstc_sil_fw_set_key(const uint8_t *key, size_t len);
+
+/**
+ * @brief Start session @p session instead (freshness 0): for the replay of a
+ *        log recorded in that session (mstc replay), never for a run.
+ * @retval 0 done. @retval -EINVAL no key was given.
+ */
+int mstc_sil_fw_set_session(uint32_t session);
 
 /**
  * @brief AES-128-CMAC (RFC 4493) of @p len bytes of @p msg under @p key, by
  *        the firmware's own code (auth_cmac()), for comparing it with another
- *        implementation.
+ *        implementation: messages of at most 16 bytes (one block).
  * @param key MSTC_SIL_KEY_LEN bytes. @param[out] mac 16 bytes.
- * @retval 0 done. @retval -EINVAL a NULL pointer.
+ * @retval 0 done. @retval -EINVAL a NULL pointer, or @p len above 16.
  */
 int mstc_sil_cmac(const uint8_t *key, const uint8_t *msg, size_t len, uint8_t *mac);
 

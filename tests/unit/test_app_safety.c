@@ -37,7 +37,8 @@ void setUp(void)
     hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
     memset(tf_counters, 0, sizeof tf_counters);
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
-    app_set_key(&app, tf_test_key, 0u);
+    app_set_key(&app, tf_test_key, TF_SESSION);
+    tf_auth = &app.auth;
     tf_freshness = 0u;
 }
 

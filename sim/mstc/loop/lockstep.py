@@ -317,12 +317,40 @@ def decode_event(tables: Tables, frame: Frame, base_us: int) -> Event:
     )
 
 
-def unauthenticated(what: str) -> ControllerError:
-    """The error of a command the firmware refused as unauthenticated."""
+def unauthenticated(what: str, auth: secoc.Authenticator) -> ControllerError:
+    """The error of a command the firmware refused as unauthenticated, with
+    the reason its last authenticated status gives (a forged frame cannot
+    change the advice: the tools adopt no status whose MAC fails)."""
+    st = auth.status
+    if st is None:
+        return no_status(auth)
+    why = secoc.OUTCOMES.get(st.last, f"AUTH_STATUS last = {st.last}")
+    if st.last == 0:
+        # Its authenticated status says the challenge was accepted: the
+        # refusal came from a frame no firmware sent.
+        why = "its status says the command was accepted: a node on the bus forges PARAM_VALUE"
     return ControllerError(
-        f"the firmware refuses {what} as unauthenticated: does it have the key the "
-        f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
-        "docs/safety.md, 'The key'"
+        f"the firmware refuses {what}: {why}; docs/safety.md, 'Authenticated commands'"
+    )
+
+
+def decides(session: int, signed: int) -> Callable[[secoc.Status], bool]:
+    """Matches a status that decided the command signed for @p signed in
+    @p session, or a later one (another session: the firmware restarted)."""
+    return lambda s: s.session != session or s.freshness >= signed
+
+
+def no_status(auth: secoc.Authenticator) -> ControllerError:
+    """The error when no status of the firmware verified under the tools' key."""
+    if auth.forged:
+        return ControllerError(
+            f"the firmware's status does not verify under the key the tools use "
+            f"({auth.forged} status frames refused): does the firmware have that key "
+            f"(--key-file, ${secoc.KEY_FILE_ENV}; keys/sim.key for simulations, "
+            "keys/device.key for a board)? docs/safety.md, 'The key'"
+        )
+    return ControllerError(
+        "no AUTH_STATUS and AUTH_CHALLENGE (the firmware's authenticated status) from the firmware"
     )
 
 
@@ -395,26 +423,71 @@ class CanController:
             return frame
 
     def _sync(self) -> None:
-        """Learn the firmware's freshness value: a PARAM_GET (which changes
-        nothing) is answered by PARAM_VALUE and AUTH_STATUS."""
-        self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
-        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+        """Learn the firmware's session and challenge: a PARAM_GET (which
+        changes nothing) is answered by PARAM_VALUE and the status. Asked
+        twice at most: a status dropped by the E2E checks (a node on the bus
+        that sent frames under the firmware's identifiers) is followed by the
+        next."""
+        for attempt in range(2):
+            self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+            try:
+                self._await_status(lambda st: True)
+                return
+            except ControllerError:
+                if attempt == 1:
+                    raise
+
+    def _await_status(self, fresh: Callable[[secoc.Status], bool]) -> secoc.Status:
+        """Read frames up to the next status whose MAC verifies and that
+        @p fresh accepts.
+
+        :raises ControllerError: none within the timeout (the advice says
+            whether statuses came that did not verify).
+        """
+        deadline = time.monotonic() + self.timeout
+        seen = self.auth.status
+        while (frame := self._recv(deadline)) is not None:
+            st = self.auth.status
+            if frame.name == "AUTH_CHALLENGE" and st is not None and st is not seen:
+                seen = st
+                if fresh(st):
+                    return st
+        raise no_status(self.auth)
 
     def command(self, index: int, value: float, what: str) -> Frame:
         """An authenticated PARAM_SET; the firmware's PARAM_VALUE.
 
-        :raises ControllerError: no answer, or the firmware could not
-            authenticate it (another key, most likely).
+        Signed for the challenge of the firmware's last authenticated status.
+        When the status that decided it says the challenge was used up before
+        it came (stale: another command, a refusal or the 0.5 s expiry came
+        first) or the firmware restarted, it is signed once more for the new
+        challenge.
+
+        :raises ControllerError: no answer, or the firmware refused it (its
+            authenticated status says why).
         """
-        for msg in self.auth.param_set(self.proto, index, value):
-            self._send(msg)
-        answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
-        # AUTH_STATUS follows every PARAM_VALUE: read it now, so that the
-        # freshness is current and the log keeps the bus's order.
-        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
-        if answer.signals["result"] == self.tables.param_result.value("unauthenticated"):
-            raise unauthenticated(what)
-        return answer
+        unauth = self.tables.param_result.value("unauthenticated")
+        for attempt in range(2):
+            if not self.auth.can_sign():
+                self._sync()  # no challenge left unsigned: ask for the status
+            msgs = self.auth.param_set(self.proto, index, value)
+            st0 = self.auth.status
+            signed = self.auth.signed
+            assert st0 is not None and signed is not None  # param_set needs both
+            for msg in msgs:
+                self._send(msg)
+            answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
+            # The status follows every PARAM_VALUE: read the one that decided
+            # this command (also so that the log keeps the bus's order).
+            st = self._await_status(decides(st0.session, signed))
+            restarted = st.session != st0.session
+            if not restarted and st.freshness == signed and st.last == 0:
+                if answer.signals["result"] != unauth:
+                    return answer
+            elif attempt == 0 and (restarted or st.last == secoc.STALE):
+                continue
+            raise unauthenticated(what, self.auth)
+        raise unauthenticated(what, self.auth)
 
     def _configure(self) -> None:
         """PARAM_SET every parameter; retry the ones the firmware rejects

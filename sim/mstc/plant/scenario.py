@@ -33,6 +33,11 @@ from mstc.limits import Limit, Violation, load_table, violation
 from mstc.model import EventKind, Obstacle, Params, Pose, Side, SignalRange, Strategy, WireLimits
 from mstc.plant.plant import Integrator
 
+MAX_DT = 0.05
+"""The longest control period a scenario may have [s]: the "mstc" safety
+filter's guarantee (ḣ >= −α h kept by a step of dt) needs α·dt <= 1, α = 20/s
+(firmware/ctrl/cbf.h, CBF_MAX_PERIOD_MS; docs/strategy.md). Beyond it a head-on
+obstacle at 3 m/s was touched (issue 21)."""
 MAX_STEPS = 100_000
 """Control steps one scenario may have: N = round(duration / dt) (the run has
 N + 1 rows). It bounds a run's time and memory: about 0.15 kB per step in
@@ -615,6 +620,12 @@ def _parse_sim(c: _Checker, value: object) -> SimSpec:
     dt_us = dt * 1e6
     if dt_us < 0.5 or abs(dt_us - round(dt_us)) > 1e-6:
         raise c.fail("sim.dt", f"must be a whole number of microseconds, got {dt:g} s")
+    if dt > MAX_DT:
+        raise c.fail(
+            "sim.dt",
+            f"{dt:g} s is longer than {MAX_DT:g} s, the longest period for which the "
+            "safety filter's guarantee holds (alpha dt <= 1 with alpha = 20/s; docs/strategy.md)",
+        )
     steps = duration / dt  # inf for duration = 1e308 at dt = 1e-6: refused, never rounded
     if not steps < MAX_STEPS + 1 or round(steps) > MAX_STEPS:
         raise c.fail(

@@ -12,7 +12,10 @@ from mstc.model import Obstacle, Pose
 
 
 class RangeSensor:
-    """Reports every obstacle whose centre is within ``d_det`` of the robot.
+    """Reports every obstacle within ``d_det`` of the robot: centre to
+    centre for an obstacle of radius ``r_ob``, from its boundary for any
+    other (one of radius r within d_det + r − r_ob of its centre), as the
+    firmware's D_s and D_act move with r − R_ob (docs/scenarios.md).
 
     Ideal by default. A scenario's ``[imperfections]`` (docs/scenarios.md) add
     Gaussian noise on the reported centres, drawn from @p rng, and random
@@ -22,6 +25,8 @@ class RangeSensor:
 
     :param obstacles: the obstacles of the world (their positions at t = 0).
     :param d_det: sensor range [m]; an obstacle at exactly this distance is seen.
+    :param r_ob: the obstacle radius @p d_det is given for (params.R_ob); None:
+        every obstacle's centre within d_det.
     :param noise: standard deviation of the noise on reported x and y [m].
     :param dropout: probability that an obstacle in range is not reported.
     :param rng: the random stream; required when noise or dropout is not 0.
@@ -33,6 +38,7 @@ class RangeSensor:
         obstacles: Sequence[Obstacle],
         d_det: float,
         *,
+        r_ob: float | None = None,
         noise: float = 0.0,
         dropout: float = 0.0,
         rng: np.random.Generator | None = None,
@@ -40,6 +46,10 @@ class RangeSensor:
     ) -> None:
         self.obstacles = tuple(obstacles)
         self.d_det = d_det
+        # The reach of each obstacle, in world order (a radius never changes).
+        self._reach = tuple(
+            d_det if r_ob is None else d_det + (o.radius - r_ob) for o in self.obstacles
+        )
         self.noise = noise
         self.dropout = dropout
         if (noise or dropout) and rng is None:
@@ -58,8 +68,12 @@ class RangeSensor:
         """Obstacles seen from ``pose`` at time @p t [s], in world order."""
         if self.rng is None:
             # Obstacle.distance inlined (the same math.hypot): a scan a step.
-            x, y, d_det, hypot = pose.x, pose.y, self.d_det, math.hypot
-            return [o for o in self.world(t) if hypot(o.x - x, o.y - y) <= d_det]
+            x, y, hypot = pose.x, pose.y, math.hypot
+            return [
+                o
+                for o, reach in zip(self.world(t), self._reach, strict=True)
+                if hypot(o.x - x, o.y - y) <= reach
+            ]
         world = self.world(t)
         n = len(world)
         noise = self.rng.standard_normal((n, 2)) * self.noise if self.noise else None
@@ -69,7 +83,7 @@ class RangeSensor:
             kept = self.dropout_rng.random(n) >= self.dropout
         result = []
         for i, o in enumerate(world):
-            if o.distance(pose) > self.d_det or (kept is not None and not kept[i]):
+            if o.distance(pose) > self._reach[i] or (kept is not None and not kept[i]):
                 continue
             if noise is not None:
                 o = replace(o, x=o.x + float(noise[i, 0]), y=o.y + float(noise[i, 1]))

@@ -58,6 +58,7 @@ def make_world(scenario: Scenario) -> World:
     sensor = RangeSensor(
         obstacles,
         p.d_det if imp.sensor_range is None else imp.sensor_range,
+        r_ob=p.r_ob,
         noise=imp.obstacle_noise,
         dropout=imp.dropout,
         rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,

@@ -32,6 +32,8 @@ from mstc.can.protocol import DropReason, Frame, Protocol
 from mstc.errors import ControllerError, FrameDropped
 from mstc.loop.lockstep import (
     STEP_MODULO,
+    decides,
+    no_status,
     obstacle_frames,
     odometry_frames,
     reference_frames,
@@ -115,9 +117,7 @@ class Board:
         if not self.answers_in_send and self._reader is None:
             self._reader = threading.Thread(target=self._read, name="mstc-can-rx", daemon=True)
             self._reader.start()
-        # A PARAM_GET (which changes nothing) is answered by PARAM_VALUE and
-        # AUTH_STATUS, whose freshness the next command follows.
-        self.request(self.tables.arm_index, None)
+        self.sync()
 
     def stop(self) -> None:
         """Stop the reader thread (the bus stays open: its owner shuts it down)."""
@@ -186,26 +186,88 @@ class Board:
     def command(self, index: int, value: float) -> Frame:
         """An authenticated PARAM_SET; the firmware's PARAM_VALUE.
 
+        Signed for the challenge of the firmware's last authenticated status
+        (asked for first when this board has signed it already); when the
+        status that decided it says the challenge was used up before it came
+        (stale) or the firmware restarted, signed once more for the new one,
+        as :meth:`mstc.loop.lockstep.CanController.command` does.
+
         :raises ControllerError: no answer within the timeout, or the firmware
-            refused the command as unauthenticated (another key).
+            refused the command (its authenticated status says why).
         """
-        answer = self.request(index, value)
-        if answer.signals["result"] == self.tables.param_result.value("unauthenticated"):
-            raise unauthenticated(f"PARAM_SET {self.tables.param_index.name_of(index)}")
-        return answer
+        what = f"PARAM_SET {self.tables.param_index.name_of(index)}"
+        unauth = self.tables.param_result.value("unauthenticated")
+        for attempt in range(2):
+            if not self.auth.can_sign():
+                self.sync()
+            st0 = self.auth.status
+            answer, signed = self._set(index, value)
+            assert st0 is not None  # can_sign() needs a status
+            st = self._await_status(decides(st0.session, signed))
+            restarted = st.session != st0.session
+            if not restarted and st.freshness == signed and st.last == 0:
+                if answer.signals["result"] != unauth:
+                    return answer
+            elif attempt == 0 and (restarted or st.last == secoc.STALE):
+                continue
+            break
+        raise unauthenticated(what, self.auth)
+
+    def sync(self) -> None:
+        """Learn the firmware's session and challenge: a PARAM_GET (which
+        changes nothing) is answered by PARAM_VALUE and the authenticated
+        status.
+
+        :raises ControllerError: no status verifies within the timeout.
+        """
+        seen = self.auth.status
+        self.request(self.tables.arm_index, None)
+        self._await_status(lambda st: st is not seen)
+
+    def _await_status(self, fresh: Callable[[secoc.Status], bool]) -> secoc.Status:
+        """The firmware's next status whose MAC verifies and that @p fresh
+        accepts (the current one if it does).
+
+        :raises ControllerError: none within the timeout.
+        """
+        deadline = time.monotonic() + self.timeout
+        with self._lock:
+            while True:
+                if self.answers_in_send:
+                    self._drain()
+                st = self.auth.status
+                if st is not None and fresh(st):
+                    return st
+                left = deadline - time.monotonic()
+                if left <= 0 or self.answers_in_send:
+                    raise no_status(self.auth)
+                self._answer.wait(left)
+
+    def _set(self, index: int, value: float) -> tuple[Frame, int]:
+        """The signed PARAM_SET and its PARAM_AUTH; the answer and the
+        freshness value signed."""
+        with self._lock:
+            frames = self.auth.param_set(self.proto, index, value)
+            signed = self.auth.signed
+            assert signed is not None  # param_set signed one
+            return self._ask(index, frames), signed
 
     def request(self, index: int, value: float | None) -> Frame:
-        """PARAM_GET (@p value None) or an authenticated PARAM_SET of
-        parameter @p index; the firmware's PARAM_VALUE about it.
+        """PARAM_GET of parameter @p index (@p value None), or an
+        authenticated PARAM_SET of it (:meth:`command`, which also reads the
+        status that decided it); the firmware's PARAM_VALUE about it.
 
         :raises ControllerError: no answer within the timeout.
         """
+        if value is not None:
+            return self.command(index, value)
+        with self._lock:
+            return self._ask(index, [self.proto.encode("PARAM_GET", index=index)])
+
+    def _ask(self, index: int, frames: list[can.Message]) -> Frame:
+        """Send @p frames; the firmware's PARAM_VALUE about @p index."""
         with self._lock:
             self._answers.clear()
-            if value is None:
-                frames = [self.proto.encode("PARAM_GET", index=index)]
-            else:
-                frames = self.auth.param_set(self.proto, index, value)
             self.send(frames)
             deadline = time.monotonic() + self.timeout
             while True:
@@ -245,10 +307,14 @@ class Board:
             return  # counted in proto.drops
         name = frame.name
         s = frame.signals
-        if name == "AUTH_STATUS":
-            self.auth.sync(frame)
-            self.counts.auth_refused = int(s["refused"])
-            self.counts.auth_last = self._choice("AUTH_STATUS", "last", s["last"])
+        if name in ("AUTH_STATUS", "AUTH_CHALLENGE"):
+            # Counted only from a status whose MAC verifies: a forged one
+            # changes nothing (secoc.Authenticator.sync).
+            st = self.auth.sync(frame)
+            if st is not None:
+                self.counts.auth_refused = st.refused
+                self.counts.auth_last = self._choice("AUTH_STATUS", "last", st.last)
+                self._answer.notify_all()
         elif name == "STATUS_COUNTERS":
             self.counts.firmware_drops = {k: int(v) for k, v in s.items()}
         elif name == "HEARTBEAT":
