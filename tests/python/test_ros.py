@@ -171,7 +171,17 @@ def test_paper_table_over_ros2(name: str, ros_context: None, sil_lib: Path, tmp_
         # firmware the 5 good frames of each input it wants before arming.
         plant.publish_sample()
         spin_until(executor, lambda: plant.k >= 10, 30.0, "no wheel commands", log)
-        answer = arm(executor, plant, log)
+        # The firmware takes the arm only once each input had 5 good frames
+        # in a row ("rejected" before: app.h). DDS keeps no order across
+        # topics, so the plan may reach the bridge some steps after the first
+        # odometry, and the reference frames start then: as an operator
+        # would, arm again after 10 more steps (at most 5 times).
+        for _ in range(5):
+            answer = arm(executor, plant, log)
+            if answer.message != "rejected":
+                break
+            more = plant.k + 10
+            spin_until(executor, lambda n=more: plant.k >= n, 30.0, "no wheel commands", log)
         assert answer.success, answer.message
         spin_until(executor, lambda: plant.done, RUN_TIMEOUT, "the run did not end", log)
         assert not plant.failed, plant.failed
@@ -217,15 +227,18 @@ def test_paper_table_over_ros2(name: str, ros_context: None, sil_lib: Path, tmp_
             assert v == "0", (k, v)
 
 
-def test_commands_with_another_key_are_refused_and_counted(
+def test_a_bridge_with_another_key_signs_nothing_and_says_why(
     ros_context: None, sil_lib: Path, tmp_path: Path
 ) -> None:
-    """The bridge signs its commands with the key of key_file; the firmware
-    has the test key. With another key the arm command is refused as
-    unauthenticated, the service says so, and mstc/status counts the refusal
-    (AUTH_STATUS_refused) with its reason (mac)."""
+    """The bridge signs its commands for the firmware's challenge, which it
+    takes only from a status whose MAC verifies under its key_file; the
+    firmware has the test key. With another key no status verifies: the arm
+    service refuses to sign and says why, the firmware never sees a command
+    (auth_refused stays 0), and mstc/status counts the statuses that did not
+    verify (auth_unverified)."""
     other = tmp_path / "other.key"
     other.write_text("00112233445566778899aabbccddeeff\n")
+    other.chmod(0o600)
     log = tmp_path / "bridge.log"
     node = Node("mstc_test_client")
     executor = SingleThreadedExecutor()
@@ -237,14 +250,14 @@ def test_commands_with_another_key_are_refused_and_counted(
         spin_until(executor, client.service_is_ready, DISCOVERY_TIMEOUT, "no arm service", log)
         answer = arm(executor, node, log)
         assert not answer.success
-        assert "unauthenticated" in answer.message
+        assert "does not verify under the key" in answer.message, answer.message
         deadline = time.monotonic() + 30
         while True:
             status = latest_status(executor, node, log)
-            if status["auth_refused"] != "0" or time.monotonic() > deadline:
+            if int(status["auth_unverified"]) >= 2 or time.monotonic() > deadline:
                 break
-        assert status["auth_refused"] == "1"
-        assert status["auth_last"] == "mac"
+        assert int(status["auth_unverified"]) >= 2, status
+        assert status["auth_refused"] == "0"
     executor.shutdown()
     node.destroy_node()
 

@@ -65,6 +65,10 @@ class Counts:
     """Authenticated commands the firmware refused (AUTH_STATUS_refused)."""
     auth_last: str = "none"
     """Why the latest command was refused (AUTH_STATUS_last)."""
+    auth_unverified: int = 0
+    """Status frames (AUTH_STATUS with its AUTH_CHALLENGE) whose MAC did not
+    verify under the bridge's key: the firmware has another key, or a node
+    on the bus forges them."""
     heartbeat: str = ""
     """The firmware's latest HEARTBEAT state."""
 
@@ -117,7 +121,17 @@ class Board:
         if not self.answers_in_send and self._reader is None:
             self._reader = threading.Thread(target=self._read, name="mstc-can-rx", daemon=True)
             self._reader.start()
-        self.sync()
+        # Present? A PARAM_GET (which changes nothing) is answered by
+        # PARAM_VALUE, and by the firmware's authenticated status, which the
+        # first command is signed for. A status that does not verify under
+        # this key is not adopted; the bridge still runs (its diagnostics
+        # count those statuses), and every command says why it cannot sign.
+        seen = self.auth.status
+        self.request(self.tables.arm_index, None)
+        try:
+            self._await_status(lambda st: st is not seen)
+        except ControllerError:
+            pass
 
     def stop(self) -> None:
         """Stop the reader thread (the bus stays open: its owner shuts it down)."""
@@ -311,6 +325,7 @@ class Board:
             # Counted only from a status whose MAC verifies: a forged one
             # changes nothing (secoc.Authenticator.sync).
             st = self.auth.sync(frame)
+            self.counts.auth_unverified = self.auth.forged
             if st is not None:
                 self.counts.auth_refused = st.refused
                 self.counts.auth_last = self._choice("AUTH_STATUS", "last", st.last)

@@ -578,8 +578,10 @@ class Bridge(Node):
         # E2E failures: frames the bridge dropped, and those the firmware did.
         values += [(f"bridge_dropped_{k}", v) for k, v in self.board.drops.items()]
         values += [(f"firmware_dropped_{k}", v) for k, v in counts.firmware_drops.items()]
-        # MAC failures: authenticated commands the firmware refused.
+        # MAC failures: authenticated commands the firmware refused, and the
+        # firmware's statuses that did not verify under the bridge's key.
         values += [("auth_refused", counts.auth_refused), ("auth_last", counts.auth_last)]
+        values += [("auth_unverified", counts.auth_unverified)]
         values += [
             ("frames_sent", counts.sent),
             ("frames_received", counts.received),
