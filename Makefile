@@ -37,7 +37,7 @@ include mk/compile.mk
 # NUMERIC and the numeric modes' flags and sources (NUM_*_<mode>), make numerics.
 include mk/numeric.mk
 # Authentication: AUTH_SRCS, AUTH_CFLAGS, AUTH_DEPS (Mbed TLS's AES) and the
-# device key (mk/auth.mk).
+# keys (mk/auth.mk).
 include mk/auth.mk
 # The firmware's sources in numeric mode $(1), with the third-party code it
 # links: libfixmath's in fixed mode, Mbed TLS's AES.
@@ -49,7 +49,7 @@ fw_srcs = $(FW_SRCS) $(NUM_SRCS_$(1)) $(AUTH_SRCS)
 $(STAMP)/apt-%: tools/setup/debian-sim.txt tools/setup/debian-%.txt | $(STAMP)
 	@tools/setup/apt-install $^
 	@touch $@
-.venv/.requirements.sha256: requirements.txt $(STAMP)/apt-sim
+.venv/.requirements.sha256: requirements.txt pyproject.toml $(STAMP)/apt-sim
 	@tools/setup/venv
 venv: .venv/.requirements.sha256
 # Third-party C sources (Unity, libfixmath, Mbed TLS): tools/setup/sources.lock.
@@ -72,8 +72,8 @@ include mk/host.mk
 SCENARIO ?= sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 BUS ?= sil
 .PHONY: sim
-sim: deps-sim $(B)/libmstc_sil.so $(KEY_FILE)  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
-	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --key-file $(KEY_FILE) --out build/sim $(SCENARIO)
+sim: deps-sim $(B)/libmstc_sil.so $(SIM_KEY_FILE)  ## run the paper's scenarios through CAN in process (SCENARIO=file.toml, BUS=memory)
+	$(MSTC) sim --bus $(BUS) --lib $(B)/libmstc_sil.so --key-file $(SIM_KEY_FILE) --out build/sim $(SCENARIO)
 
 # --------------------------------------------------------------------- sweep
 # A scenario suite (or scenario files, folders) for several strategies on
@@ -94,9 +94,9 @@ sweep: deps-sim $(B)/libmstc_sil.so  ## run a scenario suite for several strateg
 HIL_TIMEOUT ?= 1800
 HIL_OUT := $(if $(REALTIME),build/hil-realtime,build/hil)
 .PHONY: hil
-hil: deps-hil build/host/mstc-fw $(KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/; REALTIME=1: in real time)
+hil: deps-hil build/host/mstc-fw $(SIM_KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/; REALTIME=1: in real time)
 	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- \
-	  $(MSTC) hil $(if $(REALTIME),--realtime) --key-file $(KEY_FILE) --channel vcan0 \
+	  $(MSTC) hil $(if $(REALTIME),--realtime) --key-file $(SIM_KEY_FILE) --channel vcan0 \
 	  --fw build/host/mstc-fw --no-figures --out $(HIL_OUT) $(SCENARIO)
 
 # ---------------------------------------------------------------------- test

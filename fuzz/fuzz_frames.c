@@ -57,7 +57,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     hal_fake_reset();
     memset(counters, 0, sizeof counters);
     (void)app_init(&app, NULL);
-    app_set_key(&app, key, 0u);
+    app_set_key(&app, key, 0x5EC0A1D1u);
     memset(last_set, 0, sizeof last_set);
     uint64_t now = 0;
     kin_wheels_t before = *app_last_wheels(&app);
@@ -72,11 +72,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             memcpy(f.data, &r[3], 8);
             uint16_t did;
             if (op == 1u && f.id == COMM_ID_PARAM_AUTH) {
-                const uint32_t fv = app.auth.fv + 1u;
+                const uint32_t fv = (app.auth.fv + 1u) & AUTH_FV_MAX;
                 f.data[1] = (uint8_t)((fv & 0x0Fu) << 4);
                 f.data[2] = (uint8_t)((fv >> 4) & 0xFFu);
                 f.data[3] = (uint8_t)((fv >> 12) & 0xFFu);
-                auth_mac(&app.auth, COMM_PARAM_SET_DATA_ID, last_set, fv, &f.data[4]);
+                auth_mac(&app.auth, COMM_PARAM_SET_DATA_ID, last_set, app.auth.session, fv,
+                         &f.data[4]);
             }
             if (op == 1u && f.id == COMM_ID_PARAM_SET) {
                 memcpy(last_set, &f.data[2], sizeof last_set);

@@ -11,14 +11,19 @@
 # firmware compiles AUTH_SRCS (the Makefile's fw_srcs) with AUTH_CFLAGS, after
 # AUTH_DEPS.
 #
-# The device key: KEY_FILE (default keys/device.key, git-ignored), generated
-# from /dev/urandom on first use by tools/setup/device-key. Board images
-# compile it in from KEY_HEADER; the host library and mstc-fw load a key at
-# start, and the tools read KEY_FILE (mstc --key-file, MSTC_KEY_FILE).
+# The keys, generated from /dev/urandom on first use by
+# tools/setup/device-key (git-ignored, owner-only; a warning when others may
+# read one): KEY_FILE (default keys/device.key), the device's, which only
+# `make flash` uses; SIM_KEY_FILE (keys/sim.key), the simulations', which
+# `make sim`, `make hil`, `make pil` and `make replay` use, so that no
+# simulation's bus.log holds a command a board accepts. Board images are
+# built without a key: install_key writes one into a private copy
+# (tools/setup/install-key); the host library and mstc-fw load a key at
+# start, and the tools read the file they are given (mstc --key-file).
 # tests/data/test.key is a published test key: the committed logs and the
 # tests use it; never flash it.
 #
-#   make key      create KEY_FILE if it does not exist (and say so)
+#   make key      create KEY_FILE and SIM_KEY_FILE if they do not exist
 
 MBEDTLS_DIR := deps/mbedtls
 AUTH_SRCS := $(MBEDTLS_DIR)/library/aes.c $(MBEDTLS_DIR)/library/platform_util.c
@@ -33,13 +38,21 @@ $(AUTH_SRCS): | $(MBEDTLS_DIR)/.sha256
 	@test -f $@ || { echo "error: $@ missing after fetching mbedtls" >&2; exit 1; }
 
 KEY_FILE ?= keys/device.key
+SIM_KEY_FILE ?= keys/sim.key
 TEST_KEY_FILE := tests/data/test.key
-KEY_HEADER := build/key/auth_key.h
+KEY_BIN := build/key/device.bin
+SIM_KEY_BIN := build/key/sim.bin
 
-$(KEY_FILE):
+$(KEY_FILE) $(SIM_KEY_FILE):
 	@tools/setup/device-key $@
-$(KEY_HEADER): $(KEY_FILE) tools/setup/device-key
-	@tools/setup/device-key $< --header $@
+$(KEY_BIN): $(KEY_FILE) tools/setup/device-key
+	@tools/setup/device-key $< --bin $@
+$(SIM_KEY_BIN): $(SIM_KEY_FILE) tools/setup/device-key
+	@tools/setup/device-key $< --bin $@
+
+# install_key,IMAGE.elf,KEY.bin,OUT.elf: the recipe of a private copy of a
+# board image with the key in its .auth_key section.
+install_key = OBJCOPY=$(CROSS_COMPILE)objcopy tools/setup/install-key $(1) $(2) $(3)
 
 .PHONY: key
-key: $(KEY_FILE)  ## create the device key keys/device.key (git-ignored) if there is none
+key: $(KEY_FILE) $(SIM_KEY_FILE)  ## create the device and simulation keys keys/{device,sim}.key (git-ignored) if there are none

@@ -4,7 +4,8 @@
 # build of mk/compile.mk (img-<board>). Included by the top Makefile after
 # mk/cross.mk (the toolchain). Uses from the Makefile: FW_INC, PY, STAMP,
 # fw_srcs, the venv rule; from mk/numeric.mk the NUM_*_<mode> variables; from
-# mk/auth.mk AUTH_* and KEY_HEADER, the device key compiled into every image.
+# mk/auth.mk AUTH_* and install_key (images are built without a key; `make
+# flash` installs the device key into a private copy).
 #
 #   make firmware BOARD=stm32f405   Cortex-M4F, float   -> build/firmware/stm32f405/
 #   make firmware BOARD=stm32f103   Cortex-M3, fixed    -> build/firmware/stm32f103/
@@ -82,12 +83,12 @@ IMG_GENH_$(1) := $$(if $$(IMG_SVD_$(3)),$$(IMG_GEN_$(1))/stm32_regs.h)
 BUILD_CC_img-$(1) := $$(CROSS_CC)
 BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections \
   -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(3)) \
-  $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) -I$$(dir $$(KEY_HEADER)) $$(NUM_CFLAGS_$(2)) \
+  $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2)) \
   $$(AUTH_CFLAGS)
 BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
 BUILD_SRCS_img-$(1) := $$(call fw_srcs,$(2)) $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))
 BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2)) $$(AUTH_DEPS)
-BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1)) $$(KEY_HEADER)
+BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
 $$(eval $$(call BUILD,img-$(1)))
 IMG_OBJS_$(1) := $$(BUILD_OBJS_img-$(1)) $$(if $$(IMG_SVD_$(3)),$$(IMG_OBJ_$(1))/gen/stm32_vectors.o)
 
@@ -160,9 +161,12 @@ firmware-smoke: img-stm32f405 img-stm32f103  ## run both board images under QEMU
 # make flash BOARD=... [FLASH_TOOL=openocd|st-flash|pyocd] [FLASH_DRY_RUN=1]
 # [FLASH_ARGS="--interface cmsis-dap.cfg"]: tools/flash says how each works.
 FLASH_TOOL ?= openocd
-flash: img-$(IMG)  ## flash BOARD's image (FLASH_TOOL=openocd|st-flash|pyocd; FLASH_DRY_RUN=1: print only)
+# What is flashed: a private copy of the image with the device key installed.
+build/flash/%/mstc.elf: build/firmware/%/mstc.elf $(KEY_BIN) tools/setup/install-key
+	@$(call install_key,$<,$(KEY_BIN),$@)
+flash: img-$(IMG) build/flash/$(IMG)/mstc.elf  ## flash BOARD's image with the device key (FLASH_TOOL=openocd|st-flash|pyocd; FLASH_DRY_RUN=1: print only)
 ifeq ($(FLASH_DRY_RUN),)
 	@tools/setup/apt-install tools/setup/debian-flash.txt
 endif
 	@$(PY) tools/flash --board $(BOARD) --tool $(FLASH_TOOL) $(if $(FLASH_DRY_RUN),--dry-run) \
-	  $(FLASH_ARGS) build/firmware/$(IMG)/mstc.elf
+	  $(FLASH_ARGS) build/flash/$(IMG)/mstc.elf

@@ -3,8 +3,9 @@
 # unchanged but for that transport, under qemu-system-arm (sim/mstc/firmware/qemu.py),
 # driven by the plant through python-can's slcan interface in lock-step
 # (`mstc hil --qemu`). Included by the top Makefile after mk/firmware.mk;
-# uses MSTC, SCENARIO, the img-<board>-slcan rules and KEY_FILE (mk/auth.mk:
-# the images hold that key, so the plant authenticates its commands with it).
+# uses MSTC, SCENARIO, the img-<board>-slcan rules, SIM_KEY_FILE and
+# install_key (mk/auth.mk): QEMU runs a copy of each image with the
+# simulations' key installed (build/pil/images/), never the device's.
 #
 #   make pil                      both boards, the paper's scenarios
 #   make pil BOARD=stm32f103      one board
@@ -24,10 +25,14 @@ endif
 endif
 
 .PHONY: pil
-pil: deps-sim $(addprefix img-,$(addsuffix -slcan,$(PIL_BOARDS)))  ## the paper's scenarios on the slcan board images under QEMU, lock-step (BOARD=...: one) -> build/pil/
+PIL_IMAGES := build/pil/images
+$(PIL_IMAGES)/%/mstc.elf: build/firmware/%/mstc.elf $(SIM_KEY_BIN) tools/setup/install-key
+	@$(call install_key,$<,$(SIM_KEY_BIN),$@)
+
+pil: deps-sim $(foreach b,$(PIL_BOARDS),img-$(b)-slcan $(PIL_IMAGES)/$(b)-slcan/mstc.elf)  ## the paper's scenarios on the slcan board images under QEMU, lock-step (BOARD=...: one) -> build/pil/
 	@set -e; for b in $(PIL_BOARDS); do \
-	  echo "== $$b: build/firmware/$$b-slcan under QEMU"; \
-	  $(MSTC) hil --qemu build/firmware/$$b-slcan --key-file $(KEY_FILE) --no-figures \
+	  echo "== $$b: $(PIL_IMAGES)/$$b-slcan under QEMU (build/firmware/$$b-slcan with the simulations' key)"; \
+	  $(MSTC) hil --qemu $(PIL_IMAGES)/$$b-slcan --key-file $(SIM_KEY_FILE) --no-figures \
 	    --out build/pil/$$b $(SCENARIO); \
 	  $(if $(filter-out $(SCENARIO),$(PIL_PAPER))$(filter-out $(PIL_PAPER),$(SCENARIO)),,touch build/pil/$$b/.paper;) \
 	done
@@ -36,8 +41,8 @@ pil: deps-sim $(addprefix img-,$(addsuffix -slcan,$(PIL_BOARDS)))  ## the paper'
 # harness, for `make bench` (instructions per control step in the loop).
 PIL_PAPER := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 PIL_STAMPS := $(foreach b,$(PIL_ALL),build/pil/$(b)/.paper)
-build/pil/%/.paper: build/firmware/%-slcan/mstc.elf $(PIL_PAPER) sim/mstc/cli/hil.py \
+build/pil/%/.paper: $(PIL_IMAGES)/%-slcan/mstc.elf $(PIL_PAPER) sim/mstc/cli/hil.py \
     sim/mstc/firmware/qemu.py sim/mstc/loop/lockstep.py | .venv/.requirements.sha256
-	$(MSTC) hil --qemu build/firmware/$*-slcan --key-file $(KEY_FILE) --no-figures \
+	$(MSTC) hil --qemu $(PIL_IMAGES)/$*-slcan --key-file $(SIM_KEY_FILE) --no-figures \
 	  --out build/pil/$* $(PIL_PAPER)
 	@touch $@

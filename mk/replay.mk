@@ -9,17 +9,17 @@
 #   make replay-bench                       replay throughput (frames/s, median of 5)
 #
 # Uses from the Makefile: PY, NUMERIC, deps-sim; from mk/host.mk B and the
-# library rule; from mk/auth.mk KEY_FILE and TEST_KEY_FILE. The committed logs
-# were recorded with the published test key (their authenticated commands
-# replay only under it); `make replay LOG=...` replays with the device key, as
-# `make sim` records.
+# library rule; from mk/auth.mk SIM_KEY_FILE and TEST_KEY_FILE. The committed
+# logs were recorded with the published test key (their authenticated
+# commands replay only under it); `make replay LOG=...` replays with the
+# simulations' key SIM_KEY_FILE, as `make sim` records.
 
 REPLAY_LOGS := tests/data/paper-line.log tests/data/paper-circle.log
 
 .PHONY: replay replay-regress logplot replay-logs replay-bench
-replay: deps-sim $(B)/libmstc_sil.so $(KEY_FILE)  ## replay LOG=path through the firmware and compare (REPLAY_ARGS=...)
+replay: deps-sim $(B)/libmstc_sil.so $(SIM_KEY_FILE)  ## replay LOG=path through the firmware and compare (REPLAY_ARGS=...)
 	@test -n "$(LOG)" || { echo "usage: make replay LOG=path/to/bus.log [REPLAY_ARGS=--strict]" >&2; exit 2; }
-	$(MSTC) replay --lib $(B)/libmstc_sil.so --key-file $(KEY_FILE) $(REPLAY_ARGS) $(LOG)
+	$(MSTC) replay --lib $(B)/libmstc_sil.so --key-file $(SIM_KEY_FILE) $(REPLAY_ARGS) $(LOG)
 
 # The committed logs were recorded from the float build: a fixed-point build
 # answers differently by design (make replay NUMERIC=fixed LOG=... shows how).

@@ -8,6 +8,7 @@
 #include <stddef.h>
 
 #include "hal/hal_can.h"
+#include "hal/hal_sys.h"
 
 _Static_assert(APP_TIMEOUT_US == APP_TIMEOUT_PERIODS * APP_PERIOD_US, "timeout in periods");
 _Static_assert((APP_OBSTACLE_IDS & (APP_OBSTACLE_IDS - 1u)) == 0u, "ids masked: a power of two");
@@ -31,9 +32,11 @@ int app_init(app_t *a, const ctl_params_t *p)
     return rc;
 }
 
-void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t freshness)
+void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session)
 {
-    auth_set_key(&a->auth, key, freshness);
+    /* At start (app.h): the challenge is issued at time 0, as app_init()
+     * leaves challenge_us. */
+    auth_set_key(&a->auth, key, session);
 }
 
 /* A frame that cannot be queued is lost; the bus is the only way out, so
@@ -182,7 +185,7 @@ static void expire_pending(app_t *a);
 
 static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
 {
-    app_housekeeping(a, t_us);
+    app_housekeeping(a, t_us); /* moves the application's time to t_us */
     const uint64_t dt64 = a->stepped && t_us > a->last_step_us ? t_us - a->last_step_us : 0u;
     const uint32_t dt_us = dt64 < APP_MAX_DT_US ? (uint32_t)dt64 : APP_MAX_DT_US;
     a->last_step_us = t_us;
@@ -196,10 +199,14 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
         odo_reset(&a->odo);
     }
     comm_halt_t why = check_inputs(a, t_us, lockstep);
+    /* Speeds the wheels measured over the period that just ended, when they
+     * came with this step: the motion odometry must follow. Otherwise the
+     * commands: wheels that lag them would make odometry look implausible. */
+    const bool measured = a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u;
     if (a->halt == (uint8_t)COMM_HALT_NONE && why == COMM_HALT_NONE &&
-        odo_step(&a->odo, &a->ctl.p.kin, &a->wheels, num_from_float((float)dt_us * 1.0e-6f),
-                 &a->odom, a->in[APP_IN_ODOM_XY].missed == 0u,
-                 a->in[APP_IN_ODOM_THETA].missed == 0u)) {
+        odo_step(&a->odo, &a->ctl.p.kin, measured ? &a->wheel_speed : &a->wheels,
+                 num_from_float((float)dt_us * 1.0e-6f), &a->odom,
+                 a->in[APP_IN_ODOM_XY].missed == 0u, a->in[APP_IN_ODOM_THETA].missed == 0u)) {
         why = COMM_HALT_ODOMETRY_IMPLAUSIBLE;
     }
     if (why != COMM_HALT_NONE) {
@@ -223,8 +230,7 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
             .n_obstacles = a->n_reports,
             .t_us = t_us,
             .wheels = a->wheel_speed,
-            .wheels_measured =
-                a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u,
+            .wheels_measured = measured,
         };
         ctl_step(&a->ctl, &in, &out);
         a->wheels = out.wheels;
@@ -304,12 +310,17 @@ static comm_param_result_t set_param(app_t *a, uint8_t index, float value)
     return COMM_PARAM_OK;
 }
 
+/* The status, both halves: AUTH_CHALLENGE authenticates AUTH_STATUS. */
 static void send_auth_status(app_t *a)
 {
-    hal_can_frame_t f;
-    (void)comm_encode_auth_status(&a->comm, &a->auth, &f);
-    send(&f);
+    hal_can_frame_t f[2];
+    (void)comm_encode_auth_status(&a->comm, &a->auth, f);
+    send(&f[0]);
+    send(&f[1]);
 }
+
+/* A challenge was decided (or expired): the next one is issued now. */
+static void next_challenge(app_t *a) { a->challenge_us = a->now_us; }
 
 /* PARAM_SET (with @p set) or PARAM_GET: answer PARAM_VALUE with the value in
  * force afterwards, then AUTH_STATUS. A PARAM_SET that is not @p authentic
@@ -349,6 +360,7 @@ static void refuse_pending(app_t *a)
 {
     a->pending.waiting = false;
     auth_refuse(&a->auth, AUTH_MISSING);
+    next_challenge(a);
     on_param(a, a->pending.index, true, false, a->pending.value);
 }
 
@@ -382,12 +394,15 @@ static void on_param_auth(app_t *a, const comm_msg_t *m)
 {
     if (!a->pending.waiting) {
         auth_refuse(&a->auth, AUTH_MISSING);
+        next_challenge(a);
         send_auth_status(a);
         return;
     }
     a->pending.waiting = false;
-    const auth_result_t r = auth_verify(&a->auth, COMM_PARAM_SET_DATA_ID, a->pending.data,
-                                        m->u.param_auth.freshness_low, m->u.param_auth.mac);
+    const auth_result_t r =
+        auth_verify(&a->auth, COMM_PARAM_SET_DATA_ID, a->pending.data,
+                    m->u.param_auth.freshness_low, m->u.param_auth.mac, a->now_us);
+    next_challenge(a);
     on_param(a, a->pending.index, true, r == AUTH_OK, a->pending.value);
 }
 
@@ -487,10 +502,27 @@ void app_control_tick(app_t *a, uint64_t now_us)
 
 void app_housekeeping(app_t *a, uint64_t now_us)
 {
+    if (now_us > a->now_us) {
+        a->now_us = now_us; /* the application's time: never back */
+    }
     if (now_us < a->next_housekeeping_us) {
         return;
     }
     a->next_housekeeping_us = now_us + APP_HOUSEKEEPING_PERIOD_US;
+    uint32_t session;
+    if (auth_spent(&a->auth) && hal_sys_boot_nonce(&session) == 0) {
+        /* 2^20 decisions: a new session (without a value for one, nothing
+         * more is accepted: AUTH_NO_KEY). */
+        auth_new_session(&a->auth, session);
+        next_challenge(a);
+    } else if (a->now_us - a->challenge_us >= APP_AUTH_CHALLENGE_US) {
+        /* Unused for that long: a command signed for it and held back by a
+         * node on the bus would be accepted late. Replace it. */
+        auth_refuse(&a->auth, AUTH_EXPIRED);
+        next_challenge(a);
+    } else {
+        /* the challenge stands */
+    }
     hal_can_frame_t f;
     (void)comm_encode_heartbeat(&a->comm, a->state, &f);
     send(&f);

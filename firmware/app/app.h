@@ -38,11 +38,15 @@
  * Authenticated commands (auth.h; docs/safety.md, "Threat model"): a
  * PARAM_SET (parameters and the arm command) is held until the PARAM_AUTH
  * that follows it, and acted on only when that verifies under the key given
- * by app_set_key() with a new freshness value. One without its PARAM_AUTH
- * (another PARAM_SET first, or APP_AUTH_PENDING_STEPS control steps), under
- * another key, replayed or stale is answered COMM_PARAM_UNAUTHENTICATED and
- * counted; AUTH_STATUS follows every PARAM_VALUE and every refusal, and goes
- * with HEARTBEAT. Without a key every PARAM_SET is refused.
+ * by app_set_key(), for the current challenge of this start's session. One
+ * without its PARAM_AUTH (another PARAM_SET first, or APP_AUTH_PENDING_STEPS
+ * control steps), under another key, for another challenge (replayed,
+ * recorded before a reset, stale) or while locked is answered
+ * COMM_PARAM_UNAUTHENTICATED and counted. Every decision uses the challenge
+ * up; one unused for APP_AUTH_CHALLENGE_US is replaced (expired). The status
+ * (AUTH_STATUS and AUTH_CHALLENGE, which authenticates both) follows every
+ * PARAM_VALUE and every refusal, and goes with HEARTBEAT. Without a key
+ * every PARAM_SET is refused.
  *
  * Odometry plausibility (odo.h): while running, odometry that disagrees with
  * the motion commanded (a replayed recording, a stuck sensor) halts with
@@ -97,6 +101,12 @@
  *         control steps after it is refused (2: one full period, whatever
  *         the phase of the tick). */
 #define APP_AUTH_PENDING_STEPS 2u
+
+/** @brief A challenge unused for this long is replaced at the next
+ *         housekeeping [µs of the application's time] (so it is accepted at
+ *         most this plus one housekeeping period and one control period after
+ *         it was announced). */
+#define APP_AUTH_CHALLENGE_US 500000u
 
 /** @brief A PARAM_SET waiting for its PARAM_AUTH. */
 typedef struct {
@@ -155,7 +165,9 @@ typedef struct {
     bool stepped;           /**< a control step has run */
     bool bus_off_known;     /**< bus_off_count holds a reading */
     uint32_t bus_off_count; /**< hal_can_status() bus_off at the last look */
-    auth_t auth;            /**< key, freshness and refusals of authenticated commands */
+    auth_t auth;            /**< key, session, challenge, refusals of authenticated commands */
+    uint64_t now_us;        /**< the application's latest time: steps and housekeeping */
+    uint64_t challenge_us;  /**< when the current challenge was issued */
     app_pending_t pending;  /**< PARAM_SET waiting for its PARAM_AUTH */
     odo_t odo;              /**< odometry plausibility */
     /** Alive counter of the ODOM_XY frame odom.x and odom.y came from (0
@@ -177,11 +189,12 @@ typedef struct {
 int app_init(app_t *a, const ctl_params_t *p);
 
 /**
- * @brief Give the device key: PARAM_SET is acted on only when authenticated
- *        under @p key, with a freshness value above @p freshness (0 after a
- *        start; a port that keeps the last value across resets passes it).
+ * @brief Give the device key, at start (after app_init(), before the first
+ *        frame): PARAM_SET is acted on only when authenticated under @p key
+ *        for the current challenge of session @p session, a value for this
+ *        start (hal_sys_boot_nonce(); docs/safety.md, "Sessions").
  */
-void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t freshness);
+void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session);
 
 /**
  * @brief Handle one received frame; replies go out through hal_can_send().

@@ -6,13 +6,16 @@
  * CMAC is written here, over Mbed TLS's AES block function, rather than taken
  * from Mbed TLS's cmac.c: that one runs on its generic cipher layer
  * (cipher.c, cipher_wrap.c), which would link the cipher framework and AES
- * decryption into a 32 KB image for one mode of one cipher. RFC 4493's
- * algorithm is two subkey doublings and a CBC chain; tests/unit/test_auth.c
- * checks it against the RFC's four examples, and tests/python/test_auth.py
- * against `cryptography` on random keys and messages.
+ * decryption into a 32 KB image for one mode of one cipher. Every message
+ * the firmware authenticates is one block (16 and 13 bytes), so RFC 4493's
+ * algorithm is two subkey doublings and one encryption (no CBC chain);
+ * tests/unit/test_auth.c checks it against the RFC's examples of one block
+ * and less, and tests/python/test_auth.py against `cryptography` on random
+ * keys and messages of 0 to 16 bytes.
  */
 #include "auth/auth.h"
 
+#include <errno.h>
 #include <string.h>
 
 /* The configuration first, to check that it is ours and not Mbed TLS's
@@ -23,11 +26,9 @@
 #endif
 #include "mbedtls/aes.h"
 
-#define BLOCK       16u
-#define FV_LOW_MASK ((UINT32_C(1) << AUTH_FV_LOW_BITS) - 1u)
-#define FV_SPAN     (UINT64_C(1) << AUTH_FV_LOW_BITS)
+#define BLOCK   16u
 /* RFC 4493: the constant of the subkey doubling in GF(2^128). */
-#define CMAC_RB     0x87u
+#define CMAC_RB 0x87u
 
 /* A key schedule on the caller's stack, wiped by schedule_wipe(). */
 static void schedule(mbedtls_aes_context *ctx, const uint8_t key[AUTH_KEY_LEN])
@@ -58,7 +59,14 @@ static void dbl(const uint8_t in[BLOCK], uint8_t out[BLOCK])
 
 void auth_init(auth_t *s) { *s = (auth_t){ .keyed = false }; }
 
-void auth_set_key(auth_t *s, const uint8_t key[AUTH_KEY_LEN], uint32_t fv)
+void auth_new_session(auth_t *s, uint32_t session)
+{
+    s->session = session;
+    s->fv = 0u;
+    s->outcome = (uint8_t)AUTH_OK;
+}
+
+void auth_set_key(auth_t *s, const uint8_t key[AUTH_KEY_LEN], uint32_t session)
 {
     (void)memcpy(s->key, key, AUTH_KEY_LEN);
     mbedtls_aes_context ctx;
@@ -71,58 +79,72 @@ void auth_set_key(auth_t *s, const uint8_t key[AUTH_KEY_LEN], uint32_t fv)
     dbl(l, s->k1);
     dbl(s->k1, s->k2);
     s->keyed = true;
-    s->fv = fv;
+    auth_new_session(s, session);
 }
 
-void auth_cmac(const auth_t *s, const uint8_t *msg, size_t len, uint8_t mac[AUTH_CMAC_LEN])
+int auth_cmac(const auth_t *s, const uint8_t *msg, size_t len, uint8_t mac[AUTH_CMAC_LEN])
 {
-    /* RFC 4493, 2.4: every block but the last through the CBC chain; the last
-     * XOR K1 when complete, else padded with 10..0 and XOR K2. The empty
-     * message is one incomplete block. */
-    const size_t n = len == 0u ? 1u : (len + BLOCK - 1u) / BLOCK;
-    const bool complete = len != 0u && len % BLOCK == 0u;
+    /* RFC 4493, 2.4, for a message of one block, all the firmware MACs
+     * (commands: 16 bytes; the status: 13): a complete block XOR K1, else
+     * padded with 10..0 and XOR K2, then one encryption. The empty message
+     * is one incomplete block. */
+    if (len > BLOCK) {
+        return -EINVAL;
+    }
+    const uint8_t *k = len == BLOCK ? s->k1 : s->k2;
+    uint8_t y[BLOCK];
+    for (size_t i = 0; i < BLOCK; i++) {
+        uint8_t m = 0u;
+        if (i < len) {
+            m = msg[i];
+        } else if (i == len) {
+            m = 0x80u;
+        } else {
+            /* the padding's zeros */
+        }
+        y[i] = (uint8_t)(m ^ k[i]);
+    }
     mbedtls_aes_context ctx;
     schedule(&ctx, s->key);
-    uint8_t x[BLOCK];
-    (void)memset(x, 0, sizeof x);
-    uint8_t y[BLOCK];
-    for (size_t b = 0; b + 1u < n; b++) {
-        for (size_t i = 0; i < BLOCK; i++) {
-            y[i] = (uint8_t)(x[i] ^ msg[b * BLOCK + i]);
-        }
-        encrypt(&ctx, y, x);
-    }
-    const size_t base = (n - 1u) * BLOCK;
-    const size_t rest = len - base;
-    for (size_t i = 0; i < BLOCK; i++) {
-        uint8_t m;
-        if (i < rest) {
-            m = msg[base + i];
-        } else {
-            m = i == rest ? 0x80u : 0u;
-        }
-        y[i] = (uint8_t)(x[i] ^ m ^ (complete ? s->k1[i] : s->k2[i]));
-    }
     encrypt(&ctx, y, mac);
     schedule_wipe(&ctx);
+    return 0;
 }
 
-/* Bytes 0..1 data ID, 2..7 the data, 8..11 the freshness, both big-endian. */
-#define MAC_INPUT_LEN (2u + AUTH_DATA_LEN + 4u)
+static void put32(uint8_t *out, uint32_t v)
+{
+    for (size_t i = 0; i < 4u; i++) {
+        out[i] = (uint8_t)((v >> (24u - 8u * i)) & 0xFFu);
+    }
+}
 
-void auth_mac(const auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DATA_LEN], uint32_t fv,
-              uint8_t mac[AUTH_MAC_LEN])
+/* Bytes 0..1 data ID, 2..7 the data, 8..11 the session, 12..15 the
+ * freshness, all big-endian: one complete block. */
+#define MAC_INPUT_LEN (2u + AUTH_DATA_LEN + 4u + 4u)
+
+void auth_mac(const auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DATA_LEN],
+              uint32_t session, uint32_t fv, uint8_t mac[AUTH_MAC_LEN])
 {
     uint8_t in[MAC_INPUT_LEN];
     in[0] = (uint8_t)(data_id >> 8);
     in[1] = (uint8_t)(data_id & 0xFFu);
     (void)memcpy(&in[2], data, AUTH_DATA_LEN);
-    for (size_t i = 0; i < 4u; i++) {
-        in[2u + AUTH_DATA_LEN + i] = (uint8_t)((fv >> (24u - 8u * i)) & 0xFFu);
-    }
+    put32(&in[2u + AUTH_DATA_LEN], session);
+    put32(&in[6u + AUTH_DATA_LEN], fv);
     uint8_t full[AUTH_CMAC_LEN];
-    auth_cmac(s, in, sizeof in, full);
+    (void)auth_cmac(s, in, sizeof in, full); /* one block: cannot fail */
     (void)memcpy(mac, full, AUTH_MAC_LEN);
+}
+
+void auth_status_mac(const auth_t *s, uint16_t data_id, uint8_t mac[AUTH_MAC_LEN])
+{
+    /* A command's layout, with the status in place of the command's data:
+     * the data ID tells the two apart. */
+    const unsigned refused = (unsigned)s->refused | (s->refused_saturated ? 0x8000u : 0u);
+    const uint8_t status[AUTH_DATA_LEN] = {
+        s->outcome, (uint8_t)(refused >> 8), (uint8_t)(refused & 0xFFu), 0u, 0u, 0u
+    };
+    auth_mac(s, data_id, status, s->session, s->fv, mac);
 }
 
 /* Whether @p mac is the authenticator of the command with freshness @p fv.
@@ -132,7 +154,7 @@ static bool mac_ok(const auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DA
                    uint32_t fv, const uint8_t mac[AUTH_MAC_LEN])
 {
     uint8_t want[AUTH_MAC_LEN];
-    auth_mac(s, data_id, data, fv, want);
+    auth_mac(s, data_id, data, s->session, fv, want);
     unsigned diff = 0u;
     for (size_t i = 0; i < AUTH_MAC_LEN; i++) {
         diff |= (unsigned)(want[i] ^ mac[i]);
@@ -140,38 +162,58 @@ static bool mac_ok(const auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DA
     return diff == 0u;
 }
 
+/* The challenge is decided: the next one is fv + 1. A spent session stays
+ * at AUTH_FV_MAX, where nothing is accepted, until a new one starts. */
+static void use_up(auth_t *s, auth_result_t outcome)
+{
+    if (s->fv < AUTH_FV_MAX) {
+        s->fv++;
+    }
+    s->outcome = (uint8_t)outcome;
+}
+
 void auth_refuse(auth_t *s, auth_result_t why)
 {
-    s->last = (uint8_t)why;
-    if (s->refused < AUTH_REFUSED_MAX) {
+    if (why == AUTH_EXPIRED) {
+        /* no command came: not a refusal */
+    } else if (s->refused < AUTH_REFUSED_MAX) {
         s->refused++;
+    } else {
+        s->refused_saturated = true;
     }
+    use_up(s, why);
 }
 
 auth_result_t auth_verify(auth_t *s, uint16_t data_id, const uint8_t data[AUTH_DATA_LEN],
-                          uint32_t fv_low, const uint8_t mac[AUTH_MAC_LEN])
+                          uint32_t fv, const uint8_t mac[AUTH_MAC_LEN], uint64_t now_us)
 {
     auth_result_t r;
-    /* The smallest value above the last accepted one with these low bits
-     * (SecOC's freshness reconstruction), in 64 bits: it can pass 2^32 - 1
-     * when the counter is spent, and is then not accepted. */
-    uint64_t fv = ((uint64_t)s->fv & ~(uint64_t)FV_LOW_MASK) | (uint64_t)(fv_low & FV_LOW_MASK);
-    if (fv <= (uint64_t)s->fv) {
-        fv += FV_SPAN;
-    }
-    if (!s->keyed) {
+    if (!s->keyed || auth_spent(s)) {
         r = AUTH_NO_KEY;
-    } else if (fv <= (uint64_t)UINT32_MAX && mac_ok(s, data_id, data, (uint32_t)fv, mac)) {
-        s->fv = (uint32_t)fv;
-        r = AUTH_OK;
-    } else if (fv >= FV_SPAN && mac_ok(s, data_id, data, (uint32_t)(fv - FV_SPAN), mac)) {
-        /* Authentic with the value at or below the last accepted one that
-         * has these low bits: played again. Told apart only to say why. */
+    } else if (now_us < s->locked_until_us) {
+        r = AUTH_LOCKED;
+    } else if (fv != s->fv + 1u) {
+        /* Signed for another moment: a recorded command, or a sender that
+         * did not see the last decision. No MAC is checked, so nothing is
+         * learnt: it does not count towards the lock. */
         r = AUTH_STALE;
+    } else if (mac_ok(s, data_id, data, fv, mac)) {
+        r = AUTH_OK;
     } else {
         r = AUTH_MAC;
+        /* After a lock, fails stays at the limit: each further failure before
+         * an accepted command locks again at once. */
+        if (s->fails < AUTH_LOCK_TRIES) {
+            s->fails++;
+        }
+        if (s->fails >= AUTH_LOCK_TRIES) {
+            s->locked_until_us = now_us + AUTH_LOCK_US;
+        }
     }
-    if (r != AUTH_OK) {
+    if (r == AUTH_OK) {
+        s->fails = 0u;
+        use_up(s, AUTH_OK);
+    } else {
         auth_refuse(s, r);
     }
     return r;

@@ -34,6 +34,7 @@ _Static_assert(COMM_ID_STATUS_COUNTERS == MSTC_DBC_STATUS_COUNTERS_FRAME_ID, "ST
 _Static_assert(COMM_ID_EVENT == MSTC_DBC_EVENT_FRAME_ID, "EVENT id");
 _Static_assert(COMM_ID_HEARTBEAT == MSTC_DBC_HEARTBEAT_FRAME_ID, "HEARTBEAT id");
 _Static_assert(COMM_ID_AUTH_STATUS == MSTC_DBC_AUTH_STATUS_FRAME_ID, "AUTH_STATUS id");
+_Static_assert(COMM_ID_AUTH_CHALLENGE == MSTC_DBC_AUTH_CHALLENGE_FRAME_ID, "AUTH_CHALLENGE id");
 _Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
 _Static_assert(COMM_ID_WHEEL_SPEED == MSTC_DBC_WHEEL_SPEED_FRAME_ID, "WHEEL_SPEED id");
 _Static_assert(COMM_WHEEL_FAULTS_MASK == 15u, "WHEEL_SPEED_faults: 4 bits (mstc.dbc)");
@@ -66,12 +67,16 @@ _Static_assert((int)COMM_PARAM_R_M == (int)CTL_P_R_M &&
                    (unsigned)COMM_PARAM_COUNT <= CTL_N_PARAMS &&
                    (unsigned)COMM_PARAM_ARM >= CTL_N_PARAMS,
                "parameter indices of the limits table");
-_Static_assert(AUTH_MISSING == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MISSING_CHOICE &&
+_Static_assert(AUTH_OK == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_OK_CHOICE &&
+                   AUTH_MISSING == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MISSING_CHOICE &&
                    AUTH_MAC == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MAC_CHOICE &&
                    AUTH_STALE == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_STALE_CHOICE &&
-                   AUTH_NO_KEY == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NO_KEY_CHOICE,
-               "refusal reasons");
-_Static_assert(AUTH_REFUSED_MAX == COMM_DROP_COUNT_MAX, "12-bit counts");
+                   AUTH_NO_KEY == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NO_KEY_CHOICE &&
+                   AUTH_LOCKED == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_LOCKED_CHOICE &&
+                   AUTH_EXPIRED == MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_EXPIRED_CHOICE,
+               "decision outcomes");
+_Static_assert(AUTH_REFUSED_MAX == (1u << 15) - 1u, "15-bit refusal count");
+_Static_assert(AUTH_FV_BITS == 20u, "PARAM_AUTH and AUTH_CHALLENGE carry 20 bits of freshness");
 _Static_assert(COMM_STATE_FAULT == MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE,
                "heartbeat states");
 _Static_assert(SUP_MODE_TRACK == MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE &&
@@ -96,7 +101,9 @@ typedef struct {
 } frame_t;
 
 /* Indexed like comm_t's counter arrays. WHEEL_SPEED is received, and sent by
- * a board that measures its own wheels (mstc.dbc). */
+ * a board that measures its own wheels (mstc.dbc). Two pairs a row;
+ * WHEEL_SPEED and AUTH_CHALLENGE added at the end, on rows of their own. */
+/* clang-format off */
 static const frame_t frames[COMM_N_FRAMES] = {
     { COMM_ID_ODOM_XY, 0x1100u, true },      { COMM_ID_ODOM_THETA, 0x1101u, true },
     { COMM_ID_REF_XY, 0x1102u, true },       { COMM_ID_REF_MOTION, 0x1103u, true },
@@ -108,7 +115,9 @@ static const frame_t frames[COMM_N_FRAMES] = {
     { COMM_ID_EVENT, 0x1184u, false },       { COMM_ID_HEARTBEAT, 0x1185u, false },
     { COMM_ID_AUTH_STATUS, 0x1186u, false }, { COMM_ID_PARAM_VALUE, 0x1190u, false },
     { COMM_ID_WHEEL_SPEED, 0x1105u, true },
+    { COMM_ID_AUTH_CHALLENGE, COMM_AUTH_CHALLENGE_DATA_ID, false },
 };
+/* clang-format on */
 
 /* Index of @p id in frames[], or COMM_N_FRAMES when it is not a protocol frame. */
 static size_t frame_index(uint32_t id)
@@ -379,15 +388,17 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
         }
         break;
     }
-    case COMM_ID_PARAM_AUTH: {
-        struct mstc_dbc_param_auth_t s;
-        (void)mstc_dbc_param_auth_unpack(&s, d, FRAME_LEN);
-        m->u.param_auth.freshness_low = s.param_auth_freshness;
+    case COMM_ID_PARAM_AUTH:
+        /* By hand, not mstc_dbc_param_auth_unpack(): the MAC is bytes 4..7
+         * in order and the freshness bits 12..31 (mstc.dbc), and the 32 KB
+         * budget has no room for a second copy of what these lines do
+         * (test_comm.c checks them against the codec). */
+        m->u.param_auth.freshness_low =
+            (uint32_t)(d[1] >> 4) | (uint32_t)d[2] << 4 | (uint32_t)d[3] << 12;
         for (size_t i = 0; i < AUTH_MAC_LEN; i++) {
             m->u.param_auth.mac[i] = d[4u + i];
         }
         break;
-    }
     case COMM_ID_WHEEL_SPEED: {
         struct mstc_dbc_wheel_speed_t s;
         (void)mstc_dbc_wheel_speed_unpack(&s, d, FRAME_LEN);
@@ -685,15 +696,26 @@ int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f)
     return 0;
 }
 
-int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t *f)
+int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t f[2])
 {
-    const struct mstc_dbc_auth_status_t st = {
-        .auth_status_last = s->last,
-        .auth_status_freshness = s->fv,
-        .auth_status_refused = s->refused,
-    };
-    (void)mstc_dbc_auth_status_pack(f->data, &st, FRAME_LEN);
-    e2e_protect(c, frame_index(COMM_ID_AUTH_STATUS), f);
+    /* By hand, not with the generated packers, for the 32 KB budget (the
+     * layout is mstc.dbc's; test_comm.c checks both frames against the
+     * codec). AUTH_STATUS: last bits 12..15, session 16..47, refused 48..62,
+     * refused_saturated 63. AUTH_CHALLENGE: freshness bits 12..31, the MAC
+     * in bytes 4..7 in order. */
+    f[0].data[1] = (uint8_t)(s->outcome << 4);
+    for (size_t i = 0; i < 4u; i++) {
+        f[0].data[2u + i] = (uint8_t)(s->session >> (8u * i));
+    }
+    f[0].data[6] = (uint8_t)(s->refused & 0xFFu);
+    f[0].data[7] =
+        (uint8_t)(((unsigned)s->refused >> 8) & 0x7Fu) | (s->refused_saturated ? 0x80u : 0u);
+    e2e_protect(c, frame_index(COMM_ID_AUTH_STATUS), &f[0]);
+    f[1].data[1] = (uint8_t)((s->fv & 0x0Fu) << 4);
+    f[1].data[2] = (uint8_t)((s->fv >> 4) & 0xFFu);
+    f[1].data[3] = (uint8_t)((s->fv >> 12) & 0xFFu);
+    auth_status_mac(s, COMM_AUTH_CHALLENGE_DATA_ID, &f[1].data[4]);
+    e2e_protect(c, frame_index(COMM_ID_AUTH_CHALLENGE), &f[1]);
     return 0;
 }
 

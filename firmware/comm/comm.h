@@ -59,14 +59,17 @@ enum {
     COMM_ID_EVENT = 0x184,
     COMM_ID_HEARTBEAT = 0x185,
     COMM_ID_AUTH_STATUS = 0x186,
+    COMM_ID_AUTH_CHALLENGE = 0x187,
     COMM_ID_PARAM_VALUE = 0x190,
 };
 
 /** @brief E2E data ID of PARAM_SET, also the data ID its MAC covers (auth.h). */
-#define COMM_PARAM_SET_DATA_ID 0x1120u
+#define COMM_PARAM_SET_DATA_ID      0x1120u
+/** @brief E2E data ID of AUTH_CHALLENGE, also the data ID the status MAC covers (auth.h). */
+#define COMM_AUTH_CHALLENGE_DATA_ID 0x1187u
 
 /** @brief Number of distinct frames in the protocol. */
-#define COMM_N_FRAMES 19u
+#define COMM_N_FRAMES 20u
 
 /** @brief Parameter indices of PARAM_SET / PARAM_GET / PARAM_VALUE. */
 typedef enum {
@@ -175,7 +178,7 @@ typedef struct {
             uint8_t auth_data[AUTH_DATA_LEN]; /**< bytes 2..7, as the MAC covers them */
         } param_set;                          /**< PARAM_SET */
         struct {
-            uint32_t freshness_low;    /**< low AUTH_FV_LOW_BITS bits of the freshness */
+            uint32_t freshness_low;    /**< the freshness value, AUTH_FV_BITS bits */
             uint8_t mac[AUTH_MAC_LEN]; /**< bytes 4..7: the truncated CMAC */
         } param_auth;                  /**< PARAM_AUTH */
         uint8_t param_get;             /**< PARAM_GET index */
@@ -354,8 +357,11 @@ int comm_encode_counters(comm_t *c, hal_can_frame_t *f);
 int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f);
 /** @brief HEARTBEAT. */
 int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f);
-/** @brief AUTH_STATUS: reason of the last refusal, freshness, refusals of @p s. */
-int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t *f);
+/** @brief The status of @p s, both halves: f[0] AUTH_STATUS (outcome of the
+ *         last decision, session, refusals), f[1] AUTH_CHALLENGE (the
+ *         freshness last decided, and the status MAC, auth_status_mac(),
+ *         which authenticates both). Send them in that order. */
+int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t f[2]);
 /** @brief PARAM_VALUE. */
 int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result, float value,
                             hal_can_frame_t *f);

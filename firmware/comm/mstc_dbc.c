@@ -2127,12 +2127,13 @@ int mstc_dbc_auth_status_pack(
     dst_p[0] |= pack_left_shift_u8(src_p->auth_status_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->auth_status_counter, 0u, 0x0fu);
     dst_p[1] |= pack_left_shift_u8(src_p->auth_status_last, 4u, 0xf0u);
-    dst_p[2] |= pack_left_shift_u32(src_p->auth_status_freshness, 0u, 0xffu);
-    dst_p[3] |= pack_right_shift_u32(src_p->auth_status_freshness, 8u, 0xffu);
-    dst_p[4] |= pack_right_shift_u32(src_p->auth_status_freshness, 16u, 0xffu);
-    dst_p[5] |= pack_right_shift_u32(src_p->auth_status_freshness, 24u, 0xffu);
+    dst_p[2] |= pack_left_shift_u32(src_p->auth_status_session, 0u, 0xffu);
+    dst_p[3] |= pack_right_shift_u32(src_p->auth_status_session, 8u, 0xffu);
+    dst_p[4] |= pack_right_shift_u32(src_p->auth_status_session, 16u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(src_p->auth_status_session, 24u, 0xffu);
     dst_p[6] |= pack_left_shift_u16(src_p->auth_status_refused, 0u, 0xffu);
-    dst_p[7] |= pack_right_shift_u16(src_p->auth_status_refused, 8u, 0x0fu);
+    dst_p[7] |= pack_right_shift_u16(src_p->auth_status_refused, 8u, 0x7fu);
+    dst_p[7] |= pack_left_shift_u8(src_p->auth_status_refused_saturated, 7u, 0x80u);
 
     return (8);
 }
@@ -2149,12 +2150,13 @@ int mstc_dbc_auth_status_unpack(
     dst_p->auth_status_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->auth_status_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
     dst_p->auth_status_last = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
-    dst_p->auth_status_freshness = unpack_right_shift_u32(src_p[2], 0u, 0xffu);
-    dst_p->auth_status_freshness |= unpack_left_shift_u32(src_p[3], 8u, 0xffu);
-    dst_p->auth_status_freshness |= unpack_left_shift_u32(src_p[4], 16u, 0xffu);
-    dst_p->auth_status_freshness |= unpack_left_shift_u32(src_p[5], 24u, 0xffu);
+    dst_p->auth_status_session = unpack_right_shift_u32(src_p[2], 0u, 0xffu);
+    dst_p->auth_status_session |= unpack_left_shift_u32(src_p[3], 8u, 0xffu);
+    dst_p->auth_status_session |= unpack_left_shift_u32(src_p[4], 16u, 0xffu);
+    dst_p->auth_status_session |= unpack_left_shift_u32(src_p[5], 24u, 0xffu);
     dst_p->auth_status_refused = unpack_right_shift_u16(src_p[6], 0u, 0xffu);
-    dst_p->auth_status_refused |= unpack_left_shift_u16(src_p[7], 8u, 0x0fu);
+    dst_p->auth_status_refused |= unpack_left_shift_u16(src_p[7], 8u, 0x7fu);
+    dst_p->auth_status_refused_saturated = unpack_right_shift_u8(src_p[7], 7u, 0x80u);
 
     return (0);
 }
@@ -2192,34 +2194,143 @@ bool mstc_dbc_auth_status_auth_status_counter_is_in_phys_range(float value)
 
 bool mstc_dbc_auth_status_auth_status_last_is_in_range(uint8_t value)
 {
-    return (value <= 4u);
+    return (value <= 6u);
 }
 
 bool mstc_dbc_auth_status_auth_status_last_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 4.0f));
+    return ((value >= 0.0f) && (value <= 6.0f));
 }
 
-bool mstc_dbc_auth_status_auth_status_freshness_is_in_range(uint32_t value)
+bool mstc_dbc_auth_status_auth_status_session_is_in_range(uint32_t value)
 {
     (void)value;
 
     return (true);
 }
 
-bool mstc_dbc_auth_status_auth_status_freshness_is_in_phys_range(float value)
+bool mstc_dbc_auth_status_auth_status_session_is_in_phys_range(float value)
 {
     return ((value >= 0.0f) && (value <= 4294967295.0f));
 }
 
 bool mstc_dbc_auth_status_auth_status_refused_is_in_range(uint16_t value)
 {
-    return (value <= 4095u);
+    return (value <= 32767u);
 }
 
 bool mstc_dbc_auth_status_auth_status_refused_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 4095.0f));
+    return ((value >= 0.0f) && (value <= 32767.0f));
+}
+
+bool mstc_dbc_auth_status_auth_status_refused_saturated_is_in_range(uint8_t value)
+{
+    return (value <= 1u);
+}
+
+bool mstc_dbc_auth_status_auth_status_refused_saturated_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 1.0f));
+}
+
+int mstc_dbc_auth_challenge_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_auth_challenge_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->auth_challenge_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->auth_challenge_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u32(src_p->auth_challenge_freshness, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u32(src_p->auth_challenge_freshness, 4u, 0xffu);
+    dst_p[3] |= pack_right_shift_u32(src_p->auth_challenge_freshness, 12u, 0xffu);
+    dst_p[4] |= pack_left_shift_u32(src_p->auth_challenge_mac, 0u, 0xffu);
+    dst_p[5] |= pack_right_shift_u32(src_p->auth_challenge_mac, 8u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(src_p->auth_challenge_mac, 16u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(src_p->auth_challenge_mac, 24u, 0xffu);
+
+    return (8);
+}
+
+int mstc_dbc_auth_challenge_unpack(
+    struct mstc_dbc_auth_challenge_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->auth_challenge_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->auth_challenge_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->auth_challenge_freshness = unpack_right_shift_u32(src_p[1], 4u, 0xf0u);
+    dst_p->auth_challenge_freshness |= unpack_left_shift_u32(src_p[2], 4u, 0xffu);
+    dst_p->auth_challenge_freshness |= unpack_left_shift_u32(src_p[3], 12u, 0xffu);
+    dst_p->auth_challenge_mac = unpack_right_shift_u32(src_p[4], 0u, 0xffu);
+    dst_p->auth_challenge_mac |= unpack_left_shift_u32(src_p[5], 8u, 0xffu);
+    dst_p->auth_challenge_mac |= unpack_left_shift_u32(src_p[6], 16u, 0xffu);
+    dst_p->auth_challenge_mac |= unpack_left_shift_u32(src_p[7], 24u, 0xffu);
+
+    return (0);
+}
+
+int mstc_dbc_auth_challenge_init(struct mstc_dbc_auth_challenge_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_auth_challenge_t));
+
+    return 0;
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_freshness_is_in_range(uint32_t value)
+{
+    return (value <= 1048575u);
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_freshness_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 1048575.0f));
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_mac_is_in_range(uint32_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_auth_challenge_auth_challenge_mac_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 4294967295.0f));
 }
 
 int mstc_dbc_param_value_pack(

@@ -64,6 +64,7 @@ extern "C" {
 #define MSTC_DBC_EVENT_FRAME_ID (0x184u)
 #define MSTC_DBC_HEARTBEAT_FRAME_ID (0x185u)
 #define MSTC_DBC_AUTH_STATUS_FRAME_ID (0x186u)
+#define MSTC_DBC_AUTH_CHALLENGE_FRAME_ID (0x187u)
 #define MSTC_DBC_PARAM_VALUE_FRAME_ID (0x190u)
 
 /* Frame lengths in bytes. */
@@ -85,6 +86,7 @@ extern "C" {
 #define MSTC_DBC_EVENT_LENGTH (8u)
 #define MSTC_DBC_HEARTBEAT_LENGTH (8u)
 #define MSTC_DBC_AUTH_STATUS_LENGTH (8u)
+#define MSTC_DBC_AUTH_CHALLENGE_LENGTH (8u)
 #define MSTC_DBC_PARAM_VALUE_LENGTH (8u)
 
 /* Extended or standard frame types. */
@@ -106,6 +108,7 @@ extern "C" {
 #define MSTC_DBC_EVENT_IS_EXTENDED (0)
 #define MSTC_DBC_HEARTBEAT_IS_EXTENDED (0)
 #define MSTC_DBC_AUTH_STATUS_IS_EXTENDED (0)
+#define MSTC_DBC_AUTH_CHALLENGE_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_VALUE_IS_EXTENDED (0)
 
 /* Frame cycle times in milliseconds. */
@@ -123,6 +126,7 @@ extern "C" {
 #define MSTC_DBC_STATUS_COUNTERS_CYCLE_TIME_MS (100u)
 #define MSTC_DBC_HEARTBEAT_CYCLE_TIME_MS (100u)
 #define MSTC_DBC_AUTH_STATUS_CYCLE_TIME_MS (100u)
+#define MSTC_DBC_AUTH_CHALLENGE_CYCLE_TIME_MS (100u)
 
 /* Signal choices. */
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_R_M_CHOICE (0u)
@@ -217,11 +221,13 @@ extern "C" {
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_STOPPED_CHOICE (3u)
 #define MSTC_DBC_HEARTBEAT_HEARTBEAT_STATE_FAULT_CHOICE (4u)
 
-#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NONE_CHOICE (0u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_OK_CHOICE (0u)
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MISSING_CHOICE (1u)
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_MAC_CHOICE (2u)
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_STALE_CHOICE (3u)
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NO_KEY_CHOICE (4u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_LOCKED_CHOICE (5u)
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_EXPIRED_CHOICE (6u)
 
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_R_M_CHOICE (0u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_R_OB_CHOICE (1u)
@@ -277,6 +283,7 @@ extern "C" {
 #define MSTC_DBC_EVENT_NAME "EVENT"
 #define MSTC_DBC_HEARTBEAT_NAME "HEARTBEAT"
 #define MSTC_DBC_AUTH_STATUS_NAME "AUTH_STATUS"
+#define MSTC_DBC_AUTH_CHALLENGE_NAME "AUTH_CHALLENGE"
 #define MSTC_DBC_PARAM_VALUE_NAME "PARAM_VALUE"
 
 /* Signal Names. */
@@ -366,8 +373,13 @@ extern "C" {
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_CRC_NAME "AUTH_STATUS_CRC"
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_COUNTER_NAME "AUTH_STATUS_Counter"
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_LAST_NAME "AUTH_STATUS_last"
-#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_FRESHNESS_NAME "AUTH_STATUS_freshness"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_SESSION_NAME "AUTH_STATUS_session"
 #define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_REFUSED_NAME "AUTH_STATUS_refused"
+#define MSTC_DBC_AUTH_STATUS_AUTH_STATUS_REFUSED_SATURATED_NAME "AUTH_STATUS_refused_saturated"
+#define MSTC_DBC_AUTH_CHALLENGE_AUTH_CHALLENGE_CRC_NAME "AUTH_CHALLENGE_CRC"
+#define MSTC_DBC_AUTH_CHALLENGE_AUTH_CHALLENGE_COUNTER_NAME "AUTH_CHALLENGE_Counter"
+#define MSTC_DBC_AUTH_CHALLENGE_AUTH_CHALLENGE_FRESHNESS_NAME "AUTH_CHALLENGE_freshness"
+#define MSTC_DBC_AUTH_CHALLENGE_AUTH_CHALLENGE_MAC_NAME "AUTH_CHALLENGE_mac"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_CRC_NAME "PARAM_VALUE_CRC"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_COUNTER_NAME "PARAM_VALUE_Counter"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_NAME "PARAM_VALUE_index"
@@ -772,7 +784,7 @@ struct mstc_dbc_param_get_t {
 /**
  * Signals in message PARAM_AUTH.
  *
- * Authenticates the PARAM_SET sent just before it, in the manner of AUTOSAR SecOC (docs/safety.md): the low 20 bits of a 32-bit freshness value that never repeats, and the first 4 bytes of AES-128-CMAC under the device key over PARAM_SET's data ID (2 bytes, big-endian), PARAM_SET's bytes 2..7 and the whole freshness value (4 bytes, big-endian). The firmware acts on a PARAM_SET only when its PARAM_AUTH follows before another PARAM_SET and within 2 control steps; otherwise it answers result unauthenticated.
+ * Authenticates the PARAM_SET sent just before it, in the manner of AUTOSAR SecOC (docs/safety.md): the firmware's challenge (the freshness value after the one AUTH_CHALLENGE announces) and the first 4 bytes of AES-128-CMAC under the device key over PARAM_SET's data ID (2 bytes), PARAM_SET's bytes 2..7, the session (AUTH_STATUS, 4 bytes) and the freshness value (4 bytes), numbers big-endian. Every decision uses the challenge up, accepted or refused. The firmware acts on a PARAM_SET only when its PARAM_AUTH follows before another PARAM_SET and within 2 control steps; otherwise it answers result unauthenticated.
  *
  * All signal values are as on the CAN bus.
  */
@@ -792,7 +804,7 @@ struct mstc_dbc_param_auth_t {
     uint8_t param_auth_counter;
 
     /**
-     * Low 20 bits of the freshness value; the firmware takes the smallest value above the last one it accepted with these low bits.
+     * The freshness value: the firmware accepts only its challenge, the value after the one AUTH_CHALLENGE announced last.
      *
      * Range: 0..1048575 (0..1048575 -)
      * Scale: 1
@@ -1131,7 +1143,7 @@ struct mstc_dbc_heartbeat_t {
 /**
  * Signals in message AUTH_STATUS.
  *
- * Authentication state: sent after every PARAM_VALUE, after every refused command and every 100 ms of firmware time. A tool reads the freshness here and sends the next value.
+ * Authentication state, first half: sent after every PARAM_VALUE, after every refused command and every 100 ms of firmware time, each time followed by AUTH_CHALLENGE, which authenticates both; a tool adopts nothing from it before that MAC verifies.
  *
  * All signal values are as on the CAN bus.
  */
@@ -1151,31 +1163,79 @@ struct mstc_dbc_auth_status_t {
     uint8_t auth_status_counter;
 
     /**
-     * Why the last command was refused: 0 none yet; 1 missing (a PARAM_SET without its PARAM_AUTH, or a PARAM_AUTH without a PARAM_SET); 2 mac (wrong key, forged or corrupted); 3 stale (an authentic command whose freshness is not above the last accepted: a replay); 4 no_key (the firmware was given no key).
+     * How the challenge AUTH_CHALLENGE_freshness was decided: 0 ok (accepted, or none yet); 1 missing (a PARAM_SET without its PARAM_AUTH, or a PARAM_AUTH without a PARAM_SET); 2 mac (wrong key, forged or corrupted); 3 stale (a freshness value other than the challenge: a replay, or a tool that missed a decision); 4 no_key (the firmware has no key); 5 locked (refused unchecked: 4 MAC checks failed in a row, for 10 s); 6 expired (no command came for it within 0.5 s: not a refusal).
      *
-     * Range: 0..4 (0..4 -)
+     * Range: 0..6 (0..6 -)
      * Scale: 1
      * Offset: 0
      */
     uint8_t auth_status_last;
 
     /**
-     * The last freshness value accepted (0 before the first): the next command must carry a larger one.
+     * Drawn at every start of the firmware (docs/safety.md): a command signed in an earlier session is never accepted.
      *
      * Range: 0..4294967295 (0..4294967295 -)
      * Scale: 1
      * Offset: 0
      */
-    uint32_t auth_status_freshness;
+    uint32_t auth_status_session;
 
     /**
-     * Commands refused since start-up, for any reason (saturates at 4095).
+     * Commands refused since start-up, for any reason, up to 32767.
      *
-     * Range: 0..4095 (0..4095 -)
+     * Range: 0..32767 (0..32767 -)
      * Scale: 1
      * Offset: 0
      */
     uint16_t auth_status_refused;
+
+    /**
+     * 1: more than 32767 were refused; refused stopped counting.
+     *
+     * Range: 0..1 (0..1 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t auth_status_refused_saturated;
+};
+
+/**
+ * Signals in message AUTH_CHALLENGE.
+ *
+ * Authentication state, second half: the freshness value last decided (the next command must carry this + 1) and the first 4 bytes of the firmware's AES-128-CMAC under the device key over this frame's data ID (2 bytes), AUTH_STATUS's last (1 byte), refused with refused_saturated in bit 15 (2 bytes), three zero bytes, the session (4 bytes) and the freshness (4 bytes), numbers big-endian: a command's layout under another data ID (docs/safety.md).
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_auth_challenge_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t auth_challenge_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t auth_challenge_counter;
+
+    /**
+     * Range: 0..1048575 (0..1048575 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint32_t auth_challenge_freshness;
+
+    /**
+     * Bytes 4..7 are the first four bytes of the CMAC, in order (the signal is their little-endian reading).
+     *
+     * Range: 0..4294967295 (0..4294967295 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint32_t auth_challenge_mac;
 };
 
 /**
@@ -3789,7 +3849,7 @@ bool mstc_dbc_auth_status_auth_status_last_is_in_phys_range(float value);
  *
  * @return true if in range, false otherwise.
  */
-bool mstc_dbc_auth_status_auth_status_freshness_is_in_range(uint32_t value);
+bool mstc_dbc_auth_status_auth_status_session_is_in_range(uint32_t value);
 
 /**
  * Check that given physical value is in allowed range before encoding.
@@ -3802,7 +3862,7 @@ bool mstc_dbc_auth_status_auth_status_freshness_is_in_range(uint32_t value);
  *
  * @return true if in range, false otherwise.
  */
-bool mstc_dbc_auth_status_auth_status_freshness_is_in_phys_range(float value);
+bool mstc_dbc_auth_status_auth_status_session_is_in_phys_range(float value);
 
 /**
  * Check that given signal is in allowed range.
@@ -3825,6 +3885,153 @@ bool mstc_dbc_auth_status_auth_status_refused_is_in_range(uint16_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_auth_status_auth_status_refused_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_refused_saturated_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_status_auth_status_refused_saturated_is_in_phys_range(float value);
+
+/**
+ * Pack message AUTH_CHALLENGE.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_auth_challenge_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_auth_challenge_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message AUTH_CHALLENGE.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_auth_challenge_unpack(
+    struct mstc_dbc_auth_challenge_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from AUTH_CHALLENGE.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_auth_challenge_init(struct mstc_dbc_auth_challenge_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_freshness_is_in_range(uint32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_freshness_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_mac_is_in_range(uint32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_auth_challenge_auth_challenge_mac_is_in_phys_range(float value);
 
 /**
  * Pack message PARAM_VALUE.

@@ -43,8 +43,12 @@
 /** @brief Look-ahead distance l [m] (a literal: cbf.c derives 1/l from it). */
 #define CBF_LOOKAHEAD_M   0.05
 /** @brief Barrier rate α [1/s]; α·dt <= 1 for every control period up to
- *         0.1 s (a literal: cbf.c derives 2/α from it). */
+ *         CBF_MAX_PERIOD_MS (a literal: cbf.c derives 2/α from it). */
 #define CBF_ALPHA_PER_S   20.0
+/** @brief The longest control period for which the filter's guarantee holds
+ *         [ms]: 1/α. mstc-fw --period-ms and the scenario loader (sim.dt)
+ *         refuse longer ones (docs/strategy.md). */
+#define CBF_MAX_PERIOD_MS 50u
 /** @brief κ [m]: a change of ω weighs as a change of v of κ Δω (a literal). */
 #define CBF_TURN_WEIGHT_M 0.3
 /** @brief l as num_t. */

@@ -37,7 +37,8 @@ enum {
 typedef struct {
     num_t r_m;   /**< robot radius R_m [m] */
     num_t r_ob;  /**< default obstacle radius R_ob [m] */
-    num_t d_det; /**< sensor range D_det [m] */
+    num_t d_det; /**< sensor range D_det [m]: centre distance at which an obstacle of radius
+                      R_ob is detected; one of radius r at D_det + r - R_ob */
     num_t d_act; /**< activation distance D_act [m] */
     num_t d_s;   /**< safe distance D_s [m] */
     trk_gains_t trk;

@@ -113,8 +113,14 @@ void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *repor
             }
             continue;
         }
-        if (num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y)) > s->p.d_det) {
-            continue; /* reported, but not yet detected by Definition 1 */
+        /* Definition 1, with the sensor's range moved out by the obstacle's
+         * extra radius as D_s and D_act are (set_entry): D_det is the centre
+         * distance at which an obstacle of radius R_ob is seen, so the range
+         * counts from the obstacle's boundary. Avoidance then starts within
+         * the range for every radius (D_act <= D_det), as for R_ob. */
+        const num_t range = num_add(s->p.d_det, num_sub(o->radius, s->p.r_ob));
+        if (num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y)) > range) {
+            continue; /* reported, but not yet detected */
         }
         if (s->n_obs >= SUP_MAX_OBSTACLES) {
             s->dropped++;

@@ -75,7 +75,8 @@ typedef struct {
 /** @brief Thresholds of Definitions 1-4 (Table 1), centre to centre. */
 typedef struct {
     num_t r_ob;  /**< obstacle radius the thresholds are set for [m] */
-    num_t d_det; /**< sensor range D_det [m] */
+    num_t d_det; /**< sensor range D_det [m]: centre distance at which an obstacle of radius
+                      R_ob is detected; one of radius r at D_det + r - R_ob */
     num_t d_act; /**< activation distance D_act [m], > d_s */
     num_t d_s;   /**< safe distance D_s [m], >= R_m */
 } sup_params_t;

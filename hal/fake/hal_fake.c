@@ -76,6 +76,12 @@ void hal_sys_watchdog_kick(void) { hal_fake.kicks++; }
 
 hal_reset_cause_t hal_sys_reset_cause(void) { return hal_fake.reset_cause; }
 
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    *nonce = hal_fake.boot_nonce++;
+    return hal_fake.boot_nonce_rc;
+}
+
 int hal_encoder_init(void) { return hal_fake.encoder_rc; }
 
 int hal_encoder_read(int32_t *left, int32_t *right)

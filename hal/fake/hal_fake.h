@@ -33,6 +33,8 @@ typedef struct {
     hal_reset_cause_t reset_cause;
     hal_can_status_t can_status; /**< returned by hal_can_status() */
     int can_status_rc;           /**< its return value (0) */
+    uint32_t boot_nonce;         /**< returned by hal_sys_boot_nonce(), then incremented */
+    int boot_nonce_rc;           /**< its return value (0) */
     int32_t encoder[2];          /**< counts hal_encoder_read() returns, left and right */
     int encoder_rc;              /**< returned by hal_encoder_init() and _read() (0) */
     unsigned encoder_reads;      /**< hal_encoder_read() calls */

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* HAL time and system services on Linux. */
 #include <errno.h>
+#include <sys/random.h>
 #include <time.h>
 
 #include "hal/hal_sys.h"
@@ -50,3 +51,9 @@ int hal_sys_watchdog_start(uint32_t timeout_ms)
 void hal_sys_watchdog_kick(void) {}
 
 hal_reset_cause_t hal_sys_reset_cause(void) { return HAL_RESET_POWER_ON; }
+
+/* The kernel's random source: unpredictable, every start and every call. */
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    return getrandom(nonce, sizeof *nonce, 0) == (ssize_t)sizeof *nonce ? 0 : -EIO;
+}

@@ -8,7 +8,9 @@
 #include <string.h>
 
 #include "app/app.h"
+#include "ctrl/cbf.h"
 #include "hal/hal_can.h"
+#include "hal/hal_sys.h"
 #include "hal/hal_time.h"
 
 static volatile sig_atomic_t stop;
@@ -70,7 +72,8 @@ static void usage(FILE *out)
                  "                  process could not keep are skipped and counted);\n"
                  "                  without it the firmware runs lock-step: one control\n"
                  "                  step per STEP frame, stamped with the frame's time\n"
-                 "  --period-ms MS  control period in real-time mode, 1..1000 (default 20)\n"
+                 "  --period-ms MS  control period in real-time mode, 1..50 (default 20):\n"
+                 "                  the safety filter's guarantee needs alpha dt <= 1\n"
                  "  --key-file PATH the device key of authenticated commands: 32 hex\n"
                  "                  digits, # comments (default: $MSTC_KEY as hex digits,\n"
                  "                  else the file $MSTC_KEY_FILE; without a key every\n"
@@ -167,9 +170,12 @@ int main(int argc, char **argv)
         } else if (strcmp(argv[i], "--period-ms") == 0 && i + 1 < argc) {
             char *end = NULL;
             period_ms = strtol(argv[++i], &end, 10);
-            if (end == NULL || *end != '\0' || period_ms < 1 || period_ms > 1000) {
-                fprintf(stderr, "mstc-fw: --period-ms: expected an integer in 1..1000, got '%s'\n",
-                        argv[i]);
+            if (end == NULL || *end != '\0' || period_ms < 1 ||
+                period_ms > (long)CBF_MAX_PERIOD_MS) {
+                fprintf(stderr,
+                        "mstc-fw: --period-ms: expected an integer in 1..%u, got '%s' (the safety "
+                        "filter's guarantee needs alpha dt <= 1, alpha = %g/s: docs/strategy.md)\n",
+                        CBF_MAX_PERIOD_MS, argv[i], CBF_ALPHA_PER_S);
                 return 2;
             }
         } else {
@@ -197,7 +203,13 @@ int main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     app_init(&app, NULL);
     if (key_rc == 0) {
-        app_set_key(&app, key, 0u);
+        /* A session of its own for every start (docs/safety.md, "Sessions"). */
+        uint32_t session;
+        if (hal_sys_boot_nonce(&session) != 0) {
+            fprintf(stderr, "mstc-fw: the kernel gave no random value for the session\n");
+            return 1;
+        }
+        app_set_key(&app, key, session);
         memset(key, 0, sizeof key);
     }
     /* One line: tools wait for it to know the firmware is on the bus. */

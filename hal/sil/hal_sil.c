@@ -3,6 +3,7 @@
  * mstc_sil.h) and the firmware, time from the frames, no watchdog. */
 #include <errno.h>
 #include <string.h>
+#include <sys/random.h>
 
 #include "hal/hal_can.h"
 #include "hal/hal_sys.h"
@@ -127,3 +128,11 @@ int hal_sys_watchdog_start(uint32_t timeout_ms)
 }
 void hal_sys_watchdog_kick(void) {}
 hal_reset_cause_t hal_sys_reset_cause(void) { return HAL_RESET_POWER_ON; }
+
+/* The kernel's random source, as hal/linux: every start of the library's
+ * firmware instance draws its own session (mstc_sil_fw_set_session() sets
+ * one instead, for the replay of a recorded log). */
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    return getrandom(nonce, sizeof *nonce, 0) == (ssize_t)sizeof *nonce ? 0 : -EIO;
+}

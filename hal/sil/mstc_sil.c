@@ -13,6 +13,7 @@
 #include "auth/auth.h"
 #include "ctrl/ctl.h"
 #include "hal/hal_can.h"
+#include "hal/hal_sys.h"
 #include "hal_sil.h"
 
 _Static_assert(MSTC_SIL_MAX_OBSTACLES == SUP_MAX_OBSTACLES, "obstacle table sizes differ");
@@ -160,12 +161,25 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p)
 
 _Static_assert(MSTC_SIL_KEY_LEN == AUTH_KEY_LEN, "key lengths differ");
 
-int mstc_sil_fw_set_key(const uint8_t *key, size_t len, uint32_t freshness)
+int mstc_sil_fw_set_key(const uint8_t *key, size_t len)
 {
     if (key == NULL || len != MSTC_SIL_KEY_LEN) {
         return -EINVAL;
     }
-    app_set_key(&app, key, freshness);
+    uint32_t session;
+    if (hal_sys_boot_nonce(&session) != 0) {
+        return -EIO;
+    }
+    app_set_key(&app, key, session);
+    return 0;
+}
+
+int mstc_sil_fw_set_session(uint32_t session)
+{
+    if (!app.auth.keyed) {
+        return -EINVAL;
+    }
+    auth_new_session(&app.auth, session);
     return 0;
 }
 
@@ -177,8 +191,7 @@ int mstc_sil_cmac(const uint8_t *key, const uint8_t *msg, size_t len, uint8_t *m
     auth_t s;
     auth_init(&s);
     auth_set_key(&s, key, 0u);
-    auth_cmac(&s, msg, len, mac);
-    return 0;
+    return auth_cmac(&s, msg, len, mac);
 }
 
 int mstc_sil_fw_send(const mstc_sil_frame_t *f)
@@ -276,6 +289,58 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
     return 0;
 }
 
+size_t mstc_sil_batch_stride(void) { return (sizeof(ctl_t) + 15u) & ~(size_t)15u; }
+
+/* A table that fits, and nothing reported beyond it. */
+static bool batch_input_valid(const mstc_sil_batch_input_t *in)
+{
+    const uint32_t n = in->in.n_obstacles;
+    if (n > MSTC_SIL_MAX_OBSTACLES) {
+        return false;
+    }
+    for (uint32_t j = n; j < MSTC_SIL_MAX_OBSTACLES; j++) {
+        if (in->reported[j] != 0u) {
+            return false;
+        }
+    }
+    return true;
+}
+
+int mstc_sil_step_batch(void *mem, size_t n, const mstc_sil_batch_input_t *in,
+                        const uint8_t *active, mstc_sil_output_t *out)
+{
+    if (n == 0u) {
+        return 0;
+    }
+    if (mem == NULL || in == NULL || out == NULL) {
+        return -EINVAL;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if ((active == NULL || active[i] != 0u) && !batch_input_valid(&in[i])) {
+            return -EINVAL;
+        }
+    }
+    const size_t stride = mstc_sil_batch_stride();
+    for (size_t i = 0; i < n; i++) {
+        if (active != NULL && active[i] == 0u) {
+            continue;
+        }
+        /* The reported entries, in table order: the list mstc_sil_step gets. */
+        mstc_sil_obstacle_t seen[MSTC_SIL_MAX_OBSTACLES];
+        uint32_t count = 0u;
+        for (uint32_t j = 0; j < in[i].in.n_obstacles; j++) {
+            if (in[i].reported[j] != 0u) {
+                seen[count++] = in[i].table[j];
+            }
+        }
+        mstc_sil_input_t one = in[i].in;
+        one.n_obstacles = count;
+        one.obstacles = seen;
+        (void)mstc_sil_step((unsigned char *)mem + i * stride, &one, &out[i]);
+    }
+    return 0;
+}
+
 /* The layout table of mstc_sil_layout(). A field added to a struct of
  * mstc_sil.h is added here too; the Python bindings refuse a library whose
  * table and their own structs disagree, naming the struct and field. */
@@ -341,6 +406,11 @@ static const mstc_sil_layout_t layout[] = {
     LAYOUT_FIELD(mstc_sil_output_t, distance),
     LAYOUT_FIELD(mstc_sil_output_t, n_events),
     LAYOUT_FIELD(mstc_sil_output_t, events),
+
+    LAYOUT_STRUCT(mstc_sil_batch_input_t),
+    LAYOUT_FIELD(mstc_sil_batch_input_t, in),
+    LAYOUT_FIELD(mstc_sil_batch_input_t, reported),
+    LAYOUT_FIELD(mstc_sil_batch_input_t, table),
 
     LAYOUT_STRUCT(mstc_sil_frame_t),
     LAYOUT_FIELD(mstc_sil_frame_t, id),

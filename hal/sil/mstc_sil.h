@@ -10,7 +10,8 @@
  *   on boards; this is what the python-can interface "mstc-sil" wraps, in
  *   lock-step; mstc_sil_fw_tick() is the real-time mode's timer tick;
  * - the control step alone, in memory (mstc_sil_init/step), the reference
- *   the frame path is compared against.
+ *   the frame path is compared against, and the same step over many
+ *   controllers in one call (mstc_sil_step_batch), for sweeps.
  *
  * Plain C types and doubles only, whatever the firmware's numeric mode: the
  * library converts at this boundary. For the in-memory step the caller owns
@@ -106,6 +107,45 @@ int mstc_sil_init(void *mem, const mstc_sil_params_t *p);
  */
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out);
 
+/**
+ * @brief One scene of a batched step (mstc_sil_step_batch()): the inputs of
+ *        mstc_sil_step() with the scene's obstacle table inline and what the
+ *        range sensor reports of it as a mask, so that an array of them is a
+ *        plain numpy structured array (no pointers to fill in).
+ */
+typedef struct {
+    /** The step's inputs; in.n_obstacles is the number of entries of
+     *  @ref table (at most MSTC_SIL_MAX_OBSTACLES), in.obstacles is ignored. */
+    mstc_sil_input_t in;
+    /** Not 0: table[i] is reported this step (a byte per entry, so that a
+     *  numpy bool mask is copied in as it is). The step gets the reported
+     *  entries in table order, as mstc_sil_step() would get that list. */
+    uint8_t reported[MSTC_SIL_MAX_OBSTACLES];
+    mstc_sil_obstacle_t table[MSTC_SIL_MAX_OBSTACLES];
+} mstc_sil_batch_input_t;
+
+/**
+ * @brief Bytes from one controller to the next in a batch's memory:
+ *        mstc_sil_size() rounded up to 16, so that each stays 16-byte aligned.
+ */
+size_t mstc_sil_batch_stride(void);
+
+/**
+ * @brief One control step of @p n controllers: controller i (at
+ *        mem + i·mstc_sil_batch_stride(), initialised with mstc_sil_init())
+ *        steps on in[i] into out[i], exactly as mstc_sil_step() would with
+ *        the reported entries of in[i].table as its obstacle list.
+ * @param mem the controllers, 16-byte aligned.
+ * @param n the number of controllers, inputs and outputs.
+ * @param active NULL: every controller steps; else only those whose byte is
+ *        not 0 (the others, and their outputs, are left as they are).
+ * @retval 0 done. @retval -EINVAL a NULL pointer, or an input with more than
+ *         MSTC_SIL_MAX_OBSTACLES table entries or an entry reported beyond
+ *         its table: then no controller has stepped.
+ */
+int mstc_sil_step_batch(void *mem, size_t n, const mstc_sil_batch_input_t *in,
+                        const uint8_t *active, mstc_sil_output_t *out);
+
 /** @brief A classic CAN frame (same layout as hal_can_frame_t). */
 typedef struct {
     uint32_t id; /**< 11-bit identifier */
@@ -126,19 +166,27 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p);
 
 /**
  * @brief Give the firmware instance its key for authenticated commands
- *        (app_set_key()); the next command must carry a freshness value
- *        above @p freshness. Without one, every PARAM_SET is refused.
- *        mstc_sil_fw_init() forgets it.
+ *        (app_set_key()), with a session drawn from the OS
+ *        (hal_sys_boot_nonce()), as a board's start draws one. Without a
+ *        key, every PARAM_SET is refused. mstc_sil_fw_init() forgets it.
  * @retval 0 done. @retval -EINVAL NULL or @p len is not MSTC_SIL_KEY_LEN.
+ * @retval -EIO the OS gave no random value.
  */
-int mstc_sil_fw_set_key(const uint8_t *key, size_t len, uint32_t freshness);
+int mstc_sil_fw_set_key(const uint8_t *key, size_t len);
+
+/**
+ * @brief Start session @p session instead (freshness 0): for the replay of a
+ *        log recorded in that session (mstc replay), never for a run.
+ * @retval 0 done. @retval -EINVAL no key was given.
+ */
+int mstc_sil_fw_set_session(uint32_t session);
 
 /**
  * @brief AES-128-CMAC (RFC 4493) of @p len bytes of @p msg under @p key, by
  *        the firmware's own code (auth_cmac()), for comparing it with another
- *        implementation.
+ *        implementation: messages of at most 16 bytes (one block).
  * @param key MSTC_SIL_KEY_LEN bytes. @param[out] mac 16 bytes.
- * @retval 0 done. @retval -EINVAL a NULL pointer.
+ * @retval 0 done. @retval -EINVAL a NULL pointer, or @p len above 16.
  */
 int mstc_sil_cmac(const uint8_t *key, const uint8_t *msg, size_t len, uint8_t *mac);
 

@@ -25,7 +25,6 @@
 #include <string.h>
 
 #include "app/app.h"
-#include "auth_key.h"
 #include "board.h"
 #include "comm/comm.h"
 #include "cortex_m.h"
@@ -55,11 +54,31 @@ static const hal_can_filter_t rx_filters[] = {
     { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },    { COMM_ID_PARAM_AUTH, HAL_CAN_MAX_STD_ID },
 };
 
-/* The device key, compiled in from build/key/auth_key.h, which mk/auth.mk
- * generates from the git-ignored keys/device.key (docs/safety.md, "The
- * key"). In flash, readable by anyone with the debug port: the threat model
- * says what that means. */
-static const uint8_t device_key[AUTH_KEY_LEN] = AUTH_DEVICE_KEY;
+/* The device key, in a section of its own that sections.ld fills with 0xFF
+ * (erased flash): not in the image as built (build/firmware/ holds no key).
+ * `make flash` writes the device key into a private copy of the image
+ * (tools/setup/install-key), `make pil` the simulations' key (docs/safety.md,
+ * "The key"). Defined by the linker, so the compiler cannot take the 0xFF it
+ * will not see for the key. Readable by anyone with the debug port: the
+ * threat model says what that means. */
+extern const uint32_t mstc_device_key[AUTH_KEY_LEN / 4u];
+
+/* Give the application the key in flash, if one was installed (all 0xFF: none,
+ * every command refused, AUTH_STATUS last no_key), with a session of its own
+ * for this start (docs/safety.md, "Sessions"): every command signed before
+ * the reset is refused. A source that failed gives session 0, which the
+ * status shows. */
+static void install_key(void)
+{
+    const uint32_t *k = mstc_device_key;
+    if ((k[0] & k[1] & k[2] & k[3]) != UINT32_MAX) {
+        uint32_t session;
+        if (hal_sys_boot_nonce(&session) != 0) {
+            session = 0u;
+        }
+        app_set_key(&app, (const uint8_t *)mstc_device_key, session);
+    }
+}
 
 /* Status LED: toggles every LED_SLOW_MS while all is well, every LED_FAST_MS
  * while something needs a look (the crystal did not start, CAN is not up,
@@ -232,8 +251,7 @@ int main(void)
     whl_init(&wheels, &app.ctl.p.wheel);
     wheel_params();
     wheel_sched.halt = app.halt;
-    /* Freshness from 0: a reset forgets it (docs/safety.md, "Limits"). */
-    app_set_key(&app, device_key, 0u);
+    install_key();
     (void)stm32_tick_start(BOARD_CONTROL_PERIOD_US);
     (void)hal_sys_watchdog_start(BOARD_WATCHDOG_MS);
 

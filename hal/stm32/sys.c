@@ -38,3 +38,5 @@ int hal_sys_watchdog_start(uint32_t timeout_ms)
 void hal_sys_watchdog_kick(void) { IWDG->KR = KEY_RELOAD; }
 
 hal_reset_cause_t hal_sys_reset_cause(void) { return stm32_reset_cause(board_reset_flags()); }
+
+/* hal_sys_boot_nonce(): in each board's board.c (a TRNG, or a counter). */

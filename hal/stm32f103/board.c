@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "board.h"
+#include "hal/hal_sys.h"
 
 /* PLL (RM0008 §7.2, §7.3.2): HSE (not divided) × 9 = 72 MHz. AHB /1 = 72 MHz;
  * APB1 /2 = 36 MHz (max 36); APB2 /1 = 72 MHz; ADC /6 = 12 MHz (max 14).
@@ -184,6 +185,23 @@ uint32_t board_reset_flags(void)
         read = true;
     }
     return flags;
+}
+
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    /* No TRNG on the F1. A 32-bit counter in backup registers DR1 (high
+     * half) and DR2 (low half), one more at every call: the backup domain
+     * keeps it across every reset (pin, watchdog, software, brown-out) while
+     * VDD or VBAT is present, and loses it when both go (RM0008 5.1). Writes
+     * need the backup domain unlocked (PWR_CR DBP). */
+    RCC->APB1ENR |= RCC_APB1ENR_PWREN_Msk | RCC_APB1ENR_BKPEN_Msk;
+    PWR->CR |= PWR_CR_DBP_Msk;
+    const uint32_t n = (((BKP->DR1 & 0xFFFFu) << 16) | (BKP->DR2 & 0xFFFFu)) + 1u;
+    BKP->DR1 = n >> 16;
+    BKP->DR2 = n & 0xFFFFu;
+    PWR->CR &= ~PWR_CR_DBP_Msk;
+    *nonce = n;
+    return 0;
 }
 
 void board_debug_init(void)

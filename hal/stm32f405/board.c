@@ -2,10 +2,12 @@
 /* STM32F405 board: clock tree, GPIO, clocks of the peripherals, reset flags.
  * RM0090 (STM32F405/415/407/417/427/437/429/439 reference manual, Rev 19)
  * sections are cited; register names come from the generated stm32_regs.h. */
+#include <errno.h>
 #include <stdbool.h>
 #include <stdint.h>
 
 #include "board.h"
+#include "hal/hal_sys.h"
 
 /* PLL (RM0090 §7.2.3, §7.3.2): VCO input HSE / M = 2 MHz (the value RM0090
  * recommends to limit jitter), VCO = 2 MHz × N = 336 MHz (100..432), SYSCLK =
@@ -211,6 +213,37 @@ uint32_t board_reset_flags(void)
         read = true;
     }
     return flags;
+}
+
+/* Reads of the status register the TRNG may take to give two values: one
+ * comes every 40 periods of its 48 MHz clock (RM0090 24.3), under 1 µs. */
+#define RNG_POLLS 4000u
+
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    RCC->AHB2ENR |= RCC_AHB2ENR_RNGEN_Msk;
+    RNG->CR |= RNG_CR_RNGEN_Msk;
+    /* RM0090 24.3.1: each value is compared with the one before and used
+     * only when it differs (FIPS PUB 140-2's continuous test); a clock or
+     * seed error (CECS, SECS) means no value. A TRNG that never gets ready
+     * (no 48 MHz clock; QEMU, which does not model it) gives -EIO. */
+    unsigned got = 0u;
+    for (unsigned i = 0; i < RNG_POLLS; i++) {
+        const uint32_t sr = RNG->SR;
+        if ((sr & (RNG_SR_CECS_Msk | RNG_SR_SECS_Msk)) != 0u) {
+            break;
+        }
+        if ((sr & RNG_SR_DRDY_Msk) != 0u) {
+            const uint32_t v = RNG->DR;
+            if (got > 0u && v != *nonce) {
+                *nonce = v;
+                return 0;
+            }
+            *nonce = v;
+            got++;
+        }
+    }
+    return -EIO;
 }
 
 void board_debug_init(void)

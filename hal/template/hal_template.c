@@ -116,6 +116,14 @@ void hal_sys_watchdog_kick(void) {}
  * stm32_reset_cause() orders them. */
 hal_reset_cause_t hal_sys_reset_cause(void) { return HAL_RESET_OTHER; }
 
+/* A port with a TRNG reads it; one without keeps a counter across resets
+ * (backup registers, flash); docs/safety.md, "Sessions". */
+int hal_sys_boot_nonce(uint32_t *nonce)
+{
+    *nonce = 0u;
+    return -ENOTSUP;
+}
+
 /* ----------------------------------------------------------------- motor */
 
 /* TODO: the wheel outputs: a PWM timer at an inaudible frequency (20 kHz),

@@ -178,7 +178,7 @@ class ExpectationError(MstcError):
 
 class DependencyError(MstcError):
     """An optional dependency that is not installed (an extra of the package:
-    ``pip install 'mstc[cluster]'``)."""
+    ``pip install 'mstc[cluster]'``, ``pip install 'mstc[ros]'``)."""
 
     exit_status = EXIT_USAGE
 

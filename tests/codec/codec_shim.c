@@ -115,8 +115,11 @@ MSG(event, FIELD(event, event_crc), FIELD(event, event_counter), FIELD(event, ev
 MSG(heartbeat, FIELD(heartbeat, heartbeat_crc), FIELD(heartbeat, heartbeat_counter),
     FIELD(heartbeat, heartbeat_state))
 MSG(auth_status, FIELD(auth_status, auth_status_crc), FIELD(auth_status, auth_status_counter),
-    FIELD(auth_status, auth_status_last), FIELD(auth_status, auth_status_freshness),
-    FIELD(auth_status, auth_status_refused))
+    FIELD(auth_status, auth_status_last), FIELD(auth_status, auth_status_session),
+    FIELD(auth_status, auth_status_refused), FIELD(auth_status, auth_status_refused_saturated))
+MSG(auth_challenge, FIELD(auth_challenge, auth_challenge_crc),
+    FIELD(auth_challenge, auth_challenge_counter), FIELD(auth_challenge, auth_challenge_freshness),
+    FIELD(auth_challenge, auth_challenge_mac))
 MSG(param_value, FIELD(param_value, param_value_crc), FIELD(param_value, param_value_counter),
     FIELD(param_value, param_value_index), FIELD(param_value, param_value_result),
     FIELD(param_value, param_value_value))
@@ -140,6 +143,7 @@ static const msg_t msgs[] = {
     ENTRY(event, EVENT),
     ENTRY(heartbeat, HEARTBEAT),
     ENTRY(auth_status, AUTH_STATUS),
+    ENTRY(auth_challenge, AUTH_CHALLENGE),
     ENTRY(param_value, PARAM_VALUE),
 };
 #define N_MSGS (sizeof msgs / sizeof msgs[0])
@@ -286,7 +290,9 @@ static num_t num(double v) { return num_from_float((float)v); }
  *   STATUS_COUNTERS crc, seq, len, unknown (set as the drop counts)
  *   EVENT           kind, side (avd_side_t), obstacle, t_us
  *   HEARTBEAT       state
- *   AUTH_STATUS     last, freshness, refused
+ *   AUTH_STATUS     last, session, refused, refused_saturated
+ *   AUTH_CHALLENGE  the same, then freshness (the status MAC under the
+ *                   all-zero key)
  *   PARAM_VALUE     index, result, value
  * @retval the encoder's result, or -ENOENT for another identifier.
  */
@@ -338,11 +344,20 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
         break;
     }
     case COMM_ID_HEARTBEAT: rc = comm_encode_heartbeat(&comm, (comm_state_t)in[0], &f); break;
-    case COMM_ID_AUTH_STATUS: {
-        const auth_t s = { .last = (uint8_t)in[0],
-                           .fv = (uint32_t)in[1],
-                           .refused = (uint16_t)in[2] };
-        rc = comm_encode_auth_status(&comm, &s, &f);
+    case COMM_ID_AUTH_STATUS:
+    case COMM_ID_AUTH_CHALLENGE: {
+        static const uint8_t zero_key[AUTH_KEY_LEN] = { 0 };
+        auth_t s;
+        auth_init(&s);
+        auth_set_key(&s, zero_key, (uint32_t)in[1]);
+        s.outcome = (uint8_t)in[0];
+        s.session = (uint32_t)in[1];
+        s.refused = (uint16_t)in[2];
+        s.refused_saturated = in[3] != 0.0;
+        s.fv = id == COMM_ID_AUTH_CHALLENGE ? (uint32_t)in[4] : 0u;
+        hal_can_frame_t two[2];
+        rc = comm_encode_auth_status(&comm, &s, two);
+        f = two[id == COMM_ID_AUTH_CHALLENGE ? 1 : 0];
         break;
     }
     case COMM_ID_PARAM_VALUE:

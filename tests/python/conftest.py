@@ -11,6 +11,10 @@ from pathlib import Path
 
 import pytest
 
+from mstc.can.protocol import wire_limits
+from mstc.errors import MstcError
+from mstc.plant.scenario import Scenario, load_scenario
+
 ROOT = Path(__file__).resolve().parents[2]
 """The repository."""
 SCENARIOS = ROOT / "sim" / "scenarios"
@@ -44,6 +48,15 @@ def firmware_cflags() -> list[str]:
         pytest.fail(f"`{' '.join(cmd)}` failed:\n{done.stdout}{done.stderr}")
     # Plain words: the host flags hold no quoting.
     return done.stdout.split()
+
+
+AUTH_SOURCES = [
+    "firmware/auth/auth.c",
+    "deps/mbedtls/library/aes.c",
+    "deps/mbedtls/library/platform_util.c",
+]
+"""What comm.c's status frame needs (its MAC: auth.c over Mbed TLS's AES,
+mk/auth.mk's AUTH_SRCS), for the shims that compile comm.c."""
 
 
 def build_shim(sources: list[str], out: Path, what: str) -> Path:
@@ -139,6 +152,17 @@ def _is_table(value: object) -> bool:
     return isinstance(value, dict) or (
         isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
     )
+
+
+def scenario_or_refusal(path: Path, key: str) -> Scenario | None:
+    """The scenario in @p path, or None when the loader refuses it, as it
+    must then: with one line that names @p key."""
+    try:
+        return load_scenario(path, wire_limits())
+    except MstcError as exc:
+        message = str(exc)
+        assert "\n" not in message and key in message, message
+        return None
 
 
 @pytest.fixture

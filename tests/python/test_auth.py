@@ -2,9 +2,10 @@
 """Who may command the robot (docs/safety.md, "Threat model"), over the SIL
 frame path: PARAM_SET and the arm command authenticated in the manner of
 AUTOSAR SecOC (AES-128-CMAC truncated to 32 bits over the data ID, the
-payload and a 32-bit freshness value), refused and counted when MAC-less,
-under another key, replayed or stale; odometry replayed from an earlier moment
-halts the robot.
+payload, the firmware's session and its challenge), refused and counted when
+MAC-less, under another key, replayed or stale; the firmware's status
+authenticated by its own MAC; odometry replayed from an earlier moment halts
+the robot. (tests/python/test_auth_attacks.py plays the attacks of issue 21.)
 
 The MACs the tests expect come from the RFC 4493 examples and from
 `cryptography`'s CMAC, never from the firmware; the firmware's CMAC is
@@ -14,6 +15,7 @@ compared with `cryptography`'s on random keys and messages.
 from __future__ import annotations
 
 import ctypes
+import errno
 import random
 from collections.abc import Iterator
 from pathlib import Path
@@ -23,6 +25,7 @@ import pytest
 from cryptography.hazmat.primitives.ciphers import algorithms
 from cryptography.hazmat.primitives.cmac import CMAC
 
+from mstc.can import secoc
 from mstc.can.protocol import Frame, Protocol, wire_limits
 from mstc.errors import FrameDropped
 from mstc.model import wrap_angle
@@ -67,8 +70,6 @@ def test_the_reference_cmac_gives_the_rfc_4493_examples() -> None:
 
 
 def test_the_tools_cmac_gives_the_rfc_4493_examples() -> None:
-    from mstc.can import secoc
-
     for n, tag in RFC4493_T.items():
         assert secoc.cmac(TEST_KEY, RFC4493_M[:n]).hex() == tag
 
@@ -84,25 +85,86 @@ def test_the_firmware_cmac_is_the_reference_cmac(sil_lib: Path) -> None:
     cases += [(rng.randbytes(16), rng.randbytes(rng.randrange(65))) for _ in range(300)]
     for key, msg in cases:
         out = ctypes.create_string_buffer(16)
+        if len(msg) > 16:  # the firmware MACs one block at most (auth.h)
+            assert fn(key, msg, len(msg), out) == -errno.EINVAL
+            continue
         assert fn(key, msg, len(msg), out) == 0
         assert out.raw == reference_cmac(key, msg), (key.hex(), msg.hex())
 
 
-def test_the_mac_of_a_command_is_secoc_s() -> None:
-    """Data ID (big-endian), PARAM_SET bytes 2..7, freshness (big-endian),
-    MAC truncated to its first 4 bytes: the layout docs/protocol.md states."""
-    from mstc.can import secoc
+SESSION = 0x5EC0A1D1
+"""The session the Unity tests give the firmware (tests/unit/test_frames.h)."""
 
+
+def _status(session: int, freshness: int, last: int = 0, refused: int = 0) -> secoc.Status:
+    return secoc.Status(session, freshness, last, refused, False)
+
+
+def test_the_mac_of_a_command_is_secoc_s() -> None:
+    """Data ID, PARAM_SET bytes 2..7, session, freshness (all big-endian), MAC
+    truncated to its first 4 bytes: the layout docs/protocol.md states."""
     proto = Protocol(node=None)
-    auth = secoc.Authenticator(TEST_KEY, freshness=0)
+    auth = secoc.Authenticator(TEST_KEY)
+    auth.status = _status(SESSION, 0)
     pset, pauth = auth.param_set(proto, ARM, 1.0)
-    assert auth.freshness == 1
+    assert auth.signed == 1
     data = bytes(pset.data)
-    want = reference_cmac(TEST_KEY, bytes((0x11, 0x20)) + data[2:8] + (1).to_bytes(4, "big"))
-    assert want[:4].hex() == "de2cbc55"  # written into tests/unit/test_app_auth.c
+    want = reference_cmac(
+        TEST_KEY,
+        bytes((0x11, 0x20)) + data[2:8] + SESSION.to_bytes(4, "big") + (1).to_bytes(4, "big"),
+    )
+    assert want[:4].hex() == "3a4cb7e5"  # written into tests/unit/test_app_auth.c
     assert bytes(pauth.data)[4:8] == want[:4]
     f = proto.decode(pauth)
     assert f.name == "PARAM_AUTH" and f.signals["freshness"] == 1
+
+
+def test_a_tool_signs_each_challenge_once() -> None:
+    """Signing again for the same challenge would leave a second pair valid
+    for the same moment: the tool waits for the firmware's next status."""
+    from mstc.errors import AuthKeyError
+
+    proto = Protocol(node=None)
+    auth = secoc.Authenticator(TEST_KEY)
+    with pytest.raises(AuthKeyError, match="no authenticated status"):
+        auth.param_set(proto, ARM, 1.0)
+    auth.status = _status(SESSION, 5)
+    auth.param_set(proto, ARM, 1.0)
+    assert not auth.can_sign()
+    with pytest.raises(AuthKeyError, match="signed already"):
+        auth.param_set(proto, ARM, 1.0)
+    auth.status = _status(SESSION, 6)
+    assert auth.can_sign()
+
+
+def test_the_tool_adopts_a_status_only_when_its_mac_verifies() -> None:
+    """The status MAC: AUTH_CHALLENGE's data ID 0x1187, last, refused (bit 15:
+    saturated), three zero bytes, session, freshness: cryptography's CMAC."""
+    proto = Protocol(node=None)
+    fields = {"last": 2, "session": SESSION, "refused": 1, "refused_saturated": 0}
+    status_frame = proto.decode(proto.encode("AUTH_STATUS", raw=True, **fields))
+    tag = reference_cmac(
+        TEST_KEY,
+        bytes((0x11, 0x87, 2, 0, 1, 0, 0, 0)) + SESSION.to_bytes(4, "big") + (7).to_bytes(4, "big"),
+    )[:4]
+    good = proto.decode(
+        proto.encode("AUTH_CHALLENGE", raw=True, freshness=7, mac=int.from_bytes(tag, "little"))
+    )
+    auth = secoc.Authenticator(TEST_KEY)
+    assert auth.sync(status_frame) is None
+    st = auth.sync(good)
+    assert st == secoc.Status(SESSION, 7, 2, 1, False) and auth.freshness == 7
+    # One bit of the MAC changed, or the second half without its first: nothing.
+    bad = proto.decode(
+        proto.encode("AUTH_CHALLENGE", raw=True, freshness=8, mac=int.from_bytes(tag, "little") ^ 1)
+    )
+    assert auth.sync(status_frame) is None and auth.sync(bad) is None
+    assert auth.sync(good) is None
+    assert auth.status == st and auth.forged == 2
+    # Under another key, the firmware's genuine status does not verify.
+    other = secoc.Authenticator(OTHER_KEY)
+    other.sync(status_frame)
+    assert other.sync(good) is None and other.status is None
 
 
 # ----------------------------------------------------- commands over the bus
@@ -115,6 +177,9 @@ class Tool:
         self.bus = bus
         self.proto = Protocol(node=None)
         self.status: Frame | None = None
+        self.challenge: Frame | None = None
+        self.senders: list[secoc.Authenticator] = []
+        """Authenticators that read every frame the firmware sends."""
 
     def send(self, msg: can.Message) -> list[Frame]:
         self.bus.send(msg)
@@ -126,8 +191,19 @@ class Tool:
                 continue
             if f.name == "AUTH_STATUS":
                 self.status = f
+            if f.name == "AUTH_CHALLENGE":
+                self.challenge = f
+            for a in self.senders:
+                a.sync(f)
             out.append(f)
         return out
+
+    def sender(self, key: bytes) -> secoc.Authenticator:
+        """An authenticator with @p key that has read the firmware's status."""
+        a = secoc.Authenticator(key)
+        self.senders.append(a)
+        self.send(self.proto.encode("PARAM_GET", index=ARM))
+        return a
 
     def send_all(self, msgs: list[can.Message]) -> list[Frame]:
         return [f for m in msgs for f in self.send(m)]
@@ -177,38 +253,45 @@ def test_a_mac_less_arm_is_refused_and_counted(tool: Tool) -> None:
 
 
 def test_an_authenticated_arm_is_accepted_and_the_freshness_moves(tool: Tool) -> None:
-    from mstc.can import secoc
-
     tool.preroll()
-    auth = secoc.Authenticator(TEST_KEY, freshness=0)
+    auth = tool.sender(TEST_KEY)
+    assert auth.status is not None and auth.status.freshness == 0
     got = tool.send_all(auth.param_set(tool.proto, ARM, 1.0))
     assert tool.result(got, ARM) == 0
-    assert tool.status is not None and tool.status.signals["freshness"] == 1
+    assert tool.challenge is not None and tool.challenge.signals["freshness"] == 1
+    assert tool.status is not None and tool.status.signals["last"] == 0  # ok
     assert tool.refused() == 0
 
 
 def test_wrong_key_replayed_and_stale_commands_are_refused_and_counted(tool: Tool) -> None:
-    from mstc.can import secoc
-
     tool.preroll()
-    good = secoc.Authenticator(TEST_KEY, freshness=0)
-    # Another key: refused, nothing applied.
-    got = tool.send_all(secoc.Authenticator(OTHER_KEY, freshness=0).param_set(tool.proto, ARM, 1.0))
+    good = tool.sender(TEST_KEY)
+    # Another key: its tool cannot read the firmware's status (the MAC does
+    # not verify under its key), so it signs nothing; a command of its own
+    # making, for the current challenge, is refused, nothing applied.
+    other = tool.sender(OTHER_KEY)
+    assert other.status is None and other.forged >= 1
+    other.status = good.status
+    got = tool.send_all(other.param_set(tool.proto, ARM, 1.0))
     assert tool.result(got, ARM) == UNAUTHENTICATED
     assert tool.refused() == 1
-    # The right key: accepted (freshness 1), then a few more (2, 3).
+    assert good.status is not None and good.status.last == 2  # mac
+    # The right key: accepted, then a few more.
     first = good.param_set(tool.proto, D_S, 0.4)
     assert tool.result(tool.send_all(first), D_S) == 0
     for value in (0.41, 0.42):
         assert tool.result(tool.send_all(good.param_set(tool.proto, D_S, value)), D_S) == 0
     # The first pair recorded and replayed, E2E counters and CRCs made good:
-    # its MAC is right, its freshness is not new.
+    # its MAC is right, its challenge used up.
     got = tool.send_all([tool.reseal(m) for m in first])
     assert tool.result(got, D_S) == UNAUTHENTICATED
     assert tool.refused() == 2
     assert tool.status is not None and tool.status.signals["last"] == 3  # stale
-    # A sender that fell behind (freshness 2 again): stale.
-    got = tool.send_all(secoc.Authenticator(TEST_KEY, freshness=1).param_set(tool.proto, D_S, 0.5))
+    # A sender that missed the last decision (the challenge before): stale.
+    behind = secoc.Authenticator(TEST_KEY)
+    assert good.status is not None
+    behind.status = secoc.Status(good.status.session, good.status.freshness - 1, 0, 0, False)
+    got = tool.send_all(behind.param_set(tool.proto, D_S, 0.5))
     assert tool.result(got, D_S) == UNAUTHENTICATED
     assert tool.refused() == 3
     got = tool.send(tool.proto.encode("PARAM_GET", index=D_S))

@@ -32,7 +32,7 @@ import pytest
 from cantools.database.can import Message, Signal
 from cantools.database.can.c_source import camel_to_snake_case
 
-from conftest import build_shim
+from conftest import AUTH_SOURCES, build_shim
 from mstc.can.protocol import DLC, DropReason, Protocol, load_database
 from mstc.errors import FrameDropped
 
@@ -40,7 +40,12 @@ ROOT = Path(__file__).resolve().parents[2]
 SEED = 4
 N_RANDOM = 400
 """Random cases per message and property."""
-SOURCES = ["tests/codec/codec_shim.c", "firmware/comm/comm.c", "firmware/comm/mstc_dbc.c"]
+SOURCES = [
+    "tests/codec/codec_shim.c",
+    "firmware/comm/comm.c",
+    "firmware/comm/mstc_dbc.c",
+    *AUTH_SOURCES,
+]
 
 DB = load_database()
 MESSAGES = sorted(DB.messages, key=lambda m: m.frame_id)
@@ -327,10 +332,33 @@ def _param_value(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 
 
 def _auth_status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
-    last, refused = rng.randint(0, 4), rng.randint(0, 4095)
-    freshness = rng.choice([0, rng.randint(0, 2**32 - 1), 2**32 - 1])
-    inputs = [last, freshness, refused]
-    return inputs, {"last": last, "freshness": freshness, "refused": refused}
+    last, refused, saturated = rng.randint(0, 6), rng.randint(0, 32767), rng.randint(0, 1)
+    session = rng.choice([0, rng.randint(0, 2**32 - 1), 2**32 - 1])
+    inputs = [last, session, refused, saturated]
+    return inputs, {
+        "last": last,
+        "session": session,
+        "refused": refused,
+        "refused_saturated": saturated,
+    }
+
+
+def _auth_challenge(rng: random.Random) -> tuple[list[float], dict[str, float]]:
+    """The status MAC is the tools' (secoc.status_mac, `cryptography`'s CMAC),
+    under the all-zero key the shim gives the firmware's state."""
+    from mstc.can import secoc
+
+    inputs, wire = _auth_status(rng)
+    freshness = rng.choice([0, rng.randint(0, 2**20 - 1), 2**20 - 1])
+    status = secoc.Status(
+        int(wire["session"]),
+        freshness,
+        int(wire["last"]),
+        int(wire["refused"]),
+        bool(wire["refused_saturated"]),
+    )
+    mac = int.from_bytes(secoc.status_mac(bytes(16), status), "little")
+    return [*inputs, freshness], {"freshness": freshness, "mac": mac}
 
 
 CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]] = {
@@ -342,6 +370,7 @@ CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]
     "EVENT": _event,
     "HEARTBEAT": _heartbeat,
     "AUTH_STATUS": _auth_status,
+    "AUTH_CHALLENGE": _auth_challenge,
     "PARAM_VALUE": _param_value,
 }
 

@@ -30,6 +30,7 @@ import cantools
 import pytest
 
 from logfiles import DATA, DBC
+from mstc.can import secoc
 from mstc.can.dbc import load_database, tables
 from mstc.can.protocol import Protocol
 from mstc.cli import main
@@ -58,12 +59,17 @@ def renumber_param(name: str, old: int, new: int) -> tuple[str, str]:
     return (rf'(VAL_ \d+ PARAM_\w+_index .*?) {old} "{name}"', rf'\1 {new} "{name}"')
 
 
+TEST_KEY = bytes.fromhex("2b7e151628aed2a6abf7158809cf4f3c")
+"""RFC 4493's example key, also tests/data/test.key."""
+
+
 class AnsweringFirmware(can.BusABC):
     """A bus whose far end accepts every command: a PARAM_SET is answered,
     once its PARAM_AUTH follows, with PARAM_VALUE (same index, result ``ok``,
-    the value) and AUTH_STATUS (the freshness it carried), encoded with
-    @p dbc; a PARAM_GET with PARAM_VALUE and AUTH_STATUS at freshness 0. No
-    MAC is checked: what is under test is which index the tools write."""
+    the value) and the status (AUTH_STATUS, AUTH_CHALLENGE: the freshness it
+    carried, accepted, authenticated under TEST_KEY), encoded with @p dbc; a
+    PARAM_GET with PARAM_VALUE and the status at freshness 0. No command MAC
+    is checked: what is under test is which index the tools write."""
 
     def __init__(self, dbc: Path) -> None:
         self.fw = Protocol(node=None, dbc_path=dbc)
@@ -74,8 +80,13 @@ class AnsweringFirmware(can.BusABC):
 
     def _answer(self, index: float | int | str, value: float | int | str, freshness: int) -> None:
         enc = self.fw.encode
+        status = secoc.Status(session=1, freshness=freshness, last=0, refused=0, saturated=False)
+        mac = int.from_bytes(secoc.status_mac(TEST_KEY, status), "little")
         self.pending.append(enc("PARAM_VALUE", index=index, result="ok", value=value))
-        self.pending.append(enc("AUTH_STATUS", last="none", freshness=freshness, refused=0))
+        self.pending.append(
+            enc("AUTH_STATUS", last="ok", session=1, refused=0, refused_saturated=0)
+        )
+        self.pending.append(enc("AUTH_CHALLENGE", freshness=freshness, mac=mac))
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         self.sent.append(msg)
@@ -100,7 +111,9 @@ def test_a_renumbered_parameter_is_written_with_its_new_index(tmp_path: Path) ->
         == "D_s"
     )
     with AnsweringFirmware(dbc) as bus:
-        CanController(bus, Params(d_s=0.3), protocol=Protocol(node=None, dbc_path=dbc))
+        CanController(
+            bus, Params(d_s=0.3), protocol=Protocol(node=None, dbc_path=dbc), key=TEST_KEY
+        )
     param_sets = [m for m in bus.sent if m.arbitration_id == 0x120]
     # Byte 2 is PARAM_SET_index (bits 16..23 in the DBC), read by hand.
     by_index = {m.data[2]: raw.decode_message(0x120, m.data)["PARAM_SET_value"] for m in param_sets}

@@ -26,11 +26,16 @@ from pathlib import Path
 
 import pytest
 
-from conftest import build_shim
+from conftest import AUTH_SOURCES, build_shim
 from mstc.can.protocol import e2e_crc
 
 ROOT = Path(__file__).resolve().parents[2]
-SOURCES = ["tests/codec/e2e_shim.c", "firmware/comm/comm.c", "firmware/comm/mstc_dbc.c"]
+SOURCES = [
+    "tests/codec/e2e_shim.c",
+    "firmware/comm/comm.c",
+    "firmware/comm/mstc_dbc.c",
+    *AUTH_SOURCES,
+]
 FRAME_ID = 0x100
 """ODOM_XY: any frame the firmware receives has the same receiver."""
 DATA_ID = 0x1000 + FRAME_ID

@@ -135,24 +135,25 @@ class Loop:
                 out.append(self.proto.decode(m))
             except FrameDropped:
                 continue
+            self.ctl.auth.sync(out[-1])  # the tool reads every frame, as CanController does
             if until is not None and until(out[-1]):
                 return out
 
     def param(self, index: int, value: float) -> int | None:
-        """An authenticated PARAM_SET (the controller's key and freshness); its result."""
+        """An authenticated PARAM_SET (the controller's key, for the firmware's
+        challenge); its result."""
 
         def answer(f: Frame) -> bool:
             return f.name == "PARAM_VALUE" and f.signals["index"] == index
 
+        if not self.ctl.auth.can_sign():  # no challenge left unsigned: ask for the status
+            self.send(
+                self.proto.encode("PARAM_GET", index=index), lambda f: f.name == "AUTH_CHALLENGE"
+            )
         pset, pauth = self.ctl.auth.param_set(self.proto, index, value)
         # The firmware answers once the PARAM_AUTH is in: wait after it only.
         frames = self.send(pset) + self.send(pauth, answer)
-        result = None
-        for f in frames:
-            self.ctl.auth.sync(f)
-            if result is None and answer(f):
-                result = int(f.signals["result"])
-        return result
+        return next((int(f.signals["result"]) for f in frames if answer(f)), None)
 
     def first_step(self) -> None:
         """Step 0 through CanController: it arms the firmware first."""

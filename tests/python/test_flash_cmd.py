@@ -166,13 +166,12 @@ def test_make_flash_dry_run_builds_the_image_and_prints_the_command() -> None:
     )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     last = r.stdout.strip().splitlines()[-1]
-    assert shlex.split(last) == [
-        "st-flash",
-        "--reset",
-        "write",
-        str(ELF["stm32f103"].with_suffix(".bin")),
-        "0x08000000",
-    ]
+    # The image flashed is the private copy with the device key installed
+    # (tools/setup/install-key), not the one in build/firmware/, which holds none.
+    flashed = ROOT / "build" / "flash" / "stm32f103" / "mstc.bin"
+    assert shlex.split(last) == ["st-flash", "--reset", "write", str(flashed), "0x08000000"]
+    assert flashed.stat().st_mode & 0o077 == 0
+    assert flashed.parent.stat().st_mode & 0o077 == 0
     assert ELF["stm32f103"].is_file()
     assert ELF["stm32f103"].with_suffix(".bin").is_file()
     assert ELF["stm32f103"].with_suffix(".hex").is_file()

@@ -211,6 +211,8 @@ def test_the_picture_places_the_ground_floor_at_the_bottom_and_the_command_on_to
     # The plant does not know the wire, the loops do not know the firmware.
     assert order["mstc.plant"] == order["mstc.can"] > order["mstc.limits"]
     assert order["mstc.loop"] == order["mstc.firmware"] < order["mstc.logs"]
+    # ROS 2 at the edge: right under the command, so nothing but the command imports it.
+    assert order["mstc.ros"] == order["mstc.cli"] - 1
 
 
 @pytest.fixture
@@ -252,7 +254,7 @@ def test_the_check_fails_on_siblings_the_ground_floor_and_a_cycle(copy: Path) ->
 
 
 def test_the_check_fails_on_a_folder_the_picture_does_not_place(copy: Path) -> None:
-    (copy / "ros").mkdir()
-    (copy / "ros" / "__init__.py").write_text('"""A bridge."""\n')
+    (copy / "web").mkdir()
+    (copy / "web" / "__init__.py").write_text('"""A web front end."""\n')
     found = problems(copy, layers())
-    assert found == ["mstc.ros is not in the layer picture of docs/architecture.md: place it"]
+    assert found == ["mstc.web is not in the layer picture of docs/architecture.md: place it"]

@@ -115,10 +115,15 @@ def param_set(index: int, value: float) -> int:
     return (index << 16) | (int.from_bytes(struct.pack("<f", value), "little") << 24)
 
 
+SESSION = 0x5EC0A1D1
+"""The session the sweep starts each firmware in (mstc_sil_fw_set_session)."""
+AUTH_CHALLENGE = 0x187
+
+
 def param_auth(pset: bytes, freshness: int) -> int:
     """PARAM_AUTH of the sealed PARAM_SET @p pset (docs/safety.md): the low 20
     bits of the freshness value at bit 12, the first 4 CMAC bytes at byte 4."""
-    tag = secoc.cmac(KEY, secoc.mac_input(0x1000 + PARAM_SET, pset[2:8], freshness))
+    tag = secoc.cmac(KEY, secoc.mac_input(0x1000 + PARAM_SET, pset[2:8], SESSION, freshness))
     return ((freshness & 0xFFFFF) << 12) | (int.from_bytes(tag[:4], "little") << 32)
 
 
@@ -163,7 +168,11 @@ class Firmware:
             getattr(self.lib, name).argtypes = [ctypes.POINTER(_Frame)]
             getattr(self.lib, name).restype = ctypes.c_int
         self.lib.mstc_sil_fw_init.argtypes = [ctypes.c_void_p]
-        self.lib.mstc_sil_fw_set_key.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_uint32]
+        self.lib.mstc_sil_fw_set_key.argtypes = [ctypes.c_char_p, ctypes.c_size_t]
+        self.lib.mstc_sil_fw_set_session.argtypes = [ctypes.c_uint32]
+        self.fv = 0
+        """The freshness value of the firmware's last AUTH_CHALLENGE: the
+        challenge is this + 1."""
         self.lib.mstc_sil_numeric.restype = ctypes.c_char_p
         self.numeric = self.lib.mstc_sil_numeric().decode()
         self.rx = _Frame()
@@ -171,9 +180,11 @@ class Firmware:
         self._recv = self.lib.mstc_sil_fw_recv
 
     def restart(self) -> None:
-        """A fresh firmware with the test key and freshness 0."""
+        """A fresh firmware with the test key, in session SESSION."""
         assert self.lib.mstc_sil_fw_init(None) == 0
-        assert self.lib.mstc_sil_fw_set_key(KEY, len(KEY), 0) == 0
+        assert self.lib.mstc_sil_fw_set_key(KEY, len(KEY)) == 0
+        assert self.lib.mstc_sil_fw_set_session(SESSION) == 0
+        self.fv = 0
 
     def put(self, f: _Frame) -> None:
         """Send @p f, an input frame: the firmware answers none."""
@@ -184,7 +195,10 @@ class Firmware:
         assert self._send(ctypes.byref(f)) == 0
         out = []
         while self._recv(ctypes.byref(self.rx)) == 0:
-            out.append((self.rx.id, int.from_bytes(bytes(self.rx.data), "little")))
+            word = int.from_bytes(bytes(self.rx.data), "little")
+            if self.rx.id == AUTH_CHALLENGE:
+                self.fv = (word >> 12) & 0xFFFFF
+            out.append((self.rx.id, word))
         return out
 
 
@@ -302,8 +316,7 @@ class Trial:
         """An authenticated PARAM_SET: the firmware answers after its PARAM_AUTH."""
         pset = seal(PARAM_SET, param_set(index, value), self.counters[PARAM_SET])
         self.counters[PARAM_SET] = (self.counters[PARAM_SET] + 1) & 0xF
-        self.freshness += 1
-        auth = seal(PARAM_AUTH, param_auth(pset, self.freshness), self.counters[PARAM_AUTH])
+        auth = seal(PARAM_AUTH, param_auth(pset, self.fw.fv + 1), self.counters[PARAM_AUTH])
         self.counters[PARAM_AUTH] = (self.counters[PARAM_AUTH] + 1) & 0xF
         self.fw.put(c_frame(PARAM_SET, pset))
         f = c_frame(PARAM_AUTH, auth)
@@ -346,7 +359,6 @@ class Trial:
         self.counters = dict.fromkeys((ODOM_XY, ODOM_THETA, REF_XY, REF_MOTION, PARAM_SET), 0)
         self.counters[PARAM_GET] = 0
         self.counters[PARAM_AUTH] = 0
-        self.freshness = 0
         self.k = 0
         self.now = {p.index: p.default for p in HELD}
         self.ref = rng.choice(self.refs)

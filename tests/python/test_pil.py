@@ -61,8 +61,11 @@ CUT_SEEDS = (100, 109)
 """test_faults' seeds of two odometry cuts (steps 79 and 148, phases 3 and 1)."""
 
 
-DEVICE_KEY_FILE = ROOT / "keys" / "device.key"
-"""The key `make` compiles into the board images (KEY_FILE, mk/auth.mk)."""
+SIM_KEY_FILE = ROOT / "keys" / "sim.key"
+"""The key `make pil` installs into its copies of the board images
+(SIM_KEY_FILE, mk/auth.mk, mk/pil.mk): the simulations', never a device's."""
+PIL_IMAGES = PIL / "images"
+"""Where `make pil` keeps those copies."""
 
 
 @pytest.fixture(scope="module")
@@ -177,12 +180,15 @@ class AnsweringBus:
         if step is not None:
             return lambda m: self._signal(m, "WHEEL_CMD", "step") == step
         # A PARAM_SET is answered once its PARAM_AUTH is in (docs/safety.md):
-        # wait after that one; a PARAM_GET is answered at once. The
-        # AUTH_STATUS that follows every PARAM_VALUE ends the wait.
+        # wait after that one; a PARAM_GET is answered at once. The status
+        # that follows every PARAM_VALUE ends the wait: its second half,
+        # AUTH_CHALLENGE.
         if self._signal(msg, "PARAM_AUTH", "freshness") is not None or (
             self._signal(msg, "PARAM_GET", "index") is not None
         ):
-            return lambda m: m.arbitration_id == self.db.get_message_by_name("AUTH_STATUS").frame_id
+            return lambda m: (
+                m.arbitration_id == self.db.get_message_by_name("AUTH_CHALLENGE").frame_id
+            )
         return None
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
@@ -209,11 +215,11 @@ class AnsweringBus:
 def test_f103_image_halts_within_3_periods_and_ramps_down_when_odometry_is_cut(
     pil: str, seed: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # The images hold the device key (make pil builds them with it), not the
-    # test key the other tests use (conftest.py).
-    monkeypatch.setenv("MSTC_KEY_FILE", str(DEVICE_KEY_FILE))
+    # make pil's copy of the image holds the simulations' key, not the test
+    # key the other tests use (conftest.py).
+    monkeypatch.setenv("MSTC_KEY_FILE", str(SIM_KEY_FILE))
     scenario = load_scenario(SCENARIOS / "paper-line.toml", wire_limits())
-    with BoardVm(PIL.parent / "firmware" / "stm32f103-slcan", serial=True) as vm:
+    with BoardVm(PIL_IMAGES / "stm32f103-slcan", serial=True) as vm:
         bus = can.Bus(
             interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
         )

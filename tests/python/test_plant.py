@@ -147,6 +147,32 @@ def test_sensor_noise_and_dropout_follow_their_stream() -> None:
     assert 0.4 < kept < 0.6
 
 
+def test_dropouts_from_their_own_stream_leave_the_noise_alone() -> None:
+    import numpy as np
+
+    obstacles = [Obstacle(i, float(i), 0.0, 0.1) for i in range(1, 4)]
+    sensor = RangeSensor(
+        obstacles,
+        10.0,
+        noise=0.1,
+        dropout=0.5,
+        rng=np.random.Generator(np.random.PCG64(7)),
+        dropout_rng=np.random.Generator(np.random.PCG64(8)),
+    )
+    got = [sensor.scan(Pose(0.0, 0.0, 0.0)) for _ in range(200)]
+    # The noise: stream 7 alone, as without dropouts; the dropouts: stream 8.
+    noise_rng, drop_rng = (
+        np.random.Generator(np.random.PCG64(7)),
+        np.random.Generator(np.random.PCG64(8)),
+    )
+    for seen in got:
+        noise, keep = noise_rng.standard_normal((3, 2)) * 0.1, drop_rng.random(3) >= 0.5
+        want = [
+            (o.id, o.x + noise[i, 0], o.y + noise[i, 1]) for i, o in enumerate(obstacles) if keep[i]
+        ]
+        assert [(o.id, o.x, o.y) for o in seen] == want
+
+
 def test_noisy_sensor_without_a_stream_is_refused() -> None:
     with pytest.raises(ValueError, match="random stream"):
         RangeSensor([], 3.5, noise=0.1)

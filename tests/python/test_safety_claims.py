@@ -81,21 +81,24 @@ class Driver:
         self.k = 0
 
     def exchange(self, msg: can.Message) -> list:
+        """Send @p msg; the answers, each read by the tool's authenticator."""
         self.bus.send(msg)
         out = []
         while (m := self.bus.recv(timeout=0)) is not None:
             try:
                 out.append(self.proto.decode(m))
             except FrameDropped:
-                pass
+                continue
+            self.auth.sync(out[-1])
         return out
 
     def param(self, index: int, value: float) -> int:
-        """An authenticated PARAM_SET (docs/safety.md); its result."""
+        """An authenticated PARAM_SET for the firmware's challenge (docs/safety.md);
+        its result."""
+        if not self.auth.can_sign():  # no status read yet, or its challenge signed
+            self.exchange(self.proto.encode("PARAM_GET", index=index))
         commands = self.auth.param_set(self.proto, index, value)
         answers = [f for m in commands for f in self.exchange(m)]
-        for f in answers:
-            self.auth.sync(f)
         return next(int(f.signals["result"]) for f in answers if f.name == "PARAM_VALUE")
 
     def inputs(self, odometry: bool) -> None:

@@ -157,10 +157,22 @@ def _switching(r: RunResult) -> list[tuple[EventKind, int, str | None]]:
 def test_float_and_fixed_give_the_same_events(
     name: str, libs: dict[str, Path], scenes_dir: Path
 ) -> None:
+    # With imperfections (noisy reports) the filter may act for a period in one
+    # build and not in the other (docs/strategy.md, "Float and fixed
+    # builds"): there the switch's events must agree, and the filter's are
+    # reported when they do not; elsewhere every event.
+    noisy = bool(_family(name).imperfections)
     for scene, flt, fix, _ in _runs(name, libs, scenes_dir):
-        assert _events(fix) == _events(flt), scene
+        if noisy and _events(fix) != _events(flt):
+            assert _switching(fix) == _switching(flt), scene
+            REPORT.append(f"{scene}: the filter's events differ between float and fixed")
+            flt_events = [e for e in flt.events if e.kind not in _FILTER_KINDS]
+            fix_events = [e for e in fix.events if e.kind not in _FILTER_KINDS]
+        else:
+            assert _events(fix) == _events(flt), scene
+            flt_events, fix_events = list(flt.events), list(fix.events)
         worst = max(
-            (abs(a.t_us - b.t_us) for a, b in zip(flt.events, fix.events, strict=True)),
+            (abs(a.t_us - b.t_us) for a, b in zip(flt_events, fix_events, strict=True)),
             default=0,
         )
         assert worst <= EVENT_SLACK_US, f"{scene}: an event {worst / 1e6:.2f} s apart"

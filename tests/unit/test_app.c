@@ -32,7 +32,8 @@ void setUp(void)
     memset(tf_counters, 0, sizeof tf_counters);
     const ctl_params_t p = tf_instant_wheels();
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
-    app_set_key(&app, tf_test_key, 0u);
+    app_set_key(&app, tf_test_key, TF_SESSION);
+    tf_auth = &app.auth;
     tf_freshness = 0u;
 }
 
@@ -112,14 +113,17 @@ static void test_app_answers_a_step_with_telemetry_then_the_wheel_command_last(v
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent); /* inputs alone send nothing */
     send_step(7, 20000u);
-    /* Housekeeping (first step), then STATUS, STATUS_TRK and WHEEL_CMD. */
-    TEST_ASSERT_EQUAL_UINT(6, hal_fake.n_sent);
+    /* Housekeeping (first step: HEARTBEAT, STATUS_COUNTERS and the two
+     * halves of the authentication status), then STATUS, STATUS_TRK and
+     * WHEEL_CMD. */
+    TEST_ASSERT_EQUAL_UINT(7, hal_fake.n_sent);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_HEARTBEAT, hal_fake.sent[0].id);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_COUNTERS, hal_fake.sent[1].id);
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_STATUS, hal_fake.sent[2].id);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS, hal_fake.sent[3].id);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_TRK, hal_fake.sent[4].id);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_CMD, hal_fake.sent[5].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_CHALLENGE, hal_fake.sent[3].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS, hal_fake.sent[4].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_STATUS_TRK, hal_fake.sent[5].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_CMD, hal_fake.sent[6].id);
     TEST_ASSERT_EQUAL_UINT16(7, tf_last_wheels().wheel_cmd_step);
 }
 

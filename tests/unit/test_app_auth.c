@@ -37,7 +37,7 @@ void setUp(void)
     memset(tf_counters, 0, sizeof tf_counters);
     const ctl_params_t p = tf_instant_wheels();
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
-    app_set_key(&app, tf_test_key, 0u);
+    app_set_key(&app, tf_test_key, TF_SESSION);
     tf_freshness = 0u;
 }
 
@@ -46,23 +46,33 @@ void tearDown(void) {}
 static int feed_rc(hal_can_frame_t f) { return app_on_frame(&app, &f); }
 static void feed(hal_can_frame_t f) { TEST_ASSERT_EQUAL_INT(0, feed_rc(f)); }
 
-/* The AUTH_STATUS the firmware sent last: reason of the last refusal,
- * freshness, commands refused. */
+/* The status the firmware sent last, both halves, read by hand from the
+ * layout of mstc.dbc: AUTH_STATUS (outcome of the last decision, session,
+ * refusals and their flag) and AUTH_CHALLENGE (freshness decided, MAC). */
 typedef struct {
     unsigned last;
-    uint32_t freshness;
+    uint32_t session;
     unsigned refused;
+    bool saturated;
+    uint32_t freshness;
+    uint8_t mac[4];
 } auth_status_t;
 
 static auth_status_t last_auth_status(void)
 {
     const hal_can_frame_t *f = tf_last_sent(ID_AUTH_STATUS);
-    return (auth_status_t){
+    const hal_can_frame_t *c = tf_last_sent(COMM_ID_AUTH_CHALLENGE);
+    auth_status_t st = {
         .last = (unsigned)f->data[1] >> 4,
-        .freshness = (uint32_t)f->data[2] | (uint32_t)f->data[3] << 8 | (uint32_t)f->data[4] << 16 |
-                     (uint32_t)f->data[5] << 24,
-        .refused = (unsigned)f->data[6] | ((unsigned)f->data[7] & 0x0Fu) << 8,
+        .session = (uint32_t)f->data[2] | (uint32_t)f->data[3] << 8 | (uint32_t)f->data[4] << 16 |
+                   (uint32_t)f->data[5] << 24,
+        .refused = (unsigned)f->data[6] | ((unsigned)f->data[7] & 0x7Fu) << 8,
+        .saturated = (f->data[7] & 0x80u) != 0u,
+        .freshness =
+            (uint32_t)c->data[1] >> 4 | (uint32_t)c->data[2] << 4 | (uint32_t)c->data[3] << 12,
     };
+    memcpy(st.mac, &c->data[4], 4);
+    return st;
 }
 
 /* Whether a PARAM_VALUE of @p index with @p result was sent since the fake
@@ -78,6 +88,29 @@ static bool answered(uint8_t index, uint8_t result)
         }
     }
     return false;
+}
+
+/* Whether an AUTH_STATUS with outcome @p last was sent since the fake was
+ * last cleared. */
+static bool sent_status_with(unsigned last)
+{
+    for (unsigned i = 0; i < hal_fake.n_sent; i++) {
+        if (hal_fake.sent[i].id == ID_AUTH_STATUS && (hal_fake.sent[i].data[1] >> 4) == last) {
+            return true;
+        }
+    }
+    return false;
+}
+
+/* A genuine command for the firmware's current challenge, as a tool that
+ * read the status sends it. */
+static void genuine(uint8_t index, float value)
+{
+    hal_can_frame_t f[2];
+    tf_freshness = app.auth.fv;
+    tf_param_set_auth(index, value, f);
+    feed(f[0]);
+    feed(f[1]);
 }
 
 /* --------------------------------------------------------------- the loop */
@@ -174,9 +207,10 @@ static void test_app_auth_a_mac_less_parameter_is_refused_and_not_applied(void)
 
 static void test_app_auth_an_arm_under_another_key_is_refused(void)
 {
-    /* MAC of data ID 0x1120, PARAM_SET bytes 2..7 (index 128, 1.0f, 0) and
-     * freshness 1 under the key 00 01 .. 0f, not the firmware's. */
-    static const uint8_t mac_other_key[4] = { 0xC5, 0xED, 0x37, 0x85 };
+    /* MAC of data ID 0x1120, PARAM_SET bytes 2..7 (index 128, 1.0f, 0),
+     * session TF_SESSION and freshness 1 under the key 00 01 .. 0f, not the
+     * firmware's (cryptography's CMAC). */
+    static const uint8_t mac_other_key[4] = { 0x52, 0x8D, 0x90, 0x4D };
     preroll();
     hal_fake.n_sent = 0;
     (void)feed_rc(tf_param_set(COMM_PARAM_ARM, 1.0f));
@@ -185,14 +219,16 @@ static void test_app_auth_an_arm_under_another_key_is_refused(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
     const auth_status_t s = last_auth_status();
     TEST_ASSERT_EQUAL_UINT(1u, s.refused);
-    TEST_ASSERT_EQUAL_UINT32(0u, s.freshness); /* nothing accepted */
+    TEST_ASSERT_EQUAL_UINT(AUTH_MAC, s.last);
+    TEST_ASSERT_EQUAL_UINT32(1u, s.freshness); /* the challenge 1 is used up */
 }
 
 static void test_app_auth_an_authenticated_arm_is_accepted_once(void)
 {
-    /* MAC of data ID 0x1120, PARAM_SET bytes 2..7 (index 128, 1.0f, 0) and
-     * freshness 1 under the test key (cryptography's CMAC). */
-    static const uint8_t mac[4] = { 0xDE, 0x2C, 0xBC, 0x55 };
+    /* MAC of data ID 0x1120, PARAM_SET bytes 2..7 (index 128, 1.0f, 0),
+     * session TF_SESSION and freshness 1 under the test key (cryptography's
+     * CMAC). */
+    static const uint8_t mac[4] = { 0x3A, 0x4C, 0xB7, 0xE5 };
     preroll();
     const hal_can_frame_t set = tf_param_set(COMM_PARAM_ARM, 1.0f);
     const hal_can_frame_t auth = tf_param_auth(1u, mac);
@@ -202,6 +238,7 @@ static void test_app_auth_an_authenticated_arm_is_accepted_once(void)
     TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, COMM_PARAM_OK));
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, app.halt);
     TEST_ASSERT_EQUAL_UINT32(1u, last_auth_status().freshness);
+    TEST_ASSERT_EQUAL_UINT(AUTH_OK, last_auth_status().last);
     TEST_ASSERT_EQUAL_UINT(0u, last_auth_status().refused);
     /* The pair recorded and played again, E2E counter and CRC made good:
      * refused as stale; disarm first, so that a wrong accept would show. */
@@ -219,19 +256,133 @@ static void test_app_auth_an_authenticated_arm_is_accepted_once(void)
     const auth_status_t st = last_auth_status();
     TEST_ASSERT_EQUAL_UINT(1u, st.refused);
     TEST_ASSERT_EQUAL_UINT(AUTH_STALE, st.last);
-    TEST_ASSERT_EQUAL_UINT32(2u, st.freshness);
+    TEST_ASSERT_EQUAL_UINT32(3u, st.freshness);
+}
+
+static void test_app_auth_the_status_is_authenticated(void)
+{
+    /* cryptography's CMAC under the test key over 11 87 | outcome 0 |
+     * refused 00 00 | 00 00 00 | TF_SESSION | freshness 0, first 4 bytes:
+     * the status at start, as HEARTBEAT's housekeeping sends it. */
+    static const uint8_t want[4] = { 0x9A, 0x8F, 0xD4, 0x0D };
+    hal_fake.n_sent = 0;
+    app_housekeeping(&app, 0u);
+    const auth_status_t st = last_auth_status();
+    TEST_ASSERT_EQUAL_HEX32(TF_SESSION, st.session);
+    TEST_ASSERT_EQUAL_UINT32(0u, st.freshness);
+    TEST_ASSERT_EQUAL_HEX8_ARRAY(want, st.mac, 4);
+    /* The two halves go out together, AUTH_STATUS first. */
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_STATUS, hal_fake.sent[hal_fake.n_sent - 2u].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_CHALLENGE, hal_fake.sent[hal_fake.n_sent - 1u].id);
+}
+
+static void test_app_auth_a_param_set_slipped_in_uses_the_tool_s_challenge_up(void)
+{
+    /* Issue 21, case 2: another node's PARAM_SET between the tool's PARAM_SET
+     * arm = 1 and its PARAM_AUTH. The tool's command is refused (missing),
+     * its PARAM_AUTH is checked against the other frame and refused; the
+     * tool's pair, played again a second later, is stale. */
+    preroll();
+    hal_can_frame_t tool[2];
+    tf_param_set_auth(COMM_PARAM_ARM, 1.0f, tool);
+    feed(tool[0]);
+    feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
+    feed(tool[1]);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+    for (unsigned k = 0; k < 50u; k++) {
+        full_step();
+    }
+    hal_fake.n_sent = 0;
+    feed(tf_seal(COMM_ID_PARAM_SET, tool[0].data));
+    feed(tf_seal(COMM_ID_PARAM_AUTH, tool[1].data));
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, RESULT_UNAUTHENTICATED));
+    TEST_ASSERT_EQUAL_UINT(AUTH_STALE, last_auth_status().last);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+}
+
+static void test_app_auth_an_unused_challenge_expires_after_half_a_second(void)
+{
+    /* A pair signed for the challenge and held back by a node on the bus:
+     * played 0.5 s (plus up to one housekeeping period) later, stale. */
+    preroll();
+    hal_can_frame_t pair[2];
+    tf_param_set_auth(COMM_PARAM_ARM, 1.0f, pair);
+    unsigned steps = 0;
+    bool expired = false;
+    while (!expired && steps < 100u) {
+        full_step();
+        steps++;
+        expired = sent_status_with(AUTH_EXPIRED);
+    }
+    /* Housekeeping every 100 ms (5 steps), expiry at 500 ms: the step at
+     * t = 0.5 s, the 26th from t = 0. */
+    TEST_ASSERT_EQUAL_UINT(26u, steps);
+    TEST_ASSERT_EQUAL_UINT32(1u, last_auth_status().freshness);
+    feed(pair[0]);
+    feed(pair[1]);
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, RESULT_UNAUTHENTICATED));
+    TEST_ASSERT_EQUAL_UINT(AUTH_STALE, last_auth_status().last);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+}
+
+static void test_app_auth_failed_checks_lock_out_and_the_lock_ends(void)
+{
+    /* Four forged MACs for the current challenge lock the firmware for 10 s
+     * of its time: the genuine command is refused (locked) until then. */
+    static const uint8_t junk[4] = { 1, 2, 3, 4 };
+    preroll();
+    for (unsigned k = 0; k < AUTH_LOCK_TRIES; k++) {
+        feed(tf_param_set(COMM_PARAM_ARM, 1.0f));
+        feed(tf_param_auth(app.auth.fv + 1u, junk));
+        TEST_ASSERT_EQUAL_UINT(AUTH_MAC, last_auth_status().last);
+    }
+    genuine(COMM_PARAM_ARM, 1.0f);
+    TEST_ASSERT_EQUAL_UINT(AUTH_LOCKED, last_auth_status().last);
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, app.halt);
+    /* 10 s of control steps later (500 at 20 ms), accepted. */
+    for (unsigned k = 0; k < 501u; k++) {
+        full_step();
+    }
+    hal_fake.n_sent = 0;
+    genuine(COMM_PARAM_ARM, 1.0f);
+    TEST_ASSERT_TRUE(answered(COMM_PARAM_ARM, COMM_PARAM_OK));
+    TEST_ASSERT_EQUAL_UINT(5u, last_auth_status().refused);
+}
+
+static void test_app_auth_a_spent_session_is_followed_by_a_new_one(void)
+{
+    /* The last value of the session decided: nothing is accepted until the
+     * next housekeeping starts a new session. */
+    hal_fake.boot_nonce = 0xABCD0000u;
+    app.auth.fv = AUTH_FV_MAX - 1u;
+    feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
+    feed(tf_param_auth(AUTH_FV_MAX, (const uint8_t[4]){ 0, 0, 0, 0 }));
+    TEST_ASSERT_EQUAL_UINT32(AUTH_FV_MAX, last_auth_status().freshness);
+    app_housekeeping(&app, 0u);
+    const auth_status_t st = last_auth_status();
+    TEST_ASSERT_EQUAL_HEX32(0xABCD0000u, st.session);
+    TEST_ASSERT_EQUAL_UINT32(0u, st.freshness);
+    /* No value for a new one: nothing is accepted any more (no_key). */
+    hal_fake.boot_nonce_rc = -EIO;
+    app.auth.fv = AUTH_FV_MAX - 1u;
+    feed(tf_param_set(COMM_PARAM_D_S, 0.4f));
+    feed(tf_param_auth(AUTH_FV_MAX, (const uint8_t[4]){ 0, 0, 0, 0 }));
+    app_housekeeping(&app, APP_HOUSEKEEPING_PERIOD_US);
+    TEST_ASSERT_EQUAL_HEX32(0xABCD0000u, last_auth_status().session);
+    genuine(COMM_PARAM_D_S, 0.4f);
+    TEST_ASSERT_EQUAL_UINT(AUTH_NO_KEY, last_auth_status().last);
 }
 
 static void test_app_auth_a_param_auth_alone_is_counted(void)
 {
-    static const uint8_t mac[4] = { 0xDE, 0x2C, 0xBC, 0x55 };
+    static const uint8_t mac[4] = { 0x3A, 0x4C, 0xB7, 0xE5 };
     hal_fake.n_sent = 0;
     feed(tf_param_auth(1u, mac));
     TEST_ASSERT_FALSE(answered(COMM_PARAM_ARM, COMM_PARAM_OK));
     const auth_status_t st = last_auth_status();
     TEST_ASSERT_EQUAL_UINT(1u, st.refused);
     TEST_ASSERT_EQUAL_UINT(AUTH_MISSING, st.last);
-    TEST_ASSERT_EQUAL_UINT32(0u, st.freshness);
+    TEST_ASSERT_EQUAL_UINT32(1u, st.freshness);
 }
 
 static void test_app_auth_a_param_set_waits_one_control_step_for_its_auth(void)
@@ -252,7 +403,8 @@ static void test_app_auth_status_goes_with_the_heartbeat(void)
     hal_fake.n_sent = 0;
     app_housekeeping(&app, 0u);
     TEST_ASSERT_EQUAL_UINT(0u, last_auth_status().refused);
-    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_STATUS, hal_fake.sent[hal_fake.n_sent - 1u].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_STATUS, hal_fake.sent[hal_fake.n_sent - 2u].id);
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_AUTH_CHALLENGE, hal_fake.sent[hal_fake.n_sent - 1u].id);
 }
 
 static void test_app_auth_without_a_key_every_command_is_refused(void)
@@ -322,6 +474,11 @@ int main(void)
     RUN_TEST(test_app_auth_a_mac_less_parameter_is_refused_and_not_applied);
     RUN_TEST(test_app_auth_an_arm_under_another_key_is_refused);
     RUN_TEST(test_app_auth_an_authenticated_arm_is_accepted_once);
+    RUN_TEST(test_app_auth_the_status_is_authenticated);
+    RUN_TEST(test_app_auth_a_param_set_slipped_in_uses_the_tool_s_challenge_up);
+    RUN_TEST(test_app_auth_an_unused_challenge_expires_after_half_a_second);
+    RUN_TEST(test_app_auth_failed_checks_lock_out_and_the_lock_ends);
+    RUN_TEST(test_app_auth_a_spent_session_is_followed_by_a_new_one);
     RUN_TEST(test_app_auth_a_param_auth_alone_is_counted);
     RUN_TEST(test_app_auth_a_param_set_waits_one_control_step_for_its_auth);
     RUN_TEST(test_app_auth_status_goes_with_the_heartbeat);

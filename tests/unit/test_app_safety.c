@@ -38,7 +38,8 @@ void setUp(void)
     memset(tf_counters, 0, sizeof tf_counters);
     const ctl_params_t p = tf_instant_wheels();
     TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
-    app_set_key(&app, tf_test_key, 0u);
+    app_set_key(&app, tf_test_key, TF_SESSION);
+    tf_auth = &app.auth;
     tf_freshness = 0u;
 }
 
@@ -576,6 +577,33 @@ static void test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_ste
     TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
 }
 
+static void test_app_safety_odometry_follows_the_measured_speeds_not_the_commands(void)
+{
+    /* Wheels that lag: the firmware commands about 70 rad/s (0.07 m a step
+     * at r = 0.05 m), the wheels have not moved yet and say so (0 rad/s),
+     * and odometry stands at the origin. Judged against the commands, each
+     * step disagrees by 0.07 m, 0.015 m beyond its allowance (0.02 + 0.5 ×
+     * 0.07, odo.h), so the sum passes 0.1 m within 20 steps; judged against
+     * the measured speeds it agrees at every step. */
+    arm();
+    for (unsigned k = 0; k < 20u; k++) {
+        feed(tf_wheel_speed(0.0, 0.0));
+        full_step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    }
+    TEST_ASSERT_GREATER_THAN_INT32(60 * 1024, tf_last_wheels().wheel_cmd_left);
+    /* Without WHEEL_SPEED from the start, the same odometry halts. */
+    setUp();
+    arm();
+    for (unsigned k = 0; k < 20u; k++) {
+        full_step();
+        if (tf_last_status().status_halt != COMM_HALT_NONE) {
+            break;
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY_IMPLAUSIBLE, tf_last_status().status_halt);
+}
+
 static void test_app_safety_wheel_speeds_lost_while_standing_do_not_halt(void)
 {
     /* The reference stands (v_r = ω_r = 0) on the robot: p3, the wheels at
@@ -821,6 +849,7 @@ int main(void)
     RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
     RUN_TEST(test_app_safety_wheel_speeds_never_sent_are_not_needed);
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_step);
+    RUN_TEST(test_app_safety_odometry_follows_the_measured_speeds_not_the_commands);
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_standing_do_not_halt);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);

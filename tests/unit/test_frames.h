@@ -160,10 +160,22 @@ static inline hal_can_frame_t tf_param_get(uint8_t index)
 static const uint8_t tf_test_key[AUTH_KEY_LEN] = { 0x2b, 0x7e, 0x15, 0x16, 0x28, 0xae, 0xd2, 0xa6,
                                                    0xab, 0xf7, 0x15, 0x88, 0x09, 0xcf, 0x4f, 0x3c };
 
-/** @brief Freshness value of the last command tf_param_set_auth() built. */
+/** @brief Freshness value of the last command tf_param_set_auth() built:
+ *         the firmware's last decided one, when every command since was
+ *         built here and decided (a test that makes it decide others sets
+ *         it from app.auth.fv). */
 static uint32_t tf_freshness;
 
-/** @brief PARAM_AUTH: freshness low 20 bits at bits 12..31, the first four
+/** @brief The session the tests give the firmware with the key (the
+ *         authenticators written into the tests are for it). */
+#define TF_SESSION 0x5EC0A1D1u
+
+/** @brief The firmware's authentication state, when a test sets it: then
+ *         tf_param_set_auth() signs for its current challenge and session,
+ *         as a tool that read the authenticated status does. */
+static const auth_t *tf_auth;
+
+/** @brief PARAM_AUTH: freshness (20 bits) at bits 12..31, the first four
  *         bytes of the CMAC in bytes 4..7, in order. */
 static inline hal_can_frame_t tf_param_auth(uint32_t fv, const uint8_t mac[AUTH_MAC_LEN])
 {
@@ -177,7 +189,8 @@ static inline hal_can_frame_t tf_param_auth(uint32_t fv, const uint8_t mac[AUTH_
 
 /**
  * @brief PARAM_SET of @p index = @p value, and the PARAM_AUTH that
- *        authenticates it under tf_test_key with the next freshness value.
+ *        authenticates it under tf_test_key in session TF_SESSION with the
+ *        next freshness value.
  *        The MAC is auth_mac()'s: test_auth.c checks it against RFC 4493's
  *        examples, tests/python/test_auth.py against `cryptography`.
  */
@@ -186,10 +199,14 @@ static inline void tf_param_set_auth(uint8_t index, float value, hal_can_frame_t
     out[0] = tf_param_set(index, value);
     auth_t s;
     auth_init(&s);
-    auth_set_key(&s, tf_test_key, 0u);
+    const uint32_t session = tf_auth != NULL ? tf_auth->session : TF_SESSION;
+    auth_set_key(&s, tf_test_key, session);
     uint8_t mac[AUTH_MAC_LEN];
+    if (tf_auth != NULL) {
+        tf_freshness = tf_auth->fv;
+    }
     tf_freshness++;
-    auth_mac(&s, COMM_PARAM_SET_DATA_ID, &out[0].data[2], tf_freshness, mac);
+    auth_mac(&s, COMM_PARAM_SET_DATA_ID, &out[0].data[2], session, tf_freshness, mac);
     out[1] = tf_param_auth(tf_freshness, mac);
 }
 

@@ -238,6 +238,33 @@ static void test_sup_detects_on_first_step_within_range_and_only_once(void)
     TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
 }
 
+static void test_sup_the_range_counts_from_the_obstacle_s_boundary(void)
+{
+    /* Issue 21, case 6. D_det 3.5 is the centre distance at which an obstacle
+     * of radius R_ob = 0.1 is seen: its boundary is 3.4 m away. One of radius
+     * 1.0 is then seen at a centre distance of 3.4 + 1.0 = 4.4 m (= D_det +
+     * r − R_ob, as D_s and D_act are moved: 1.25 and 1.4 m), one of the
+     * largest radius a report carries, 2.55 m, at 5.95 m; one of 0.05 m at
+     * 3.45 m. Distances by hand, along the x axis. */
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0), ref = tu_pose(0.2, 0.0, 0.0);
+    static const struct {
+        double r, seen, unseen;
+    } c[] = { { 1.0, 4.4, 4.41 }, { 2.55, 5.95, 5.96 }, { 0.05, 3.45, 3.46 } };
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        setUp();
+        sup_obstacle_t o = obstacle(3, c[i].unseen, 0.0, c[i].r);
+        step(robot, ref, &o, 1, 0u);
+        TEST_ASSERT_EQUAL_UINT8(0, s.n_obs);
+        o = obstacle(3, c[i].seen, 0.0, c[i].r);
+        step(robot, ref, &o, 1, 20000u);
+        TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+        expect_event(0, SUP_EVENT_DETECT, 3, AVD_SIDE_NONE, 20000u);
+        /* Avoidance starts within the range, as for R_ob: D_act + r − R_ob
+         * = 0.4 + r <= 3.4 + r. */
+        TEST_ASSERT_NUM_WITHIN(TOL_M, 0.4 + c[i].r, s.obs[0].d_act);
+    }
+}
+
 static void test_sup_remembers_a_detected_obstacle_without_new_reports(void)
 {
     /* Detected at 3 m; then the robot is 0.4 m from it with no report:
@@ -689,6 +716,7 @@ int main(void)
     RUN_TEST(test_sup_p2_is_false_while_p1_holds);
     RUN_TEST(test_sup_p3_only_when_both_reference_velocities_are_zero);
     RUN_TEST(test_sup_detects_on_first_step_within_range_and_only_once);
+    RUN_TEST(test_sup_the_range_counts_from_the_obstacle_s_boundary);
     RUN_TEST(test_sup_remembers_a_detected_obstacle_without_new_reports);
     RUN_TEST(test_sup_activation_emits_the_side_and_holds_it);
     RUN_TEST(test_sup_completion_returns_to_tracking);

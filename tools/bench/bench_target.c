@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "auth/auth.h"
 #include "bench.h"
 #include "bench_wheel.h"
 #include "scenarios.h"
@@ -226,6 +227,46 @@ static void loads(void)
     }
 }
 
+/* ---------------------------------------------- authenticated commands */
+
+/* Instructions of the firmware's work per authenticated command (issue 21,
+ * docs/safety.md "Cost"): auth_verify() of a genuine command for the
+ * challenge (one CMAC), the status MAC that follows every decision and every
+ * housekeeping (one CMAC), and auth_set_key() at start (the subkeys). The
+ * sender's MAC is computed outside the timed part. Means of AUTH_RUNS calls,
+ * ±40 instructions each (one tick). */
+#define AUTH_RUNS 200u
+
+static void authenticated_commands(void)
+{
+    static const uint8_t key[AUTH_KEY_LEN] = { 0x2b, 0x7e, 0x15, 0x16, 0x28, 0xae, 0xd2, 0xa6,
+                                               0xab, 0xf7, 0x15, 0x88, 0x09, 0xcf, 0x4f, 0x3c };
+    static const uint8_t data[AUTH_DATA_LEN] = { 0x80, 0x00, 0x00, 0x80, 0x3F, 0x00 };
+    auth_t s;
+    auth_init(&s);
+    uint64_t t_key = 0;
+    uint64_t t_verify = 0;
+    uint64_t t_status = 0;
+    unsigned accepted = 0;
+    for (unsigned i = 0; i < AUTH_RUNS; i++) {
+        uint64_t t0 = ticks();
+        auth_set_key(&s, key, 0x5EC0A1D1u + i);
+        t_key += ticks() - t0;
+        uint8_t mac[AUTH_MAC_LEN];
+        auth_mac(&s, 0x1120u, data, s.session, s.fv + 1u, mac);
+        t0 = ticks();
+        accepted += auth_verify(&s, 0x1120u, data, s.fv + 1u, mac, 0u) == AUTH_OK ? 1u : 0u;
+        t_verify += ticks() - t0;
+        t0 = ticks();
+        auth_status_mac(&s, 0x1187u, mac);
+        t_status += ticks() - t0;
+    }
+    printf("auth_accepted %u of %u\n", accepted, AUTH_RUNS);
+    printf("auth_set_key_instr %.0f\n", (double)t_key * ips / AUTH_RUNS);
+    printf("auth_verify_instr %.0f\n", (double)t_verify * ips / AUTH_RUNS);
+    printf("auth_status_instr %.0f\n", (double)t_status * ips / AUTH_RUNS);
+}
+
 /* ------------------------------------------------------------ wheel loop */
 
 static bench_wheel_period_t wheel_periods[BENCH_WHEEL_PERIODS];
@@ -317,6 +358,7 @@ int main(void)
     wheel();
 
     primitives();
+    authenticated_commands();
     printf("done\n");
     return 0;
 }

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /**
  * @file hal_sys.h
- * @brief System service of the HAL: watchdog and reset cause.
+ * @brief System service of the HAL: watchdog, reset cause, and a value that
+ *        tells this start from every other (the authenticated commands'
+ *        session, docs/safety.md "Sessions").
  */
 #ifndef HAL_SYS_H
 #define HAL_SYS_H
@@ -29,5 +31,17 @@ void hal_sys_watchdog_kick(void);
 
 /** @brief Cause of the last reset. Task context. */
 hal_reset_cause_t hal_sys_reset_cause(void);
+
+/**
+ * @brief A value for this start of the device: from a random source
+ *        (unpredictable), or a counter kept across resets (never the same
+ *        twice while it is kept). Each call gives a new one. What each port
+ *        uses, and what that guarantees, is in docs/safety.md ("Sessions").
+ * @param[out] nonce the value.
+ * @retval 0 a value. @retval -EIO the source failed (a TRNG that never became
+ *         ready). @retval -ENOTSUP no source on this port.
+ * Task context; may wait a few microseconds (a TRNG's first value), never blocks.
+ */
+int hal_sys_boot_nonce(uint32_t *nonce);
 
 #endif /* HAL_SYS_H */

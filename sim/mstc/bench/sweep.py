@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: MIT
-"""Sweep throughput: scene-steps per second in memory, a 1,000-scene sweep
-on every core, and the same sweep on a local Dask cluster.
+"""Sweep throughput: scene-steps per CPU-second of the batched engine against
+the per-scene one on the standard suite's families, scene-steps per second of
+one scene in memory, sweeps on every core, and the same sweeps on a local
+Dask cluster.
 
   python -m mstc.bench.sweep run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
   python -m mstc.bench.sweep report --doc docs/performance.md build/bench/sweep.json
@@ -22,6 +24,7 @@ import statistics
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 from mstc.bench import ROOT
@@ -29,11 +32,14 @@ from mstc.bench.doc import report, write_result
 from mstc.can.protocol import wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
-from mstc.plant.scenario import load_scenario
-from mstc.sweep.engine import Scene, run_sweep
-from mstc.sweep.suite import generate, load_suite
+from mstc.plant.scenario import load_scenario, parse_scenario
+from mstc.sweep.engine import Job, Scene, library_sha256, run_batch, run_jobs_batched, run_sweep
+from mstc.sweep.suite import generate, load_suite, scene_text
 
 LINE = ROOT / "sim" / "scenarios" / "paper-line.toml"
+STANDARD = ROOT / "sim" / "suites" / "standard.toml"
+BATCHED_TARGET = 1_000_000
+"""Scene-steps per CPU-second of the batched engine, ideal wheels, "mstc" (issue 22)."""
 BEGIN = "<!-- bench:sweep:begin (written by make bench, mstc.bench.sweep) -->"
 END = "<!-- bench:sweep:end -->"
 # Paper-like scenes: a straight reference at about the paper's speed, two
@@ -74,6 +80,73 @@ def steps_per_second(lib: str, runs: int) -> dict[str, float]:
     }
 
 
+def _family_jobs(per_family: int, strategy: str) -> tuple[dict[str, list[Job]], dict[str, float]]:
+    """The first @p per_family scenes of every family of the standard suite,
+    parsed here as ``mstc sweep``'s client parses them (it validates every
+    scene before it runs any); and the CPU time the parsing took per family [s]."""
+    suite = load_suite(STANDARD)
+    jobs: dict[str, list[Job]] = {}
+    parse: dict[str, float] = {}
+    wire = wire_limits()
+    for f in suite.families:
+        texts = [(f.scene_name(i), scene_text(suite, f, i)) for i in range(per_family)]
+        c0 = time.process_time()
+        parsed = [parse_scenario(tomllib.loads(t), name, wire) for name, t in texts]
+        parse[f.name] = time.process_time() - c0
+        jobs[f.name] = [
+            (Scene(name, name, t, f.name, scenario=sc), strategy)
+            for (name, t), sc in zip(texts, parsed, strict=True)
+        ]
+    return jobs, parse
+
+
+def engine_rates(
+    lib: str, batch: int, scenes: int, runs: int, strategy: str = "mstc"
+) -> dict[str, object]:
+    """Scene-steps per CPU-second of this process, family by family of the
+    standard suite: the batched engine on one batch of @p batch scenes of the
+    family, the per-scene engine on @p scenes of them, taking turns @p runs
+    times; each family's median, and the suite's (all its scene-steps over
+    the sum of the families' median CPU times). A worker's work is counted
+    (the runs, the metrics, events.json); the scenes come parsed, as the
+    client sends them, and the parsing's own cost is given beside."""
+    sha = library_sha256(lib)
+    batched_jobs, parse = _family_jobs(batch, strategy)
+    scene_jobs = {f: jobs[:scenes] for f, jobs in batched_jobs.items()}
+    families: dict[str, dict[str, float]] = {}
+    for family in batched_jobs:
+        cpu: dict[str, list[float]] = {"batched": [], "scene": []}
+        steps: dict[str, int] = {}
+        for _ in range(runs):
+            for engine, jobs in (("batched", batched_jobs[family]), ("scene", scene_jobs[family])):
+                c0 = time.process_time()
+                if engine == "batched":
+                    outcomes = run_jobs_batched(jobs, lib, sha)
+                else:
+                    outcomes = run_batch(jobs, lib, "scene")
+                cpu[engine].append(time.process_time() - c0)
+                steps[engine] = sum(int(o.row["steps"]) for o in outcomes)
+        families[family] = (
+            {f"{e}_steps": float(steps[e]) for e in steps}
+            | {f"{e}_cpu": statistics.median(cpu[e]) for e in cpu}
+            | {"parse_cpu": parse[family]}
+        )
+    total = {
+        e: sum(f[f"{e}_steps"] for f in families.values())
+        / sum(f[f"{e}_cpu"] for f in families.values())
+        for e in ("batched", "scene")
+    }
+    return {
+        "strategy": strategy,
+        "batch": batch,
+        "scenes": scenes,
+        "runs": runs,
+        "families": families,
+        "batched": total["batched"],
+        "scene": total["scene"],
+    }
+
+
 def _scenes(count: int, folder: Path) -> list[Scene]:
     suite_path = folder / "paper-like.toml"
     suite_path.write_text(PAPER_LIKE.format(count=count))
@@ -102,7 +175,9 @@ def _reproducible(out: Path) -> list[list[str]]:
     return [r[:drop] + r[drop + 1 :] for r in rows]
 
 
-def sweep_times(lib: str, count: int, workers: int, repeats: int) -> dict[str, object]:
+def sweep_times(
+    lib: str, count: int, workers: int, repeats: int, engine: str = "scene"
+) -> dict[str, object]:
     """@p count paper-like scenes with the paper's strategy, @p repeats
     times in turn on a process pool of @p workers and on a local Dask cluster
     of as many single-threaded worker processes (started once, before the
@@ -125,12 +200,18 @@ def sweep_times(lib: str, count: int, workers: int, repeats: int) -> dict[str, o
         address = cluster.scheduler_address
         for i in range(repeats):
             t0, c0, k0 = time.perf_counter(), process_cpu(), children_cpu()
-            run_sweep(scenes, ["paper"], folder / f"pool{i}", lib, workers=workers)
+            run_sweep(scenes, ["paper"], folder / f"pool{i}", lib, workers=workers, engine=engine)
             pool.append((time.perf_counter() - t0, process_cpu() - c0 + children_cpu() - k0))
             w0 = sum(client.run(process_cpu).values())
             t0, c0 = time.perf_counter(), process_cpu()
             run_sweep(
-                scenes, ["paper"], folder / f"dask{i}", lib, workers=workers, scheduler=address
+                scenes,
+                ["paper"],
+                folder / f"dask{i}",
+                lib,
+                workers=workers,
+                scheduler=address,
+                engine=engine,
             )
             wall, cpu = time.perf_counter() - t0, process_cpu() - c0
             dask.append((wall, cpu + sum(client.run(process_cpu).values()) - w0))
@@ -141,6 +222,7 @@ def sweep_times(lib: str, count: int, workers: int, repeats: int) -> dict[str, o
             for i in range(repeats)
         )
     return {
+        "engine": engine,
         "scenes": count,
         "workers": workers,
         "repeats": repeats,
@@ -158,12 +240,32 @@ def _verdict(met: bool) -> str:
     return "met" if met else "not met"
 
 
+def _sweep_rows(sw: dict[str, object], what: str) -> list[str]:
+    """The pool's and the Dask cluster's rows of one sweep."""
+    cores, scenes = sw["workers"], sw["scenes"]
+    pool_s, pool_cpu = float(sw["pool_s"]), float(sw["pool_cpu_s"])  # type: ignore[arg-type]
+    dask_s, dask_cpu = float(sw["dask_s"]), float(sw["dask_cpu_s"])  # type: ignore[arg-type]
+    overhead = (dask_s / pool_s - 1.0) * 100.0
+    cpu_overhead = (dask_cpu / pool_cpu - 1.0) * 100.0
+    per_scene = pool_cpu / int(scenes)  # type: ignore[call-overload]
+    idle = pool_cpu / int(cores)  # type: ignore[call-overload]
+    return [
+        f"| {what}, process pool of {cores}; median of {sw['repeats']} | {pool_s:.1f} s "
+        f"| **{pool_cpu:.1f} CPU-s** ({per_scene * 1000:.2f} ms a scene; {idle:.1f} s on "
+        f"{cores} idle cores) | — |",
+        f"| the same sweep on a local Dask cluster of {cores} single-threaded workers | "
+        f"{dask_s:.1f} s ({overhead:+.1f} %) | **{dask_cpu:.1f} CPU-s** "
+        f"({cpu_overhead:+.1f} % against the pool) | overhead ≤ 10 %: "
+        f"{_verdict(cpu_overhead <= 10)} (wall: {_verdict(overhead <= 10)}); rows alike: "
+        f"{'yes' if sw['same_rows'] else 'NO'} |",
+    ]
+
+
 def section(r: dict[str, object]) -> str:
-    rate = r["rate"]
-    sw = r["sweep"]
+    rate, sw, swb, eng = r["rate"], r["sweep"], r["sweep_batched"], r["engines"]
     assert isinstance(rate, dict) and isinstance(sw, dict)
-    cores = sw["workers"]
-    overhead = (sw["dask_s"] / sw["pool_s"] - 1.0) * 100.0
+    assert isinstance(swb, dict) and isinstance(eng, dict)
+    ratio = eng["batched"] / eng["scene"]
     lines = [
         "## Sweeps: scenes through the control step in memory",
         "",
@@ -177,34 +279,60 @@ def section(r: dict[str, object]) -> str:
         "not immune: work on the other core slows this one's too (shared caches), so a "
         "loaded machine still lowers these figures.",
         "",
+        "### The two engines (docs/sweeps.md)",
+        "",
+        f'Scene-steps per CPU-second of one process under "{eng["strategy"]}" with ideal '
+        "wheels, family by family of the standard suite (sim/suites/standard.toml: 30 s "
+        f"scenes, 1,501 steps): the batched engine on one batch of {eng['batch']} scenes of "
+        f"the family, the per-scene engine on {eng['scenes']} of them, the two taking turns, "
+        f"median of {eng['runs']} runs each. A worker's work is counted (the runs, the "
+        "metrics, events.json); the scenes come parsed, as `mstc sweep`'s client sends "
+        "them after validating every scene, and the parsing's own cost is the last column "
+        "(the client's, once per scene, whichever engine runs it; the sweeps below count it).",
+        "",
+        "| family | batched | per scene | ratio | parsing the file [ns per scene-step] |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for family, f in eng["families"].items():
+        b = f["batched_steps"] / f["batched_cpu"]
+        sc = f["scene_steps"] / f["scene_cpu"]
+        parse = f["parse_cpu"] / f["batched_steps"] * 1e9
+        lines.append(f"| {family} | {b:,.0f} | {sc:,.0f} | {b / sc:.1f}× | {parse:,.0f} |")
+    lines += [
+        f"| **the suite** | **{eng['batched']:,.0f}** | **{eng['scene']:,.0f}** | "
+        f"**{ratio:.1f}×** | |",
+        "",
+        f'- Ideal wheels, "{eng["strategy"]}": **{eng["batched"]:,.0f}** scene-steps per '
+        f"CPU-second, {ratio:.1f}× the per-scene engine (target ≥ {BATCHED_TARGET:,}: "
+        f"{_verdict(eng['batched'] >= BATCHED_TARGET)}).",
+        '- With the "gearmotor" actuator (1 ms substeps; target ≥ 250,000): not measured, '
+        "the actuator (issue 19) is not on this branch yet.",
+        "",
+        "### Sweeps on every core and on Dask",
+        "",
         "| measure | wall time | CPU time | target |",
         "|---|---:|---:|---|",
-        f"| scene-steps per second, one process (paper-line: 2 obstacles, 50 Hz, "
-        f"{rate['steps']} steps; median of {r['runs']} runs) | {rate['wall']:,.0f} | "
+        f"| scene-steps per second, one process, per-scene engine (paper-line: 2 obstacles, "
+        f"50 Hz, {rate['steps']} steps; median of {r['runs']} runs) | {rate['wall']:,.0f} | "
         f"**{rate['cpu']:,.0f}** per CPU-second | ≥ 40,000 per core: "
         f"{_verdict(rate['cpu'] >= 40000)} |",
     ]
-    per_scene = sw["pool_cpu_s"] / sw["scenes"]
-    idle = sw["pool_cpu_s"] / cores
-    cpu_overhead = (sw["dask_cpu_s"] / sw["pool_cpu_s"] - 1.0) * 100.0
+    lines += _sweep_rows(
+        sw,
+        f"sweep of {sw['scenes']:,} paper-like scenes of 20 s (2 obstacles, strategy "
+        "paper), per-scene engine",
+    )
+    lines += _sweep_rows(
+        swb, f"sweep of {swb['scenes']:,} paper-like scenes of 20 s, batched engine"
+    )
     lines += [
-        f"| sweep of {sw['scenes']:,} paper-like scenes of 20 s (2 obstacles, strategy "
-        f"paper), process pool of {cores}; median of {sw['repeats']} | {sw['pool_s']:.1f} s "
-        f"| **{sw['pool_cpu_s']:.1f} "
-        f"CPU-s** ({per_scene * 1000:.1f} ms a scene; {idle:.1f} s on {cores} idle cores) "
-        f"| ≤ 30 s: {_verdict(idle <= 30)} (wall: {_verdict(sw['pool_s'] <= 30)}) |",
-        f"| the same sweep on a local Dask cluster of {cores} single-threaded workers | "
-        f"{sw['dask_s']:.1f} s ({overhead:+.1f} %) | **{sw['dask_cpu_s']:.1f} CPU-s** "
-        f"({cpu_overhead:+.1f} % against the pool) | overhead ≤ 10 %: "
-        f"{_verdict(cpu_overhead <= 10)} (wall: {_verdict(overhead <= 10)}) |",
         "",
         "The sweep times leave out writing the scene files (done first) and include "
         "starting the pool's workers, writing every events.json and runs.csv; the Dask "
         "cluster is started before the clocks run, as a real one would be, and the pool's "
         "and the cluster's sweeps take turns. \"on "
-        f'{cores} idle cores" is the CPU time spread evenly over the cores, what the wall '
-        "time is when nothing else runs. Rows alike in both: "
-        f"{'yes' if sw['same_rows'] else 'NO'}.",
+        f'{sw["workers"]} idle cores" is the CPU time spread evenly over the cores, what '
+        "the wall time is when nothing else runs.",
         "",
     ]
     return "\n".join(lines)
@@ -220,6 +348,12 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--out", type=Path, required=True)
     run.add_argument("--runs", type=int, default=7)
     run.add_argument("--scenes", type=int, default=1000)
+    run.add_argument("--batched-scenes", type=int, default=10000)
+    run.add_argument("--batch", type=int, default=500, help="scenes of a family in one batch")
+    run.add_argument(
+        "--per-scene", type=int, default=6, help="scenes of a family, per-scene engine"
+    )
+    run.add_argument("--engine-runs", type=int, default=3, help="runs of each engine (medians)")
     run.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     run.add_argument("--repeats", type=int, default=3, help="sweeps on each path (medians)")
     rep = sub.add_parser("report")
@@ -232,8 +366,10 @@ def main(argv: list[str] | None = None) -> int:
             "cpus": os.cpu_count(),
             "load": f"{os.getloadavg()[0]:.1f}",
             "runs": a.runs,
+            "engines": engine_rates(lib, a.batch, a.per_scene, a.engine_runs),
             "rate": steps_per_second(lib, a.runs),
-            "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats),
+            "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats, "scene"),
+            "sweep_batched": sweep_times(lib, a.batched_scenes, a.workers, a.repeats, "batched"),
         }
         result["load_end"] = f"{os.getloadavg()[0]:.1f}"
         write_result(a.out, result)

@@ -13,6 +13,11 @@ the struct and the field, never garbage read at the wrong offset. Adding a
 field means adding it to the C struct (and its row of the layout table in
 mstc_sil.c) and to the struct here.
 
+The batched step takes and fills numpy structured arrays: their dtypes
+(:data:`BATCH_INPUT_DTYPE`, :data:`OUTPUT_DTYPE`) are made from the same
+ctypes structs (:func:`numpy_dtype`) and checked against the library's layout
+at load time too.
+
 The library converts to and from the firmware's numeric type at this
 boundary: everything here is double or an integer.
 """
@@ -21,10 +26,12 @@ from __future__ import annotations
 
 import ctypes
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from struct import Struct
 from typing import Any, ClassVar
+
+import numpy as np
 
 from mstc.errors import FirmwareError
 
@@ -145,6 +152,18 @@ class FrameStruct(AbiStruct):
     ]
 
 
+class BatchInputStruct(AbiStruct):
+    """``mstc_sil_batch_input_t``: one scene of a batched step, its obstacle
+    table inline and the reported entries as a mask (a byte each)."""
+
+    c_name = "mstc_sil_batch_input_t"
+    _fields_ = [
+        ("in", InputStruct),
+        ("reported", ctypes.c_uint8 * MAX_OBSTACLES),
+        ("table", ObstacleStruct * MAX_OBSTACLES),
+    ]
+
+
 ABI_STRUCTS: tuple[type[AbiStruct], ...] = (
     ParamsStruct,
     ObstacleStruct,
@@ -152,8 +171,42 @@ ABI_STRUCTS: tuple[type[AbiStruct], ...] = (
     EventStruct,
     OutputStruct,
     FrameStruct,
+    BatchInputStruct,
 )
 """Every struct of the ABI, checked at load time."""
+
+
+def numpy_dtype(ctype: Any) -> np.dtype[Any]:
+    """The numpy dtype laid out as the ctypes type @p ctype: a struct's fields
+    at their ctypes offsets (nested structs and arrays alike), a pointer as an
+    address (``uintp``), the struct's size as the item size."""
+    if isinstance(ctype, type) and issubclass(ctype, ctypes.Structure):
+        names = [f[0] for f in ctype._fields_]
+        return np.dtype(
+            {
+                "names": names,
+                "formats": [numpy_dtype(f[1]) for f in ctype._fields_],
+                "offsets": [getattr(ctype, n).offset for n in names],
+                "itemsize": ctypes.sizeof(ctype),
+            }
+        )
+    if isinstance(ctype, type) and issubclass(ctype, ctypes.Array):
+        return np.dtype((numpy_dtype(ctype._type_), (ctype._length_,)))
+    if isinstance(ctype, type) and issubclass(ctype, ctypes._Pointer):
+        return np.dtype(np.uintp)
+    scalar: np.dtype[Any] = np.dtype(ctype)
+    return scalar
+
+
+BATCH_INPUT_DTYPE = numpy_dtype(BatchInputStruct)
+"""``mstc_sil_batch_input_t`` as a numpy structured dtype."""
+OUTPUT_DTYPE = numpy_dtype(OutputStruct)
+"""``mstc_sil_output_t`` as a numpy structured dtype."""
+NUMPY_DTYPES: dict[str, np.dtype[Any]] = {
+    BatchInputStruct.c_name: BATCH_INPUT_DTYPE,
+    OutputStruct.c_name: OUTPUT_DTYPE,
+}
+"""The dtypes of the batched step by their struct's name, checked at load time."""
 
 
 class _LayoutEntry(ctypes.Structure):
@@ -228,34 +281,48 @@ def struct_layout(struct: type[ctypes.Structure]) -> dict[str | None, tuple[int,
     return fields
 
 
+def dtype_layout(dtype: np.dtype[Any]) -> dict[str | None, tuple[int, int]]:
+    """The same for a numpy structured dtype (:func:`struct_layout`)."""
+    fields: dict[str | None, tuple[int, int]] = {None: (0, dtype.itemsize)}
+    for name in dtype.names or ():
+        sub, offset = dtype.fields[name][:2]  # type: ignore[index]
+        fields[name] = (offset, sub.itemsize)
+    return fields
+
+
 def check_layout(
-    layout: Layout, where: str, structs: Sequence[type[AbiStruct]] = ABI_STRUCTS
+    layout: Layout,
+    where: str,
+    structs: Sequence[type[AbiStruct]] = ABI_STRUCTS,
+    dtypes: Mapping[str, np.dtype[Any]] | None = None,
 ) -> None:
-    """Check @p structs against the @p layout of the library at @p where.
+    """Check @p structs and the numpy @p dtypes (by struct name) against the
+    @p layout of the library at @p where.
 
     :raises FirmwareError: a struct, or a field of one, that the two sides lay
         out differently (or only one side has), named.
     """
     problems = []
-    for struct in structs:
-        theirs = layout.get(struct.c_name)
+    ours_by_name = [(s.c_name, struct_layout(s), "Python binding") for s in structs]
+    ours_by_name += [(n, dtype_layout(d), "numpy dtype") for n, d in (dtypes or {}).items()]
+    for c_name, ours, side in ours_by_name:
+        theirs = layout.get(c_name)
         if theirs is None:
-            problems.append(f"{struct.c_name}: not in the library's layout table")
+            problems.append(f"{c_name}: not in the library's layout table")
             continue
-        ours = struct_layout(struct)
         for field in [*ours, *(f for f in theirs if f not in ours)]:
-            name = struct.c_name if field is None else f"{struct.c_name}.{field}"
+            name = c_name if field is None else f"{c_name}.{field}"
             if field not in theirs:
-                problems.append(f"{name}: in the Python binding only")
+                problems.append(f"{name}: in the {side} only")
             elif field not in ours:
                 problems.append(f"{name}: in the library only")
             elif ours[field] != theirs[field]:
                 (o_off, o_size), (t_off, t_size) = ours[field], theirs[field]
                 problems.append(
-                    f"{name}: {t_size} bytes in the library, {o_size} in the Python binding"
+                    f"{name}: {t_size} bytes in the library, {o_size} in the {side}"
                     if field is None
                     else f"{name}: offset {t_off}, size {t_size} in the library; "
-                    f"offset {o_off}, size {o_size} in the Python binding"
+                    f"offset {o_off}, size {o_size} in the {side}"
                 )
     if problems:
         raise FirmwareError(
@@ -288,8 +355,15 @@ def _declare(dll: ctypes.CDLL) -> None:
         ("mstc_sil_defaults", [pointer(ParamsStruct)], None),
         ("mstc_sil_init", [c_void_p, pointer(ParamsStruct)], c_int),
         ("mstc_sil_step", [c_void_p, pointer(InputStruct), pointer(OutputStruct)], c_int),
+        ("mstc_sil_batch_stride", [], ctypes.c_size_t),
+        (
+            "mstc_sil_step_batch",
+            [c_void_p, ctypes.c_size_t, c_void_p, c_void_p, c_void_p],
+            c_int,
+        ),
         ("mstc_sil_fw_init", [pointer(ParamsStruct)], c_int),
-        ("mstc_sil_fw_set_key", [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_uint32], c_int),
+        ("mstc_sil_fw_set_key", [ctypes.c_char_p, ctypes.c_size_t], c_int),
+        ("mstc_sil_fw_set_session", [ctypes.c_uint32], c_int),
         ("mstc_sil_fw_send", [pointer(FrameStruct)], c_int),
         ("mstc_sil_fw_recv", [pointer(FrameStruct)], c_int),
     ]
@@ -330,7 +404,7 @@ class Library:
             raise FirmwareError(
                 f"{path} is not the mstc SIL library of this version: {exc}"
             ) from exc
-        check_layout(layout, str(path), ABI_STRUCTS)
+        check_layout(layout, str(path), ABI_STRUCTS, NUMPY_DTYPES)
         self.numeric: str = self.dll.mstc_sil_numeric().decode("ascii")
         """The firmware's numeric mode, "float" or "fixed"."""
 

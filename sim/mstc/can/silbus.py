@@ -38,7 +38,10 @@ class SilBus(can.BusABC):
     :param channel: a name for the bus in logs (default ``"sil0"``).
     :param lib: path of ``libmstc_sil.so``; default: ``$MSTC_SIL_LIB``.
     :param key: the firmware's key (16 bytes); default: :func:`mstc.can.secoc.load_key`.
-    :param freshness: the firmware's freshness value at start (0, as after a reset).
+    :param session: the session of the firmware's authenticated commands; by
+        default one drawn from the OS at start, as a board draws one at every
+        start (docs/safety.md, "Sessions"). Only the replay of a log sets it:
+        to the session the log was recorded in.
     :raises can.CanInitializationError: the library cannot be loaded (its
         bindings, :class:`mstc.can.library.Library`, say why), the firmware
         started, or the key read.
@@ -49,7 +52,7 @@ class SilBus(can.BusABC):
         channel: Any = None,
         lib: str | os.PathLike[str] | None = None,
         key: bytes | None = None,
-        freshness: int = 0,
+        session: int | None = None,
         **kwargs: Any,
     ) -> None:
         try:
@@ -61,18 +64,29 @@ class SilBus(can.BusABC):
         self.channel = channel if channel is not None else "sil0"
         self.channel_info = f"mstc-sil ({self.numeric}) {library.path}"
         self._now = 0.0
+        try:
+            self._key = secoc.load_key() if key is None else key
+        except AuthKeyError as exc:
+            raise can.CanInitializationError(f"mstc-sil: {exc}") from exc
+        self.restart()
+        if session is not None:
+            self._lib.mstc_sil_fw_set_session(session)
+        super().__init__(channel=self.channel, **kwargs)
+
+    def restart(self) -> None:
+        """Restart the firmware instance, as a board's reset does: empty queues,
+        a fresh state, the same key, a session of its own.
+
+        :raises can.CanInitializationError: the firmware did not start.
+        """
         rc = self._lib.mstc_sil_fw_init(None)
         if rc != 0:
             raise can.CanInitializationError(f"mstc-sil: firmware init failed ({rc})")
-        try:
-            key = secoc.load_key() if key is None else key
-        except AuthKeyError as exc:
-            raise can.CanInitializationError(f"mstc-sil: {exc}") from exc
-        if self._lib.mstc_sil_fw_set_key(key, len(key), freshness) != 0:
+        if self._lib.mstc_sil_fw_set_key(self._key, len(self._key)) != 0:
             raise can.CanInitializationError(
-                f"mstc-sil: the firmware refused the key ({len(key)} bytes, want {secoc.KEY_LEN})"
+                f"mstc-sil: the firmware refused the key ({len(self._key)} bytes, want "
+                f"{secoc.KEY_LEN}), or the OS gave no random value for its session"
             )
-        super().__init__(channel=self.channel, **kwargs)
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         """Hand @p msg to the firmware, which handles it before this returns."""

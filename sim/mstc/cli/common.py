@@ -88,7 +88,8 @@ def add_key_argument(parser: argparse.ArgumentParser) -> None:
         metavar="PATH",
         type=Path,
         help=f"the firmware's key, 32 hex digits (default: ${secoc.KEY_ENV} as hex digits, "
-        f"else the file ${secoc.KEY_FILE_ENV}, else keys/device.key, which `make key` "
+        f"else the file ${secoc.KEY_FILE_ENV}, else keys/sim.key for a simulation (mstc "
+        "sim, replay, hil --fw/--qemu) and keys/device.key for a board, which `make key` "
         "generates; docs/safety.md)",
     )
 

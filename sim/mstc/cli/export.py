@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""``mstc export``: a run or a bus log as an MCAP file, for Foxglove."""
+"""``mstc export``: a run or a bus log as an MCAP file, for Foxglove, or as a
+rosbag2, for the ROS 2 tools."""
 
 from __future__ import annotations
 
@@ -9,9 +10,10 @@ from pathlib import Path
 from mstc.cli.common import add_log_arguments, load_decoded
 from mstc.errors import EXIT_OK
 from mstc.logs.export import export_mcap, format_summary
+from mstc.ros import require
 
 NAME = "export"
-HELP = "write a run or a bus log as an MCAP file (Foxglove: 3D path, plots, CAN signals)"
+HELP = "write a run or a bus log as an MCAP file (Foxglove) or a rosbag2 (ROS 2 tools)"
 
 _EPILOG = """\
 RUN_DIR is a folder mstc sim or mstc hil wrote (its bus.log is read); LOG is
@@ -22,12 +24,20 @@ stamped with the log's time. Open it in Foxglove: its 3D panel shows the
 paths and obstacles in the frame "world"; a Plot panel takes any signal, e.g.
 /can/STATUS.e. See docs/replay.md.
 
-exit status: 0 written; 1 the file cannot be written; 2 bad arguments, or a
-log that cannot be used (with --strict, any problem in it).
+With --rosbag2 the run becomes a rosbag2 folder (MCAP storage) of standard ROS 2
+messages in the frames odom and base_link: /odom, /tf, /reference,
+/reference/path, /obstacles, /cmd_wheels, /mstc/status, /mstc/events and every
+raw frame on /can/frames (can_msgs/msg/Frame), for ros2 bag play, rviz2, rqt
+(docs/ros2.md). It needs the extra mstc[ros].
+
+exit status: 0 written; 1 the file cannot be written (a rosbag2 folder that
+exists already); 2 bad arguments, a log that cannot be used (with --strict, any
+problem in it), or --rosbag2 without rosbags installed.
 
 examples:
   .venv/bin/mstc export tests/data/paper-line.log --mcap build/paper-line.mcap
   .venv/bin/mstc export build/sim/paper-line --mcap build/sim/paper-line/run.mcap
+  .venv/bin/mstc export build/sim/paper-line --rosbag2 build/sim/paper-line/rosbag2
 """
 
 
@@ -36,21 +46,34 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser = commands.add_parser(
         NAME,
         help=HELP,
-        description="Export a run folder or a CAN bus log to MCAP, decoded with the DBC.",
+        description="Export a run folder or a bus log to MCAP or rosbag2, decoded with the DBC.",
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_log_arguments(parser, "RUN_DIR|LOG", "a run's folder (its bus.log is read), or a bus log")
-    parser.add_argument(
-        "--mcap", metavar="OUT", type=Path, required=True, help="the MCAP file to write"
+    formats = parser.add_mutually_exclusive_group(required=True)
+    formats.add_argument("--mcap", metavar="OUT", type=Path, help="the MCAP file to write")
+    formats.add_argument(
+        "--rosbag2",
+        metavar="OUT",
+        type=Path,
+        help="the rosbag2 folder to write (MCAP storage, standard ROS 2 messages; needs "
+        "the extra mstc[ros]; docs/ros2.md)",
     )
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Decode the log and write the MCAP file."""
+    """Decode the log and write the MCAP file or the rosbag2."""
     source = args.log
-    db, decoded = load_decoded(args)
-    summary = export_mcap(decoded, db, args.mcap)
+    if args.rosbag2 is not None:
+        require("rosbags")  # before the log is read: a missing extra is said at once
+        from mstc.ros.bag import export_rosbag2
+
+        db, decoded = load_decoded(args)
+        summary = export_rosbag2(decoded, db, args.rosbag2)
+    else:
+        db, decoded = load_decoded(args)
+        summary = export_mcap(decoded, db, args.mcap)
     print(format_summary(summary, source))
     return EXIT_OK

@@ -352,10 +352,14 @@ def run(args: argparse.Namespace) -> int:
     problem = _check_realtime(args)
     if problem is not None:
         raise UsageError(problem)
-    args.key = secoc.load_key(args.key_file)
+    # mstc-fw (--fw) and QEMU (--qemu) are simulations: the simulations' key
+    # by default, never a device's; a board holds the device key.
+    simulated = args.fw is not None or args.qemu is not None
+    default = secoc.SIM_KEY_FILE if simulated else secoc.DEFAULT_KEY_FILE
+    args.key = secoc.load_key(args.key_file, default)
     # mstc-fw gets the same key: the file it came from (None: from $MSTC_KEY,
     # which the process inherits).
-    args.key_source = secoc.key_file(args.key_file)
+    args.key_source = secoc.key_file(args.key_file, default)
     run_one = _run_on_qemu if args.qemu is not None else _run_one
 
     def run_checked(scenario: Scenario, bar: ProgressBar) -> tuple[str, RunResult, BusLog]:

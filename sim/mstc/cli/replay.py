@@ -86,7 +86,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def run(args: argparse.Namespace) -> int:
     """Replay the log and print the first difference and a summary."""
     db, log = load_log(args)
-    key = secoc.load_key(args.key_file)
+    key = secoc.load_key(args.key_file, secoc.SIM_KEY_FILE)  # the SIL library: a simulation
 
     def progress(total: int) -> ProgressBar:
         return ProgressBar(total, "replay", "input frames", enabled=not args.quiet)

@@ -169,7 +169,8 @@ def tolerance(args: argparse.Namespace, default: float = 0.0) -> float:
 def run(args: argparse.Namespace) -> int:
     """Validate every scenario, run each, then write and report."""
     slack = tolerance(args)
-    args.key = secoc.load_key(args.key_file) if args.bus == "sil" else None
+    # A simulation: the simulations' key by default, never a device's.
+    args.key = secoc.load_key(args.key_file, secoc.SIM_KEY_FILE) if args.bus == "sil" else None
     return run_scenarios(
         args.scenarios,
         args.out,

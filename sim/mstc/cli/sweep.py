@@ -20,7 +20,15 @@ from mstc.loop.result import RunResult
 from mstc.model import Params
 from mstc.plant.scenario import Scenario, load_scenario
 from mstc.report.progress import ProgressBar
-from mstc.sweep.engine import STRATEGIES, Scene, check_scheduler, run_job, run_sweep
+from mstc.sweep.engine import (
+    BATCH,
+    ENGINES,
+    STRATEGIES,
+    Scene,
+    check_scheduler,
+    run_job,
+    run_sweep,
+)
 from mstc.sweep.folder import locked
 from mstc.sweep.suite import MAX_COUNT, Family, Suite, generate, is_suite, load_suite
 from mstc.sweep.summary import write_summary
@@ -50,6 +58,13 @@ strategies:
   paper   the paper's switch strategy in the firmware (in memory, C step)
   mstc    mstc's own strategy in the firmware
   dwa     the Dynamic Window Approach baseline (Python, mstc.sweep.dwa)
+
+engines (the firmware's strategies; dwa always runs scene by scene):
+  batched the default: a batch of scenes steps together, the plant as numpy
+          arrays, the firmware's step for all of them in one call
+          (mstc_sil_step_batch); the metrics are computed as the runs go
+  scene   each scene alone through the lock-step loop, judged from its trace:
+          the reference the batched engine is compared with (docs/sweeps.md)
 
 A scene that fails (an exception, a non-finite state, a worker that dies) is
 a row with its error, never the end of the sweep. Interrupted, the sweep goes
@@ -113,6 +128,20 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=int,
         default=os.cpu_count() or 1,
         help="worker processes of the local pool (default: every core, %(default)s)",
+    )
+    parser.add_argument(
+        "--engine",
+        choices=ENGINES,
+        default=ENGINES[0],
+        help="how the firmware's strategies run (default: %(default)s; see below)",
+    )
+    parser.add_argument(
+        "--batch",
+        metavar="N",
+        type=int,
+        default=BATCH,
+        help="most scenes a batch of the batched engine steps together; a worker's memory "
+        "grows with it, not with the scenes' length (default: %(default)s)",
     )
     parser.add_argument(
         "--scheduler",
@@ -248,6 +277,8 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.jobs < 1:
         raise UsageError("--jobs must be at least 1")
+    if args.batch < 1:
+        raise UsageError("--batch must be at least 1")
     if args.count is not None and not 1 <= args.count <= MAX_COUNT:
         raise UsageError(f"--count: expected 1 to {MAX_COUNT:,} scenes a family, got {args.count}")
     if args.scheduler is not None:
@@ -268,7 +299,7 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
     seen: dict[str, Path] = {}
     for scenario in loaded:
         path = scenario.path
-        scene = Scene.from_file(path)
+        scene = replace(Scene.from_file(path), scenario=scenario)
         first = seen.setdefault(scene.name, path)
         if first != path:
             problems.append(
@@ -288,7 +319,10 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
         lib, firmware = str(args.lib or ""), "none (dwa only)"
 
     where = args.scheduler or f"{args.jobs} local processes"
-    print(f"sweep: {len(scenes)} scenes × {', '.join(strategies)} on {where}; firmware {firmware}")
+    print(
+        f"sweep: {len(scenes)} scenes × {', '.join(strategies)} on {where}, engine "
+        f"{args.engine}; firmware {firmware}"
+    )
     bar = ProgressBar(
         len(scenes) * len(strategies), "sweep", "runs", delay=0.5, enabled=not args.quiet
     )
@@ -304,6 +338,8 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
                 scheduler=args.scheduler,
                 resume=args.resume,
                 progress=lambda done, total: bar.update(done),
+                engine=args.engine,
+                batch=args.batch,
             )
     finally:
         bar.close()

@@ -1,8 +1,11 @@
 # SPDX-License-Identifier: MIT
-"""The firmware's control step in this process: :class:`SilController`.
+"""The firmware's control step in this process: :class:`SilController`, and
+many controllers stepped in one call, :class:`SilBatch`.
 
 It calls ``mstc_sil_step`` of ``libmstc_sil.so`` (through the bindings of
-:mod:`mstc.can.library`) once per control period, no frames. Its modes and
+:mod:`mstc.can.library`) once per control period, no frames; the batch calls
+``mstc_sil_step_batch`` once per period for all its controllers, on numpy
+structured arrays. Its modes and
 event kinds are the firmware's ``sup_mode_t`` and ``sup_event_kind_t``, which
 the firmware asserts equal to the DBC's STATUS_mode and EVENT_kind values, so
 they are decoded with the DBC's value tables (:mod:`mstc.can.dbc`); its sides
@@ -20,10 +23,14 @@ from collections.abc import Sequence
 from struct import Struct
 from typing import Any
 
+import numpy as np
+
 from mstc.can.dbc import tables
 from mstc.can.library import (
+    BATCH_INPUT_DTYPE,
     MAX_EVENTS,
     MAX_OBSTACLES,
+    OUTPUT_DTYPE,
     InputStruct,
     Library,
     ObstacleStruct,
@@ -35,6 +42,7 @@ from mstc.errors import FirmwareError
 from mstc.model import (
     Event,
     Fault,
+    Mode,
     Obstacle,
     Params,
     Pose,
@@ -296,5 +304,110 @@ class SilController:
                 Event(ev.t_us, kinds[ev.kind], ev.obstacle, _SIDES[ev.side])
                 for ev in self._out.events[:n_events]
             )
+        except (KeyError, ValueError) as exc:
+            raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc
+
+
+class SilBatch:
+    """@p params' controllers of the firmware, side by side in one block of
+    memory, stepped together by ``mstc_sil_step_batch``: controller i steps on
+    :attr:`inputs` [i] into :attr:`outputs` [i], exactly as a
+    :class:`SilController` would on the same values.
+
+    :attr:`inputs` is a ``mstc_sil_batch_input_t`` array: the caller fills it
+    (poses wrapped into (-π, π], as :meth:`SilController.step` passes them;
+    the obstacle table with ``in.n_obstacles`` entries and the ``reported``
+    mask) before each :meth:`step`.
+
+    :param params: one controller's parameters per entry.
+    :param lib_path: as :class:`SilController`'s.
+
+    :raises FirmwareError: no library, or it rejects a controller's parameters
+        (:attr:`rejected` says which instead when @p strict is False).
+    """
+
+    def __init__(
+        self,
+        params: Sequence[Params],
+        lib_path: str | os.PathLike[str] | None = None,
+        *,
+        strict: bool = True,
+    ) -> None:
+        library = Library.open(lib_path)
+        lib = library.dll
+        self.lib_path = library.path
+        self.numeric: str = library.numeric
+        self.n = len(params)
+        stride = int(lib.mstc_sil_batch_stride())
+        self._mem = np.zeros(self.n * stride + _ALIGN, dtype=np.uint8)
+        base = self._mem.ctypes.data
+        self._base = base + (-base % _ALIGN)
+        self.rejected: dict[int, str] = {}
+        """Controllers whose parameters the firmware refused, with why."""
+        for i, p in enumerate(params):
+            rc = lib.mstc_sil_init(
+                ctypes.c_void_p(self._base + i * stride), ctypes.byref(_c_params(p))
+            )
+            if rc != 0:
+                why = (
+                    f"the firmware rejected the parameters (mstc_sil_init returned -EINVAL): {p}"
+                    if rc == -errno.EINVAL
+                    else f"mstc_sil_init failed with {rc}"
+                )
+                if strict:
+                    raise FirmwareError(why)
+                self.rejected[i] = why
+        self.inputs = np.zeros(self.n, dtype=BATCH_INPUT_DTYPE)
+        self.outputs = np.zeros(self.n, dtype=OUTPUT_DTYPE)
+        self._step = lib.mstc_sil_step_batch
+        t = tables()
+        self.modes: dict[int, Mode] = t.mode
+        """Mode by the firmware's number (the output's ``mode``)."""
+        self._kinds = t.event_kind
+
+    def step(self, active: np.ndarray | None = None) -> None:
+        """One control step of every controller (of those where @p active, a
+        bool array, is True).
+
+        :raises FirmwareError: the library refused the inputs (an obstacle
+            table too long, or a reported bit beyond it).
+        """
+        mask = None if active is None else np.ascontiguousarray(active, dtype=np.uint8)
+        rc = self._step(
+            ctypes.c_void_p(self._base),
+            self.n,
+            self.inputs.ctypes.data,
+            None if mask is None else mask.ctypes.data,
+            self.outputs.ctypes.data,
+        )
+        if rc != 0:
+            raise FirmwareError(f"mstc_sil_step_batch failed with {rc}")
+
+    def events(self, rows: Sequence[int]) -> list[tuple[Event, ...]]:
+        """The events each controller of @p rows emitted in the last step
+        (its output's table read once, whole columns at a time).
+
+        :raises FirmwareError: a value outside the ABI.
+        """
+        if not len(rows):
+            return []
+        out = self.outputs[np.asarray(rows, dtype=np.intp)]
+        counts = out["n_events"].tolist()
+        table = out["events"]
+        t_us, kind = table["t_us"].tolist(), table["kind"].tolist()
+        obstacle, side = table["obstacle"].tolist(), table["side"].tolist()
+        kinds = self._kinds
+        try:
+            got = []
+            for r, n in enumerate(counts):
+                if n > MAX_EVENTS:
+                    raise KeyError(f"n_events {n}")
+                got.append(
+                    tuple(
+                        Event(t_us[r][j], kinds[kind[r][j]], obstacle[r][j], _SIDES[side[r][j]])
+                        for j in range(n)
+                    )
+                )
+            return got
         except (KeyError, ValueError) as exc:
             raise FirmwareError(f"the library returned a value outside its ABI: {exc}") from exc

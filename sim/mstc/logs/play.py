@@ -22,6 +22,7 @@ import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import can
 from cantools.database.can import Database
@@ -207,14 +208,16 @@ _ERRNO_HINTS = {
 }
 
 
-def open_bus(interface: str, channel: str) -> can.BusABC:
-    """The python-can bus @p interface on @p channel.
+def open_bus(interface: str, channel: str | None, **config: Any) -> can.BusABC:
+    """The python-can bus @p interface on @p channel (None: the interface's
+    default), with the interface's other settings @p config (an slcan bit
+    rate, mstc-sil's library).
 
     :raises BusError: it cannot be opened; the error says why, with a hint
         for the usual SocketCAN causes.
     """
     try:
-        return can.Bus(interface=interface, channel=channel)
+        return can.Bus(interface=interface, channel=channel, **config)
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         text = f"cannot open {interface} bus {channel!r}: {exc}"
         code = getattr(exc, "errno", None) or getattr(exc, "error_code", None)

@@ -99,12 +99,15 @@ class SilFirmware:
     :param lib: path of ``libmstc_sil.so``.
     :param key: the key the log's commands were authenticated with (default:
         :func:`mstc.can.secoc.load_key`).
+    :param session: the session the log's firmware drew at its start
+        (:func:`recorded_session`), so that its commands verify again; None:
+        one of its own, as any start.
     :raises FirmwareError: the library cannot be loaded or the firmware started.
     """
 
-    def __init__(self, lib: Path, key: bytes | None = None) -> None:
+    def __init__(self, lib: Path, key: bytes | None = None, session: int | None = None) -> None:
         try:
-            self.bus = SilBus(lib=str(lib), key=key)
+            self.bus = SilBus(lib=str(lib), key=key, session=session)
         except can.CanError as exc:
             raise FirmwareError(str(exc)) from exc
         self.lib = lib
@@ -471,6 +474,20 @@ def _difference(
     return Difference(kind, float(log.time[row]), log.frame(row), actual, before, after)
 
 
+def recorded_session(log: FrameLog, db: Database) -> int | None:
+    """The session the firmware of @p log drew at its start: AUTH_STATUS_session
+    of the first AUTH_STATUS it sent; None when it sent none."""
+    message = db.get_message_by_name("AUTH_STATUS")
+    rows = np.flatnonzero(log.standard_ids_in([message.frame_id]))
+    if len(rows) == 0:
+        return None
+    row = int(rows[0])
+    signals = decode_signals(
+        db, message.frame_id, bytes(log.data[row][: int(log.dlc[row])]), choices=False
+    )
+    return int(signals["session"]) if isinstance(signals, dict) else None
+
+
 def replay(
     log: FrameLog,
     db: Database,
@@ -497,7 +514,10 @@ def replay(
     output_rows = np.flatnonzero(is_output)
     start = time.perf_counter()
     bar = progress(len(input_rows)) if progress is not None else None
-    with SilFirmware(lib, key) as fw:
+    # The firmware of the log drew its session at its start; a fresh one
+    # draws another, under which the log's commands (signed for the old one)
+    # are refused, as after any restart: the replay starts it in the log's.
+    with SilFirmware(lib, key, recorded_session(log, db)) as fw:
         result = ReplayResult(log=log, lib=lib, numeric=fw.numeric)
         counts, sent, refused = fw.run(pack_frames(log, input_rows), len(output_rows), bar)
     if bar is not None:

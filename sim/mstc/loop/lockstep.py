@@ -25,7 +25,7 @@ import can
 import numpy as np
 
 from mstc.can import secoc
-from mstc.can.dbc import tables
+from mstc.can.dbc import Tables, tables
 from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc, wire_limits
 from mstc.errors import ControllerError, FrameDropped, SignalRangeError, SimulationError
 from mstc.loop.result import (
@@ -283,12 +283,94 @@ class Traffic:
     """The firmware's latest STATUS_COUNTERS."""
 
 
-def unauthenticated(what: str) -> ControllerError:
-    """The error of a command the firmware refused as unauthenticated."""
+def odometry_frames(proto: Protocol, robot: Pose) -> list[can.Message]:
+    """ODOM_XY and ODOM_THETA of @p robot, its heading wrapped.
+
+    :raises SignalRangeError: a value the frames cannot carry (non-finite too).
+    """
+    return [
+        proto.encode("ODOM_XY", x=robot.x, y=robot.y),
+        proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)),
+    ]
+
+
+def reference_frames(proto: Protocol, ref: Pose, v_r: float, w_r: float) -> list[can.Message]:
+    """REF_XY and REF_MOTION of the reference @p ref moving at (@p v_r, @p w_r).
+
+    :raises SignalRangeError: a value the frames cannot carry.
+    """
+    return [
+        proto.encode("REF_XY", x=ref.x, y=ref.y),
+        proto.encode("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r),
+    ]
+
+
+def obstacle_frames(proto: Protocol, obstacle: Obstacle) -> list[can.Message]:
+    """The OBSTACLE frame of a reported obstacle; right after it, for a moving
+    obstacle only, its OBSTACLE_VEL (docs/protocol.md: the firmware keeps 0
+    for the others).
+
+    :raises SignalRangeError: a value the frames cannot carry.
+    """
+    o = obstacle
+    frames = [proto.encode("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius)]
+    if o.moving:
+        frames.append(proto.encode("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
+    return frames
+
+
+def step_frame(proto: Protocol, step: int, t_us: int) -> can.Message:
+    """The STEP frame of control step @p step (its number taken modulo
+    :data:`STEP_MODULO`) at firmware time @p t_us (modulo :data:`TIME_MODULO`)."""
+    return proto.encode("STEP", step=step % STEP_MODULO, time=t_us % TIME_MODULO, raw=True)
+
+
+def decode_event(tables: Tables, frame: Frame, base_us: int) -> Event:
+    """An EVENT frame as an :class:`~mstc.model.Event`; its 32-bit time [µs]
+    is added to @p base_us."""
+    s = frame.signals
+    return Event(
+        base_us + round(s["time"] * 1e6),
+        tables.event_kind[int(s["kind"])],
+        int(s["obstacle"]),
+        tables.side[int(s["side"])],
+    )
+
+
+def unauthenticated(what: str, auth: secoc.Authenticator) -> ControllerError:
+    """The error of a command the firmware refused as unauthenticated, with
+    the reason its last authenticated status gives (a forged frame cannot
+    change the advice: the tools adopt no status whose MAC fails)."""
+    st = auth.status
+    if st is None:
+        return no_status(auth)
+    why = secoc.OUTCOMES.get(st.last, f"AUTH_STATUS last = {st.last}")
+    if st.last == 0:
+        # Its authenticated status says the challenge was accepted: the
+        # refusal came from a frame no firmware sent.
+        why = "its status says the command was accepted: a node on the bus forges PARAM_VALUE"
     return ControllerError(
-        f"the firmware refuses {what} as unauthenticated: does it have the key the "
-        f"tools use (--key-file, ${secoc.KEY_FILE_ENV}, keys/device.key)? "
-        "docs/safety.md, 'The key'"
+        f"the firmware refuses {what}: {why}; docs/safety.md, 'Authenticated commands'"
+    )
+
+
+def decides(session: int, signed: int) -> Callable[[secoc.Status], bool]:
+    """Matches a status that decided the command signed for @p signed in
+    @p session, or a later one (another session: the firmware restarted)."""
+    return lambda s: s.session != session or s.freshness >= signed
+
+
+def no_status(auth: secoc.Authenticator) -> ControllerError:
+    """The error when no status of the firmware verified under the tools' key."""
+    if auth.forged:
+        return ControllerError(
+            f"the firmware's status does not verify under the key the tools use "
+            f"({auth.forged} status frames refused): does the firmware have that key "
+            f"(--key-file, ${secoc.KEY_FILE_ENV}; keys/sim.key for simulations, "
+            "keys/device.key for a board)? docs/safety.md, 'The key'"
+        )
+    return ControllerError(
+        "no AUTH_STATUS and AUTH_CHALLENGE (the firmware's authenticated status) from the firmware"
     )
 
 
@@ -361,26 +443,71 @@ class CanController:
             return frame
 
     def _sync(self) -> None:
-        """Learn the firmware's freshness value: a PARAM_GET (which changes
-        nothing) is answered by PARAM_VALUE and AUTH_STATUS."""
-        self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
-        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
+        """Learn the firmware's session and challenge: a PARAM_GET (which
+        changes nothing) is answered by PARAM_VALUE and the status. Asked
+        twice at most: a status dropped by the E2E checks (a node on the bus
+        that sent frames under the firmware's identifiers) is followed by the
+        next."""
+        for attempt in range(2):
+            self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+            try:
+                self._await_status(lambda st: True)
+                return
+            except ControllerError:
+                if attempt == 1:
+                    raise
+
+    def _await_status(self, fresh: Callable[[secoc.Status], bool]) -> secoc.Status:
+        """Read frames up to the next status whose MAC verifies and that
+        @p fresh accepts.
+
+        :raises ControllerError: none within the timeout (the advice says
+            whether statuses came that did not verify).
+        """
+        deadline = time.monotonic() + self.timeout
+        seen = self.auth.status
+        while (frame := self._recv(deadline)) is not None:
+            st = self.auth.status
+            if frame.name == "AUTH_CHALLENGE" and st is not None and st is not seen:
+                seen = st
+                if fresh(st):
+                    return st
+        raise no_status(self.auth)
 
     def command(self, index: int, value: float, what: str) -> Frame:
         """An authenticated PARAM_SET; the firmware's PARAM_VALUE.
 
-        :raises ControllerError: no answer, or the firmware could not
-            authenticate it (another key, most likely).
+        Signed for the challenge of the firmware's last authenticated status.
+        When the status that decided it says the challenge was used up before
+        it came (stale: another command, a refusal or the 0.5 s expiry came
+        first) or the firmware restarted, it is signed once more for the new
+        challenge.
+
+        :raises ControllerError: no answer, or the firmware refused it (its
+            authenticated status says why).
         """
-        for msg in self.auth.param_set(self.proto, index, value):
-            self._send(msg)
-        answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
-        # AUTH_STATUS follows every PARAM_VALUE: read it now, so that the
-        # freshness is current and the log keeps the bus's order.
-        self._await(lambda f: f.name == "AUTH_STATUS", "AUTH_STATUS")
-        if answer.signals["result"] == self.tables.param_result.value("unauthenticated"):
-            raise unauthenticated(what)
-        return answer
+        unauth = self.tables.param_result.value("unauthenticated")
+        for attempt in range(2):
+            if not self.auth.can_sign():
+                self._sync()  # no challenge left unsigned: ask for the status
+            msgs = self.auth.param_set(self.proto, index, value)
+            st0 = self.auth.status
+            signed = self.auth.signed
+            assert st0 is not None and signed is not None  # param_set needs both
+            for msg in msgs:
+                self._send(msg)
+            answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
+            # The status follows every PARAM_VALUE: read the one that decided
+            # this command (also so that the log keeps the bus's order).
+            st = self._await_status(decides(st0.session, signed))
+            restarted = st.session != st0.session
+            if not restarted and st.freshness == signed and st.last == 0:
+                if answer.signals["result"] != unauth:
+                    return answer
+            elif attempt == 0 and (restarted or st.last == secoc.STALE):
+                continue
+            raise unauthenticated(what, self.auth)
+        raise unauthenticated(what, self.auth)
 
     def _configure(self) -> None:
         """PARAM_SET every parameter; retry the ones the firmware rejects
@@ -406,25 +533,20 @@ class CanController:
 
     def _send_odometry(self, robot: Pose) -> can.Message:
         """ODOM_XY and ODOM_THETA; returns the ODOM_XY frame."""
-        xy = self.proto.encode("ODOM_XY", x=robot.x, y=robot.y)
+        xy, theta = odometry_frames(self.proto, robot)
         self._send(xy)
-        self._send(self.proto.encode("ODOM_THETA", theta=wrap_angle(robot.theta)))
+        self._send(theta)
         return xy
 
     def _send_reference(self, ref: Pose, v_r: float, w_r: float) -> None:
-        enc = self.proto.encode
-        self._send(enc("REF_XY", x=ref.x, y=ref.y))
-        self._send(enc("REF_MOTION", theta=wrap_angle(ref.theta), v=v_r, w=w_r))
+        for msg in reference_frames(self.proto, ref, v_r, w_r):
+            self._send(msg)
 
     def _send_obstacles(self, obstacles: Sequence[Obstacle]) -> None:
-        """One OBSTACLE frame per reported obstacle; right after it, for a
-        moving obstacle only, its OBSTACLE_VEL (docs/protocol.md: the firmware
-        keeps 0 for the others)."""
-        enc = self.proto.encode
+        """Each reported obstacle's frames (:func:`obstacle_frames`)."""
         for o in obstacles:
-            self._send(enc("OBSTACLE", id=o.id, x=o.x, y=o.y, radius=o.radius))
-            if o.vx or o.vy:
-                self._send(enc("OBSTACLE_VEL", id=o.id, vx=o.vx, vy=o.vy))
+            for msg in obstacle_frames(self.proto, o):
+                self._send(msg)
 
     def _arm(self, robot: Pose, ref: Pose, v_r: float, w_r: float) -> None:
         """Arm the firmware before the first step (docs/safety.md): it starts
@@ -465,12 +587,15 @@ class CanController:
             self._arm(robot, ref, v_r, w_r)
         step = self._steps % STEP_MODULO
         self._steps += 1
-        enc = self.proto.encode
         self._send_inputs(robot, ref, v_r, w_r)
         if wheel_speeds is not None:
-            self._send(enc("WHEEL_SPEED", left=wheel_speeds[0], right=wheel_speeds[1], faults=0))
+            self._send(
+                self.proto.encode(
+                    "WHEEL_SPEED", left=wheel_speeds[0], right=wheel_speeds[1], faults=0
+                )
+            )
         self._send_obstacles(obstacles)
-        self._send(enc("STEP", step=step, time=t_us % TIME_MODULO, raw=True))
+        self._send(step_frame(self.proto, step, t_us))
 
         events: list[Event] = []
         status: Frame | None = None
@@ -484,7 +609,7 @@ class CanController:
                 )
             s = frame.signals
             if frame.name == "EVENT":
-                events.append(self._decode_event(frame, t_us - t_us % TIME_MODULO))
+                events.append(decode_event(self.tables, frame, t_us - t_us % TIME_MODULO))
             elif frame.name == "STATUS":
                 status = frame
             elif frame.name == "STATUS_TRK":
@@ -498,17 +623,6 @@ class CanController:
         return StepResult(left, right, self._decode_status(status, trk, left, right), tuple(events))
 
     # ------------------------------------------------------------ telemetry
-
-    def _decode_event(self, frame: Frame, base_us: int) -> Event:
-        """An EVENT frame; its 32-bit time [µs] is added to @p base_us."""
-        s = frame.signals
-        raw_us = round(s["time"] * 1e6)
-        return Event(
-            base_us + raw_us,
-            self.tables.event_kind[int(s["kind"])],
-            int(s["obstacle"]),
-            self.tables.side[int(s["side"])],
-        )
 
     def _decode_status(self, status: Frame, trk: Frame, left: float, right: float) -> Status:
         """A step's STATUS and STATUS_TRK, with the body velocity of its wheel

@@ -38,7 +38,7 @@ import numpy as np
 
 from mstc.can.protocol import COUNTER_MODULO, Frame
 from mstc.errors import ControllerError, FrameDropped, SimulationError
-from mstc.loop.lockstep import REARM_FRAMES, CanController, unauthenticated
+from mstc.loop.lockstep import REARM_FRAMES, CanController, decode_event, unauthenticated
 from mstc.loop.result import PROGRESS_UPDATES, RunResult, Trace, distances, fault_counts
 from mstc.loop.timing import FirmwareStep, OdomSent, analyse
 from mstc.model import Event, Mode, Obstacle, Params, Pose, Progress
@@ -170,12 +170,22 @@ class RealtimeLink(CanController):
         self._post(lambda: self._send_reference(ref, v_r, w_r))
         self._post(lambda: self._send_obstacles(obstacles))
 
-    def send_arm(self, value: float) -> None:
-        """The arm command, authenticated: 1 arms, 0 disarms (docs/safety.md).
-        Its answers come in through :meth:`take`, which keeps the freshness
-        value in step with the firmware's AUTH_STATUS."""
+    def send_arm(self, value: float) -> bool:
+        """The arm command, authenticated: 1 arms, 0 disarms (docs/safety.md),
+        signed for the challenge of the firmware's last authenticated status
+        (:meth:`take` adopts them; one comes every 100 ms and after each
+        answer). When that challenge was signed already, a PARAM_GET asks for
+        a new status instead.
+
+        :returns: whether the command went out.
+        """
+        if not self.auth.can_sign():
+            self._post(
+                lambda: self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+            )
+            return False
         frames = self.auth.param_set(self.proto, self.tables.arm_index, value)
-        self._post(lambda: self._send_all(frames))
+        return self._post(lambda: self._send_all(frames))
 
     def _send_all(self, frames: Sequence[can.Message]) -> None:
         for msg in frames:
@@ -207,7 +217,7 @@ class RealtimeLink(CanController):
             return None
         name = frame.name
         if name == "EVENT":
-            self._pending_events.append(self._decode_event(frame, 0))
+            self._pending_events.append(decode_event(self.tables, frame, 0))
         elif name == "STATUS":
             self._pending_status = frame
         elif name == "STATUS_TRK":
@@ -218,8 +228,8 @@ class RealtimeLink(CanController):
             self.answers.append(frame)
         elif name == "STATUS_COUNTERS":
             self.traffic.firmware_drops = {k: int(v) for k, v in frame.signals.items()}
-        elif name == "AUTH_STATUS":
-            self.auth.sync(frame)
+        elif name in ("AUTH_STATUS", "AUTH_CHALLENGE"):
+            self.auth.sync(frame)  # adopted when AUTH_CHALLENGE's MAC verifies
         return frame
 
     def _step(self, wheel_cmd: Frame) -> FirmwareStep:
@@ -280,6 +290,9 @@ halts without odometry); the rest wait for the next pause."""
 DRAIN_PERIODS = 2
 """Periods the loop keeps receiving after the last sample, so that the last
 frames' wheel commands are seen."""
+ARM_REFUSALS = 3
+"""Arm commands refused as unauthenticated in a row that end the run: one
+can meet a challenge that expired on its way (a race), three cannot."""
 
 
 def _arm(
@@ -316,14 +329,23 @@ def _arm(
     asked: float | None = None
     armed = False
     refusals = 0
+    unauthenticated_in_a_row = 0
 
     def handle(frame: Frame) -> FirmwareStep | None:
         """Note the arm command's answer, and which steps found new
         odometry; the first step armed, if this is it."""
-        nonlocal armed, refusals, asked, next_send, fresh
+        nonlocal armed, refusals, asked, next_send, fresh, unauthenticated_in_a_row
         if frame.name == "PARAM_VALUE" and frame.signals["index"] == tables.arm_index:
             if frame.signals["result"] == tables.param_result.value("unauthenticated"):
-                raise unauthenticated("the arm command")
+                # Sent again 3 periods later for the next challenge (one
+                # that expired on the way is a race, not an attack); the
+                # third refusal in a row ends the run, with the reason the
+                # authenticated status gives.
+                unauthenticated_in_a_row += 1
+                if unauthenticated_in_a_row >= ARM_REFUSALS:
+                    raise unauthenticated("the arm command", link.auth)
+            else:
+                unauthenticated_in_a_row = 0
             armed = frame.signals["result"] == tables.param_ok
             refusals += not armed
             asked = asked if armed else None

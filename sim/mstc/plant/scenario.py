@@ -22,16 +22,22 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from datetime import date, datetime, time
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mstc.errors import ScenarioError
-from mstc.limits import Limit, load_table, violation
+from mstc.limits import Limit, Violation, load_table, violation
 from mstc.model import EventKind, Obstacle, Params, Pose, Side, SignalRange, Strategy, WireLimits
 from mstc.plant.plant import Integrator
 
+MAX_DT = 0.05
+"""The longest control period a scenario may have [s]: the "mstc" safety
+filter's guarantee (ḣ >= −α h kept by a step of dt) needs α·dt <= 1, α = 20/s
+(firmware/ctrl/cbf.h, CBF_MAX_PERIOD_MS; docs/strategy.md). Beyond it a head-on
+obstacle at 3 m/s was touched (issue 21)."""
 MAX_STEPS = 100_000
 """Control steps one scenario may have: N = round(duration / dt) (the run has
 N + 1 rows). It bounds a run's time and memory: about 0.15 kB per step in
@@ -205,6 +211,7 @@ _TOP_KEYS = (
 _TOP_REQUIRED = ("robot", "reference", "sim")
 
 
+@lru_cache(maxsize=1)
 def _param_keys() -> tuple[dict[str, Limit], dict[str, tuple[Limit, ...]]]:
     """The [params] keys, from the limits table (firmware/ctrl/ctl_params.toml):
     scalar keys (``R_m``; the Params attribute is the key in lower case), and
@@ -469,6 +476,13 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
     )
 
 
+@lru_cache(maxsize=64)
+def _violation(p: Params) -> Violation | None:
+    """The limits table's verdict on @p p, remembered: a sweep's scenes share
+    a few parameter sets, and the check costs more than parsing the file."""
+    return violation(params_values(p))
+
+
 def _parse_params(c: _Checker, value: object) -> Params:
     """[params]: each value a positive number, then the whole set checked
     against the limits table as the firmware will check it (mstc.limits):
@@ -500,7 +514,7 @@ def _parse_params(c: _Checker, value: object) -> Params:
             overrides[key] = gains
             key_of.update((limit.name, key) for limit in limits)
     p = Params(**overrides)
-    problem = violation(params_values(p))
+    problem = _violation(p)
     if problem is None:
         return p
     # Blame the first parameter concerned that the file sets (the one to
@@ -628,7 +642,7 @@ def _hand_actuator(
         wheel_accel=handed.get("wheel_accel", params.wheel_accel),
         wheel_tau=handed.get("wheel_tau", params.wheel_tau),
     )
-    problem = violation(params_values(p))
+    problem = _violation(p)
     if problem is not None:
         name = next(n for n in problem.names if n in blame)
         raise c.fail(
@@ -696,6 +710,12 @@ def _parse_sim(c: _Checker, value: object) -> SimSpec:
     dt_us = dt * 1e6
     if dt_us < 0.5 or abs(dt_us - round(dt_us)) > 1e-6:
         raise c.fail("sim.dt", f"must be a whole number of microseconds, got {dt:g} s")
+    if dt > MAX_DT:
+        raise c.fail(
+            "sim.dt",
+            f"{dt:g} s is longer than {MAX_DT:g} s, the longest period for which the "
+            "safety filter's guarantee holds (alpha dt <= 1 with alpha = 20/s; docs/strategy.md)",
+        )
     steps = duration / dt  # inf for duration = 1e308 at dt = 1e-6: refused, never rounded
     if not steps < MAX_STEPS + 1 or round(steps) > MAX_STEPS:
         raise c.fail(

@@ -12,18 +12,25 @@ from mstc.model import Obstacle, Pose
 
 
 class RangeSensor:
-    """Reports every obstacle whose centre is within ``d_det`` of the robot.
+    """Reports every obstacle within ``d_det`` of the robot: centre to
+    centre for an obstacle of radius ``r_ob``, from its boundary for any
+    other (one of radius r within d_det + r − r_ob of its centre), as the
+    firmware's D_s and D_act move with r − R_ob (docs/scenarios.md).
 
     Ideal by default. A scenario's ``[imperfections]`` (docs/scenarios.md) add
-    Gaussian noise on the reported centres and random dropouts, drawn from
-    @p rng: one draw of every obstacle's noise and dropout per scan, in range
-    or not, so that the draws of a step do not depend on what was seen.
+    Gaussian noise on the reported centres, drawn from @p rng, and random
+    dropouts, drawn from @p dropout_rng (else from @p rng too, after the
+    noise): one draw of every obstacle's noise and dropout per scan, in
+    range or not, so that the draws of a step do not depend on what was seen.
 
     :param obstacles: the obstacles of the world (their positions at t = 0).
     :param d_det: sensor range [m]; an obstacle at exactly this distance is seen.
+    :param r_ob: the obstacle radius @p d_det is given for (params.R_ob); None:
+        every obstacle's centre within d_det.
     :param noise: standard deviation of the noise on reported x and y [m].
     :param dropout: probability that an obstacle in range is not reported.
     :param rng: the random stream; required when noise or dropout is not 0.
+    :param dropout_rng: a stream of the dropouts' own (None: @p rng).
     """
 
     def __init__(
@@ -31,17 +38,24 @@ class RangeSensor:
         obstacles: Sequence[Obstacle],
         d_det: float,
         *,
+        r_ob: float | None = None,
         noise: float = 0.0,
         dropout: float = 0.0,
         rng: np.random.Generator | None = None,
+        dropout_rng: np.random.Generator | None = None,
     ) -> None:
         self.obstacles = tuple(obstacles)
         self.d_det = d_det
+        # The reach of each obstacle, in world order (a radius never changes).
+        self._reach = tuple(
+            d_det if r_ob is None else d_det + (o.radius - r_ob) for o in self.obstacles
+        )
         self.noise = noise
         self.dropout = dropout
         if (noise or dropout) and rng is None:
             raise ValueError("a noisy sensor needs a random stream (rng)")
         self.rng = rng
+        self.dropout_rng = dropout_rng or rng
         self._moving = any(o.moving for o in self.obstacles)
 
     def world(self, t: float) -> tuple[Obstacle, ...]:
@@ -54,15 +68,22 @@ class RangeSensor:
         """Obstacles seen from ``pose`` at time @p t [s], in world order."""
         if self.rng is None:
             # Obstacle.distance inlined (the same math.hypot): a scan a step.
-            x, y, d_det, hypot = pose.x, pose.y, self.d_det, math.hypot
-            return [o for o in self.world(t) if hypot(o.x - x, o.y - y) <= d_det]
+            x, y, hypot = pose.x, pose.y, math.hypot
+            return [
+                o
+                for o, reach in zip(self.world(t), self._reach, strict=True)
+                if hypot(o.x - x, o.y - y) <= reach
+            ]
         world = self.world(t)
         n = len(world)
         noise = self.rng.standard_normal((n, 2)) * self.noise if self.noise else None
-        kept = self.rng.random(n) >= self.dropout if self.dropout else None
+        kept = None
+        if self.dropout:
+            assert self.dropout_rng is not None  # checked in __init__
+            kept = self.dropout_rng.random(n) >= self.dropout
         result = []
         for i, o in enumerate(world):
-            if o.distance(pose) > self.d_det or (kept is not None and not kept[i]):
+            if o.distance(pose) > self._reach[i] or (kept is not None and not kept[i]):
                 continue
             if noise is not None:
                 o = replace(o, x=o.x + float(noise[i, 0]), y=o.y + float(noise[i, 1]))

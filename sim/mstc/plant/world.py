@@ -18,12 +18,17 @@ from mstc.plant.scenario import Scenario
 from mstc.plant.sensor import RangeSensor
 
 
-def _streams(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
-    """Independent random streams of a scene (odometry, sensor), so that one
-    imperfection's draws do not move when another is switched on."""
-    odometry, sensor = np.random.SeedSequence(seed).spawn(2)
-    return np.random.Generator(np.random.PCG64(odometry)), np.random.Generator(
-        np.random.PCG64(sensor)
+def random_streams(
+    seed: int,
+) -> tuple[np.random.Generator, np.random.Generator, np.random.Generator]:
+    """Independent random streams of a scene (odometry noise, sensor noise,
+    dropouts), so that one imperfection's draws do not move when another is
+    switched on."""
+    odometry, sensor, dropout = np.random.SeedSequence(seed).spawn(3)
+    return (
+        np.random.Generator(np.random.PCG64(odometry)),
+        np.random.Generator(np.random.PCG64(sensor)),
+        np.random.Generator(np.random.PCG64(dropout)),
     )
 
 
@@ -54,13 +59,15 @@ def make_world(scenario: Scenario) -> World:
         scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
     )
     obstacles = scenario.obstacles
-    odometry_rng, sensor_rng = _streams(imp.seed)
+    odometry_rng, sensor_rng, dropout_rng = random_streams(imp.seed)
     sensor = RangeSensor(
         obstacles,
         p.d_det if imp.sensor_range is None else imp.sensor_range,
+        r_ob=p.r_ob,
         noise=imp.obstacle_noise,
         dropout=imp.dropout,
         rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
+        dropout_rng=dropout_rng,
     )
     actuator = None
     if scenario.actuator.model == "lag":

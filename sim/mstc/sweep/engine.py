@@ -3,14 +3,27 @@
 Dask cluster, resumable.
 
 Work is cut into batches of (scene, strategy) jobs. A batch carries each
-scene's name and the text of its file, never a loaded object: every worker
-process loads the firmware library itself (ctypes handles do not travel),
-parses the scene, runs it and sends back one small row and the text of
-events.json per job. The client writes DIR/<strategy>/<scene>/events.json,
+scene's name, the text of its file and, when the client has parsed it (as
+``mstc sweep`` does to validate every scene first), the parsed scenario:
+plain data, never a controller. Every worker process loads the firmware
+library itself (ctypes handles do not travel), parses the scenes it was sent
+unparsed, runs them and sends back one small row and the text of events.json
+per job. The client writes DIR/<strategy>/<scene>/events.json,
 then appends the row to DIR/runs.csv, so a row on disk always has its
 events.json and ``--resume`` can skip it. When all is done runs.csv is
 rewritten in plan order (scene order, then strategy order), the same
 whichever worker finished first.
+
+Two engines run the firmware's strategies. "batched" (the default) runs a
+batch's scenes together: the plant steps every scene at once with numpy and
+the firmware's step runs for all of them in one call
+(:func:`mstc.loop.batched.simulate_batch`), the metrics computed as the run
+goes (:class:`mstc.sweep.metrics.RunningMetrics`); its batches are large (up
+to ``batch`` scenes) and a worker holds no trace. "scene" runs each scene
+alone through :func:`mstc.loop.lockstep.simulate` and judges its trace
+(:func:`mstc.sweep.metrics.evaluate`): the reference the batched engine is
+compared with (docs/sweeps.md, "Engines"). Both write the same rows and
+events.json. The DWA baseline always runs scene by scene.
 
 A scene that fails (an exception, a non-finite state) is a row with its
 error. A worker that dies (a crash in the library) takes its batch down:
@@ -40,16 +53,18 @@ from typing import get_type_hints
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
 from mstc.errors import ClusterError, DependencyError, FirmwareError, UsageError
-from mstc.firmware.sil import SilController
+from mstc.firmware.sil import SilBatch, SilController
 from mstc.firmware.wheels import wheels_for
+from mstc.loop.batched import simulate_batch
 from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
 from mstc.model import Controller, Strategy
+from mstc.plant.batch import table_width
 from mstc.plant.scenario import DC_HANDED, Scenario, parse_scenario
-from mstc.report.outputs import events_json
+from mstc.report.outputs import events_json, events_text
 from mstc.sweep.dwa import DwaConfig, DwaController
 from mstc.sweep.folder import read_sources, text_sha256, write_sources
-from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, evaluate
+from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, RunningMetrics, evaluate
 
 STRATEGIES = ("paper", "mstc", "dwa")
 """What --strategy takes: the firmware's two strategies, and the DWA baseline."""
@@ -67,6 +82,10 @@ ROW_COLUMNS = (
 MEASURED_COLUMNS = ("step_us",)
 """Columns that are measurements, different from run to run; every other
 column is the same for the same scenes, strategies and library."""
+ENGINES = ("batched", "scene")
+"""What --engine takes (the module's docstring)."""
+BATCH = 500
+"""Most scenes of one batch of the batched engine (--batch)."""
 
 
 @dataclass(frozen=True)
@@ -82,6 +101,10 @@ class Scene:
     seed: int | None = None
     actuator: str = ""
     """The suite's actuator profile ("" when the file names none)."""
+    scenario: Scenario | None = None
+    """The file parsed, when the client has parsed it already (``mstc sweep``
+    validates every scene before it runs any): the worker then takes it
+    rather than parsing the text again."""
 
     @classmethod
     def from_file(cls, path: Path) -> Scene:
@@ -102,6 +125,15 @@ class Scene:
             seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
             actuator if isinstance(actuator, str) else "",
         )
+
+    def parsed(self) -> Scenario:
+        """The scenario: :attr:`scenario`, else the text parsed.
+
+        :raises ScenarioError: the text is not a valid scenario.
+        """
+        if self.scenario is not None:
+            return self.scenario
+        return parse_scenario(tomllib.loads(self.text), self.source, wire_limits())
 
 
 Job = tuple[Scene, str]
@@ -183,14 +215,19 @@ def dwa_config(scenario: Scenario) -> DwaConfig:
     )
 
 
-def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
-    """Run one scene with one strategy; the result (None on failure) and its row."""
+def _new_row(scene: Scene, strategy: str) -> dict[str, str]:
+    """A row of runs.csv for @p scene and @p strategy, nothing run yet."""
     row = {c: "" for c in ROW_COLUMNS}
     row.update(scene=scene.name, family=scene.family, strategy=strategy, actuator=scene.actuator)
     row["seed"] = "" if scene.seed is None else str(scene.seed)
+    return row
+
+
+def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
+    """Run one scene with one strategy; the result (None on failure) and its row."""
+    row = _new_row(scene, strategy)
     try:
-        data = tomllib.loads(scene.text)
-        scenario = parse_scenario(data, scene.source, wire_limits())
+        scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
         row["actuator"] = actuator_name(scenario)
         scenario, controller = controller_for(scenario, strategy, lib)
@@ -225,8 +262,66 @@ def format_metrics(m: Metrics) -> dict[str, str]:
     return {name: _fmt(getattr(m, name), name in MEASURED_COLUMNS) for name in METRIC_COLUMNS}
 
 
-def run_batch(jobs: Sequence[Job], lib: str) -> list[Outcome]:
-    """Run a batch of jobs in this process (a pool's or a Dask worker's)."""
+def _with_strategy(scenario: Scenario, strategy: str) -> Scenario:
+    params = dataclasses.replace(scenario.params, strategy=Strategy(strategy))
+    return dataclasses.replace(scenario, params=params)
+
+
+def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
+    """Run @p jobs with the batched engine in this process: the firmware's
+    jobs with ideal wheels together; the DWA's, and those whose wheels run
+    the firmware's wheel loop (``[actuator] model = "dc"``, not batched),
+    one by one; outcomes in job order."""
+    outcomes: dict[int, Outcome] = {}
+    ready: list[tuple[int, Scenario, dict[str, str]]] = []
+    for index, (scene, strategy) in enumerate(jobs):
+        row = _new_row(scene, strategy)
+        try:
+            scenario = scene.parsed()
+        except Exception as exc:  # as run_job: a scene's failure is its row
+            row["error"] = _one_line(exc)
+            outcomes[index] = Outcome(scene.name, strategy, row, None, sha)
+            continue
+        if strategy == "dwa" or scenario.actuator.model != "ideal":
+            result, row = run_job(scene, strategy, lib)
+            events = events_json(result) if result is not None else None
+            outcomes[index] = Outcome(scene.name, strategy, row, events, sha)
+            continue
+        row["family"] = scenario.meta.family or scene.family
+        row["actuator"] = actuator_name(scenario)
+        ready.append((index, _with_strategy(scenario, strategy), row))
+    try:
+        controller = SilBatch([s.params for _, s, _ in ready], lib, strict=False)
+        if controller.rejected:
+            for i in sorted(controller.rejected, reverse=True):
+                index, _, row = ready.pop(i)
+                row["error"] = f"FirmwareError: {controller.rejected[i]}"
+                outcomes[index] = Outcome(row["scene"], row["strategy"], row, None, sha)
+            controller = SilBatch([s.params for _, s, _ in ready], lib)
+        scenarios = tuple(s for _, s, _ in ready)
+        metrics = RunningMetrics(scenarios, table_width(scenarios), controller.modes)
+        runs = simulate_batch(scenarios, controller, metrics)
+    except Exception as exc:  # the batch's failure is each of its rows
+        for index, _, row in ready:
+            row["error"] = _one_line(exc)
+            outcomes[index] = Outcome(row["scene"], row["strategy"], row, None, sha)
+        ready = []
+        runs = []
+    for i, ((index, scenario, row), run) in enumerate(zip(ready, runs, strict=True)):
+        events = None
+        if run.error is not None:
+            row["error"] = f"SimulationError: {run.error}"
+        else:
+            row["steps"] = str(scenario.sim.steps + 1)
+            row.update(format_metrics(metrics.result(i, run)))
+            events = events_text(run.events, run.min_distance)
+        outcomes[index] = Outcome(row["scene"], row["strategy"], row, events, sha)
+    return [outcomes[i] for i in range(len(jobs))]
+
+
+def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outcome]:
+    """Run a batch of jobs in this process (a pool's or a Dask worker's) with
+    @p engine (:data:`ENGINES`)."""
     try:
         path = worker_library(lib)
         sha = library_sha256(path)
@@ -235,6 +330,8 @@ def run_batch(jobs: Sequence[Job], lib: str) -> list[Outcome]:
         failure = _one_line(exc)
     else:
         failure = ""
+    if engine == "batched" and not failure:
+        return run_jobs_batched(jobs, path, sha)
     outcomes = []
     for scene, strategy in jobs:
         if failure and strategy != "dwa":
@@ -304,11 +401,24 @@ def write_rows(path: Path, rows: Iterable[dict[str, str]]) -> None:
 # ------------------------------------------------------------------ the sweep
 
 
-def batches(jobs: Sequence[Job], workers: int, most: int = 16) -> list[list[Job]]:
-    """Cut @p jobs into batches: about 8 a worker so the load evens out, at
-    most @p most jobs each."""
-    size = max(1, min(most, math.ceil(len(jobs) / max(1, workers * 8))))
+def batches(
+    jobs: Sequence[Job], workers: int, most: int = 16, per_worker: int = 8
+) -> list[list[Job]]:
+    """Cut @p jobs into batches: about @p per_worker a worker so the load
+    evens out, at most @p most jobs each."""
+    size = max(1, min(most, math.ceil(len(jobs) / max(1, workers * per_worker))))
     return [list(jobs[i : i + size]) for i in range(0, len(jobs), size)]
+
+
+def engine_batches(
+    jobs: Sequence[Job], workers: int, engine: str, batch: int = BATCH
+) -> list[list[Job]]:
+    """@p jobs cut for @p engine: small batches for "scene" (:func:`batches`);
+    for "batched" as large as @p batch allows, about 2 a worker (the
+    batched engine's cost per scene falls with the batch's size)."""
+    if engine == "batched":
+        return batches(jobs, workers, most=batch, per_worker=2)
+    return batches(jobs, workers)
 
 
 def _crash_row(job: Job, why: str) -> Outcome:
@@ -324,17 +434,27 @@ def _crash_row(job: Job, why: str) -> Outcome:
 Emit = Callable[[Outcome], None]
 
 
-def run_local(jobs: Sequence[Job], lib: str, workers: int, emit: Emit) -> None:
-    """Run @p jobs on a pool of @p workers processes, calling @p emit for each
-    outcome as it comes. Workers start fresh (spawn) and load the library
-    themselves."""
+def run_local(
+    jobs: Sequence[Job],
+    lib: str,
+    workers: int,
+    emit: Emit,
+    engine: str = "scene",
+    batch_size: int = BATCH,
+) -> None:
+    """Run @p jobs on a pool of @p workers processes with @p engine, calling
+    @p emit for each outcome as it comes. Workers start fresh (spawn) and
+    load the library themselves."""
     context = multiprocessing.get_context("spawn")
     pending = list(jobs)
     while pending:
         done_ids: set[int] = set()
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
         try:
-            futures = {pool.submit(run_batch, b, lib): b for b in batches(pending, workers)}
+            futures = {
+                pool.submit(run_batch, b, lib, engine): b
+                for b in engine_batches(pending, workers, engine, batch_size)
+            }
             broken = False
             while futures:
                 finished, _ = wait(futures, return_when=FIRST_COMPLETED)
@@ -357,16 +477,20 @@ def run_local(jobs: Sequence[Job], lib: str, workers: int, emit: Emit) -> None:
         if not broken:
             return
         left = [j for j in pending if id(j) not in done_ids]
-        pending = _isolate(left, lib, context, emit)
+        pending = _isolate(left, lib, context, emit, engine)
 
 
 def _isolate(
-    jobs: list[Job], lib: str, context: multiprocessing.context.BaseContext, emit: Emit
+    jobs: list[Job],
+    lib: str,
+    context: multiprocessing.context.BaseContext,
+    emit: Emit,
+    engine: str,
 ) -> list[Job]:
     """After a worker died: run @p jobs one by one on one worker until it dies
     again; the job it died on becomes an error row. Returns the jobs not run."""
     with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
-        futures = [pool.submit(run_batch, [job], lib) for job in jobs]
+        futures = [pool.submit(run_batch, [job], lib, engine) for job in jobs]
         for i, fut in enumerate(futures):
             try:
                 (outcome,) = fut.result()
@@ -421,8 +545,16 @@ def check_scheduler(address: str) -> None:
         raise ClusterError(f"cannot reach the Dask scheduler at {address}: {why}") from exc
 
 
-def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
-    """Run @p jobs on the Dask cluster at @p scheduler (``tcp://host:port``).
+def run_dask(
+    jobs: Sequence[Job],
+    lib: str,
+    scheduler: str,
+    emit: Emit,
+    engine: str = "scene",
+    batch_size: int = BATCH,
+) -> None:
+    """Run @p jobs with @p engine on the Dask cluster at @p scheduler
+    (``tcp://host:port``): a task is a batch of jobs.
     Dask retries the tasks of a dead worker elsewhere; a batch that keeps
     killing workers is run again job by job, and the job that still does
     becomes an error row.
@@ -439,7 +571,10 @@ def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
         raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
     with client:
         workers = max(1, len(client.scheduler_info()["workers"]))
-        todo = {client.submit(run_batch, b, lib, pure=False): b for b in batches(jobs, workers)}
+        todo = {
+            client.submit(run_batch, b, lib, engine, pure=False): b
+            for b in engine_batches(jobs, workers, engine, batch_size)
+        }
         queue = as_completed(list(todo))
         for fut in queue:
             batch = todo.pop(fut)
@@ -450,7 +585,7 @@ def run_dask(jobs: Sequence[Job], lib: str, scheduler: str, emit: Emit) -> None:
                     emit(_crash_row(batch[0], "the worker process died running this scene"))
                     continue
                 for job in batch:
-                    single = client.submit(run_batch, [job], lib, pure=False)
+                    single = client.submit(run_batch, [job], lib, engine, pure=False)
                     todo[single] = [job]
                     queue.add(single)
                 continue
@@ -480,6 +615,8 @@ def run_sweep(
     scheduler: str | None = None,
     resume: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    engine: str = "batched",
+    batch: int = BATCH,
 ) -> SweepResult:
     """Run every scene with every strategy; write events.json and runs.csv
     under @p out.
@@ -491,6 +628,8 @@ def run_sweep(
         :mod:`mstc.sweep.folder`) and run only the jobs it lacks; otherwise
         start afresh.
     :param progress: called with (done, total) as jobs finish.
+    :param engine: :data:`ENGINES` (the module's docstring).
+    :param batch: most scenes of one batch of the batched engine.
 
     :raises FirmwareError: a worker ran another firmware library than @p lib
         (different contents), so its rows would not be comparable.
@@ -545,9 +684,9 @@ def run_sweep(
                 progress(done, total)
 
         if todo and scheduler:
-            run_dask(todo, lib, scheduler, emit)
+            run_dask(todo, lib, scheduler, emit, engine, batch)
         elif todo:
-            run_local(todo, lib, workers, emit)
+            run_local(todo, lib, workers, emit, engine, batch)
     ordered = sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])])
     write_rows(runs, ordered)
     return SweepResult(ordered, len(todo))

@@ -42,6 +42,11 @@ baseline's, is judged by the same code. Definitions (docs/sweeps.md):
 - ∫|ω|dt: Σ |ω_k| dt over the periods k = 0..N-1 (commanded ω, held);
 - step cost: mean wall time of one controller step in the process that ran
   it (a measurement; it differs from run to run).
+
+Sums over the run (path lengths, the RMS error, ∫|ω|dt) are taken in step
+order, so that :class:`RunningMetrics`, which adds each step's term as a
+batched run goes (:mod:`mstc.loop.batched`), gets the same bits as
+:func:`evaluate` from the stored trace.
 """
 
 from __future__ import annotations
@@ -51,8 +56,11 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from mstc.loop.batched import BatchRun, BatchStep
 from mstc.loop.result import RunResult
-from mstc.model import EventKind, Mode
+from mstc.model import Event, EventKind, Mode
+from mstc.plant.batch import Within
+from mstc.plant.scenario import Scenario
 
 REJOIN_ERROR = 0.05
 """Tracking error under which the robot is back on its reference [m]."""
@@ -104,8 +112,14 @@ METRIC_COLUMNS = tuple(f.name for f in fields(Metrics))
 """The metric columns of runs.csv, in order."""
 
 
+def _in_order(terms: np.ndarray) -> float:
+    """The sum of @p terms added one after the other, first to last (as a
+    running sum gets it; numpy's ``sum`` adds pairwise)."""
+    return float(np.add.accumulate(terms)[-1]) if len(terms) else 0.0
+
+
 def _path_length(x: np.ndarray, y: np.ndarray) -> float:
-    return float(np.hypot(np.diff(x), np.diff(y)).sum())
+    return _in_order(np.hypot(np.diff(x), np.diff(y)))
 
 
 def _rejoined(t: np.ndarray, error: np.ndarray, busy: np.ndarray) -> bool | None:
@@ -168,10 +182,6 @@ def evaluate(result: RunResult) -> Metrics:
     modes = trace.mode
     avoid_steps = sum(1 for m in modes[:-1] if m is Mode.AVOID)
     switches = sum(1 for a, b in zip(modes, modes[1:], strict=False) if a is not b)
-    activations: dict[int, int] = {}
-    for e in result.events:
-        if e.kind is EventKind.ACTIVATE:
-            activations[e.obstacle] = activations.get(e.obstacle, 0) + 1
     ref_length = _path_length(xr, yr)
     reports = [e.t_us for e in result.events if e.kind is EventKind.INFEASIBLE]
     contact_reported = False
@@ -186,13 +196,245 @@ def evaluate(result: RunResult) -> Metrics:
         blocked=blocked,
         t_last=t_last,
         avoid_time=avoid_steps * dt,
-        rms_error=float(np.sqrt(np.mean(error * error))),
+        rms_error=float(np.sqrt(_in_order(error * error) / len(error))),
         final_error=float(error[-1]),
         path_ratio=_path_length(x, y) / ref_length if ref_length > 0.0 else math.nan,
-        int_abs_w=float(np.abs(trace["w"][:-1]).sum() * dt),
+        int_abs_w=_in_order(np.abs(trace["w"][:-1])) * dt,
         switches=switches,
-        max_activations=max(activations.values(), default=0),
+        max_activations=most_activations(result.events),
         infeasible=bool(reports),
         contact_reported=contact_reported,
         step_us=result.step_time * 1e6,
     )
+
+
+def most_activations(events: tuple[Event, ...]) -> int:
+    """The most activate events of one obstacle."""
+    activations: dict[int, int] = {}
+    for e in events:
+        if e.kind is EventKind.ACTIVATE:
+            activations[e.obstacle] = activations.get(e.obstacle, 0) + 1
+    return max(activations.values(), default=0)
+
+
+class RunningMetrics:
+    """The metrics of many runs of a batched loop (:func:`evaluate`'s, the
+    same bits), computed from each step's arrays as the run goes (a
+    :data:`mstc.loop.batched.Watch`): sums in step order, counters, and each
+    scene's rejoin passes judged as they end; contact, clearance and D_s
+    from the loop's smallest distance to each obstacle (D_s is kept at every
+    step exactly when it is kept at the closest). Nothing is kept per step.
+
+    :param scenarios: the batch's scenes, in its order.
+    :param width: the batch's obstacle table width.
+    :param modes: the firmware's mode numbers (:attr:`mstc.firmware.sil.SilBatch.modes`).
+    """
+
+    def __init__(self, scenarios: tuple[Scenario, ...], width: int, modes: dict[int, Mode]) -> None:
+        n = len(scenarios)
+        self.scenarios = scenarios
+        self.steps = np.array([s.sim.steps for s in scenarios], dtype=np.int64)
+        self.dt_us = np.array([s.sim.dt_us for s in scenarios], dtype=np.int64)
+        act = np.full((n, width), -1.0)  # the padding: never near
+        for i, s in enumerate(scenarios):
+            for j, o in enumerate(s.obstacles):
+                act[i, j] = s.params.activation_distance(o.radius)
+        self._near = Within(act)
+        """Within D_act, as the per-scene code decides it."""
+        touch = np.full((n, width), -1.0)
+        for i, s in enumerate(scenarios):
+            for j, o in enumerate(s.obstacles):
+                touch[i, j] = s.params.r_m + o.radius
+        self._touch = Within(touch)
+        """Within R_m + r of an obstacle: a contact (:func:`evaluate`'s
+        clearance below 0, up to a distance of exactly R_m + r)."""
+        self._first_touch = np.full(n, -1, dtype=np.int64)
+        top = max(modes) + 1
+        self._busy_mode = np.zeros(top, dtype=bool)
+        self._avoid_mode = np.zeros(top, dtype=np.int64)
+        for number, mode in modes.items():
+            self._busy_mode[number] = mode in _BUSY
+            self._avoid_mode[number] = mode is Mode.AVOID
+        self._blocked = next(k for k, m in modes.items() if m is Mode.BLOCKED)
+        # The first step of each scene's window of BLOCKED_WINDOW at its end.
+        self._window = np.empty(n, dtype=np.int64)
+        for i, s in enumerate(scenarios):
+            t = np.arange(s.sim.steps + 1) * s.sim.dt_us / 1e6
+            self._window[i] = int(np.flatnonzero(t >= t[-1] - BLOCKED_WINDOW)[0])
+        self._uniform_window = (
+            int(self._window[0]) if (self._window == self._window[0]).all() else None
+        )
+        self._last_busy = np.full(n, -1, dtype=np.int64)
+        self._prev_busy = np.zeros(n, dtype=bool)
+        self._in_pass = np.zeros(n, dtype=bool)
+        self._initial = np.zeros(n, dtype=bool)
+        self._pass_t0 = np.zeros(n)
+        self._pass_a = np.zeros(n, dtype=np.int64)
+        self._last_bad = np.full(n, -1, dtype=np.int64)
+        """The last step with a tracking error of REJOIN_ERROR or more."""
+        self._judged = np.zeros(n, dtype=bool)
+        self._failed = np.zeros(n, dtype=bool)
+        self._err2 = np.zeros(n)
+        self._path = np.zeros(n)
+        self._ref_path = np.zeros(n)
+        self._win_path = np.zeros(n)
+        self._win_ref_path = np.zeros(n)
+        self._abs_w = np.zeros(n)
+        self._avoid_steps = np.zeros(n, dtype=np.int64)
+        self._switches = np.zeros(n, dtype=np.int64)
+        self._prev_mode = np.zeros(n, dtype=np.int32)
+        self._final_error = np.zeros(n)
+        self._final_mode = np.zeros(n, dtype=np.int32)
+        self._prev: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._last = int(self.steps.max(initial=0))
+        self._uniform = bool((self.steps == self._last).all())
+
+    def _t(self, k: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Step @p k's time of the scenes @p rows [s], as the trace has it."""
+        t: np.ndarray = k * self.dt_us[rows] / 1e6
+        return t
+
+    def _close(self, rows: np.ndarray, b: int) -> None:
+        """Judge the passes of @p rows, which end at step @p b (_rejoined)."""
+        if not len(rows):
+            return
+        t0, a, bad = self._pass_t0[rows], self._pass_a[rows], self._last_bad[rows]
+        back_from = np.where(bad < a, a, bad + 1)
+        back = (back_from <= b) & (self._t(back_from, rows) <= t0 + REJOIN_WINDOW + 1e-9)
+        failed = ~back & (self._t(np.full(len(rows), b), rows) >= t0 + REJOIN_WINDOW - 1e-9)
+        self._judged[rows] |= back
+        self._failed[rows] |= failed
+        self._in_pass[rows] = False
+
+    def __call__(self, s: BatchStep) -> None:
+        """Take step @p s of the batch."""
+        k = s.k
+        uniform = self._uniform
+        active = s.active
+        near = self._near(s.distance2, s.dx, s.dy)
+        touched = self._touch(s.distance2, s.dx, s.dy).any(axis=1)
+        if not uniform:
+            touched &= active
+        np.copyto(self._first_touch, k, where=touched & (self._first_touch < 0))
+        mode = s.mode
+        busy = near.any(axis=1) | self._busy_mode[mode]
+        if not uniform:
+            busy &= active
+        error = np.hypot(s.x - s.x_r, s.y - s.y_r)
+
+        # Rejoin passes (_rejoined): a busy step ends the pass under way (the
+        # stretch before a run's first busy step is no pass); a free step
+        # after a busy one starts one; a run without a busy step is one pass.
+        if k == 0:
+            free = ~busy if uniform else active & ~busy
+            self._in_pass |= free
+            self._initial |= free
+        else:
+            change = busy != self._prev_busy
+            if not uniform:
+                change &= active
+            if change.any():
+                closing = change & busy & self._in_pass
+                self._close(np.flatnonzero(closing & ~self._initial), k - 1)
+                dropped = closing & self._initial
+                self._in_pass &= ~dropped
+                self._initial &= ~dropped
+                starting = np.flatnonzero(change & ~busy)
+                if len(starting):
+                    self._in_pass[starting] = True
+                    self._pass_t0[starting] = self._t(np.full(len(starting), k - 1), starting)
+                    self._pass_a[starting] = k
+        np.copyto(self._last_bad, k, where=error >= REJOIN_ERROR)
+        np.copyto(self._last_busy, k, where=busy)
+        ends: np.ndarray | None = None if uniform else np.asarray(k == self.steps)
+        if uniform and k == self._last:
+            self._close(np.flatnonzero(self._in_pass), k)
+        elif ends is not None and ends.any():
+            rows = np.flatnonzero(ends & self._in_pass)
+            for b in np.unique(self.steps[rows]).tolist():
+                self._close(rows[self.steps[rows] == b], int(b))
+        self._prev_busy = busy if uniform else np.where(active, busy, self._prev_busy)
+
+        # Sums in step order, counters.
+        if uniform:
+            self._err2 += error * error
+        else:
+            self._err2 += np.where(active, error * error, 0.0)
+        if self._prev is not None:
+            px, py, prx, pry = self._prev
+            seg = np.hypot(s.x - px, s.y - py)
+            ref_seg = np.hypot(s.x_r - prx, s.y_r - pry)
+            changed = mode != self._prev_mode
+            if uniform:
+                self._path += seg
+                self._ref_path += ref_seg
+                self._switches += changed
+            else:
+                self._path += np.where(active, seg, 0.0)
+                self._ref_path += np.where(active, ref_seg, 0.0)
+                self._switches += changed & active
+            if self._uniform_window is not None and uniform:
+                if k - 1 >= self._uniform_window:
+                    self._win_path += seg
+                    self._win_ref_path += ref_seg
+            else:
+                window = active & (k - 1 >= self._window)
+                self._win_path += np.where(window, seg, 0.0)
+                self._win_ref_path += np.where(window, ref_seg, 0.0)
+        self._prev = (s.x, s.y, s.x_r, s.y_r)
+        if uniform:
+            if k < self._last:
+                self._abs_w += np.abs(s.w)
+                self._avoid_steps += self._avoid_mode[mode]
+            self._prev_mode = np.array(mode, dtype=np.int32)
+            if k == self._last:
+                self._final_error = error
+                self._final_mode = np.array(mode, dtype=np.int32)
+        else:
+            running = active & (k < self.steps)
+            self._abs_w += np.where(running, np.abs(s.w), 0.0)
+            self._avoid_steps += np.where(running, self._avoid_mode[mode], 0)
+            self._prev_mode = np.where(active, mode, self._prev_mode)
+            assert ends is not None
+            self._final_error = np.where(ends, error, self._final_error)
+            self._final_mode = np.where(ends, mode, self._final_mode)
+
+    def result(self, i: int, run: BatchRun) -> Metrics:
+        """The metrics of scene @p i, whose run left @p run."""
+        s = self.scenarios[i]
+        p = s.params
+        dt = s.sim.dt
+        radii = [o.radius for o in s.obstacles]
+        pairs = list(zip(run.min_distance, radii, strict=True))
+        min_clearance = min((d - (p.r_m + r) for d, r in pairs), default=math.inf)
+        last_busy = int(self._last_busy[i])
+        ref_moved, moved = float(self._win_ref_path[i]), float(self._win_path[i])
+        ref_length = float(self._ref_path[i])
+        rejoined = False if self._failed[i] else True if self._judged[i] else None
+        reports = [e.t_us for e in run.events if e.kind is EventKind.INFEASIBLE]
+        first_touch = int(self._first_touch[i])
+        contact_reported = bool(
+            reports
+            and min_clearance < 0.0
+            and first_touch >= 0
+            and first_touch * int(self.dt_us[i]) >= reports[0]
+        )
+        return Metrics(
+            contact=min_clearance < 0.0,
+            min_clearance=min_clearance,
+            ds_kept=all(d >= p.safe_distance(r) for d, r in pairs),
+            rejoined=rejoined,
+            blocked=int(self._final_mode[i]) == self._blocked
+            or (ref_moved > 0.0 and moved < BLOCKED_SHARE * ref_moved),
+            t_last=last_busy * int(self.dt_us[i]) / 1e6 if last_busy >= 0 else 0.0,
+            avoid_time=int(self._avoid_steps[i]) * dt,
+            rms_error=float(np.sqrt(self._err2[i] / (int(self.steps[i]) + 1))),
+            final_error=float(self._final_error[i]),
+            path_ratio=float(self._path[i]) / ref_length if ref_length > 0.0 else math.nan,
+            int_abs_w=float(self._abs_w[i]) * dt,
+            switches=int(self._switches[i]),
+            max_activations=most_activations(run.events),
+            infeasible=bool(reports),
+            contact_reported=contact_reported,
+            step_us=run.step_time * 1e6,
+        )

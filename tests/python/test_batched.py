@@ -1,0 +1,230 @@
+# SPDX-License-Identifier: MIT
+"""The batched sweep engine against the per-scene one (issue 22).
+
+The per-scene engine (mstc.loop.lockstep.simulate judged by
+mstc.sweep.metrics.evaluate) is the reference: it is independent of the
+batched code (its own plant objects, math's functions, one ctypes call per
+step), so its rows and events.json are the expected values. The batched
+engine is built to take the same operations in the same order and draw the
+same random numbers, so the expected agreement is exact, bit for bit; the
+full-size check (2,000 scenes per family) is python -m mstc.bench.agreement.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mstc.can.library import (
+    BATCH_INPUT_DTYPE,
+    NUMPY_DTYPES,
+    Library,
+    check_layout,
+    library_layout,
+)
+from mstc.can.protocol import wire_limits
+from mstc.errors import FirmwareError
+from mstc.firmware.sil import SilBatch, SilController
+from mstc.loop.batched import BatchStep, simulate_batch
+from mstc.loop.lockstep import simulate
+from mstc.model import Obstacle, Pose, Strategy, wrap_angle
+from mstc.plant.batch import BatchWorld, wrap
+from mstc.plant.scenario import load_scenario
+from mstc.sweep.engine import MEASURED_COLUMNS, Job, Scene, run_batch
+from mstc.sweep.suite import load_suite, scene_text
+
+ROOT = Path(__file__).resolve().parents[2]
+STANDARD = ROOT / "sim" / "suites" / "standard.toml"
+PAPER = [
+    ROOT / "sim" / "scenarios" / "paper-line.toml",
+    ROOT / "sim" / "scenarios" / "paper-circle.toml",
+]
+PER_FAMILY = 3
+"""Scenes of every family of the standard suite in the seeded subset."""
+
+
+@pytest.fixture(params=["float", "fixed"])
+def any_lib(request: pytest.FixtureRequest) -> str:
+    var = f"MSTC_SIL_LIB_{request.param.upper()}"
+    value = os.environ.get(var)
+    if not value or not Path(value).is_file():
+        pytest.fail(f"{var}={value!r}: `make test-python` builds both libraries and sets it")
+    return str(Path(value).resolve())
+
+
+def _suite_jobs(per_family: int, strategies: tuple[str, ...]) -> list[Job]:
+    suite = load_suite(STANDARD)
+    jobs = []
+    for f in suite.families:
+        for i in range(per_family):
+            scene = Scene(f.scene_name(i), f.scene_name(i), scene_text(suite, f, i), f.name)
+            jobs += [(scene, s) for s in strategies]
+    return jobs
+
+
+def _reproducible(row: dict[str, str]) -> dict[str, str]:
+    return {k: v for k, v in row.items() if k not in MEASURED_COLUMNS}
+
+
+def _differences(jobs: list[Job], lib: str) -> list[str]:
+    """Jobs whose row or events.json differ between the engines."""
+    batched = run_batch(jobs, lib, "batched")
+    scene = run_batch(jobs, lib, "scene")
+    return [
+        f"{a.scene} {a.strategy}"
+        for a, b in zip(batched, scene, strict=True)
+        if _reproducible(a.row) != _reproducible(b.row) or a.events != b.events
+    ]
+
+
+def test_the_engines_give_the_same_rows_and_events_on_every_family(any_lib: str) -> None:
+    jobs = _suite_jobs(PER_FAMILY, ("paper", "mstc"))
+    assert _differences(jobs, any_lib) == []
+
+
+def test_the_comparison_sees_a_plant_that_differs(
+    sil_lib: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The check above can fail: the headings passed unwrapped (np.remainder,
+    # a floor modulo, instead of the IEEE remainder) change rows.
+    import mstc.loop.batched as batched
+
+    monkeypatch.setattr(batched, "wrap", lambda a: np.remainder(a, math.tau))
+    jobs = _suite_jobs(1, ("mstc",))
+    assert len(_differences(jobs, str(sil_lib.resolve()))) > 0
+
+
+def test_poses_are_the_per_scene_loops_bit_for_bit(any_lib: str) -> None:
+    # The issue asks for 1e-9 m on the paper's scenarios; the engines share
+    # every operation, so the poses are equal.
+    for path in PAPER:
+        scenario = load_scenario(path, wire_limits())
+        for strategy in ("paper", "mstc"):
+            params = dataclasses.replace(scenario.params, strategy=Strategy(strategy))
+            s = dataclasses.replace(scenario, params=params)
+            trace = simulate(s, SilController(params, any_lib)).trace
+            xs: list[float] = []
+            ys: list[float] = []
+
+            def keep(step: BatchStep, xs: list[float] = xs, ys: list[float] = ys) -> None:
+                xs.append(float(step.x[0]))
+                ys.append(float(step.y[0]))
+
+            runs = simulate_batch((s,), SilBatch([params], any_lib), keep)
+            assert xs == trace["x"].tolist() and ys == trace["y"].tolist()
+            assert runs[0].events == simulate(s, SilController(params, any_lib)).events
+
+
+def test_scenes_of_different_lengths_and_periods_end_independently(sil_lib: Path) -> None:
+    lib = str(sil_lib.resolve())
+    text = PAPER[0].read_text()
+    variants = [
+        ("short", text.replace("duration = 20.0", "duration = 17.0")),
+        ("fast", text.replace("dt = 0.02", "dt = 0.01")),
+        ("exact", text.replace('integrator = "euler"', 'integrator = "exact"')),
+        ("whole", text),
+    ]
+    assert all(t != text for _, t in variants[:3]), "the scenario file's keys changed"
+    jobs: list[Job] = [(Scene(name, f"{name}.toml", t), "mstc") for name, t in variants]
+    batched = run_batch(jobs, lib, "batched")
+    assert [o.row["steps"] for o in batched] == ["851", "2001", "1001", "1001"]
+    assert _differences(jobs, lib) == []
+
+
+def test_wrap_is_the_ieee_remainder_of_wrap_angle() -> None:
+    # Expected values: math.remainder (wrap_angle), independent of np.fmod.
+    a = np.array(
+        [0.0, math.pi, -math.pi, 3 * math.pi, -3 * math.pi, math.tau, 1e3, -1e3, 7.0, -7.0,
+         math.nextafter(math.pi, 4.0), math.nextafter(-math.pi, -4.0), 123456.789]
+    )  # fmt: skip
+    assert wrap(a).tolist() == [wrap_angle(x) for x in a.tolist()]
+    b = np.random.default_rng(1).uniform(-50.0, 50.0, 10_000)
+    assert wrap(b).tolist() == [wrap_angle(x) for x in b.tolist()]
+
+
+def _hypot_disagreement() -> tuple[float, float]:
+    """dx, dy where numpy's hypot and math.hypot differ by an ulp (and so
+    sqrt(dx·dx + dy·dy) may too): a distance no shortcut gets right."""
+    rng = np.random.default_rng(3)
+    dx, dy = rng.uniform(0.5, 3.0, 100_000), rng.uniform(0.5, 3.0, 100_000)
+    exact = np.array(list(map(math.hypot, dx.tolist(), dy.tolist())))
+    i = int(np.flatnonzero(np.hypot(dx, dy) != exact)[0])
+    return float(dx[i]), float(dy[i])
+
+
+def test_the_sensor_decides_a_range_at_the_threshold_as_math_hypot(sil_lib: Path) -> None:
+    dx, dy = _hypot_disagreement()
+    d = math.hypot(dx, dy)  # the per-scene sensor's distance: in range at exactly d
+    scenario = load_scenario(PAPER[0], wire_limits())
+    o = Obstacle(1, scenario.robot.x + dx, scenario.robot.y + dy, 0.1)
+    for rng in (d, math.nextafter(d, 0.0)):  # seen at d, not just below it
+        imp = dataclasses.replace(scenario.imperfections, sensor_range=rng)
+        s = dataclasses.replace(scenario, obstacles=(o,), imperfections=imp)
+        world = BatchWorld([s])
+        ox, oy = world.obstacles_at(np.zeros(1))
+        ddx, ddy = ox - world.x[:, None], oy - world.y[:, None]
+        seen, _, _ = world.scan(0, ddx * ddx + ddy * ddy, ddx, ddy, ox, oy)
+        want = math.hypot(o.x - s.robot.x, o.y - s.robot.y) <= rng
+        assert bool(seen[0, 0]) == want == (rng == d)
+
+
+def test_a_reported_entry_beyond_the_table_is_refused(sil_lib: Path) -> None:
+    params = load_scenario(PAPER[0], wire_limits()).params
+    batch = SilBatch([params, params], str(sil_lib))
+    batch.inputs["in"]["n_obstacles"] = 2
+    batch.inputs["reported"][0, :2] = 1
+    batch.inputs["reported"][1, 2] = 1  # the second reports entry 3 of 2
+    with pytest.raises(FirmwareError, match="mstc_sil_step_batch failed"):
+        batch.step()
+
+
+def test_one_batched_step_is_the_single_step(any_lib: str) -> None:
+    # Expected: SilController on the same inputs (its own packing path).
+    params = load_scenario(PAPER[0], wire_limits()).params
+    single = SilController(params, any_lib)
+    batch = SilBatch([params], any_lib)
+    obstacles = [Obstacle(3, 1.0, 0.2, 0.15), Obstacle(5, 1.5, -0.3, 0.1, vx=0.2)]
+    given = batch.inputs[0]
+    given["in"]["robot"] = (0.1, 0.05, 0.2)
+    given["in"]["ref"] = (0.2, 0.0, 0.0)
+    given["in"]["v_r"], given["in"]["w_r"], given["in"]["t_us"] = 0.5, 0.0, 20000
+    given["in"]["n_obstacles"] = 3
+    table = batch.inputs["table"][0]
+    for j, o in enumerate([Obstacle(1, 9.0, 9.0, 0.1), *obstacles]):
+        table[j] = (o.id, o.x, o.y, o.radius, o.vx, o.vy)
+    given["reported"][1:3] = 1  # the far one, entry 0, is not reported
+    batch.step()
+    want = single.step(Pose(0.1, 0.05, 0.2), Pose(0.2, 0.0, 0.0), 0.5, 0.0, obstacles, 20000)
+    out = batch.outputs[0]
+    assert (float(out["wheel_left"]), float(out["wheel_right"])) == (
+        want.wheel_left,
+        want.wheel_right,
+    )
+    assert batch.modes[int(out["mode"])] is want.status.mode
+    assert batch.events([0]) == [want.events]
+
+
+def test_the_batch_dtype_is_checked_against_the_library(sil_lib: Path) -> None:
+    layout = library_layout(Library.open(sil_lib).dll)
+    check_layout(layout, str(sil_lib), dtypes=NUMPY_DTYPES)  # the load did it too; it passes
+    shifted = np.dtype(
+        {
+            "names": list(BATCH_INPUT_DTYPE.names or ()),
+            "formats": [BATCH_INPUT_DTYPE.fields[n][0] for n in BATCH_INPUT_DTYPE.names or ()],  # type: ignore[index]
+            "offsets": [
+                0,
+                BATCH_INPUT_DTYPE.fields["reported"][1] + 4,
+                BATCH_INPUT_DTYPE.fields["table"][1],
+            ],  # type: ignore[index]
+            "itemsize": BATCH_INPUT_DTYPE.itemsize,
+        }
+    )
+    with pytest.raises(
+        FirmwareError, match=r"mstc_sil_batch_input_t\.reported: offset .* numpy dtype"
+    ):
+        check_layout(layout, str(sil_lib), dtypes={"mstc_sil_batch_input_t": shifted})

@@ -1,0 +1,256 @@
+# SPDX-License-Identifier: MIT
+"""``mstc export RUN_DIR --rosbag2 OUT`` (mstc.ros.bag): the paper-line run
+of ``mstc sim`` written as a rosbag2 and read back with rosbags' reader,
+each message deserialized with the type definition stored in the bag.
+
+Expected values come from the run's own files, written by the simulation
+(not by the exporter): trace.csv (poses, reference, body velocity, one row
+per step), events.json (the events), bus.log (the frames, counted and
+compared line by line), and from the scenario file (the sensor range,
+wheel radius and track width).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import cantools
+import pytest
+from rosbags.highlevel import AnyReader
+
+from conftest import SCENARIOS
+from logfiles import DBC
+from mstc.can.protocol import wire_limits
+from mstc.cli import main
+from mstc.plant.scenario import load_scenario
+
+SCENARIO = SCENARIOS / "paper-line.toml"
+TYPES = {
+    "/odom": "nav_msgs/msg/Odometry",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "/reference": "geometry_msgs/msg/PoseStamped",
+    "/reference/path": "nav_msgs/msg/Path",
+    "/obstacles": "visualization_msgs/msg/MarkerArray",
+    "/cmd_wheels": "sensor_msgs/msg/JointState",
+    "/mstc/status": "diagnostic_msgs/msg/DiagnosticArray",
+    "/mstc/events": "diagnostic_msgs/msg/DiagnosticArray",
+    "/can/frames": "can_msgs/msg/Frame",
+}
+POSITION_LSB = 2.0**-16
+"""ODOM_XY's and REF_XY's resolution [m] (docs/protocol.md)."""
+HEADING_LSB = 2.0**-15
+"""The coarser of ODOM_THETA's and REF_MOTION_theta's resolutions [rad]."""
+WHEEL_LSB = 2.0**-10
+"""WHEEL_CMD's resolution [rad/s]."""
+
+
+@pytest.fixture(scope="module")
+def run(sil_lib: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    """A paper-line run folder, and its bag."""
+    out = tmp_path_factory.mktemp("rosbag2")
+    quiet = io.StringIO()
+    with contextlib.redirect_stdout(quiet):
+        rc = main(["sim", "--lib", str(sil_lib), "--out", str(out), "-q", str(SCENARIO)])
+        assert rc == 0
+        folder = out / "paper-line"
+        bag = out / "bag"
+        rc = main(["export", str(folder), "--rosbag2", str(bag), "-q"])
+    assert rc == 0
+    return folder, bag, quiet.getvalue()
+
+
+def messages(bag: Path, topic: str) -> list[tuple[int, Any]]:
+    """(record time, message) of every message on @p topic, deserialized
+    with the definitions stored in the bag."""
+    with AnyReader([bag]) as reader:
+        conns = [c for c in reader.connections if c.topic == topic]
+        if not conns:  # (rosbags reads every connection when given none)
+            return []
+        return [
+            (t, reader.deserialize(raw, c.msgtype))
+            for c, t, raw in reader.messages(connections=conns)
+        ]
+
+
+def stamp_ns(header: Any) -> int:
+    return int(header.stamp.sec) * 10**9 + int(header.stamp.nanosec)
+
+
+def yaw(q: Any) -> float:
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2))
+
+
+def wrapped(a: float) -> float:
+    return math.remainder(a, math.tau)
+
+
+def trace_rows(folder: Path) -> list[dict[str, str]]:
+    with (folder / "trace.csv").open() as f:
+        return list(csv.DictReader(f))
+
+
+def test_topics_types_and_storage(run: tuple[Path, Path, str]) -> None:
+    folder, bag, printed = run
+    metadata = (bag / "metadata.yaml").read_text()
+    assert "storage_identifier: mcap" in metadata
+    with AnyReader([bag]) as reader:
+        assert {c.topic: c.msgtype for c in reader.connections} == TYPES
+        # The type definitions travel in the bag (rosbags needs no ROS to read it).
+        assert reader.typestore.fielddefs["can_msgs/msg/Frame"]
+    rows = len(trace_rows(folder))
+    odom_line = next(line for line in printed.splitlines() if line.strip().startswith("/odom "))
+    assert odom_line.split()[1] == f"{rows:,}"
+
+
+def test_odometry_reference_and_time_match_the_trace(run: tuple[Path, Path, str]) -> None:
+    folder, bag, _ = run
+    rows = trace_rows(folder)
+    odom = messages(bag, "/odom")
+    refs = messages(bag, "/reference")
+    tf = messages(bag, "/tf")
+    assert len(odom) == len(refs) == len(tf) == len(rows)
+    for row, (t, o), (_, r), (_, f) in zip(rows, odom, refs, tf, strict=True):
+        # The SIL run's bus time is the simulation's: each step at its t.
+        assert t == stamp_ns(o.header) == round(float(row["t"]) * 1e9)
+        assert (o.header.frame_id, o.child_frame_id) == ("odom", "base_link")
+        p = o.pose.pose
+        # Odometry through ODOM_XY and ODOM_THETA: the trace's pose, rounded to the frame's LSB.
+        assert abs(p.position.x - float(row["x"])) <= POSITION_LSB / 2 + 1e-12
+        assert abs(p.position.y - float(row["y"])) <= POSITION_LSB / 2 + 1e-12
+        assert abs(wrapped(yaw(p.orientation) - float(row["theta"]))) <= HEADING_LSB
+        assert abs(o.twist.twist.linear.x - float(row["v"])) <= 1e-9
+        assert abs(o.twist.twist.angular.z - float(row["w"])) <= 1e-9
+        rp = r.pose
+        assert abs(rp.position.x - float(row["x_r"])) <= POSITION_LSB / 2 + 1e-12
+        assert abs(rp.position.y - float(row["y_r"])) <= POSITION_LSB / 2 + 1e-12
+        assert abs(wrapped(yaw(rp.orientation) - float(row["theta_r"]))) <= HEADING_LSB
+        (transform,) = f.transforms
+        assert (transform.header.frame_id, transform.child_frame_id) == ("odom", "base_link")
+        assert transform.transform.translation.x == p.position.x
+    ((_, path),) = messages(bag, "/reference/path")
+    assert len(path.poses) == len(rows)
+
+
+def test_wheel_commands_give_the_traces_velocity(run: tuple[Path, Path, str]) -> None:
+    """v = r (ω_R + ω_L)/2 and ω = r (ω_R − ω_L)/L of the JointState's
+    speeds are the trace's v and ω."""
+    folder, bag, _ = run
+    params = load_scenario(SCENARIO, wire_limits()).params
+    r, track = params.wheel_radius, params.track_width
+    rows = trace_rows(folder)
+    cmds = messages(bag, "/cmd_wheels")
+    assert len(cmds) == len(rows)
+    for row, (_, c) in zip(rows, cmds, strict=True):
+        assert list(c.name) == ["left_wheel_joint", "right_wheel_joint"]
+        left, right = c.velocity
+        assert left / WHEEL_LSB == round(left / WHEEL_LSB)  # WHEEL_CMD's values
+        assert abs(r * (left + right) / 2 - float(row["v"])) <= 1e-9
+        assert abs(r * (right - left) / track - float(row["w"])) <= 1e-9
+
+
+def test_events_match_events_json(run: tuple[Path, Path, str]) -> None:
+    folder, bag, _ = run
+    want = json.loads((folder / "events.json").read_text())["events"]
+    got = messages(bag, "/mstc/events")
+    assert len(got) == len(want) == 6
+    for w, (t, array) in zip(want, got, strict=True):
+        (status,) = array.status
+        values = {kv.key: kv.value for kv in status.values}
+        assert values["kind"] == w["event"]
+        assert int(values["obstacle"]) == w["obstacle"]
+        assert values["side"] == w.get("side", "")
+        assert float(values["t"]) == pytest.approx(w["t"], abs=1e-9)
+        # Stamped at its step's time.
+        assert t == stamp_ns(array.header) == round(w["t"] * 1e9)
+
+
+def test_raw_frames_are_the_bus_log(run: tuple[Path, Path, str]) -> None:
+    folder, bag, _ = run
+    lines = (folder / "bus.log").read_text().split("\n")
+    lines = [line for line in lines if line.strip()]
+    frames = messages(bag, "/can/frames")
+    assert len(frames) == len(lines)
+    # Frames in the log's order (the bag sorts by time; equal times keep it).
+    for line, (t, f) in zip(lines, frames, strict=True):
+        stamp, channel, frame = line.split()
+        ident, data = frame.split("#")
+        assert t == round(float(stamp.strip("()")) * 1e9)
+        assert f.header.frame_id == channel
+        assert f.id == int(ident, 16)
+        assert not f.is_extended
+        assert bytes(f.data[: f.dlc]) == bytes.fromhex(data)
+
+
+def test_obstacles_are_those_the_sensor_saw(run: tuple[Path, Path, str]) -> None:
+    """Each step's MarkerArray holds the obstacles within D_det of the
+    robot, as the scenario's ideal sensor reports them, at their place."""
+    folder, bag, _ = run
+    scenario = load_scenario(SCENARIO, wire_limits())
+    rows = trace_rows(folder)
+    arrays = messages(bag, "/obstacles")
+    assert len(arrays) == len(rows)
+    for row, (_, array) in zip(rows, arrays, strict=True):
+        assert array.markers[0].action == 3  # DELETEALL
+        seen = {m.id: m for m in array.markers[1:]}
+        x, y = float(row["x"]), float(row["y"])
+        for i, o in enumerate(scenario.obstacles, start=1):
+            d = math.hypot(o.x - x, o.y - y)
+            if abs(d - scenario.params.d_det) < 1e-6:
+                continue  # on the edge of the range
+            assert (i in seen) == (d <= scenario.params.d_det), (row["t"], i, d)
+            if i in seen:
+                m = seen[i]
+                assert m.type == 3  # CYLINDER
+                assert abs(m.pose.position.x - o.x) <= 2**-13
+                assert abs(m.scale.x - 2 * o.radius) <= 1e-9
+
+
+def test_measured_wheel_speeds_are_the_wheel_speed_frames(
+    sil_lib: Path, tmp_path: Path
+) -> None:
+    """A run whose wheels lag (an ``[actuator]``) carries WHEEL_SPEED frames;
+    /wheel_speeds holds each of them, at its bus time, with the speeds
+    cantools decodes from bus.log's line (the DBC read here, not by the
+    exporter); a run with ideal wheels has none (the fixture's)."""
+    scenario = tmp_path / "lag.toml"
+    # The paper's line without its expected events (lagging wheels switch
+    # later), with wheels that follow their command through a lag.
+    text = SCENARIO.read_text()
+    scenario.write_text(
+        text[: text.index("[[expected]]")]
+        + "\n[actuator]\ntime_constant = 0.06\nmax_accel = 20.0\nencoder_counts = 1920\n"
+    )
+    quiet = io.StringIO()
+    with contextlib.redirect_stdout(quiet):
+        assert main(["sim", "--lib", str(sil_lib), "--out", str(tmp_path), "-q", str(scenario)]) == 0
+        assert main(["export", str(tmp_path / "lag"), "--rosbag2", str(tmp_path / "bag"), "-q"]) == 0
+    db = cantools.database.load_file(str(DBC))
+    wheel_speed = db.get_message_by_name("WHEEL_SPEED")
+    want = []
+    for line in (tmp_path / "lag" / "bus.log").read_text().splitlines():
+        stamp, _, frame = line.split()
+        ident, data = frame.split("#")
+        if int(ident, 16) == wheel_speed.frame_id:
+            s = wheel_speed.decode(bytes.fromhex(data))
+            t = round(float(stamp.strip("()")) * 1e9)
+            want.append((t, s["WHEEL_SPEED_left"], s["WHEEL_SPEED_right"]))
+    got = messages(tmp_path / "bag", "/wheel_speeds")
+    steps = len(trace_rows(tmp_path / "lag"))
+    assert steps - 1 <= len(want) <= steps  # one a step, after the first
+    assert any(left != 0.0 for _, left, _ in want)
+    assert len(got) == len(want)
+    for (t, left, right), (t_bag, js) in zip(want, got, strict=True):
+        assert t_bag == stamp_ns(js.header) == t
+        assert list(js.name) == ["left_wheel_joint", "right_wheel_joint"]
+        assert list(js.velocity) == [left, right]
+
+
+def test_a_run_with_ideal_wheels_has_no_measured_speeds(run: tuple[Path, Path, str]) -> None:
+    _, bag, _ = run
+    assert messages(bag, "/wheel_speeds") == []
