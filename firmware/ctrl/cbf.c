@@ -204,13 +204,14 @@ static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_
         return false;
     }
     const uint16_t bit = (uint16_t)(1u << i);
-    if ((fr->f->cached & bit) == 0u) {
+    cbf_t *const f = fr->f;
+    if ((f->cached & bit) == 0u) {
         num_t h;
         bool doomed;
-        constraint_of(fr, &e[i], &fr->f->k[i], &h, &doomed);
-        fr->f->cached = (uint16_t)(fr->f->cached | bit);
+        constraint_of(fr, &e[i], &f->k[i], &h, &doomed);
+        f->cached = (uint16_t)(f->cached | bit);
         if (doomed) {
-            fr->f->doomed = (uint16_t)(fr->f->doomed | bit);
+            f->doomed = (uint16_t)(f->doomed | bit);
         }
     }
     *k = fr->f->k[i];
@@ -438,8 +439,8 @@ uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const k
     const num_t lever = num_div(CBF_LOOKAHEAD, kin->track_width);
     for (uint8_t i = 0; i < n; i++) {
         const sup_entry_t *o = &e[i];
-        if ((f->doomed & (uint16_t)(1u << i)) == 0u ||
-            (o->o.vx == NUM_ZERO && o->o.vy == NUM_ZERO)) {
+        /* Only a moving obstacle is ever doomed (brake_margin). */
+        if ((f->doomed & (uint16_t)(1u << i)) == 0u) {
             continue;
         }
         const cbf_constraint_t *k = &f->k[i];

@@ -49,6 +49,10 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
         sup_set_params(&c->sup, &sp);
         c->msw.width = robot_width(p);
         act_configure(&c->act, &p->kin, p->wheel_accel, CBF_LOOKAHEAD);
+        /* A lowered max_wheel_speed holds from the next step: the rate
+         * limiter starts from commands within it. */
+        (void)kin_saturate(&p->kin, &c->act.cmd);
+        (void)kin_saturate(&p->kin, &c->act.est);
         if (new_strategy) {
             msw_reset(&c->msw);
             cbf_reset(&c->cbf);
@@ -402,6 +406,7 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     filter_motion(c, &wn, cos_th, sin_th, &motion);
     cbf_result_t fr;
     const bool was_infeasible = c->cbf.infeasible;
+    const bool was_active = c->cbf.active; /* cbf_step sets it for this step */
     cbf_step(&c->cbf, &in->robot, cos_th, sin_th, &motion, c->sup.obs, st->distance, c->sup.n_obs,
              &v, &w, &fr);
     if (fr.changed) {
@@ -417,7 +422,7 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     }
     if (limit_and_guard(c, &wn, st->distance, &out->wheels)) {
         fr.changed = true;
-        fr.new_episode = !c->cbf.active;
+        fr.new_episode = !was_active;
         c->cbf.active = true;
         fr.obstacle = fr.obstacle != 0u ? fr.obstacle : nearest_id(c, st);
     }

@@ -42,6 +42,9 @@ enum {
 /** @brief Parameter indices are 0 .. CTL_N_PARAMS - 1 (an index the
  *         table leaves out is reserved: not held). */
 #define CTL_N_PARAMS    26u
+/** @brief 1 when every index below CTL_N_PARAMS has a row (none
+ *         reserved): the firmware then skips the held test. */
+#define CTL_ALL_HELD    1
 /** @brief Relations in ctl_relations[]. */
 #define CTL_N_RELATIONS 6u
 /** @brief No parameter: the second term of a one-term relation. */

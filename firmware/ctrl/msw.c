@@ -147,8 +147,8 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
         }
         bool trig = in->dist[i] < num_add(e->d_act, in->reach) && closing(lk, e);
         if (!trig && moving(e)) {
-            trig = in->dist[i] < num_add(num_add(e->d_act, MSW_CPA_REACH), in->reach) &&
-                   cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, in->reach));
+            /* Within d_act + MSW_CPA_REACH + reach: the test above. */
+            trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, in->reach));
         }
         if (trig) {
             const num_t b = boundary(s, in, i);

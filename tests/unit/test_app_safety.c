@@ -629,6 +629,86 @@ static void test_app_safety_wheel_speeds_lost_while_standing_do_not_halt(void)
     }
 }
 
+/* Three steps with WHEEL_SPEED (@p left, @p right) and the reference
+ * (@p v_r, @p w_r) standing on the robot at the origin, then three without
+ * WHEEL_SPEED: the halt the last of them gives (as odometry: the steps k+1
+ * and k+2 after the last frame run, k+3 decides). */
+static uint8_t wheel_speeds_lost(double left, double right, double v_r, double w_r)
+{
+    for (unsigned k = 0; k < 6u; k++) {
+        if (k < 3u) {
+            feed(tf_wheel_speed(left, right));
+        }
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, v_r, w_r));
+        step();
+        if (k < 5u) {
+            TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        }
+    }
+    return tf_last_status().status_halt;
+}
+
+static void test_app_safety_wheel_speeds_lost_while_only_measured_moving_halt(void)
+{
+    /* The reference stands on the robot (p3): both wheels commanded 0. But
+     * the last WHEEL_SPEED said one wheel turned (1 rad/s: the robot pushed,
+     * or coasting), on the left, then on the right: the wheels move ("last
+     * measured", app.c), so losing WHEEL_SPEED halts, as while driving. (At
+     * 0.05 m/s the pose that stands still is within odometry's allowance,
+     * 1 mm a step against 20 mm: no odometry halt.) */
+    arm();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, wheel_speeds_lost(1.0, 0.0, 0.0, 0.0));
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_right);
+    setUp();
+    arm();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, wheel_speeds_lost(0.0, 1.0, 0.0, 0.0));
+}
+
+static void test_app_safety_wheel_speeds_lost_while_pivoting_on_the_left_wheel_halt(void)
+{
+    /* A pivot about the left wheel: "paper" tracking with the robot on its
+     * reference (e = 0) commands v = v_r, ω = ω_r (eq. 2-3); with L = 0.25 m,
+     * ω_r = 1 rad/s and v_r = ω_r L/2 = 0.125 m/s the left wheel is
+     * (v − ω L/2)/r = 0 exactly and the right (v + ω L/2)/r = 5 rad/s
+     * (5120 lsb; every value a power of two or exact in both modes). The
+     * wheels measured standing: only the command moves, on the right wheel
+     * alone; losing WHEEL_SPEED halts. */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param((uint8_t)CTL_P_STRATEGY, 0.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param(COMM_PARAM_TRACK_WIDTH, 0.25f));
+    k_step = 0;
+    t_us = 0;
+    for (unsigned k = 0; k < APP_REARM_FRAMES; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.125, 1.0));
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_wheel_speed(0.0, 0.0));
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.125, 1.0));
+        step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 5120, tf_last_wheels().wheel_cmd_right);
+    }
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.125, 1.0));
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, tf_last_status().status_halt);
+}
+
 static void test_app_safety_ref_motion_alone_lost_is_a_reference_halt(void)
 {
     drive(5);
@@ -851,6 +931,8 @@ int main(void)
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_step);
     RUN_TEST(test_app_safety_odometry_follows_the_measured_speeds_not_the_commands);
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_standing_do_not_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_only_measured_moving_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_pivoting_on_the_left_wheel_halt);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
     RUN_TEST(test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused);

@@ -149,6 +149,33 @@ static void test_cbf_braking_margin_widens_the_barrier_while_closing(void)
     TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.7, ax);
 }
 
+static void test_cbf_braking_margin_at_the_centre_of_a_closing_obstacle_is_finite(void)
+{
+    /* The prediction's shift (−l, 0) puts p_l at the origin, the obstacle's
+     * centre a hair beyond it (closer than any distance whose square the
+     * number type holds: 1e-30 m in float, one lsb in Q16.16), and the
+     * command in force drives p_l at it (q = (2, 0)): its closing direction
+     * is undefined, |Δ| rounds to 0. The barrier must come out finite and
+     * at least as unsafe as without a margin: h <= 0 − (D_s + l)² = −0.16. */
+#ifdef NUM_FIXED
+    const double hair = 1.0 / 65536.0;
+#else
+    const double hair = 1e-30;
+#endif
+    const sup_entry_t o = entry(1, hair, 0.0, 0.35, 0, 0);
+    const pose_t p = tu_pose(0, 0, 0);
+    const cbf_motion_t m = { .shift_x = tu_num(-L_AHEAD),
+                             .qx = tu_num(2.0),
+                             .brake_t = tu_num(0.36),
+                             .inv_accel = tu_num(1.0) };
+    num_t h, ax, ay;
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
+    TEST_ASSERT_TRUE(num_is_finite(h));
+    TEST_ASSERT_TRUE(tu_dbl(h) <= -0.16 + 1e-3);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, ax);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, ay);
+}
+
 /* cbf_brake_clear() for a robot at the origin heading +x. */
 static bool brake_clear(const sup_entry_t *e, uint8_t n, double v, double w, double travel_t)
 {
@@ -458,6 +485,31 @@ static void test_cbf_reports_a_squeeze_it_cannot_escape(void)
     TEST_ASSERT_TRUE(num_is_finite(v) && num_is_finite(w));
 }
 
+static void test_cbf_an_infeasible_squeeze_is_new_at_its_first_step_only(void)
+{
+    /* The squeeze above, twice: infeasible both times, reported as new
+     * (SUP_EVENT_INFEASIBLE) at the first only; a feasible step ends it, so
+     * the squeeze after it is new again. */
+    sup_entry_t e[2];
+    e[0] = entry(1, 0.05, 0.45, 0.35, 0.0, -3.0);
+    e[1] = entry(2, 0.05, -0.45, 0.35, 0.0, 3.0);
+    cbf_result_t r;
+    num_t v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, e, 2, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.infeasible && r.new_infeasible);
+    v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, e, 2, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.infeasible && !r.new_infeasible);
+    /* Both 10 m away: nothing to meet. */
+    sup_entry_t far[2] = { entry(1, 10.0, 0.0, 0.35, 0, 0), entry(2, -10.0, 0.0, 0.35, 0, 0) };
+    v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, far, 2, &v, &w, &r);
+    TEST_ASSERT_FALSE(r.infeasible || r.new_infeasible);
+    v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, e, 2, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.infeasible && r.new_infeasible);
+}
+
 /* --------------------------------------------------------- random states */
 
 static uint32_t lcg = 777u;
@@ -599,6 +651,21 @@ static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keep
         TEST_ASSERT_EQUAL_UINT8(cases[i].want,
                                 cbf_unreachable(&f, &o, 1, &kin, &rest, tu_num(0.4)));
     }
+    /* The doomed case behind a static obstacle that is not (entry 0 of two):
+     * reported by its own id, 2. Its constraint needs a·u >= 19.85 and each
+     * rad/s of the box's corner (c_L, c_R) = (0.01, −0.01) gives 0.02: a box
+     * of 985 rad/s reaches 19.7, short by 0.15: reported; one of 1000
+     * reaches 20: met, nobody is reported. */
+    const sup_entry_t two[2] = { entry(1, 1.5, 0.0, 0.35, 0, 0),
+                                 entry(2, 0.05, 0.6, 0.35, 0.0, -0.5) };
+    const num_t dists[2] = { tu_num(1.5), tu_num(sqrt(0.05 * 0.05 + 0.6 * 0.6)) };
+    cbf_init(&f);
+    num_t v2 = NUM_ZERO;
+    num_t w2 = NUM_ZERO;
+    cbf_result_t r2;
+    cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, two, dists, 2, &v2, &w2, &r2);
+    TEST_ASSERT_EQUAL_UINT8(2u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(985.0)));
+    TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(1000.0)));
     /* A static obstacle is never reported: braking is the guard's. */
     const sup_entry_t still = entry(1, 0.05, 0.4, 0.35, 0, 0);
     const num_t dist = tu_num(sqrt(0.05 * 0.05 + 0.4 * 0.4));
@@ -615,6 +682,7 @@ int main(void)
     UNITY_BEGIN();
     RUN_TEST(test_cbf_barrier_hand_values);
     RUN_TEST(test_cbf_braking_margin_widens_the_barrier_while_closing);
+    RUN_TEST(test_cbf_braking_margin_at_the_centre_of_a_closing_obstacle_is_finite);
     RUN_TEST(test_cbf_brake_guard_hand_cases);
     RUN_TEST(test_cbf_guard_keeps_d_s_under_wheels_within_their_limits);
     RUN_TEST(test_cbf_brakes_a_robot_driving_straight_at_an_obstacle);
@@ -624,6 +692,7 @@ int main(void)
     RUN_TEST(test_cbf_meets_two_constraints_at_their_vertex);
     RUN_TEST(test_cbf_brakes_along_the_path_when_two_constraints_are_not_enough);
     RUN_TEST(test_cbf_reports_a_squeeze_it_cannot_escape);
+    RUN_TEST(test_cbf_an_infeasible_squeeze_is_new_at_its_first_step_only);
     RUN_TEST(test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keeps_away);
     RUN_TEST(test_cbf_on_random_states_the_barrier_never_falls_faster_than_its_bound);
     RUN_TEST(test_cbf_keeps_the_barrier_non_negative_in_closed_loop);
