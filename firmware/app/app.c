@@ -15,7 +15,8 @@ _Static_assert((APP_OBSTACLE_IDS & (APP_OBSTACLE_IDS - 1u)) == 0u, "ids masked: 
 
 /* The frame of each watched input (app.h, APP_IN_*). */
 static const uint32_t input_id[APP_N_IN] = {
-    COMM_ID_ODOM_XY, COMM_ID_ODOM_THETA, COMM_ID_REF_XY, COMM_ID_REF_MOTION, COMM_ID_STEP,
+    COMM_ID_ODOM_XY,    COMM_ID_ODOM_THETA, COMM_ID_REF_XY,
+    COMM_ID_REF_MOTION, COMM_ID_STEP,       COMM_ID_WHEEL_SPEED,
 };
 
 int app_init(app_t *a, const ctl_params_t *p)
@@ -83,6 +84,13 @@ static bool bus_off(app_t *a)
     return moved || st.state == HAL_CAN_STATE_BUS_OFF;
 }
 
+/* The wheels move: commanded, or last measured, at a speed other than zero. */
+static bool wheels_move(const app_t *a)
+{
+    return a->wheels.left != NUM_ZERO || a->wheels.right != NUM_ZERO ||
+           a->wheel_speed.left != NUM_ZERO || a->wheel_speed.right != NUM_ZERO;
+}
+
 /* Why the robot must not move at this step, COMM_HALT_NONE if it may. Every
  * input's cycle is closed whatever the verdict, so that each step feeds each
  * state machine exactly once. */
@@ -92,6 +100,7 @@ static comm_halt_t check_inputs(app_t *a, uint64_t t_us, bool lockstep)
     for (size_t k = 0; k < APP_N_IN; k++) {
         usable[k] = input_usable(a, k, t_us);
     }
+    a->wheel_speed_watched = a->wheel_speed_watched || usable[APP_IN_WHEEL_SPEED];
     comm_halt_t why = COMM_HALT_NONE;
     if (bus_off(a)) {
         why = COMM_HALT_BUS_OFF;
@@ -101,6 +110,8 @@ static comm_halt_t check_inputs(app_t *a, uint64_t t_us, bool lockstep)
         why = COMM_HALT_REFERENCE;
     } else if (lockstep && !usable[APP_IN_STEP]) {
         why = COMM_HALT_STEP;
+    } else if (a->wheel_speed_watched && !usable[APP_IN_WHEEL_SPEED] && wheels_move(a)) {
+        why = COMM_HALT_WHEEL_SPEED;
     } else {
         /* every input usable */
     }
@@ -188,10 +199,14 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
         odo_reset(&a->odo);
     }
     comm_halt_t why = check_inputs(a, t_us, lockstep);
+    /* Speeds the wheels measured over the period that just ended, when they
+     * came with this step: the motion odometry must follow. Otherwise the
+     * commands: wheels that lag them would make odometry look implausible. */
+    const bool measured = a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u;
     if (a->halt == (uint8_t)COMM_HALT_NONE && why == COMM_HALT_NONE &&
-        odo_step(&a->odo, &a->ctl.p.kin, &a->wheels, num_from_float((float)dt_us * 1.0e-6f),
-                 &a->odom, a->in[APP_IN_ODOM_XY].missed == 0u,
-                 a->in[APP_IN_ODOM_THETA].missed == 0u)) {
+        odo_step(&a->odo, &a->ctl.p.kin, measured ? &a->wheel_speed : &a->wheels,
+                 num_from_float((float)dt_us * 1.0e-6f), &a->odom,
+                 a->in[APP_IN_ODOM_XY].missed == 0u, a->in[APP_IN_ODOM_THETA].missed == 0u)) {
         why = COMM_HALT_ODOMETRY_IMPLAUSIBLE;
     }
     if (why != COMM_HALT_NONE) {
@@ -214,6 +229,8 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
             .obstacles = a->reports,
             .n_obstacles = a->n_reports,
             .t_us = t_us,
+            .wheels = a->wheel_speed,
+            .wheels_measured = measured,
         };
         ctl_step(&a->ctl, &in, &out);
         a->wheels = out.wheels;
@@ -223,6 +240,7 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
          * the wheels ramp down from where they were. */
         out = (ctl_output_t){ .status = { .mode = SUP_MODE_STOP, .side = AVD_SIDE_NONE } };
         ramp_down(a, dt_us);
+        ctl_sync_wheels(&a->ctl, &a->wheels);
         out.wheels = a->wheels;
         a->state = a->halt == (uint8_t)COMM_HALT_NOT_ARMED ? COMM_STATE_READY : COMM_STATE_FAULT;
     }
@@ -458,7 +476,7 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
     }
     case COMM_ID_PARAM_SET: on_param_set(a, &m); break;
     case COMM_ID_PARAM_AUTH: on_param_auth(a, &m); break;
-    case COMM_ID_WHEEL_SPEED: break; /* not used yet */
+    case COMM_ID_WHEEL_SPEED: a->wheel_speed = m.u.wheel_speed; break;
     default: /* COMM_ID_PARAM_GET: comm_decode only returns frames the firmware receives */
         on_param(a, m.u.param_get, false, false, 0.0f);
         break;

@@ -52,6 +52,14 @@
  * the motion commanded (a replayed recording, a stuck sensor) halts with
  * COMM_HALT_ODOMETRY_IMPLAUSIBLE.
  *
+ * Measured wheel speeds (WHEEL_SPEED, optional): a step on which one arrived
+ * hands it to the control step, which otherwise predicts the wheel speeds
+ * from its own commands (ctrl/act.h). Once the input has been valid (its
+ * E2E state machine VALID, fresh) at a step, it is watched like odometry:
+ * not valid or timed out (APP_TIMEOUT_PERIODS, APP_TIMEOUT_US) while the
+ * wheels move (commanded or measured speed not zero), it halts with
+ * COMM_HALT_WHEEL_SPEED; standing, it does not.
+ *
  * Every step's STATUS_TRK echoes the alive counter of the ODOM_XY frame whose
  * position the step used (STATUS_TRK_odom_counter), in both modes: in real
  * time the plant cannot know which of its frames a tick took, and the echo
@@ -116,6 +124,7 @@ enum {
     APP_IN_REF_XY,
     APP_IN_REF_MOTION,
     APP_IN_STEP,
+    APP_IN_WHEEL_SPEED, /**< optional until the first frame (app_t::wheel_speed) */
     APP_N_IN,
 };
 
@@ -164,6 +173,13 @@ typedef struct {
     /** Alive counter of the ODOM_XY frame odom.x and odom.y came from (0
      *  before the first), echoed in STATUS_TRK. */
     uint8_t odom_counter;
+    /** Latest WHEEL_SPEED: each wheel's measured speed [rad/s] (the mean over
+     *  the sender's last period); handed to the control step when one arrived
+     *  since the last step. */
+    kin_wheels_t wheel_speed;
+    /** WHEEL_SPEED has been valid at a step (its E2E state machine VALID,
+     *  fresh): from then on it is watched like odometry. */
+    bool wheel_speed_watched;
 } app_t;
 
 /**

@@ -51,7 +51,8 @@ _Static_assert(COMM_HALT_NOT_ARMED == MSTC_DBC_STATUS_STATUS_HALT_NOT_ARMED_CHOI
                    COMM_HALT_STEP == MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE &&
                    COMM_HALT_BUS_OFF == MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE &&
                    COMM_HALT_ODOMETRY_IMPLAUSIBLE ==
-                       MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_IMPLAUSIBLE_CHOICE,
+                       MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_IMPLAUSIBLE_CHOICE &&
+                   COMM_HALT_WHEEL_SPEED == MSTC_DBC_STATUS_STATUS_HALT_WHEEL_SPEED_CHOICE,
                "halt reasons");
 _Static_assert(COMM_PARAM_REJECTED == MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_REJECTED_CHOICE &&
                    COMM_PARAM_UNAUTHENTICATED ==
@@ -84,7 +85,9 @@ _Static_assert(SUP_MODE_TRACK == MSTC_DBC_STATUS_STATUS_MODE_TRACK_CHOICE &&
                "modes");
 _Static_assert(SUP_EVENT_DETECT == MSTC_DBC_EVENT_EVENT_KIND_DETECT_CHOICE &&
                    SUP_EVENT_ACTIVATE == MSTC_DBC_EVENT_EVENT_KIND_ACTIVATE_CHOICE &&
-                   SUP_EVENT_COMPLETE == MSTC_DBC_EVENT_EVENT_KIND_COMPLETE_CHOICE,
+                   SUP_EVENT_COMPLETE == MSTC_DBC_EVENT_EVENT_KIND_COMPLETE_CHOICE &&
+                   SUP_EVENT_FILTER == MSTC_DBC_EVENT_EVENT_KIND_FILTER_CHOICE &&
+                   SUP_EVENT_INFEASIBLE == MSTC_DBC_EVENT_EVENT_KIND_INFEASIBLE_CHOICE,
                "event kinds");
 
 /* Every frame is 8 bytes: E2E needs bytes 0 and 1, and a fixed length is
@@ -634,7 +637,7 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
         .status_e = e,
         .status_distance = distance,
         .status_step = (uint8_t)(step & 0x07u),
-        .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_ODOMETRY_IMPLAUSIBLE),
+        .status_halt = sat_u8(halt, (uint8_t)COMM_HALT_WHEEL_SPEED),
     };
     c->clipped = false;
     (void)mstc_dbc_status_pack(f->data, &s, FRAME_LEN);
@@ -672,7 +675,7 @@ int comm_encode_counters(comm_t *c, hal_can_frame_t *f)
 int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f)
 {
     const struct mstc_dbc_event_t s = {
-        .event_kind = sat_u8(e->kind, MSTC_DBC_EVENT_EVENT_KIND_FILTER_CHOICE),
+        .event_kind = sat_u8(e->kind, MSTC_DBC_EVENT_EVENT_KIND_INFEASIBLE_CHOICE),
         .event_side = side_to_wire(e->side),
         .event_obstacle = sat_u8(e->obstacle, 15u),
         /* A time stamp wraps with the STEP time it answers (comm.h). */

@@ -103,6 +103,9 @@ typedef enum {
     COMM_HALT_BUS_OFF = 5,   /**< the CAN controller went bus-off */
     /** Odometry disagrees with the motion commanded: replayed or stale (app.h) */
     COMM_HALT_ODOMETRY_IMPLAUSIBLE = 6,
+    /** WHEEL_SPEED, once received, not valid or timed out while the wheels
+     *  move (app.h) */
+    COMM_HALT_WHEEL_SPEED = 7,
 } comm_halt_t;
 
 /** @brief Results in PARAM_VALUE (docs/safety.md, "Parameters"). */
@@ -331,7 +334,7 @@ int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t fau
  * included (then cleared); e; distance = centre distance to the active
  * obstacle, else to the nearest one remembered, else the signal's maximum
  * (63.999 m, meaning none: not a clip); the low 3 bits of @p step; halt =
- * @p halt (saturated at COMM_HALT_ODOMETRY_IMPLAUSIBLE).
+ * @p halt (saturated at COMM_HALT_WHEEL_SPEED).
  * @param frame_faults a received frame was dropped since the last STATUS.
  * @param halt comm_halt_t: why the wheels are held at zero.
  */

@@ -1653,12 +1653,12 @@ bool mstc_dbc_status_status_step_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_halt_is_in_range(uint8_t value)
 {
-    return (value <= 6u);
+    return (value <= 7u);
 }
 
 bool mstc_dbc_status_status_halt_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 6.0f));
+    return ((value >= 0.0f) && (value <= 7.0f));
 }
 
 int mstc_dbc_status_trk_pack(
@@ -1998,12 +1998,12 @@ bool mstc_dbc_event_event_counter_is_in_phys_range(float value)
 
 bool mstc_dbc_event_event_kind_is_in_range(uint8_t value)
 {
-    return ((value >= 1u) && (value <= 6u));
+    return ((value >= 1u) && (value <= 7u));
 }
 
 bool mstc_dbc_event_event_kind_is_in_phys_range(float value)
 {
-    return ((value >= 1.0f) && (value <= 6.0f));
+    return ((value >= 1.0f) && (value <= 7.0f));
 }
 
 bool mstc_dbc_event_event_side_is_in_range(uint8_t value)

@@ -144,6 +144,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_STRATEGY_CHOICE (14u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_ACCEL_CHOICE (15u)
+#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_TAU_CHOICE (16u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_KP_CHOICE (17u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_KI_CHOICE (18u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
@@ -170,6 +172,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_STRATEGY_CHOICE (14u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_ACCEL_CHOICE (15u)
+#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_TAU_CHOICE (16u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_KP_CHOICE (17u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_KI_CHOICE (18u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
@@ -197,6 +201,7 @@ extern "C" {
 #define MSTC_DBC_STATUS_STATUS_HALT_STEP_CHOICE (4u)
 #define MSTC_DBC_STATUS_STATUS_HALT_BUS_OFF_CHOICE (5u)
 #define MSTC_DBC_STATUS_STATUS_HALT_ODOMETRY_IMPLAUSIBLE_CHOICE (6u)
+#define MSTC_DBC_STATUS_STATUS_HALT_WHEEL_SPEED_CHOICE (7u)
 
 #define MSTC_DBC_EVENT_EVENT_KIND_DETECT_CHOICE (1u)
 #define MSTC_DBC_EVENT_EVENT_KIND_ACTIVATE_CHOICE (2u)
@@ -204,6 +209,7 @@ extern "C" {
 #define MSTC_DBC_EVENT_EVENT_KIND_BLOCKED_CHOICE (4u)
 #define MSTC_DBC_EVENT_EVENT_KIND_RESUME_CHOICE (5u)
 #define MSTC_DBC_EVENT_EVENT_KIND_FILTER_CHOICE (6u)
+#define MSTC_DBC_EVENT_EVENT_KIND_INFEASIBLE_CHOICE (7u)
 
 #define MSTC_DBC_EVENT_EVENT_SIDE_NONE_CHOICE (0u)
 #define MSTC_DBC_EVENT_EVENT_SIDE_LEFT_CHOICE (1u)
@@ -238,6 +244,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_SPEED_CHOICE (12u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_MAX_WHEEL_DECEL_CHOICE (13u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_STRATEGY_CHOICE (14u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_ACCEL_CHOICE (15u)
+#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_TAU_CHOICE (16u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_KP_CHOICE (17u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_KI_CHOICE (18u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_FREE_SPEED_CHOICE (19u)
@@ -566,7 +574,7 @@ struct mstc_dbc_step_t {
 /**
  * Signals in message WHEEL_SPEED.
  *
- * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it: the plant in simulation (SIL, HIL, replay), standing for the motor drivers; on a robot, the motor drivers, or the motor-controller board itself when it runs the wheel loop (it then sends what its encoders measure). Lock-step: sent before STEP, like odometry. Bits 12..15 and 56..63 are spare.
+ * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it: the plant in simulation (SIL, HIL, replay), standing for the motor drivers; on a robot, the motor drivers, or the motor-controller board itself when it runs the wheel loop (it then sends what its encoders measure). Lock-step: sent before STEP, like odometry. Once they have been valid the firmware expects them: missing or stale while the wheels move, they halt it as stale odometry does (STATUS_halt 7, docs/safety.md). Bits 12..15 and 56..63 are spare.
  *
  * All signal values are as on the CAN bus.
  */
@@ -936,9 +944,9 @@ struct mstc_dbc_status_t {
     uint8_t status_step;
 
     /**
-     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off; 6 odometry implausible: it disagrees with the motion the firmware commanded (replayed or stale odometry). Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
+     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off; 6 odometry implausible: it disagrees with the motion the firmware commanded (replayed or stale odometry); 7 wheel speeds: WHEEL_SPEED, once it has been valid, not valid or not received for 3 control periods while the wheels are commanded or measured to move. Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
      *
-     * Range: 0..6 (0..6 -)
+     * Range: 0..7 (0..7 -)
      * Scale: 1
      * Offset: 0
      */
@@ -1072,7 +1080,7 @@ struct mstc_dbc_event_t {
     uint8_t event_counter;
 
     /**
-     * Range: 1..6 (1..6 -)
+     * Range: 1..7 (1..7 -)
      * Scale: 1
      * Offset: 0
      */

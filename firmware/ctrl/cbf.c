@@ -3,6 +3,7 @@
 #include "ctrl/cbf.h"
 
 #include "ctrl/oset.h"
+#include "ctrl/rol.h"
 
 /* 2/α [s] and 2l [m]: the reach beyond which a constraint cannot bind (see
  * slack_sure). */
@@ -19,28 +20,87 @@
 
 void cbf_init(cbf_t *f) { cbf_reset(f); }
 
-void cbf_reset(cbf_t *f) { f->active = false; }
+void cbf_reset(cbf_t *f)
+{
+    f->active = false;
+    f->infeasible = false;
+    f->cached = 0u;
+    f->doomed = 0u;
+}
 
 /* One obstacle's constraint on (v, ω): a·u = g1 v + g2 l ω >= b, with
  * g1 = a·[cos θ, sin θ] and g2 = a·[−sin θ, cos θ] (l is kept out of g2, so
- * that Q16.16 holds it to the same relative precision as g1). */
-typedef struct {
-    num_t g1, g2;
-    num_t b; /* a·w − α h */
-} constraint_t;
+ * that Q16.16 holds it to the same relative precision as g1), b = a·w − α h. */
+typedef cbf_constraint_t constraint_t;
 
-/* The look-ahead point and the heading of one step. */
+/* The look-ahead point of one step (where the wheels carry it: shifted by
+ * the prediction), the heading, and what the braking margin needs. */
 typedef struct {
     num_t plx, ply;
     num_t c, s;
+    num_t qx, qy;    /* look-ahead velocity of the command in force [m/s] */
+    num_t brake_t;   /* T_b [s]; 0: no braking margin */
+    num_t reach_add; /* |shift|_1 + |q|_1 T_b: what slack_sure adds [m] */
+    num_t inv_accel; /* 1 / a_v [s²/m]: the look-ahead point's acceleration */
+    num_t side;      /* across the heading: a_v side at most */
+    num_t inv_side;  /* 1 / side */
+    num_t gap;       /* D_s − R_m − R_ob: an obstacle's d_s less its contact distance */
+    num_t q1;        /* |qx| + |qy| [m/s] */
+    cbf_t *f;        /* the step's constraint cache; NULL: none */
 } lookahead_t;
 
-static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constraint_t *k, num_t *h)
+/* The braking margin of an obstacle at Δ = p_l − c moving at w: with σ the
+ * closing speed −Δ·(q − w)/|Δ| of the look-ahead point under the command in
+ * force (0 when it does not close), σ T_b for a static obstacle (braking
+ * along the path stops the closing in T_b), σ max(T_b, σ/a_v) for a moving
+ * one (nulling a closing speed the robot does not cause takes σ/a_v). The
+ * root only for an obstacle that closes. */
+static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx, num_t dy, num_t d2,
+                          bool *doomed)
+{
+    if (fr->brake_t <= NUM_ZERO) {
+        return NUM_ZERO;
+    }
+    const num_t along =
+        num_add(num_mul(dx, num_sub(fr->qx, o->o.vx)), num_mul(dy, num_sub(fr->qy, o->o.vy)));
+    if (along >= NUM_ZERO) {
+        return NUM_ZERO;
+    }
+    const num_t d = num_sqrt(d2);
+    if (d <= NUM_ZERO) {
+        return NUM_ZERO;
+    }
+    const num_t sigma = num_div(num_neg(along), d);
+    num_t t = fr->brake_t;
+    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+        /* Away from the obstacle (along Δ, at angle β to the heading) the
+         * look-ahead point accelerates at a_v max(|cos β|, side |sin β|) at
+         * most, a_v side at least. */
+        const num_t along_h = num_abs(num_add(num_mul(dx, fr->c), num_mul(dy, fr->s)));
+        const num_t across = num_abs(num_sub(num_mul(dy, fr->c), num_mul(dx, fr->s)));
+        const num_t share =
+            num_max(num_div(num_max(along_h, num_mul(fr->side, across)), d), fr->side);
+        const num_t shed = num_div(num_mul(sigma, fr->inv_accel), share);
+        t = num_max(t, shed);
+        /* Closing faster than the robot can null before the bodies touch
+         * (its centre l behind p_l): d − l − (R_m + r) < σ²/(2 a_β). */
+        const num_t touch = num_sub(o->d_s, fr->gap);
+        *doomed =
+            num_sub(num_sub(d, CBF_LOOKAHEAD), touch) < num_mul(num_mul(sigma, shed), NUM_C(0.5));
+    }
+    return num_mul(sigma, t);
+}
+
+static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constraint_t *k, num_t *h,
+                          bool *doomed)
 {
     const num_t dx = num_sub(fr->plx, o->o.x);
     const num_t dy = num_sub(fr->ply, o->o.y);
-    const num_t rho = num_add(o->d_s, CBF_LOOKAHEAD);
-    *h = num_sub(num_add(num_mul(dx, dx), num_mul(dy, dy)), num_mul(rho, rho));
+    const num_t d2 = num_add(num_mul(dx, dx), num_mul(dy, dy));
+    *doomed = false;
+    const num_t rho =
+        num_add(num_add(o->d_s, CBF_LOOKAHEAD), brake_margin(fr, o, dx, dy, d2, doomed));
+    *h = num_sub(d2, num_mul(rho, rho));
     const num_t ax = num_add(dx, dx);
     const num_t ay = num_add(dy, dy);
     k->g1 = num_add(num_mul(ax, fr->c), num_mul(ay, fr->s));
@@ -63,14 +123,26 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
 /* The constraint of @p o, at centre distance @p dist from the robot, cannot
  * bind for the command (v, ω): with ḣ = a·(u − w) >= −2 |p_l − c| |u − w| and
  * h = (|p_l − c| − ρ)(|p_l − c| + ρ), ḣ + α h >= 0 whenever
- * |p_l − c| >= ρ + 2 |u − w| / α; |p_l − c| >= dist − l, and
+ * |p_l − c| >= ρ + 2 |u − w| / α; |p_l − c| >= dist − l − |shift|, and
  * |u − w| <= |v| + l|ω| + |w_x| + |w_y|. Saves the products for every
  * obstacle not close. */
-static bool slack_sure(const sup_entry_t *o, num_t dist, num_t speed)
+static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed)
 {
-    const num_t rel = num_add(speed, num_add(num_abs(o->o.vx), num_abs(o->o.vy)));
-    const num_t reach =
-        num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), num_mul(CBF_TWO_OVER_ALPHA, rel));
+    const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
+    const num_t rel = num_add(speed, ov);
+    /* The prediction moves p_l by at most |shift|_1, the braking margin adds
+     * at most |q − w|_1 T_b to ρ. */
+    /* σ <= |q − w|_1 = q1 + ov: the margin is at most q1 T_b for a static
+     * obstacle (reach_add holds it with the shift), (q1 + ov)(T_b + (q1 +
+     * ov)/a_v) for a moving one. */
+    num_t extra = fr->reach_add;
+    if (ov > NUM_ZERO) {
+        const num_t qw = num_add(fr->q1, ov);
+        extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
+                        num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
+    }
+    const num_t reach = num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra),
+                                num_mul(CBF_TWO_OVER_ALPHA, rel));
     return dist >= reach;
 }
 
@@ -79,35 +151,70 @@ static num_t speed_of(num_t v, num_t w)
     return num_add(num_abs(v), num_mul(CBF_LOOKAHEAD, num_abs(w)));
 }
 
-static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, lookahead_t *fr)
+static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_motion_t *m,
+                     lookahead_t *fr)
 {
     fr->plx = num_add(robot->x, num_mul(CBF_LOOKAHEAD, cos_th));
     fr->ply = num_add(robot->y, num_mul(CBF_LOOKAHEAD, sin_th));
     fr->c = cos_th;
     fr->s = sin_th;
+    fr->qx = NUM_ZERO;
+    fr->qy = NUM_ZERO;
+    fr->brake_t = NUM_ZERO;
+    fr->reach_add = NUM_ZERO;
+    fr->inv_accel = NUM_ZERO;
+    fr->side = NUM_ONE;
+    fr->inv_side = NUM_ONE;
+    fr->gap = NUM_ZERO;
+    fr->q1 = NUM_ZERO;
+    if (m != NULL) {
+        fr->plx = num_add(fr->plx, m->shift_x);
+        fr->ply = num_add(fr->ply, m->shift_y);
+        fr->qx = m->qx;
+        fr->qy = m->qy;
+        fr->brake_t = m->brake_t;
+        fr->inv_accel = m->inv_accel;
+        fr->side = m->side;
+        fr->inv_side = m->inv_side;
+        fr->gap = m->gap;
+        fr->q1 = num_add(num_abs(m->qx), num_abs(m->qy));
+        fr->reach_add = num_add(num_add(num_abs(m->shift_x), num_abs(m->shift_y)),
+                                num_mul(num_add(num_abs(m->qx), num_abs(m->qy)), m->brake_t));
+    }
 }
 
-void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const sup_entry_t *o, num_t *h,
-                 num_t *ax, num_t *ay)
+void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_motion_t *m,
+                 const sup_entry_t *o, num_t *h, num_t *ax, num_t *ay)
 {
     lookahead_t fr;
-    frame_of(robot, cos_th, sin_th, &fr);
+    frame_of(robot, cos_th, sin_th, m, &fr);
     constraint_t k;
-    constraint_of(&fr, o, &k, h);
+    bool doomed;
+    constraint_of(&fr, o, &k, h, &doomed);
     *ax = num_add(num_sub(fr.plx, o->o.x), num_sub(fr.plx, o->o.x));
     *ay = num_add(num_sub(fr.ply, o->o.y), num_sub(fr.ply, o->o.y));
 }
 
-/* The constraint of @p o into *k, unless it surely cannot bind
- * (slack_sure): then false. */
-static bool binding(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+/* The constraint of entry @p i into *k, unless it surely cannot bind
+ * (slack_sure): then false. Computed once a step (the cache in cbf_t). */
+static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist, num_t speed,
                     constraint_t *k)
 {
-    if (slack_sure(o, dist, speed)) {
+    if (slack_sure(fr, &e[i], dist, speed)) {
         return false;
     }
-    num_t h;
-    constraint_of(fr, o, k, &h);
+    const uint16_t bit = (uint16_t)(1u << i);
+    cbf_t *const f = fr->f;
+    if ((f->cached & bit) == 0u) {
+        num_t h;
+        bool doomed;
+        constraint_of(fr, &e[i], &f->k[i], &h, &doomed);
+        f->cached = (uint16_t)(f->cached | bit);
+        if (doomed) {
+            f->doomed = (uint16_t)(f->doomed | bit);
+        }
+    }
+    *k = fr->f->k[i];
     return true;
 }
 
@@ -121,7 +228,7 @@ static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_
     num_t worst_gap = CBF_TOLERANCE;
     for (uint8_t i = 0; i < n; i++) {
         constraint_t k;
-        if (!binding(fr, &e[i], dist[i], speed, &k)) {
+        if (!binding(fr, e, i, dist[i], speed, &k)) {
             continue;
         }
         const num_t gap = shortfall(&k, v, w);
@@ -144,7 +251,7 @@ static num_t brake_factor(const lookahead_t *fr, const sup_entry_t *e, const num
     num_t f = NUM_ONE;
     for (uint8_t i = 0; i < n; i++) {
         constraint_t k;
-        if (!binding(fr, &e[i], dist[i], speed, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
+        if (!binding(fr, e, i, dist[i], speed, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
             continue;
         }
         if (k.b > NUM_ZERO) {
@@ -226,12 +333,16 @@ static void meet_two(const lookahead_t *fr, const sup_entry_t *e, const num_t *d
     }
 }
 
-void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const sup_entry_t *e,
-              const num_t *dist, uint8_t n, num_t *v, num_t *w, cbf_result_t *r)
+void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_motion_t *m,
+              const sup_entry_t *e, const num_t *dist, uint8_t n, num_t *v, num_t *w,
+              cbf_result_t *r)
 {
     *r = (cbf_result_t){ .changed = false };
     lookahead_t fr;
-    frame_of(robot, cos_th, sin_th, &fr);
+    frame_of(robot, cos_th, sin_th, m, &fr);
+    fr.f = f;
+    f->cached = 0u;
+    f->doomed = 0u;
     constraint_t k;
     const int first = most_violated(&fr, e, dist, n, *v, *w, &k);
     if (first >= 0) {
@@ -246,4 +357,102 @@ void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const s
     }
     r->new_episode = r->changed && !f->active;
     f->active = r->changed;
+    r->new_infeasible = r->infeasible && !f->infeasible;
+    f->infeasible = r->infeasible;
+}
+
+bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *dist, uint8_t n)
+{
+    const num_t reach = num_add(num_mul(num_abs(b->v), b->travel_t), b->lead);
+    bool built = false;
+    rol_path_t path;
+    for (uint8_t i = 0; i < n; i++) {
+        const sup_entry_t *o = &e[i];
+        if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+            continue; /* moving: stopping in its way does not help (cbf.h) */
+        }
+        num_t clear = num_add(o->d_s, CBF_GUARD_MARGIN);
+        /* Every point of the path is within reach of the robot: a segment's
+         * widening is at most 5 % of its length (|Φ| <= 0.1, rol.h). */
+        if (dist[i] >= num_add(clear, num_add(reach, num_mul(reach, NUM_C(0.0625))))) {
+            continue;
+        }
+        /* Inside the margin already: no closer than now. */
+        clear = num_min(clear, num_sub(dist[i], CBF_GUARD_SLACK));
+        if (!built) {
+            rol_path(&path, &b->start, b->c, b->s, b->v, b->w, b->travel_t);
+            built = true;
+        }
+        if (!rol_clears(&path, o->o.x, o->o.y, clear)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* Whether the rate-limited command @p u (from @p base) passes
+ * cbf_brake_clear(); *u is then what the rate limiter made of it. */
+static bool guard_passes(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t *dist,
+                         uint8_t n, const kin_wheels_t *base, kin_wheels_t *u)
+{
+    a->cmd = *base;
+    (void)act_limit(a, g->accel, g->dt, u);
+    cbf_brake_t b = { .start = g->start, .c = g->c, .s = g->s, .lead = g->lead };
+    kin_vw_from_wheels(g->kin, u, &b.v, &b.w);
+    const num_t top = num_max(num_abs(u->left), num_abs(u->right));
+    b.travel_t = num_add(g->dt, num_mul(num_mul(top, g->inv_accel), NUM_C(0.5)));
+    return cbf_brake_clear(&b, e, dist, n);
+}
+
+bool cbf_guard(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t *dist, uint8_t n,
+               kin_wheels_t *wheels)
+{
+    const kin_wheels_t base = a->cmd;
+    kin_wheels_t u = *wheels;
+    if (guard_passes(a, g, e, dist, n, &base, &u)) {
+        *wheels = u;
+        return false;
+    }
+    /* Brake the speed, keep the turn: (0, ω) of the command. */
+    num_t v;
+    num_t w;
+    kin_vw_from_wheels(g->kin, wheels, &v, &w);
+    kin_wheels_from_vw(g->kin, NUM_ZERO, w, &u);
+    if (!kin_saturate(g->kin, &u) && guard_passes(a, g, e, dist, n, &base, &u)) {
+        *wheels = u;
+        return true;
+    }
+    *wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
+    a->cmd = base;
+    (void)act_limit(a, g->accel, g->dt, wheels);
+    return true;
+}
+
+uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const kin_params_t *kin,
+                        const kin_wheels_t *base, num_t step)
+{
+    /* a·u = g1 v + g2 l ω with v = r (u_L + u_R)/2, ω = r (u_R − u_L)/L:
+     * c_L = r (g1/2 − g2 l/L), c_R = r (g1/2 + g2 l/L). */
+    if (f->doomed == 0u) {
+        return 0u; /* nearly always: no division */
+    }
+    const num_t lever = num_div(CBF_LOOKAHEAD, kin->track_width);
+    for (uint8_t i = 0; i < n; i++) {
+        const sup_entry_t *o = &e[i];
+        /* Only a moving obstacle is ever doomed (brake_margin). */
+        if ((f->doomed & (uint16_t)(1u << i)) == 0u) {
+            continue;
+        }
+        const cbf_constraint_t *k = &f->k[i];
+        const num_t half = num_mul(k->g1, NUM_C(0.5));
+        const num_t turn = num_mul(k->g2, lever);
+        const num_t cl = num_mul(kin->wheel_radius, num_sub(half, turn));
+        const num_t cr = num_mul(kin->wheel_radius, num_add(half, turn));
+        const num_t best = num_add(num_add(num_mul(cl, base->left), num_mul(cr, base->right)),
+                                   num_mul(step, num_add(num_abs(cl), num_abs(cr))));
+        if (num_sub(k->b, best) > CBF_TOLERANCE) {
+            return o->o.id;
+        }
+    }
+    return 0u;
 }

@@ -30,8 +30,14 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     sup_init(&c->sup, &sp);
     msw_init(&c->msw, robot_width(&c->p));
     cbf_init(&c->cbf);
+    act_init(&c->act);
+    act_configure(&c->act, &c->p.kin, c->p.wheel_accel, CBF_LOOKAHEAD);
+    c->last_t_us = 0u;
+    c->stepped = false;
     return rc;
 }
+
+void ctl_sync_wheels(ctl_t *c, const kin_wheels_t *w) { act_sync(&c->act, w); }
 
 int ctl_set_params(ctl_t *c, const ctl_params_t *p)
 {
@@ -42,6 +48,11 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
         const sup_params_t sp = sup_params_of(p);
         sup_set_params(&c->sup, &sp);
         c->msw.width = robot_width(p);
+        act_configure(&c->act, &p->kin, p->wheel_accel, CBF_LOOKAHEAD);
+        /* A lowered max_wheel_speed holds from the next step: the rate
+         * limiter starts from commands within it. */
+        (void)kin_saturate(&p->kin, &c->act.cmd);
+        (void)kin_saturate(&p->kin, &c->act.est);
         if (new_strategy) {
             msw_reset(&c->msw);
             cbf_reset(&c->cbf);
@@ -62,7 +73,9 @@ static bool inputs_in_range(const ctl_input_t *in)
     return within(in->robot.x, CTL_MAX_ABS_POSITION) && within(in->robot.y, CTL_MAX_ABS_POSITION) &&
            within(in->robot.theta, CTL_MAX_ABS_ANGLE) && within(in->ref.x, CTL_MAX_ABS_POSITION) &&
            within(in->ref.y, CTL_MAX_ABS_POSITION) && within(in->ref.theta, CTL_MAX_ABS_ANGLE) &&
-           within(in->v_r, CTL_MAX_ABS_SPEED) && within(in->w_r, CTL_MAX_ABS_SPEED);
+           within(in->v_r, CTL_MAX_ABS_SPEED) && within(in->w_r, CTL_MAX_ABS_SPEED) &&
+           (!in->wheels_measured || (within(in->wheels.left, CTL_MAX_ABS_WHEEL_SPEED) &&
+                                     within(in->wheels.right, CTL_MAX_ABS_WHEEL_SPEED)));
 }
 
 /* A report the supervisor may compute with; the others reach it as id 0 with
@@ -153,28 +166,197 @@ static num_t track_speed(num_t v, num_t v_r)
                           : num_clamp(v, NUM_ZERO, speed_limit(v_r));
 }
 
-/* Linear velocity while avoiding ("mstc"): eq. (23), v_r cos e3 + k1 e1, held
- * within [MSW_SPEED_MIN |v_r|, speed_limit]: never backwards along a
- * boundary (the blending law assumes forward motion, docs/strategy.md). */
-static num_t avoid_speed(const ctl_params_t *p, const trk_err_t *err, num_t v_r)
+/* The period since the last step [s], within [0, ACT_MAX_DT]; CTL_FIRST_DT
+ * at the first. Through float in both modes, as the application's ramp. */
+static num_t step_dt(ctl_t *c, uint64_t t_us)
 {
-    const num_t v = num_add(num_mul(v_r, num_cos(err->e3)), num_mul(p->avd.k1, err->e1));
-    return num_clamp(v, num_mul(MSW_SPEED_MIN, num_abs(v_r)), speed_limit(v_r));
+    num_t dt = CTL_FIRST_DT;
+    if (c->stepped) {
+        const uint64_t us = t_us > c->last_t_us ? t_us - c->last_t_us : 0u;
+        dt = us >= 100000u ? ACT_MAX_DT : num_from_float((float)us * 1.0e-6f);
+    }
+    c->last_t_us = t_us;
+    c->stepped = true;
+    return dt;
 }
 
-/* The "mstc" step (ctl.h): the table, the strategy, the active controller,
- * kinematics, then the safety filter on what the wheels will do. */
+/* The look-ahead velocity u = v e_θ + l ω e⊥ of a body velocity, times @p k. */
+static void lookahead_velocity(num_t v, num_t om, num_t cos_th, num_t sin_th, num_t k, num_t *ux,
+                               num_t *uy)
+{
+    const num_t kv = num_mul(k, v);
+    const num_t klw = num_mul(num_mul(k, CBF_LOOKAHEAD), om);
+    *ux = num_sub(num_mul(kv, cos_th), num_mul(klw, sin_th));
+    *uy = num_add(num_mul(kv, sin_th), num_mul(klw, cos_th));
+}
+
+/* What the wheels do to this step ("mstc", docs/strategy.md "Real wheels"):
+ * the period, the horizon of the wheels' lag, the estimated body velocity and
+ * the pose it carries the robot to, the command in force, its body velocity
+ * and its braking time. */
+typedef struct {
+    num_t dt;      /* [s] */
+    num_t horizon; /* T_p [s] */
+    num_t v, w;    /* estimated body velocity now [m/s], [rad/s] */
+    act_pose_t at; /* the pose the lag carries the robot to */
+    num_t vc, wc;  /* the command in force's body velocity */
+    num_t brake_t; /* T_b of the command in force [s] */
+} wheels_now_t;
+
+static void wheels_now(ctl_t *c, const ctl_input_t *in, num_t cos_th, num_t sin_th,
+                       wheels_now_t *wn)
+{
+    const ctl_params_t *p = &c->p;
+    wn->dt = step_dt(c, in->t_us);
+    act_estimate(&c->act, p->wheel_tau, wn->dt, in->wheels_measured ? &in->wheels : NULL);
+    wn->horizon = act_horizon(p->wheel_tau, wn->dt, in->wheels_measured);
+    kin_vw_from_wheels(&p->kin, &c->act.est, &wn->v, &wn->w);
+    act_predict(&in->robot, cos_th, sin_th, wn->v, wn->w, wn->horizon, &wn->at);
+    kin_vw_from_wheels(&p->kin, &c->act.cmd, &wn->vc, &wn->wc);
+    wn->brake_t = act_brake_time(&c->act.cmd, c->act.lim.inv_accel, wn->dt);
+}
+
+/* The tracking errors carried over the horizon T_p by their kinematics
+ * (Kanayama: ė1 = ω e2 − v + v_r cos e3, ė2 = −ω e1 + v_r sin e3,
+ * ė3 = ω_r − ω, at the estimated (v, ω)), to first order; cos and sin of
+ * the new e3 by rotating those of e3 (act_predict()'s rotation). */
+typedef struct {
+    trk_err_t e;
+    num_t c3, s3; /* cos e3, sin e3 */
+} pred_err_t;
+
+static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const trk_err_t *e,
+                           pred_err_t *pe)
+{
+    const num_t c3 = num_cos(e->e3);
+    const num_t s3 = num_sin(e->e3);
+    const num_t t = wn->horizon;
+    const num_t e1d = num_add(num_sub(num_mul(wn->w, e->e2), wn->v), num_mul(in->v_r, c3));
+    const num_t e2d = num_add(num_neg(num_mul(wn->w, e->e1)), num_mul(in->v_r, s3));
+    pe->e.e1 = num_add(e->e1, num_mul(t, e1d));
+    pe->e.e2 = num_add(e->e2, num_mul(t, e2d));
+    act_pose_t r;
+    const pose_t zero = { NUM_ZERO, NUM_ZERO, e->e3 };
+    act_predict(&zero, c3, s3, NUM_ZERO, num_sub(in->w_r, wn->w), t, &r);
+    pe->e.e3 = r.p.theta;
+    pe->c3 = r.c;
+    pe->s3 = r.s;
+}
+
+/* The tracking command through the wheels' limits ("mstc"): eq. (2)-(3) on
+ * the errors the lag carries the robot to (predict_errors()); the turn
+ * beyond ω_r held within 2γ'/(k3 |v_r|) and the speed beyond v_r cos e3
+ * within sqrt(2 a' |e1|): the largest corrections a heading (or distance)
+ * error can be brought to zero with, decelerating at γ' (a'), without
+ * overshoot (a braking curve; for a law of gain K the curve
+ * |x| <= sqrt(2 γ' |x| / K) is the bound 2γ'/K). */
+static void track_command(const ctl_t *c, const ctl_input_t *in, const pred_err_t *pe, num_t *v,
+                          num_t *w)
+{
+    const act_limits_t *lim = &c->act.lim;
+    const trk_gains_t *g = &c->p.trk;
+    const num_t ff = num_mul(in->v_r, pe->c3);
+    const num_t most_v =
+        num_sqrt(num_mul(num_add(lim->law_accel, lim->law_accel), num_abs(pe->e.e1)));
+    *v = num_add(ff, num_clamp(num_mul(g->k1, pe->e.e1), num_neg(most_v), most_v));
+    const num_t turn = num_mul(in->v_r, num_add(num_mul(g->k2, pe->e.e2), num_mul(g->k3, pe->s3)));
+    const num_t k3v = num_mul(g->k3, num_abs(in->v_r));
+    num_t most_w = NUM_MAX;
+    if (k3v > NUM_ZERO) {
+        most_w = num_div(num_add(lim->gamma, lim->gamma), k3v);
+    }
+    *w = num_add(in->w_r, num_clamp(turn, num_neg(most_w), most_w));
+}
+
+/* The avoidance command through the wheels' limits ("mstc"): eq. (23) on the
+ * predicted errors, within [MSW_SPEED_MIN |v_r|, speed_limit] as
+ * avoid_speed() and no faster than ρ sqrt(γ') on a circle of radius ρ (a
+ * turn onto it the wheels can build: ω = v/ρ <= sqrt(γ')); eq. (24) at the
+ * predicted pose with its correction k2 e held within 2γ'/k2 (as
+ * track_command()). */
+static void avoid_command(const ctl_t *c, const ctl_input_t *in, const wheels_now_t *wn,
+                          const pred_err_t *pe, const msw_decision_t *d, num_t *v, num_t *w,
+                          num_t *e)
+{
+    const act_limits_t *lim = &c->act.lim;
+    const num_t v23 = num_add(num_mul(in->v_r, pe->c3), num_mul(c->p.avd.k1, pe->e.e1));
+    const num_t slowest = num_mul(MSW_SPEED_MIN, num_abs(in->v_r));
+    const num_t cap = num_max(num_mul(d->circle.d_s, lim->sqrt_gamma), slowest);
+    *v = num_clamp(v23, slowest, num_min(speed_limit(in->v_r), cap));
+    avd_turn(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, d->side, *v, w, e);
+    const num_t corr = num_mul(c->p.avd.k2, *e);
+    const num_t most = num_div(num_add(lim->gamma, lim->gamma), c->p.avd.k2);
+    *w = num_add(num_sub(*w, corr), num_clamp(corr, num_neg(most), most));
+}
+
+/* How much farther than D_act a closing obstacle activates: the distance the
+ * command in force needs to stop, |v| (wheel_tau + T_b). */
+static num_t activation_reach(const ctl_t *c, const wheels_now_t *wn)
+{
+    return num_mul(num_abs(wn->vc), num_add(c->p.wheel_tau, wn->brake_t));
+}
+
+/* What the filter needs of the wheels (cbf.h): the look-ahead point where the
+ * lag carries it, the command in force, its braking time, the acceleration. */
+static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, num_t sin_th,
+                          cbf_motion_t *m)
+{
+    lookahead_velocity(wn->v, wn->w, cos_th, sin_th, wn->horizon, &m->shift_x, &m->shift_y);
+    lookahead_velocity(wn->vc, wn->wc, cos_th, sin_th, NUM_ONE, &m->qx, &m->qy);
+    m->brake_t = wn->brake_t;
+    m->inv_accel = c->act.lim.inv_av;
+    m->side = c->act.lim.side;
+    m->inv_side = c->act.lim.inv_side;
+    m->gap = num_sub(c->p.d_s, num_add(c->p.r_m, c->p.r_ob));
+}
+
+/* The rate limiter and the braking guard (cbf_guard()). */
+static bool limit_and_guard(ctl_t *c, const wheels_now_t *wn, const num_t *dist,
+                            kin_wheels_t *wheels)
+{
+    const cbf_guard_t g = { .kin = &c->p.kin,
+                            .accel = c->p.wheel_accel,
+                            .inv_accel = c->act.lim.inv_accel,
+                            .dt = wn->dt,
+                            .start = wn->at.p,
+                            .c = wn->at.c,
+                            .s = wn->at.s,
+                            .lead = num_mul(num_abs(wn->v), wn->horizon) };
+    return cbf_guard(&c->act, &g, c->sup.obs, dist, c->sup.n_obs, wheels);
+}
+
+/* Id of the nearest obstacle (the one a guard's braking concerns, when the
+ * filter named none), 0 when none. */
+static uint8_t nearest_id(const ctl_t *c, const ctl_status_t *st)
+{
+    uint8_t id = 0u;
+    num_t best = NUM_MAX;
+    for (uint8_t i = 0; i < c->sup.n_obs; i++) {
+        if (st->distance[i] < best) {
+            best = st->distance[i];
+            id = c->sup.obs[i].o.id;
+        }
+    }
+    return id;
+}
+
+/* The "mstc" step (ctl.h): the table, the strategy, the active controller
+ * through the wheels' limits, kinematics, then the safety filter on what the
+ * wheels will do, the rate limiter and the braking guard. */
 static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
-    take_reports(c, in, true, out);
     size_t n_ev = out->n_events;
     const num_t cos_th = num_cos(in->robot.theta);
     const num_t sin_th = num_sin(in->robot.theta);
     trk_errors_cs(&in->robot, cos_th, sin_th, &in->ref, &st->err);
+    wheels_now_t wn;
+    wheels_now(c, in, cos_th, sin_th, &wn);
+    pred_err_t pe;
+    predict_errors(in, &wn, &st->err, &pe);
     num_t v_trk;
     num_t w_trk;
-    trk_control(&c->p.trk, &st->err, in->v_r, in->w_r, &v_trk, &w_trk);
+    track_command(c, in, &pe, &v_trk, &w_trk);
     /* Centre distances first: the strategy uses them, the status reports them
      * (oset_distance: as fill_distances, the cheaper way). Some obstacle
      * within its D_act + MSW_REGULATE: the tracking speed is regulated
@@ -199,7 +381,8 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
                              .v_trk = v_trk,
                              .w_trk = w_trk,
                              .dist = st->distance,
-                             .t_us = in->t_us };
+                             .t_us = in->t_us,
+                             .reach = activation_reach(c, &wn) };
     msw_decision_t d;
     msw_step(&c->msw, &c->sup, &mi, out->events, &n_ev, &d);
 
@@ -212,21 +395,40 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     } else if (d.mode == SUP_MODE_AVOID && d.followed != NULL) { /* msw_step sets both */
         st->active_obstacle = d.followed->o.id;
         st->side = d.side;
-        v = avoid_speed(&c->p, &st->err, in->v_r);
-        avd_turn(&c->p.avd, &in->robot, cos_th, sin_th, &d.circle, d.side, v, &w, &st->e);
+        avoid_command(c, in, &wn, &pe, &d, &v, &w, &st->e);
     } else {
         /* STOP (p3) and BLOCKED: v = ω = 0. */
     }
     wheels_for(c, v, w, &out->wheels, &st->faults);
     /* The filter sees what the wheels will do. */
     kin_vw_from_wheels(&c->p.kin, &out->wheels, &v, &w);
+    cbf_motion_t motion;
+    filter_motion(c, &wn, cos_th, sin_th, &motion);
     cbf_result_t fr;
-    cbf_step(&c->cbf, &in->robot, cos_th, sin_th, c->sup.obs, st->distance, c->sup.n_obs, &v, &w,
-             &fr);
+    const bool was_infeasible = c->cbf.infeasible;
+    const bool was_active = c->cbf.active; /* cbf_step sets it for this step */
+    cbf_step(&c->cbf, &in->robot, cos_th, sin_th, &motion, c->sup.obs, st->distance, c->sup.n_obs,
+             &v, &w, &fr);
+    if (fr.changed) {
+        wheels_for(c, v, w, &out->wheels, &st->faults);
+    }
+    /* A moving obstacle no command within the wheels' limits keeps away. */
+    const uint8_t unreachable = cbf_unreachable(&c->cbf, c->sup.obs, c->sup.n_obs, &c->p.kin,
+                                                &c->act.cmd, num_mul(c->p.wheel_accel, wn.dt));
+    if (unreachable != 0u) {
+        fr.infeasible = true;
+        fr.new_infeasible = !was_infeasible;
+        c->cbf.infeasible = true;
+    }
+    if (limit_and_guard(c, &wn, st->distance, &out->wheels)) {
+        fr.changed = true;
+        fr.new_episode = !was_active;
+        c->cbf.active = true;
+        fr.obstacle = fr.obstacle != 0u ? fr.obstacle : nearest_id(c, st);
+    }
     if (fr.changed) {
         st->faults |= CTL_FAULT_FILTER;
-        wheels_for(c, v, w, &out->wheels, &st->faults);
-        if (fr.new_episode) {
+        if (fr.new_episode && n_ev < SUP_MAX_EVENTS) {
             out->events[n_ev] = (sup_event_t){ .t_us = in->t_us,
                                                .kind = (uint8_t)SUP_EVENT_FILTER,
                                                .obstacle = fr.obstacle,
@@ -234,8 +436,17 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
             n_ev++;
         }
     }
+    if (fr.new_infeasible && n_ev < SUP_MAX_EVENTS) {
+        out->events[n_ev] =
+            (sup_event_t){ .t_us = in->t_us,
+                           .kind = (uint8_t)SUP_EVENT_INFEASIBLE,
+                           .obstacle = unreachable != 0u ? unreachable : fr.obstacle,
+                           .side = (int8_t)AVD_SIDE_NONE };
+        n_ev++;
+    }
     out->n_events = n_ev;
     finish(c, out);
+    c->act.cmd = out->wheels; /* zero when finish() had to */
 }
 
 /* The "paper" step: the paper's supervisor and controllers, as they have
@@ -278,11 +489,18 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
 
     if (!inputs_in_range(in)) {
-        /* Bad data from outside: stop, and leave the supervisor as it was. */
+        /* Bad data from outside: stop, and leave the supervisor as it was;
+         * "mstc" brakes as fast as its wheels can (act.h). */
         st->faults = CTL_FAULT_INPUT_NONFINITE;
+        if (ctl_is_mstc(&c->p)) {
+            (void)act_limit(&c->act, c->p.wheel_accel, step_dt(c, in->t_us), &out->wheels);
+        }
         return;
     }
     if (ctl_is_mstc(&c->p)) {
+        /* The reports first, from here: their screening copy is off the
+         * stack before mstc_step's frame is on it (the F103's stack). */
+        take_reports(c, in, true, out);
         mstc_step(c, in, out);
     } else {
         paper_step(c, in, out);

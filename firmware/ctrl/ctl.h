@@ -12,6 +12,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ctrl/act.h"
 #include "ctrl/avd.h"
 #include "ctrl/cbf.h"
 #include "ctrl/ctl_limits.h"
@@ -50,6 +51,11 @@ typedef struct {
     /** CTL_STRATEGY_PAPER or CTL_STRATEGY_MSTC, held as a number like every
      *  parameter the table checks (an enumerated one: a whole number). */
     num_t strategy;
+    /** What the wheels can do [rad/s²]: "mstc" changes no wheel command
+     *  faster (act.h) and brakes with it in its safety filter (cbf.h). */
+    num_t wheel_accel;
+    /** The wheels' lag to their command, delays included [s] (act.h). */
+    num_t wheel_tau;
     /** The boards' wheel-speed loop (firmware/wheel, PARAM_SET 17..): not
      *  used by the control step; in the set for its checks (wheel_ramp is
      *  bounded by max_wheel_decel). */
@@ -115,10 +121,11 @@ enum {
  * float, so every output is finite; outside them a step stops
  * (CTL_FAULT_INPUT_NONFINITE), an obstacle report is dropped. All are within
  * Q16.16's range too. @{ */
-#define CTL_MAX_ABS_POSITION NUM_C(10000.0) /**< |x|, |y| of poses and obstacles [m] */
-#define CTL_MAX_ABS_ANGLE    NUM_C(1000.0)  /**< |θ| [rad], wrapped by the controllers */
-#define CTL_MAX_ABS_SPEED    NUM_C(100.0)   /**< |v_r| [m/s], |ω_r| [rad/s], obstacle |vx|, |vy| */
-#define CTL_MAX_RADIUS       NUM_C(100.0)   /**< obstacle radius [m] */
+#define CTL_MAX_ABS_POSITION    NUM_C(10000.0) /**< |x|, |y| of poses and obstacles [m] */
+#define CTL_MAX_ABS_ANGLE       NUM_C(1000.0)  /**< |θ| [rad], wrapped by the controllers */
+#define CTL_MAX_ABS_SPEED       NUM_C(100.0) /**< |v_r| [m/s], |ω_r| [rad/s], obstacle |vx|, |vy| */
+#define CTL_MAX_RADIUS          NUM_C(100.0)  /**< obstacle radius [m] */
+#define CTL_MAX_ABS_WHEEL_SPEED NUM_C(1000.0) /**< measured wheel speeds [rad/s] */
 /** @} */
 
 /** @brief Inputs of one step. */
@@ -130,6 +137,11 @@ typedef struct {
     const sup_obstacle_t *obstacles; /**< obstacles the sensor reports now */
     size_t n_obstacles;
     uint64_t t_us; /**< step time [µs] */
+    /** Measured wheel speeds (WHEEL_SPEED: each wheel's mean over the period
+     *  that just ended) [rad/s], when wheels_measured; "mstc" predicts them
+     *  from its own commands otherwise (act.h). */
+    kin_wheels_t wheels;
+    bool wheels_measured;
 } ctl_input_t;
 
 /** @brief What the step did, for telemetry. */
@@ -158,10 +170,17 @@ typedef struct {
 /** @brief Controller state. */
 typedef struct {
     ctl_params_t p;
-    sup_t sup; /**< obstacle table; the paper's switch strategy */
-    msw_t msw; /**< the "mstc" switch strategy */
-    cbf_t cbf; /**< the "mstc" safety filter */
+    sup_t sup;          /**< obstacle table; the paper's switch strategy */
+    msw_t msw;          /**< the "mstc" switch strategy */
+    cbf_t cbf;          /**< the "mstc" safety filter */
+    act_t act;          /**< the "mstc" wheels: rate limiter base and estimate */
+    uint64_t last_t_us; /**< time of the last step [µs] */
+    bool stepped;       /**< a step has run since init or reset */
 } ctl_t;
+
+/** @brief The period the first "mstc" step assumes [s]: the inputs' DBC cycle
+ *         time (the period before it is unknown). */
+#define CTL_FIRST_DT NUM_C(0.02)
 
 /** @brief The defaults of the table: Table 1, with wheel geometry that never
  *         saturates in the paper's scenarios (r = 0.05 m, L = 0.3 m,
@@ -211,6 +230,11 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p);
 
 /** @brief Forget obstacles and return to tracking. */
 void ctl_reset(ctl_t *c);
+
+/** @brief The wheels were commanded @p w without the control step (the
+ *         application's halt ramp): "mstc"'s next command starts from
+ *         there (act_sync()). */
+void ctl_sync_wheels(ctl_t *c, const kin_wheels_t *w);
 
 /**
  * @brief One control step, with the strategy of the parameters: "paper"

@@ -19,12 +19,12 @@ const ctl_limit_t ctl_limits[CTL_N_PARAMS] = {
     { NUM_C(0.02), NUM_C(4.0), NUM_C(0.3), true, true, false },     /* 11 track_width [m] */
     { NUM_C(1.0), NUM_C(127.99), NUM_C(100.0), true, true, false }, /* 12 max_wheel_speed [rad/s] */
     { NUM_C(1.25), NUM_C(10000.0), NUM_C(125.0), true, false,
-      false },                                                    /* 13 max_wheel_decel [rad/s²] */
-    { NUM_C(0.0), NUM_C(1.0), NUM_C(1.0), true, true, true },     /* 14 strategy */
-    { NUM_C(0.0), NUM_C(0.0), NUM_C(0.0), false, false, false },  /* 15 reserved */
-    { NUM_C(0.0), NUM_C(0.0), NUM_C(0.0), false, false, false },  /* 16 reserved */
-    { NUM_C(0.0), NUM_C(10.0), NUM_C(0.219), true, true, false }, /* 17 wheel_kp [s/rad] */
-    { NUM_C(0.0), NUM_C(1000.0), NUM_C(6.19), true, true, false }, /* 18 wheel_ki [1/rad] */
+      false },                                                /* 13 max_wheel_decel [rad/s²] */
+    { NUM_C(0.0), NUM_C(1.0), NUM_C(1.0), true, true, true }, /* 14 strategy */
+    { NUM_C(1.0), NUM_C(10000.0), NUM_C(20.0), true, true, false }, /* 15 wheel_accel [rad/s²] */
+    { NUM_C(0.0), NUM_C(1.0), NUM_C(0.06), true, true, false },     /* 16 wheel_tau [s] */
+    { NUM_C(0.0), NUM_C(10.0), NUM_C(0.219), true, true, false },   /* 17 wheel_kp [s/rad] */
+    { NUM_C(0.0), NUM_C(1000.0), NUM_C(6.19), true, true, false },  /* 18 wheel_ki [1/rad] */
     { NUM_C(1.0), NUM_C(127.99), NUM_C(34.56), true, true,
       false }, /* 19 wheel_free_speed [rad/s] */
     { NUM_C(0.001), NUM_C(10.0), NUM_C(0.0856), true, true, false },   /* 20 wheel_motor_tau [s] */
@@ -69,6 +69,8 @@ num_t *ctl_param_slot(ctl_params_t *p, unsigned index)
     case CTL_P_MAX_WHEEL_SPEED: return &p->kin.max_wheel_speed;
     case CTL_P_MAX_WHEEL_DECEL: return &p->max_wheel_decel;
     case CTL_P_STRATEGY: return &p->strategy;
+    case CTL_P_WHEEL_ACCEL: return &p->wheel_accel;
+    case CTL_P_WHEEL_TAU: return &p->wheel_tau;
     case CTL_P_WHEEL_KP: return &p->wheel.kp;
     case CTL_P_WHEEL_KI: return &p->wheel.ki;
     case CTL_P_WHEEL_FREE_SPEED: return &p->wheel.free_speed;

@@ -26,6 +26,8 @@ enum {
     CTL_P_MAX_WHEEL_SPEED = 12,  /**< max_wheel_speed [rad/s] */
     CTL_P_MAX_WHEEL_DECEL = 13,  /**< max_wheel_decel [rad/s²] */
     CTL_P_STRATEGY = 14,         /**< strategy */
+    CTL_P_WHEEL_ACCEL = 15,      /**< wheel_accel [rad/s²] */
+    CTL_P_WHEEL_TAU = 16,        /**< wheel_tau [s] */
     CTL_P_WHEEL_KP = 17,         /**< wheel_kp [s/rad] */
     CTL_P_WHEEL_KI = 18,         /**< wheel_ki [1/rad] */
     CTL_P_WHEEL_FREE_SPEED = 19, /**< wheel_free_speed [rad/s] */
@@ -40,6 +42,9 @@ enum {
 /** @brief Parameter indices are 0 .. CTL_N_PARAMS - 1 (an index the
  *         table leaves out is reserved: not held). */
 #define CTL_N_PARAMS    26u
+/** @brief 1 when every index below CTL_N_PARAMS has a row (none
+ *         reserved): the firmware then skips the held test. */
+#define CTL_ALL_HELD    1
 /** @brief Relations in ctl_relations[]. */
 #define CTL_N_RELATIONS 6u
 /** @brief No parameter: the second term of a one-term relation. */

@@ -7,15 +7,19 @@
 
 /* Every row of the table is held (tools/gen-limits refuses one that is not),
  * so ctl_param_slot() of an index below CTL_N_PARAMS is NULL only for an
- * index the table leaves out (reserved: ctl_limits[i].held is false). */
-
+ * index the table leaves out (reserved: ctl_limits[i].held is false). When
+ * the table leaves none out (CTL_ALL_HELD), there is nothing to skip, and
+ * the test is not compiled (it could never be false). */
 void ctl_params_default(ctl_params_t *p)
 {
     *p = (ctl_params_t){ 0 };
     for (unsigned i = 0; i < CTL_N_PARAMS; i++) {
-        if (ctl_limits[i].held) {
-            *ctl_param_slot(p, i) = ctl_limits[i].def;
+#if !CTL_ALL_HELD
+        if (!ctl_limits[i].held) {
+            continue;
         }
+#endif
+        *ctl_param_slot(p, i) = ctl_limits[i].def;
     }
 }
 
@@ -61,7 +65,12 @@ ctl_params_verdict_t ctl_params_verdict(const ctl_params_t *p)
 {
     ctl_params_t q = *p;
     for (unsigned i = 0; i < CTL_N_PARAMS; i++) {
-        if (ctl_limits[i].held && !in_range(value_of(&q, i), &ctl_limits[i])) {
+#if !CTL_ALL_HELD
+        if (!ctl_limits[i].held) {
+            continue;
+        }
+#endif
+        if (!in_range(value_of(&q, i), &ctl_limits[i])) {
             return CTL_PARAMS_RANGE;
         }
     }

@@ -141,13 +141,14 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
         const sup_entry_t *e = &s->obs[i];
         /* Beyond any trigger's reach first: the cheapest test, and most
          * entries fail it. */
-        if (in->dist[i] >= num_add(e->d_act, MSW_CPA_REACH) || m->acts[i] >= MSW_MAX_ACTIVATIONS ||
-            in_mask(skip, i)) {
+        if (in->dist[i] >= num_add(num_add(e->d_act, MSW_CPA_REACH), in->reach) ||
+            m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
             continue;
         }
-        bool trig = in->dist[i] < e->d_act && closing(lk, e);
+        bool trig = in->dist[i] < num_add(e->d_act, in->reach) && closing(lk, e);
         if (!trig && moving(e)) {
-            trig = cpa_inside(lk, e, MSW_CPA_HORIZON, MSW_CPA_MARGIN);
+            /* Within d_act + MSW_CPA_REACH + reach: the test above. */
+            trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, in->reach));
         }
         if (trig) {
             const num_t b = boundary(s, in, i);
@@ -293,7 +294,9 @@ static bool way_clear(const sup_t *s, look_t *lk)
     for (uint8_t i = 0; i < s->n_obs; i++) {
         const sup_entry_t *e = &s->obs[i];
         num_t clear = num_add(e->d_s, MSW_MARGIN);
-        if (in->dist[i] < num_add(e->d_act, MSW_MARGIN)) {
+        /* Within the reach of an activation (D_act + the braking reach,
+         * candidate()), by the margin. */
+        if (in->dist[i] < num_add(num_add(e->d_act, in->reach), MSW_MARGIN)) {
             clear = num_max(clear, num_sub(in->dist[i], MSW_MARGIN));
         }
         /* A moving entry: the robot no longer closes on it within reach of an

@@ -110,6 +110,9 @@ typedef struct {
     num_t v_trk, w_trk;   /**< the tracking command of this step, eq. (2)-(3) */
     const num_t *dist;    /**< centre distance to each table entry [m] */
     uint64_t t_us;        /**< step time [µs] */
+    /** How much farther than D_act a closing obstacle activates [m]: the
+     *  distance the wheels need to brake (0: at D_act, as the paper). */
+    num_t reach;
 } msw_input_t;
 
 /** @brief What the strategy decided. */

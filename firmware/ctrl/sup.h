@@ -41,14 +41,16 @@ typedef enum {
 
 /** @brief Kinds of event. */
 typedef enum {
-    SUP_EVENT_DETECT = 1,   /**< first step with D_r <= D_det (Definition 1) */
-    SUP_EVENT_ACTIVATE = 2, /**< p2 held: avoidance starts, with its side */
-    SUP_EVENT_COMPLETE = 3, /**< p1 held for the active obstacle: tracking resumes ("mstc":
-                                 the release test of msw.h held) */
-    SUP_EVENT_BLOCKED = 4,  /**< "mstc": the robot stops, no progress is possible (msw.h) */
-    SUP_EVENT_RESUME = 5,   /**< "mstc": the way is clear again, tracking resumes; obstacle 0 */
-    SUP_EVENT_FILTER = 6,   /**< "mstc": first step of a safety-filter intervention episode;
-                                 obstacle = the constraining one (cbf.h) */
+    SUP_EVENT_DETECT = 1,     /**< first step with D_r <= D_det (Definition 1) */
+    SUP_EVENT_ACTIVATE = 2,   /**< p2 held: avoidance starts, with its side */
+    SUP_EVENT_COMPLETE = 3,   /**< p1 held for the active obstacle: tracking resumes ("mstc":
+                                   the release test of msw.h held) */
+    SUP_EVENT_BLOCKED = 4,    /**< "mstc": the robot stops, no progress is possible (msw.h) */
+    SUP_EVENT_RESUME = 5,     /**< "mstc": the way is clear again, tracking resumes; obstacle 0 */
+    SUP_EVENT_INFEASIBLE = 7, /**< "mstc": first step at which the safety filter finds a
+                                   moving obstacle it cannot keep away (cbf.h) */
+    SUP_EVENT_FILTER = 6,     /**< "mstc": first step of a safety-filter intervention episode;
+                                   obstacle = the constraining one (cbf.h) */
 } sup_event_kind_t;
 
 /** @brief An event, stamped with the time of the step that emitted it. */

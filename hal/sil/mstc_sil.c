@@ -56,8 +56,16 @@ static double to_d(num_t n) { return (double)n / 65536.0; }
  * CTL_FAULT_INPUT_NONFINITE, supervisor untouched); fixed mode checks here. */
 static bool input_finite(const mstc_sil_input_t *in)
 {
-    const double v[] = { in->robot[0], in->robot[1], in->robot[2], in->ref[0],
-                         in->ref[1],   in->ref[2],   in->v_r,      in->w_r };
+    const double v[] = { in->robot[0],
+                         in->robot[1],
+                         in->robot[2],
+                         in->ref[0],
+                         in->ref[1],
+                         in->ref[2],
+                         in->v_r,
+                         in->w_r,
+                         in->wheel_measured != 0u ? in->wheel_speed[0] : 0.0,
+                         in->wheel_measured != 0u ? in->wheel_speed[1] : 0.0 };
     for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
         if (!isfinite(v[i])) {
             return false;
@@ -106,6 +114,8 @@ void mstc_sil_defaults(mstc_sil_params_t *p)
         .track_width = to_d(c.kin.track_width),
         .max_wheel_speed = to_d(c.kin.max_wheel_speed),
         .strategy = ctl_is_mstc(&c) ? (uint32_t)CTL_STRATEGY_MSTC : (uint32_t)CTL_STRATEGY_PAPER,
+        .wheel_accel = to_d(c.wheel_accel),
+        .wheel_tau = to_d(c.wheel_tau),
     };
 }
 
@@ -125,6 +135,8 @@ static ctl_params_t params_from(const mstc_sil_params_t *p)
     c.strategy = num_from_int(p->strategy <= 2u ? (int32_t)p->strategy : 2);
     c.kin = (kin_params_t){ from_d(p->wheel_radius), from_d(p->track_width),
                             from_d(p->max_wheel_speed) };
+    c.wheel_accel = from_d(p->wheel_accel);
+    c.wheel_tau = from_d(p->wheel_tau);
     return c;
 }
 
@@ -243,6 +255,8 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
         .obstacles = obs,
         .n_obstacles = in->n_obstacles,
         .t_us = in->t_us,
+        .wheels = { from_d(in->wheel_speed[0]), from_d(in->wheel_speed[1]) },
+        .wheels_measured = in->wheel_measured != 0u,
     };
     ctl_output_t co;
     ctl_step((ctl_t *)mem, &ci, &co);
@@ -346,6 +360,8 @@ static const mstc_sil_layout_t layout[] = {
     LAYOUT_FIELD(mstc_sil_params_t, track_width),
     LAYOUT_FIELD(mstc_sil_params_t, max_wheel_speed),
     LAYOUT_FIELD(mstc_sil_params_t, strategy),
+    LAYOUT_FIELD(mstc_sil_params_t, wheel_accel),
+    LAYOUT_FIELD(mstc_sil_params_t, wheel_tau),
 
     LAYOUT_STRUCT(mstc_sil_obstacle_t),
     LAYOUT_FIELD(mstc_sil_obstacle_t, id),
@@ -363,6 +379,8 @@ static const mstc_sil_layout_t layout[] = {
     LAYOUT_FIELD(mstc_sil_input_t, t_us),
     LAYOUT_FIELD(mstc_sil_input_t, n_obstacles),
     LAYOUT_FIELD(mstc_sil_input_t, obstacles),
+    LAYOUT_FIELD(mstc_sil_input_t, wheel_speed),
+    LAYOUT_FIELD(mstc_sil_input_t, wheel_measured),
 
     LAYOUT_STRUCT(mstc_sil_event_t),
     LAYOUT_FIELD(mstc_sil_event_t, t_us),

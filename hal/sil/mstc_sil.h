@@ -33,7 +33,9 @@ typedef struct {
     double trk_k[3]; /**< tracking gains k1, k2, k3 */
     double avd_k[2]; /**< avoidance gains k1, k2 */
     double wheel_radius, track_width, max_wheel_speed;
-    uint32_t strategy; /**< 0 paper, 1 mstc (the DBC's value table Strategy) */
+    uint32_t strategy;  /**< 0 paper, 1 mstc (the DBC's value table Strategy) */
+    double wheel_accel; /**< what the wheels can do [rad/s²] */
+    double wheel_tau;   /**< their lag, delays included [s] */
 } mstc_sil_params_t;
 
 /** @brief A reported obstacle. */
@@ -51,6 +53,12 @@ typedef struct {
     uint64_t t_us;   /**< step time [µs] */
     uint32_t n_obstacles;
     const mstc_sil_obstacle_t *obstacles;
+    /** Measured wheel speeds, left and right [rad/s] (WHEEL_SPEED: each
+     *  wheel's mean over the period that just ended), used when
+     *  wheel_measured is not 0; otherwise the firmware predicts them from its
+     *  own commands. */
+    double wheel_speed[2];
+    uint32_t wheel_measured;
 } mstc_sil_input_t;
 
 /** @brief An event (see sup_event_t). */

@@ -113,6 +113,9 @@ class EventKind(StrEnum):
     FILTER = "filter"
     """Strategy "mstc": the first step of an intervention of the safety filter,
     on the obstacle that constrained it."""
+    INFEASIBLE = "infeasible"
+    """Strategy "mstc": the first step at which the safety filter finds an
+    obstacle coming in that no command within the wheels' limits keeps away."""
 
 
 class Side(StrEnum):
@@ -217,6 +220,7 @@ class Controller(Protocol):
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         """Run one control period.
 
@@ -226,6 +230,10 @@ class Controller(Protocol):
         :param w_r: reference angular velocity [rad/s].
         :param obstacles: what the range sensor reports now.
         :param t_us: step time [µs].
+        :param wheel_speeds: the wheel speeds the wheels' drivers measured
+            (left, right) [rad/s], each the mean over the period that just
+            ended (WHEEL_SPEED), or None when the plant has none (ideal
+            wheels): the controller then predicts them from its commands.
 
         :returns: Wheel speed commands, status and the events of this step.
         """
@@ -312,6 +320,10 @@ class Params:
     """Largest |wheel angular speed| [rad/s]."""
     strategy: Strategy = Strategy.MSTC
     """Switching strategy; the paper's scenario files select ``paper``."""
+    wheel_accel: float = _default("wheel_accel")
+    """What the wheels can do [rad/s²] ("mstc" limits its commands to it)."""
+    wheel_tau: float = _default("wheel_tau")
+    """The wheels' lag to their command, delays included [s]."""
 
     def safe_distance(self, radius: float) -> float:
         """D_s for an obstacle of ``radius`` [m]: moved out by (radius − R_ob),
@@ -338,6 +350,8 @@ PARAM_NAMES: dict[str, tuple[str, int | None]] = {
     "wheel_radius": ("wheel_radius", None),
     "track_width": ("track_width", None),
     "max_wheel_speed": ("max_wheel_speed", None),
+    "wheel_accel": ("wheel_accel", None),
+    "wheel_tau": ("wheel_tau", None),
 }
 """The parameters the Python side sets and reads, by their name in the DBC's
 PARAM_SET_index value table: the :class:`Params` field of each, and the

@@ -273,7 +273,7 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
         "e": e,
         "distance": distance,
         "step": step & 0x7,
-        "halt": min(halt, 6),
+        "halt": min(halt, 7),
     }
     return inputs, wire
 
@@ -283,7 +283,7 @@ def _event(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     t_us = rng.choice([0, rng.randint(0, 2**32 - 1), 2**32 - 1])
     inputs = [kind, side, obstacle, t_us]
     wire = {
-        "kind": min(kind, 6),
+        "kind": min(kind, 7),
         "side": {0: 0, 1: 1, -1: 2}[side],
         "obstacle": min(obstacle, 15),
         "time": t_us * 1e-6,

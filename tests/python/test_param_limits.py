@@ -158,6 +158,8 @@ def _params_of(values: Mapping[str, float]) -> Params:
         wheel_radius=values["wheel_radius"],
         track_width=values["track_width"],
         max_wheel_speed=values["max_wheel_speed"],
+        wheel_accel=values["wheel_accel"],
+        wheel_tau=values["wheel_tau"],
     )
 
 

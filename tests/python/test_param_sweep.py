@@ -430,4 +430,6 @@ def test_no_parameter_sequence_keeps_the_wheels_turning_1_s_after_a_cut(numeric:
     # The sweep is not degenerate: it moved, and every answer came up.
     assert stats.moving_at_cut > TRIALS // 3, line
     assert set(stats.sets) == set(RESULTS.values()), line
-    assert all(stats.accepted[p.name] > TRIALS // 100 for p in HELD), stats.accepted
+    # (26 parameters share the draws since issues 19 and 20: D_s, bound by
+    # two relations, is accepted about 90 times in 10,000 trials.)
+    assert all(stats.accepted[p.name] > TRIALS // 200 for p in HELD), stats.accepted

@@ -37,7 +37,7 @@ STOP = re.compile(
 HALT = re.compile(r"flags\s+the\s+halt\s+within\s+(\S+)\s+control\s+periods\b")
 DT_US = 20_000
 """Control period of the run [µs]."""
-ARM, SPEED, DECEL = 128, 12, 13
+ARM, SPEED, DECEL, WHEEL_ACCEL = 128, 12, 13, 15
 """PARAM indices (mstc.dbc): the arm command, max_wheel_speed, max_wheel_decel."""
 
 
@@ -125,6 +125,10 @@ def _cut(bus: can.BusABC, speed: float, decel: float | None) -> Cut:
     """Drive at the wheel limit @p speed, then cut odometry; @p decel None
     keeps the firmware's default deceleration."""
     d = Driver(bus)
+    # Wheels that follow at once (issue 19's wheel_accel, default 20 rad/s²
+    # for a gearmotor): full speed at the first step, so that the halt
+    # starts from the limit.
+    assert d.param(WHEEL_ACCEL, 10000.0) == 0
     if decel is not None:
         assert d.param(DECEL, decel) == 0
     assert d.param(SPEED, speed) == 0

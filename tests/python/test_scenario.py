@@ -16,7 +16,7 @@ from mstc.cli import main
 from mstc.errors import ScenarioError
 from mstc.model import EventKind, Params, Pose, Side, Strategy
 from mstc.plant.plant import Integrator
-from mstc.plant.scenario import load_scenario
+from mstc.plant.scenario import IDEAL_WHEEL_ACCEL, load_scenario
 
 WriteScenario = Callable[[Mapping[str, object], str], Path]
 
@@ -63,7 +63,8 @@ def test_valid_file_loads_with_table_1_defaults_and_overrides(
     assert [(o.x, o.y, o.radius) for o in s.obstacles] == [(3.0, 5.2, 0.1), (4.0, 5.8, 0.2)]
     assert (s.sim.duration, s.sim.dt, s.sim.integrator) == (2.0, 0.02, Integrator.EULER)
     assert (s.sim.steps, s.sim.dt_us) == (100, 20_000)
-    assert s.params == Params(d_s=0.3)
+    # No [actuator]: the firmware is told its wheels follow at once.
+    assert s.params == Params(d_s=0.3, wheel_accel=IDEAL_WHEEL_ACCEL, wheel_tau=0.0)
     assert [(e.t, e.event, e.obstacle, e.side) for e in s.expected] == [
         (0.5, EventKind.DETECT, 1, None),
         (1.0, EventKind.ACTIVATE, 2, Side.LEFT),
@@ -84,7 +85,7 @@ def test_minimal_file_without_obstacles_params_or_expected(write_scenario: Write
     s = load_scenario(write_scenario(doc, "minimal"), wire_limits())
     assert s.obstacles == ()
     assert s.expected == ()
-    assert s.params == Params()
+    assert s.params == Params(wheel_accel=IDEAL_WHEEL_ACCEL, wheel_tau=0.0)
     assert (s.reference.v, s.reference.w) == (1.0, -1.0)
 
 
@@ -97,7 +98,9 @@ def test_obstacle_radius_defaults_to_the_overridden_r_ob(write_scenario: WriteSc
 def test_paper_scenarios_load() -> None:
     for name in ("paper-line", "paper-circle"):
         s = load_scenario(SCENARIOS / f"{name}.toml", wire_limits())
-        assert s.params == Params(strategy=Strategy.PAPER)
+        assert s.params == Params(
+            strategy=Strategy.PAPER, wheel_accel=IDEAL_WHEEL_ACCEL, wheel_tau=0.0
+        )
         assert (s.sim.dt, s.sim.integrator) == (0.02, Integrator.EULER)
 
 

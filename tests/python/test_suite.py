@@ -55,7 +55,8 @@ def test_same_seed_same_files_byte_for_byte(tmp_path: Path) -> None:
     suite = _small(tmp_path, count=5)
     first = _generate_in_subprocess(suite, tmp_path / "a", "1")
     second = _generate_in_subprocess(suite, tmp_path / "b", "12345")
-    assert len(first) == 50 and first == second
+    # 10 families × 3 actuator profiles × 5 scenes.
+    assert len(first) == 150 and first == second
 
 
 def test_scene_i_does_not_depend_on_the_count(tmp_path: Path) -> None:
@@ -69,8 +70,17 @@ def test_every_scene_is_a_valid_scenario_with_at_most_15_obstacles(
     scenes: dict[str, list[Scenario]],
 ) -> None:
     assert sorted(scenes) == sorted(f.name for f in load_suite(STANDARD).families)
+    profiles = [a.name for a in load_suite(STANDARD).actuators]
+    assert profiles == ["ideal", "gearmotor", "sluggish"]
     for family, items in scenes.items():
-        assert len(items) == 12
+        # Each scene under every profile: the same geometry, its own wheels.
+        assert len(items) == 12 * len(profiles)
+        ideal = [s for s in items if s.actuator.model == "ideal"]
+        assert len(ideal) == 12 and all(s.meta.actuator == "" for s in ideal)
+        for s in items:
+            if s.actuator.model != "ideal":
+                twin = ideal[s.meta.index or 0]
+                assert (s.robot, s.obstacles) == (twin.robot, twin.obstacles)
         for s in items:
             assert 0 < len(s.obstacles) <= 15, s.path
             assert s.meta.family == family and s.meta.seed is not None

@@ -126,7 +126,7 @@ def test_a_scene_failing_in_a_worker_is_an_error_row(
         assert (out / strategy / ok.name / "events.json").is_file()
     summary = write_summary(result.rows, ["paper", "dwa"], out, title="crash", firmware="test")
     text = summary.read_text()
-    assert "| (none) | paper | 1 | 1 |" in text  # the crash scene: one run, one error
+    assert "| (none) | ideal | paper | 1 | 1 |" in text  # the crash scene: one run, one error
     assert "## Errors (2)" in text
 
 
@@ -195,7 +195,7 @@ def test_summary_has_the_tables_figures_and_gallery(first: Path) -> None:
     text = (first / "summary.md").read_text()
     for family in ("head_on", "cluster"):
         for strategy in ("paper", "dwa"):
-            assert f"| {family} | {strategy} | 2 | 0 |" in text
+            assert f"| {family} | ideal | {strategy} | 2 | 0 |" in text
     assert "Wilson" in text and "## Errors" not in text
     for name in ("clearance.png", "tracking_error.png"):
         assert (first / name).stat().st_size > 1000 and f"]({name})" in text

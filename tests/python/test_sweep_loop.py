@@ -47,6 +47,7 @@ class Scripted:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         v, w = self.command(self.k)
         mode = self.mode(self.k)

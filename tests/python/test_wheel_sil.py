@@ -171,7 +171,7 @@ def test_the_actuator_table_is_read_and_checked() -> None:
     assert s.actuator.model == "dc"
     data = _paper("paper-line")
     data["actuator"] = {"model": "stepper"}
-    with pytest.raises(ScenarioError, match="actuator.model: must be one of ideal, dc"):
+    with pytest.raises(ScenarioError, match="actuator.model: must be one of ideal, lag, dc"):
         parse_scenario(data, "line.toml", wire)
     data["actuator"] = {"modle": "dc"}
     with pytest.raises(ScenarioError, match="did you mean 'model'"):

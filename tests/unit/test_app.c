@@ -30,7 +30,8 @@ void setUp(void)
 {
     hal_fake_reset();
     memset(tf_counters, 0, sizeof tf_counters);
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
     app_set_key(&app, tf_test_key, TF_SESSION);
     tf_auth = &app.auth;
     tf_freshness = 0u;
@@ -156,7 +157,8 @@ static void test_app_stands_still_until_every_input_has_arrived(void)
     send_odom(0.0, 0.0, 0.0);
     send_ref(1.0, 0.0, 0.0, 0.5, 0.0);
     /* A fresh application that has only the odometry. */
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
     memset(tf_counters, 0, sizeof tf_counters);
     send_odom(0.0, 0.0, 0.0);
     send_step(3, 0u);

@@ -35,7 +35,8 @@ void setUp(void)
     hal_fake_reset();
     hal_fake.can_status_rc = -ENOTSUP;
     memset(tf_counters, 0, sizeof tf_counters);
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
     app_set_key(&app, tf_test_key, TF_SESSION);
     tf_freshness = 0u;
 }
@@ -408,7 +409,8 @@ static void test_app_auth_status_goes_with_the_heartbeat(void)
 
 static void test_app_auth_without_a_key_every_command_is_refused(void)
 {
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
     hal_can_frame_t f[2];
     tf_param_set_auth(COMM_PARAM_D_S, 0.4f, f);
     feed(f[0]);

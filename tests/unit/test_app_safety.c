@@ -36,7 +36,8 @@ void setUp(void)
     hal_fake_reset();
     hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
     memset(tf_counters, 0, sizeof tf_counters);
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
     app_set_key(&app, tf_test_key, TF_SESSION);
     tf_auth = &app.auth;
     tf_freshness = 0u;
@@ -463,7 +464,9 @@ static void test_app_safety_every_parameter_reads_back_its_default(void)
 {
     /* Table 1, the default geometry and the halt's deceleration (125 rad/s²:
      * 100 rad/s stopped within 0.8 s), in index order; then index 14, the
-     * strategy: 1, "mstc", the board images' default. */
+     * strategy: 1, "mstc", the board images' default; 15 and 16 the wheels
+     * of a 37D-class gearmotor, 20 rad/s² and 0.06 s (ctl_params.toml). */
+    TEST_ASSERT_EQUAL_INT(0, app_init(&app, NULL));
     const float want[COMM_PARAM_COUNT] = { 0.2f, 0.1f, 3.5f, 0.5f,  0.35f, 3.0f,   12.0f,
                                            6.0f, 3.0f, 6.0f, 0.05f, 0.3f,  100.0f, 125.0f };
     for (uint8_t i = 0; i < COMM_PARAM_COUNT; i++) {
@@ -475,6 +478,12 @@ static void test_app_safety_every_parameter_reads_back_its_default(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     feed(tf_param_get(15));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 20.0f, tf_last_param_value().param_value_value);
+    feed(tf_param_get(16));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, tf_last_param_value().param_value_result);
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, 0.06f, tf_last_param_value().param_value_value);
+    feed(tf_param_get(26)); /* 17..25: the wheel loop's (firmware/wheel) */
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
@@ -537,6 +546,167 @@ static void test_app_safety_standing_reference_is_stop_not_a_halt(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
     TEST_ASSERT_EQUAL_UINT8(SUP_MODE_STOP, tf_last_status().status_mode);
     TEST_ASSERT_EQUAL_INT(COMM_STATE_STOPPED, app.state);
+}
+
+/* ------------------------------------------------------------ WHEEL_SPEED */
+
+static void test_app_safety_wheel_speeds_never_sent_are_not_needed(void)
+{
+    /* drive() sends none: the firmware predicts them (app.h). */
+    drive(5);
+}
+
+static void test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_step(void)
+{
+    arm();
+    /* WHEEL_SPEED with the first steps, then only odometry and reference: as
+     * odometry, the steps k+1 and k+2 after the last still run, k+3 halts
+     * with reason 7 (six steps: fewer than odometry that stands while the
+     * wheels turn needs to be implausible, odo.h). */
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_wheel_speed(70.0, 70.0));
+        full_step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    }
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    full_step();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, tf_last_status().status_halt);
+    TEST_ASSERT_INT32_WITHIN(TOL_RAMP_RAW, 71680 - 2560, tf_last_wheels().wheel_cmd_left);
+}
+
+static void test_app_safety_odometry_follows_the_measured_speeds_not_the_commands(void)
+{
+    /* Wheels that lag: the firmware commands about 70 rad/s (0.07 m a step
+     * at r = 0.05 m), the wheels have not moved yet and say so (0 rad/s),
+     * and odometry stands at the origin. Judged against the commands, each
+     * step disagrees by 0.07 m, 0.015 m beyond its allowance (0.02 + 0.5 ×
+     * 0.07, odo.h), so the sum passes 0.1 m within 20 steps; judged against
+     * the measured speeds it agrees at every step. */
+    arm();
+    for (unsigned k = 0; k < 20u; k++) {
+        feed(tf_wheel_speed(0.0, 0.0));
+        full_step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+    }
+    TEST_ASSERT_GREATER_THAN_INT32(60 * 1024, tf_last_wheels().wheel_cmd_left);
+    /* Without WHEEL_SPEED from the start, the same odometry halts. */
+    setUp();
+    arm();
+    for (unsigned k = 0; k < 20u; k++) {
+        full_step();
+        if (tf_last_status().status_halt != COMM_HALT_NONE) {
+            break;
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_ODOMETRY_IMPLAUSIBLE, tf_last_status().status_halt);
+}
+
+static void test_app_safety_wheel_speeds_lost_while_standing_do_not_halt(void)
+{
+    /* The reference stands (v_r = ω_r = 0) on the robot: p3, the wheels at
+     * zero; measured zero, then no more WHEEL_SPEED: nothing moves, no
+     * halt. */
+    arm();
+    for (unsigned k = 0; k < 4u; k++) {
+        feed(tf_wheel_speed(0.0, 0.0));
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.0, 0.0));
+        step();
+    }
+    for (unsigned k = 0; k < 6u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.0, 0.0));
+        step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    }
+}
+
+/* Three steps with WHEEL_SPEED (@p left, @p right) and the reference
+ * (@p v_r, @p w_r) standing on the robot at the origin, then three without
+ * WHEEL_SPEED: the halt the last of them gives (as odometry: the steps k+1
+ * and k+2 after the last frame run, k+3 decides). */
+static uint8_t wheel_speeds_lost(double left, double right, double v_r, double w_r)
+{
+    for (unsigned k = 0; k < 6u; k++) {
+        if (k < 3u) {
+            feed(tf_wheel_speed(left, right));
+        }
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, v_r, w_r));
+        step();
+        if (k < 5u) {
+            TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        }
+    }
+    return tf_last_status().status_halt;
+}
+
+static void test_app_safety_wheel_speeds_lost_while_only_measured_moving_halt(void)
+{
+    /* The reference stands on the robot (p3): both wheels commanded 0. But
+     * the last WHEEL_SPEED said one wheel turned (1 rad/s: the robot pushed,
+     * or coasting), on the left, then on the right: the wheels move ("last
+     * measured", app.c), so losing WHEEL_SPEED halts, as while driving. (At
+     * 0.05 m/s the pose that stands still is within odometry's allowance,
+     * 1 mm a step against 20 mm: no odometry halt.) */
+    arm();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, wheel_speeds_lost(1.0, 0.0, 0.0, 0.0));
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+    TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_right);
+    setUp();
+    arm();
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, wheel_speeds_lost(0.0, 1.0, 0.0, 0.0));
+}
+
+static void test_app_safety_wheel_speeds_lost_while_pivoting_on_the_left_wheel_halt(void)
+{
+    /* A pivot about the left wheel: "paper" tracking with the robot on its
+     * reference (e = 0) commands v = v_r, ω = ω_r (eq. 2-3); with L = 0.25 m,
+     * ω_r = 1 rad/s and v_r = ω_r L/2 = 0.125 m/s the left wheel is
+     * (v − ω L/2)/r = 0 exactly and the right (v + ω L/2)/r = 5 rad/s
+     * (5120 lsb; every value a power of two or exact in both modes). The
+     * wheels measured standing: only the command moves, on the right wheel
+     * alone; losing WHEEL_SPEED halts. */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param((uint8_t)CTL_P_STRATEGY, 0.0f));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param(COMM_PARAM_TRACK_WIDTH, 0.25f));
+    k_step = 0;
+    t_us = 0;
+    for (unsigned k = 0; k < APP_REARM_FRAMES; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.125, 1.0));
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_wheel_speed(0.0, 0.0));
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.125, 1.0));
+        step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_EQUAL_INT32(0, tf_last_wheels().wheel_cmd_left);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 5120, tf_last_wheels().wheel_cmd_right);
+    }
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_odom_xy(0.0, 0.0));
+        feed(tf_odom_theta(0.0));
+        feed(tf_ref_xy(0.0, 0.0));
+        feed(tf_ref_motion(0.0, 0.125, 1.0));
+        step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, tf_last_status().status_halt);
 }
 
 static void test_app_safety_ref_motion_alone_lost_is_a_reference_halt(void)
@@ -724,7 +894,7 @@ static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OUT_OF_RANGE, tf_last_param_value().param_value_result);
     TEST_ASSERT_EQUAL_FLOAT(1.0f, tf_last_param_value().param_value_value);
     /* And an index the table does not hold. */
-    (void)set_param(15, 0.0f);
+    (void)set_param(26, 0.0f);
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
@@ -757,6 +927,12 @@ int main(void)
     RUN_TEST(test_app_safety_at_most_sixteen_obstacles_a_step);
     RUN_TEST(test_app_safety_standing_reference_is_stop_not_a_halt);
     RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_never_sent_are_not_needed);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_moving_halt_at_the_third_step);
+    RUN_TEST(test_app_safety_odometry_follows_the_measured_speeds_not_the_commands);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_standing_do_not_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_only_measured_moving_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_lost_while_pivoting_on_the_left_wheel_halt);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
     RUN_TEST(test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused);

@@ -11,6 +11,7 @@
  * command that already does untouched; in closed loop (forward Euler,
  * dt = 0.02 s) the barrier must stay non-negative.
  */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -76,7 +77,7 @@ static void filter(double x, double y, double th, const sup_entry_t *e, uint8_t 
     for (uint8_t i = 0; i < n; i++) {
         dist[i] = num_hypot(num_sub(e[i].o.x, p.x), num_sub(e[i].o.y, p.y));
     }
-    cbf_step(&f, &p, num_cos(p.theta), num_sin(p.theta), e, dist, n, v, w, r);
+    cbf_step(&f, &p, num_cos(p.theta), num_sin(p.theta), NULL, e, dist, n, v, w, r);
 }
 
 /* --------------------------------------------------------------- hand */
@@ -89,11 +90,250 @@ static void test_cbf_barrier_hand_values(void)
     const sup_entry_t o = entry(1, 1.0, 0.0, 0.35, 0, 0);
     const pose_t p = tu_pose(0, 0, 0);
     num_t h, ax, ay;
-    cbf_barrier(&p, num_cos(p.theta), num_sin(p.theta), &o, &h, &ax, &ay);
+    cbf_barrier(&p, num_cos(p.theta), num_sin(p.theta), NULL, &o, &h, &ax, &ay);
     TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.7425, 0.95 * 0.95 - 0.4 * 0.4);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.7425, h);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.9, ax);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, ay);
+}
+
+static void test_cbf_braking_margin_widens_the_barrier_while_closing(void)
+{
+    /* The hand case above with the wheels' motion (cbf_motion_t): the
+     * command in force drives the look-ahead point at q = (0.5, 0) m/s
+     * straight at the obstacle, σ = 0.5 m/s; with T_b = 0.36 s the margin of
+     * a static obstacle is σ T_b = 0.18 m, ρ = 0.35 + 0.05 + 0.18 = 0.58,
+     * h = 0.9025 − 0.3364 = 0.5661. With T_b = 0.6 s: 0.3 m, ρ = 0.7,
+     * h = 0.4125. Driving away (q = (−0.5, 0)) there is none: 0.7425. The
+     * prediction's shift (0.1, 0) moves p_l to (0.15, 0): h = 0.85² − 0.4² =
+     * 0.5625. */
+    const sup_entry_t o = entry(1, 1.0, 0.0, 0.35, 0, 0);
+    const pose_t p = tu_pose(0, 0, 0);
+    cbf_motion_t m = { .qx = tu_num(0.5), .brake_t = tu_num(0.36), .inv_accel = tu_num(1.0) };
+    num_t h, ax, ay;
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.5661, h);
+    m.brake_t = tu_num(0.6);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.4125, h);
+    m.qx = tu_num(-0.5);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.7425, h);
+    /* The obstacle coming at 0.5 m/s, the robot at 0.5 m/s: σ = 1 m/s,
+     * faster than braking nulls (a_v = 1 m/s²: σ/a_v = 1 s > T_b = 0.36 s):
+     * the margin is σ × 1 s = 1 m, ρ = 1.4, h = 0.9025 − 1.96 = −1.0575. */
+    const sup_entry_t moving = entry(1, 1.0, 0.0, 0.35, -0.5, 0);
+    m = (cbf_motion_t){ .qx = tu_num(0.5),
+                        .brake_t = tu_num(0.36),
+                        .inv_accel = tu_num(1.0),
+                        .side = tu_num(1.0 / 3.0),
+                        .inv_side = tu_num(3.0) };
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &moving, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -1.0575, h);
+    /* A robot at rest, an obstacle coming at 0.5 m/s: head on (centre
+     * (1.05, 0), Δ along the heading) the look-ahead point gets away at
+     * a_v = 1 m/s²: σ/a_v = 0.5 s > T_b, margin 0.25 m, ρ = 0.65, h = 1 −
+     * 0.4225 = 0.5775. From the side (centre (0.05, 1), coming down: Δ
+     * across the heading) only at a_v side = 1/3 m/s² (act_configure()):
+     * 1.5 s, margin 0.75 m, ρ = 1.15, h = 1 − 1.3225 = −0.3225. */
+    m.qx = NUM_ZERO;
+    const sup_entry_t ahead = entry(1, 1.05, 0.0, 0.35, -0.5, 0);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &ahead, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), 0.5775, h);
+    const sup_entry_t beside = entry(1, 0.05, 1.0, 0.35, 0, -0.5);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &beside, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -0.3225, h);
+    m = (cbf_motion_t){ .shift_x = tu_num(0.1) };
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.5625, h);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.7, ax);
+}
+
+static void test_cbf_braking_margin_at_the_centre_of_a_closing_obstacle_is_finite(void)
+{
+    /* The prediction's shift (−l, 0) puts p_l at the origin, the obstacle's
+     * centre a hair beyond it (closer than any distance whose square the
+     * number type holds: 1e-30 m in float, one lsb in Q16.16), and the
+     * command in force drives p_l at it (q = (2, 0)): its closing direction
+     * is undefined, |Δ| rounds to 0. The barrier must come out finite and
+     * at least as unsafe as without a margin: h <= 0 − (D_s + l)² = −0.16. */
+#ifdef NUM_FIXED
+    const double hair = 1.0 / 65536.0;
+#else
+    const double hair = 1e-30;
+#endif
+    const sup_entry_t o = entry(1, hair, 0.0, 0.35, 0, 0);
+    const pose_t p = tu_pose(0, 0, 0);
+    const cbf_motion_t m = { .shift_x = tu_num(-L_AHEAD),
+                             .qx = tu_num(2.0),
+                             .brake_t = tu_num(0.36),
+                             .inv_accel = tu_num(1.0) };
+    num_t h, ax, ay;
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
+    TEST_ASSERT_TRUE(num_is_finite(h));
+    TEST_ASSERT_TRUE(tu_dbl(h) <= -0.16 + 1e-3);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, ax);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, ay);
+}
+
+/* cbf_brake_clear() for a robot at the origin heading +x. */
+static bool brake_clear(const sup_entry_t *e, uint8_t n, double v, double w, double travel_t)
+{
+    num_t dist[SUP_MAX_OBSTACLES];
+    for (uint8_t i = 0; i < n; i++) {
+        dist[i] = num_hypot(e[i].o.x, e[i].o.y);
+    }
+    const cbf_brake_t b = { .start = tu_pose(0, 0, 0),
+                            .c = NUM_ONE,
+                            .s = NUM_ZERO,
+                            .v = tu_num(v),
+                            .w = tu_num(w),
+                            .travel_t = tu_num(travel_t) };
+    return cbf_brake_clear(&b, e, dist, n);
+}
+
+static void test_cbf_brake_guard_hand_cases(void)
+{
+    /* Obstacle at (1, 0), D_s 0.35: the guard keeps 0.39 (CBF_GUARD_MARGIN).
+     * At 0.5 m/s the braking path is 0.5 × travel long: 1.0 s ends at
+     * 0.5 m, 0.5 from the centre: clear; 1.4 s ends at 0.7 m, 0.3 away: not. */
+    sup_entry_t o = entry(1, 1.0, 0.0, 0.35, 0, 0);
+    TEST_ASSERT_TRUE(brake_clear(&o, 1, 0.5, 0.0, 1.0));
+    TEST_ASSERT_FALSE(brake_clear(&o, 1, 0.5, 0.0, 1.4));
+    /* Beside the path, 0.5 m off it: clear at any length. */
+    o = entry(1, 1.0, 0.5, 0.35, 0, 0);
+    TEST_ASSERT_TRUE(brake_clear(&o, 1, 0.5, 0.0, 4.0));
+    /* A turn at 0.5 m/s, 1 rad/s: the arc of radius 0.5 m about (0, 0.5)
+     * passes through (0.5, 0.5) after a quarter turn (1.57 s): an obstacle
+     * there is hit by a path of 1.6 s; a path of 0.2 s ends at
+     * (0.5 sin 0.2, 0.5 − 0.5 cos 0.2) = (0.099, 0.010), 0.63 m from it:
+     * clear. */
+    o = entry(1, 0.5, 0.5, 0.35, 0, 0);
+    TEST_ASSERT_FALSE(brake_clear(&o, 1, 0.5, 1.0, 1.6));
+    TEST_ASSERT_TRUE(brake_clear(&o, 1, 0.5, 1.0, 0.2));
+    /* A moving obstacle is the filter's: not the guard's. */
+    o = entry(1, 0.6, 0.0, 0.35, -0.3, 0);
+    TEST_ASSERT_TRUE(brake_clear(&o, 1, 0.5, 0.0, 1.4));
+    /* Already inside the margin (0.37 < 0.39): no closer than now. Turning
+     * in place stays at 0.37: clear; driving at it: not; away: clear. */
+    o = entry(1, 0.37, 0.0, 0.35, 0, 0);
+    TEST_ASSERT_TRUE(brake_clear(&o, 1, 0.0, 1.0, 1.0));
+    TEST_ASSERT_FALSE(brake_clear(&o, 1, 0.1, 0.0, 1.0));
+    TEST_ASSERT_TRUE(brake_clear(&o, 1, -0.1, 0.0, 1.0));
+}
+
+/* ------------------------------------------- the guard under real wheels */
+
+/* A deterministic generator for the closed loop (the tests' own, so that
+ * both numeric modes see the same scenes). */
+static uint32_t lcg_state;
+static double rnd_g(double lo, double hi)
+{
+    lcg_state = lcg_state * 1664525u + 1013904223u;
+    return lo + (hi - lo) * (double)(lcg_state >> 8) / 16777216.0;
+}
+
+/* One wheel of the actuator model of docs/strategy.md, in double: its speed
+ * follows the command through a first-order lag tau and never changes
+ * faster than accel, integrated exactly per 1 ms substep as the plant does
+ * (sim/mstc/sim/actuator.py). */
+static double wheel_substep(double w, double u, double tau, double accel, double h)
+{
+    const double target = tau > 0.0 ? u + (w - u) * exp(-h / tau) : u;
+    double step = target - w;
+    step = step > accel * h ? accel * h : (step < -accel * h ? -accel * h : step);
+    return w + step;
+}
+
+/* Runs of the closed loop: the firmware's rate limiter and braking guard
+ * (cbf_guard(), with act_estimate() and act_predict() as ctl.c uses them)
+ * against wheels anywhere within the documented limits: lag at most
+ * wheel_tau, acceleration at least wheel_accel. The nominal command drives
+ * at 1 m/s towards the nearest obstacle with a random turn: the guard alone
+ * keeps the robot out. Returns the smallest centre distance less D_s. */
+static double guarded_runs(double wheel_accel, double wheel_tau, unsigned runs)
+{
+    const double r = 0.05, track = 0.3, dt = 0.02, d_s = 0.35;
+    const kin_params_t kin = { tu_num(r), tu_num(track), tu_num(100.0) };
+    double worst = 1e9;
+    for (unsigned run = 0; run < runs; run++) {
+        sup_entry_t e[3];
+        for (uint8_t i = 0; i < 3u; i++) {
+            e[i] = entry((uint8_t)(i + 1u), rnd_g(1.0, 3.0), rnd_g(-1.0, 1.0), d_s, 0, 0);
+        }
+        const double tau = rnd_g(0.0, wheel_tau);
+        const double accel = rnd_g(1.0, 2.0) * wheel_accel;
+        double x = 0.0, y = 0.0, th = rnd_g(-0.5, 0.5), wl = 0.0, wr = 0.0;
+        act_t a;
+        act_init(&a);
+        const double turn = rnd_g(-2.0, 2.0);
+        for (unsigned k = 0; k < 200u; k++) {
+            const pose_t p = tu_pose(x, y, th);
+            num_t dist[3];
+            double best = 1e9;
+            uint8_t near = 0;
+            for (uint8_t i = 0; i < 3u; i++) {
+                dist[i] = num_hypot(num_sub(e[i].o.x, p.x), num_sub(e[i].o.y, p.y));
+                if (tu_dbl(dist[i]) < best) {
+                    best = tu_dbl(dist[i]);
+                    near = i;
+                }
+            }
+            /* Nominal: 1 m/s, heading for the nearest obstacle, plus a turn. */
+            const double bearing = atan2(tu_dbl(e[near].o.y) - y, tu_dbl(e[near].o.x) - x) - th;
+            const double w_nom = 2.0 * atan2(sin(bearing), cos(bearing)) + turn;
+            kin_wheels_t u;
+            kin_wheels_from_vw(&kin, tu_num(1.0), tu_num(w_nom), &u);
+            (void)kin_saturate(&kin, &u);
+            act_estimate(&a, tu_num(wheel_tau), tu_num(dt), NULL);
+            num_t ve, we;
+            kin_vw_from_wheels(&kin, &a.est, &ve, &we);
+            const cbf_guard_t g = { .kin = &kin,
+                                    .accel = tu_num(wheel_accel),
+                                    .inv_accel = tu_num(1.0 / wheel_accel),
+                                    .dt = tu_num(dt) };
+            cbf_guard_t gp = g;
+            act_pose_t at;
+            act_predict(&p, num_cos(p.theta), num_sin(p.theta), ve, we, tu_num(wheel_tau), &at);
+            gp.start = at.p;
+            gp.c = at.c;
+            gp.s = at.s;
+            gp.lead = num_mul(num_abs(ve), tu_num(wheel_tau));
+            (void)cbf_guard(&a, &gp, e, dist, 3u, &u);
+            const double ul = tu_dbl(u.left), ur = tu_dbl(u.right);
+            for (unsigned s = 0; s < 20u; s++) {
+                const double nl = wheel_substep(wl, ul, tau, accel, 0.001);
+                const double nr = wheel_substep(wr, ur, tau, accel, 0.001);
+                const double v = r * (nl + nr + wl + wr) / 4.0;
+                const double w = r * (nr - nl + wr - wl) / (2.0 * track);
+                x += v * cos(th) * 0.001;
+                y += v * sin(th) * 0.001;
+                th += w * 0.001;
+                wl = nl;
+                wr = nr;
+                for (uint8_t i = 0; i < 3u; i++) {
+                    const double d = hypot(tu_dbl(e[i].o.x) - x, tu_dbl(e[i].o.y) - y) - d_s;
+                    worst = d < worst ? d : worst;
+                }
+            }
+        }
+    }
+    return worst;
+}
+
+static void test_cbf_guard_keeps_d_s_under_wheels_within_their_limits(void)
+{
+    lcg_state = 19u;
+    /* The suite's "gearmotor" and "sluggish" profiles (the second's delay
+     * of 2 periods within its wheel_tau, docs/scenarios.md). The guard keeps
+     * CBF_GUARD_MARGIN = 0.04 m; its model's approximations (the predicted
+     * pose, the arc for a path that starts with the lag's turn) may eat into
+     * that margin, never through D_s. */
+    const double gear = guarded_runs(20.0, 0.06, 100u);
+    const double slug = guarded_runs(10.0, 0.14, 100u);
+    printf("smallest clearance to D_s: gearmotor %+.4f m, sluggish %+.4f m\n", gear, slug);
+    TEST_ASSERT_TRUE(gear >= 0.0);
+    TEST_ASSERT_TRUE(slug >= 0.0);
 }
 
 static void test_cbf_brakes_a_robot_driving_straight_at_an_obstacle(void)
@@ -245,6 +485,31 @@ static void test_cbf_reports_a_squeeze_it_cannot_escape(void)
     TEST_ASSERT_TRUE(num_is_finite(v) && num_is_finite(w));
 }
 
+static void test_cbf_an_infeasible_squeeze_is_new_at_its_first_step_only(void)
+{
+    /* The squeeze above, twice: infeasible both times, reported as new
+     * (SUP_EVENT_INFEASIBLE) at the first only; a feasible step ends it, so
+     * the squeeze after it is new again. */
+    sup_entry_t e[2];
+    e[0] = entry(1, 0.05, 0.45, 0.35, 0.0, -3.0);
+    e[1] = entry(2, 0.05, -0.45, 0.35, 0.0, 3.0);
+    cbf_result_t r;
+    num_t v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, e, 2, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.infeasible && r.new_infeasible);
+    v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, e, 2, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.infeasible && !r.new_infeasible);
+    /* Both 10 m away: nothing to meet. */
+    sup_entry_t far[2] = { entry(1, 10.0, 0.0, 0.35, 0, 0), entry(2, -10.0, 0.0, 0.35, 0, 0) };
+    v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, far, 2, &v, &w, &r);
+    TEST_ASSERT_FALSE(r.infeasible || r.new_infeasible);
+    v = tu_num(0.5), w = NUM_ZERO;
+    filter(0, 0, 0, e, 2, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.infeasible && r.new_infeasible);
+}
+
 /* --------------------------------------------------------- random states */
 
 static uint32_t lcg = 777u;
@@ -346,10 +611,80 @@ static void test_cbf_keeps_the_barrier_non_negative_in_closed_loop(void)
     TEST_ASSERT_TRUE_MESSAGE(worst_d >= -TU_TOL(1e-6, 1e-4), msg);
 }
 
+/* cbf_unreachable(): a robot at rest heading +x (r = 0.05 m, L = 0.3 m,
+ * 20 rad/s² at 0.02 s: each wheel within 0.4 rad/s of zero this period),
+ * an obstacle (d_s 0.35 m, contact at 0.30 m: gap 0.05) coming at it.
+ * From the side, centre (0.05, 0.6) coming down at 0.5 m/s: Δ = (0, −0.6),
+ * σ = 0.5 m/s, and across the heading p_l leaves at a_v/3 = 1/3 m/s²:
+ * σ/a_β = 1.5 s, braking covers σ²/(2 a_β) = 0.375 m > d − l − 0.30 =
+ * 0.25 m: doomed. Its constraint, ρ = 0.4 + 0.5 × 1.5 = 1.15, h = 0.36 −
+ * 1.3225 = −0.9625, g1 = 0, g2 = −1.2, b = 0.6 + 20 × 0.9625 = 19.85; on
+ * the wheels c_L = 0.05 × 1.2 × 0.05/0.3 = 0.01, c_R = −0.01: at best
+ * 0.4 × 0.02 = 0.008 < 19.85: obstacle 1. At 0.2 m/s (σ²/(2a_β) = 0.06 m)
+ * it is not doomed; head on at 0.5 m/s (a_β = 1 m/s²: 0.125 m) neither. */
+static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keeps_away(void)
+{
+    const kin_params_t kin = { tu_num(0.05), tu_num(0.3), tu_num(100.0) };
+    const pose_t p = tu_pose(0, 0, 0);
+    const cbf_motion_t m = { .brake_t = tu_num(0.36),
+                             .inv_accel = tu_num(1.0),
+                             .side = tu_num(1.0 / 3.0),
+                             .inv_side = tu_num(3.0),
+                             .gap = tu_num(0.05) };
+    const kin_wheels_t rest = { NUM_ZERO, NUM_ZERO };
+    const struct {
+        double x, y, vx, vy;
+        uint8_t want;
+    } cases[] = {
+        { 0.05, 0.6, 0.0, -0.5, 1u },
+        { 0.05, 0.6, 0.0, -0.2, 0u },
+        { 0.65, 0.0, -0.5, 0.0, 0u },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const sup_entry_t o = entry(1, cases[i].x, cases[i].y, 0.35, cases[i].vx, cases[i].vy);
+        const num_t dist = tu_num(sqrt(cases[i].x * cases[i].x + cases[i].y * cases[i].y));
+        cbf_init(&f);
+        num_t v = NUM_ZERO;
+        num_t w = NUM_ZERO;
+        cbf_result_t r;
+        cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, &o, &dist, 1, &v, &w, &r);
+        TEST_ASSERT_EQUAL_UINT8(cases[i].want,
+                                cbf_unreachable(&f, &o, 1, &kin, &rest, tu_num(0.4)));
+    }
+    /* The doomed case behind a static obstacle that is not (entry 0 of two):
+     * reported by its own id, 2. Its constraint needs a·u >= 19.85 and each
+     * rad/s of the box's corner (c_L, c_R) = (0.01, −0.01) gives 0.02: a box
+     * of 985 rad/s reaches 19.7, short by 0.15: reported; one of 1000
+     * reaches 20: met, nobody is reported. */
+    const sup_entry_t two[2] = { entry(1, 1.5, 0.0, 0.35, 0, 0),
+                                 entry(2, 0.05, 0.6, 0.35, 0.0, -0.5) };
+    const num_t dists[2] = { tu_num(1.5), tu_num(sqrt(0.05 * 0.05 + 0.6 * 0.6)) };
+    cbf_init(&f);
+    num_t v2 = NUM_ZERO;
+    num_t w2 = NUM_ZERO;
+    cbf_result_t r2;
+    cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, two, dists, 2, &v2, &w2, &r2);
+    TEST_ASSERT_EQUAL_UINT8(2u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(985.0)));
+    TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(1000.0)));
+    /* A static obstacle is never reported: braking is the guard's. */
+    const sup_entry_t still = entry(1, 0.05, 0.4, 0.35, 0, 0);
+    const num_t dist = tu_num(sqrt(0.05 * 0.05 + 0.4 * 0.4));
+    cbf_init(&f);
+    num_t v = tu_num(0.5);
+    num_t w = NUM_ZERO;
+    cbf_result_t r;
+    cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, &still, &dist, 1, &v, &w, &r);
+    TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, &still, 1, &kin, &rest, tu_num(0.4)));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_cbf_barrier_hand_values);
+    RUN_TEST(test_cbf_braking_margin_widens_the_barrier_while_closing);
+    RUN_TEST(test_cbf_braking_margin_at_the_centre_of_a_closing_obstacle_is_finite);
+    RUN_TEST(test_cbf_brake_guard_hand_cases);
+    RUN_TEST(test_cbf_guard_keeps_d_s_under_wheels_within_their_limits);
     RUN_TEST(test_cbf_brakes_a_robot_driving_straight_at_an_obstacle);
     RUN_TEST(test_cbf_episodes_start_once);
     RUN_TEST(test_cbf_look_ahead_point_at_a_centre_stops_the_robot);
@@ -357,6 +692,8 @@ int main(void)
     RUN_TEST(test_cbf_meets_two_constraints_at_their_vertex);
     RUN_TEST(test_cbf_brakes_along_the_path_when_two_constraints_are_not_enough);
     RUN_TEST(test_cbf_reports_a_squeeze_it_cannot_escape);
+    RUN_TEST(test_cbf_an_infeasible_squeeze_is_new_at_its_first_step_only);
+    RUN_TEST(test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keeps_away);
     RUN_TEST(test_cbf_on_random_states_the_barrier_never_falls_faster_than_its_bound);
     RUN_TEST(test_cbf_keeps_the_barrier_non_negative_in_closed_loop);
     return UNITY_END();

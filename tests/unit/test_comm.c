@@ -706,8 +706,7 @@ static void test_comm_status_saturates_enumerations_and_ids(void)
     TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
     TEST_ASSERT_EQUAL_INT64(0x17, get_field(f.data, 20, 6, false));
     TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 58, 3, false)); /* low 3 bits of the step */
-    TEST_ASSERT_EQUAL_INT64(COMM_HALT_ODOMETRY_IMPLAUSIBLE,
-                            get_field(f.data, 61, 3, false)); /* saturated */
+    TEST_ASSERT_EQUAL_INT64(7, get_field(f.data, 61, 3, false));   /* saturated: wheel_speed */
 }
 
 static void test_comm_encode_status_trk(void)

@@ -77,7 +77,7 @@ void tearDown(void) {}
 static ctl_input_t input(pose_t robot, pose_t ref, double v_r, double w_r,
                          const sup_obstacle_t *obs, size_t n, uint64_t t_us)
 {
-    ctl_input_t in;
+    ctl_input_t in = { .wheels_measured = false }; /* none measured: the firmware predicts */
     in.robot = robot;
     in.ref = ref;
     in.v_r = tu_num(v_r);
@@ -214,9 +214,17 @@ static void test_ctl_init_with_bad_parameters_falls_back_to_defaults(void)
     ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.2, 0.0, 0.0), 0.0, 0.1, NULL, 0, 0);
     ctl_step(&c, &in, &out);
     /* v = 0 + 3·0.2 = 0.6 (default k1 = 3, not −1), ω = 0.1:
-     * ω_R = (0.6 + 0.015)/0.05 = 12.3, ω_L = (0.6 − 0.015)/0.05 = 11.7. */
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 12.3, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 11.7, out.wheels.left);
+     * ω_R = (0.6 + 0.015)/0.05 = 12.3, ω_L = (0.6 − 0.015)/0.05 = 11.7; the
+     * default strategy "mstc" with the default wheels (20 rad/s²) changes
+     * them from standstill by at most 20 × 0.02 = 0.4 rad/s over the first
+     * period (CTL_FIRST_DT), both by one factor 0.4/12.3: 0.4 and
+     * 11.7 × 0.4/12.3 = 0.3804878. The prediction (wheel_tau 0.06 s) sees
+     * standstill, the catch-up limit sqrt(2 × 0.5 × 0.05 × 20 × 0.2) = 0.447
+     * m/s leaves v = 0.6 (its correction k1 e1 = 0.6 > 0.447!): v = 0.447,
+     * so ω_R = (0.447 + 0.015)/0.05 = 9.244, ω_L = 8.644 before the limiter:
+     * 0.4 and 8.644 × 0.4/9.244 = 0.37404. */
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.4, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.37404, out.wheels.left);
 }
 
 /* ---------------------------------------------------------------- tracking */
@@ -563,11 +571,16 @@ static void test_ctl_set_params_applies_and_keeps_the_supervisor_state(void)
 
 /* ------------------------------------------------------------------ mstc */
 
-/* Table 1 with the "mstc" strategy (the default). */
+/* Table 1 with the "mstc" strategy (the default), and wheels that follow at
+ * once (wheel_accel 10000 rad/s², wheel_tau 0): the strategy's own decisions,
+ * which the wheels' limits (test_act.c, and the tests below that set them)
+ * would only delay. */
 static void mstc_init(void)
 {
     ctl_params_t p;
     ctl_params_default(&p);
+    p.wheel_accel = num_from_int(10000);
+    p.wheel_tau = NUM_ZERO;
     TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
 }
 
@@ -590,7 +603,7 @@ static void test_ctl_mstc_tracks_as_the_paper_away_from_obstacles(void)
     /* Far behind the reference (e1 = 1: v = 0.5 + 3 = 3.5) and far from any
      * obstacle (10 m): not regulated either. */
     sup_obstacle_t o = obstacle(3, 10.0, 10.0, 0.1);
-    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(1.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 143456);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 3.5 / R_WHEEL, out.wheels.right);
 }
@@ -721,10 +734,10 @@ static void test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed(void)
     /* A reference driving backwards (v_r = −0.5) 1 m behind the robot:
      * v = −0.5 − 3 = −3.5, held to −(0.5 + MSW_CATCH_UP) = −1.5; 0.3 m ahead
      * of it the other way: v = −0.5 + 0.9 > 0, held to 0. */
-    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(-1.0, 0.0, 0.0), -0.5, 0.0, &o, 1, 0);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(-1.0, 0.0, 0.0), -0.5, 0.0, &o, 1, 20000);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.5, out.status.v);
-    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.3, 0.0, 0.0), -0.5, 0.0, &o, 1, 0);
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.3, 0.0, 0.0), -0.5, 0.0, &o, 1, 40000);
     ctl_step(&c, &in, &out);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
 }
@@ -755,6 +768,126 @@ static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
     ctl_reset(&c);
     TEST_ASSERT_EQUAL_UINT8(MSW_TRACK, c.msw.state);
     TEST_ASSERT_EQUAL_UINT8(0, c.sup.n_obs);
+}
+
+/* Events of @p kind naming obstacle @p id in the last step's output. */
+static size_t events_of(int kind, uint8_t id)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < out.n_events; i++) {
+        if (out.events[i].kind == kind && out.events[i].obstacle == id) {
+            n++;
+        }
+    }
+    return n;
+}
+
+static void test_ctl_mstc_guard_holds_a_robot_that_would_back_into_the_margin(void)
+{
+    /* Wheels of 100 rad/s², no lag; D_act 0.36, just above D_s = 0.35, so
+     * that obstacle 4, static 0.37 m behind the robot, is beyond D_act (and
+     * reach, 0 from rest): no avoidance. The robot rests at the origin heading
+     * +x on its reference, which drives backwards at 0.2 m/s: eq. (2)-(3)
+     * give v = −0.2, ω = 0 (e = 0), within the near-obstacle bound
+     * [−0.7, 0]: wheels (−4, −4).
+     * Filter: p_l − c = (0.42, 0), h = 0.42² − 0.4² = 0.0164, a = (0.84, 0),
+     * no braking margin (the command in force is 0): 0.84 v >= −20 × 0.0164
+     * needs v >= −0.39: −0.2 passes unchanged, the filter names nobody.
+     * Rate limiter: 100 × 0.02 = 2 rad/s from 0: (−2, −2), v = −0.1 m/s.
+     * Guard (cbf.h): its braking path is |v| (dt + T_s/2) = 0.1 × (0.02 +
+     * 0.01) = 3 mm straight back, to 0.367 m of obstacle 4, which is already
+     * inside D_s + 0.04 = 0.39: no closer than 0.37 − 0.001. It fails; the
+     * same turn braked, (0, 0), passes: the wheels stay at 0, the step is
+     * filtered and its FILTER event names the nearest obstacle, 4 (9 and 6
+     * are 2.5 m and 2 m away). */
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.wheel_accel = num_from_int(100);
+    p.wheel_tau = NUM_ZERO;
+    p.d_act = tu_num(0.36);
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+    sup_obstacle_t o[3] = { obstacle(9, 0.0, 2.5, 0.1), obstacle(4, -0.37, 0.0, 0.1),
+                            obstacle(6, 2.0, 0.0, 0.1) };
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 0.0, 0.0), -0.2, 0.0, o, 3, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_TRUE(out.wheels.left == NUM_ZERO && out.wheels.right == NUM_ZERO);
+    TEST_ASSERT_EQUAL_UINT8(CTL_FAULT_FILTER, out.status.faults & CTL_FAULT_FILTER);
+    TEST_ASSERT_EQUAL_size_t(1, events_of(SUP_EVENT_FILTER, 4));
+    TEST_ASSERT_EQUAL_size_t(4, out.n_events); /* three DETECT, one FILTER */
+    /* The next step, the same: held again. */
+    in.t_us = 20000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE(out.wheels.left == NUM_ZERO && out.wheels.right == NUM_ZERO);
+    TEST_ASSERT_EQUAL_UINT8(CTL_FAULT_FILTER, out.status.faults & CTL_FAULT_FILTER);
+    TEST_ASSERT_EQUAL_size_t(0, out.n_events); /* the same episode: no new FILTER */
+    /* A reference backing at 1 m/s: the filter itself brakes the command to
+     * v = −0.39; the guard then holds the robot as above. */
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 0.0, 0.0), -1.0, 0.0, o, 3, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE(out.wheels.left == NUM_ZERO && out.wheels.right == NUM_ZERO);
+    TEST_ASSERT_EQUAL_UINT8(CTL_FAULT_FILTER, out.status.faults & CTL_FAULT_FILTER);
+    TEST_ASSERT_EQUAL_size_t(1, events_of(SUP_EVENT_FILTER, 4)); /* its episode's first step */
+    /* Without obstacle 4 the rate-limited command goes out: (−2, −2). */
+    in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 0.0, 0.0), -0.2, 0.0, o, 3, 0);
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+    o[1] = obstacle(4, -2.37, 0.0, 0.1);
+    in.t_us = 0;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -2.0, out.wheels.left);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -2.0, out.wheels.right);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults & CTL_FAULT_FILTER);
+}
+
+static void test_ctl_mstc_reports_once_an_obstacle_closing_faster_than_the_wheels_brake(void)
+{
+    /* The default wheels (20 rad/s²: the look-ahead point's speed changes
+     * by r a = 1 m/s² at most), no lag. The robot rests at the origin
+     * heading +x; obstacle 3 comes at it from (0.6, 0) at 3 m/s. Nulling
+     * 3 m/s takes 3 s and 4.5 m; the bodies touch (R_m + R_ob = 0.3) within
+     * 0.6 − 0.05 − 0.3 = 0.25 m of the look-ahead point: no command within
+     * the wheels' limits keeps it away (cbf_unreachable). The INFEASIBLE
+     * event names it, at the first step only; the step is filtered. */
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.wheel_tau = NUM_ZERO;
+    TEST_ASSERT_EQUAL_INT(0, ctl_init(&c, &p));
+    sup_obstacle_t o = obstacle(3, 0.6, 0.0, 0.1);
+    o.vx = tu_num(-3.0);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(1, events_of(SUP_EVENT_INFEASIBLE, 3));
+    TEST_ASSERT_TRUE((out.status.faults & CTL_FAULT_FILTER) != 0);
+    /* 20 ms later it is 6 cm nearer: still infeasible, not reported again. */
+    o.x = tu_num(0.54);
+    in.t_us = 20000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(0, events_of(SUP_EVENT_INFEASIBLE, 3));
+    TEST_ASSERT_TRUE(c.cbf.infeasible);
+}
+
+static void test_ctl_mstc_reports_a_squeeze_once_by_its_most_violated_obstacle(void)
+{
+    /* test_cbf's squeeze in the control step: obstacles 1 and 2 close on the
+     * robot at 3 m/s from either side across its heading (0.45 m away): no
+     * (v, ω) meets both constraints (the look-ahead point cannot move
+     * sideways, both push it). Wheels that follow at once brake and turn
+     * fast enough that neither is beyond reach on its own (not doomed: with
+     * a_v = 500 m/s² braking 3 m/s covers 1 cm across the heading), so the
+     * INFEASIBLE event names the filter's most violated obstacle, once. */
+    mstc_init();
+    sup_obstacle_t o[2] = { obstacle(1, 0.05, 0.45, 0.1), obstacle(2, 0.05, -0.45, 0.1) };
+    o[0].vy = tu_num(-3.0);
+    o[1].vy = tu_num(3.0);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 0.0, 0.0), 0.5, 0.0, o, 2, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(1, events_of(SUP_EVENT_INFEASIBLE, 1) +
+                                    events_of(SUP_EVENT_INFEASIBLE, 2));
+    in.t_us = 20000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_size_t(0, events_of(SUP_EVENT_INFEASIBLE, 1) +
+                                    events_of(SUP_EVENT_INFEASIBLE, 2));
 }
 
 /* ------------------------------------------------ the paper's scenarios */
@@ -902,6 +1035,9 @@ int main(void)
     RUN_TEST(test_ctl_mstc_drops_reports_beyond_the_table);
     RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);
     RUN_TEST(test_ctl_changing_the_strategy_restarts_the_mstc_state);
+    RUN_TEST(test_ctl_mstc_guard_holds_a_robot_that_would_back_into_the_margin);
+    RUN_TEST(test_ctl_mstc_reports_once_an_obstacle_closing_faster_than_the_wheels_brake);
+    RUN_TEST(test_ctl_mstc_reports_a_squeeze_once_by_its_most_violated_obstacle);
     RUN_TEST(test_ctl_paper_strategy_reproduces_the_papers_times);
     RUN_TEST(test_ctl_mstc_on_the_papers_scenarios);
     return UNITY_END();

@@ -69,6 +69,56 @@ static void test_ctl_ranges_each_input_beyond_its_range_stops_the_step(void)
     assert_wheels_in_range();
 }
 
+static void test_ctl_ranges_measured_wheel_speeds_beyond_their_range_stop_the_step(void)
+{
+    /* WHEEL_SPEED beyond ±CTL_MAX_ABS_WHEEL_SPEED (1000 rad/s) on either
+     * wheel is bad input: the step stops (ctl.h). At ±1000 it runs; speeds
+     * not marked measured are not looked at. */
+    const kin_wheels_t bad[] = { { tu_num(1001.0), NUM_ZERO }, { NUM_ZERO, tu_num(-1001.0) } };
+    for (size_t i = 0; i < 2u; i++) {
+        setUp();
+        ctl_input_t in = good_input();
+        in.wheels = bad[i];
+        in.wheels_measured = true;
+        ctl_step(&c, &in, &out);
+        assert_stopped_for_input();
+    }
+    setUp();
+    ctl_input_t in = good_input();
+    in.wheels = (kin_wheels_t){ CTL_MAX_ABS_WHEEL_SPEED, num_neg(CTL_MAX_ABS_WHEEL_SPEED) };
+    in.wheels_measured = true;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults & CTL_FAULT_INPUT_NONFINITE);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    assert_wheels_in_range();
+    in.wheels = bad[0];
+    in.wheels_measured = false;
+    in.t_us = 20000;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults & CTL_FAULT_INPUT_NONFINITE);
+}
+
+static void test_ctl_ranges_a_lowered_wheel_limit_holds_at_the_next_step(void)
+{
+    /* The wheels turn at (5, 90) rad/s (the application's halt ramp,
+     * ctl_sync_wheels) when max_wheel_speed is lowered to 10 rad/s (a
+     * parameter set while halted). The rate limiter alone would take the
+     * right wheel down to 10 in (90 − 10) / (20 × 0.02) = 200 steps; ctl.h
+     * promises wheel speeds within ±max_wheel_speed at every step. The new
+     * set scales the limiter's base into the limit (ctl_set_params), so the
+     * step's output is valid, not zeroed as invalid. */
+    const kin_wheels_t w = { tu_num(5.0), tu_num(90.0) };
+    ctl_sync_wheels(&c, &w);
+    ctl_params_t p = c.p;
+    p.kin.max_wheel_speed = tu_num(10.0);
+    TEST_ASSERT_EQUAL_INT(0, ctl_set_params(&c, &p));
+    ctl_input_t in = good_input();
+    ctl_step(&c, &in, &out);
+    assert_wheels_in_range();
+    TEST_ASSERT_TRUE(num_abs(out.wheels.right) <= tu_num(10.0));
+    TEST_ASSERT_EQUAL_UINT8(0u, out.status.faults & CTL_FAULT_OUTPUT_INVALID);
+}
+
 static void test_ctl_ranges_extreme_inputs_in_range_give_outputs_in_range(void)
 {
     /* Corners of the input box, every sign: wheels saturated, finite. */
@@ -307,6 +357,8 @@ int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_ctl_ranges_each_input_beyond_its_range_stops_the_step);
+    RUN_TEST(test_ctl_ranges_measured_wheel_speeds_beyond_their_range_stop_the_step);
+    RUN_TEST(test_ctl_ranges_a_lowered_wheel_limit_holds_at_the_next_step);
     RUN_TEST(test_ctl_ranges_extreme_inputs_in_range_give_outputs_in_range);
     RUN_TEST(test_ctl_ranges_bad_obstacle_reports_are_dropped_not_used);
     RUN_TEST(test_ctl_ranges_reports_beyond_the_table_are_dropped);

@@ -23,6 +23,22 @@
 #include "hal_fake.h"
 #include "unity.h"
 
+/**
+ * @brief The defaults with wheels that follow their command at once
+ *        (wheel_accel 10000 rad/s², wheel_tau 0): "mstc" commands what its
+ *        laws give, as before real wheels, for the tests of the application
+ *        that are about something else (the wheels' own tests: test_act.c,
+ *        test_ctl.c).
+ */
+static inline ctl_params_t tf_instant_wheels(void)
+{
+    ctl_params_t p;
+    ctl_params_default(&p);
+    p.wheel_accel = num_from_int(10000);
+    p.wheel_tau = NUM_ZERO;
+    return p;
+}
+
 /** @brief Next alive counter per identifier (a sender's). */
 static uint8_t tf_counters[0x800];
 
@@ -104,6 +120,16 @@ static inline hal_can_frame_t tf_ref_motion(double theta, double v, double w)
                                              .ref_motion_w = (int32_t)lround(w * 4096.0) };
     (void)mstc_dbc_ref_motion_pack(p, &s, 8);
     return tf_seal(COMM_ID_REF_MOTION, p);
+}
+
+static inline hal_can_frame_t tf_wheel_speed(double left, double right)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_wheel_speed_t s = { .wheel_speed_left = (int32_t)lround(left * 1024.0),
+                                              .wheel_speed_right =
+                                                  (int32_t)lround(right * 1024.0) };
+    (void)mstc_dbc_wheel_speed_pack(p, &s, 8);
+    return tf_seal(COMM_ID_WHEEL_SPEED, p);
 }
 
 static inline hal_can_frame_t tf_step(uint16_t step, uint32_t time_us)

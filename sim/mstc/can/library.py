@@ -68,6 +68,8 @@ class ParamsStruct(AbiStruct):
         ("track_width", ctypes.c_double),
         ("max_wheel_speed", ctypes.c_double),
         ("strategy", ctypes.c_uint32),
+        ("wheel_accel", ctypes.c_double),
+        ("wheel_tau", ctypes.c_double),
     ]
 
 
@@ -97,6 +99,8 @@ class InputStruct(AbiStruct):
         ("t_us", ctypes.c_uint64),
         ("n_obstacles", ctypes.c_uint32),
         ("obstacles", ctypes.POINTER(ObstacleStruct)),
+        ("wheel_speed", ctypes.c_double * 2),
+        ("wheel_measured", ctypes.c_uint32),
     ]
 
 

@@ -165,6 +165,12 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="only this family of the suites (repeatable)",
     )
     parser.add_argument(
+        "--actuator",
+        metavar="NAME",
+        action="append",
+        help="only this actuator profile of the suites (repeatable; default: all)",
+    )
+    parser.add_argument(
         "--count",
         metavar="N",
         type=int,
@@ -214,9 +220,15 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite], Ori
                 if name not in known:
                     families = ", ".join(sorted(known))
                     raise UsageError(f"{path}: no family {name!r} (families: {families})")
+            profiles = {a.name for a in suite.actuators}
+            for name in args.actuator or ():
+                if name not in profiles:
+                    names = ", ".join(sorted(profiles))
+                    raise UsageError(f"{path}: no actuator {name!r} (actuators: {names})")
             wanted = tuple(args.family) if args.family else None
+            chosen = tuple(args.actuator) if args.actuator else None
             with writing("the scene files"):
-                scenes = generate(suite, args.out / "scenes", wanted)
+                scenes = generate(suite, args.out / "scenes", wanted, chosen)
             files += [f.path for f in scenes]
             origins.update((f.path, (path, f.family)) for f in scenes)
             suites.append(suite)
@@ -360,17 +372,29 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
 
 
 def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
-    families = list(dict.fromkeys(r["family"] or "(none)" for r in rows))
-    line = "  {:<16} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
+    groups = list(dict.fromkeys((r["family"] or "(none)", r["actuator"] or "ideal") for r in rows))
+    line = "  {:<16} {:<10} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
     print(
         line.format(
-            "family", "strategy", "runs", "contact", "D_s kept", "rejoined", "blocked", "errors"
+            "family",
+            "actuator",
+            "strategy",
+            "runs",
+            "contact",
+            "D_s kept",
+            "rejoined",
+            "blocked",
+            "errors",
         )
     )
-    for family in families:
+    for family, actuator in groups:
         for strategy in strategies:
             mine = [
-                r for r in rows if (r["family"] or "(none)") == family and r["strategy"] == strategy
+                r
+                for r in rows
+                if (r["family"] or "(none)") == family
+                and (r["actuator"] or "ideal") == actuator
+                and r["strategy"] == strategy
             ]
             if not mine:
                 continue
@@ -383,6 +407,7 @@ def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
             print(
                 line.format(
                     family,
+                    actuator,
                     strategy,
                     len(mine),
                     count("contact"),

@@ -20,6 +20,7 @@ import errno
 import math
 import os
 from collections.abc import Sequence
+from struct import Struct
 from typing import Any
 
 import numpy as np
@@ -61,6 +62,11 @@ _SIDES = {0: None, 1: Side.LEFT, -1: Side.RIGHT}
 
 _INPUT = field_packer(InputStruct, ("robot", "ref", "v_r", "w_r", "t_us", "n_obstacles"))
 """The scalars of one step's input, after which its obstacle pointer follows."""
+_WHEELS_AT: int = InputStruct.wheel_speed.offset
+"""Where the measured wheel speeds of one step's input start, after the
+obstacle pointer: a packer of its own, since pack_into writes the padding it
+skips."""
+_WHEELS = Struct(f"=2d{InputStruct.wheel_measured.offset - _WHEELS_AT - 16}xI")
 _OBSTACLE = field_packer(ObstacleStruct, ("id", "x", "y", "radius", "vx", "vy"))
 _OBSTACLE_SIZE = ctypes.sizeof(ObstacleStruct)
 _OUTPUT = field_packer(
@@ -97,6 +103,8 @@ def _c_params(p: Params) -> ParamsStruct:
         track_width=p.track_width,
         max_wheel_speed=p.max_wheel_speed,
         strategy=tables().strategy.value(str(p.strategy)),
+        wheel_accel=p.wheel_accel,
+        wheel_tau=p.wheel_tau,
     )
 
 
@@ -152,6 +160,8 @@ class SilController:
         self._out_ref = ctypes.byref(self._out)
         self._step = self._lib.mstc_sil_step
         self._modes = self._tables.mode
+        self._measured = False
+        """The input holds measured wheel speeds (packed by the last step)."""
 
     @staticmethod
     def defaults(lib_path: str | os.PathLike[str] | None = None) -> Params:
@@ -171,6 +181,8 @@ class SilController:
             track_width=c.track_width,
             max_wheel_speed=c.max_wheel_speed,
             strategy=tables().strategy.members(Strategy)[c.strategy],
+            wheel_accel=c.wheel_accel,
+            wheel_tau=c.wheel_tau,
         )
 
     def step(
@@ -181,6 +193,7 @@ class SilController:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         """One control step (see :meth:`mstc.model.Controller.step`).
 
@@ -188,7 +201,7 @@ class SilController:
             refused the step or returned a value outside its ABI.
         """
         left, right, mode, active, side, faults, e1, e2, e3, e, v, w, n_events = self._call(
-            robot, ref, v_r, w_r, obstacles, t_us
+            robot, ref, v_r, w_r, obstacles, t_us, wheel_speeds
         )
         try:
             status = Status(
@@ -215,6 +228,7 @@ class SilController:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepValues:
         """:meth:`step`, its result as the plain tuple the in-memory loop
         records (:data:`mstc.model.StepValues`): building the Status and
@@ -223,7 +237,7 @@ class SilController:
         :raises FirmwareError: as :meth:`step`.
         """
         left, right, mode, _, side, faults, e1, e2, e3, e, _, _, n_events = self._call(
-            robot, ref, v_r, w_r, obstacles, t_us
+            robot, ref, v_r, w_r, obstacles, t_us, wheel_speeds
         )
         try:
             decoded, _ = self._modes[mode], _SIDES[side]
@@ -239,6 +253,7 @@ class SilController:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None,
     ) -> tuple[Any, ...]:
         """Run the step; the scalars of its output (:data:`_OUTPUT`'s fields)."""
         if len(obstacles) > MAX_OBSTACLES:
@@ -262,6 +277,13 @@ class SilController:
             t_us,
             len(obstacles),
         )
+        if wheel_speeds is None:
+            if self._measured:
+                _WHEELS.pack_into(self._in, _WHEELS_AT, 0.0, 0.0, 0)
+                self._measured = False
+        else:
+            _WHEELS.pack_into(self._in, _WHEELS_AT, wheel_speeds[0], wheel_speeds[1], 1)
+            self._measured = True
         pack, table = _OBSTACLE.pack_into, self._obstacles
         for i, o in enumerate(obstacles):
             pack(table, i * _OBSTACLE_SIZE, o.id, o.x, o.y, o.radius, o.vx, o.vy)

@@ -58,7 +58,9 @@ from mstc.plant.world import make_world
 
 # ------------------------------------------------------------------ the loop
 
-StepFunction = Callable[[Pose, Pose, float, float, Sequence[Obstacle], int], StepValues]
+StepFunction = Callable[
+    [Pose, Pose, float, float, Sequence[Obstacle], int, tuple[float, float] | None], StepValues
+]
 
 
 def step_values(controller: Controller) -> StepFunction:
@@ -72,9 +74,15 @@ def step_values(controller: Controller) -> StepFunction:
     step = controller.step
 
     def values(
-        robot: Pose, ref: Pose, v_r: float, w_r: float, seen: Sequence[Obstacle], t_us: int
+        robot: Pose,
+        ref: Pose,
+        v_r: float,
+        w_r: float,
+        seen: Sequence[Obstacle],
+        t_us: int,
+        wheel_speeds: tuple[float, float] | None,
     ) -> StepValues:
-        result = step(robot, ref, v_r, w_r, seen, t_us)
+        result = step(robot, ref, v_r, w_r, seen, t_us, wheel_speeds)
         s = result.status
         left, right = result.wheel_left, result.wheel_right
         return left, right, s.mode, int(s.faults), s.e1, s.e2, s.e3, s.e, result.events
@@ -104,7 +112,10 @@ def simulate(
     scenario has some), the reference pose and the scan; the row is
     recorded; then robot and reference are integrated over dt, the robot with
     the wheel speeds commanded ``delay`` periods earlier (standing still
-    before the first). The run ends with the row of step N, so the trace
+    before the first), or, with an ``[actuator]`` of model "lag", by its
+    wheels in substeps (:mod:`mstc.plant.actuator`), or by @p wheels; the
+    speeds those wheels measure go to the next step (``wheel_speeds``, the
+    WHEEL_SPEED frame). The run ends with the row of step N, so the trace
     spans t = 0 to the duration and the minimum distances include the final
     state.
 
@@ -147,6 +158,10 @@ def simulate(
         sigma = np.array([imp.position_noise, imp.position_noise, imp.heading_noise])
         odometry_noise = (odometry_rng.standard_normal((steps + 1, 3)) * sigma).tolist()
     pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
+    actuator = world.actuator
+    measured_wheels: tuple[float, float] | None = None
+    if actuator is not None or wheels is not None:
+        measured_wheels = (0.0, 0.0)
 
     values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
     modes: list[Mode] = []
@@ -194,7 +209,7 @@ def simulate(
                     raise _not_carried(wire.obstacle, o.x, o.y)
             start = clock()
             left, right, mode, faults, e1, e2, e3, e, emitted = step(
-                measured, reference, v_r, w_r, seen, t_us
+                measured, reference, v_r, w_r, seen, t_us, measured_wheels
             )
             spent += clock() - start
             v, w = body_velocity(left, right)
@@ -205,10 +220,15 @@ def simulate(
             if faults:
                 fault_masks.append(faults)
             if k < steps:
-                if pending:
-                    pending.append((left, right))
-                    left, right = pending.popleft()
-                plant_step(left, right, dt)
+                if actuator is not None:
+                    measured_wheels = actuator.step(left, right)
+                else:
+                    if pending:
+                        pending.append((left, right))
+                        left, right = pending.popleft()
+                    plant_step(left, right, dt)
+                    if wheels is not None:
+                        measured_wheels = wheels.measured
                 ref_step(dt)
             if progress is not None and (k + 1) % tick == 0:
                 progress.update(k + 1)
@@ -559,6 +579,7 @@ class CanController:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         """One lock-step exchange (see :meth:`mstc.model.Controller.step`)."""
         self._now = t_us / 1e6
@@ -567,6 +588,12 @@ class CanController:
         step = self._steps % STEP_MODULO
         self._steps += 1
         self._send_inputs(robot, ref, v_r, w_r)
+        if wheel_speeds is not None:
+            self._send(
+                self.proto.encode(
+                    "WHEEL_SPEED", left=wheel_speeds[0], right=wheel_speeds[1], faults=0
+                )
+            )
         self._send_obstacles(obstacles)
         self._send(step_frame(self.proto, step, t_us))
 

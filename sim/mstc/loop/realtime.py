@@ -37,7 +37,7 @@ import can
 import numpy as np
 
 from mstc.can.protocol import COUNTER_MODULO, Frame
-from mstc.errors import ControllerError, FrameDropped
+from mstc.errors import ControllerError, FrameDropped, SimulationError
 from mstc.loop.lockstep import REARM_FRAMES, CanController, decode_event, unauthenticated
 from mstc.loop.result import PROGRESS_UPDATES, RunResult, Trace, distances, fault_counts
 from mstc.loop.timing import FirmwareStep, OdomSent, analyse
@@ -444,10 +444,18 @@ def simulate_realtime(
     The scenario's odometry noise is added to the pose sent, with the same
     stream as in lock-step, and the sensor's imperfections apply; its
     ``delay`` does not (the latency here is the bus's and the firmware's).
+    An ``[actuator]`` is simulated in lock-step only: the wheels here follow
+    WHEEL_CMD at once.
 
     :returns: the run, with its :class:`~mstc.loop.timing.Timing`.
     :raises ControllerError: the firmware could not be armed.
+    :raises SimulationError: the scenario has an ``[actuator]``.
     """
+    if scenario.actuator.model != "ideal":
+        raise SimulationError(
+            f"{scenario.path}: [actuator]: the real-time plant has ideal wheels; run the "
+            "scenario in lock-step (mstc sim, mstc hil without --realtime)"
+        )
     period = 1.0 / rate_hz
     last_k = round(scenario.sim.duration * rate_hz)
     if stop_odometry_at is not None:

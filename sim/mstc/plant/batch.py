@@ -184,7 +184,10 @@ class BatchWorld:
                 for s, m_ in zip(sc, imp, strict=True)
             ]
         )
-        self._in_range = Within(self.sensor_range[:, None])
+        r_ob = col([s.params.r_ob for s in sc])
+        # Each obstacle's reach as the per-scene sensor has it: the range plus
+        # how much larger than R_ob it is (d + (r - R_ob), the same bits).
+        self._in_range = Within(self.sensor_range[:, None] + (self.radius - r_ob[:, None]))
         self.delay = np.array([m_.delay for m_ in imp], dtype=np.int64)
         depth = int(self.delay.max(initial=0)) + 1
         self._commands = np.zeros((n, depth, 2))

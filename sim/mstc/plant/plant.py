@@ -121,3 +121,8 @@ class WheelDrive(Protocol):
     def drive(self, plant: UnicyclePlant, left: float, right: float, dt: float) -> None:
         """Setpoints @p left and @p right [rad/s] for @p dt [s]: move
         ``plant.pose`` as the wheels turn meanwhile."""
+
+    @property
+    def measured(self) -> tuple[float, float]:
+        """The wheel speeds measured at the end of the last period (left,
+        right) [rad/s]: what the wheels' WHEEL_SPEED frame carries."""

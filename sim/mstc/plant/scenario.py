@@ -20,7 +20,7 @@ import math
 import re
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import date, datetime, time
 from functools import lru_cache
 from pathlib import Path
@@ -90,6 +90,8 @@ class MetaSpec:
     """The seed the scene was drawn with."""
     index: int | None = None
     """The scene's number within its family."""
+    actuator: str = ""
+    """The suite's actuator profile ("" for a hand-written scene)."""
 
 
 @dataclass(frozen=True)
@@ -145,10 +147,14 @@ class ExpectedEvent:
         return round(self.t * 1e6)
 
 
-ACTUATOR_MODELS = ("ideal", "dc")
+ACTUATOR_MODELS = ("ideal", "lag", "dc")
 """Values of ``[actuator] model``: "ideal" wheels turn at their command at once
-(the plant's own), "dc" are DC gearmotors under the firmware's own wheel loop
+(the plant's own), "lag" wheels follow it through a first-order lag under an
+acceleration limit, measured by encoders (:mod:`mstc.plant.actuator`), "dc"
+are DC gearmotors under the firmware's own wheel loop
 (:class:`mstc.firmware.wheels.DcWheels`, docs/wheel.md)."""
+LAG_KEYS = ("time_constant", "max_accel", "encoder_counts", "delay")
+"""The keys of the "lag" model; any of them makes it the model."""
 
 
 @dataclass(frozen=True)
@@ -157,6 +163,15 @@ class ActuatorSpec:
 
     model: str = "ideal"
     """One of :data:`ACTUATOR_MODELS`."""
+    time_constant: float = 0.0
+    """"lag": τ [s], the lag of a wheel's speed to its setpoint; 0: none."""
+    max_accel: float = math.inf
+    """"lag": a [rad/s²], the largest |dω/dt| of a wheel; inf: no limit."""
+    encoder_counts: int = 0
+    """"lag": N, encoder counts per wheel revolution; 0: measured exactly."""
+    delay: int = 0
+    """"lag": whole control periods between a command and the setpoint it
+    becomes (added to ``[imperfections] delay``)."""
 
 
 @dataclass(frozen=True)
@@ -443,6 +458,8 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
 
     obstacles = _parse_obstacles(c, data.get("obstacles", []), params, wire)
     sim = _parse_sim(c, data["sim"])
+    actuator = _parse_actuator(c, data.get("actuator", {}))
+    params = _hand_actuator(c, params, actuator, c.table(data.get("params", {}), "params"), sim)
     _check_reference_path(c, reference, sim, wire.reference)
     expected = _parse_expected(c, data.get("expected", []), len(obstacles), sim)
     return Scenario(
@@ -455,7 +472,7 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
         expected=expected,
         imperfections=_parse_imperfections(c, data.get("imperfections", {})),
         meta=_parse_meta(c, data.get("meta", {})),
-        actuator=_parse_actuator(c, data.get("actuator", {})),
+        actuator=actuator,
     )
 
 
@@ -464,17 +481,6 @@ def _violation(p: Params) -> Violation | None:
     """The limits table's verdict on @p p, remembered: a sweep's scenes share
     a few parameter sets, and the check costs more than parsing the file."""
     return violation(params_values(p))
-
-
-def _parse_actuator(c: _Checker, value: object) -> ActuatorSpec:
-    table = c.table(value, "actuator")
-    c.keys(table, "actuator", (), ("model",))
-    model = table.get("model", "ideal")
-    if model not in ACTUATOR_MODELS:
-        raise c.fail(
-            "actuator.model", f"must be one of {', '.join(ACTUATOR_MODELS)}, got {model!r}"
-        )
-    return ActuatorSpec(str(model))
 
 
 def _parse_params(c: _Checker, value: object) -> Params:
@@ -493,7 +499,8 @@ def _parse_params(c: _Checker, value: object) -> Params:
     element_of: dict[str, str] = {}  # table name -> "k2 " for an array element
     for key, limit in scalars.items():
         if key in table:
-            overrides[key.lower()] = c.positive(table[key], f"params.{key}")
+            read = c.positive if limit.minimum > 0.0 else c.non_negative
+            overrides[key.lower()] = read(table[key], f"params.{key}")
             key_of[limit.name] = key
     for key, limits in arrays.items():
         names = tuple(f"k{i + 1}" for i in range(len(limits)))
@@ -567,6 +574,84 @@ def _parse_obstacles(
     return tuple(result)
 
 
+IDEAL_WHEEL_ACCEL = 10000.0
+"""wheel_accel handed to the firmware for wheels without an acceleration
+limit (ideal wheels, or a "lag" actuator without ``max_accel``): the
+largest it takes [rad/s²]."""
+DC_HANDED = {"wheel_accel": 125.0, "wheel_tau": 0.06}
+"""What the "dc" wheels are handed: the acceleration the default motor still
+has at 20 rad/s (docs/wheel.md, tuning step 5) and the "gearmotor" profile's
+lag, which docs/wheel.md measures to be slower than this loop's."""
+
+
+def _parse_actuator(c: _Checker, value: object) -> ActuatorSpec:
+    table = c.table(value, "actuator")
+    c.keys(table, "actuator", (), ("model", *LAG_KEYS))
+    lag = [k for k in LAG_KEYS if k in table]
+    model = table.get("model", "lag" if lag else "ideal")
+    if model not in ACTUATOR_MODELS:
+        raise c.fail(
+            "actuator.model", f"must be one of {', '.join(ACTUATOR_MODELS)}, got {model!r}"
+        )
+    if lag and model != "lag":
+        raise c.fail(f"actuator.{lag[0]}", f'belongs to model "lag", not {model!r}')
+    values: dict[str, Any] = {"model": str(model)}
+    if "time_constant" in table:
+        values["time_constant"] = c.non_negative(table["time_constant"], "actuator.time_constant")
+    if "max_accel" in table:
+        values["max_accel"] = c.positive(table["max_accel"], "actuator.max_accel")
+    if "encoder_counts" in table:
+        values["encoder_counts"] = c.integer(table["encoder_counts"], "actuator.encoder_counts", 1)
+    if "delay" in table:
+        values["delay"] = c.integer(table["delay"], "actuator.delay")
+    return ActuatorSpec(**values)
+
+
+def _hand_actuator(
+    c: _Checker,
+    params: Params,
+    spec: ActuatorSpec,
+    table: Mapping[str, object],
+    sim: SimSpec,
+) -> Params:
+    """@p params with what the wheels are handed to the firmware, where
+    ``[params]`` does not set it: for "lag" wheels wheel_accel = max_accel
+    (without a limit :data:`IDEAL_WHEEL_ACCEL`), wheel_tau = time_constant +
+    delay × dt; for ideal ones :data:`IDEAL_WHEEL_ACCEL` and 0; for "dc"
+    :data:`DC_HANDED`. A value the firmware would refuse names the
+    actuator's key."""
+    if spec.model == "dc":
+        model = dict(DC_HANDED)
+    else:
+        model = {
+            "wheel_accel": min(spec.max_accel, IDEAL_WHEEL_ACCEL),
+            "wheel_tau": spec.time_constant + spec.delay * sim.dt,
+        }
+    handed: dict[str, float] = {}
+    blame: dict[str, str] = {}
+    if "wheel_accel" not in table:
+        handed["wheel_accel"] = model["wheel_accel"]
+        blame["wheel_accel"] = "actuator.max_accel"
+    if "wheel_tau" not in table:
+        handed["wheel_tau"] = model["wheel_tau"]
+        blame["wheel_tau"] = "actuator.time_constant"
+    if not handed:
+        return params
+    p = replace(
+        params,
+        wheel_accel=handed.get("wheel_accel", params.wheel_accel),
+        wheel_tau=handed.get("wheel_tau", params.wheel_tau),
+    )
+    problem = _violation(p)
+    if problem is not None:
+        name = next(n for n in problem.names if n in blame)
+        raise c.fail(
+            blame[name],
+            f"hands the firmware {name} = {handed[name]:g}, which it refuses: {problem.problem}",
+        )
+    return p
+
+
 _IMPERFECTION_NOISES = ("position_noise", "heading_noise", "obstacle_noise")
 
 
@@ -600,7 +685,7 @@ def _parse_imperfections(c: _Checker, value: object) -> ImperfectionSpec:
 
 def _parse_meta(c: _Checker, value: object) -> MetaSpec:
     table = c.table(value, "meta")
-    c.keys(table, "meta", (), ("family", "seed", "index"))
+    c.keys(table, "meta", (), ("family", "seed", "index", "actuator"))
     family = ""
     if "family" in table:
         if not isinstance(table["family"], str):
@@ -608,7 +693,12 @@ def _parse_meta(c: _Checker, value: object) -> MetaSpec:
         family = table["family"]
     seed = c.integer(table["seed"], "meta.seed") if "seed" in table else None
     index = c.integer(table["index"], "meta.index") if "index" in table else None
-    return MetaSpec(family, seed, index)
+    actuator = ""
+    if "actuator" in table:
+        if not isinstance(table["actuator"], str):
+            raise c.fail("meta.actuator", f"must be a string, got {_type_name(table['actuator'])}")
+        actuator = table["actuator"]
+    return MetaSpec(family, seed, index, actuator)
 
 
 def _parse_sim(c: _Checker, value: object) -> SimSpec:

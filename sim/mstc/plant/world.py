@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mstc.model import Obstacle
+from mstc.plant.actuator import Actuator
 from mstc.plant.plant import UnicyclePlant
 from mstc.plant.reference import ReferenceRobot
 from mstc.plant.scenario import Scenario
@@ -41,6 +42,10 @@ class World:
     sensor: RangeSensor
     odometry_rng: np.random.Generator
     """The stream of the odometry noise (the sensor has its own)."""
+    actuator: Actuator | None = None
+    """The "lag" wheels that move the plant (docs/scenarios.md,
+    ``[actuator]``); None: the plant's own ideal wheels, or a
+    :class:`~mstc.plant.plant.WheelDrive` the loop is given ("dc")."""
 
 
 def make_world(scenario: Scenario) -> World:
@@ -64,4 +69,7 @@ def make_world(scenario: Scenario) -> World:
         rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
         dropout_rng=dropout_rng,
     )
-    return World(plant, ref, obstacles, sensor, odometry_rng)
+    actuator = None
+    if scenario.actuator.model == "lag":
+        actuator = Actuator(scenario.actuator, plant, sim.dt, imp.delay + scenario.actuator.delay)
+    return World(plant, ref, obstacles, sensor, odometry_rng, actuator)

@@ -23,6 +23,10 @@ topic                  type                              messages
                                                          velocity (1 s) for a moving one: the
                                                          bridge's own input format
 ``/cmd_wheels``        sensor_msgs/msg/JointState        each step: the wheel speed commands
+``/wheel_speeds``      sensor_msgs/msg/JointState        each WHEEL_SPEED frame: the speeds the
+                                                         wheels measured (runs with an
+                                                         ``[actuator]`` only: the ideal wheels
+                                                         send none)
 ``/mstc/status``       diagnostic_msgs/msg/               each step: every STATUS and STATUS_TRK
                        DiagnosticArray                   signal, mode and halt as names
 ``/mstc/events``       diagnostic_msgs/msg/               each switching event, at its step
@@ -270,6 +274,22 @@ def _obstacle_reports(decoded: DecodedLog, db: Database) -> dict[int, list[tuple
     return reports
 
 
+def _measured_speeds(decoded: DecodedLog, db: Database) -> list[tuple[int, float, float]]:
+    """(bus time [ns], left, right [rad/s]) of each WHEEL_SPEED frame of the
+    log that decodes (a frame cantools cannot read is left out, as
+    :func:`_obstacle_reports` does)."""
+    log = decoded.log
+    message = db.get_message_by_name("WHEEL_SPEED")
+    speeds = []
+    for row in np.flatnonzero((log.frame_id == message.frame_id) & ~log.extended):
+        try:
+            s = numeric_values(message, log.data[row, : int(log.dlc[row])].tobytes())
+        except Exception:  # cantools raises several kinds on bad data
+            continue
+        speeds.append((_ns(float(log.time[row])), float(s["left"]), float(s["right"])))
+    return speeds
+
+
 def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's raw frames) as a rosbag2 folder @p out.
 
@@ -353,6 +373,15 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
         first = _ns(float(decoded.stamps[0]))
         path = m.make("nav_msgs/msg/Path", header=m.header(first, WORLD), poses=path_poses)
         bag.add("/reference/path", first, path, latched=True)
+
+    for ns, left, right in _measured_speeds(decoded, db):
+        measured = m.make(
+            "sensor_msgs/msg/JointState",
+            header=m.header(ns, BASE),
+            name=list(JOINTS),
+            velocity=np.array([left, right], dtype=np.float64),
+        )
+        bag.add("/wheel_speeds", ns, measured)
 
     reports = _obstacle_reports(decoded, db)
     for row, obstacles in sorted(reports.items()):

@@ -193,6 +193,7 @@ class DwaController:
         w_r: float,
         obstacles: Sequence[Obstacle],
         t_us: int,
+        wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         """One control period (see :meth:`mstc.model.Controller.step`): a
         new decision every ``config.period``, the last one held in between."""

@@ -60,15 +60,24 @@ from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
 from mstc.model import Controller, Strategy
 from mstc.plant.batch import table_width
-from mstc.plant.scenario import Scenario, parse_scenario
+from mstc.plant.scenario import DC_HANDED, Scenario, parse_scenario
 from mstc.report.outputs import events_json, events_text
-from mstc.sweep.dwa import DwaController
+from mstc.sweep.dwa import DwaConfig, DwaController
 from mstc.sweep.folder import read_sources, text_sha256, write_sources
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, RunningMetrics, evaluate
 
 STRATEGIES = ("paper", "mstc", "dwa")
 """What --strategy takes: the firmware's two strategies, and the DWA baseline."""
-ROW_COLUMNS = ("scene", "family", "seed", "strategy", "steps", *METRIC_COLUMNS, "error")
+ROW_COLUMNS = (
+    "scene",
+    "family",
+    "actuator",
+    "seed",
+    "strategy",
+    "steps",
+    *METRIC_COLUMNS,
+    "error",
+)
 """Columns of runs.csv, in order."""
 MEASURED_COLUMNS = ("step_us",)
 """Columns that are measurements, different from run to run; every other
@@ -90,6 +99,8 @@ class Scene:
     text: str
     family: str = ""
     seed: int | None = None
+    actuator: str = ""
+    """The suite's actuator profile ("" when the file names none)."""
     scenario: Scenario | None = None
     """The file parsed, when the client has parsed it already (``mstc sweep``
     validates every scene before it runs any): the worker then takes it
@@ -105,12 +116,14 @@ class Scene:
             meta = {}
         family = meta.get("family", "") if isinstance(meta, dict) else ""
         seed = meta.get("seed") if isinstance(meta, dict) else None
+        actuator = meta.get("actuator", "") if isinstance(meta, dict) else ""
         return cls(
             path.stem,
             str(path),
             text,
             family if isinstance(family, str) else "",
             seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
+            actuator if isinstance(actuator, str) else "",
         )
 
     def parsed(self) -> Scenario:
@@ -166,19 +179,46 @@ def worker_library(lib: str) -> str:
     )
 
 
+def actuator_name(scenario: Scenario) -> str:
+    """The actuator column of a run: the suite's profile, else the
+    ``[actuator]``'s model (``ideal`` without the table)."""
+    if scenario.meta.actuator:
+        return scenario.meta.actuator
+    return scenario.actuator.model
+
+
 def controller_for(scenario: Scenario, strategy: str, lib: str) -> tuple[Scenario, Controller]:
-    """The scenario with @p strategy applied, and its controller."""
+    """The scenario with @p strategy applied, and its controller (DWA's
+    window limited to the actuator's acceleration, when it has one)."""
     if strategy == "dwa":
-        return scenario, DwaController(scenario.params)
+        return scenario, DwaController(scenario.params, dwa_config(scenario))
     params = dataclasses.replace(scenario.params, strategy=Strategy(strategy))
     scenario = dataclasses.replace(scenario, params=params)
     return scenario, SilController(params, lib)
 
 
+def dwa_config(scenario: Scenario) -> DwaConfig:
+    """DWA's parameters for @p scenario: its window's accelerations are the
+    wheels' when the actuator limits them (a wheel at a rad/s² gives the
+    robot r·a m/s² and 2·r·a/L rad/s²), never more than DWA's own."""
+    config = DwaConfig()
+    act = scenario.actuator
+    accel = {"lag": act.max_accel, "dc": DC_HANDED["wheel_accel"]}.get(act.model, math.inf)
+    if not math.isfinite(accel):
+        return config
+    p = scenario.params
+    linear = p.wheel_radius * accel
+    return dataclasses.replace(
+        config,
+        max_accel=min(config.max_accel, linear),
+        max_delta_yaw_rate=min(config.max_delta_yaw_rate, 2.0 * linear / p.track_width),
+    )
+
+
 def _new_row(scene: Scene, strategy: str) -> dict[str, str]:
     """A row of runs.csv for @p scene and @p strategy, nothing run yet."""
     row = {c: "" for c in ROW_COLUMNS}
-    row.update(scene=scene.name, family=scene.family, strategy=strategy)
+    row.update(scene=scene.name, family=scene.family, strategy=strategy, actuator=scene.actuator)
     row["seed"] = "" if scene.seed is None else str(scene.seed)
     return row
 
@@ -189,6 +229,7 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
     try:
         scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
+        row["actuator"] = actuator_name(scenario)
         scenario, controller = controller_for(scenario, strategy, lib)
         result = simulate(scenario, controller, wheels=wheels_for(scenario, lib))
         metrics = evaluate(result)
@@ -247,6 +288,7 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
             outcomes[index] = Outcome(scene.name, strategy, row, events, sha)
             continue
         row["family"] = scenario.meta.family or scene.family
+        row["actuator"] = actuator_name(scenario)
         ready.append((index, _with_strategy(scenario, strategy), row))
     try:
         controller = SilBatch([s.params for _, s, _ in ready], lib, strict=False)
@@ -382,7 +424,9 @@ def engine_batches(
 def _crash_row(job: Job, why: str) -> Outcome:
     scene, strategy = job
     row = {c: "" for c in ROW_COLUMNS}
-    row.update(scene=scene.name, family=scene.family, strategy=strategy, error=why)
+    row.update(
+        scene=scene.name, family=scene.family, actuator=scene.actuator, strategy=strategy, error=why
+    )
     row["seed"] = "" if scene.seed is None else str(scene.seed)
     return Outcome(scene.name, strategy, row, None, "")
 

@@ -34,6 +34,11 @@ baseline's, is judged by the same code. Definitions (docs/sweeps.md):
 - time in avoidance, switches: the periods run in mode ``avoid``, and the
   number of mode changes;
 - path ratio: the robot's path length over the reference's;
+- **infeasible**: the controller reported an obstacle it could not keep
+  away within the wheels' limits (an ``infeasible`` event, strategy
+  "mstc"); **contact reported**: a contact at a step at or after the first
+  such report (the only contacts the issue "Safe on real wheels" allows,
+  with moving obstacles);
 - ∫|ω|dt: Σ |ω_k| dt over the periods k = 0..N-1 (commanded ω, held);
 - step cost: mean wall time of one controller step in the process that ran
   it (a measurement; it differs from run to run).
@@ -95,6 +100,10 @@ class Metrics:
     switches: int
     max_activations: int
     """Most activate events of one obstacle."""
+    infeasible: bool
+    """An ``infeasible`` event was reported."""
+    contact_reported: bool
+    """A contact, and the first came at or after the first ``infeasible`` event."""
     step_us: float
     """Mean controller step cost [µs] (a measurement, not reproducible)."""
 
@@ -174,6 +183,11 @@ def evaluate(result: RunResult) -> Metrics:
     avoid_steps = sum(1 for m in modes[:-1] if m is Mode.AVOID)
     switches = sum(1 for a, b in zip(modes, modes[1:], strict=False) if a is not b)
     ref_length = _path_length(xr, yr)
+    reports = [e.t_us for e in result.events if e.kind is EventKind.INFEASIBLE]
+    contact_reported = False
+    if reports and min_clearance < 0.0:
+        first = int(np.flatnonzero((clearance < 0.0).any(axis=1))[0])
+        contact_reported = round(float(t[first]) * 1e6) >= reports[0]
     return Metrics(
         contact=min_clearance < 0.0,
         min_clearance=min_clearance,
@@ -188,6 +202,8 @@ def evaluate(result: RunResult) -> Metrics:
         int_abs_w=_in_order(np.abs(trace["w"][:-1])) * dt,
         switches=switches,
         max_activations=most_activations(result.events),
+        infeasible=bool(reports),
+        contact_reported=contact_reported,
         step_us=result.step_time * 1e6,
     )
 
@@ -225,6 +241,14 @@ class RunningMetrics:
                 act[i, j] = s.params.activation_distance(o.radius)
         self._near = Within(act)
         """Within D_act, as the per-scene code decides it."""
+        touch = np.full((n, width), -1.0)
+        for i, s in enumerate(scenarios):
+            for j, o in enumerate(s.obstacles):
+                touch[i, j] = s.params.r_m + o.radius
+        self._touch = Within(touch)
+        """Within R_m + r of an obstacle: a contact (:func:`evaluate`'s
+        clearance below 0, up to a distance of exactly R_m + r)."""
+        self._first_touch = np.full(n, -1, dtype=np.int64)
         top = max(modes) + 1
         self._busy_mode = np.zeros(top, dtype=bool)
         self._avoid_mode = np.zeros(top, dtype=np.int64)
@@ -288,6 +312,10 @@ class RunningMetrics:
         uniform = self._uniform
         active = s.active
         near = self._near(s.distance2, s.dx, s.dy)
+        touched = self._touch(s.distance2, s.dx, s.dy).any(axis=1)
+        if not uniform:
+            touched &= active
+        np.copyto(self._first_touch, k, where=touched & (self._first_touch < 0))
         mode = s.mode
         busy = near.any(axis=1) | self._busy_mode[mode]
         if not uniform:
@@ -383,6 +411,14 @@ class RunningMetrics:
         ref_moved, moved = float(self._win_ref_path[i]), float(self._win_path[i])
         ref_length = float(self._ref_path[i])
         rejoined = False if self._failed[i] else True if self._judged[i] else None
+        reports = [e.t_us for e in run.events if e.kind is EventKind.INFEASIBLE]
+        first_touch = int(self._first_touch[i])
+        contact_reported = bool(
+            reports
+            and min_clearance < 0.0
+            and first_touch >= 0
+            and first_touch * int(self.dt_us[i]) >= reports[0]
+        )
         return Metrics(
             contact=min_clearance < 0.0,
             min_clearance=min_clearance,
@@ -398,5 +434,7 @@ class RunningMetrics:
             int_abs_w=float(self._abs_w[i]) * dt,
             switches=int(self._switches[i]),
             max_activations=most_activations(run.events),
+            infeasible=bool(reports),
+            contact_reported=contact_reported,
             step_us=run.step_time * 1e6,
         )

@@ -137,6 +137,20 @@ class Family:
         return f"{self.name}-{index:04d}"
 
 
+IDEAL = "ideal"
+"""The actuator profile of a suite without ``[actuator.*]`` tables: ideal wheels."""
+_ACTUATOR_KEYS = ("time_constant", "max_accel", "encoder_counts", "delay")
+
+
+@dataclass(frozen=True)
+class ActuatorProfile:
+    """One ``[actuator.<name>]`` of a suite: the ``[actuator]`` table its
+    scenes get (empty: ideal wheels, no table)."""
+
+    name: str
+    values: Mapping[str, float | int]
+
+
 @dataclass(frozen=True)
 class Suite:
     """A validated suite file."""
@@ -146,6 +160,15 @@ class Suite:
     dt: float
     integrator: Integrator
     families: tuple[Family, ...]
+    actuators: tuple[ActuatorProfile, ...] = (ActuatorProfile(IDEAL, {}),)
+    """Every family runs with each (docs/sweeps.md)."""
+
+    def scene_name(self, family: Family, index: int, actuator: ActuatorProfile) -> str:
+        """File stem of a scene: ``family-NNNN`` with ideal wheels (the names
+        of a suite without actuators), ``family-<actuator>-NNNN`` otherwise."""
+        if not actuator.values and actuator.name == IDEAL:
+            return family.scene_name(index)
+        return f"{family.name}-{actuator.name}-{index:04d}"
 
 
 def _table(c: Callable[[str, str], SuiteError], value: object, key: str) -> dict[str, Any]:
@@ -216,7 +239,7 @@ def load_suite(path: str | Path) -> Suite:
         raise fail(None, f"cannot read: {exc.strerror or exc}") from exc
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise fail(None, f"not a TOML file: {exc}") from exc
-    _unknown(fail, data, "", ("suite", "family"))
+    _unknown(fail, data, "", ("suite", "family", "actuator"))
     head = _table(fail, data.get("suite", {}), "suite")
     _unknown(fail, head, "suite", ("name", "dt", "integrator"))
     suite_name = head.get("name", Path(path).stem)
@@ -238,7 +261,36 @@ def load_suite(path: str | Path) -> Suite:
     _probe(fail, "suite.dt", dt, integrator)
     for family in families:
         _check_scenes(fail, family, dt, integrator)
-    return Suite(Path(path), suite_name, dt, Integrator(integrator), families)
+    actuators = _actuators(fail, _table(fail, data.get("actuator", {}), "actuator"))
+    for profile in actuators:
+        if profile.values:
+            _probe(fail, f"actuator.{profile.name}", dt, integrator, actuator=dict(profile.values))
+    return Suite(Path(path), suite_name, dt, Integrator(integrator), families, actuators)
+
+
+def _actuators(
+    fail: Callable[[str, str], SuiteError], table: Mapping[str, Any]
+) -> tuple[ActuatorProfile, ...]:
+    """The ``[actuator.<name>]`` profiles, in file order; none: ideal wheels."""
+    if not table:
+        return (ActuatorProfile(IDEAL, {}),)
+    profiles = []
+    for name, value in table.items():
+        prefix = f"actuator.{name}"
+        if not name.replace("_", "").isalnum():
+            raise fail(prefix, "actuator names are letters, digits and _")
+        values = _table(fail, value, prefix)
+        _unknown(fail, values, prefix, _ACTUATOR_KEYS)
+        checked: dict[str, float | int] = {}
+        for key, v in values.items():
+            if key in ("encoder_counts", "delay"):
+                if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                    raise fail(f"{prefix}.{key}", "must be an integer >= 0")
+                checked[key] = v
+            else:
+                checked[key] = _number(fail, v, f"{prefix}.{key}")
+        profiles.append(ActuatorProfile(name, checked))
+    return tuple(profiles)
 
 
 def _probe(
@@ -568,8 +620,16 @@ def _array(values: tuple[float, ...] | list[float]) -> str:
     return "[" + ", ".join(_num(v) for v in values) + "]"
 
 
-def scene_text(suite: Suite, family: Family, index: int, params: Params | None = None) -> str:
-    """Scene @p index of @p family as the text of a scenario file."""
+def scene_text(
+    suite: Suite,
+    family: Family,
+    index: int,
+    params: Params | None = None,
+    actuator: ActuatorProfile | None = None,
+) -> str:
+    """Scene @p index of @p family as the text of a scenario file, with the
+    wheels of @p actuator (default: ideal): the same scene, drawn from the
+    same seed, under every profile."""
     p = params or Params()
     g = family.draws
     seed = family.scene_seed(index)
@@ -597,6 +657,7 @@ def scene_text(suite: Suite, family: Family, index: int, params: Params | None =
         f'family = "{family.name}"',
         f"seed = {seed}",
         f"index = {index}",
+        *([f'actuator = "{actuator.name}"'] if actuator is not None else []),
         "",
         "[robot]",
         f"pose = {_array(scene.robot)}",
@@ -620,6 +681,12 @@ def scene_text(suite: Suite, family: Family, index: int, params: Params | None =
     if imp:
         lines += ["", "[imperfections]", f"seed = {seed}"]
         lines += [f"{k} = {v if k == 'delay' else _num(float(v))}" for k, v in imp.items()]
+    if actuator is not None and actuator.values:
+        lines += ["", "[actuator]"]
+        lines += [
+            f"{k} = {v if isinstance(v, int) else _num(float(v))}"
+            for k, v in actuator.values.items()
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -632,11 +699,19 @@ class SceneFile:
     seed: int
 
 
-def generate(suite: Suite, out: Path, families: tuple[str, ...] | None = None) -> list[SceneFile]:
-    """Write every scene of @p suite under ``out/<family>/<family>-NNNN.toml``.
+def generate(
+    suite: Suite,
+    out: Path,
+    families: tuple[str, ...] | None = None,
+    actuators: tuple[str, ...] | None = None,
+) -> list[SceneFile]:
+    """Write every scene of @p suite under ``out/<family>/<name>.toml``
+    (:meth:`Suite.scene_name`), once per actuator profile.
 
     :param families: only these families (default: all).
-    :returns: The files, family by family in suite order, scene by scene.
+    :param actuators: only these actuator profiles (default: all).
+    :returns: The files, family by family in suite order, then profile by
+        profile, scene by scene.
     """
     written = []
     for family in suite.families:
@@ -644,10 +719,14 @@ def generate(suite: Suite, out: Path, families: tuple[str, ...] | None = None) -
             continue
         folder = out / family.name
         folder.mkdir(parents=True, exist_ok=True)
-        for i in range(family.count):
-            path = folder / f"{family.scene_name(i)}.toml"
-            text = scene_text(suite, family, i)
-            if not path.exists() or path.read_text() != text:
-                path.write_text(text)
-            written.append(SceneFile(path, family.name, family.scene_seed(i)))
+        for actuator in suite.actuators:
+            if actuators is not None and actuator.name not in actuators:
+                continue
+            profile = None if actuator == ActuatorProfile(IDEAL, {}) else actuator
+            for i in range(family.count):
+                path = folder / f"{suite.scene_name(family, i, actuator)}.toml"
+                text = scene_text(suite, family, i, actuator=profile)
+                if not path.exists() or path.read_text() != text:
+                    path.write_text(text)
+                written.append(SceneFile(path, family.name, family.scene_seed(i)))
     return written

@@ -53,23 +53,28 @@ def _median(rows: Sequence[dict[str, str]], column: str, digits: int = 3) -> str
 
 
 _TABLE_HEAD = (
-    "| family | strategy | runs | errors | contact | D_s kept | rejoined (not blocked, judged) "
+    "| family | actuator | strategy | runs | errors | contact | of which after an infeasible "
+    "report | D_s kept | rejoined (not blocked, judged) "
     "| blocked | most activations of one obstacle "
     "| median min clearance [m] | median RMS error [m] | median path ratio "
     "| median ∫\\|ω\\|dt [rad] | median switches | median avoiding [s] | median step [µs] |"
 )
-_TABLE_HEAD_RULE = "|" + "---|" * 16
+_TABLE_HEAD_RULE = "|" + "---|" * 18
 
 
-def _table_row(family: str, strategy: str, rows: Sequence[dict[str, str]]) -> str:
+def _table_row(family: str, actuator: str, strategy: str, rows: Sequence[dict[str, str]]) -> str:
     ok = [r for r in rows if not r["error"]]
     judged = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]
+    contacts = sum(1 for r in ok if r["contact"] == "1")
+    reported = sum(1 for r in ok if r["contact_reported"] == "1")
     cells = (
         family,
+        actuator,
         strategy,
         str(len(rows)),
         str(len(rows) - len(ok)),
         _rate(ok, "contact"),
+        f"{reported}/{contacts}",
         _rate(ok, "ds_kept"),
         _rate(judged, "rejoined"),
         _rate(ok, "blocked"),
@@ -202,6 +207,7 @@ def write_summary(
     :param rerun: runs a row's scene again for its figure (None: no gallery).
     """
     families = list(dict.fromkeys(r["family"] or "(none)" for r in rows))
+    actuators = list(dict.fromkeys(r["actuator"] or "ideal" for r in rows))
     lines = [
         f"# Sweep: {title}",
         "",
@@ -213,21 +219,33 @@ def write_summary(
         "lasts long enough to tell is not: docs/sweeps.md). "
         "A `mstc` row before the firmware has its strategy runs the paper's.",
         "",
-        "## Per family",
+        "## Per family and actuator",
         "",
         _TABLE_HEAD,
         _TABLE_HEAD_RULE,
     ]
     for family in families:
+        for actuator in actuators:
+            for strategy in strategies:
+                mine = [
+                    r
+                    for r in rows
+                    if (r["family"] or "(none)") == family
+                    and (r["actuator"] or "ideal") == actuator
+                    and r["strategy"] == strategy
+                ]
+                if mine:
+                    lines.append(_table_row(family, actuator, strategy, mine))
+    lines += ["", "## All families", "", _TABLE_HEAD, _TABLE_HEAD_RULE]
+    for actuator in actuators:
         for strategy in strategies:
             mine = [
-                r for r in rows if (r["family"] or "(none)") == family and r["strategy"] == strategy
+                r
+                for r in rows
+                if r["strategy"] == strategy and (r["actuator"] or "ideal") == actuator
             ]
             if mine:
-                lines.append(_table_row(family, strategy, mine))
-    lines += ["", "## All families", "", _TABLE_HEAD, _TABLE_HEAD_RULE]
-    for strategy in strategies:
-        lines.append(_table_row("all", strategy, [r for r in rows if r["strategy"] == strategy]))
+                lines.append(_table_row("all", actuator, strategy, mine))
     errors = [r for r in rows if r["error"]]
     if errors:
         lines += ["", f"## Errors ({len(errors)})", ""]

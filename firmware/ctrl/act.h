@@ -1,0 +1,132 @@
+/* SPDX-License-Identifier: MIT */
+/**
+ * @file act.h
+ * @brief What the "mstc" strategy knows of its wheels (docs/strategy.md,
+ *        "Real wheels"): the rate limiter on its wheel commands, the wheel
+ *        speeds it expects now, and the time it takes to brake.
+ *
+ * The model the firmware assumes of each wheel (parameters wheel_accel a and
+ * wheel_tau τ, ctl.h): its speed ω follows its command u at least as fast as
+ * a first-order lag of τ (delays included), and can change by a per second.
+ *
+ * - **Rate limiter** (act_limit()): a command differs from the previous one
+ *   by at most a·dt on each wheel; when one wheel would change more, both
+ *   changes are scaled by one factor, so the change keeps its direction in
+ *   wheel space and a wheel that saturates does not bend the heading (the
+ *   per-wheel speed limiter of ros2_control's diff_drive_controller, issue
+ *   #470, with a common factor).
+ * - **Estimate** (act_estimate()): the wheel speeds now. Measured
+ *   (WHEEL_SPEED: each wheel's mean speed over the period that just ended)
+ *   when the step has them; otherwise predicted from the commands by the
+ *   lag, in its implicit-Euler form ω ← (τ ω + dt u) / (τ + dt) with u the
+ *   command that was in force over the period (exact in the limits τ → 0 and
+ *   τ → ∞, never overshooting).
+ * - **Braking time** (act_brake_time()): braking along the path, the
+ *   commands ramp down by one factor at a on the faster wheel, so every
+ *   speed of the robot falls linearly to zero in T_s = max|u| / a and the
+ *   distance still covered is the speed times T_s / 2; a command held for
+ *   the period before the ramp starts adds half a period (the ramp's first
+ *   command is already a·dt lower). The filter uses T_b = (T_s + dt) / 2.
+ */
+#ifndef MSTC_ACT_H
+#define MSTC_ACT_H
+
+#include <stdbool.h>
+
+#include "ctrl/pose.h"
+#include "kin/kin.h"
+#include "num/num.h"
+
+/** @brief Longest period the rate limiter and the estimate take [s]: a longer
+ *         gap between two steps (a time jump) counts as this one. */
+#define ACT_MAX_DT NUM_C(0.1)
+
+/** @brief Share of the wheels' acceleration the control laws may ask for
+ *         (ctl.c): the rest is for the lag and for the safety filter. */
+#define ACT_LAW_SHARE NUM_C(0.5)
+
+/** @brief A pose carried forward (act_predict()), with cos and sin of its heading. */
+typedef struct {
+    pose_t p;
+    num_t c, s;
+} act_pose_t;
+
+/** @brief What a parameter set gives, computed once (act_configure()). */
+typedef struct {
+    num_t inv_accel;  /**< 1 / wheel_accel [s²/rad] */
+    num_t inv_av;     /**< 1 / (r wheel_accel): a speed's braking time per m/s [s²/m] */
+    num_t law_accel;  /**< ACT_LAW_SHARE × r a: the laws' linear acceleration [m/s²] */
+    num_t gamma;      /**< ACT_LAW_SHARE × 2 r a / L: their angular acceleration [rad/s²] */
+    num_t sqrt_gamma; /**< sqrt(gamma) [rad/s] */
+    num_t side;       /**< min(1, 2 l / L): the share of r a a point l ahead of the
+                           axle can accelerate across the heading (cbf.c) */
+    num_t inv_side;   /**< 1 / side */
+} act_limits_t;
+
+/** @brief The wheels as the firmware knows them. */
+typedef struct {
+    kin_wheels_t cmd; /**< the last command sent [rad/s]: the rate limiter's base */
+    kin_wheels_t est; /**< the wheel speeds estimated at the last step [rad/s] */
+    act_limits_t lim; /**< of the parameters in force */
+} act_t;
+
+/** @brief Standstill: commands and estimate zero (a->lim untouched). */
+void act_init(act_t *a);
+
+/** @brief The constants of the wheels' parameters (@p kin, @p accel =
+ *         wheel_accel > 0) and of the point @p lever ahead of the axle that
+ *         the safety filter steers (> 0) into a->lim: once per parameter
+ *         set. */
+void act_configure(act_t *a, const kin_params_t *kin, num_t accel, num_t lever);
+
+/** @brief The wheels were commanded @p w by someone else (a halt's ramp):
+ *         the next command starts from there, and so does the estimate. */
+void act_sync(act_t *a, const kin_wheels_t *w);
+
+/**
+ * @brief The wheel speeds now, into a->est.
+ * @param a   state: a->cmd is the command in force over the last period.
+ * @param tau wheel_tau [s], >= 0.
+ * @param dt  the period since the last step [s], in [0, ACT_MAX_DT].
+ * @param meas the measured speeds (each wheel's mean over the last period), or NULL.
+ */
+void act_estimate(act_t *a, num_t tau, num_t dt, const kin_wheels_t *meas);
+
+/**
+ * @brief Rate-limit the command @p w against a->cmd, then store it as a->cmd.
+ * @param a     state.
+ * @param accel wheel_accel [rad/s²], > 0.
+ * @param dt    the period since the last step [s], in [0, ACT_MAX_DT].
+ * @param[in,out] w the command [rad/s]: unchanged when within a·dt of a->cmd
+ *        on both wheels, else a->cmd + k (w − a->cmd) with the largest
+ *        k in [0, 1) that keeps both within.
+ * @retval true @p w was limited.
+ */
+bool act_limit(act_t *a, num_t accel, num_t dt, kin_wheels_t *w);
+
+/**
+ * @brief The horizon over which the wheels' lag carries the robot on [s]:
+ *        wheel_tau, plus half a period when the speeds are measured (a
+ *        period's mean is half a period old).
+ */
+num_t act_horizon(num_t tau, num_t dt, bool measured);
+
+/**
+ * @brief The pose @p p0 (cos and sin of its heading @p c0, @p s0) carried
+ *        over @p t seconds at constant (v, ω): heading θ + ωt, position along
+ *        the heading half-way through the turn; the new heading's cos and sin
+ *        by rotating @p c0, @p s0 by δ = ωt with cos δ ≈ 1 − δ²/2,
+ *        sin δ ≈ δ − δ³/6 (no trigonometric call; error below δ⁴/24, 1 % of
+ *        the rotation at δ = 0.5 rad), the mid heading to first order.
+ */
+void act_predict(const pose_t *p0, num_t c0, num_t s0, num_t v, num_t w, num_t t, act_pose_t *out);
+
+/**
+ * @brief T_b = (max(|u_L|, |u_R|) / accel + dt) / 2 [s]: how long, in
+ *        distance, the speeds of the command @p u still carry the robot
+ *        when it brakes along its path from the next step (the file's
+ *        comment). @p inv_accel is 1 / accel (act_limits_t).
+ */
+num_t act_brake_time(const kin_wheels_t *u, num_t inv_accel, num_t dt);
+
+#endif /* MSTC_ACT_H */
