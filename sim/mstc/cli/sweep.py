@@ -31,7 +31,7 @@ from mstc.sweep.engine import (
 )
 from mstc.sweep.folder import locked
 from mstc.sweep.suite import MAX_COUNT, Family, Suite, generate, is_suite, load_suite
-from mstc.sweep.summary import write_summary
+from mstc.sweep.summary import runs_of, write_summary
 
 NAME = "sweep"
 HELP = "run scenario files or suites for several strategies, on all cores or a Dask cluster"
@@ -389,13 +389,7 @@ def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
     )
     for family, actuator in groups:
         for strategy in strategies:
-            mine = [
-                r
-                for r in rows
-                if (r["family"] or "(none)") == family
-                and (r["actuator"] or "ideal") == actuator
-                and r["strategy"] == strategy
-            ]
+            mine = runs_of(rows, family, actuator, strategy)
             if not mine:
                 continue
             ok = [r for r in mine if not r["error"]]

@@ -62,6 +62,20 @@ _TABLE_HEAD = (
 _TABLE_HEAD_RULE = "|" + "---|" * 18
 
 
+def runs_of(
+    rows: Sequence[dict[str, str]], family: str, actuator: str, strategy: str
+) -> list[dict[str, str]]:
+    """The rows of @p family (``(none)``: rows without one) and @p actuator
+    (``ideal``: rows without one) run with @p strategy."""
+    return [
+        r
+        for r in rows
+        if (r["family"] or "(none)") == family
+        and (r["actuator"] or "ideal") == actuator
+        and r["strategy"] == strategy
+    ]
+
+
 def _table_row(family: str, actuator: str, strategy: str, rows: Sequence[dict[str, str]]) -> str:
     ok = [r for r in rows if not r["error"]]
     judged = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]
@@ -227,13 +241,7 @@ def write_summary(
     for family in families:
         for actuator in actuators:
             for strategy in strategies:
-                mine = [
-                    r
-                    for r in rows
-                    if (r["family"] or "(none)") == family
-                    and (r["actuator"] or "ideal") == actuator
-                    and r["strategy"] == strategy
-                ]
+                mine = runs_of(rows, family, actuator, strategy)
                 if mine:
                     lines.append(_table_row(family, actuator, strategy, mine))
     lines += ["", "## All families", "", _TABLE_HEAD, _TABLE_HEAD_RULE]
