@@ -211,9 +211,7 @@ def test_obstacles_are_those_the_sensor_saw(run: tuple[Path, Path, str]) -> None
                 assert abs(m.scale.x - 2 * o.radius) <= 1e-9
 
 
-def test_measured_wheel_speeds_are_the_wheel_speed_frames(
-    sil_lib: Path, tmp_path: Path
-) -> None:
+def test_measured_wheel_speeds_are_the_wheel_speed_frames(sil_lib: Path, tmp_path: Path) -> None:
     """A run whose wheels lag (an ``[actuator]``) carries WHEEL_SPEED frames;
     /wheel_speeds holds each of them, at its bus time, with the speeds
     cantools decodes from bus.log's line (the DBC read here, not by the
@@ -228,8 +226,10 @@ def test_measured_wheel_speeds_are_the_wheel_speed_frames(
     )
     quiet = io.StringIO()
     with contextlib.redirect_stdout(quiet):
-        assert main(["sim", "--lib", str(sil_lib), "--out", str(tmp_path), "-q", str(scenario)]) == 0
-        assert main(["export", str(tmp_path / "lag"), "--rosbag2", str(tmp_path / "bag"), "-q"]) == 0
+        rc = main(["sim", "--lib", str(sil_lib), "--out", str(tmp_path), "-q", str(scenario)])
+        assert rc == 0
+        rc = main(["export", str(tmp_path / "lag"), "--rosbag2", str(tmp_path / "bag"), "-q"])
+        assert rc == 0
     db = cantools.database.load_file(str(DBC))
     wheel_speed = db.get_message_by_name("WHEEL_SPEED")
     want = []
