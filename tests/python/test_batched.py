@@ -18,6 +18,7 @@ import dataclasses
 import math
 import os
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,7 @@ from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
 from mstc.model import Obstacle, Pose, Strategy, wrap_angle
 from mstc.plant.batch import BatchActuator, BatchWorld, wrap
-from mstc.plant.scenario import load_scenario, parse_scenario
+from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
 from mstc.plant.world import make_world
 from mstc.sweep import engine
 from mstc.sweep.engine import MEASURED_COLUMNS, Job, Scene, run_batch
@@ -167,11 +168,24 @@ def test_the_comparison_sees_wheels_that_differ(
     # The check above can fail: batched wheels a little off change rows.
     init = BatchActuator.__init__
 
-    def planted(self: BatchActuator, *args: object, **kwargs: object) -> None:
-        init(self, *args, **kwargs)  # type: ignore[arg-type]
-        if plant.startswith("max_accel"):
-            self.limit = self.limit * 1.001
-        else:
+    def planted(
+        self: BatchActuator,
+        scenarios: Sequence[Scenario],
+        rows: np.ndarray,
+        euler: np.ndarray | None,
+    ) -> None:
+        if plant.startswith("max_accel"):  # the batched wheels' only
+            scenarios = [
+                dataclasses.replace(
+                    s,
+                    actuator=dataclasses.replace(
+                        s.actuator, max_accel=s.actuator.max_accel * 1.001
+                    ),
+                )
+                for s in scenarios
+            ]
+        init(self, scenarios, rows, euler)
+        if plant.startswith("encoders"):
             self._any_quantised = False
 
     monkeypatch.setattr(BatchActuator, "__init__", planted)

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -114,8 +115,12 @@ def displacement(
     where @p euler (None: everywhere), the exact arc elsewhere; the same
     operations in the same order."""
     if euler is None or euler.any():
-        edx = v * np.cos(theta) * dt
-        edy = v * np.sin(theta) * dt
+        edx = np.cos(theta)  # v·cos θ·dt
+        edx *= v
+        edx *= dt
+        edy = np.sin(theta)
+        edy *= v
+        edy *= dt
         if euler is None:
             return edx, edy
     half = 0.5 * w * dt
@@ -142,6 +147,24 @@ def integrate(
     """:func:`mstc.plant.plant.integrate` over arrays (:func:`displacement`)."""
     dx, dy = displacement(theta, v, w, dt, euler)
     return x + dx, y + dy, theta + w * dt
+
+
+class _Group(NamedTuple):
+    """Scenes of a :class:`BatchActuator` with as many substeps a period, and
+    their constants; those of both wheels (``*2``) left then right."""
+
+    where: slice | np.ndarray
+    """Their positions in the actuator's arrays."""
+    n: int
+    substeps: int
+    euler: np.ndarray | None
+    h: np.ndarray
+    radius: np.ndarray
+    track: np.ndarray
+    h2: np.ndarray
+    k2: np.ndarray
+    limit2: np.ndarray
+    low2: np.ndarray
 
 
 class BatchActuator:
@@ -185,14 +208,29 @@ class BatchActuator:
         self._any_quantised = bool(self._quantised.any())
         self._all_quantised = bool(self._quantised.all())
         ew = None if euler is None else euler[rows]
-        self._groups: list[tuple[slice | np.ndarray, int, np.ndarray | None]] = []
-        """(positions, substeps, Euler mask or None) of each group of scenes
-        with as many substeps."""
+        self._groups: list[_Group] = []
+        """The scenes with as many substeps, each group stepped together."""
         for c in sorted(set(counts)):
             at = np.flatnonzero(np.array(counts) == c)
             where: slice | np.ndarray = slice(None) if len(at) == len(sc) else at
             e = None if ew is None else ew[at]
-            self._groups.append((where, c, None if e is None or e.all() else e))
+            h2, k2 = np.tile(self.h[at], 2), np.tile(self.k[at], 2)
+            limit2 = np.tile(self.limit[at], 2)
+            self._groups.append(
+                _Group(
+                    where,
+                    len(at),
+                    c,
+                    None if e is None or e.all() else e,
+                    self.h[at],
+                    self.radius[at],
+                    self.track[at],
+                    h2,
+                    k2,
+                    limit2,
+                    -limit2,
+                )
+            )
         n = len(sc)
         self.speed = np.zeros((2, n))
         """Wheel speeds now, left and right [rad/s]."""
@@ -226,33 +264,33 @@ class BatchActuator:
         x, y, theta = x.copy(), y.copy(), theta.copy()
         before = self.angle
         speed, angle = self.speed.copy(), self.angle.copy()
-        for where, count, euler in self._groups:
-            n = len(self.h[where])
-            h, r, track = self.h[where], self.radius[where], self.track[where]
-            k2, limit2 = self.k[where], self.limit[where]
+        for g in self._groups:
+            where, n, count = g.where, g.n, g.substeps
             # Both wheels of every scene flat, left then right.
             uu = u[:, where].reshape(-1)
-            k2, limit2 = np.concatenate((k2, k2)), np.concatenate((limit2, limit2))
-            low2 = -limit2
             speeds = np.empty((count + 1, 2 * n))
             speeds[0] = speed[:, where].reshape(-1)
             step = np.empty(2 * n)
             for s in range(count):
                 w = speeds[s]
                 np.subtract(w, uu, out=step)
-                step *= k2
+                step *= g.k2
                 step += uu  # the lag's target, u + (w - u)·k
                 step -= w
-                np.minimum(step, limit2, out=step)
-                np.maximum(step, low2, out=step)
+                np.minimum(step, g.limit2, out=step)
+                np.maximum(step, g.low2, out=step)
                 np.add(w, step, out=speeds[s + 1])
             speed[:, where] = speeds[-1].reshape(2, n)
             means = speeds[:-1] + speeds[1:]
             means *= 0.5
             ml, mr = means[:, :n], means[:, n:]
-            v = r * (mr + ml) / 2.0
-            om = r * (mr - ml) / track
-            turn = om * h
+            v = mr + ml  # r·(m_R + m_L) / 2
+            v *= g.radius
+            v /= 2.0
+            om = mr - ml  # r·(m_R − m_L) / L
+            om *= g.radius
+            om /= g.track
+            turn = om * g.h
             headings = np.empty((count + 1, n))
             headings[0] = theta[where]
             for s in range(count):
@@ -260,9 +298,9 @@ class BatchActuator:
             # Each substep's wheel angles, x and y added in one array.
             sums = np.concatenate((angle[:, where].reshape(-1), x[where], y[where]))
             terms = np.empty((count, 4 * n))
-            np.multiply(np.concatenate((h, h)), means, out=terms[:, : 2 * n])
+            np.multiply(g.h2, means, out=terms[:, : 2 * n])
             terms[:, 2 * n : 3 * n], terms[:, 3 * n :] = displacement(
-                headings[:-1], v, om, h, euler
+                headings[:-1], v, om, g.h, g.euler
             )
             for s in range(count):
                 sums += terms[s]
