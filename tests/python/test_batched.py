@@ -6,8 +6,10 @@ mstc.sweep.metrics.evaluate) is the reference: it is independent of the
 batched code (its own plant objects, math's functions, one ctypes call per
 step), so its rows and events.json are the expected values. The batched
 engine is built to take the same operations in the same order and draw the
-same random numbers, so the expected agreement is exact, bit for bit; the
-full-size check (2,000 scenes per family) is python -m mstc.bench.agreement.
+same random numbers, so the expected agreement is exact, bit for bit, with
+ideal wheels and with "lag" wheels (mstc.plant.actuator.Actuator, whose
+substeps the batched plant takes over arrays); the full-size check (2,000
+scenes per family) is python -m mstc.bench.agreement.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -32,11 +36,14 @@ from mstc.errors import FirmwareError
 from mstc.firmware.sil import SilBatch, SilController
 from mstc.loop.batched import BatchStep, simulate_batch
 from mstc.loop.lockstep import simulate
+from mstc.loop.result import RunResult
 from mstc.model import Obstacle, Pose, Strategy, wrap_angle
-from mstc.plant.batch import BatchWorld, wrap
-from mstc.plant.scenario import load_scenario
+from mstc.plant.batch import BatchActuator, BatchWorld, wrap
+from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
+from mstc.plant.world import make_world
+from mstc.sweep import engine
 from mstc.sweep.engine import MEASURED_COLUMNS, Job, Scene, run_batch
-from mstc.sweep.suite import load_suite, scene_text
+from mstc.sweep.suite import IDEAL, load_suite, scene_text
 
 ROOT = Path(__file__).resolve().parents[2]
 STANDARD = ROOT / "sim" / "suites" / "standard.toml"
@@ -46,6 +53,9 @@ PAPER = [
 ]
 PER_FAMILY = 3
 """Scenes of every family of the standard suite in the seeded subset."""
+PER_PROFILE = 2
+"""Scenes of every family and actuator profile of the standard suite in the
+seeded subset with actuators."""
 
 
 @pytest.fixture(params=["float", "fixed"])
@@ -57,13 +67,23 @@ def any_lib(request: pytest.FixtureRequest) -> str:
     return str(Path(value).resolve())
 
 
-def _suite_jobs(per_family: int, strategies: tuple[str, ...]) -> list[Job]:
+def _suite_jobs(
+    per_family: int, strategies: tuple[str, ...], profiles: tuple[str, ...] = (IDEAL,)
+) -> list[Job]:
+    """The first @p per_family scenes of every family of the standard suite
+    under each actuator profile of @p profiles, named and written as
+    ``mstc sweep`` writes them."""
     suite = load_suite(STANDARD)
+    actuators = {a.name: a for a in suite.actuators}
     jobs = []
     for f in suite.families:
-        for i in range(per_family):
-            scene = Scene(f.scene_name(i), f.scene_name(i), scene_text(suite, f, i), f.name)
-            jobs += [(scene, s) for s in strategies]
+        for name in profiles:
+            profile = actuators[name]
+            for i in range(per_family):
+                stem = suite.scene_name(f, i, profile)
+                text = scene_text(suite, f, i, actuator=profile if profile.values else None)
+                scene = Scene(stem, stem, text, f.name, actuator=name)
+                jobs += [(scene, s) for s in strategies]
     return jobs
 
 
@@ -97,6 +117,158 @@ def test_the_comparison_sees_a_plant_that_differs(
     monkeypatch.setattr(batched, "wrap", lambda a: np.remainder(a, math.tau))
     jobs = _suite_jobs(1, ("mstc",))
     assert len(_differences(jobs, str(sil_lib.resolve()))) > 0
+
+
+def test_the_engines_agree_on_every_family_under_every_actuator_profile(
+    any_lib: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The suite's three profiles (ideal, gearmotor: 20 substeps and encoders;
+    # sluggish: a 2-period delay too) mixed in one batch, both strategies.
+    suite = load_suite(STANDARD)
+    profiles = tuple(a.name for a in suite.actuators)
+    assert profiles == ("ideal", "gearmotor", "sluggish"), "the suite's profiles changed"
+    jobs = _suite_jobs(PER_PROFILE, ("paper", "mstc"), profiles)
+    # The batched engine batches them all: none goes through the per-scene run.
+    alone: list[str] = []
+    run_job = engine.run_job
+
+    def counted(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
+        alone.append(scene.name)
+        return run_job(scene, strategy, lib)
+
+    monkeypatch.setattr(engine, "run_job", counted)
+    batched = run_batch(jobs, any_lib, "batched")
+    assert alone == []
+    assert [o.row["error"] for o in batched] == [""] * len(jobs)
+    monkeypatch.setattr(engine, "run_job", run_job)
+    scene = run_batch(jobs, any_lib, "scene")
+    assert {o.row["actuator"] for o in batched} == set(profiles)
+    differ = [
+        f"{a.scene} {a.strategy}"
+        for a, b in zip(batched, scene, strict=True)
+        if _reproducible(a.row) != _reproducible(b.row) or a.events != b.events
+    ]
+    assert differ == []
+    # The wheels mattered: the same scene's runs differ between profiles.
+    rows = {(o.row["scene"], o.strategy): _reproducible(o.row) for o in batched}
+    changed = [
+        name
+        for (name, strategy), row in rows.items()
+        if "-gearmotor-" in name
+        and {**row, "scene": "", "actuator": ""}
+        != {**rows[(name.replace("-gearmotor", ""), strategy)], "scene": "", "actuator": ""}
+    ]
+    assert len(changed) > len(jobs) // 6
+
+
+@pytest.mark.parametrize("plant", ["max_accel 0.1 % higher", "encoders unquantised"])
+def test_the_comparison_sees_wheels_that_differ(
+    sil_lib: Path, monkeypatch: pytest.MonkeyPatch, plant: str
+) -> None:
+    # The check above can fail: batched wheels a little off change rows.
+    init = BatchActuator.__init__
+
+    def planted(
+        self: BatchActuator,
+        scenarios: Sequence[Scenario],
+        rows: np.ndarray,
+        euler: np.ndarray | None,
+    ) -> None:
+        if plant.startswith("max_accel"):  # the batched wheels' only
+            scenarios = [
+                dataclasses.replace(
+                    s,
+                    actuator=dataclasses.replace(
+                        s.actuator, max_accel=s.actuator.max_accel * 1.001
+                    ),
+                )
+                for s in scenarios
+            ]
+        init(self, scenarios, rows, euler)
+        if plant.startswith("encoders"):
+            self._any_quantised = False
+
+    monkeypatch.setattr(BatchActuator, "__init__", planted)
+    jobs = _suite_jobs(1, ("mstc",), ("gearmotor",))
+    assert len(_differences(jobs, str(sil_lib.resolve()))) > 0
+
+
+def _lag(**keys: float) -> str:
+    """An ``[actuator]`` table of model "lag" with @p keys."""
+    return '\n[actuator]\nmodel = "lag"\n' + "".join(f"{k} = {v}\n" for k, v in keys.items())
+
+
+def _lag_variants() -> list[tuple[str, str]]:
+    """paper-line with "lag" wheels of every kind the batched plant handles:
+    other periods (10 and 13 substeps), the exact integrator, no encoder, no
+    limit, no lag, delays of the actuator and of the imperfections, noise;
+    and with ideal wheels."""
+    text = PAPER[0].read_text()
+    gear = _lag(time_constant=0.06, max_accel=20.0, encoder_counts=1920)
+    variants = [
+        ("gear", text + gear),
+        ("fast", text.replace("dt = 0.02", "dt = 0.01") + gear),
+        ("odd", text.replace("dt = 0.02", "dt = 0.0125") + gear),
+        ("exact", text.replace('integrator = "euler"', 'integrator = "exact"') + gear),
+        ("rough", text + _lag(time_constant=0.1, max_accel=10.0, delay=2)),
+        ("ramp", text + _lag(max_accel=15.0, encoder_counts=512, delay=1)),
+        ("lag", text + _lag(time_constant=0.06, encoder_counts=1920)),
+        (
+            "noisy",
+            text + gear + "\n[imperfections]\ndelay = 1\nposition_noise = 0.005\nseed = 7\n",
+        ),
+        ("ideal", text),
+    ]
+    assert len({t for _, t in variants}) == len(variants), "the scenario file's keys changed"
+    return variants
+
+
+def test_lag_wheels_of_every_kind_move_as_the_per_scene_wheels_bit_for_bit() -> None:
+    # Expected values: mstc.plant.actuator.Actuator (scalar Python floats,
+    # an implementation of its own) driving each scene's own plant, with
+    # the delays as the per-scene loop applies them.
+    scenarios = [
+        parse_scenario(tomllib.loads(t), name, wire_limits()) for name, t in _lag_variants()
+    ]
+    batch = BatchWorld(scenarios)
+    assert batch.actuator is not None and batch.actuator.rows.tolist() == list(range(8))
+    worlds = [make_world(s) for s in scenarios]
+    pending = [[(0.0, 0.0)] * s.imperfections.delay for s in scenarios]
+    rng = np.random.default_rng(11)
+    for k in range(150):
+        commands = rng.uniform(-12.0, 12.0, (len(scenarios), 2))
+        batch.advance(k, commands[:, 0].copy(), commands[:, 1].copy())
+        for i, (world, s) in enumerate(zip(worlds, scenarios, strict=True)):
+            left, right = commands[i].tolist()
+            if world.actuator is not None:
+                measured = world.actuator.step(left, right)
+                assert batch.actuator.measured[:, i].tolist() == list(measured), (s.name, k)
+            else:
+                if pending[i]:
+                    pending[i].append((left, right))
+                    left, right = pending[i].pop(0)
+                world.plant.step(left, right, s.sim.dt)
+            assert (batch.x[i], batch.y[i], batch.theta[i]) == tuple(world.plant.pose), (s.name, k)
+
+
+def test_a_batch_without_lag_wheels_has_no_actuator_work() -> None:
+    scenarios = [load_scenario(p, wire_limits()) for p in PAPER]
+    assert BatchWorld(scenarios).actuator is None
+
+
+def test_lag_scenes_of_different_periods_integrators_and_delays_agree(sil_lib: Path) -> None:
+    lib = str(sil_lib.resolve())
+    jobs: list[Job] = [
+        (Scene(name, f"{name}.toml", t), s)
+        for name, t in _lag_variants()
+        for s in ("paper", "mstc")
+    ]
+    batched = run_batch(jobs, lib, "batched")
+    assert [o.row["error"] for o in batched] == [""] * len(jobs)
+    assert [o.row["steps"] for o in batched[::2]] == [
+        "1001", "2001", "1601", "1001", "1001", "1001", "1001", "1001", "1001"
+    ]  # fmt: skip
+    assert _differences(jobs, lib) == []
 
 
 def test_poses_are_the_per_scene_loops_bit_for_bit(any_lib: str) -> None:

@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: MIT
 """Sweep throughput: scene-steps per CPU-second of the batched engine against
-the per-scene one on the standard suite's families, scene-steps per second of
-one scene in memory, sweeps on every core, and the same sweeps on a local
-Dask cluster.
+the per-scene one on the standard suite's families (with ideal wheels and
+with its "gearmotor" actuator), scene-steps per second of one scene in
+memory, sweeps on every core, and the same sweeps on a local Dask cluster.
 
   python -m mstc.bench.sweep run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
   python -m mstc.bench.sweep report --doc docs/performance.md build/bench/sweep.json
+  python -m mstc.bench.sweep engines --lib build/host/float/libmstc_sil.so --actuator gearmotor
+      only the two engines' table under one actuator profile, printed
 
 A benchmark, not a test: it prints and writes figures and fails on nothing.
 Beside each wall time it gives the CPU time of every process that did the
@@ -26,6 +28,7 @@ import tempfile
 import time
 import tomllib
 from pathlib import Path
+from typing import Any
 
 from mstc.bench import ROOT
 from mstc.bench.doc import report, write_result
@@ -34,12 +37,16 @@ from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
 from mstc.plant.scenario import load_scenario, parse_scenario
 from mstc.sweep.engine import Job, Scene, library_sha256, run_batch, run_jobs_batched, run_sweep
-from mstc.sweep.suite import generate, load_suite, scene_text
+from mstc.sweep.suite import IDEAL, generate, load_suite, scene_text
 
 LINE = ROOT / "sim" / "scenarios" / "paper-line.toml"
 STANDARD = ROOT / "sim" / "suites" / "standard.toml"
 BATCHED_TARGET = 1_000_000
 """Scene-steps per CPU-second of the batched engine, ideal wheels, "mstc" (issue 22)."""
+GEARMOTOR = "gearmotor"
+"""The standard suite's actuator profile of the second target."""
+GEARMOTOR_TARGET = 250_000
+"""Scene-steps per CPU-second of the batched engine, "gearmotor" wheels, "mstc" (issue 22)."""
 BEGIN = "<!-- bench:sweep:begin (written by make bench, mstc.bench.sweep) -->"
 END = "<!-- bench:sweep:end -->"
 # Paper-like scenes: a straight reference at about the paper's speed, two
@@ -80,38 +87,47 @@ def steps_per_second(lib: str, runs: int) -> dict[str, float]:
     }
 
 
-def _family_jobs(per_family: int, strategy: str) -> tuple[dict[str, list[Job]], dict[str, float]]:
-    """The first @p per_family scenes of every family of the standard suite,
-    parsed here as ``mstc sweep``'s client parses them (it validates every
-    scene before it runs any); and the CPU time the parsing took per family [s]."""
+def _family_jobs(
+    per_family: int, strategy: str, actuator: str = IDEAL
+) -> tuple[dict[str, list[Job]], dict[str, float]]:
+    """The first @p per_family scenes of every family of the standard suite
+    under its actuator profile @p actuator, parsed here as ``mstc sweep``'s
+    client parses them (it validates every scene before it runs any); and
+    the CPU time the parsing took per family [s]."""
     suite = load_suite(STANDARD)
+    profile = {a.name: a for a in suite.actuators}[actuator]
+    given = profile if profile.values else None
     jobs: dict[str, list[Job]] = {}
     parse: dict[str, float] = {}
     wire = wire_limits()
     for f in suite.families:
-        texts = [(f.scene_name(i), scene_text(suite, f, i)) for i in range(per_family)]
+        texts = [
+            (suite.scene_name(f, i, profile), scene_text(suite, f, i, actuator=given))
+            for i in range(per_family)
+        ]
         c0 = time.process_time()
         parsed = [parse_scenario(tomllib.loads(t), name, wire) for name, t in texts]
         parse[f.name] = time.process_time() - c0
         jobs[f.name] = [
-            (Scene(name, name, t, f.name, scenario=sc), strategy)
+            (Scene(name, name, t, f.name, actuator=actuator, scenario=sc), strategy)
             for (name, t), sc in zip(texts, parsed, strict=True)
         ]
     return jobs, parse
 
 
 def engine_rates(
-    lib: str, batch: int, scenes: int, runs: int, strategy: str = "mstc"
+    lib: str, batch: int, scenes: int, runs: int, strategy: str = "mstc", actuator: str = IDEAL
 ) -> dict[str, object]:
     """Scene-steps per CPU-second of this process, family by family of the
-    standard suite: the batched engine on one batch of @p batch scenes of the
+    standard suite under its actuator profile @p actuator: the batched
+    engine on one batch of @p batch scenes of the
     family, the per-scene engine on @p scenes of them, taking turns @p runs
     times; each family's median, and the suite's (all its scene-steps over
     the sum of the families' median CPU times). A worker's work is counted
     (the runs, the metrics, events.json); the scenes come parsed, as the
     client sends them, and the parsing's own cost is given beside."""
     sha = library_sha256(lib)
-    batched_jobs, parse = _family_jobs(batch, strategy)
+    batched_jobs, parse = _family_jobs(batch, strategy, actuator)
     scene_jobs = {f: jobs[:scenes] for f, jobs in batched_jobs.items()}
     families: dict[str, dict[str, float]] = {}
     for family in batched_jobs:
@@ -138,6 +154,7 @@ def engine_rates(
     }
     return {
         "strategy": strategy,
+        "actuator": actuator,
         "batch": batch,
         "scenes": scenes,
         "runs": runs,
@@ -261,6 +278,24 @@ def _sweep_rows(sw: dict[str, object], what: str) -> list[str]:
     ]
 
 
+def engine_table(eng: dict[str, Any]) -> list[str]:
+    """The table of :func:`engine_rates`' result: each family's rates, the suite's."""
+    lines = [
+        "| family | batched | per scene | ratio | parsing the file [ns per scene-step] |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for family, f in eng["families"].items():
+        b = f["batched_steps"] / f["batched_cpu"]
+        sc = f["scene_steps"] / f["scene_cpu"]
+        parse = f["parse_cpu"] / f["batched_steps"] * 1e9
+        lines.append(f"| {family} | {b:,.0f} | {sc:,.0f} | {b / sc:.1f}× | {parse:,.0f} |")
+    lines.append(
+        f"| **the suite** | **{eng['batched']:,.0f}** | **{eng['scene']:,.0f}** | "
+        f"**{eng['batched'] / eng['scene']:.1f}×** | |"
+    )
+    return lines
+
+
 def section(r: dict[str, object]) -> str:
     rate, sw, swb, eng = r["rate"], r["sweep"], r["sweep_batched"], r["engines"]
     assert isinstance(rate, dict) and isinstance(sw, dict)
@@ -290,23 +325,32 @@ def section(r: dict[str, object]) -> str:
         "them after validating every scene, and the parsing's own cost is the last column "
         "(the client's, once per scene, whichever engine runs it; the sweeps below count it).",
         "",
-        "| family | batched | per scene | ratio | parsing the file [ns per scene-step] |",
-        "|---|---:|---:|---:|---:|",
-    ]
-    for family, f in eng["families"].items():
-        b = f["batched_steps"] / f["batched_cpu"]
-        sc = f["scene_steps"] / f["scene_cpu"]
-        parse = f["parse_cpu"] / f["batched_steps"] * 1e9
-        lines.append(f"| {family} | {b:,.0f} | {sc:,.0f} | {b / sc:.1f}× | {parse:,.0f} |")
-    lines += [
-        f"| **the suite** | **{eng['batched']:,.0f}** | **{eng['scene']:,.0f}** | "
-        f"**{ratio:.1f}×** | |",
+        *engine_table(eng),
         "",
+    ]
+    gear = r.get("engines_gearmotor")
+    if isinstance(gear, dict):
+        lines += [
+            f'With the suite\'s "{GEARMOTOR}" actuator (wheels in 1 ms substeps, 20 a '
+            "period, with their encoders), the same scenes measured the same way:",
+            "",
+            *engine_table(gear),
+            "",
+        ]
+    lines += [
         f'- Ideal wheels, "{eng["strategy"]}": **{eng["batched"]:,.0f}** scene-steps per '
         f"CPU-second, {ratio:.1f}× the per-scene engine (target ≥ {BATCHED_TARGET:,}: "
         f"{_verdict(eng['batched'] >= BATCHED_TARGET)}).",
-        '- With the "gearmotor" actuator (1 ms substeps; target ≥ 250,000): not measured, '
-        "the actuator (issue 19) is not on this branch yet.",
+    ]
+    if isinstance(gear, dict):
+        lines.append(
+            f'- "{GEARMOTOR}" wheels: **{gear["batched"]:,.0f}** scene-steps per CPU-second, '
+            f"{gear['batched'] / gear['scene']:.1f}× the per-scene engine (target ≥ "
+            f"{GEARMOTOR_TARGET:,}: {_verdict(gear['batched'] >= GEARMOTOR_TARGET)})."
+        )
+    else:
+        lines.append(f'- "{GEARMOTOR}" wheels: not measured in this run.')
+    lines += [
         "",
         "### Sweeps on every core and on Dask",
         "",
@@ -356,6 +400,16 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--engine-runs", type=int, default=3, help="runs of each engine (medians)")
     run.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     run.add_argument("--repeats", type=int, default=3, help="sweeps on each path (medians)")
+    eng = sub.add_parser(
+        "engines", help="only the two engines' table, under one actuator profile: printed"
+    )
+    eng.add_argument("--lib", required=True)
+    eng.add_argument("--actuator", default=IDEAL, help="a profile of the standard suite")
+    eng.add_argument("--strategy", default="mstc", choices=("paper", "mstc"))
+    eng.add_argument("--batch", type=int, default=500, help="scenes of a family in one batch")
+    eng.add_argument("--per-scene", type=int, default=6)
+    eng.add_argument("--engine-runs", type=int, default=3)
+    eng.add_argument("--out", type=Path, help="also write the figures here (JSON)")
     rep = sub.add_parser("report")
     rep.add_argument("--doc", type=Path, required=True)
     rep.add_argument("result", type=Path)
@@ -367,6 +421,9 @@ def main(argv: list[str] | None = None) -> int:
             "load": f"{os.getloadavg()[0]:.1f}",
             "runs": a.runs,
             "engines": engine_rates(lib, a.batch, a.per_scene, a.engine_runs),
+            "engines_gearmotor": engine_rates(
+                lib, a.batch, a.per_scene, a.engine_runs, actuator=GEARMOTOR
+            ),
             "rate": steps_per_second(lib, a.runs),
             "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats, "scene"),
             "sweep_batched": sweep_times(lib, a.batched_scenes, a.workers, a.repeats, "batched"),
@@ -374,6 +431,21 @@ def main(argv: list[str] | None = None) -> int:
         result["load_end"] = f"{os.getloadavg()[0]:.1f}"
         write_result(a.out, result)
         print(section(result))
+        return 0
+    if a.cmd == "engines":
+        lib = str(Path(a.lib).resolve())
+        load = os.getloadavg()[0]
+        rates = engine_rates(
+            lib, a.batch, a.per_scene, a.engine_runs, a.strategy, actuator=a.actuator
+        )
+        if a.out is not None:
+            write_result(a.out, rates)
+        print(
+            f'"{a.strategy}", actuator {a.actuator}: scene-steps per CPU-second, median of '
+            f"{a.engine_runs} runs (load average {load:.1f} at the start, "
+            f"{os.getloadavg()[0]:.1f} at the end)\n"
+        )
+        print("\n".join(engine_table(rates)))
         return 0
     report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
     return 0

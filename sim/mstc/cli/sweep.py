@@ -60,9 +60,10 @@ strategies:
   dwa     the Dynamic Window Approach baseline (Python, mstc.sweep.dwa)
 
 engines (the firmware's strategies; dwa always runs scene by scene):
-  batched the default: a batch of scenes steps together, the plant as numpy
-          arrays, the firmware's step for all of them in one call
-          (mstc_sil_step_batch); the metrics are computed as the runs go
+  batched the default: a batch of scenes steps together, the plant (ideal
+          or "lag" wheels) as numpy arrays, the firmware's step for all of
+          them in one call (mstc_sil_step_batch); the metrics are computed as
+          the runs go; scenes on "dc" wheels run scene by scene
   scene   each scene alone through the lock-step loop, judged from its trace:
           the reference the batched engine is compared with (docs/sweeps.md)
 

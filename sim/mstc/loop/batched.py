@@ -9,8 +9,10 @@ step k every scene that has not ended (k ≤ its N) does what the per-scene
 loop does, in the same order: the sensor scans from the robot's true pose at
 the start of the period, the controller steps on the odometry's pose, the
 reference and the scan, then robot and reference are integrated over the
-period. Scenes of different lengths end independently (masked); the batch
-ends with its longest scene.
+period (by their "lag" wheels in substeps where a scene has them, whose
+measured speeds go to the next step's ``in.wheel_speed``, as the per-scene
+loop's ``wheel_speeds``). Scenes of different lengths end independently
+(masked); the batch ends with its longest scene.
 
 Nothing is kept per step: an observer (``watch``) sees each step's arrays
 (:class:`BatchStep`) as the run goes and keeps what it needs (the sweep's
@@ -137,6 +139,11 @@ def simulate_batch(
     outputs = controller.outputs
     out_left, out_right = outputs["wheel_left"], outputs["wheel_right"]
     out_mode, out_events = outputs["mode"], outputs["n_events"]
+    wheels = world.actuator
+    speeds = given["wheel_speed"]
+    if wheels is not None:  # their drivers report speeds from the first step on (0 at t = 0)
+        given["wheel_measured"][wheels.rows] = 1
+        speeds[wheels.rows] = 0.0
     straight = not world.w_r.any()
     if straight:  # the references' headings never change
         ref[:, 2] = wrap(world.theta_r)
@@ -199,6 +206,8 @@ def simulate_batch(
             )
         if k < last:
             world.advance(k, left, right, v, w)
+            if wheels is not None:
+                speeds[wheels.rows] = wheels.measured.T
 
     step_time = spent / 1e9 / max(1, scene_steps)
     runs = []

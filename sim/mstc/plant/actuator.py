@@ -32,9 +32,9 @@ speed over the period, quantised as a real encoder's is (without
 
 The state is the two wheels' speeds, angles and counts, and the delay line of
 setpoints; nothing else is kept between periods, and every operation is plain
-float arithmetic on them, so that a batched plant can run the same updates
-over many scenes as array operations and agree bit for bit where it uses the
-same operations in the same order.
+float arithmetic on them, so that a batched plant runs the same updates over
+many scenes as array operations and agrees bit for bit, using the same
+operations in the same order (:class:`mstc.plant.batch.BatchActuator`).
 
 Without an ``[actuator]`` table (model "ideal") the plant is the ideal one
 of :mod:`mstc.plant.plant`: the wheels turn at their commanded speed for the

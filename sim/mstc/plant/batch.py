@@ -22,15 +22,23 @@ D_act in the metrics) is taken on them with a relative margin
 The random draws are the per-scene ones too: each scene has the streams of
 :func:`mstc.plant.world.random_streams` and draws from them the numbers the
 per-scene loop draws, in the same order, a chunk of steps at a time.
+
+Scenes with "lag" wheels (``[actuator] model = "lag"``) are moved by
+:class:`BatchActuator`, :class:`mstc.plant.actuator.Actuator`'s substeps over
+arrays, the same updates in the same order; the others by the ideal wheels,
+masked, in the same batch. Scenes on "dc" wheels (the firmware's wheel loop)
+are not modelled here: they run alone.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
+from mstc.plant.actuator import substeps
 from mstc.plant.plant import Integrator
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import random_streams
@@ -95,6 +103,38 @@ def wrap(a: np.ndarray) -> np.ndarray:
     return np.where(r == -_PI, _PI, r)
 
 
+def displacement(
+    theta: np.ndarray,
+    v: np.ndarray,
+    w: np.ndarray,
+    dt: np.ndarray,
+    euler: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """What :func:`mstc.plant.plant.integrate` adds to x and y over @p dt
+    from the heading @p theta at (@p v, @p w), over arrays: forward Euler
+    where @p euler (None: everywhere), the exact arc elsewhere; the same
+    operations in the same order."""
+    if euler is None or euler.any():
+        edx = np.cos(theta)  # v·cos θ·dt
+        edx *= v
+        edx *= dt
+        edy = np.sin(theta)
+        edy *= v
+        edy *= dt
+        if euler is None:
+            return edx, edy
+    half = 0.5 * w * dt
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sinc = np.where(np.abs(half) < _SMALL_ANGLE, 1.0 - half * half / 6.0, np.sin(half) / half)
+    chord = v * dt * sinc
+    mid = theta + half
+    adx = chord * np.cos(mid)
+    ady = chord * np.sin(mid)
+    if not euler.any():
+        return adx, ady
+    return np.where(euler, edx, adx), np.where(euler, edy, ady)
+
+
 def integrate(
     x: np.ndarray,
     y: np.ndarray,
@@ -104,23 +144,183 @@ def integrate(
     dt: np.ndarray,
     euler: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`mstc.plant.plant.integrate` over arrays: forward Euler where
-    @p euler (None: everywhere), the exact arc elsewhere; the same
-    operations in the same order."""
-    vdt = v * np.cos(theta) * dt
-    nx = x + vdt
-    ny = y + v * np.sin(theta) * dt
-    nt = theta + w * dt
-    if euler is None:
-        return nx, ny, nt
-    half = 0.5 * w * dt
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sinc = np.where(np.abs(half) < _SMALL_ANGLE, 1.0 - half * half / 6.0, np.sin(half) / half)
-    chord = v * dt * sinc
-    mid = theta + half
-    ax = x + chord * np.cos(mid)
-    ay = y + chord * np.sin(mid)
-    return np.where(euler, nx, ax), np.where(euler, ny, ay), nt
+    """:func:`mstc.plant.plant.integrate` over arrays (:func:`displacement`)."""
+    dx, dy = displacement(theta, v, w, dt, euler)
+    return x + dx, y + dy, theta + w * dt
+
+
+class _Group(NamedTuple):
+    """Scenes of a :class:`BatchActuator` with as many substeps a period, and
+    their constants; those of both wheels (``*2``) left then right."""
+
+    where: slice | np.ndarray
+    """Their positions in the actuator's arrays."""
+    n: int
+    substeps: int
+    euler: np.ndarray | None
+    h: np.ndarray
+    radius: np.ndarray
+    track: np.ndarray
+    h2: np.ndarray
+    k2: np.ndarray
+    limit2: np.ndarray
+    low2: np.ndarray
+
+
+class BatchActuator:
+    """The "lag" wheels of some scenes of a batch: :class:`mstc.plant.actuator.Actuator`
+    over arrays, its substeps' updates in its order with its constants
+    (``k = math.exp(-h / τ)``, computed per scene by ``math``), so that each
+    scene's wheels, pose and measured speeds are the per-scene ones bit for
+    bit. The wheels' state is held as (2, L) arrays, left and right, of the
+    L scenes that have such wheels; scenes with as many substeps a period
+    (the same dt) are stepped together.
+
+    :param scenarios: the batch's scenes.
+    :param rows: the batch's rows of the scenes with "lag" wheels.
+    :param euler: the batch's forward-Euler mask (None: every scene).
+    """
+
+    def __init__(
+        self, scenarios: Sequence[Scenario], rows: np.ndarray, euler: np.ndarray | None
+    ) -> None:
+        self.rows = rows
+        """The batch's rows of these wheels' scenes (the order of every array)."""
+        sc = [scenarios[i] for i in rows.tolist()]
+        specs = [s.actuator for s in sc]
+        dts = [s.sim.dt for s in sc]
+        counts = [substeps(dt) for dt in dts]
+        h = [dt / c for dt, c in zip(dts, counts, strict=True)]
+        self.dt = np.array(dts)
+        self.radius = np.array([s.params.wheel_radius for s in sc])
+        self.track = np.array([s.params.track_width for s in sc])
+        self.h = np.array(h)
+        self.k = np.array(
+            [
+                math.exp(-hh / a.time_constant) if a.time_constant > 0.0 else 0.0
+                for hh, a in zip(h, specs, strict=True)
+            ]
+        )
+        """exp(-h/τ) of each scene, by ``math.exp`` as the per-scene wheels'."""
+        self.limit = np.array([a.max_accel * hh for hh, a in zip(h, specs, strict=True)])
+        self.counts_per_rad = np.array([a.encoder_counts / math.tau for a in specs])
+        self._quantised = self.counts_per_rad != 0.0
+        self._any_quantised = bool(self._quantised.any())
+        self._all_quantised = bool(self._quantised.all())
+        ew = None if euler is None else euler[rows]
+        self._groups: list[_Group] = []
+        """The scenes with as many substeps, each group stepped together."""
+        for c in sorted(set(counts)):
+            at = np.flatnonzero(np.array(counts) == c)
+            where: slice | np.ndarray = slice(None) if len(at) == len(sc) else at
+            e = None if ew is None else ew[at]
+            h2, k2 = np.tile(self.h[at], 2), np.tile(self.k[at], 2)
+            limit2 = np.tile(self.limit[at], 2)
+            self._groups.append(
+                _Group(
+                    where,
+                    len(at),
+                    c,
+                    None if e is None or e.all() else e,
+                    self.h[at],
+                    self.radius[at],
+                    self.track[at],
+                    h2,
+                    k2,
+                    limit2,
+                    -limit2,
+                )
+            )
+        n = len(sc)
+        self.speed = np.zeros((2, n))
+        """Wheel speeds now, left and right [rad/s]."""
+        self.angle = np.zeros((2, n))
+        """Wheel angles since the start [rad]."""
+        self.count = np.zeros((2, n))
+        """Encoder counts at the end of the last period (whole numbers)."""
+        self.measured = np.zeros((2, n))
+        """The speeds the drivers reported at the end of the last period [rad/s]."""
+
+    def step(
+        self,
+        left: np.ndarray,
+        right: np.ndarray,
+        x: np.ndarray,
+        y: np.ndarray,
+        theta: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One period with the setpoints (@p left, @p right) [rad/s] (the
+        commands, already delayed) of these scenes, from the poses (@p x,
+        @p y, @p theta) of these scenes; the poses at its end (and
+        :attr:`measured`, the speeds the drivers report).
+
+        The wheels' speeds go through the substeps one after the other (both
+        wheels of every scene in one array); what depends on them alone then
+        takes every substep at once (the mean speeds, each substep's (v, ω),
+        cos and sin of its heading), and the sums over the substeps (heading,
+        position, wheel angles) are added one substep after the other, in the
+        per-scene loop's order."""
+        u = np.stack((left, right))
+        x, y, theta = x.copy(), y.copy(), theta.copy()
+        before = self.angle
+        speed, angle = self.speed.copy(), self.angle.copy()
+        for g in self._groups:
+            where, n, count = g.where, g.n, g.substeps
+            # Both wheels of every scene flat, left then right.
+            uu = u[:, where].reshape(-1)
+            speeds = np.empty((count + 1, 2 * n))
+            speeds[0] = speed[:, where].reshape(-1)
+            step = np.empty(2 * n)
+            for s in range(count):
+                w = speeds[s]
+                np.subtract(w, uu, out=step)
+                step *= g.k2
+                step += uu  # the lag's target, u + (w - u)·k
+                step -= w
+                np.minimum(step, g.limit2, out=step)
+                np.maximum(step, g.low2, out=step)
+                np.add(w, step, out=speeds[s + 1])
+            speed[:, where] = speeds[-1].reshape(2, n)
+            means = speeds[:-1] + speeds[1:]
+            means *= 0.5
+            ml, mr = means[:, :n], means[:, n:]
+            v = mr + ml  # r·(m_R + m_L) / 2
+            v *= g.radius
+            v /= 2.0
+            om = mr - ml  # r·(m_R − m_L) / L
+            om *= g.radius
+            om /= g.track
+            turn = om * g.h
+            headings = np.empty((count + 1, n))
+            headings[0] = theta[where]
+            for s in range(count):
+                np.add(headings[s], turn[s], out=headings[s + 1])
+            # Each substep's wheel angles, x and y added in one array.
+            sums = np.concatenate((angle[:, where].reshape(-1), x[where], y[where]))
+            terms = np.empty((count, 4 * n))
+            np.multiply(g.h2, means, out=terms[:, : 2 * n])
+            terms[:, 2 * n : 3 * n], terms[:, 3 * n :] = displacement(
+                headings[:-1], v, om, g.h, g.euler
+            )
+            for s in range(count):
+                sums += terms[s]
+            angle[:, where] = sums[: 2 * n].reshape(2, n)
+            x[where], y[where] = sums[2 * n : 3 * n], sums[3 * n :]
+            theta[where] = headings[-1]
+        self.speed, self.angle = speed, angle
+        if self._any_quantised:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                c = np.floor(angle * self.counts_per_rad)
+                quantised = (c - self.count) / self.counts_per_rad / self.dt
+            if self._all_quantised:
+                self.measured, self.count = quantised, c
+            else:
+                exact = (angle - before) / self.dt
+                self.measured = np.where(self._quantised, quantised, exact)
+                self.count = np.where(self._quantised, c, self.count)
+        else:
+            self.measured = (angle - before) / self.dt
+        return x, y, theta
 
 
 class BatchWorld:
@@ -188,7 +388,19 @@ class BatchWorld:
         # Each obstacle's reach as the per-scene sensor has it: the range plus
         # how much larger than R_ob it is (d + (r - R_ob), the same bits).
         self._in_range = Within(self.sensor_range[:, None] + (self.radius - r_ob[:, None]))
-        self.delay = np.array([m_.delay for m_ in imp], dtype=np.int64)
+        self.delay = np.array(
+            [
+                m_.delay + (s.actuator.delay if s.actuator.model == "lag" else 0)
+                for s, m_ in zip(sc, imp, strict=True)
+            ],
+            dtype=np.int64,
+        )
+        """Whole periods from a command to the wheels: the imperfection's,
+        plus the actuator's own for "lag" wheels (:func:`mstc.plant.world.make_world`)."""
+        lag = np.flatnonzero([s.actuator.model == "lag" for s in sc])
+        self.actuator = BatchActuator(sc, lag, self.euler) if len(lag) else None
+        """The "lag" wheels of the scenes that have them (None: no scene has)."""
+        self._all_lag = len(lag) == n
         depth = int(self.delay.max(initial=0)) + 1
         self._commands = np.zeros((n, depth, 2))
         """Wheel commands of the last periods, step k at k mod depth."""
@@ -326,7 +538,9 @@ class BatchWorld:
         """Step @p k's commands (left, right wheel speeds [rad/s], and their
         body velocity @p v, @p w when the caller has it) given: move every
         robot over its period with the commands of ``delay`` periods before
-        (standing still before the first), and every reference."""
+        (standing still before the first), by its "lag" wheels in substeps
+        where it has them (:attr:`actuator`, whose ``measured`` speeds are then
+        the next step's), and every reference."""
         if self._commands.shape[1] > 1:
             depth = self._commands.shape[1]
             rows = np.arange(self.n)
@@ -338,11 +552,21 @@ class BatchWorld:
             left = np.where(self.delay > 0, np.where(late, old[:, 0], 0.0), left)
             right = np.where(self.delay > 0, np.where(late, old[:, 1], 0.0), right)
             v = w = None
-        if v is None or w is None:
-            v, w = self.body_velocity(left, right)
-        self.x, self.y, self.theta = integrate(
-            self.x, self.y, self.theta, v, w, self.dt, self.euler
-        )
+        act = self.actuator
+        x0, y0, theta0 = self.x, self.y, self.theta
+        if act is None or not self._all_lag:
+            if v is None or w is None:
+                v, w = self.body_velocity(left, right)
+            self.x, self.y, self.theta = integrate(
+                self.x, self.y, self.theta, v, w, self.dt, self.euler
+            )
+        if act is not None:
+            rows = act.rows
+            if self._all_lag:
+                self.x, self.y, self.theta = act.step(left, right, x0, y0, theta0)
+            else:
+                nx, ny, nt = act.step(left[rows], right[rows], x0[rows], y0[rows], theta0[rows])
+                self.x[rows], self.y[rows], self.theta[rows] = nx, ny, nt
         if self._ref_step is not None:  # straight: the same increments every period
             self.x_r = self.x_r + self._ref_step[0]
             self.y_r = self.y_r + self._ref_step[1]

@@ -23,7 +23,9 @@ to ``batch`` scenes) and a worker holds no trace. "scene" runs each scene
 alone through :func:`mstc.loop.lockstep.simulate` and judges its trace
 (:func:`mstc.sweep.metrics.evaluate`): the reference the batched engine is
 compared with (docs/sweeps.md, "Engines"). Both write the same rows and
-events.json. The DWA baseline always runs scene by scene.
+events.json, with ideal wheels and with "lag" wheels alike. The DWA baseline
+always runs scene by scene, and so do scenes on "dc" wheels (the firmware's
+wheel loop, which the batched plant does not model).
 
 A scene that fails (an exception, a non-finite state) is a row with its
 error. A worker that dies (a crash in the library) takes its batch down:
@@ -269,8 +271,8 @@ def _with_strategy(scenario: Scenario, strategy: str) -> Scenario:
 
 def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
     """Run @p jobs with the batched engine in this process: the firmware's
-    jobs with ideal wheels together; the DWA's, and those whose wheels run
-    the firmware's wheel loop (``[actuator] model = "dc"``, not batched),
+    jobs together, on ideal or "lag" wheels; the DWA's, and those whose wheels
+    run the firmware's wheel loop (``[actuator] model = "dc"``, not batched),
     one by one; outcomes in job order."""
     outcomes: dict[int, Outcome] = {}
     ready: list[tuple[int, Scenario, dict[str, str]]] = []
@@ -282,7 +284,7 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
             row["error"] = _one_line(exc)
             outcomes[index] = Outcome(scene.name, strategy, row, None, sha)
             continue
-        if strategy == "dwa" or scenario.actuator.model != "ideal":
+        if strategy == "dwa" or scenario.actuator.model == "dc":
             result, row = run_job(scene, strategy, lib)
             events = events_json(result) if result is not None else None
             outcomes[index] = Outcome(scene.name, strategy, row, events, sha)
