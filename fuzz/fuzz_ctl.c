@@ -6,14 +6,17 @@
  * Q16.16. Covers the supervisor's input too: obstacle reports of any value.
  *
  * Input: 4-byte words, in order: robot x, y, θ; reference x, y, θ; v_r, ω_r;
- * then obstacles of 6 words each (id from the low byte of the first, then
- * x, y, radius, vx, vy), at most SUP_MAX_OBSTACLES + 2; optionally, when the
- * input starts with the byte 'P', 13 parameter words and a strategy word
- * (a raw num_t like the others: 0 paper, 1 mstc, anything else refused)
- * first (rejected ones leave the defaults, whose strategy is "mstc"). Several steps run on the same
- * state, one per 32 + 24n bytes. After each step: the wheel speeds are finite and within
- * ±max_wheel_speed, the mode is one of the four, the events fit their
- * buffer; otherwise abort().
+ * a byte whose low bit says the wheels' speeds were measured, then (when it
+ * is set) the left and right measured speeds as two words; a byte giving
+ * the number of obstacles, then obstacles of 6 words each (id from the low
+ * byte of the first, then x, y, radius, vx, vy), at most
+ * SUP_MAX_OBSTACLES + 2; optionally, when the input starts with the byte
+ * 'P', 13 parameter words, a strategy word (a raw num_t like the others: 0
+ * paper, 1 mstc, anything else refused), then wheel_accel and wheel_tau
+ * first (rejected ones leave the defaults, whose strategy is "mstc").
+ * Several steps run on the same state. After each step: the wheel speeds are
+ * finite and within ±max_wheel_speed, the mode is one of the four, the
+ * events fit their buffer; otherwise abort().
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -63,15 +66,25 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             *all[i] = word(&p, end);
         }
         params.strategy = word(&p, end);
+        params.wheel_accel = word(&p, end);
+        params.wheel_tau = word(&p, end);
     }
     (void)ctl_init(&c, &params);
     uint64_t t_us = 0;
     while (p < end) {
-        ctl_input_t in;
+        ctl_input_t in = { .wheels_measured = false };
         in.robot = (pose_t){ word(&p, end), word(&p, end), word(&p, end) };
         in.ref = (pose_t){ word(&p, end), word(&p, end), word(&p, end) };
         in.v_r = word(&p, end);
         in.w_r = word(&p, end);
+        if (p < end) {
+            in.wheels_measured = (*p & 1u) != 0u;
+            p++;
+        }
+        if (in.wheels_measured) {
+            in.wheels.left = word(&p, end);
+            in.wheels.right = word(&p, end);
+        }
         sup_obstacle_t obs[SUP_MAX_OBSTACLES + 2u];
         size_t n = 0;
         size_t n_max = 0;
