@@ -28,6 +28,7 @@ from cryptography.hazmat.primitives.cmac import CMAC
 from mstc.can import secoc
 from mstc.can.protocol import Frame, Protocol, wire_limits
 from mstc.errors import FrameDropped
+from mstc.loop.lockstep import ACCEPTED, AGAIN, REFUSED, outcome
 from mstc.model import wrap_angle
 from mstc.plant.plant import UnicyclePlant
 from mstc.plant.reference import ReferenceRobot
@@ -358,3 +359,21 @@ def test_a_replayed_16_frame_odometry_loop_halts_over_the_sil_frame_path(sil_lib
         assert why == HALT_ODOMETRY_IMPLAUSIBLE
         assert all(h == HALT_ODOMETRY_IMPLAUSIBLE for _, h in halts), "the halt latches"
         assert wheels == (0.0, 0.0), "ramped down to a stop"
+
+
+def test_the_outcome_of_a_signed_command_follows_the_status_that_decided_it() -> None:
+    """mstc.loop.lockstep.outcome, shared by CanController and the ROS
+    bridge's board, against the table of AUTH_STATUS_last (docs/protocol.md:
+    0 ok, 2 mac, 3 stale): a command signed for freshness 6 in session 7."""
+    def status(session: int, freshness: int, last: int) -> secoc.Status:
+        return secoc.Status(session, freshness, last, 0, False)
+
+    before = status(7, 5, 0)
+    assert outcome(before, 6, status(7, 6, 0), refused=False) == ACCEPTED
+    # The status says it was used, but PARAM_VALUE says unauthenticated.
+    assert outcome(before, 6, status(7, 6, 0), refused=True) == REFUSED
+    assert outcome(before, 6, status(7, 6, 2), refused=False) == REFUSED  # mac
+    assert outcome(before, 6, status(7, 6, 3), refused=False) == AGAIN  # stale
+    assert outcome(before, 6, status(9, 0, 0), refused=False) == AGAIN  # restarted
+    # Another command decided freshness 6: this one was not the one used.
+    assert outcome(before, 6, status(7, 7, 0), refused=False) == REFUSED

@@ -360,6 +360,23 @@ def decides(session: int, signed: int) -> Callable[[secoc.Status], bool]:
     return lambda s: s.session != session or s.freshness >= signed
 
 
+ACCEPTED, AGAIN, REFUSED = "accepted", "again", "refused"
+"""What :func:`outcome` says of a signed command."""
+
+
+def outcome(before: secoc.Status, signed: int, after: secoc.Status, refused: bool) -> str:
+    """A command signed for @p signed under the status @p before, decided by
+    the status @p after: :data:`ACCEPTED` when that status says it was the
+    one used and its PARAM_VALUE is not @p refused as unauthenticated;
+    :data:`AGAIN` when the firmware restarted or the challenge was used up
+    before the command came (stale): signed once more for the new one; else
+    :data:`REFUSED`."""
+    restarted = after.session != before.session
+    if not restarted and after.freshness == signed and after.last == 0:
+        return REFUSED if refused else ACCEPTED
+    return AGAIN if restarted or after.last == secoc.STALE else REFUSED
+
+
 def no_status(auth: secoc.Authenticator) -> ControllerError:
     """The error when no status of the firmware verified under the tools' key."""
     if auth.forged:
@@ -487,7 +504,7 @@ class CanController:
             authenticated status says why).
         """
         unauth = self.tables.param_result.value("unauthenticated")
-        for attempt in range(2):
+        for _ in range(2):  # once more after AGAIN
             if not self.auth.can_sign():
                 self._sync()  # no challenge left unsigned: ask for the status
             msgs = self.auth.param_set(self.proto, index, value)
@@ -500,13 +517,11 @@ class CanController:
             # The status follows every PARAM_VALUE: read the one that decided
             # this command (also so that the log keeps the bus's order).
             st = self._await_status(decides(st0.session, signed))
-            restarted = st.session != st0.session
-            if not restarted and st.freshness == signed and st.last == 0:
-                if answer.signals["result"] != unauth:
-                    return answer
-            elif attempt == 0 and (restarted or st.last == secoc.STALE):
-                continue
-            raise unauthenticated(what, self.auth)
+            verdict = outcome(st0, signed, st, answer.signals["result"] == unauth)
+            if verdict == ACCEPTED:
+                return answer
+            if verdict != AGAIN:
+                break
         raise unauthenticated(what, self.auth)
 
     def _configure(self) -> None:

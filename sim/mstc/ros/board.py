@@ -31,11 +31,14 @@ from mstc.can import secoc
 from mstc.can.protocol import DropReason, Frame, Protocol
 from mstc.errors import ControllerError, FrameDropped
 from mstc.loop.lockstep import (
+    ACCEPTED,
+    AGAIN,
     STEP_MODULO,
     decides,
     no_status,
     obstacle_frames,
     odometry_frames,
+    outcome,
     reference_frames,
     step_frame,
     unauthenticated,
@@ -211,20 +214,18 @@ class Board:
         """
         what = f"PARAM_SET {self.tables.param_index.name_of(index)}"
         unauth = self.tables.param_result.value("unauthenticated")
-        for attempt in range(2):
+        for _ in range(2):  # once more after AGAIN
             if not self.auth.can_sign():
                 self.sync()
             st0 = self.auth.status
             answer, signed = self._set(index, value)
             assert st0 is not None  # can_sign() needs a status
             st = self._await_status(decides(st0.session, signed))
-            restarted = st.session != st0.session
-            if not restarted and st.freshness == signed and st.last == 0:
-                if answer.signals["result"] != unauth:
-                    return answer
-            elif attempt == 0 and (restarted or st.last == secoc.STALE):
-                continue
-            break
+            verdict = outcome(st0, signed, st, answer.signals["result"] == unauth)
+            if verdict == ACCEPTED:
+                return answer
+            if verdict != AGAIN:
+                break
         raise unauthenticated(what, self.auth)
 
     def sync(self) -> None:
