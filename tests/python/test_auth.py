@@ -365,6 +365,7 @@ def test_the_outcome_of_a_signed_command_follows_the_status_that_decided_it() ->
     """mstc.loop.lockstep.outcome, shared by CanController and the ROS
     bridge's board, against the table of AUTH_STATUS_last (docs/protocol.md:
     0 ok, 2 mac, 3 stale): a command signed for freshness 6 in session 7."""
+
     def status(session: int, freshness: int, last: int) -> secoc.Status:
         return secoc.Status(session, freshness, last, 0, False)
 
