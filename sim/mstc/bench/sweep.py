@@ -36,7 +36,15 @@ from mstc.can.protocol import wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
 from mstc.plant.scenario import load_scenario, parse_scenario
-from mstc.sweep.engine import Job, Scene, library_sha256, run_batch, run_jobs_batched, run_sweep
+from mstc.sweep.engine import (
+    BATCH,
+    Job,
+    Scene,
+    library_sha256,
+    run_batch,
+    run_jobs_batched,
+    run_sweep,
+)
 from mstc.sweep.suite import IDEAL, generate, load_suite, scene_text
 
 LINE = ROOT / "sim" / "scenarios" / "paper-line.toml"
@@ -393,7 +401,7 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--runs", type=int, default=7)
     run.add_argument("--scenes", type=int, default=1000)
     run.add_argument("--batched-scenes", type=int, default=10000)
-    run.add_argument("--batch", type=int, default=500, help="scenes of a family in one batch")
+    run.add_argument("--batch", type=int, default=BATCH, help="scenes of a family in one batch")
     run.add_argument(
         "--per-scene", type=int, default=6, help="scenes of a family, per-scene engine"
     )
@@ -406,7 +414,7 @@ def main(argv: list[str] | None = None) -> int:
     eng.add_argument("--lib", required=True)
     eng.add_argument("--actuator", default=IDEAL, help="a profile of the standard suite")
     eng.add_argument("--strategy", default="mstc", choices=("paper", "mstc"))
-    eng.add_argument("--batch", type=int, default=500, help="scenes of a family in one batch")
+    eng.add_argument("--batch", type=int, default=BATCH, help="scenes of a family in one batch")
     eng.add_argument("--per-scene", type=int, default=6)
     eng.add_argument("--engine-runs", type=int, default=3)
     eng.add_argument("--out", type=Path, help="also write the figures here (JSON)")

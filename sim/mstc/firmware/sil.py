@@ -359,6 +359,15 @@ class SilBatch:
                 self.rejected[i] = why
         self.inputs = np.zeros(self.n, dtype=BATCH_INPUT_DTYPE)
         self.outputs = np.zeros(self.n, dtype=OUTPUT_DTYPE)
+        table = self.outputs["events"]
+        self._event_columns = (
+            self.outputs["n_events"],
+            table["t_us"],
+            table["kind"],
+            table["obstacle"],
+            table["side"],
+        )
+        """Views of the outputs' event table (read in :meth:`events`)."""
         self._step = lib.mstc_sil_step_batch
         t = tables()
         self.modes: dict[int, Mode] = t.mode
@@ -391,11 +400,10 @@ class SilBatch:
         """
         if not len(rows):
             return []
-        out = self.outputs[np.asarray(rows, dtype=np.intp)]
-        counts = out["n_events"].tolist()
-        table = out["events"]
-        t_us, kind = table["t_us"].tolist(), table["kind"].tolist()
-        obstacle, side = table["obstacle"].tolist(), table["side"].tolist()
+        at = np.asarray(rows, dtype=np.intp)
+        n_events, *columns = self._event_columns
+        counts = n_events[at].tolist()
+        t_us, kind, obstacle, side = (c[at].tolist() for c in columns)
         kinds = self._kinds
         try:
             got = []

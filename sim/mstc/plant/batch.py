@@ -84,19 +84,49 @@ class Within:
 
     def __call__(self, d2: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
         """Which squared distances @p d2 (of @p dx, @p dy) are within."""
-        within = d2 <= self._sure
-        unsure = (d2 <= self._maybe) ^ within
-        if unsure.any():
-            idx = np.nonzero(unsure)
-            limit = np.broadcast_to(self.threshold, d2.shape)[idx]
-            within[idx] = exact_hypot(dx[idx], dy[idx]) <= limit
-        return within
+        return self._inside(d2, dx, dy)[0]
+
+    def rows(self, d2: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        """Which rows of @p d2 (N, width) have a distance within: the
+        ``any(axis=1)`` of :meth:`__call__`, from the indices of the entries
+        within (numpy's reduction along a short row costs as much as several
+        elementwise passes)."""
+        out = np.zeros(d2.shape[0], dtype=bool)
+        out[self._inside(d2, dx, dy)[1] // d2.shape[1]] = True
+        return out
+
+    def _inside(
+        self, d2: np.ndarray, dx: np.ndarray, dy: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The entries within: as a mask of @p d2's shape, and as indices
+        into it flattened in C order. Those within the margin of their
+        threshold are decided by ``math.hypot``."""
+        within = np.less_equal(d2, self._maybe, order="C")
+        flat = np.flatnonzero(within)
+        if len(flat):
+            shape = within.shape
+            sure = d2.reshape(-1)[flat] <= self._flat(self._sure, shape)[flat]
+            if not sure.all():
+                doubt = flat[~sure]
+                exact = exact_hypot(dx.reshape(-1)[doubt], dy.reshape(-1)[doubt])
+                out = doubt[exact > self._flat(self.threshold, shape)[doubt]]
+                within.reshape(-1)[out] = False
+                flat = np.setdiff1d(flat, out, assume_unique=True)
+        return within, flat
+
+    @staticmethod
+    def _flat(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """@p a over @p shape, flat in C order (a view when @p a has that
+        shape and is C-contiguous)."""
+        return a.reshape(-1) if a.shape == shape else np.broadcast_to(a, shape).reshape(-1)
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
     """Angles wrapped into (-π, π] as :func:`mstc.model.wrap_angle`, bit for
     bit: fmod is exact, and so is the subtraction of 2π from a remainder
     above π (Sterbenz); ±π at a tie becomes π either way."""
+    if len(a) and -_PI < a.min() and a.max() < _PI:  # fmod and the wraps keep such angles
+        return a
     r = np.fmod(a, _TAU)
     r = np.where(r > _PI, r - _TAU, r)
     r = np.where(r < -_PI, r + _TAU, r)

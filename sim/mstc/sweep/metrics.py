@@ -311,13 +311,14 @@ class RunningMetrics:
         k = s.k
         uniform = self._uniform
         active = s.active
-        near = self._near(s.distance2, s.dx, s.dy)
-        touched = self._touch(s.distance2, s.dx, s.dy).any(axis=1)
+        near = self._near.rows(s.distance2, s.dx, s.dy)
+        touched = self._touch.rows(s.distance2, s.dx, s.dy)
         if not uniform:
             touched &= active
-        np.copyto(self._first_touch, k, where=touched & (self._first_touch < 0))
+        if touched.any():
+            np.copyto(self._first_touch, k, where=touched & (self._first_touch < 0))
         mode = s.mode
-        busy = near.any(axis=1) | self._busy_mode[mode]
+        busy = near | self._busy_mode[mode]
         if not uniform:
             busy &= active
         error = np.hypot(s.x - s.x_r, s.y - s.y_r)
