@@ -129,34 +129,22 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
  * extra what the prediction and the braking margin add: the prediction moves
  * p_l by at most |shift|_1, and since σ <= |q − w|_1 = q1 + ov the margin is
  * at most q1 T_b for a static obstacle (reach_add holds it with the shift),
- * (q1 + ov)(T_b + (q1 + ov)/a_v) for a moving one. All but the last term
- * depend on the step alone (reach_parts(), into f->reach and f->ov); @p
- * still is (2/α)(|v| + l|ω|), the last term of every static obstacle
- * (ov = 0), computed once per command. */
-static bool slack_sure(const lookahead_t *fr, uint8_t i, num_t dist, num_t speed, num_t still)
+ * (q1 + ov)(T_b + (q1 + ov)/a_v) for a moving one. @p still is
+ * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
+ * computed once per command. */
+static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                       num_t still)
 {
-    const num_t ov = fr->f->ov[i];
-    const num_t term = ov > NUM_ZERO ? num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov)) : still;
-    return dist >= num_add(fr->f->reach[i], term);
-}
-
-/* The command-independent parts of slack_sure()'s reach for the @p n entries:
- * f->reach[i] = d_s + 2l + extra, f->ov[i] = |w_x| + |w_y|. */
-static void reach_parts(const lookahead_t *fr, const sup_entry_t *e, uint8_t n)
-{
-    cbf_t *const f = fr->f;
-    for (uint8_t i = 0; i < n; i++) {
-        const sup_entry_t *o = &e[i];
-        const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
-        num_t extra = fr->reach_add;
-        if (ov > NUM_ZERO) {
-            const num_t qw = num_add(fr->q1, ov);
-            extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
-                            num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
-        }
-        f->ov[i] = ov;
-        f->reach[i] = num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra);
+    const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
+    num_t extra = fr->reach_add;
+    num_t term = still;
+    if (ov > NUM_ZERO) {
+        const num_t qw = num_add(fr->q1, ov);
+        extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
+                        num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
+        term = num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov));
     }
+    return dist >= num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra), term);
 }
 
 static num_t speed_of(num_t v, num_t w)
@@ -213,7 +201,7 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
 static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist, num_t speed,
                     num_t still, constraint_t *k)
 {
-    if (slack_sure(fr, i, dist, speed, still)) {
+    if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;
     }
     const uint16_t bit = (uint16_t)(1u << i);
@@ -358,7 +346,6 @@ void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const c
     fr.f = f;
     f->cached = 0u;
     f->doomed = 0u;
-    reach_parts(&fr, e, n);
     constraint_t k;
     const int first = most_violated(&fr, e, dist, n, *v, *w, &k);
     if (first >= 0) {

@@ -95,11 +95,6 @@ typedef struct {
     uint16_t doomed; /**< bit i: and its obstacle closes faster than the robot
                           can null before the bodies touch (cbf_unreachable()) */
     cbf_constraint_t k[SUP_MAX_OBSTACLES];
-    /** The part of entry i's binding reach that does not depend on the
-     *  command tested, and |w_x| + |w_y| of its obstacle: computed once a step
-     *  (cbf.c, slack_sure()). */
-    num_t reach[SUP_MAX_OBSTACLES];
-    num_t ov[SUP_MAX_OBSTACLES];
 } cbf_t;
 
 /** @brief The braking guard's margin beyond D_s [m] (cbf_brake_clear()). */
