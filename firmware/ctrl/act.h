@@ -92,6 +92,14 @@ void act_sync(act_t *a, const kin_wheels_t *w);
  */
 void act_estimate(act_t *a, num_t tau, num_t dt, const kin_wheels_t *meas);
 
+/** @brief The lag's factor τ / (τ + dt) of act_estimate() (0 when both are
+ *         0): what act_estimate_lag() takes. */
+num_t act_lag(num_t tau, num_t dt);
+
+/** @brief act_estimate() with its factor @p k = act_lag(tau, dt) computed by
+ *         the caller (ctl.c keeps it from one period to the next). */
+void act_estimate_lag(act_t *a, num_t k, const kin_wheels_t *meas);
+
 /**
  * @brief Rate-limit the command @p w against a->cmd, then store it as a->cmd.
  * @param a     state.
@@ -120,6 +128,11 @@ num_t act_horizon(num_t tau, num_t dt, bool measured);
  *        the rotation at δ = 0.5 rad), the mid heading to first order.
  */
 void act_predict(const pose_t *p0, num_t c0, num_t s0, num_t v, num_t w, num_t t, act_pose_t *out);
+
+/** @brief The heading of act_predict() alone, from heading @p theta: out->c,
+ *         out->s and out->p.theta as act_predict() gives them (out->p.x and
+ *         out->p.y are not written). */
+void act_predict_heading(num_t theta, num_t c0, num_t s0, num_t w, num_t t, act_pose_t *out);
 
 /**
  * @brief T_b = (max(|u_L|, |u_R|) / accel + dt) / 2 [s]: how long, in

@@ -120,30 +120,31 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
     return num_sub(k->b, rate(k, v, w));
 }
 
-/* The constraint of @p o, at centre distance @p dist from the robot, cannot
- * bind for the command (v, ω): with ḣ = a·(u − w) >= −2 |p_l − c| |u − w| and
- * h = (|p_l − c| − ρ)(|p_l − c| + ρ), ḣ + α h >= 0 whenever
+/* The constraint of entry @p i, at centre distance @p dist from the robot,
+ * cannot bind for the command (v, ω): with ḣ = a·(u − w) >= −2 |p_l − c| |u − w|
+ * and h = (|p_l − c| − ρ)(|p_l − c| + ρ), ḣ + α h >= 0 whenever
  * |p_l − c| >= ρ + 2 |u − w| / α; |p_l − c| >= dist − l − |shift|, and
  * |u − w| <= |v| + l|ω| + |w_x| + |w_y|. Saves the products for every
- * obstacle not close. */
-static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed)
+ * obstacle not close. The reach is d_s + 2l + extra + (2/α)(|v| + l|ω| + ov),
+ * extra what the prediction and the braking margin add: the prediction moves
+ * p_l by at most |shift|_1, and since σ <= |q − w|_1 = q1 + ov the margin is
+ * at most q1 T_b for a static obstacle (reach_add holds it with the shift),
+ * (q1 + ov)(T_b + (q1 + ov)/a_v) for a moving one. @p still is
+ * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
+ * computed once per command. */
+static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                       num_t still)
 {
     const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
-    const num_t rel = num_add(speed, ov);
-    /* The prediction moves p_l by at most |shift|_1, the braking margin adds
-     * at most |q − w|_1 T_b to ρ. */
-    /* σ <= |q − w|_1 = q1 + ov: the margin is at most q1 T_b for a static
-     * obstacle (reach_add holds it with the shift), (q1 + ov)(T_b + (q1 +
-     * ov)/a_v) for a moving one. */
     num_t extra = fr->reach_add;
+    num_t term = still;
     if (ov > NUM_ZERO) {
         const num_t qw = num_add(fr->q1, ov);
         extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
                         num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
+        term = num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov));
     }
-    const num_t reach = num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra),
-                                num_mul(CBF_TWO_OVER_ALPHA, rel));
-    return dist >= reach;
+    return dist >= num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra), term);
 }
 
 static num_t speed_of(num_t v, num_t w)
@@ -198,9 +199,9 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
 /* The constraint of entry @p i into *k, unless it surely cannot bind
  * (slack_sure): then false. Computed once a step (the cache in cbf_t). */
 static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist, num_t speed,
-                    constraint_t *k)
+                    num_t still, constraint_t *k)
 {
-    if (slack_sure(fr, &e[i], dist, speed)) {
+    if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;
     }
     const uint16_t bit = (uint16_t)(1u << i);
@@ -224,11 +225,12 @@ static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_
                          num_t v, num_t w, constraint_t *worst)
 {
     const num_t speed = speed_of(v, w);
+    const num_t still = num_mul(CBF_TWO_OVER_ALPHA, speed);
     int found = -1;
     num_t worst_gap = CBF_TOLERANCE;
     for (uint8_t i = 0; i < n; i++) {
         constraint_t k;
-        if (!binding(fr, e, i, dist[i], speed, &k)) {
+        if (!binding(fr, e, i, dist[i], speed, still, &k)) {
             continue;
         }
         const num_t gap = shortfall(&k, v, w);
@@ -248,10 +250,11 @@ static num_t brake_factor(const lookahead_t *fr, const sup_entry_t *e, const num
                           num_t v, num_t w, bool *infeasible)
 {
     const num_t speed = speed_of(v, w);
+    const num_t still = num_mul(CBF_TWO_OVER_ALPHA, speed);
     num_t f = NUM_ONE;
     for (uint8_t i = 0; i < n; i++) {
         constraint_t k;
-        if (!binding(fr, e, i, dist[i], speed, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
+        if (!binding(fr, e, i, dist[i], speed, still, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
             continue;
         }
         if (k.b > NUM_ZERO) {
@@ -364,6 +367,9 @@ void cbf_step(cbf_t *f, const pose_t *robot, num_t cos_th, num_t sin_th, const c
 bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *dist, uint8_t n)
 {
     const num_t reach = num_add(num_mul(num_abs(b->v), b->travel_t), b->lead);
+    /* Every point of the path is within reach of the robot: a segment's
+     * widening is at most 5 % of its length (|Φ| <= 0.1, rol.h). */
+    const num_t widened = num_add(reach, num_mul(reach, NUM_C(0.0625)));
     bool built = false;
     rol_path_t path;
     for (uint8_t i = 0; i < n; i++) {
@@ -372,9 +378,7 @@ bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *di
             continue; /* moving: stopping in its way does not help (cbf.h) */
         }
         num_t clear = num_add(o->d_s, CBF_GUARD_MARGIN);
-        /* Every point of the path is within reach of the robot: a segment's
-         * widening is at most 5 % of its length (|Φ| <= 0.1, rol.h). */
-        if (dist[i] >= num_add(clear, num_add(reach, num_mul(reach, NUM_C(0.0625))))) {
+        if (dist[i] >= num_add(clear, widened)) {
             continue;
         }
         /* Inside the margin already: no closer than now. */
@@ -391,40 +395,57 @@ bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *di
 }
 
 /* Whether the rate-limited command @p u (from @p base) passes
- * cbf_brake_clear(); *u is then what the rate limiter made of it. */
+ * cbf_brake_clear(); *u is then what the rate limiter made of it, and *body
+ * its body velocity. @p body holds that of *u before the limiter, if known:
+ * a command the limiter leaves alone keeps it. */
 static bool guard_passes(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t *dist,
-                         uint8_t n, const kin_wheels_t *base, kin_wheels_t *u)
+                         uint8_t n, const kin_wheels_t *base, kin_wheels_t *u, cbf_body_t *body)
 {
     a->cmd = *base;
-    (void)act_limit(a, g->accel, g->dt, u);
+    const bool limited = act_limit(a, g->accel, g->dt, u);
     cbf_brake_t b = { .start = g->start, .c = g->c, .s = g->s, .lead = g->lead };
-    kin_vw_from_wheels(g->kin, u, &b.v, &b.w);
+    if (body->known && !limited) {
+        b.v = body->v;
+        b.w = body->w;
+    } else {
+        kin_vw_from_wheels(g->kin, u, &b.v, &b.w);
+    }
+    *body = (cbf_body_t){ .v = b.v, .w = b.w, .known = true };
     const num_t top = num_max(num_abs(u->left), num_abs(u->right));
     b.travel_t = num_add(g->dt, num_mul(num_mul(top, g->inv_accel), NUM_C(0.5)));
     return cbf_brake_clear(&b, e, dist, n);
 }
 
 bool cbf_guard(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t *dist, uint8_t n,
-               kin_wheels_t *wheels)
+               kin_wheels_t *wheels, cbf_body_t *body)
 {
     const kin_wheels_t base = a->cmd;
     kin_wheels_t u = *wheels;
-    if (guard_passes(a, g, e, dist, n, &base, &u)) {
+    cbf_body_t tried = *body;
+    if (guard_passes(a, g, e, dist, n, &base, &u, &tried)) {
         *wheels = u;
+        *body = tried;
         return false;
     }
     /* Brake the speed, keep the turn: (0, ω) of the command. */
     num_t v;
     num_t w;
-    kin_vw_from_wheels(g->kin, wheels, &v, &w);
+    if (body->known) {
+        w = body->w;
+    } else {
+        kin_vw_from_wheels(g->kin, wheels, &v, &w);
+    }
     kin_wheels_from_vw(g->kin, NUM_ZERO, w, &u);
-    if (!kin_saturate(g->kin, &u) && guard_passes(a, g, e, dist, n, &base, &u)) {
+    tried.known = false;
+    if (!kin_saturate(g->kin, &u) && guard_passes(a, g, e, dist, n, &base, &u, &tried)) {
         *wheels = u;
+        *body = tried;
         return true;
     }
     *wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
     a->cmd = base;
     (void)act_limit(a, g->accel, g->dt, wheels);
+    body->known = false;
     return true;
 }
 

@@ -176,6 +176,13 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
  */
 bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *dist, uint8_t n);
 
+/** @brief A wheel command's body velocity (kin_vw_from_wheels() of it), when
+ *         known: passed along so that it is not computed twice. */
+typedef struct {
+    num_t v, w; /**< [m/s], [rad/s] */
+    bool known; /**< v and w hold */
+} cbf_body_t;
+
 /** @brief The command's rate limit and where the braking guard starts from
  *         (cbf_guard()). */
 typedef struct {
@@ -197,10 +204,12 @@ typedef struct {
  *        along the path: it continues the braking that the previous step's
  *        command was checked with, so it is always available). a->cmd holds
  *        the result.
+ * @param[in,out] body the body velocity of @p wheels, if known; on return,
+ *        that of the result, if known.
  * @retval true the guard changed the command.
  */
 bool cbf_guard(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t *dist, uint8_t n,
-               kin_wheels_t *wheels);
+               kin_wheels_t *wheels, cbf_body_t *body);
 
 /**
  * @brief A moving obstacle that no command within the wheels' limits keeps

@@ -18,6 +18,14 @@ static sup_params_t sup_params_of(const ctl_params_t *p)
     return (sup_params_t){ .r_ob = p->r_ob, .d_det = p->d_det, .d_act = p->d_act, .d_s = p->d_s };
 }
 
+/* Forget what the memo holds (ctl_memo_t) and compute what depends on the
+ * parameters alone: after act_configure(). */
+static void memo_reset(ctl_t *c)
+{
+    const num_t gamma = c->act.lim.gamma;
+    c->memo = (ctl_memo_t){ .avoid_most = num_div(num_add(gamma, gamma), c->p.avd.k2) };
+}
+
 int ctl_init(ctl_t *c, const ctl_params_t *p)
 {
     int rc = ctl_params_check(p);
@@ -32,12 +40,17 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     cbf_init(&c->cbf);
     act_init(&c->act);
     act_configure(&c->act, &c->p.kin, c->p.wheel_accel, CBF_LOOKAHEAD);
+    memo_reset(c);
     c->last_t_us = 0u;
     c->stepped = false;
     return rc;
 }
 
-void ctl_sync_wheels(ctl_t *c, const kin_wheels_t *w) { act_sync(&c->act, w); }
+void ctl_sync_wheels(ctl_t *c, const kin_wheels_t *w)
+{
+    act_sync(&c->act, w);
+    c->memo.cmd_known = false;
+}
 
 int ctl_set_params(ctl_t *c, const ctl_params_t *p)
 {
@@ -53,6 +66,7 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
          * limiter starts from commands within it. */
         (void)kin_saturate(&p->kin, &c->act.cmd);
         (void)kin_saturate(&p->kin, &c->act.est);
+        memo_reset(c);
         if (new_strategy) {
             msw_reset(&c->msw);
             cbf_reset(&c->cbf);
@@ -78,21 +92,31 @@ static bool inputs_in_range(const ctl_input_t *in)
                                      within(in->wheels.right, CTL_MAX_ABS_WHEEL_SPEED)));
 }
 
-/* A report the supervisor may compute with; the others reach it as id 0 with
- * zero values, which it drops and counts without touching them. "paper"
- * ignores velocities: they reach it as 0. */
-static sup_obstacle_t screened(const sup_obstacle_t *o, bool with_velocity)
+/* A report the supervisor may compute with: its values within their ranges
+ * ("paper" ignores velocities: they reach it as 0, unchecked). */
+static bool report_ok(const sup_obstacle_t *o, bool with_velocity)
 {
-    bool ok = within(o->x, CTL_MAX_ABS_POSITION) && within(o->y, CTL_MAX_ABS_POSITION) &&
-              within(o->radius, CTL_MAX_RADIUS);
-    sup_obstacle_t r = *o;
-    if (with_velocity) {
-        ok = ok && within(o->vx, CTL_MAX_ABS_SPEED) && within(o->vy, CTL_MAX_ABS_SPEED);
-    } else {
-        r.vx = NUM_ZERO;
-        r.vy = NUM_ZERO;
+    const bool ok = within(o->x, CTL_MAX_ABS_POSITION) && within(o->y, CTL_MAX_ABS_POSITION) &&
+                    within(o->radius, CTL_MAX_RADIUS);
+    return with_velocity
+               ? ok && within(o->vx, CTL_MAX_ABS_SPEED) && within(o->vy, CTL_MAX_ABS_SPEED)
+               : ok;
+}
+
+/* A report as the supervisor gets it, into *r: the others reach it as id 0
+ * with zero values, which it drops and counts without touching them; without
+ * velocities, they are 0. */
+static void screen(const sup_obstacle_t *o, bool with_velocity, sup_obstacle_t *r)
+{
+    if (!report_ok(o, with_velocity)) {
+        *r = (sup_obstacle_t){ .id = 0u };
+        return;
     }
-    return ok ? r : (sup_obstacle_t){ .id = 0u };
+    *r = *o;
+    if (!with_velocity) {
+        r->vx = NUM_ZERO;
+        r->vy = NUM_ZERO;
+    }
 }
 
 static void fill_distances(const ctl_t *c, const pose_t *robot, ctl_status_t *st)
@@ -115,13 +139,25 @@ static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ct
     const size_t n_reports =
         in->n_obstacles < SUP_MAX_OBSTACLES ? in->n_obstacles : SUP_MAX_OBSTACLES;
     const uint16_t dropped_before = c->sup.dropped;
-    sup_obstacle_t reports[SUP_MAX_OBSTACLES];
+    /* Reports that screening leaves as they are (velocities kept, every value
+     * in range) go to the table uncopied. */
+    bool as_they_are = with_velocity;
     /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
-    for (size_t i = 0; i < n_reports; i++) {
-        reports[i] = screened(&in->obstacles[i], with_velocity);
+    for (size_t i = 0; as_they_are && i < n_reports; i++) {
+        as_they_are = report_ok(&in->obstacles[i], true);
+    }
+    const sup_obstacle_t *taken = in->obstacles;
+    sup_obstacle_t reports[SUP_MAX_OBSTACLES];
+    if (!as_they_are) {
+        /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
+        for (size_t i = 0; i < n_reports; i++) {
+            screen(&in->obstacles[i], with_velocity, &reports[i]);
+        }
+        taken = reports;
     }
     size_t n_ev = 0;
-    sup_take_reports(&c->sup, &in->robot, reports, n_reports, in->t_us, out->events, &n_ev);
+    /* Screened: every value finite (within()), or the report is id 0. */
+    sup_take_finite_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events, &n_ev);
     out->n_events = n_ev;
     if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
         out->status.faults |= CTL_FAULT_OBSTACLE_DROPPED;
@@ -138,14 +174,20 @@ static void wheels_for(const ctl_t *c, num_t v, num_t w, kin_wheels_t *wheels, u
 }
 
 /* The last defence of the output range (ctl.h), and the body velocity the
- * wheels give, for the status. */
-static void finish(const ctl_t *c, ctl_output_t *out)
+ * wheels give, for the status: @p body's when it holds it for these wheels. */
+static void finish(const ctl_t *c, const cbf_body_t *body, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
     if (!within(out->wheels.left, c->p.kin.max_wheel_speed) ||
         !within(out->wheels.right, c->p.kin.max_wheel_speed)) {
         out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
         st->faults |= CTL_FAULT_OUTPUT_INVALID;
+    } else if (body->known) {
+        st->v = body->v;
+        st->w = body->w;
+        return;
+    } else {
+        /* computed below */
     }
     kin_vw_from_wheels(&c->p.kin, &out->wheels, &st->v, &st->w);
 }
@@ -166,26 +208,41 @@ static num_t track_speed(num_t v, num_t v_r)
                           : num_clamp(v, NUM_ZERO, speed_limit(v_r));
 }
 
+/* Key of the first step's period in step_dt(): no period of microseconds. */
+#define CTL_FIRST_KEY UINT64_MAX
+
 /* The period since the last step [s], within [0, ACT_MAX_DT]; CTL_FIRST_DT
- * at the first. Through float in both modes, as the application's ramp. */
-static num_t step_dt(ctl_t *c, uint64_t t_us)
+ * at the first. Through float in both modes, as the application's ramp.
+ * *key names the period: equal keys, equal periods. */
+static num_t step_dt(ctl_t *c, uint64_t t_us, uint64_t *key)
 {
     num_t dt = CTL_FIRST_DT;
+    *key = CTL_FIRST_KEY;
     if (c->stepped) {
         const uint64_t us = t_us > c->last_t_us ? t_us - c->last_t_us : 0u;
-        dt = us >= 100000u ? ACT_MAX_DT : num_from_float((float)us * 1.0e-6f);
+        *key = us >= 100000u ? 100000u : us;
+        ctl_memo_t *mo = &c->memo;
+        if (us >= 100000u) {
+            dt = ACT_MAX_DT;
+        } else if (mo->dt_known && mo->dt_us == us) {
+            dt = mo->dt; /* the same period again: soft float on a Cortex-M3 */
+        } else {
+            dt = num_from_float((float)us * 1.0e-6f);
+            mo->dt = dt;
+            mo->dt_us = us;
+            mo->dt_known = true;
+        }
     }
     c->last_t_us = t_us;
     c->stepped = true;
     return dt;
 }
 
-/* The look-ahead velocity u = v e_θ + l ω e⊥ of a body velocity, times @p k. */
-static void lookahead_velocity(num_t v, num_t om, num_t cos_th, num_t sin_th, num_t k, num_t *ux,
+/* The look-ahead velocity u = v e_θ + l ω e⊥ of a body velocity (@p kv = v
+ * and @p klw = l ω, each times a factor k), in the world frame. */
+static void lookahead_velocity(num_t kv, num_t klw, num_t cos_th, num_t sin_th, num_t *ux,
                                num_t *uy)
 {
-    const num_t kv = num_mul(k, v);
-    const num_t klw = num_mul(num_mul(k, CBF_LOOKAHEAD), om);
     *ux = num_sub(num_mul(kv, cos_th), num_mul(klw, sin_th));
     *uy = num_add(num_mul(kv, sin_th), num_mul(klw, cos_th));
 }
@@ -207,12 +264,32 @@ static void wheels_now(ctl_t *c, const ctl_input_t *in, num_t cos_th, num_t sin_
                        wheels_now_t *wn)
 {
     const ctl_params_t *p = &c->p;
-    wn->dt = step_dt(c, in->t_us);
-    act_estimate(&c->act, p->wheel_tau, wn->dt, in->wheels_measured ? &in->wheels : NULL);
+    ctl_memo_t *mo = &c->memo;
+    uint64_t key;
+    wn->dt = step_dt(c, in->t_us, &key);
+    if (in->wheels_measured) {
+        act_estimate_lag(&c->act, NUM_ZERO, &in->wheels);
+    } else {
+        /* The lag's factor of the same period again (the period's key, and
+         * wheel_tau, which only a parameter set changes: memo_reset()). */
+        if (!mo->lag_known || mo->lag_us != key) {
+            mo->lag_k = act_lag(p->wheel_tau, wn->dt);
+            mo->lag_us = key;
+            mo->lag_known = true;
+        }
+        act_estimate_lag(&c->act, mo->lag_k, NULL);
+    }
     wn->horizon = act_horizon(p->wheel_tau, wn->dt, in->wheels_measured);
     kin_vw_from_wheels(&p->kin, &c->act.est, &wn->v, &wn->w);
     act_predict(&in->robot, cos_th, sin_th, wn->v, wn->w, wn->horizon, &wn->at);
-    kin_vw_from_wheels(&p->kin, &c->act.cmd, &wn->vc, &wn->wc);
+    /* The command in force is the last step's: its body velocity is the one
+     * finish() gave the status then, unless act.cmd changed since. */
+    if (mo->cmd_known) {
+        wn->vc = mo->cmd_v;
+        wn->wc = mo->cmd_w;
+    } else {
+        kin_vw_from_wheels(&p->kin, &c->act.cmd, &wn->vc, &wn->wc);
+    }
     wn->brake_t = act_brake_time(&c->act.cmd, c->act.lim.inv_accel, wn->dt);
 }
 
@@ -236,8 +313,7 @@ static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const 
     pe->e.e1 = num_add(e->e1, num_mul(t, e1d));
     pe->e.e2 = num_add(e->e2, num_mul(t, e2d));
     act_pose_t r;
-    const pose_t zero = { NUM_ZERO, NUM_ZERO, e->e3 };
-    act_predict(&zero, c3, s3, NUM_ZERO, num_sub(in->w_r, wn->w), t, &r);
+    act_predict_heading(e->e3, c3, s3, num_sub(in->w_r, wn->w), t, &r);
     pe->e.e3 = r.p.theta;
     pe->c3 = r.c;
     pe->s3 = r.s;
@@ -250,8 +326,7 @@ static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const 
  * error can be brought to zero with, decelerating at γ' (a'), without
  * overshoot (a braking curve; for a law of gain K the curve
  * |x| <= sqrt(2 γ' |x| / K) is the bound 2γ'/K). */
-static void track_command(const ctl_t *c, const ctl_input_t *in, const pred_err_t *pe, num_t *v,
-                          num_t *w)
+static void track_command(ctl_t *c, const ctl_input_t *in, const pred_err_t *pe, num_t *v, num_t *w)
 {
     const act_limits_t *lim = &c->act.lim;
     const trk_gains_t *g = &c->p.trk;
@@ -263,7 +338,16 @@ static void track_command(const ctl_t *c, const ctl_input_t *in, const pred_err_
     const num_t k3v = num_mul(g->k3, num_abs(in->v_r));
     num_t most_w = NUM_MAX;
     if (k3v > NUM_ZERO) {
-        most_w = num_div(num_add(lim->gamma, lim->gamma), k3v);
+        /* The same bound while |v_r| stays (γ' and k3 change only with the
+         * parameters: memo_reset()); k3v > 0, so equal values have equal
+         * bits. */
+        ctl_memo_t *mo = &c->memo;
+        if (!mo->turn_known || mo->turn_k3v != k3v) {
+            mo->turn_most = num_div(num_add(lim->gamma, lim->gamma), k3v);
+            mo->turn_k3v = k3v;
+            mo->turn_known = true;
+        }
+        most_w = mo->turn_most;
     }
     *w = num_add(in->w_r, num_clamp(turn, num_neg(most_w), most_w));
 }
@@ -285,7 +369,7 @@ static void avoid_command(const ctl_t *c, const ctl_input_t *in, const wheels_no
     *v = num_clamp(v23, slowest, num_min(speed_limit(in->v_r), cap));
     avd_turn(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, d->side, *v, w, e);
     const num_t corr = num_mul(c->p.avd.k2, *e);
-    const num_t most = num_div(num_add(lim->gamma, lim->gamma), c->p.avd.k2);
+    const num_t most = c->memo.avoid_most; /* 2γ'/k2 */
     *w = num_add(num_sub(*w, corr), num_clamp(corr, num_neg(most), most));
 }
 
@@ -301,8 +385,11 @@ static num_t activation_reach(const ctl_t *c, const wheels_now_t *wn)
 static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, num_t sin_th,
                           cbf_motion_t *m)
 {
-    lookahead_velocity(wn->v, wn->w, cos_th, sin_th, wn->horizon, &m->shift_x, &m->shift_y);
-    lookahead_velocity(wn->vc, wn->wc, cos_th, sin_th, NUM_ONE, &m->qx, &m->qy);
+    /* The shift: u of the estimate times T_p; q: u of the command in force. */
+    lookahead_velocity(num_mul(wn->horizon, wn->v),
+                       num_mul(num_mul(wn->horizon, CBF_LOOKAHEAD), wn->w), cos_th, sin_th,
+                       &m->shift_x, &m->shift_y);
+    lookahead_velocity(wn->vc, num_mul(CBF_LOOKAHEAD, wn->wc), cos_th, sin_th, &m->qx, &m->qy);
     m->brake_t = wn->brake_t;
     m->inv_accel = c->act.lim.inv_av;
     m->side = c->act.lim.side;
@@ -312,7 +399,7 @@ static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, 
 
 /* The rate limiter and the braking guard (cbf_guard()). */
 static bool limit_and_guard(ctl_t *c, const wheels_now_t *wn, const num_t *dist,
-                            kin_wheels_t *wheels)
+                            kin_wheels_t *wheels, cbf_body_t *body)
 {
     const cbf_guard_t g = { .kin = &c->p.kin,
                             .accel = c->p.wheel_accel,
@@ -322,7 +409,7 @@ static bool limit_and_guard(ctl_t *c, const wheels_now_t *wn, const num_t *dist,
                             .c = wn->at.c,
                             .s = wn->at.s,
                             .lead = num_mul(num_abs(wn->v), wn->horizon) };
-    return cbf_guard(&c->act, &g, c->sup.obs, dist, c->sup.n_obs, wheels);
+    return cbf_guard(&c->act, &g, c->sup.obs, dist, c->sup.n_obs, wheels, body);
 }
 
 /* Id of the nearest obstacle (the one a guard's braking concerns, when the
@@ -402,6 +489,7 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     wheels_for(c, v, w, &out->wheels, &st->faults);
     /* The filter sees what the wheels will do. */
     kin_vw_from_wheels(&c->p.kin, &out->wheels, &v, &w);
+    cbf_body_t body = { .v = v, .w = w, .known = true }; /* of out->wheels */
     cbf_motion_t motion;
     filter_motion(c, &wn, cos_th, sin_th, &motion);
     cbf_result_t fr;
@@ -411,6 +499,7 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
              &v, &w, &fr);
     if (fr.changed) {
         wheels_for(c, v, w, &out->wheels, &st->faults);
+        body.known = false;
     }
     /* A moving obstacle no command within the wheels' limits keeps away. */
     const uint8_t unreachable = cbf_unreachable(&c->cbf, c->sup.obs, c->sup.n_obs, &c->p.kin,
@@ -420,7 +509,7 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
         fr.new_infeasible = !was_infeasible;
         c->cbf.infeasible = true;
     }
-    if (limit_and_guard(c, &wn, st->distance, &out->wheels)) {
+    if (limit_and_guard(c, &wn, st->distance, &out->wheels, &body)) {
         fr.changed = true;
         fr.new_episode = !was_active;
         c->cbf.active = true;
@@ -445,8 +534,11 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
         n_ev++;
     }
     out->n_events = n_ev;
-    finish(c, out);
+    finish(c, &body, out);
     c->act.cmd = out->wheels; /* zero when finish() had to */
+    c->memo.cmd_v = st->v;
+    c->memo.cmd_w = st->w;
+    c->memo.cmd_known = true;
 }
 
 /* The "paper" step: the paper's supervisor and controllers, as they have
@@ -477,7 +569,8 @@ static void paper_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     } /* SUP_MODE_STOP, p3: v = ω = 0. */
 
     wheels_for(c, v, w, &out->wheels, &st->faults);
-    finish(c, out);
+    const cbf_body_t unknown = { .known = false };
+    finish(c, &unknown, out);
     fill_distances(c, &in->robot, st);
 }
 
@@ -493,7 +586,9 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
          * "mstc" brakes as fast as its wheels can (act.h). */
         st->faults = CTL_FAULT_INPUT_NONFINITE;
         if (ctl_is_mstc(&c->p)) {
-            (void)act_limit(&c->act, c->p.wheel_accel, step_dt(c, in->t_us), &out->wheels);
+            uint64_t key;
+            (void)act_limit(&c->act, c->p.wheel_accel, step_dt(c, in->t_us, &key), &out->wheels);
+            c->memo.cmd_known = false;
         }
         return;
     }

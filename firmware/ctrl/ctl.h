@@ -167,6 +167,25 @@ typedef struct {
     size_t n_events;
 } ctl_output_t;
 
+/** @brief What "mstc" keeps so as not to compute it again (ctl.c): each value
+ *         is what the same operations on the same operands gave, so the
+ *         results of a step never depend on whether it was kept. Forgotten
+ *         whenever what it depends on may change (parameters, act.cmd). */
+typedef struct {
+    num_t cmd_v, cmd_w; /**< kin_vw_from_wheels() of act.cmd */
+    num_t lag_k;        /**< act_lag(wheel_tau, dt) for the period of key lag_us */
+    num_t turn_k3v;     /**< k3 |v_r| for which turn_most holds */
+    num_t turn_most;    /**< 2γ' / (k3 |v_r|): the tracking turn's bound */
+    num_t avoid_most;   /**< 2γ' / k2: the avoidance turn's bound */
+    num_t dt;           /**< the period of dt_us microseconds [s] (step_dt()) */
+    uint64_t dt_us;     /**< [µs] */
+    uint64_t lag_us;    /**< the period's key (ctl.c, step_dt()) */
+    bool cmd_known;     /**< cmd_v, cmd_w hold */
+    bool dt_known;      /**< dt holds */
+    bool lag_known;     /**< lag_k holds */
+    bool turn_known;    /**< turn_most holds */
+} ctl_memo_t;
+
 /** @brief Controller state. */
 typedef struct {
     ctl_params_t p;
@@ -174,6 +193,7 @@ typedef struct {
     msw_t msw;          /**< the "mstc" switch strategy */
     cbf_t cbf;          /**< the "mstc" safety filter */
     act_t act;          /**< the "mstc" wheels: rate limiter base and estimate */
+    ctl_memo_t memo;    /**< values "mstc" keeps (ctl_memo_t) */
     uint64_t last_t_us; /**< time of the last step [µs] */
     bool stepped;       /**< a step has run since init or reset */
 } ctl_t;

@@ -29,6 +29,7 @@ void msw_reset(msw_t *m)
     for (size_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
         m->acts[i] = 0u;
     }
+    m->path = (rol_path_t){ .kind = ROL_TOO_LONG, .reach = NUM_MAX };
 }
 
 static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t kind, uint8_t id,
@@ -50,11 +51,12 @@ static bool in_mask(uint16_t mask, uint8_t i) { return (mask & (1u << i)) != 0u;
 static uint64_t since(uint64_t now, uint64_t t0) { return now >= t0 ? now - t0 : 0u; }
 
 /* What one step looks at: its input, and the tracking command rolled out over
- * MSW_ROLLOUT (rol_path()), computed once, when first needed. */
+ * MSW_ROLLOUT (rol_path()) into *path (msw_t::path), computed once, when first
+ * needed. */
 typedef struct {
     const msw_input_t *in;
     bool rolled;
-    rol_path_t path;
+    rol_path_t *path;
 } look_t;
 
 static const rol_path_t *rolled_out(look_t *lk)
@@ -62,9 +64,9 @@ static const rol_path_t *rolled_out(look_t *lk)
     const msw_input_t *in = lk->in;
     if (!lk->rolled) {
         lk->rolled = true;
-        rol_path(&lk->path, in->robot, in->cos_th, in->sin_th, in->v_trk, in->w_trk, MSW_ROLLOUT);
+        rol_path(lk->path, in->robot, in->cos_th, in->sin_th, in->v_trk, in->w_trk, MSW_ROLLOUT);
     }
-    return &lk->path;
+    return lk->path;
 }
 
 /* The robot's velocity under the tracking command, relative to entry @p e:
@@ -408,8 +410,8 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
-    /* The path is written when first needed (rolled_out()); zero until then. */
-    look_t lk = { .in = in, .rolled = false, .path = { 0 } };
+    /* The path is written when first needed (rolled_out()). */
+    look_t lk = { .in = in, .rolled = false, .path = &m->path };
     if (m->state == (uint8_t)MSW_BLOCKED) {
         if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
@@ -439,21 +441,30 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         }
     }
 
-    *d = (msw_decision_t){ .mode = SUP_MODE_TRACK, .followed = NULL, .side = AVD_SIDE_NONE };
+    d->mode = SUP_MODE_TRACK;
+    d->followed = NULL;
+    d->side = AVD_SIDE_NONE;
     if (m->state == (uint8_t)MSW_AVOID) {
         const sup_entry_t *f = &s->obs[m->followed];
         d->mode = SUP_MODE_AVOID;
         d->followed = f;
         d->side = m->side;
-        d->circle = (avd_obstacle_t){ .x = f->o.x,
-                                      .y = f->o.y,
-                                      .vx = f->o.vx,
-                                      .vy = f->o.vy,
-                                      .d_s = num_add(f->d_s, m->offset) };
-    } else if (m->state == (uint8_t)MSW_BLOCKED) {
-        d->mode = SUP_MODE_BLOCKED;
+        d->circle.x = f->o.x;
+        d->circle.y = f->o.y;
+        d->circle.vx = f->o.vx;
+        d->circle.vy = f->o.vy;
+        d->circle.d_s = num_add(f->d_s, m->offset);
     } else {
-        /* tracking */
+        /* No circle: zero, field by field (a compound literal costs a
+         * memset). */
+        d->circle.x = NUM_ZERO;
+        d->circle.y = NUM_ZERO;
+        d->circle.vx = NUM_ZERO;
+        d->circle.vy = NUM_ZERO;
+        d->circle.d_s = NUM_ZERO;
+        if (m->state == (uint8_t)MSW_BLOCKED) {
+            d->mode = SUP_MODE_BLOCKED;
+        }
     }
     if (sup_p3(in->v_r, in->w_r)) {
         d->mode = SUP_MODE_STOP;

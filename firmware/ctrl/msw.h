@@ -50,6 +50,7 @@
 #include <stdint.h>
 
 #include "ctrl/avd.h"
+#include "ctrl/rol.h"
 #include "ctrl/sup.h"
 
 /** @name Tunables of the strategy (docs/strategy.md says how each was chosen). @{ */
@@ -99,6 +100,10 @@ typedef struct {
     num_t mark_x, mark_y;            /**< where the robot last made progress [m] */
     uint64_t t_mark_us;              /**< when */
     uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index */
+    /** Scratch of msw_step(): the tracking command's roll-out, written when a
+     *  step first needs it (here rather than on the stack, where clearing
+     *  it each step cost a memset). */
+    rol_path_t path;
 } msw_t;
 
 /** @brief What the strategy sees in one step. */

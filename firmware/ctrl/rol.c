@@ -7,7 +7,25 @@
 void rol_path(rol_path_t *path, const pose_t *p, num_t cos_th, num_t sin_th, num_t v, num_t w,
               num_t horizon)
 {
-    *path = (rol_path_t){ .kind = ROL_TOO_LONG, .x = p->x, .y = p->y, .reach = NUM_MAX };
+    /* Field by field: a compound literal costs a memset. What a kind does
+     * not use stays zero. */
+    path->kind = ROL_TOO_LONG;
+    path->x = p->x;
+    path->y = p->y;
+    path->ex = NUM_ZERO;
+    path->ey = NUM_ZERO;
+    path->length = NUM_ZERO;
+    path->widen = NUM_ZERO;
+    path->cx = NUM_ZERO;
+    path->cy = NUM_ZERO;
+    path->radius = NUM_ZERO;
+    path->s0x = NUM_ZERO;
+    path->s0y = NUM_ZERO;
+    path->s1x = NUM_ZERO;
+    path->s1y = NUM_ZERO;
+    path->ccw = false;
+    path->whole = false;
+    path->reach = NUM_MAX;
     const num_t length = num_mul(num_abs(v), horizon);
     if (length > ROL_MAX_LENGTH) {
         return;

@@ -52,9 +52,12 @@ void sup_set_params(sup_t *s, const sup_params_t *p)
     s->revision++;
 }
 
-static bool report_valid(const sup_obstacle_t *o)
+/* A report the table takes: @p finite when the caller has found its values
+ * finite already. */
+static bool report_valid(const sup_obstacle_t *o, bool finite)
 {
-    return o->id != 0 && num_is_finite(o->x) && num_is_finite(o->y) && num_is_finite(o->radius) &&
+    return o->id != 0 &&
+           (finite || (num_is_finite(o->x) && num_is_finite(o->y) && num_is_finite(o->radius))) &&
            o->radius > NUM_ZERO;
 }
 
@@ -91,12 +94,13 @@ static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o)
 /* Definition 1: remember each reported obstacle from the first step at which
  * it lies within D_det. At most one new entry per id, so at most
  * SUP_MAX_OBSTACLES detect events per step. */
-void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
-                      size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                         size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev,
+                         bool finite)
 {
     for (size_t i = 0; i < n_reports; i++) {
         const sup_obstacle_t *o = &reports[i];
-        if (!report_valid(o)) {
+        if (!report_valid(o, finite)) {
             s->dropped++;
             continue;
         }
@@ -132,6 +136,18 @@ void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *repor
         s->revision++;
         emit(events, n_ev, t_us, SUP_EVENT_DETECT, o->id, AVD_SIDE_NONE);
     }
+}
+
+void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                      size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+{
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, false);
+}
+
+void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                             size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+{
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true);
 }
 
 void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,

@@ -153,6 +153,14 @@ void sup_reset(sup_t *s);
 void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                       size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_events);
 
+/** @brief sup_take_reports() for reports every value of which the caller
+ *         has found finite (ctl.c screens them): the same table and events,
+ *         without testing that again (id 0 and a radius <= 0 are still
+ *         dropped). */
+void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                             size_t n_reports, uint64_t t_us, sup_event_t *events,
+                             size_t *n_events);
+
 /**
  * @brief One step of the switch strategy, on the state at the start of the
  *        control period.

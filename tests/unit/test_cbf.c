@@ -299,7 +299,8 @@ static double guarded_runs(double wheel_accel, double wheel_tau, unsigned runs)
             gp.c = at.c;
             gp.s = at.s;
             gp.lead = num_mul(num_abs(ve), tu_num(wheel_tau));
-            (void)cbf_guard(&a, &gp, e, dist, 3u, &u);
+            cbf_body_t body = { .known = false };
+            (void)cbf_guard(&a, &gp, e, dist, 3u, &u, &body);
             const double ul = tu_dbl(u.left), ur = tu_dbl(u.right);
             for (unsigned s = 0; s < 20u; s++) {
                 const double nl = wheel_substep(wl, ul, tau, accel, 0.001);

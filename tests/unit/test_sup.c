@@ -672,6 +672,29 @@ static void test_sup_take_reports_alone_detects_and_keeps_velocities(void)
     TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vx);
 }
 
+static void test_sup_take_finite_reports_drops_id_0_and_no_radius(void)
+{
+    /* Reports the caller found finite (ctl.c's screening): id 0 and a
+     * radius <= 0 are still dropped and counted, the others taken as
+     * sup_take_reports() takes them. By hand: obstacle 5 at 1 m is within
+     * D_det (DETECT); the report of id 0 and obstacle 6 of radius 0 make
+     * two drops. */
+    sup_obstacle_t r[3] = { obstacle(5, 1.0, 0.0, 0.1), obstacle(0, 1.5, 0.0, 0.1),
+                            obstacle(6, 2.0, 0.0, 0.1) };
+    r[2].radius = NUM_ZERO;
+    r[0].vy = tu_num(0.75);
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0);
+    const uint16_t dropped = s.dropped;
+    size_t n = 0;
+    sup_take_finite_reports(&s, &robot, r, 3, 40000, ev, &n);
+    TEST_ASSERT_EQUAL_size_t(1, n);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, ev[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(5, ev[0].obstacle);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_EQUAL_UINT16(dropped + 2u, s.dropped);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.75, s.obs[0].o.vy);
+}
+
 static void test_sup_revision_changes_only_when_the_table_does(void)
 {
     const sup_obstacle_t o = obstacle(3, 1.0, 0.0, 0.1);
@@ -737,6 +760,7 @@ int main(void)
     RUN_TEST(test_sup_reset_forgets_obstacles_and_keeps_thresholds);
     RUN_TEST(test_sup_set_params_recomputes_thresholds_and_keeps_state);
     RUN_TEST(test_sup_take_reports_alone_detects_and_keeps_velocities);
+    RUN_TEST(test_sup_take_finite_reports_drops_id_0_and_no_radius);
     RUN_TEST(test_sup_revision_changes_only_when_the_table_does);
     return UNITY_END();
 }
