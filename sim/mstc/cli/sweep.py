@@ -8,6 +8,7 @@ import argparse
 import os
 import sys
 import time
+import tomllib
 from dataclasses import replace
 from pathlib import Path
 
@@ -17,8 +18,8 @@ from mstc.cli.common import find_library, library
 from mstc.errors import EXIT_OK, ScenarioError, SuiteError, UsageError, writing
 from mstc.firmware.sil import SilController
 from mstc.loop.result import RunResult
-from mstc.model import Params
-from mstc.plant.scenario import Scenario, load_scenario
+from mstc.model import Params, WireLimits
+from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
 from mstc.report.progress import ProgressBar
 from mstc.sweep.engine import (
     BATCH,
@@ -29,7 +30,8 @@ from mstc.sweep.engine import (
     run_job,
     run_sweep,
 )
-from mstc.sweep.folder import locked
+from mstc.sweep.folder import locked, text_sha256
+from mstc.sweep.spool import Spool
 from mstc.sweep.suite import MAX_COUNT, Family, Suite, generate, is_suite, load_suite
 from mstc.sweep.summary import runs_of, write_summary
 
@@ -243,15 +245,17 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite], Ori
     return files, suites, origins
 
 
-def _load(files: list[Path], origins: Origins) -> tuple[list[Scenario], list[str]]:
-    """Every scene, validated, and the problem of each that is not: a
-    generated scene's named with its suite and family (docs/sweeps.md), since
-    the suite is what to change."""
+def _load(files: list[Path], origins: Origins, spool: Spool) -> tuple[list[Scene], list[str]]:
+    """Every scene validated (each file read and parsed once), and the
+    problem of each that is not: a generated scene's named with its suite and
+    family (docs/sweeps.md), since the suite is what to change. A valid
+    scene's parsed scenario goes into @p spool; the scene is its record
+    (:meth:`Scene.from_scenario`)."""
     wire = wire_limits()
-    loaded, problems = [], []
+    scenes, problems = [], []
     for path in files:
         try:
-            loaded.append(load_scenario(path, wire))
+            text, scenario = _read(path, wire)
         except ScenarioError as exc:
             if path not in origins:
                 problems.append(str(exc))
@@ -261,7 +265,27 @@ def _load(files: list[Path], origins: Origins) -> tuple[list[Scenario], list[str
             problems.append(
                 str(SuiteError(str(suite), f"family.{family}", f"{where}: {exc.problem}"))
             )
-    return loaded, problems
+            continue
+        scene = Scene.from_scenario(scenario, text_sha256(text))
+        if scene.name not in spool:
+            spool.add(scene.name, scenario)
+        scenes.append(scene)
+    return scenes, problems
+
+
+def _read(path: Path, wire: WireLimits) -> tuple[str, Scenario]:
+    """A scenario file's text and the text parsed.
+
+    :raises ScenarioError: the file cannot be read, is not TOML or not a
+        valid scenario (:func:`load_scenario`'s words).
+    """
+    try:
+        text = path.read_bytes().decode("utf-8")
+        data = tomllib.loads(text)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        load_scenario(path, wire)  # says what is wrong, in its words
+        raise  # the file changed in between: what was wrong before
+    return text, parse_scenario(data, str(path), wire)
 
 
 def _with_count(family: Family, count: int) -> Family:
@@ -294,21 +318,33 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
         print(f"{len(files)} scene files in {args.out / 'scenes'}/")
         return EXIT_OK
 
-    # Every scene is validated here, before anything runs, like `mstc sim`.
-    loaded, problems = _load(files, origins)
-    scenes: list[Scene] = []
-    seen: dict[str, Path] = {}
-    for scenario in loaded:
-        path = scenario.path
-        scene = replace(Scene.from_file(path), scenario=scenario)
-        first = seen.setdefault(scene.name, path)
-        if first != path:
-            problems.append(
-                f"{first} and {path} would both write {args.out}/<strategy>/{scene.name}/"
-            )
-        scenes.append(scene)
-    if problems:
-        raise UsageError("\n".join(problems))
+    # Every scene is validated here, before anything runs, like `mstc sim`;
+    # parsed, it waits in the spool (mstc.sweep.spool) until its batch is sent.
+    with writing("the sweep's spool"):
+        spool = Spool(args.out)
+    with spool:
+        scenes, problems = _load(files, origins, spool)
+        seen: dict[str, str] = {}
+        for scene in scenes:
+            first = seen.setdefault(scene.name, scene.source)
+            if first != scene.source:
+                problems.append(
+                    f"{first} and {scene.source} would both write "
+                    f"{args.out}/<strategy>/{scene.name}/"
+                )
+        if problems:
+            raise UsageError("\n".join(problems))
+        return _run(args, strategies, scenes, suites, spool)
+
+
+def _run(
+    args: argparse.Namespace,
+    strategies: list[str],
+    scenes: list[Scene],
+    suites: list[Suite],
+    spool: Spool,
+) -> int:
+    """Run the validated @p scenes (records; their scenarios in @p spool)."""
 
     # The DWA baseline alone needs no firmware library.
     given = library(args.lib) if set(strategies) != {"dwa"} else find_library(args.lib)
@@ -341,6 +377,7 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
                 progress=lambda done, total: bar.update(done),
                 engine=args.engine,
                 batch=args.batch,
+                spool=spool,
             )
     finally:
         bar.close()
@@ -349,7 +386,8 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
     by_name = {s.name: s for s in scenes}
 
     def rerun(row: dict[str, str]) -> RunResult | None:
-        return run_job(by_name[row["scene"]], row["strategy"], lib)[0]
+        ((scene, strategy),) = spool.ship([(by_name[row["scene"]], row["strategy"])])
+        return run_job(scene, strategy, lib)[0]
 
     title = ", ".join(s.name for s in suites) or ", ".join(str(p) for p in args.inputs)
     with writing("the summary"):
