@@ -9,6 +9,7 @@ import os
 import sys
 import time
 import tomllib
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -313,28 +314,37 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
-    files, suites, origins = _scene_files(args)
     if args.generate_only:
+        files, _, _ = _scene_files(args)
         print(f"{len(files)} scene files in {args.out / 'scenes'}/")
         return EXIT_OK
-
-    # Every scene is validated here, before anything runs, like `mstc sim`;
-    # parsed, it waits in the spool (mstc.sweep.spool) until its batch is sent.
     with writing("the sweep's spool"):
         spool = Spool(args.out)
     with spool:
-        scenes, problems = _load(files, origins, spool)
-        seen: dict[str, str] = {}
-        for scene in scenes:
-            first = seen.setdefault(scene.name, scene.source)
-            if first != scene.source:
-                problems.append(
-                    f"{first} and {scene.source} would both write "
-                    f"{args.out}/<strategy>/{scene.name}/"
-                )
-        if problems:
-            raise UsageError("\n".join(problems))
+        scenes, suites = _validated(args, spool)
         return _run(args, strategies, scenes, suites, spool)
+
+
+def _validated(args: argparse.Namespace, spool: Spool) -> tuple[list[Scene], list[Suite]]:
+    """Every scene of the inputs validated here, before anything runs, like
+    `mstc sim`; parsed, it waits in @p spool until its batch is sent. The
+    scenes' records and the suites.
+
+    :raises UsageError: a scene is not valid, or two would write one folder
+        (every problem, one a line).
+    """
+    files, suites, origins = _scene_files(args)
+    scenes, problems = _load(files, origins, spool)
+    seen: dict[str, str] = {}
+    for scene in scenes:
+        first = seen.setdefault(scene.name, scene.source)
+        if first != scene.source:
+            problems.append(
+                f"{first} and {scene.source} would both write {args.out}/<strategy>/{scene.name}/"
+            )
+    if problems:
+        raise UsageError("\n".join(problems))
+    return scenes, suites
 
 
 def _run(
@@ -385,7 +395,7 @@ def _run(
 
     by_name = {s.name: s for s in scenes}
 
-    def rerun(row: dict[str, str]) -> RunResult | None:
+    def rerun(row: Mapping[str, str]) -> RunResult | None:
         ((scene, strategy),) = spool.ship([(by_name[row["scene"]], row["strategy"])])
         return run_job(scene, strategy, lib)[0]
 
@@ -410,7 +420,7 @@ def _run(
     return EXIT_OK
 
 
-def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
+def _print_table(rows: Sequence[Mapping[str, str]], strategies: list[str]) -> None:
     groups = list(dict.fromkeys((r["family"] or "(none)", r["actuator"] or "ideal") for r in rows))
     line = "  {:<16} {:<10} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
     print(
@@ -433,7 +443,7 @@ def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
                 continue
             ok = [r for r in mine if not r["error"]]
 
-            def count(column: str, rows: list[dict[str, str]] = ok) -> int:
+            def count(column: str, rows: list[Mapping[str, str]] = ok) -> int:
                 return sum(1 for r in rows if r[column] == "1")
 
             free = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]

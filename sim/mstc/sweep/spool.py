@@ -89,11 +89,13 @@ class Spool:
     def ship(self, jobs: list[Job]) -> list[Job]:
         """@p jobs as a worker needs them: each spooled scene carrying its
         pickled scenario, one object per scene (its strategies' jobs share it,
-        and so does the batch's pickle); a scene not in the spool as it is."""
+        and so does the batch's pickle); a scene that carries its text or
+        scenario already, or is not in the spool, as it is."""
         sent: dict[str, Scene] = {}
         out = []
         for scene, strategy in jobs:
-            if scene.name not in self._index or scene.scenario is not None or scene.pickled:
+            carries = scene.text or scene.scenario is not None or scene.pickled is not None
+            if carries or scene.name not in self._index:
                 out.append((scene, strategy))
                 continue
             if scene.name not in sent:
