@@ -2,7 +2,7 @@
 """`mstc sweep`'s client holds no parsed scene while the sweep runs: the
 validation pass parses each file once into the spool (mstc.sweep.spool), and
 a batch is read back from it as it is sent, so only the batches in flight
-are in memory (docs/sweeps.md, "What the client holds").
+are in memory (docs/sweeps.md, "Memory").
 
 The first test fails on the client that kept every parsed scene (the commit
 before the spool): 12 live Scenario objects when the pool starts, not 0."""

@@ -75,6 +75,10 @@ a row with its error, never the end of the sweep. Interrupted, the sweep goes
 on where it stopped with --resume (same DIR and inputs): it keeps the rows run
 from the same scene files and library (DIR/sources.json) and runs the rest.
 One sweep at a time writes DIR (a lock on DIR/.lock): another is refused.
+Every scene is validated before anything runs; parsed, it waits on disk (an
+unnamed file in DIR, gone when the sweep ends) until its batch is sent, so
+the sweep holds a small record a scene, not the scenes (docs/sweeps.md,
+"Memory").
 
 exit status: 0 done (error rows included); 1 the firmware library could not
 be loaded or differs between workers, the Dask scheduler cannot be reached,
@@ -145,7 +149,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=int,
         default=BATCH,
         help="most scenes a batch of the batched engine steps together; a worker's memory "
-        "grows with it, not with the scenes' length (default: %(default)s)",
+        "grows with it, not with the scenes' length, and so does the client's, which sends "
+        "two batches a worker at a time (default: %(default)s)",
     )
     parser.add_argument(
         "--scheduler",

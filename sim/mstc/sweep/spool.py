@@ -3,9 +3,9 @@
 
 ``mstc sweep`` parses and validates every scene before it runs any (every
 problem is reported before anything runs), then runs them batch by batch.
-Holding each parsed scenario (some 4 kB) and its text until the end would
-make the client's memory grow with the sweep (3 GB for 300,000 scenes), so
-the validation pass pickles each parsed scenario into the spool and keeps a
+Holding each parsed scenario (some 4 kB) and its text (1 kB) until the
+end would make the client's memory grow with the sweep, so the validation
+pass pickles each parsed scenario into the spool and keeps a
 small record (:meth:`mstc.sweep.engine.Scene.from_scenario`); a batch reads
 its scenes back when it is sent (:meth:`Spool.ship`), as the bytes the
 worker unpickles, and so the client holds only the batches in flight.
