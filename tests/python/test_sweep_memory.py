@@ -24,6 +24,7 @@ from mstc.sweep import engine
 from mstc.sweep.engine import IN_FLIGHT, Job, Scene, run_batch
 from mstc.sweep.folder import text_sha256
 from mstc.sweep.spool import Spool
+from mstc.sweep.suite import generate, load_suite
 
 SCENES = 12
 SUITE = f"""\
@@ -102,28 +103,21 @@ def test_the_client_holds_no_parsed_scene_while_the_sweep_runs(
     assert not [p for p in out.iterdir() if p.name.startswith(".spool")]
 
 
+@pytest.fixture
+def files(tmp_path: Path) -> list[Path]:
+    """The suite's scene files."""
+    (tmp_path / "memory.toml").write_text(SUITE)
+    return [f.path for f in generate(load_suite(tmp_path / "memory.toml"), tmp_path / "scenes")]
+
+
 def test_the_spool_gives_back_each_scene_as_parsed_one_object_per_scene(
-    tmp_path: Path,
+    tmp_path: Path, files: list[Path]
 ) -> None:
     """What a worker unpickles is the scenario the loader gives for the file
     (load_scenario, independently); a scene's jobs share one object, so a
     batch's pickle carries its bytes once; a scene that carries its text is
     sent as it is."""
-    (tmp_path / "memory.toml").write_text(SUITE)
-    assert (
-        main(
-            [
-                "sweep",
-                "--generate-only",
-                "-q",
-                "--out",
-                str(tmp_path),
-                str(tmp_path / "memory.toml"),
-            ]
-        )
-        == 0
-    )
-    files = sorted((tmp_path / "scenes" / "isolated").glob("*.toml"))[:3]
+    files = files[:3]
     wire = wire_limits()
     with Spool(tmp_path) as spool:
         records = []
@@ -145,24 +139,12 @@ def test_the_spool_gives_back_each_scene_as_parsed_one_object_per_scene(
         assert (scene.family, scene.seed) == ("isolated", Scene.from_file(path).seed)
 
 
-def test_a_worker_unpickles_a_scene_once_and_a_broken_one_is_its_rows(tmp_path: Path) -> None:
+def test_a_worker_unpickles_a_scene_once_and_a_broken_one_is_its_rows(
+    tmp_path: Path, files: list[Path]
+) -> None:
     """DWA needs no library: both jobs of a good scene run; both of a scene
     whose bytes are not a pickle are error rows, and the batch goes on."""
-    (tmp_path / "memory.toml").write_text(SUITE)
-    assert (
-        main(
-            [
-                "sweep",
-                "--generate-only",
-                "-q",
-                "--out",
-                str(tmp_path),
-                str(tmp_path / "memory.toml"),
-            ]
-        )
-        == 0
-    )
-    path = sorted((tmp_path / "scenes" / "isolated").glob("*.toml"))[0]
+    path = files[0]
     with Spool(tmp_path) as spool:
         spool.add(path.stem, load_scenario(path, wire_limits()))
         record = Scene.from_scenario(load_scenario(path, wire_limits()), "")
