@@ -10,7 +10,9 @@ before the spool): 12 live Scenario objects when the pool starts, not 0."""
 from __future__ import annotations
 
 import gc
+import hashlib
 import inspect
+import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -174,3 +176,19 @@ def test_every_unreadable_scene_file_is_reported_before_anything_runs(
     assert err[1].startswith(f"error: {folder / 'b.toml'}") and "TOML syntax error" in err[1]
     assert err[2].startswith(f"error: {folder / 'c.toml'}")
     assert not (out / "runs.csv").exists()
+
+
+def test_a_crlf_scene_keeps_the_digest_resume_compares(tmp_path: Path) -> None:
+    """sources.json holds the sha256 of a scene's text as read with universal
+    newlines (what it held when the client kept the text), so a sweep of
+    before resumes: computed here with hashlib on the bytes, CRLF -> LF."""
+    raw = (
+        b"[robot]\r\npose = [0.0, 0.0, 0.0]\r\n[reference]\r\npose = [0.0, 0.0, 0.0]\r\n"
+        b'v = 0.3\r\nw = 0.0\r\n[sim]\r\nduration = 1.0\r\ndt = 0.02\r\nintegrator = "euler"\r\n'
+    )
+    (tmp_path / "crlf.toml").write_bytes(raw)
+    out = tmp_path / "out"
+    args = ["sweep", "--strategy", "dwa", "--jobs", "1", "--gallery", "0", "-q", "--out", str(out)]
+    assert main([*args, str(tmp_path / "crlf.toml")]) == 0
+    sources = json.loads((out / "sources.json").read_text())
+    assert sources["scenes"] == {"crlf": hashlib.sha256(raw.replace(b"\r\n", b"\n")).hexdigest()}

@@ -272,7 +272,10 @@ def _load(files: list[Path], origins: Origins, spool: Spool) -> tuple[list[Scene
                 str(SuiteError(str(suite), f"family.{family}", f"{where}: {exc.problem}"))
             )
             continue
-        scene = Scene.from_scenario(scenario, text_sha256(text))
+        # The text as Path.read_text gives it (universal newlines), the
+        # digest DIR/sources.json has always held.
+        lines = text.replace("\r\n", "\n").replace("\r", "\n")
+        scene = Scene.from_scenario(scenario, text_sha256(lines))
         if scene.name not in spool:
             spool.add(scene.name, scenario)
         scenes.append(scene)
