@@ -755,9 +755,10 @@ def run_sweep(
     """
     out.mkdir(parents=True, exist_ok=True)
     runs = out / "runs.csv"
-    plan: list[Job] = [(scene, strategy) for scene in scenes for strategy in strategies]
-    order = {(scene.name, strategy): i for i, (scene, strategy) in enumerate(plan)}
-    rows: dict[tuple[str, str], Row] = {}
+    # Each run's row at its place in the plan: scene order, then strategy order.
+    first = {scene.name: i * len(strategies) for i, scene in enumerate(scenes)}
+    column = {strategy: j for j, strategy in enumerate(strategies)}
+    rows: list[Row | None] = [None] * (len(scenes) * len(strategies))
     local_sha = library_sha256(lib) if Path(lib).is_file() else ""
     texts = {scene.name: scene.digest() for scene in scenes}
     if resume:
@@ -765,7 +766,6 @@ def run_sweep(
         ran_from = before.get("scenes")
         ran_from = ran_from if isinstance(ran_from, dict) else {}
         for row in read_rows(runs):
-            key = (row["scene"], row["strategy"])
             finished = (
                 bool(row["error"])
                 or (out / row["strategy"] / row["scene"] / "events.json").is_file()
@@ -773,12 +773,18 @@ def run_sweep(
             same = ran_from.get(row["scene"]) == texts.get(row["scene"]) and (
                 row["strategy"] == "dwa" or before.get("library") == local_sha
             )
-            if key in order and finished and same:
-                rows[key] = Row(row)
-    write_rows(runs, sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])]))
+            planned = row["scene"] in first and row["strategy"] in column
+            if planned and finished and same:
+                rows[first[row["scene"]] + column[row["strategy"]]] = Row(row)
+    write_rows(runs, (r for r in rows if r is not None))
     write_sources(out, local_sha, texts)  # after runs.csv: it holds no row from before
-    todo = [job for job in plan if (job[0].name, job[1]) not in rows]
-    total, done = len(plan), len(rows)
+    todo = [
+        (scene, strategy)
+        for scene in scenes
+        for strategy in strategies
+        if rows[first[scene.name] + column[strategy]] is None
+    ]
+    total, done = len(rows), sum(1 for r in rows if r is not None)
     if progress:
         progress(done, total)
 
@@ -797,7 +803,7 @@ def run_sweep(
                 (folder / "events.json").write_text(outcome.events)
             log.write(_row_text(outcome.row))
             log.flush()
-            rows[(outcome.scene, outcome.strategy)] = Row(outcome.row)
+            rows[first[outcome.scene] + column[outcome.strategy]] = Row(outcome.row)
             done += 1
             if progress:
                 progress(done, total)
@@ -807,6 +813,6 @@ def run_sweep(
             run_dask(todo, lib, scheduler, emit, engine, batch, ship)
         elif todo:
             run_local(todo, lib, workers, emit, engine, batch, ship)
-    ordered = sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])])
+    ordered = [r for r in rows if r is not None]
     write_rows(runs, ordered)
     return SweepResult(ordered, len(todo))
