@@ -23,7 +23,7 @@ from mstc.can.protocol import wire_limits
 from mstc.cli import main
 from mstc.plant.scenario import Scenario, load_scenario
 from mstc.sweep import engine
-from mstc.sweep.engine import IN_FLIGHT, Job, Scene, run_batch
+from mstc.sweep.engine import IN_FLIGHT, Job, Scene, run_batch, shipped
 from mstc.sweep.folder import text_sha256
 from mstc.sweep.spool import Spool
 from mstc.sweep.suite import generate, load_suite
@@ -58,7 +58,7 @@ def test_the_client_holds_no_parsed_scene_while_the_sweep_runs(
     (tmp_path / "memory.toml").write_text(SUITE)
     real = engine.run_local
     at_start: list[int] = []
-    shipped: list[tuple[int, int]] = []
+    made: list[tuple[int, int]] = []
 
     def watched(*args: Any, **kwargs: Any) -> None:
         at_start.append(len(_live(Scenario)))
@@ -69,9 +69,7 @@ def test_the_client_holds_no_parsed_scene_while_the_sweep_runs(
             def counted(batch: list[Job]) -> list[Job]:
                 sent = ship(batch)
                 carrying = sum(1 for s in _live(Scene) if s.pickled is not None)
-                shipped.append(
-                    (len(_live(Scenario)) - scenarios_before, carrying - carrying_before)
-                )
+                made.append((len(_live(Scenario)) - scenarios_before, carrying - carrying_before))
                 return sent
 
             bound.arguments["ship"] = counted
@@ -98,9 +96,9 @@ def test_the_client_holds_no_parsed_scene_while_the_sweep_runs(
         == 0
     )
     assert [n - scenarios_before for n in at_start] == [0]
-    assert len(shipped) == 2 * SCENES  # --batch 1: a batch is one job
-    assert all(scenarios == 0 for scenarios, _ in shipped), shipped
-    assert all(1 <= carrying <= IN_FLIGHT + 1 for _, carrying in shipped), shipped
+    assert len(made) == 2 * SCENES  # --batch 1: a batch is one job
+    assert all(scenarios == 0 for scenarios, _ in made), made
+    assert all(1 <= carrying <= IN_FLIGHT + 1 for _, carrying in made), made
     assert sum(1 for _ in (out / "mstc").iterdir()) == SCENES
     assert not [p for p in out.iterdir() if p.name.startswith(".spool")]
 
@@ -130,7 +128,7 @@ def test_the_spool_gives_back_each_scene_as_parsed_one_object_per_scene(
         assert len(spool) == 3 and spool.size > 0
         texted = Scene.from_file(files[0])
         jobs: list[Job] = [(r, s) for r in records for s in ("paper", "dwa")] + [(texted, "dwa")]
-        sent = spool.ship(jobs)
+        sent = shipped(jobs, spool)
     assert [s for _, s in sent] == [s for _, s in jobs]
     assert sent[0][0] is sent[1][0] and sent[2][0] is sent[3][0]
     assert sent[-1][0] is texted
@@ -150,7 +148,7 @@ def test_a_worker_unpickles_a_scene_once_and_a_broken_one_is_its_rows(
     with Spool(tmp_path) as spool:
         spool.add(path.stem, load_scenario(path, wire_limits()))
         record = Scene.from_scenario(load_scenario(path, wire_limits()), "")
-        ((good, _),) = spool.ship([(record, "dwa")])
+        ((good, _),) = shipped([(record, "dwa")], spool)
     broken = Scene("broken", "broken.toml", "", pickled=b"not a pickle")
     outcomes = run_batch([(good, "dwa"), (broken, "dwa"), (good, "dwa"), (broken, "dwa")], "")
     assert [o.row["error"] == "" for o in outcomes] == [True, False, True, False]

@@ -30,6 +30,7 @@ from mstc.sweep.engine import (
     check_scheduler,
     run_job,
     run_sweep,
+    shipped,
 )
 from mstc.sweep.folder import locked, text_sha256
 from mstc.sweep.spool import Spool
@@ -404,7 +405,7 @@ def _run(
     by_name = {s.name: s for s in scenes}
 
     def rerun(row: Mapping[str, str]) -> RunResult | None:
-        ((scene, strategy),) = spool.ship([(by_name[row["scene"]], row["strategy"])])
+        ((scene, strategy),) = shipped([(by_name[row["scene"]], row["strategy"])], spool)
         return run_job(scene, strategy, lib)[0]
 
     title = ", ".join(s.name for s in suites) or ", ".join(str(p) for p in args.inputs)

@@ -41,6 +41,7 @@ from __future__ import annotations
 import collections
 import csv
 import dataclasses
+import functools
 import hashlib
 import importlib.util
 import io
@@ -524,11 +525,28 @@ def _crash_row(job: Job, why: str) -> Outcome:
 
 Emit = Callable[[Outcome], None]
 Ship = Callable[[list[Job]], list[Job]]
-"""A batch as a worker needs it (:meth:`mstc.sweep.spool.Spool.ship`), made
-as it is sent."""
+"""A batch as a worker needs it (:func:`shipped`), made as it is sent."""
 IN_FLIGHT = 2
 """Batches sent a worker at a time: one running, one waiting, so that a
 worker never waits for the client and the client holds no more."""
+
+
+def shipped(jobs: list[Job], spool: Spool) -> list[Job]:
+    """@p jobs as a worker needs them: each scene of @p spool carrying its
+    pickled scenario, one object per scene (its strategies' jobs share it,
+    and so does the batch's pickle); a scene that carries its text or
+    scenario already, or is not in the spool, as it is."""
+    sent: dict[str, Scene] = {}
+    out = []
+    for scene, strategy in jobs:
+        carries = scene.text or scene.scenario is not None or scene.pickled is not None
+        if carries or scene.name not in spool:
+            out.append((scene, strategy))
+            continue
+        if scene.name not in sent:
+            sent[scene.name] = dataclasses.replace(scene, pickled=spool.read(scene.name))
+        out.append((sent[scene.name], strategy))
+    return out
 
 
 def run_local(
@@ -808,7 +826,7 @@ def run_sweep(
             if progress:
                 progress(done, total)
 
-        ship = spool.ship if spool is not None else list
+        ship: Ship = functools.partial(shipped, spool=spool) if spool is not None else list
         if todo and scheduler:
             run_dask(todo, lib, scheduler, emit, engine, batch, ship)
         elif todo:

@@ -7,8 +7,8 @@ Holding each parsed scenario (some 4 kB) and its text (1 kB) until the
 end would make the client's memory grow with the sweep, so the validation
 pass pickles each parsed scenario into the spool and keeps a
 small record (:meth:`mstc.sweep.engine.Scene.from_scenario`); a batch reads
-its scenes back when it is sent (:meth:`Spool.ship`), as the bytes the
-worker unpickles, and so the client holds only the batches in flight.
+its scenes back when it is sent (:func:`mstc.sweep.engine.shipped`), as the
+bytes the worker unpickles, and so the client holds only the batches in flight.
 
 The spool is an unnamed temporary file in the sweep's output folder (a file
 unlinked as soon as it is created, ``O_TMPFILE`` on Linux): nothing is left
@@ -21,15 +21,10 @@ from __future__ import annotations
 import os
 import pickle
 import tempfile
-from dataclasses import replace
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING
 
 from mstc.plant.scenario import Scenario
-
-if TYPE_CHECKING:
-    from mstc.sweep.engine import Job, Scene
 
 
 class Spool:
@@ -85,20 +80,3 @@ class Spool:
         if len(data) != length:
             raise OSError(f"the sweep's spool lost scene {name} (read {len(data)} of {length} B)")
         return data
-
-    def ship(self, jobs: list[Job]) -> list[Job]:
-        """@p jobs as a worker needs them: each spooled scene carrying its
-        pickled scenario, one object per scene (its strategies' jobs share it,
-        and so does the batch's pickle); a scene that carries its text or
-        scenario already, or is not in the spool, as it is."""
-        sent: dict[str, Scene] = {}
-        out = []
-        for scene, strategy in jobs:
-            carries = scene.text or scene.scenario is not None or scene.pickled is not None
-            if carries or scene.name not in self._index:
-                out.append((scene, strategy))
-                continue
-            if scene.name not in sent:
-                sent[scene.name] = replace(scene, pickled=self.read(scene.name))
-            out.append((sent[scene.name], strategy))
-        return out
