@@ -292,9 +292,9 @@ def _read(path: Path, wire: WireLimits) -> tuple[str, Scenario]:
     try:
         text = path.read_bytes().decode("utf-8")
         data = tomllib.loads(text)
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         load_scenario(path, wire)  # says what is wrong, in its words
-        raise  # the file changed in between: what was wrong before
+        raise ScenarioError(str(path), None, f"changed while read ({exc})") from exc
     return text, parse_scenario(data, str(path), wire)
 
 
