@@ -8,6 +8,8 @@ import argparse
 import os
 import sys
 import time
+import tomllib
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -17,8 +19,8 @@ from mstc.cli.common import find_library, library
 from mstc.errors import EXIT_OK, ScenarioError, SuiteError, UsageError, writing
 from mstc.firmware.sil import SilController
 from mstc.loop.result import RunResult
-from mstc.model import Params
-from mstc.plant.scenario import Scenario, load_scenario
+from mstc.model import Params, WireLimits
+from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
 from mstc.report.progress import ProgressBar
 from mstc.sweep.engine import (
     BATCH,
@@ -28,8 +30,10 @@ from mstc.sweep.engine import (
     check_scheduler,
     run_job,
     run_sweep,
+    shipped,
 )
-from mstc.sweep.folder import locked
+from mstc.sweep.folder import locked, text_sha256
+from mstc.sweep.spool import Spool
 from mstc.sweep.suite import MAX_COUNT, Family, Suite, generate, is_suite, load_suite
 from mstc.sweep.summary import runs_of, write_summary
 
@@ -72,6 +76,10 @@ a row with its error, never the end of the sweep. Interrupted, the sweep goes
 on where it stopped with --resume (same DIR and inputs): it keeps the rows run
 from the same scene files and library (DIR/sources.json) and runs the rest.
 One sweep at a time writes DIR (a lock on DIR/.lock): another is refused.
+Every scene is validated before anything runs; parsed, it waits on disk (an
+unnamed file in DIR, gone when the sweep ends) until its batch is sent, so
+the sweep holds a small record a scene, not the scenes (docs/sweeps.md,
+"Memory").
 
 exit status: 0 done (error rows included); 1 the firmware library could not
 be loaded or differs between workers, the Dask scheduler cannot be reached,
@@ -142,7 +150,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=int,
         default=BATCH,
         help="most scenes a batch of the batched engine steps together; a worker's memory "
-        "grows with it, not with the scenes' length (default: %(default)s)",
+        "grows with it, not with the scenes' length, and so does the client's, which sends "
+        "two batches a worker at a time (default: %(default)s)",
     )
     parser.add_argument(
         "--scheduler",
@@ -243,15 +252,17 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite], Ori
     return files, suites, origins
 
 
-def _load(files: list[Path], origins: Origins) -> tuple[list[Scenario], list[str]]:
-    """Every scene, validated, and the problem of each that is not: a
-    generated scene's named with its suite and family (docs/sweeps.md), since
-    the suite is what to change."""
+def _load(files: list[Path], origins: Origins, spool: Spool) -> tuple[list[Scene], list[str]]:
+    """Every scene validated (each file read and parsed once), and the
+    problem of each that is not: a generated scene's named with its suite and
+    family (docs/sweeps.md), since the suite is what to change. A valid
+    scene's parsed scenario goes into @p spool; the scene is its record
+    (:meth:`Scene.from_scenario`)."""
     wire = wire_limits()
-    loaded, problems = [], []
+    scenes, problems = [], []
     for path in files:
         try:
-            loaded.append(load_scenario(path, wire))
+            text, scenario = _read(path, wire)
         except ScenarioError as exc:
             if path not in origins:
                 problems.append(str(exc))
@@ -261,7 +272,30 @@ def _load(files: list[Path], origins: Origins) -> tuple[list[Scenario], list[str
             problems.append(
                 str(SuiteError(str(suite), f"family.{family}", f"{where}: {exc.problem}"))
             )
-    return loaded, problems
+            continue
+        # The text as Path.read_text gives it (universal newlines), the
+        # digest DIR/sources.json has always held.
+        lines = text.replace("\r\n", "\n").replace("\r", "\n")
+        scene = Scene.from_scenario(scenario, text_sha256(lines))
+        if scene.name not in spool:
+            spool.add(scene.name, scenario)
+        scenes.append(scene)
+    return scenes, problems
+
+
+def _read(path: Path, wire: WireLimits) -> tuple[str, Scenario]:
+    """A scenario file's text and the text parsed.
+
+    :raises ScenarioError: the file cannot be read, is not TOML or not a
+        valid scenario (:func:`load_scenario`'s words).
+    """
+    try:
+        text = path.read_bytes().decode("utf-8")
+        data = tomllib.loads(text)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        load_scenario(path, wire)  # says what is wrong, in its words
+        raise ScenarioError(str(path), None, f"changed while read ({exc})") from exc
+    return text, parse_scenario(data, str(path), wire)
 
 
 def _with_count(family: Family, count: int) -> Family:
@@ -289,26 +323,47 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
-    files, suites, origins = _scene_files(args)
     if args.generate_only:
+        files, _, _ = _scene_files(args)
         print(f"{len(files)} scene files in {args.out / 'scenes'}/")
         return EXIT_OK
+    with writing("the sweep's spool"):
+        spool = Spool(args.out)
+    with spool:
+        scenes, suites = _validated(args, spool)
+        return _run(args, strategies, scenes, suites, spool)
 
-    # Every scene is validated here, before anything runs, like `mstc sim`.
-    loaded, problems = _load(files, origins)
-    scenes: list[Scene] = []
-    seen: dict[str, Path] = {}
-    for scenario in loaded:
-        path = scenario.path
-        scene = replace(Scene.from_file(path), scenario=scenario)
-        first = seen.setdefault(scene.name, path)
-        if first != path:
+
+def _validated(args: argparse.Namespace, spool: Spool) -> tuple[list[Scene], list[Suite]]:
+    """Every scene of the inputs validated here, before anything runs, like
+    `mstc sim`; parsed, it waits in @p spool until its batch is sent. The
+    scenes' records and the suites.
+
+    :raises UsageError: a scene is not valid, or two would write one folder
+        (every problem, one a line).
+    """
+    files, suites, origins = _scene_files(args)
+    scenes, problems = _load(files, origins, spool)
+    seen: dict[str, str] = {}
+    for scene in scenes:
+        first = seen.setdefault(scene.name, scene.source)
+        if first != scene.source:
             problems.append(
-                f"{first} and {path} would both write {args.out}/<strategy>/{scene.name}/"
+                f"{first} and {scene.source} would both write {args.out}/<strategy>/{scene.name}/"
             )
-        scenes.append(scene)
     if problems:
         raise UsageError("\n".join(problems))
+    return scenes, suites
+
+
+def _run(
+    args: argparse.Namespace,
+    strategies: list[str],
+    scenes: list[Scene],
+    suites: list[Suite],
+    spool: Spool,
+) -> int:
+    """Run the validated @p scenes (records; their scenarios in @p spool)."""
 
     # The DWA baseline alone needs no firmware library.
     given = library(args.lib) if set(strategies) != {"dwa"} else find_library(args.lib)
@@ -341,6 +396,7 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
                 progress=lambda done, total: bar.update(done),
                 engine=args.engine,
                 batch=args.batch,
+                spool=spool,
             )
     finally:
         bar.close()
@@ -348,8 +404,9 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
 
     by_name = {s.name: s for s in scenes}
 
-    def rerun(row: dict[str, str]) -> RunResult | None:
-        return run_job(by_name[row["scene"]], row["strategy"], lib)[0]
+    def rerun(row: Mapping[str, str]) -> RunResult | None:
+        ((scene, strategy),) = shipped([(by_name[row["scene"]], row["strategy"])], spool)
+        return run_job(scene, strategy, lib)[0]
 
     title = ", ".join(s.name for s in suites) or ", ".join(str(p) for p in args.inputs)
     with writing("the summary"):
@@ -372,7 +429,7 @@ def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
     return EXIT_OK
 
 
-def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
+def _print_table(rows: Sequence[Mapping[str, str]], strategies: list[str]) -> None:
     groups = list(dict.fromkeys((r["family"] or "(none)", r["actuator"] or "ideal") for r in rows))
     line = "  {:<16} {:<10} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
     print(
@@ -395,7 +452,7 @@ def _print_table(rows: list[dict[str, str]], strategies: list[str]) -> None:
                 continue
             ok = [r for r in mine if not r["error"]]
 
-            def count(column: str, rows: list[dict[str, str]] = ok) -> int:
+            def count(column: str, rows: list[Mapping[str, str]] = ok) -> int:
                 return sum(1 for r in rows if r[column] == "1")
 
             free = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]

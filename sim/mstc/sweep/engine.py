@@ -3,12 +3,15 @@
 Dask cluster, resumable.
 
 Work is cut into batches of (scene, strategy) jobs. A batch carries each
-scene's name, the text of its file and, when the client has parsed it (as
-``mstc sweep`` does to validate every scene first), the parsed scenario:
-plain data, never a controller. Every worker process loads the firmware
-library itself (ctypes handles do not travel), parses the scenes it was sent
-unparsed, runs them and sends back one small row and the text of events.json
-per job. The client writes DIR/<strategy>/<scene>/events.json,
+scene's name and either the text of its file or, when the client has parsed
+it (as ``mstc sweep`` does to validate every scene first), the parsed
+scenario, pickled (:class:`mstc.sweep.spool.Spool`): plain data, never a
+controller. The client sends a batch when a worker is about to need it
+(two batches a worker in flight), reading its scenes from the spool then,
+so its memory holds the batches in flight, not every scene. Every worker
+process loads the firmware library itself (ctypes handles do not travel),
+parses or unpickles its scenes, runs them and sends back one small row and
+the text of events.json per job. The client writes DIR/<strategy>/<scene>/events.json,
 then appends the row to DIR/runs.csv, so a row on disk always has its
 events.json and ``--resume`` can skip it. When all is done runs.csv is
 rewritten in plan order (scene order, then strategy order), the same
@@ -35,18 +38,23 @@ that kills it; that job becomes an error row and the rest go on.
 
 from __future__ import annotations
 
+import collections
 import csv
 import dataclasses
+import functools
 import hashlib
 import importlib.util
 import io
+import itertools
 import math
 import multiprocessing
 import os
+import pickle
 import socket
+import sys
 import tomllib
-from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,6 +75,7 @@ from mstc.report.outputs import events_json, events_text
 from mstc.sweep.dwa import DwaConfig, DwaController
 from mstc.sweep.folder import read_sources, text_sha256, write_sources
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, RunningMetrics, evaluate
+from mstc.sweep.spool import Spool
 
 STRATEGIES = ("paper", "mstc", "dwa")
 """What --strategy takes: the firmware's two strategies, and the DWA baseline."""
@@ -94,15 +103,21 @@ wheels, 1,000 gave 20 % more scene-steps per CPU-second than 500, and 2,000
 1 % more than 1,000 (a batch holds a few kB a scene)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Scene:
-    """A scene as it travels to a worker: its name and its file's text."""
+    """A scene as it travels to a worker: its name and its file's text, or
+    the file parsed (:attr:`scenario`, or :attr:`pickled` on the wire).
+
+    ``mstc sweep`` holds each scene as a small record (no text, nothing
+    parsed: :meth:`from_scenario`) whose parsed scenario waits in its
+    :class:`mstc.sweep.spool.Spool` until its batch is sent."""
 
     name: str
     """File stem: names DIR/<strategy>/<scene>/."""
     source: str
     """The file, as the user named it (error messages)."""
     text: str
+    """The file's text ("" when the scene comes parsed)."""
     family: str = ""
     seed: int | None = None
     actuator: str = ""
@@ -111,6 +126,12 @@ class Scene:
     """The file parsed, when the client has parsed it already (``mstc sweep``
     validates every scene before it runs any): the worker then takes it
     rather than parsing the text again."""
+    pickled: bytes | None = None
+    """The parsed scenario pickled, as the client's spool holds it: what a
+    batch carries instead of :attr:`scenario` (the worker unpickles it)."""
+    sha256: str = ""
+    """sha256 of the file's text (sources.json, ``--resume``); "": that of
+    :attr:`text`."""
 
     @classmethod
     def from_file(cls, path: Path) -> Scene:
@@ -132,14 +153,39 @@ class Scene:
             actuator if isinstance(actuator, str) else "",
         )
 
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, sha256: str) -> Scene:
+        """The record of a file already parsed into @p scenario (its name,
+        family, seed and actuator profile as :meth:`from_file` reads them
+        from the text, the validated ``[meta]`` being the same), the text's
+        digest @p sha256 standing for the text."""
+        meta = scenario.meta
+        return cls(
+            sys.intern(scenario.path.stem),
+            str(scenario.path),
+            "",
+            sys.intern(meta.family),
+            meta.seed,
+            sys.intern(meta.actuator),
+            sha256=sha256,
+        )
+
     def parsed(self) -> Scenario:
-        """The scenario: :attr:`scenario`, else the text parsed.
+        """The scenario: :attr:`scenario`, else :attr:`pickled` unpickled,
+        else the text parsed.
 
         :raises ScenarioError: the text is not a valid scenario.
         """
         if self.scenario is not None:
             return self.scenario
+        if self.pickled is not None:
+            scenario: Scenario = pickle.loads(self.pickled)
+            return scenario
         return parse_scenario(tomllib.loads(self.text), self.source, wire_limits())
+
+    def digest(self) -> str:
+        """sha256 of the file's text: :attr:`sha256`, else the text's."""
+        return self.sha256 or text_sha256(self.text)
 
 
 Job = tuple[Scene, str]
@@ -325,9 +371,28 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
     return [outcomes[i] for i in range(len(jobs))]
 
 
+def _unpickled(jobs: Sequence[Job]) -> list[Job]:
+    """@p jobs with each pickled scene unpickled once, however many of the
+    jobs run it (a scene's strategies share it); a scene that does not
+    unpickle is left for its jobs to fail on, each as its row."""
+    opened: dict[int, Scene] = {}
+    out = []
+    for scene, strategy in jobs:
+        if scene.pickled is not None and id(scene) not in opened:
+            try:
+                opened[id(scene)] = dataclasses.replace(
+                    scene, scenario=scene.parsed(), pickled=None
+                )
+            except Exception:  # as run_job: the scene's failure is its rows'
+                opened[id(scene)] = scene
+        out.append((opened.get(id(scene), scene), strategy))
+    return out
+
+
 def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outcome]:
     """Run a batch of jobs in this process (a pool's or a Dask worker's) with
     @p engine (:data:`ENGINES`)."""
+    jobs = _unpickled(jobs)
     try:
         path = worker_library(lib)
         sha = library_sha256(path)
@@ -388,13 +453,38 @@ def read_rows(path: Path) -> list[dict[str, str]]:
         return [r for r in reader if None not in r.values() and None not in r and _well_formed(r)]
 
 
-def _row_text(row: dict[str, str]) -> str:
+class Row(Mapping[str, str]):
+    """A row of runs.csv as a sweep keeps it until the end: its values in
+    :data:`ROW_COLUMNS` order in one tuple, the repeated ones (scene,
+    family, actuator, strategy, ...) shared between rows; some 0.8 kB where
+    a dict takes 1.6 kB."""
+
+    __slots__ = ("_values",)
+
+    def __init__(self, row: Mapping[str, str]) -> None:
+        self._values = tuple(sys.intern(row[c]) if c in _SHARED else row[c] for c in ROW_COLUMNS)
+
+    def __getitem__(self, column: str) -> str:
+        return self._values[_INDEX[column]]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(ROW_COLUMNS)
+
+    def __len__(self) -> int:
+        return len(ROW_COLUMNS)
+
+
+_INDEX = {c: i for i, c in enumerate(ROW_COLUMNS)}
+_SHARED = frozenset(("scene", "family", "actuator", "strategy", "steps", "error"))
+
+
+def _row_text(row: Mapping[str, str]) -> str:
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerow([row[c] for c in ROW_COLUMNS])
     return buf.getvalue()
 
 
-def write_rows(path: Path, rows: Iterable[dict[str, str]]) -> None:
+def write_rows(path: Path, rows: Iterable[Mapping[str, str]]) -> None:
     """Write runs.csv whole (through a temporary file, then renamed)."""
     tmp = path.with_suffix(".csv.tmp")
     with tmp.open("w", newline="") as f:
@@ -438,6 +528,29 @@ def _crash_row(job: Job, why: str) -> Outcome:
 
 
 Emit = Callable[[Outcome], None]
+Ship = Callable[[list[Job]], list[Job]]
+"""A batch as a worker needs it (:func:`shipped`), made as it is sent."""
+IN_FLIGHT = 2
+"""Batches sent a worker at a time: one running, one waiting, so that a
+worker never waits for the client and the client holds no more."""
+
+
+def shipped(jobs: list[Job], spool: Spool) -> list[Job]:
+    """@p jobs as a worker needs them: each scene of @p spool carrying its
+    pickled scenario, one object per scene (its strategies' jobs share it,
+    and so does the batch's pickle); a scene that carries its text or
+    scenario already, or is not in the spool, as it is."""
+    sent: dict[str, Scene] = {}
+    out = []
+    for scene, strategy in jobs:
+        carries = scene.text or scene.scenario is not None or scene.pickled is not None
+        if carries or scene.name not in spool:
+            out.append((scene, strategy))
+            continue
+        if scene.name not in sent:
+            sent[scene.name] = dataclasses.replace(scene, pickled=spool.read(scene.name))
+        out.append((sent[scene.name], strategy))
+    return out
 
 
 def run_local(
@@ -447,22 +560,27 @@ def run_local(
     emit: Emit,
     engine: str = "scene",
     batch_size: int = BATCH,
+    ship: Ship = list,
 ) -> None:
     """Run @p jobs on a pool of @p workers processes with @p engine, calling
     @p emit for each outcome as it comes. Workers start fresh (spawn) and
-    load the library themselves."""
+    load the library themselves; a batch is made (@p ship) and sent when
+    one of the :data:`IN_FLIGHT` a worker comes back."""
     context = multiprocessing.get_context("spawn")
     pending = list(jobs)
     while pending:
         done_ids: set[int] = set()
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
         try:
-            futures = {
-                pool.submit(run_batch, b, lib, engine): b
-                for b in engine_batches(pending, workers, engine, batch_size)
-            }
+            cut = iter(engine_batches(pending, workers, engine, batch_size))
+            futures: dict[Future[list[Outcome]], list[Job]] = {}
             broken = False
-            while futures:
+            while True:
+                if not broken:
+                    for b in itertools.islice(cut, workers * IN_FLIGHT - len(futures)):
+                        futures[pool.submit(run_batch, ship(b), lib, engine)] = b
+                if not futures:
+                    break
                 finished, _ = wait(futures, return_when=FIRST_COMPLETED)
                 for fut in finished:
                     batch = futures.pop(fut)
@@ -483,7 +601,7 @@ def run_local(
         if not broken:
             return
         left = [j for j in pending if id(j) not in done_ids]
-        pending = _isolate(left, lib, context, emit, engine)
+        pending = _isolate(left, lib, context, emit, engine, ship)
 
 
 def _isolate(
@@ -492,17 +610,23 @@ def _isolate(
     context: multiprocessing.context.BaseContext,
     emit: Emit,
     engine: str,
+    ship: Ship = list,
 ) -> list[Job]:
     """After a worker died: run @p jobs one by one on one worker until it dies
     again; the job it died on becomes an error row. Returns the jobs not run."""
     with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
-        futures = [pool.submit(run_batch, [job], lib, engine) for job in jobs]
-        for i, fut in enumerate(futures):
+        sent: collections.deque[tuple[int, Future[list[Outcome]]]] = collections.deque()
+        i = 0
+        while i < len(jobs) or sent:
+            while i < len(jobs) and len(sent) < IN_FLIGHT:
+                sent.append((i, pool.submit(run_batch, ship([jobs[i]]), lib, engine)))
+                i += 1
+            index, fut = sent.popleft()
             try:
                 (outcome,) = fut.result()
             except BrokenProcessPool:
-                emit(_crash_row(jobs[i], "the worker process died running this scene"))
-                return jobs[i + 1 :]
+                emit(_crash_row(jobs[index], "the worker process died running this scene"))
+                return jobs[index + 1 :]
             emit(outcome)
     return []
 
@@ -558,9 +682,11 @@ def run_dask(
     emit: Emit,
     engine: str = "scene",
     batch_size: int = BATCH,
+    ship: Ship = list,
 ) -> None:
     """Run @p jobs with @p engine on the Dask cluster at @p scheduler
-    (``tcp://host:port``): a task is a batch of jobs.
+    (``tcp://host:port``): a task is a batch of jobs, made (@p ship) and
+    submitted when one of the :data:`IN_FLIGHT` a worker comes back.
     Dask retries the tasks of a dead worker elsewhere; a batch that keeps
     killing workers is run again job by job, and the job that still does
     becomes an error row.
@@ -577,13 +703,18 @@ def run_dask(
         raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
     with client:
         workers = max(1, len(client.scheduler_info()["workers"]))
+        cut = iter(engine_batches(jobs, workers, engine, batch_size))
         todo = {
-            client.submit(run_batch, b, lib, engine, pure=False): b
-            for b in engine_batches(jobs, workers, engine, batch_size)
+            client.submit(run_batch, ship(b), lib, engine, pure=False): b
+            for b in itertools.islice(cut, workers * IN_FLIGHT)
         }
         queue = as_completed(list(todo))
         for fut in queue:
             batch = todo.pop(fut)
+            for b in itertools.islice(cut, max(0, workers * IN_FLIGHT - len(todo))):
+                new = client.submit(run_batch, ship(b), lib, engine, pure=False)
+                todo[new] = b
+                queue.add(new)
             try:
                 outcomes = fut.result()
             except KilledWorker:
@@ -591,7 +722,7 @@ def run_dask(
                     emit(_crash_row(batch[0], "the worker process died running this scene"))
                     continue
                 for job in batch:
-                    single = client.submit(run_batch, [job], lib, engine, pure=False)
+                    single = client.submit(run_batch, ship([job]), lib, engine, pure=False)
                     todo[single] = [job]
                     queue.add(single)
                 continue
@@ -606,7 +737,7 @@ def run_dask(
 class SweepResult:
     """What a sweep leaves: every row in plan order, and what this call ran."""
 
-    rows: list[dict[str, str]]
+    rows: list[Row]
     ran: int
     """Jobs run by this call (the rest came from a previous, resumed one)."""
 
@@ -623,6 +754,7 @@ def run_sweep(
     progress: Callable[[int, int], None] | None = None,
     engine: str = "batched",
     batch: int = BATCH,
+    spool: Spool | None = None,
 ) -> SweepResult:
     """Run every scene with every strategy; write events.json and runs.csv
     under @p out.
@@ -636,23 +768,26 @@ def run_sweep(
     :param progress: called with (done, total) as jobs finish.
     :param engine: :data:`ENGINES` (the module's docstring).
     :param batch: most scenes of one batch of the batched engine.
+    :param spool: where @p scenes, records without text or scenario
+        (:meth:`Scene.from_scenario`), are kept parsed: each batch is read
+        from it as it is sent (None: the scenes carry what a worker needs).
 
     :raises FirmwareError: a worker ran another firmware library than @p lib
         (different contents), so its rows would not be comparable.
     """
     out.mkdir(parents=True, exist_ok=True)
     runs = out / "runs.csv"
-    plan: list[Job] = [(scene, strategy) for scene in scenes for strategy in strategies]
-    order = {(scene.name, strategy): i for i, (scene, strategy) in enumerate(plan)}
-    rows: dict[tuple[str, str], dict[str, str]] = {}
+    # Each run's row at its place in the plan: scene order, then strategy order.
+    first = {scene.name: i * len(strategies) for i, scene in enumerate(scenes)}
+    column = {strategy: j for j, strategy in enumerate(strategies)}
+    rows: list[Row | None] = [None] * (len(scenes) * len(strategies))
     local_sha = library_sha256(lib) if Path(lib).is_file() else ""
-    texts = {scene.name: text_sha256(scene.text) for scene in scenes}
+    texts = {scene.name: scene.digest() for scene in scenes}
     if resume:
         before = read_sources(out)
         ran_from = before.get("scenes")
         ran_from = ran_from if isinstance(ran_from, dict) else {}
         for row in read_rows(runs):
-            key = (row["scene"], row["strategy"])
             finished = (
                 bool(row["error"])
                 or (out / row["strategy"] / row["scene"] / "events.json").is_file()
@@ -660,12 +795,18 @@ def run_sweep(
             same = ran_from.get(row["scene"]) == texts.get(row["scene"]) and (
                 row["strategy"] == "dwa" or before.get("library") == local_sha
             )
-            if key in order and finished and same:
-                rows[key] = row
-    write_rows(runs, sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])]))
+            planned = row["scene"] in first and row["strategy"] in column
+            if planned and finished and same:
+                rows[first[row["scene"]] + column[row["strategy"]]] = Row(row)
+    write_rows(runs, (r for r in rows if r is not None))
     write_sources(out, local_sha, texts)  # after runs.csv: it holds no row from before
-    todo = [job for job in plan if (job[0].name, job[1]) not in rows]
-    total, done = len(plan), len(rows)
+    todo = [
+        (scene, strategy)
+        for scene in scenes
+        for strategy in strategies
+        if rows[first[scene.name] + column[strategy]] is None
+    ]
+    total, done = len(rows), sum(1 for r in rows if r is not None)
     if progress:
         progress(done, total)
 
@@ -684,15 +825,16 @@ def run_sweep(
                 (folder / "events.json").write_text(outcome.events)
             log.write(_row_text(outcome.row))
             log.flush()
-            rows[(outcome.scene, outcome.strategy)] = outcome.row
+            rows[first[outcome.scene] + column[outcome.strategy]] = Row(outcome.row)
             done += 1
             if progress:
                 progress(done, total)
 
+        ship: Ship = functools.partial(shipped, spool=spool) if spool is not None else list
         if todo and scheduler:
-            run_dask(todo, lib, scheduler, emit, engine, batch)
+            run_dask(todo, lib, scheduler, emit, engine, batch, ship)
         elif todo:
-            run_local(todo, lib, workers, emit, engine, batch)
-    ordered = sorted(rows.values(), key=lambda r: order[(r["scene"], r["strategy"])])
+            run_local(todo, lib, workers, emit, engine, batch, ship)
+    ordered = [r for r in rows if r is not None]
     write_rows(runs, ordered)
     return SweepResult(ordered, len(todo))

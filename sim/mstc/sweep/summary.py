@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +33,7 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def _rate(rows: Sequence[dict[str, str]], column: str) -> str:
+def _rate(rows: Sequence[Mapping[str, str]], column: str) -> str:
     n = len(rows)
     if n == 0:
         return "—"
@@ -42,7 +42,7 @@ def _rate(rows: Sequence[dict[str, str]], column: str) -> str:
     return f"{100 * k / n:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}] ({k}/{n})"
 
 
-def _median(rows: Sequence[dict[str, str]], column: str, digits: int = 3) -> str:
+def _median(rows: Sequence[Mapping[str, str]], column: str, digits: int = 3) -> str:
     values = [float(r[column]) for r in rows if r[column] not in ("", "nan")]
     finite = [v for v in values if math.isfinite(v)]
     if not values:
@@ -63,8 +63,8 @@ _TABLE_HEAD_RULE = "|" + "---|" * 18
 
 
 def runs_of(
-    rows: Sequence[dict[str, str]], family: str, actuator: str, strategy: str
-) -> list[dict[str, str]]:
+    rows: Sequence[Mapping[str, str]], family: str, actuator: str, strategy: str
+) -> list[Mapping[str, str]]:
     """The rows of @p family (``(none)``: rows without one) and @p actuator
     (``ideal``: rows without one) run with @p strategy."""
     return [
@@ -76,7 +76,7 @@ def runs_of(
     ]
 
 
-def _table_row(family: str, actuator: str, strategy: str, rows: Sequence[dict[str, str]]) -> str:
+def _table_row(family: str, actuator: str, strategy: str, rows: Sequence[Mapping[str, str]]) -> str:
     ok = [r for r in rows if not r["error"]]
     judged = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]
     contacts = sum(1 for r in ok if r["contact"] == "1")
@@ -104,7 +104,9 @@ def _table_row(family: str, actuator: str, strategy: str, rows: Sequence[dict[st
     return "| " + " | ".join(cells) + " |"
 
 
-def _histograms(rows: Sequence[dict[str, str]], strategies: Sequence[str], out: Path) -> list[str]:
+def _histograms(
+    rows: Sequence[Mapping[str, str]], strategies: Sequence[str], out: Path
+) -> list[str]:
     """clearance.png and tracking_error.png: one histogram per strategy."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -158,12 +160,16 @@ def _zoom(ax: Axes, result: RunResult) -> None:
     ax.set_ylim(y0, y1)
 
 
-Rerun = Callable[[dict[str, str]], RunResult | None]
+Rerun = Callable[[Mapping[str, str]], RunResult | None]
 """Runs a row's scene again (same scene, strategy and library) for its figure."""
 
 
 def _gallery(
-    rows: Sequence[dict[str, str]], strategies: Sequence[str], out: Path, count: int, rerun: Rerun
+    rows: Sequence[Mapping[str, str]],
+    strategies: Sequence[str],
+    out: Path,
+    count: int,
+    rerun: Rerun,
 ) -> list[str]:
     """Path figures of the @p count runs with the smallest clearance per strategy."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -204,7 +210,7 @@ def _gallery(
 
 
 def write_summary(
-    rows: Sequence[dict[str, str]],
+    rows: Sequence[Mapping[str, str]],
     strategies: Sequence[str],
     out: Path,
     *,
