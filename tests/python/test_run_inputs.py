@@ -17,13 +17,17 @@ names, never against the code's own output.
 
 from __future__ import annotations
 
+import json
 import shutil
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import pytest
 
 from conftest import SCENARIOS
 from mstc.cli import main
+from mstc.model import EventKind
+from mstc.report import plots
 
 ROOT = Path(__file__).resolve().parents[2]
 LOG = ROOT / "tests" / "data" / "paper-line.log"
@@ -110,3 +114,36 @@ def test_plot_takes_a_run_folder_as_export_does(
         len(err) == 1
         and err[0] == f"error: {empty} is a directory without a bus.log: not a run folder"
     )
+
+
+# A scene of the standard suite's "cluster" family on "gearmotor" wheels
+# (sweep seed 2000173) where "mstc" reports an obstacle it cannot keep away
+# within the wheels' limits: an "infeasible" event.
+_INFEASIBLE = {
+    "robot": {"pose": [-0.0219, 0.0086, -2.7868]},
+    "reference": {"pose": [0.0, 0.0, -2.8156], "v": 0.5664, "w": 0.0},
+    "obstacles": [
+        {"position": [-3.3383, -0.9179], "radius": 0.1},
+        {"position": [-3.2422, -1.2799], "radius": 0.1},
+        {"position": [-3.5157, -1.5766], "radius": 0.1},
+    ],
+    "sim": {"duration": 30.0, "dt": 0.02, "integrator": "euler"},
+    "actuator": {"time_constant": 0.06, "max_accel": 20.0, "encoder_counts": 1920},
+    "params": {"strategy": "mstc"},
+}
+
+
+def test_every_event_kind_is_drawn_in_the_path_figure(
+    tmp_path: Path, sil_lib: Path, write_scenario: Callable[[Mapping[str, object], str], Path]
+) -> None:
+    """Every kind has a marker and a legend entry; a run whose events include
+    "infeasible" writes its figures (it stopped with a KeyError in
+    draw_path, in `mstc sim` and in `mstc sweep`'s gallery)."""
+    assert set(plots._MARKERS) == set(EventKind)
+    path = write_scenario(_INFEASIBLE, "infeasible")
+    out = tmp_path / "out"
+    assert main(["sim", "--lib", str(sil_lib), "-q", "--out", str(out), str(path)]) == 0
+    run = out / "infeasible"
+    kinds = {e["event"] for e in json.loads((run / "events.json").read_text())["events"]}
+    assert "infeasible" in kinds, kinds
+    assert (run / "path.png").stat().st_size > 0

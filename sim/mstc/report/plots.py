@@ -35,7 +35,9 @@ _MARKERS = {
     EventKind.BLOCKED: "X",
     EventKind.RESUME: "P",
     EventKind.FILTER: "D",
+    EventKind.INFEASIBLE: "v",
 }
+"""The marker of each event kind (every kind: test_run_inputs checks it)."""
 _ALWAYS_IN_LEGEND = (EventKind.DETECT, EventKind.ACTIVATE, EventKind.COMPLETE)
 """The paper's events: in every path figure's legend; the others when they occur."""
 
