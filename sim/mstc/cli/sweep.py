@@ -149,7 +149,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         metavar="N",
         type=int,
         default=BATCH,
-        help="most scenes a batch of the batched engine steps together; a worker's memory "
+        help="most runs (a scene under one strategy each) a batch of the batched engine "
+        "steps together; a worker's memory "
         "grows with it, not with the scenes' length, and so does the client's, which sends "
         "two batches a worker at a time (default: %(default)s)",
     )

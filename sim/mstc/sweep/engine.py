@@ -96,7 +96,7 @@ column is the same for the same scenes, strategies and library."""
 ENGINES = ("batched", "scene")
 """What --engine takes (the module's docstring)."""
 BATCH = 1000
-"""Most scenes of one batch of the batched engine (--batch). Its cost per
+"""Most runs (scene and strategy) of one batch of the batched engine (--batch). Its cost per
 scene-step falls with the batch's size, as numpy's cost per call is spread
 over more scenes: on the standard suite's families, under "mstc" with ideal
 wheels, 1,000 gave 20 % more scene-steps per CPU-second than 500, and 2,000
