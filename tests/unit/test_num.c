@@ -368,6 +368,66 @@ static void test_num_fixed_overflow_saturates(void)
     TEST_ASSERT_TRUE(num_to_float(num_add(tu_num(30000.0), tu_num(30000.0))) > 32767.0f);
     TEST_ASSERT_TRUE(num_to_float(num_sub(tu_num(-30000.0), tu_num(30000.0))) < -32767.0f);
 }
+
+/* A xorshift64 generator: the same pseudo-random pairs on every run. */
+static uint64_t xorshift64(uint64_t *s)
+{
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    return *s;
+}
+
+/* num_mul is libfixmath's fix16_smul written inline: the same bits for every
+ * pair (the reference is libfixmath itself, linked in fixed mode). The edges
+ * ±2 around 0, ±1, ±0.5 LSB-scale values, the saturation thresholds and the
+ * extremes, each with each; then products within ±3 codes of ±2^47 (where
+ * fix16_mul's overflow test and its rounding meet), then random pairs, half
+ * of them shifted down to small magnitudes. */
+static void test_num_fixed_mul_is_libfixmath_smul(void)
+{
+    static const int32_t edge[] = { 0,       1,        2,           0x7FFF,      0x8000,
+                                    0x10000, 0x10001,  0x00B504F3,  0x00B504F4,  181 << 16,
+                                    1 << 23, 1 << 24,  INT32_MAX,   -1,          -0x8000,
+                                    -0x10000, -0x00B504F3, -0x00B504F4, -(181 << 16), INT32_MIN };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    char msg[64];
+    unsigned long differ = 0;
+    for (size_t i = 0; i < n_edge; i++) {
+        for (size_t j = 0; j < n_edge; j++) {
+            for (uint32_t d = 0; d < 5u; d++) {
+                const int32_t a = (int32_t)((uint32_t)edge[i] + d - 2u);
+                const int32_t b = (int32_t)((uint32_t)edge[j] - d + 2u);
+                if (num_mul(a, b) != fix16_smul(a, b) && differ++ == 0u) {
+                    snprintf(msg, sizeof msg, "a %ld b %ld", (long)a, (long)b);
+                    TEST_FAIL_MESSAGE(msg);
+                }
+            }
+        }
+    }
+    uint64_t s = 88172645463325252u;
+    for (int k = 0; k < 100000; k++) {
+        const int32_t a = (int32_t)(uint32_t)xorshift64(&s) | 1;
+        const int32_t b0 = (int32_t)((INT64_C(1) << 47) / a);
+        for (int32_t d = -3; d <= 3; d++) {
+            const int32_t b1 = (int32_t)((uint32_t)b0 + (uint32_t)d);
+            const int32_t b2 = (int32_t)(0u - (uint32_t)b1);
+            differ += num_mul(a, b1) != fix16_smul(a, b1);
+            differ += num_mul(a, b2) != fix16_smul(a, b2);
+        }
+    }
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t x = xorshift64(&s);
+        int32_t a = (int32_t)(uint32_t)x;
+        int32_t b = (int32_t)(uint32_t)(x >> 32);
+        if ((k & 16u) != 0u) {
+            a >>= k & 15u;
+            b >>= 15u - (k & 15u);
+        }
+        differ += num_mul(a, b) != fix16_smul(a, b);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
 #endif
 
 int main(void)
@@ -396,6 +456,7 @@ int main(void)
 #else
     RUN_TEST(test_num_every_fixed_value_is_finite);
     RUN_TEST(test_num_fixed_overflow_saturates);
+    RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
 #endif
     return UNITY_END();
 }
