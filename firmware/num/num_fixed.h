@@ -176,6 +176,12 @@ num_t num_sin(num_t a);
 num_t num_cos(num_t a);
 
 /**
+ * @brief Sine and cosine of one angle: *s = num_sin(a), *c = num_cos(a), the
+ *        same bits, with the argument reduced once.
+ */
+void num_sincos(num_t a, num_t *s, num_t *c);
+
+/**
  * @brief atan2(y, x) in [−NUM_PI, NUM_PI] (within (−π, π]), any inputs: the
  *        ratio min/max is formed to 32 bits after normalisation, so nothing
  *        overflows and small vectors lose nothing. Error ≤ 0.52 LSB.

@@ -42,6 +42,12 @@ static inline num_t num_abs(num_t a) { return fabsf(a); }
 static inline num_t num_sqrt(num_t a) { return a > 0.0f ? sqrtf(a) : 0.0f; }
 static inline num_t num_sin(num_t a) { return sinf(a); }
 static inline num_t num_cos(num_t a) { return cosf(a); }
+/** @brief Sine and cosine of one angle: *s = num_sin(a), *c = num_cos(a). */
+static inline void num_sincos(num_t a, num_t *s, num_t *c)
+{
+    *s = sinf(a);
+    *c = cosf(a);
+}
 /** @brief atan2(y, x) in [-π, π]; atan2(0, 0) = 0. */
 static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }
 /** @brief sqrt(x² + y²) without intermediate overflow. */

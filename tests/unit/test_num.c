@@ -8,6 +8,7 @@
  */
 #include <float.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "num/num.h"
 #include "test_util.h"
@@ -322,6 +323,44 @@ static void test_num_sin_cos_hand_values(void)
     TEST_ASSERT_NUM_WITHIN(TOL_TRIG, sqrt(2.0) / 2.0, num_sin(tu_num(3.0 * TU_PI / 4.0)));
 }
 
+/* The bits of a num_t (4 bytes in both modes), so that NaN equals NaN. */
+static uint32_t bits_of(num_t a)
+{
+    uint32_t u;
+    memcpy(&u, &a, sizeof u);
+    return u;
+}
+
+/* num_sincos gives the bits of num_sin and num_cos (the reference: the two
+ * calls), on 400,001 angles over [−40, 40] (all quadrants, ten turns each
+ * way), the multiples of π/4 and, in fixed mode, the extremes. */
+static void test_num_sincos_is_sin_and_cos(void)
+{
+    char msg[64];
+    unsigned long differ = 0;
+    for (int32_t i = -200000; i <= 200000; i++) {
+        const num_t a = tu_num((double)i * 2e-4);
+        num_t s;
+        num_t c;
+        num_sincos(a, &s, &c);
+        if ((bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a))) &&
+            differ++ == 0u) {
+            snprintf(msg, sizeof msg, "angle %.6f", (double)num_to_float(a));
+            TEST_FAIL_MESSAGE(msg);
+        }
+    }
+    const num_t edge[] = { NUM_ZERO, NUM_PI, num_neg(NUM_PI), NUM_HALF_PI, NUM_TWO_PI,
+                           tu_num(TU_PI / 4.0), tu_num(-3.0 * TU_PI / 4.0), NUM_MAX, num_neg(NUM_MAX) };
+    for (size_t i = 0; i < sizeof edge / sizeof edge[0]; i++) {
+        num_t s;
+        num_t c;
+        num_sincos(edge[i], &s, &c);
+        TEST_ASSERT_EQUAL_HEX32(bits_of(num_sin(edge[i])), bits_of(s));
+        TEST_ASSERT_EQUAL_HEX32(bits_of(num_cos(edge[i])), bits_of(c));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
 static void test_num_conversions_round_trip(void)
 {
     const double in[] = { 0.0, 1.5, -0.1, 0.35, -12345.5, 20000.25 };
@@ -450,6 +489,7 @@ int main(void)
     RUN_TEST(test_num_clamp_limits_and_passes_through);
     RUN_TEST(test_num_arithmetic_hand_values);
     RUN_TEST(test_num_sin_cos_hand_values);
+    RUN_TEST(test_num_sincos_is_sin_and_cos);
     RUN_TEST(test_num_conversions_round_trip);
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
