@@ -6,9 +6,8 @@
 
 #include "ctrl/oset.h"
 
-/* |x| <= lim, for a finite x only: num_is_finite() first, since an ordered
- * comparison with NaN raises FE_INVALID. */
-static bool within(num_t x, num_t lim) { return num_is_finite(x) && num_abs(x) <= lim; }
+/* |x| <= lim, for a finite x only, without FE_INVALID for a NaN (num.h). */
+static bool within(num_t x, num_t lim) { return num_within(x, lim); }
 
 /* The robot's width 2 R_m: the gap below which obstacles form a cluster. */
 static num_t robot_width(const ctl_params_t *p) { return num_add(p->r_m, p->r_m); }

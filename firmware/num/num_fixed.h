@@ -196,6 +196,9 @@ static inline bool num_is_finite(num_t a)
     return true;
 }
 
+/** @brief num_is_finite(a) && num_abs(a) <= lim: |a| <= lim here. */
+static inline bool num_within(num_t a, num_t lim) { return num_abs(a) <= lim; }
+
 /**
  * @brief Angle wrapped into (−π, π] as float mode does it: the result lies in
  *        (−NUM_PI, NUM_PI], the codes −205886 … 205887.

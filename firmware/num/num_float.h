@@ -56,6 +56,20 @@ static inline num_t num_hypot(num_t x, num_t y) { return hypotf(x, y); }
 static inline bool num_is_finite(num_t a) { return isfinite(a) != 0; }
 
 /**
+ * @brief num_is_finite(a) && num_abs(a) <= lim, for every a and lim (NaN,
+ *        ±inf included), and quiet: no FE_INVALID for a NaN, as neither
+ *        num_is_finite() nor the `<=` behind it raises one.
+ *
+ * One quiet comparison does both tests when lim < +inf: |a| <= lim is false
+ * for a NaN a (unordered) and for an infinite a. Only lim = +inf needs the
+ * finiteness test, and a constant lim removes it at compile time.
+ */
+static inline bool num_within(num_t a, num_t lim)
+{
+    return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
+}
+
+/**
  * @brief Angle wrapped into (-π, π].
  * @param a angle [rad], finite.
  */

@@ -6,6 +6,7 @@
  * the value the input really holds (tu_q), which is an independent
  * computation of the same closed form.
  */
+#include <fenv.h>
 #include <float.h>
 #include <stdio.h>
 #include <string.h>
@@ -389,6 +390,37 @@ static void test_num_is_finite_rejects_nan_and_inf(void)
     TEST_ASSERT_FALSE(num_is_finite(num_from_float(INFINITY)));
     TEST_ASSERT_FALSE(num_is_finite(num_from_float(-INFINITY)));
 }
+
+/* num_within(a, lim) is num_is_finite(a) && |a| <= lim for the inputs where
+ * one of the two tests decides alone (hand values: NaN compares false, an
+ * infinite a is not finite, |−0| = 0 <= −0), and raises no FE_INVALID for a
+ * NaN (the quiet comparison of C99's islessequal). */
+static void test_num_within_is_finite_and_in_range(void)
+{
+    TEST_ASSERT_TRUE(num_within(1.0f, 2.0f));
+    TEST_ASSERT_TRUE(num_within(2.0f, 2.0f));
+    TEST_ASSERT_TRUE(num_within(-2.0f, 2.0f));
+    TEST_ASSERT_FALSE(num_within(-2.5f, 2.0f));
+    TEST_ASSERT_TRUE(num_within(0.0f, -0.0f));
+    TEST_ASSERT_FALSE(num_within(0.0f, -1.0f));
+    TEST_ASSERT_TRUE(num_within(1e30f, INFINITY));
+    TEST_ASSERT_TRUE(num_within(-FLT_MAX, INFINITY));
+    TEST_ASSERT_FALSE(num_within(INFINITY, INFINITY));
+    TEST_ASSERT_FALSE(num_within(-INFINITY, INFINITY));
+    TEST_ASSERT_FALSE(num_within(INFINITY, 2.0f));
+    TEST_ASSERT_FALSE(num_within(NAN, 2.0f));
+    TEST_ASSERT_FALSE(num_within(NAN, INFINITY));
+    TEST_ASSERT_FALSE(num_within(1.0f, NAN));
+    /* volatile: compared at run time, not folded by the compiler. */
+    volatile float nan = NAN;
+    volatile float inf = INFINITY;
+    volatile float two = 2.0f;
+    feclearexcept(FE_ALL_EXCEPT);
+    TEST_ASSERT_FALSE(num_within(nan, two));
+    TEST_ASSERT_FALSE(num_within(-nan, inf));
+    TEST_ASSERT_FALSE(num_within(two, nan));
+    TEST_ASSERT_FALSE(fetestexcept(FE_INVALID));
+}
 #else
 /* Fixed mode: every Q16.16 value is a finite number. */
 static void test_num_every_fixed_value_is_finite(void)
@@ -493,6 +525,7 @@ int main(void)
     RUN_TEST(test_num_conversions_round_trip);
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
+    RUN_TEST(test_num_within_is_finite_and_in_range);
 #else
     RUN_TEST(test_num_every_fixed_value_is_finite);
     RUN_TEST(test_num_fixed_overflow_saturates);
