@@ -76,6 +76,16 @@ typedef int32_t num_t;
  */
 static inline num_t num_add(num_t a, num_t b)
 {
+#if defined(__GNUC__)
+    /* The processor's overflow flag (ADDS, BVS on a Cortex-M: 2 instructions
+     * where the test below takes 5); the same test. */
+    num_t s;
+    const bool overflow = __builtin_add_overflow(a, b, &s);
+    if (overflow) {
+        return a < 0 ? NUM_MIN : NUM_MAX;
+    }
+    return s;
+#else
     /* Unsigned sum wraps by definition; overflow happened when a and b have
      * the same sign and the sum has the other. */
     const uint32_t s = (uint32_t)a + (uint32_t)b;
@@ -83,6 +93,7 @@ static inline num_t num_add(num_t a, num_t b)
         return a < 0 ? NUM_MIN : NUM_MAX;
     }
     return (num_t)s;
+#endif
 }
 
 /**
@@ -90,11 +101,20 @@ static inline num_t num_add(num_t a, num_t b)
  */
 static inline num_t num_sub(num_t a, num_t b)
 {
+#if defined(__GNUC__)
+    num_t d; /* as num_add */
+    const bool overflow = __builtin_sub_overflow(a, b, &d);
+    if (overflow) {
+        return a < 0 ? NUM_MIN : NUM_MAX;
+    }
+    return d;
+#else
     const uint32_t d = (uint32_t)a - (uint32_t)b;
     if ((int32_t)((d ^ (uint32_t)a) & ((uint32_t)a ^ (uint32_t)b)) < 0) {
         return a < 0 ? NUM_MIN : NUM_MAX;
     }
     return (num_t)d;
+#endif
 }
 
 /** @brief −a; −NUM_MIN saturates to NUM_MAX. Exact otherwise. */

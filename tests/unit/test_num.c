@@ -350,8 +350,15 @@ static void test_num_sincos_is_sin_and_cos(void)
             TEST_FAIL_MESSAGE(msg);
         }
     }
-    const num_t edge[] = { NUM_ZERO, NUM_PI, num_neg(NUM_PI), NUM_HALF_PI, NUM_TWO_PI,
-                           tu_num(TU_PI / 4.0), tu_num(-3.0 * TU_PI / 4.0), NUM_MAX, num_neg(NUM_MAX) };
+    const num_t edge[] = { NUM_ZERO,
+                           NUM_PI,
+                           num_neg(NUM_PI),
+                           NUM_HALF_PI,
+                           NUM_TWO_PI,
+                           tu_num(TU_PI / 4.0),
+                           tu_num(-3.0 * TU_PI / 4.0),
+                           NUM_MAX,
+                           num_neg(NUM_MAX) };
     for (size_t i = 0; i < sizeof edge / sizeof edge[0]; i++) {
         num_t s;
         num_t c;
@@ -440,6 +447,34 @@ static void test_num_fixed_overflow_saturates(void)
     TEST_ASSERT_TRUE(num_to_float(num_sub(tu_num(-30000.0), tu_num(30000.0))) < -32767.0f);
 }
 
+/* Saturation at the exact edges (hand values): one code past NUM_MAX or
+ * NUM_MIN saturates, landing exactly on it does not (−1 − NUM_MIN is
+ * 2^31 − 1 codes = NUM_MAX, exact). num_within: |NUM_MIN| saturates to
+ * NUM_MAX. */
+static void test_num_fixed_add_sub_edges(void)
+{
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_add(NUM_MAX, 1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_add(NUM_MAX - 1, 1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX - 1, num_add(NUM_MAX, -1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_add(NUM_MIN, -1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_add(NUM_MIN + 1, -1));
+    TEST_ASSERT_EQUAL_INT32(-1, num_add(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_add(NUM_MIN, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_add(NUM_MAX, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_sub(NUM_MIN, 1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sub(NUM_MAX, -1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sub(0, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sub(-1, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX - 1, num_sub(-2, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_sub(-2, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN + 1, num_sub(0, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_sub(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_TRUE(num_within(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MAX - 1));
+    TEST_ASSERT_TRUE(num_within(-NUM_ONE, NUM_ONE));
+    TEST_ASSERT_FALSE(num_within(NUM_ONE + 1, NUM_ONE));
+}
+
 /* A xorshift64 generator: the same pseudo-random pairs on every run. */
 static uint64_t xorshift64(uint64_t *s)
 {
@@ -457,9 +492,9 @@ static uint64_t xorshift64(uint64_t *s)
  * of them shifted down to small magnitudes. */
 static void test_num_fixed_mul_is_libfixmath_smul(void)
 {
-    static const int32_t edge[] = { 0,       1,        2,           0x7FFF,      0x8000,
-                                    0x10000, 0x10001,  0x00B504F3,  0x00B504F4,  181 << 16,
-                                    1 << 23, 1 << 24,  INT32_MAX,   -1,          -0x8000,
+    static const int32_t edge[] = { 0,        1,           2,           0x7FFF,       0x8000,
+                                    0x10000,  0x10001,     0x00B504F3,  0x00B504F4,   181 << 16,
+                                    1 << 23,  1 << 24,     INT32_MAX,   -1,           -0x8000,
                                     -0x10000, -0x00B504F3, -0x00B504F4, -(181 << 16), INT32_MIN };
     const size_t n_edge = sizeof edge / sizeof edge[0];
     char msg[64];
@@ -529,6 +564,7 @@ int main(void)
 #else
     RUN_TEST(test_num_every_fixed_value_is_finite);
     RUN_TEST(test_num_fixed_overflow_saturates);
+    RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
 #endif
     return UNITY_END();
