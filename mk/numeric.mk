@@ -7,9 +7,10 @@
 #   NUM_SRCS_<mode>    extra C sources compiled into every build in that mode
 #   NUM_DEPS_<mode>    a file that must exist before any of them is compiled
 #
-# Fixed mode uses libfixmath (mul, div) built from its Debian source package
-# (tools/setup/sources.lock) with one configuration, LIBFIXMATH_CONFIG, for the
-# host and for the cross builds alike, so that they compute the same numbers
+# Fixed mode uses libfixmath (div; mul is its fix16_smul, inline in num_fixed.h)
+# built from its Debian source package (tools/setup/sources.lock) with one
+# configuration, LIBFIXMATH_CONFIG, for the host and for the cross builds
+# alike, so that they compute the same numbers
 # (firmware/num/num_fixed.h says why each macro is set or not).
 #
 #   make numerics   docs/numerics.md: the error of every fixed-point primitive

@@ -72,8 +72,11 @@ void avd_direction(const pose_t *robot, num_t ox, num_t oy, num_t d_s, avd_side_
                    avd_dir_t *dir)
 {
     /* q̇ = v [cos θ, sin θ]. */
-    const num_t xd = num_mul(v, num_cos(robot->theta));
-    const num_t yd = num_mul(v, num_sin(robot->theta));
+    num_t s;
+    num_t c;
+    num_sincos(robot->theta, &s, &c);
+    const num_t xd = num_mul(v, c);
+    const num_t yd = num_mul(v, s);
     direction(robot, ox, oy, d_s, side, xd, yd, dir);
 }
 

@@ -6,9 +6,8 @@
 
 #include "ctrl/oset.h"
 
-/* |x| <= lim, for a finite x only: num_is_finite() first, since an ordered
- * comparison with NaN raises FE_INVALID. */
-static bool within(num_t x, num_t lim) { return num_is_finite(x) && num_abs(x) <= lim; }
+/* |x| <= lim, for a finite x only, without FE_INVALID for a NaN (num.h). */
+static bool within(num_t x, num_t lim) { return num_within(x, lim); }
 
 /* The robot's width 2 R_m: the gap below which obstacles form a cluster. */
 static num_t robot_width(const ctl_params_t *p) { return num_add(p->r_m, p->r_m); }
@@ -305,8 +304,9 @@ typedef struct {
 static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const trk_err_t *e,
                            pred_err_t *pe)
 {
-    const num_t c3 = num_cos(e->e3);
-    const num_t s3 = num_sin(e->e3);
+    num_t s3;
+    num_t c3;
+    num_sincos(e->e3, &s3, &c3);
     const num_t t = wn->horizon;
     const num_t e1d = num_add(num_sub(num_mul(wn->w, e->e2), wn->v), num_mul(in->v_r, c3));
     const num_t e2d = num_add(num_neg(num_mul(wn->w, e->e1)), num_mul(in->v_r, s3));
@@ -434,8 +434,9 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
 {
     ctl_status_t *st = &out->status;
     size_t n_ev = out->n_events;
-    const num_t cos_th = num_cos(in->robot.theta);
-    const num_t sin_th = num_sin(in->robot.theta);
+    num_t sin_th;
+    num_t cos_th;
+    num_sincos(in->robot.theta, &sin_th, &cos_th);
     trk_errors_cs(&in->robot, cos_th, sin_th, &in->ref, &st->err);
     wheels_now_t wn;
     wheels_now(c, in, cos_th, sin_th, &wn);

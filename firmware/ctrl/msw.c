@@ -201,8 +201,9 @@ static num_t asin01(num_t x) { return num_atan2(x, num_sqrt(num_sub(NUM_ONE, num
 static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offset,
                                     const msw_input_t *in)
 {
-    num_t ex = num_cos(in->ref->theta);
-    num_t ey = num_sin(in->ref->theta);
+    num_t ey;
+    num_t ex;
+    num_sincos(in->ref->theta, &ey, &ex);
     if (in->v_r < NUM_ZERO) {
         ex = num_neg(ex);
         ey = num_neg(ey);

@@ -52,8 +52,11 @@ void rol_path(rol_path_t *path, const pose_t *p, num_t cos_th, num_t sin_th, num
     path->cy = num_sub(p->y, path->s0y);
     path->radius = num_abs(k);
     const num_t th_end = num_add(p->theta, turn);
-    path->s1x = num_mul(k, num_sin(th_end));
-    path->s1y = num_neg(num_mul(k, num_cos(th_end)));
+    num_t s_end;
+    num_t c_end;
+    num_sincos(th_end, &s_end, &c_end);
+    path->s1x = num_mul(k, s_end);
+    path->s1y = num_neg(num_mul(k, c_end));
     path->ccw = w > NUM_ZERO;
     path->whole = num_abs(turn) > NUM_PI;
     path->reach = length; /* an arc is no longer than |v| T, its chord shorter */

@@ -144,40 +144,71 @@ num_t num_hypot(num_t x, num_t y)
 #define ONE_Q30 (1 << 30)
 
 /*
- * sin(a) (cos_shift = 0) or cos(a) (cos_shift = 1) in Q2.30.
  * a = q·π/2 + r with q = round(a·2/π) and |r| ≲ π/4, r in Q2.30; then
- * sin(a) = ±sin r or ±cos r by quadrant (q + cos_shift) mod 4.
+ * sin(a) = ±sin r or ±cos r by quadrant q mod 4, cos(a) by (q + 1) mod 4.
  */
-static int32_t sincos_q30(num_t a, unsigned cos_shift)
+typedef struct {
+    int32_t q; /* the multiple of π/2 */
+    int32_t r; /* the remainder, Q2.30 */
+    int32_t z; /* r², Q2.30 */
+} reduced_t;
+
+static inline reduced_t reduce_half_pi(num_t a)
 {
+    reduced_t d;
     /* q from a·(2/π): |a·2^16·(2/π)·2^32| < 2^63. The rounding of q may be
      * off by one at a boundary; r is then just past π/4, still accurate. */
-    const int32_t q = (int32_t)(((int64_t)a * TWO_OVER_PI_Q32 + (INT64_C(1) << 47)) >> 48);
+    d.q = (int32_t)(((int64_t)a * TWO_OVER_PI_Q32 + (INT64_C(1) << 47)) >> 48);
     /* r = a − q·π/2 in Q32.32, exact but for π/2's 2^-33 rounding times q. */
-    const int64_t r32 = ((int64_t)a * 65536) - (int64_t)q * HALF_PI_Q32;
-    const int32_t r = (int32_t)((r32 + 2) >> 2); /* Q2.30, |r| < 0.8 */
-    const int32_t z = mul_q30(r, r);
+    const int64_t r32 = ((int64_t)a * 65536) - (int64_t)d.q * HALF_PI_Q32;
+    d.r = (int32_t)((r32 + 2) >> 2); /* Q2.30, |r| < 0.8 */
+    d.z = mul_q30(d.r, d.r);
+    return d;
+}
 
-    const unsigned quadrant = ((unsigned)q + cos_shift) & 3u;
-    int32_t v;
-    if ((quadrant & 1u) == 0u) {
-        /* sin r = r + r·z·(C3 + z·(C5 + z·C7)) */
-        int32_t p = SIN_C5 + mul_q30(z, SIN_C7);
-        p = SIN_C3 + mul_q30(z, p);
-        v = r + mul_q30(r, mul_q30(z, p));
-    } else {
-        /* cos r = 1 + z·(C2 + z·(C4 + z·(C6 + z·C8))) */
-        int32_t p = COS_C6 + mul_q30(z, COS_C8);
-        p = COS_C4 + mul_q30(z, p);
-        p = COS_C2 + mul_q30(z, p);
-        v = ONE_Q30 + mul_q30(z, p);
-    }
+/* sin r = r + r·z·(C3 + z·(C5 + z·C7)), Q2.30. */
+static inline int32_t sin_poly(const reduced_t *d)
+{
+    int32_t p = SIN_C5 + mul_q30(d->z, SIN_C7);
+    p = SIN_C3 + mul_q30(d->z, p);
+    return d->r + mul_q30(d->r, mul_q30(d->z, p));
+}
+
+/* cos r = 1 + z·(C2 + z·(C4 + z·(C6 + z·C8))), Q2.30. */
+static inline int32_t cos_poly(const reduced_t *d)
+{
+    int32_t p = COS_C6 + mul_q30(d->z, COS_C8);
+    p = COS_C4 + mul_q30(d->z, p);
+    p = COS_C2 + mul_q30(d->z, p);
+    return ONE_Q30 + mul_q30(d->z, p);
+}
+
+/* sin(a) (cos_shift = 0) or cos(a) (cos_shift = 1) in Q2.30. */
+static int32_t sincos_q30(num_t a, unsigned cos_shift)
+{
+    const reduced_t d = reduce_half_pi(a);
+    const unsigned quadrant = ((unsigned)d.q + cos_shift) & 3u;
+    const int32_t v = (quadrant & 1u) == 0u ? sin_poly(&d) : cos_poly(&d);
     return (quadrant & 2u) != 0u ? -v : v;
 }
 
 num_t num_sin(num_t a) { return q30_to_q16(sincos_q30(a, 0u)); }
 
 num_t num_cos(num_t a) { return q30_to_q16(sincos_q30(a, 1u)); }
+
+void num_sincos(num_t a, num_t *s, num_t *c)
+{
+    /* sincos_q30 twice, with the reduction and each polynomial once. */
+    const reduced_t d = reduce_half_pi(a);
+    const int32_t sp = sin_poly(&d);
+    const int32_t cp = cos_poly(&d);
+    const unsigned qs = (unsigned)d.q & 3u;
+    const unsigned qc = ((unsigned)d.q + 1u) & 3u;
+    const int32_t vs = (qs & 1u) == 0u ? sp : cp;
+    const int32_t vc = (qc & 1u) == 0u ? sp : cp;
+    *s = q30_to_q16((qs & 2u) != 0u ? -vs : vs);
+    *c = q30_to_q16((qc & 2u) != 0u ? -vc : vc);
+}
 
 /*
  * floor((u1·2^32 + u0) / v) for u1 < v and v normalised (bit 31 set): the

@@ -42,12 +42,32 @@ static inline num_t num_abs(num_t a) { return fabsf(a); }
 static inline num_t num_sqrt(num_t a) { return a > 0.0f ? sqrtf(a) : 0.0f; }
 static inline num_t num_sin(num_t a) { return sinf(a); }
 static inline num_t num_cos(num_t a) { return cosf(a); }
+/** @brief Sine and cosine of one angle: *s = num_sin(a), *c = num_cos(a). */
+static inline void num_sincos(num_t a, num_t *s, num_t *c)
+{
+    *s = sinf(a);
+    *c = cosf(a);
+}
 /** @brief atan2(y, x) in [-π, π]; atan2(0, 0) = 0. */
 static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }
 /** @brief sqrt(x² + y²) without intermediate overflow. */
 static inline num_t num_hypot(num_t x, num_t y) { return hypotf(x, y); }
 /** @brief true unless @p a is NaN or ±inf. */
 static inline bool num_is_finite(num_t a) { return isfinite(a) != 0; }
+
+/**
+ * @brief num_is_finite(a) && num_abs(a) <= lim, for every a and lim (NaN,
+ *        ±inf included), and quiet: no FE_INVALID for a NaN, as neither
+ *        num_is_finite() nor the `<=` behind it raises one.
+ *
+ * One quiet comparison does both tests when lim < +inf: |a| <= lim is false
+ * for a NaN a (unordered) and for an infinite a. Only lim = +inf needs the
+ * finiteness test, and a constant lim removes it at compile time.
+ */
+static inline bool num_within(num_t a, num_t lim)
+{
+    return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
+}
 
 /**
  * @brief Angle wrapped into (-π, π].

@@ -6,8 +6,10 @@
  * the value the input really holds (tu_q), which is an independent
  * computation of the same closed form.
  */
+#include <fenv.h>
 #include <float.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "num/num.h"
 #include "test_util.h"
@@ -322,6 +324,51 @@ static void test_num_sin_cos_hand_values(void)
     TEST_ASSERT_NUM_WITHIN(TOL_TRIG, sqrt(2.0) / 2.0, num_sin(tu_num(3.0 * TU_PI / 4.0)));
 }
 
+/* The bits of a num_t (4 bytes in both modes), so that NaN equals NaN. */
+static uint32_t bits_of(num_t a)
+{
+    uint32_t u;
+    memcpy(&u, &a, sizeof u);
+    return u;
+}
+
+/* num_sincos gives the bits of num_sin and num_cos (the reference: the two
+ * calls), on 400,001 angles over [−40, 40] (all quadrants, ten turns each
+ * way), the multiples of π/4 and, in fixed mode, the extremes. */
+static void test_num_sincos_is_sin_and_cos(void)
+{
+    char msg[64];
+    unsigned long differ = 0;
+    for (int32_t i = -200000; i <= 200000; i++) {
+        const num_t a = tu_num((double)i * 2e-4);
+        num_t s;
+        num_t c;
+        num_sincos(a, &s, &c);
+        if ((bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a))) &&
+            differ++ == 0u) {
+            snprintf(msg, sizeof msg, "angle %.6f", (double)num_to_float(a));
+            TEST_FAIL_MESSAGE(msg);
+        }
+    }
+    const num_t edge[] = { NUM_ZERO,
+                           NUM_PI,
+                           num_neg(NUM_PI),
+                           NUM_HALF_PI,
+                           NUM_TWO_PI,
+                           tu_num(TU_PI / 4.0),
+                           tu_num(-3.0 * TU_PI / 4.0),
+                           NUM_MAX,
+                           num_neg(NUM_MAX) };
+    for (size_t i = 0; i < sizeof edge / sizeof edge[0]; i++) {
+        num_t s;
+        num_t c;
+        num_sincos(edge[i], &s, &c);
+        TEST_ASSERT_EQUAL_HEX32(bits_of(num_sin(edge[i])), bits_of(s));
+        TEST_ASSERT_EQUAL_HEX32(bits_of(num_cos(edge[i])), bits_of(c));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
 static void test_num_conversions_round_trip(void)
 {
     const double in[] = { 0.0, 1.5, -0.1, 0.35, -12345.5, 20000.25 };
@@ -350,6 +397,37 @@ static void test_num_is_finite_rejects_nan_and_inf(void)
     TEST_ASSERT_FALSE(num_is_finite(num_from_float(INFINITY)));
     TEST_ASSERT_FALSE(num_is_finite(num_from_float(-INFINITY)));
 }
+
+/* num_within(a, lim) is num_is_finite(a) && |a| <= lim for the inputs where
+ * one of the two tests decides alone (hand values: NaN compares false, an
+ * infinite a is not finite, |−0| = 0 <= −0), and raises no FE_INVALID for a
+ * NaN (the quiet comparison of C99's islessequal). */
+static void test_num_within_is_finite_and_in_range(void)
+{
+    TEST_ASSERT_TRUE(num_within(1.0f, 2.0f));
+    TEST_ASSERT_TRUE(num_within(2.0f, 2.0f));
+    TEST_ASSERT_TRUE(num_within(-2.0f, 2.0f));
+    TEST_ASSERT_FALSE(num_within(-2.5f, 2.0f));
+    TEST_ASSERT_TRUE(num_within(0.0f, -0.0f));
+    TEST_ASSERT_FALSE(num_within(0.0f, -1.0f));
+    TEST_ASSERT_TRUE(num_within(1e30f, INFINITY));
+    TEST_ASSERT_TRUE(num_within(-FLT_MAX, INFINITY));
+    TEST_ASSERT_FALSE(num_within(INFINITY, INFINITY));
+    TEST_ASSERT_FALSE(num_within(-INFINITY, INFINITY));
+    TEST_ASSERT_FALSE(num_within(INFINITY, 2.0f));
+    TEST_ASSERT_FALSE(num_within(NAN, 2.0f));
+    TEST_ASSERT_FALSE(num_within(NAN, INFINITY));
+    TEST_ASSERT_FALSE(num_within(1.0f, NAN));
+    /* volatile: compared at run time, not folded by the compiler. */
+    volatile float nan = NAN;
+    volatile float inf = INFINITY;
+    volatile float two = 2.0f;
+    feclearexcept(FE_ALL_EXCEPT);
+    TEST_ASSERT_FALSE(num_within(nan, two));
+    TEST_ASSERT_FALSE(num_within(-nan, inf));
+    TEST_ASSERT_FALSE(num_within(two, nan));
+    TEST_ASSERT_FALSE(fetestexcept(FE_INVALID));
+}
 #else
 /* Fixed mode: every Q16.16 value is a finite number. */
 static void test_num_every_fixed_value_is_finite(void)
@@ -367,6 +445,94 @@ static void test_num_fixed_overflow_saturates(void)
     TEST_ASSERT_TRUE(num_to_float(num_mul(tu_num(200.0), tu_num(-200.0))) < -32767.0f);
     TEST_ASSERT_TRUE(num_to_float(num_add(tu_num(30000.0), tu_num(30000.0))) > 32767.0f);
     TEST_ASSERT_TRUE(num_to_float(num_sub(tu_num(-30000.0), tu_num(30000.0))) < -32767.0f);
+}
+
+/* Saturation at the exact edges (hand values): one code past NUM_MAX or
+ * NUM_MIN saturates, landing exactly on it does not (−1 − NUM_MIN is
+ * 2^31 − 1 codes = NUM_MAX, exact). num_within: |NUM_MIN| saturates to
+ * NUM_MAX. */
+static void test_num_fixed_add_sub_edges(void)
+{
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_add(NUM_MAX, 1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_add(NUM_MAX - 1, 1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX - 1, num_add(NUM_MAX, -1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_add(NUM_MIN, -1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_add(NUM_MIN + 1, -1));
+    TEST_ASSERT_EQUAL_INT32(-1, num_add(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_add(NUM_MIN, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_add(NUM_MAX, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_sub(NUM_MIN, 1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sub(NUM_MAX, -1));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sub(0, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sub(-1, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX - 1, num_sub(-2, NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_sub(-2, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN + 1, num_sub(0, NUM_MAX));
+    TEST_ASSERT_EQUAL_INT32(NUM_MIN, num_sub(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_TRUE(num_within(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MAX - 1));
+    TEST_ASSERT_TRUE(num_within(-NUM_ONE, NUM_ONE));
+    TEST_ASSERT_FALSE(num_within(NUM_ONE + 1, NUM_ONE));
+}
+
+/* A xorshift64 generator: the same pseudo-random pairs on every run. */
+static uint64_t xorshift64(uint64_t *s)
+{
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    return *s;
+}
+
+/* num_mul is libfixmath's fix16_smul written inline: the same bits for every
+ * pair (the reference is libfixmath itself, linked in fixed mode). The edges
+ * ±2 around 0, ±1, ±0.5 LSB-scale values, the saturation thresholds and the
+ * extremes, each with each; then products within ±3 codes of ±2^47 (where
+ * fix16_mul's overflow test and its rounding meet), then random pairs, half
+ * of them shifted down to small magnitudes. */
+static void test_num_fixed_mul_is_libfixmath_smul(void)
+{
+    static const int32_t edge[] = { 0,        1,           2,           0x7FFF,       0x8000,
+                                    0x10000,  0x10001,     0x00B504F3,  0x00B504F4,   181 << 16,
+                                    1 << 23,  1 << 24,     INT32_MAX,   -1,           -0x8000,
+                                    -0x10000, -0x00B504F3, -0x00B504F4, -(181 << 16), INT32_MIN };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    char msg[64];
+    unsigned long differ = 0;
+    for (size_t i = 0; i < n_edge; i++) {
+        for (size_t j = 0; j < n_edge; j++) {
+            for (uint32_t d = 0; d < 5u; d++) {
+                const int32_t a = (int32_t)((uint32_t)edge[i] + d - 2u);
+                const int32_t b = (int32_t)((uint32_t)edge[j] - d + 2u);
+                if (num_mul(a, b) != fix16_smul(a, b) && differ++ == 0u) {
+                    snprintf(msg, sizeof msg, "a %ld b %ld", (long)a, (long)b);
+                    TEST_FAIL_MESSAGE(msg);
+                }
+            }
+        }
+    }
+    uint64_t s = 88172645463325252u;
+    for (int k = 0; k < 100000; k++) {
+        const int32_t a = (int32_t)(uint32_t)xorshift64(&s) | 1;
+        const int32_t b0 = (int32_t)((INT64_C(1) << 47) / a);
+        for (int32_t d = -3; d <= 3; d++) {
+            const int32_t b1 = (int32_t)((uint32_t)b0 + (uint32_t)d);
+            const int32_t b2 = (int32_t)(0u - (uint32_t)b1);
+            differ += num_mul(a, b1) != fix16_smul(a, b1);
+            differ += num_mul(a, b2) != fix16_smul(a, b2);
+        }
+    }
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t x = xorshift64(&s);
+        int32_t a = (int32_t)(uint32_t)x;
+        int32_t b = (int32_t)(uint32_t)(x >> 32);
+        if ((k & 16u) != 0u) {
+            a >>= k & 15u;
+            b >>= 15u - (k & 15u);
+        }
+        differ += num_mul(a, b) != fix16_smul(a, b);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 #endif
 
@@ -390,12 +556,16 @@ int main(void)
     RUN_TEST(test_num_clamp_limits_and_passes_through);
     RUN_TEST(test_num_arithmetic_hand_values);
     RUN_TEST(test_num_sin_cos_hand_values);
+    RUN_TEST(test_num_sincos_is_sin_and_cos);
     RUN_TEST(test_num_conversions_round_trip);
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
+    RUN_TEST(test_num_within_is_finite_and_in_range);
 #else
     RUN_TEST(test_num_every_fixed_value_is_finite);
     RUN_TEST(test_num_fixed_overflow_saturates);
+    RUN_TEST(test_num_fixed_add_sub_edges);
+    RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
 #endif
     return UNITY_END();
 }
