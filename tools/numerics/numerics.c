@@ -128,7 +128,7 @@ static double angle_diff(double a, double b) { return remainder(a - b, TWO_PI); 
 
 static void measure_mul(void)
 {
-    stat_t *s = row("num_mul", "libfixmath fix16_smul", "a, b log-uniform, |a·b| < 32768",
+    stat_t *s = row("num_mul", "fix16_smul's bits, inline", "a, b log-uniform, |a·b| < 32768",
                     "exact product, rounded");
     rng_seed(1);
     while (s->n < N_RANDOM) {
@@ -464,7 +464,8 @@ int main(void)
     printf("libfixmath (Debian source package, `tools/setup/sources.lock`) is built with "
            "`FIXMATH_NO_CACHE`, rounding and overflow detection on, 64-bit multiply, for the "
            "host and the cross builds alike (mk/numeric.mk). The firmware uses its saturating "
-           "mul and div; its sqrt, sin, cos and atan2 are measured here for comparison only "
+           "div, and its saturating mul written inline in firmware/num (the same bits, "
+           "checked by tests/unit/test_num.c); its sqrt, sin, cos and atan2 are measured here for comparison only "
            "(rows marked *not used*), as are the float mode's single-precision primitives "
            "(*reference*).\n\n");
     printf("## Errors against libm (double)\n\n");
