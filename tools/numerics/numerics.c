@@ -465,7 +465,8 @@ int main(void)
            "`FIXMATH_NO_CACHE`, rounding and overflow detection on, 64-bit multiply, for the "
            "host and the cross builds alike (mk/numeric.mk). The firmware uses its saturating "
            "div, and its saturating mul written inline in firmware/num (the same bits, "
-           "checked by tests/unit/test_num.c); its sqrt, sin, cos and atan2 are measured here for comparison only "
+           "checked by tests/unit/test_num.c); its sqrt, sin, cos and atan2 are measured here for "
+           "comparison only "
            "(rows marked *not used*), as are the float mode's single-precision primitives "
            "(*reference*).\n\n");
     printf("## Errors against libm (double)\n\n");
