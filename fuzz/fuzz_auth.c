@@ -22,8 +22,10 @@
  *             odd, else as they are;
  *           3 a real-time control tick b1 × 10 ms later (a waiting PARAM_SET
  *             expires, the challenge expires, a lock ends);
- *           4 a recorded command (record b1 % 8 of the last 8) played again,
- *             E2E made right, after the command or refusal it came with;
+ *           4 a recorded command (record b1 % 8 of the last 8 whose
+ *             PARAM_AUTH went out: one still held back is on nobody's
+ *             recording) played again, E2E made right, after the command or
+ *             refusal it came with;
  *           5 a restart: the firmware anew, same key, the next session;
  *           6 the PARAM_AUTH op 1 held back, now (after whatever came
  *             between: another node's PARAM_SET, ticks, a restart).
@@ -63,6 +65,7 @@ static unsigned n_recorded;
 static struct {
     bool held;        /* its PARAM_AUTH not sent yet (op 6 sends it) */
     bool intended;    /* signed for the challenge, with the right MAC */
+    uint8_t set[8];   /* PARAM_SET payload */
     uint8_t auth[8];  /* PARAM_AUTH payload */
     uint32_t session; /* the session and challenge it was signed for */
     uint32_t fv;
@@ -141,6 +144,18 @@ static void verify_alone(const uint8_t *r, uint64_t *own_now)
     check(own.fails <= AUTH_LOCK_TRIES);
 }
 
+/* The tool's PARAM_AUTH goes out, and from now on a listener has the
+ * command: it is recorded for replays (op 4) only now. One held back (op 6)
+ * was on nobody's recording before it went out. */
+static void send_tools_auth(void)
+{
+    memcpy(recorded[n_recorded % RECORDS][0], tool.set, 8);
+    memcpy(recorded[n_recorded % RECORDS][1], tool.auth, 8);
+    n_recorded++;
+    tool.held = false;
+    (void)app_on_frame(&app, (hal_can_frame_t[]){ sealed(1, tool.auth) });
+}
+
 /* A command (op 1). */
 static void command(const uint8_t *r)
 {
@@ -171,19 +186,17 @@ static void command(const uint8_t *r)
     a[2] = (uint8_t)((fv >> 4) & 0xFFu);
     a[3] = (uint8_t)((fv >> 12) & 0xFFu);
     memcpy(&a[4], mac, AUTH_MAC_LEN);
-    memcpy(recorded[n_recorded % RECORDS][0], p, 8);
-    memcpy(recorded[n_recorded % RECORDS][1], a, 8);
-    n_recorded++;
     tool.intended = kind == 0u;
     tool.session = app.auth.session;
     tool.fv = fv;
     tool.restarts = restarts;
     tool.t_us = app.now_us;
+    memcpy(tool.set, p, 8);
     memcpy(tool.auth, a, 8);
     (void)app_on_frame(&app, (hal_can_frame_t[]){ sealed(0, p) });
     tool.held = (r[7] & 1u) == 0u;
     if (!tool.held) {
-        (void)app_on_frame(&app, (hal_can_frame_t[]){ sealed(1, a) });
+        send_tools_auth();
     }
 }
 
@@ -257,8 +270,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         default:
             if (tool.held) {
-                (void)app_on_frame(&app, (hal_can_frame_t[]){ sealed(1, tool.auth) });
-                tool.held = false;
+                send_tools_auth();
                 tools = true;
             }
             break;
