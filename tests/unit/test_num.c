@@ -534,6 +534,76 @@ static void test_num_fixed_mul_is_libfixmath_smul(void)
     }
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
+
+/* round(sqrt(s)) for s < 2^48 the slow, plain way, independent of
+ * num_fixed.c: the floor root bit by bit (restoring, one result bit per
+ * step), then up by one when s − f² > f: s and f² are integers, so that is
+ * s − f² >= f + 1 > f + 1/4, i.e. s > (f + 1/2)² (never a tie). */
+static uint32_t ref_sqrt_round(uint64_t s)
+{
+    uint64_t rem = s;
+    uint64_t root = 0;
+    for (uint64_t bit = UINT64_C(1) << 46; bit != 0u; bit >>= 2) {
+        if (rem >= root + bit) {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+    }
+    return (uint32_t)(rem > root ? root + 1u : root);
+}
+
+/* num_sqrt(a) = round(sqrt(a·2^16)), correctly rounded (num_fixed.h), against
+ * the bit-by-bit reference: the edges (1, the codes around every power of
+ * two, perfect squares, the codes at which the rounding turns,
+ * s = r² ± r, and INT32_MAX), then random codes at every magnitude. */
+static void test_num_fixed_sqrt_is_correctly_rounded(void)
+{
+    char msg[64];
+    unsigned long differ = 0;
+    for (uint32_t e = 0; e < 31u; e++) {
+        for (int32_t d = -2; d <= 2; d++) {
+            const int64_t a = ((int64_t)1 << e) + d;
+            if (a > 0 && a <= INT32_MAX) {
+                differ += (uint32_t)num_sqrt((num_t)a) != ref_sqrt_round((uint64_t)a << 16);
+            }
+        }
+    }
+    /* a·2^16 = r² ± r and ± 1 around it: a = (r² ± r)/2^16 for r a multiple of
+     * 256 (then r² ± r is not a multiple of 2^16; take the codes either side). */
+    for (uint32_t r = 256u; r < 11863283u; r += 256u * 97u) {
+        const uint64_t r2 = (uint64_t)r * r;
+        const uint64_t turns[] = { r2 - r, r2 + r, r2 };
+        for (size_t i = 0; i < 3u; i++) {
+            for (int32_t d = -1; d <= 1; d++) {
+                const int64_t a = (int64_t)(turns[i] >> 16) + d;
+                if (a > 0 && a <= INT32_MAX) {
+                    const uint32_t got = (uint32_t)num_sqrt((num_t)a);
+                    const uint32_t want = ref_sqrt_round((uint64_t)a << 16);
+                    if (got != want && differ++ == 0u) {
+                        snprintf(msg, sizeof msg, "a %lld: %lu, not %lu", (long long)a,
+                                 (unsigned long)got, (unsigned long)want);
+                        TEST_FAIL_MESSAGE(msg);
+                    }
+                }
+            }
+        }
+    }
+    differ += (uint32_t)num_sqrt(NUM_MAX) != ref_sqrt_round((uint64_t)NUM_MAX << 16);
+    TEST_ASSERT_EQUAL_UINT32(11863283u, (uint32_t)num_sqrt(NUM_MAX)); /* 181.02·2^16 */
+    TEST_ASSERT_EQUAL_INT32(256, num_sqrt(1));                        /* sqrt(2^16) */
+    TEST_ASSERT_EQUAL_INT32(NUM_ONE, num_sqrt(NUM_ONE));              /* 1 */
+    TEST_ASSERT_EQUAL_INT32(2 * NUM_ONE, num_sqrt(4 * NUM_ONE));
+    uint64_t s = 2463534242u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const int32_t a = (int32_t)((uint32_t)xorshift64(&s) >> 1 >> (k % 31u));
+        if (a > 0) {
+            differ += (uint32_t)num_sqrt(a) != ref_sqrt_round((uint64_t)a << 16);
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
 #endif
 
 int main(void)
@@ -566,6 +636,7 @@ int main(void)
     RUN_TEST(test_num_fixed_overflow_saturates);
     RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
+    RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
 #endif
     return UNITY_END();
 }
