@@ -57,8 +57,9 @@ static inline int32_t q30_to_q16(int32_t a) { return (int32_t)(((int64_t)a + (1 
  * division on a Cortex-M3), then one more Newton step on the remainder gives
  * sqrt(n) to within a few units, and shifting back by k and a final check
  * against s in exact 64-bit arithmetic give the correctly rounded result.
- * On a Cortex-M3 num_sqrt takes 92 instructions, libfixmath's bit-by-bit
- * fix16_sqrt 178 (docs/performance.md).
+ * num_hypot's root; num_sqrt takes the same steps in 32 bits (on a Cortex-M3
+ * 51 instructions where this takes 92, libfixmath's bit-by-bit fix16_sqrt
+ * 178: docs/performance.md).
  */
 static uint32_t isqrt64_round(uint64_t s)
 {
@@ -255,7 +256,7 @@ void num_sincos(num_t a, num_t *s, num_t *c)
  * from a 32/16 hardware division and at most two corrections (Knuth's
  * algorithm D; Hacker's Delight, divlu).
  */
-static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
+static inline uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
 {
     const uint32_t b = 65536u;
     const uint32_t vn1 = v >> 16;
@@ -283,6 +284,77 @@ static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
         }
     }
     return q1 * b + q0;
+}
+
+/*
+ * num_div: fix16_sdiv's result (deps/libfixmath/fix16.c, its fix16_div for
+ * processors with a 32-bit hardware division, rounding and overflow
+ * detection on) in closed form. With A = |a|, B = |b| as unsigned values
+ * (|INT32_MIN| = 2^31, as fix_abs gives it):
+ *
+ * - fix16_div forms the quotient Q in units of 2^-17 and returns
+ *   (Q + 1) >> 1 with the sign of a·b. For B >= 2^20 it first takes the
+ *   estimate q0 = floor(A / (floor(B/2^17) + 1)) and the remainder
+ *   A − floor(q0 B / 2^17), whose floor dropped e = (q0 B) mod 2^17; its
+ *   loop of 32-bit divisions then divides the remainder exactly (long
+ *   division, the divisor's factors of 16 shifted out alike), so
+ *   Q = q0 + floor((A 2^17 − q0 B + e) / B) = floor((A 2^17 + e) / B).
+ *   For B < 2^20 there is no estimate: e = 0.
+ * - Its overflow test fires on a digit whose place puts the quotient at
+ *   2^32 or beyond: for B >= 2^20, Q < 2^29 and it never does; for B < 2^20
+ *   exactly when Q >= 2^32 (the first digit, taken from the remainder
+ *   shifted left as far as it goes, is the one). Q = 2^32 − 1 passes the
+ *   test and (Q + 1) >> 1 = 2^31 becomes INT32_MIN, which fix16_div and then
+ *   fix16_sdiv read as an overflow too. fix16_sdiv saturates an overflow, and
+ *   b == 0, by the signs: NUM_MAX when a and b have the same sign (b = 0
+ *   counting as positive), NUM_MIN otherwise.
+ *
+ * So: saturate when b == 0 or Q >= 2^32 − 1, else ±((Q + 1) >> 1). Q by
+ * long division with 32-bit hardware divisions: the integer part
+ * q = floor(A / B) and its remainder r < B, then floor(r 2^17 / B) in one
+ * digit when B < 2^15, in two (12 and 5 bits) when B < 2^20, each digit's
+ * dividend below 2^32; for B >= 2^20, with e, from one 64/32 division
+ * (udiv64_32, the divisor normalised; there Q < 2^29). Checked against
+ * fix16_sdiv in tests/unit/test_num.c (edges and 10^6 pairs at every
+ * magnitude) and on 4·10^9 pairs when it was written.
+ */
+num_t num_div(num_t a, num_t b)
+{
+    const num_t saturated = (a ^ b) < 0 ? NUM_MIN : NUM_MAX;
+    if (b == 0) {
+        return saturated;
+    }
+    const uint32_t ua = uabs32(a);
+    const uint32_t ub = uabs32(b);
+    uint32_t q;
+    if (ub < (1u << 20)) {
+        const uint32_t q_int = ua / ub;
+        if (q_int >= (1u << 15)) {
+            return saturated; /* Q >= 2^32 */
+        }
+        const uint32_t r = ua - q_int * ub;
+        uint32_t low;
+        if (ub < (1u << 15)) {
+            low = (r << 17) / ub;
+        } else {
+            const uint32_t r12 = r << 12; /* < 2^32 */
+            const uint32_t d12 = r12 / ub;
+            low = (d12 << 5) + ((r12 - d12 * ub) << 5) / ub;
+        }
+        q = (q_int << 17) + low;
+        if (q == UINT32_MAX) {
+            return saturated; /* (Q + 1) >> 1 = 2^31 */
+        }
+    } else {
+        const uint32_t q0 = ua / ((ub >> 17) + 1u);
+        const uint32_t e = (q0 * ub) & 0x1FFFFu; /* the low 17 bits of the 64-bit product */
+        const unsigned sh = clz32(ub);           /* <= 11 */
+        /* (A 2^17 + e) 2^sh < 2^(49 + 11): its high word is below ub 2^sh. */
+        const uint64_t nn = (((uint64_t)ua << 17) + e) << sh;
+        q = udiv64_32((uint32_t)(nn >> 32), (uint32_t)nn, ub << sh);
+    }
+    const num_t m = (num_t)((q + 1u) >> 1); /* q < 2^32 − 1: m < 2^31 */
+    return (a ^ b) < 0 ? -m : m;
 }
 
 /* Coefficients of atan(t) ≈ t·(A1 + A3·t² + … + A13·t¹²) on [0, 1], in

@@ -13,16 +13,18 @@
  * Who computes what (see docs/numerics.md for the measured errors, and
  * tools/numerics/ for the tool that measures them):
  * - add, sub, neg, abs, conversions, wrap: here and in num_fixed.c;
- * - div: libfixmath (fix16_sdiv: rounding, saturation), built from its
- *   source with the configuration below for the host and for every cross
- *   build alike, so both compute the same numbers;
+ * - div: num_fixed.c, the same bits as libfixmath's fix16_sdiv (rounding,
+ *   saturation) in closed form; libfixmath is built from its source with the
+ *   configuration below for the host and for every cross build alike, and is
+ *   the reference of num_mul and num_div in the tests;
  * - mul: here, inline, the same bits as libfixmath's fix16_smul (64-bit
  *   product, rounding, saturation) in that configuration;
  * - sqrt, hypot, sin, cos, atan2: num_fixed.c. libfixmath's versions were
  *   measured and fall short: its sin/cos are off by up to 7.8e-3 (509 LSB)
  *   near ±π (the x^11 term of its series overflows Q16.16), its atan2 by
  *   1.0e-2 rad (a cubic), it has no hypot, and its sqrt, correctly rounded,
- *   takes twice the instructions of num_sqrt on a Cortex-M3 (178 against 92).
+ *   takes over three times the instructions of num_sqrt on a Cortex-M3 (178
+ *   against 51).
  *   Figures: docs/numerics.md and docs/performance.md.
  *
  * libfixmath configuration (mk/numeric.mk, the same for every build):
@@ -126,7 +128,7 @@ static inline num_t num_abs(num_t a) { return a < 0 ? num_neg(a) : a; }
 /* libfixmath (deps/libfixmath/fix16.c), declared here so that users of num.h
  * do not see its header, which is not clean under -Wconversion. num_fixed.c
  * includes fix16.h, so the compiler checks that these declarations match.
- * fix16_smul is the reference of num_mul in the tests. */
+ * They are the references of num_mul and num_div in the tests. */
 int32_t fix16_smul(int32_t inArg0, int32_t inArg1);
 int32_t fix16_sdiv(int32_t inArg0, int32_t inArg1);
 
@@ -160,13 +162,17 @@ static inline num_t num_mul(num_t a, num_t b)
 }
 
 /**
- * @brief a / b, rounded to nearest (libfixmath fix16_sdiv), saturated to
- *        [NUM_MIN, NUM_MAX]. Error ≤ 0.56 LSB when in range (measured,
- *        docs/numerics.md: libfixmath's first estimate for |b| >= 16 costs a
- *        little over the 0.5 of rounding).
- *        b == 0 gives NUM_MAX for a >= 0 and NUM_MIN for a < 0.
+ * @brief a / b, rounded to nearest as libfixmath's fix16_sdiv rounds,
+ *        saturated to [NUM_MIN, NUM_MAX]: the same bits as fix16_sdiv (in
+ *        the configuration of mk/numeric.mk) for every pair of inputs.
+ *        Error ≤ 0.56 LSB when in range (measured, docs/numerics.md:
+ *        libfixmath's first estimate for |b| >= 16 costs a little over the
+ *        0.5 of rounding). b == 0 gives NUM_MAX for a >= 0 and NUM_MIN for
+ *        a < 0. num_fixed.c derives the closed form it computes from
+ *        fix16_div's steps; on a Cortex-M3 it takes fewer instructions than
+ *        fix16_div's loop of 32-bit divisions.
  */
-static inline num_t num_div(num_t a, num_t b) { return fix16_sdiv(a, b); }
+num_t num_div(num_t a, num_t b);
 
 /**
  * @brief Square root, rounded to nearest: error ≤ 0.5 LSB over the whole

@@ -535,6 +535,57 @@ static void test_num_fixed_mul_is_libfixmath_smul(void)
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 
+/* num_div is libfixmath's fix16_sdiv in closed form (num_fixed.c): the same
+ * bits for every pair (the reference is libfixmath itself, linked in fixed
+ * mode). The edges (0, ±1, the divisors where num_div changes method: 2^15,
+ * 2^20 and libfixmath's estimate, the extremes) ±3 codes each with each;
+ * quotients within a few codes of saturation; then random pairs with each
+ * operand shifted down to every magnitude. */
+static void test_num_fixed_div_is_libfixmath_sdiv(void)
+{
+    static const int32_t edge[] = { 0,         1,          16,        0x7FFF,      0x8000,
+                                    0x10000,   0xFFFFF,    0x100000,  0x1FFFF,     0x20000,
+                                    0x3FFFFFF, 0x40000000, INT32_MAX, -1,          -0x8000,
+                                    -0x10000,  -0x100000,  -0x20000,  -0x40000000, INT32_MIN };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    char msg[64];
+    unsigned long differ = 0;
+    for (size_t i = 0; i < n_edge; i++) {
+        for (size_t j = 0; j < n_edge; j++) {
+            for (uint32_t d = 0; d < 7u; d++) {
+                for (uint32_t f = 0; f < 7u; f++) {
+                    const int32_t a = (int32_t)((uint32_t)edge[i] + d - 3u);
+                    const int32_t b = (int32_t)((uint32_t)edge[j] + f - 3u);
+                    if (num_div(a, b) != fix16_sdiv(a, b) && differ++ == 0u) {
+                        snprintf(msg, sizeof msg, "a %ld b %ld", (long)a, (long)b);
+                        TEST_FAIL_MESSAGE(msg);
+                    }
+                }
+            }
+        }
+    }
+    uint64_t s = 1181783497276652981u;
+    for (int k = 0; k < 200000; k++) {
+        const uint64_t x = xorshift64(&s);
+        const int32_t b = ((int32_t)(uint32_t)x >> (x >> 59)) | 1;
+        /* a = q b / 2^16 for a quotient q within 2^8 codes of ±NUM_MAX. */
+        const int64_t q = (INT32_MAX - (int64_t)((x >> 32) & 0xFFu)) * ((x & 2u) != 0u ? 1 : -1);
+        const int64_t a = (q * b) / 65536;
+        for (int64_t d = -2; d <= 2; d++) {
+            if (a + d >= INT32_MIN && a + d <= INT32_MAX) {
+                differ += num_div((int32_t)(a + d), b) != fix16_sdiv((int32_t)(a + d), b);
+            }
+        }
+    }
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t x = xorshift64(&s);
+        const int32_t a = (int32_t)(uint32_t)x >> (k % 31u);
+        const int32_t b = (int32_t)(uint32_t)(x >> 32) >> ((k / 31u) % 31u);
+        differ += num_div(a, b) != fix16_sdiv(a, b);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
 /* round(sqrt(s)) for s < 2^48 the slow, plain way, independent of
  * num_fixed.c: the floor root bit by bit (restoring, one result bit per
  * step), then up by one when s − f² > f: s and f² are integers, so that is
@@ -636,6 +687,7 @@ int main(void)
     RUN_TEST(test_num_fixed_overflow_saturates);
     RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
+    RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
     RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
 #endif
     return UNITY_END();
