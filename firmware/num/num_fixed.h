@@ -222,8 +222,24 @@ static inline bool num_is_finite(num_t a)
     return true;
 }
 
-/** @brief num_is_finite(a) && num_abs(a) <= lim: |a| <= lim here. */
-static inline bool num_within(num_t a, num_t lim) { return num_abs(a) <= lim; }
+/**
+ * @brief num_is_finite(a) && num_abs(a) <= lim: |a| <= lim here.
+ *
+ * For 0 <= lim < NUM_MAX (every range check of the controllers: a constant
+ * lim folds the test away) it is −lim <= a <= lim (num_abs(NUM_MIN) =
+ * NUM_MAX > lim, and NUM_MIN < −lim), which is one unsigned comparison:
+ * a ↦ a + lim modulo 2^32 takes [−lim, lim] onto [0, 2 lim] and, as
+ * 2 lim < 2^32, every other a above it. The same result for every a and lim
+ * (checked over all 2^32 values of a for lim = 0, 1, NUM_MAX − 1, NUM_MAX,
+ * −1 and others when it was written).
+ */
+static inline bool num_within(num_t a, num_t lim)
+{
+    if (lim >= 0 && lim < NUM_MAX) {
+        return (uint32_t)a + (uint32_t)lim <= 2u * (uint32_t)lim;
+    }
+    return num_abs(a) <= lim;
+}
 
 /**
  * @brief Angle wrapped into (−π, π] as float mode does it: the result lies in

@@ -473,6 +473,21 @@ static void test_num_fixed_add_sub_edges(void)
     TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MAX - 1));
     TEST_ASSERT_TRUE(num_within(-NUM_ONE, NUM_ONE));
     TEST_ASSERT_FALSE(num_within(NUM_ONE + 1, NUM_ONE));
+    /* num_within's one comparison (0 <= lim < NUM_MAX), at its edges: |a| =
+     * lim passes, lim + 1 does not, on either side; NUM_MIN never does;
+     * lim = 0 takes 0 alone; a negative lim takes nothing. */
+    TEST_ASSERT_FALSE(num_within(-NUM_ONE - 1, NUM_ONE));
+    TEST_ASSERT_TRUE(num_within(NUM_MAX - 1, NUM_MAX - 1));
+    TEST_ASSERT_TRUE(num_within(NUM_MIN + 2, NUM_MAX - 1));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN + 1, NUM_MAX - 1));
+    TEST_ASSERT_FALSE(num_within(NUM_MAX, NUM_MAX - 1));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MAX - 1));
+    TEST_ASSERT_TRUE(num_within(NUM_MIN + 1, NUM_MAX));
+    TEST_ASSERT_TRUE(num_within(0, 0));
+    TEST_ASSERT_FALSE(num_within(1, 0));
+    TEST_ASSERT_FALSE(num_within(-1, 0));
+    TEST_ASSERT_FALSE(num_within(0, -1));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MIN));
 }
 
 /* A xorshift64 generator: the same pseudo-random pairs on every run. */
