@@ -96,11 +96,11 @@ static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constrain
 {
     const num_t dx = num_sub(fr->plx, o->o.x);
     const num_t dy = num_sub(fr->ply, o->o.y);
-    const num_t d2 = num_add(num_mul(dx, dx), num_mul(dy, dy));
+    const num_t d2 = num_sum_sq(dx, dy);
     *doomed = false;
     const num_t rho =
         num_add(num_add(o->d_s, CBF_LOOKAHEAD), brake_margin(fr, o, dx, dy, d2, doomed));
-    *h = num_sub(d2, num_mul(rho, rho));
+    *h = num_sub(d2, num_sq(rho));
     const num_t ax = num_add(dx, dx);
     const num_t ay = num_add(dy, dy);
     k->g1 = num_add(num_mul(ax, fr->c), num_mul(ay, fr->s));

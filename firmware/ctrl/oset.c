@@ -16,7 +16,7 @@ bool oset_within(num_t dx, num_t dy, num_t r)
         return false; /* also every r <= 0 */
     }
     if (r < OSET_SQUARE_LIMIT) {
-        return num_add(num_mul(dx, dx), num_mul(dy, dy)) < num_mul(r, r);
+        return num_sum_sq(dx, dy) < num_sq(r);
     }
     return num_hypot(dx, dy) < r;
 }
@@ -24,7 +24,7 @@ bool oset_within(num_t dx, num_t dy, num_t r)
 num_t oset_distance(num_t dx, num_t dy)
 {
     if (num_abs(dx) < OSET_SQUARE_LIMIT && num_abs(dy) < OSET_SQUARE_LIMIT) {
-        return num_sqrt(num_add(num_mul(dx, dx), num_mul(dy, dy)));
+        return num_sqrt(num_sum_sq(dx, dy));
     }
     return num_hypot(dx, dy);
 }
@@ -82,7 +82,7 @@ bool oset_closing(num_t dx, num_t dy, num_t vx, num_t vy)
 void oset_closest_approach(num_t px, num_t py, num_t vx, num_t vy, num_t horizon, num_t *t,
                            num_t *d2)
 {
-    const num_t v2 = num_add(num_mul(vx, vx), num_mul(vy, vy));
+    const num_t v2 = num_sum_sq(vx, vy);
     num_t ts = NUM_ZERO;
     if (v2 >= num_mul(OSET_MIN_SPEED, OSET_MIN_SPEED)) {
         /* t* = −p·v / |v|², in the past (< 0: receding) or beyond the horizon
@@ -95,5 +95,5 @@ void oset_closest_approach(num_t px, num_t py, num_t vx, num_t vy, num_t horizon
     const num_t cx = num_add(px, num_mul(vx, ts));
     const num_t cy = num_add(py, num_mul(vy, ts));
     *t = ts;
-    *d2 = num_add(num_mul(cx, cx), num_mul(cy, cy));
+    *d2 = num_sum_sq(cx, cy);
 }

@@ -161,6 +161,32 @@ static inline num_t num_mul(num_t a, num_t b)
     return (num_t)r;
 }
 
+/* a², rounded, unsaturated: (a² + 2^15) >> 16, at most 2^46. The product is
+ * never negative, so num_mul's rounding adds 2^15. */
+static inline uint64_t num_sq_wide(num_t a)
+{
+    return ((uint64_t)((int64_t)a * a) + UINT64_C(0x8000)) >> 16;
+}
+
+/** @brief a², the same bits as num_mul(a, a): only the upper saturation can
+ *         apply. */
+static inline num_t num_sq(num_t a)
+{
+    const uint64_t r = num_sq_wide(a);
+    return r > (uint64_t)INT32_MAX ? NUM_MAX : (num_t)r;
+}
+
+/**
+ * @brief x² + y², the same bits as num_add(num_mul(x, x), num_mul(y, y)):
+ *        both squares are >= 0, so saturating each and then their sum is
+ *        saturating the exact sum of the rounded squares once.
+ */
+static inline num_t num_sum_sq(num_t x, num_t y)
+{
+    const uint64_t r = num_sq_wide(x) + num_sq_wide(y);
+    return r > (uint64_t)INT32_MAX ? NUM_MAX : (num_t)r;
+}
+
 /**
  * @brief a / b, rounded to nearest as libfixmath's fix16_sdiv rounds,
  *        saturated to [NUM_MIN, NUM_MAX]: the same bits as fix16_sdiv (in

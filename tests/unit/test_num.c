@@ -550,6 +550,34 @@ static void test_num_fixed_mul_is_libfixmath_smul(void)
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 
+/* num_sq and num_sum_sq: the same bits as num_mul(a, a) and
+ * num_add(num_mul(x, x), num_mul(y, y)) (num_mul: libfixmath's fix16_smul,
+ * test above), and hand values: 2² = 4, (1 + 2^-16)² = 1 + 2^-15 (+ 2^-32,
+ * rounded away), 181² = 32761 in range, 182² saturates, as does
+ * 128² + 128². */
+static void test_num_fixed_squares_are_mul_and_add(void)
+{
+    TEST_ASSERT_EQUAL_INT32(4 * NUM_ONE, num_sq(2 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(4 * NUM_ONE, num_sq(-2 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_ONE + 2, num_sq(NUM_ONE + 1));
+    TEST_ASSERT_EQUAL_INT32(32761 * NUM_ONE, num_sq(181 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sq(182 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sq(NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(25 * NUM_ONE, num_sum_sq(3 * NUM_ONE, -4 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sum_sq(128 * NUM_ONE, 128 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(0, num_sum_sq(0, 0));
+    uint64_t s = 7046029254386353131u;
+    unsigned long differ = 0;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t x = (int32_t)(uint32_t)r >> (k % 31u);
+        const int32_t y = (int32_t)(uint32_t)(r >> 32) >> ((k / 31u) % 31u);
+        differ += num_sq(x) != num_mul(x, x);
+        differ += num_sum_sq(x, y) != num_add(num_mul(x, x), num_mul(y, y));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
 /* num_div is libfixmath's fix16_sdiv in closed form (num_fixed.c): the same
  * bits for every pair (the reference is libfixmath itself, linked in fixed
  * mode). The edges (0, ±1, the divisors where num_div changes method: 2^15,
@@ -702,6 +730,7 @@ int main(void)
     RUN_TEST(test_num_fixed_overflow_saturates);
     RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
+    RUN_TEST(test_num_fixed_squares_are_mul_and_add);
     RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
     RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
 #endif
