@@ -132,8 +132,8 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
  * (q1 + ov)(T_b + (q1 + ov)/a_v) for a moving one. @p still is
  * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
  * computed once per command. */
-static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
-                       num_t still)
+static inline bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                              num_t still)
 {
     const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
     num_t extra = fr->reach_add;
@@ -198,8 +198,8 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
 
 /* The constraint of entry @p i into *k, unless it surely cannot bind
  * (slack_sure): then false. Computed once a step (the cache in cbf_t). */
-static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist, num_t speed,
-                    num_t still, constraint_t *k)
+static inline bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist,
+                           num_t speed, num_t still, constraint_t *k)
 {
     if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;

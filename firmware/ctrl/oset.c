@@ -2,32 +2,9 @@
 /* Geometry of the obstacle set for the "mstc" strategy (oset.h). */
 #include "ctrl/oset.h"
 
-/* Below this radius, dx² + dy² < 2 r² < 32768 cannot saturate Q16.16. */
-#define OSET_SQUARE_LIMIT NUM_C(128.0)
 /* Relative speeds below this are "no relative motion" [m/s]: t* is then 0.
  * Its square, 1e-4, is 6.6 Q16.16 steps: |v|² is never divided by 0. */
-#define OSET_MIN_SPEED    NUM_C(0.01)
-
-bool oset_within(num_t dx, num_t dy, num_t r)
-{
-    const num_t ax = num_abs(dx);
-    const num_t ay = num_abs(dy);
-    if (ax >= r || ay >= r) {
-        return false; /* also every r <= 0 */
-    }
-    if (r < OSET_SQUARE_LIMIT) {
-        return num_sum_sq(dx, dy) < num_sq(r);
-    }
-    return num_hypot(dx, dy) < r;
-}
-
-num_t oset_distance(num_t dx, num_t dy)
-{
-    if (num_abs(dx) < OSET_SQUARE_LIMIT && num_abs(dy) < OSET_SQUARE_LIMIT) {
-        return num_sqrt(num_sum_sq(dx, dy));
-    }
-    return num_hypot(dx, dy);
-}
+#define OSET_MIN_SPEED NUM_C(0.01)
 
 oset_link_t oset_link(const sup_entry_t *a, const sup_entry_t *b, num_t width)
 {
