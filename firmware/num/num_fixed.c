@@ -100,13 +100,16 @@ static uint32_t isqrt64_round(uint64_t s)
     if (k > 0u) {
         r = (r + ((uint64_t)1 << (k - 1u))) >> k;
     }
-    while (r * r + r < s) {
-        r++;
+    /* sqrt(s) <= 3037000500 and r is within a few units of it: 32 bits, and
+     * q² + q < 2^64 (a 32×32-bit product where r² took a 64-bit one). */
+    uint32_t q = (uint32_t)r;
+    while ((uint64_t)q * q + q < s) {
+        q++;
     }
-    while (r > 0u && r * r - r >= s) {
-        r--;
+    while (q > 0u && (uint64_t)q * q - q >= s) {
+        q--;
     }
-    return (uint32_t)r;
+    return q;
 }
 
 num_t num_sqrt(num_t a)

@@ -629,7 +629,7 @@ static void test_num_fixed_div_is_libfixmath_sdiv(void)
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 
-/* round(sqrt(s)) for s < 2^48 the slow, plain way, independent of
+/* round(sqrt(s)) for s < 2^64 the slow, plain way, independent of
  * num_fixed.c: the floor root bit by bit (restoring, one result bit per
  * step), then up by one when s − f² > f: s and f² are integers, so that is
  * s − f² >= f + 1 > f + 1/4, i.e. s > (f + 1/2)² (never a tie). */
@@ -637,7 +637,7 @@ static uint32_t ref_sqrt_round(uint64_t s)
 {
     uint64_t rem = s;
     uint64_t root = 0;
-    for (uint64_t bit = UINT64_C(1) << 46; bit != 0u; bit >>= 2) {
+    for (uint64_t bit = UINT64_C(1) << 62; bit != 0u; bit >>= 2) {
         if (rem >= root + bit) {
             rem -= root + bit;
             root = (root >> 1) + bit;
@@ -698,6 +698,36 @@ static void test_num_fixed_sqrt_is_correctly_rounded(void)
     }
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
+
+/* num_hypot(x, y) = round(sqrt(x² + y²)) from the exact 64-bit sum,
+ * saturated (num_fixed.h), against the bit-by-bit reference: the extremes,
+ * then random pairs at every magnitude. */
+static void test_num_fixed_hypot_is_correctly_rounded(void)
+{
+    static const int32_t edge[] = { 0, 1, -1, 0x8000, 0x10000, 23170 << 16, INT32_MAX, INT32_MIN };
+    unsigned long differ = 0;
+    uint64_t s = 1442695040888963407u;
+    for (unsigned k = 0; k < 1000064u; k++) {
+        int32_t x;
+        int32_t y;
+        if (k < 64u) {
+            x = edge[k % 8u];
+            y = edge[k / 8u];
+        } else {
+            const uint64_t r = xorshift64(&s);
+            x = (int32_t)(uint32_t)r >> (k % 32u);
+            y = (int32_t)(uint32_t)(r >> 32) >> ((k / 32u) % 32u);
+        }
+        const uint64_t ax = x < 0 ? 0u - (uint64_t)(int64_t)x : (uint64_t)x;
+        const uint64_t ay = y < 0 ? 0u - (uint64_t)(int64_t)y : (uint64_t)y;
+        const uint32_t want = ref_sqrt_round(ax * ax + ay * ay);
+        const num_t expected = want > (uint32_t)INT32_MAX ? NUM_MAX : (num_t)want;
+        differ += num_hypot(x, y) != expected;
+    }
+    TEST_ASSERT_EQUAL_INT32(5 * NUM_ONE, num_hypot(3 * NUM_ONE, -4 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_hypot(INT32_MIN, INT32_MIN));
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
 #endif
 
 int main(void)
@@ -733,6 +763,7 @@ int main(void)
     RUN_TEST(test_num_fixed_squares_are_mul_and_add);
     RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
     RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
+    RUN_TEST(test_num_fixed_hypot_is_correctly_rounded);
 #endif
     return UNITY_END();
 }
