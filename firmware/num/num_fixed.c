@@ -48,13 +48,52 @@ static inline int32_t q30_to_q16(int32_t a) { return (int32_t)(((int64_t)a + (1 
 
 /* ----------------------------------------------------------- square roots */
 
+/* floor(sqrt(n)) for n in [2^30, 2^32), in [2^15, 2^16): one integer Newton
+ * step from a seed by the top 8 bits of n (the table: sqrt of the middle of
+ * each of the 192 intervals [i·2^24, (i + 1)·2^24), i = 64 … 255, rounded),
+ * at most 128.5 from the root; the step then lands on floor or floor + 1
+ * (rarely + 2): from any start it is >= floor(sqrt(n)) (integer Newton from
+ * above or below), the clamp keeps that (floor(sqrt(n)) <= 0xFFFF), and the
+ * loop comes down to the floor exactly, whatever the seed. */
+static const uint16_t SQRT_SEED[192] = {
+    32896u, 33150u, 33402u, 33652u, 33900u, 34147u, 34392u, 34635u, 34876u, 35116u, 35354u, 35590u,
+    35825u, 36059u, 36291u, 36521u, 36750u, 36978u, 37204u, 37429u, 37652u, 37874u, 38095u, 38315u,
+    38533u, 38750u, 38966u, 39181u, 39394u, 39606u, 39818u, 40028u, 40237u, 40445u, 40652u, 40857u,
+    41062u, 41266u, 41469u, 41671u, 41871u, 42071u, 42270u, 42468u, 42665u, 42861u, 43057u, 43251u,
+    43445u, 43637u, 43829u, 44020u, 44210u, 44400u, 44588u, 44776u, 44963u, 45149u, 45334u, 45519u,
+    45703u, 45886u, 46069u, 46250u, 46431u, 46612u, 46791u, 46970u, 47149u, 47326u, 47503u, 47679u,
+    47855u, 48030u, 48204u, 48378u, 48551u, 48723u, 48895u, 49067u, 49237u, 49407u, 49577u, 49746u,
+    49914u, 50082u, 50249u, 50416u, 50582u, 50747u, 50912u, 51077u, 51241u, 51404u, 51567u, 51730u,
+    51892u, 52053u, 52214u, 52374u, 52534u, 52694u, 52853u, 53011u, 53169u, 53327u, 53484u, 53640u,
+    53797u, 53952u, 54108u, 54262u, 54417u, 54571u, 54724u, 54877u, 55030u, 55182u, 55334u, 55485u,
+    55636u, 55787u, 55937u, 56087u, 56236u, 56385u, 56534u, 56682u, 56830u, 56977u, 57124u, 57271u,
+    57417u, 57563u, 57709u, 57854u, 57999u, 58143u, 58287u, 58431u, 58574u, 58717u, 58860u, 59002u,
+    59144u, 59286u, 59427u, 59568u, 59709u, 59849u, 59989u, 60129u, 60268u, 60407u, 60546u, 60684u,
+    60822u, 60960u, 61098u, 61235u, 61372u, 61508u, 61644u, 61780u, 61916u, 62051u, 62186u, 62321u,
+    62456u, 62590u, 62724u, 62857u, 62991u, 63124u, 63256u, 63389u, 63521u, 63653u, 63785u, 63916u,
+    64047u, 64178u, 64309u, 64439u, 64569u, 64699u, 64828u, 64957u, 65086u, 65215u, 65344u, 65472u
+};
+
+static inline uint32_t isqrt32_floor(uint32_t n)
+{
+    uint32_t g = SQRT_SEED[(n >> 24) - 64u];
+    g = (g + n / g) >> 1;
+    if (g > 0xFFFFu) {
+        g = 0xFFFFu;
+    }
+    while (g * g > n) {
+        g--;
+    }
+    return g;
+}
+
 /*
  * round(sqrt(s)) for s <= 2^63, as uint32 (<= 3037000500); larger s are
  * outside its contract (the final check would overflow).
  *
  * s is normalised by an even shift 2k so that n = s·4^k has bit 63 or 62 set;
- * g = floor(sqrt(n >> 32)) comes from two Newton steps in 32 bits (hardware
- * division on a Cortex-M3), then one more Newton step on the remainder gives
+ * g = floor(sqrt(n >> 32)) comes from isqrt32_floor (a seed and a Newton step
+ * in 32 bits, hardware division on a Cortex-M3), then one more Newton step on the remainder gives
  * sqrt(n) to within a few units, and shifting back by k and a final check
  * against s in exact 64-bit arithmetic give the correctly rounded result.
  * num_hypot's root; num_sqrt takes the same steps in 32 bits (on a Cortex-M3
@@ -73,22 +112,8 @@ static uint32_t isqrt64_round(uint64_t s)
     const uint32_t hi = (uint32_t)(n >> 32); /* in [2^30, 2^32) */
     const uint32_t lo = (uint32_t)n;
 
-    /* sqrt(hi) in [2^15, 2^16): start from the chord 2^15·(m + 2)/3 with
-     * m = hi/2^30 in [1, 4), which is below √m by at most 6.07 % (at m = 2),
-     * lifted by 1/16 so that it is never below the root (and at most 6.25 %
-     * above); integer Newton steps from above stay >= floor(√hi), and two
-     * bring the 6.25 % down to 2e-6, i.e. to floor or floor + 1. */
-    uint32_t g = ((hi >> 15) + 65536u) / 3u;
-    g += g >> 4;
-    g = (g + hi / g) >> 1;
-    g = (g + hi / g) >> 1;
-    if (g > 0xFFFFu) {
-        g = 0xFFFFu;
-    }
-    while (g * g > hi) {
-        g--;
-    }
-    const uint32_t rem = hi - g * g; /* ≤ 2g < 2^17 */
+    const uint32_t g = isqrt32_floor(hi); /* floor(sqrt(hi)) in [2^15, 2^16) */
+    const uint32_t rem = hi - g * g;      /* ≤ 2g < 2^17 */
 
     /* sqrt(n) ≈ g·2^16 + (rem·2^32 + lo) / (2·g·2^16); the numerator below is
      * that over 2^17 and fits in 32 bits (rem·2^15 ≤ 2^32 − 2^16). */
@@ -120,8 +145,8 @@ num_t num_sqrt(num_t a)
     /* round(sqrt(s)) for s = a·2^16 < 2^47 (sqrt(a/2^16)·2^16 = sqrt(a·2^16):
      * at most 181.02·2^16, in range), in 32-bit arithmetic but for the final
      * check: isqrt64_round's steps for an s whose low 16 bits are zero.
-     * n = a·4^k lies in [2^30, 2^32); g = floor(sqrt(n)) from the chord and
-     * two Newton steps as there; then sqrt(n)·2^8 ≈ g·2^8 + rem·2^7/g to
+     * n = a·4^k lies in [2^30, 2^32); g = floor(sqrt(n)) (isqrt32_floor);
+     * then sqrt(n)·2^8 ≈ g·2^8 + rem·2^7/g to
      * within one unit (the tangent is above the root by at most
      * 2^8 rem²/(8 g³) <= 2^7/g < 2^-8, and the quotient is truncated), and
      * sqrt(s) = sqrt(n)·2^8 / 2^k, rounded. That is within one of
@@ -133,16 +158,7 @@ num_t num_sqrt(num_t a)
     const uint32_t u = (uint32_t)a;
     const unsigned k = clz32(u) >> 1; /* 0 … 15 */
     const uint32_t n = u << (2u * k);
-    uint32_t g = ((n >> 15) + 65536u) / 3u;
-    g += g >> 4;
-    g = (g + n / g) >> 1;
-    g = (g + n / g) >> 1;
-    if (g > 0xFFFFu) {
-        g = 0xFFFFu;
-    }
-    while (g * g > n) {
-        g--;
-    }
+    const uint32_t g = isqrt32_floor(n);
     const uint32_t rem = n - g * g; /* <= 2g < 2^17 */
     uint32_t r = (g << 8) + (rem << 7) / g;
     if (k > 0u) {
