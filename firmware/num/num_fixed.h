@@ -23,8 +23,8 @@
  *   measured and fall short: its sin/cos are off by up to 7.8e-3 (509 LSB)
  *   near ±π (the x^11 term of its series overflows Q16.16), its atan2 by
  *   1.0e-2 rad (a cubic), it has no hypot, and its sqrt, correctly rounded,
- *   takes over three times the instructions of num_sqrt on a Cortex-M3 (178
- *   against 51).
+ *   takes almost four times the instructions of num_sqrt on a Cortex-M3 (178
+ *   against 46).
  *   Figures: docs/numerics.md and docs/performance.md.
  *
  * libfixmath configuration (mk/numeric.mk, the same for every build):
