@@ -135,10 +135,12 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
 static inline bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
                               num_t still)
 {
-    const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
     num_t extra = fr->reach_add;
     num_t term = still;
-    if (ov > NUM_ZERO) {
+    /* ov = |w_x| + |w_y| > 0 exactly when the obstacle moves (a sum of two
+     * values >= 0 is 0 only when both are, in either mode): ov only then. */
+    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+        const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
         const num_t qw = num_add(fr->q1, ov);
         extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
                         num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
