@@ -96,11 +96,11 @@ static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constrain
 {
     const num_t dx = num_sub(fr->plx, o->o.x);
     const num_t dy = num_sub(fr->ply, o->o.y);
-    const num_t d2 = num_add(num_mul(dx, dx), num_mul(dy, dy));
+    const num_t d2 = num_sum_sq(dx, dy);
     *doomed = false;
     const num_t rho =
         num_add(num_add(o->d_s, CBF_LOOKAHEAD), brake_margin(fr, o, dx, dy, d2, doomed));
-    *h = num_sub(d2, num_mul(rho, rho));
+    *h = num_sub(d2, num_sq(rho));
     const num_t ax = num_add(dx, dx);
     const num_t ay = num_add(dy, dy);
     k->g1 = num_add(num_mul(ax, fr->c), num_mul(ay, fr->s));
@@ -132,13 +132,15 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
  * (q1 + ov)(T_b + (q1 + ov)/a_v) for a moving one. @p still is
  * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
  * computed once per command. */
-static bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
-                       num_t still)
+static inline bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                              num_t still)
 {
-    const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
     num_t extra = fr->reach_add;
     num_t term = still;
-    if (ov > NUM_ZERO) {
+    /* ov = |w_x| + |w_y| > 0 exactly when the obstacle moves (a sum of two
+     * values >= 0 is 0 only when both are, in either mode): ov only then. */
+    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+        const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
         const num_t qw = num_add(fr->q1, ov);
         extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
                         num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
@@ -198,8 +200,8 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
 
 /* The constraint of entry @p i into *k, unless it surely cannot bind
  * (slack_sure): then false. Computed once a step (the cache in cbf_t). */
-static bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist, num_t speed,
-                    num_t still, constraint_t *k)
+static inline bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist,
+                           num_t speed, num_t still, constraint_t *k)
 {
     if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;

@@ -123,7 +123,7 @@ static bool cpa_inside(look_t *lk, const sup_entry_t *e, num_t horizon, num_t ma
     num_t d2;
     oset_closest_approach(px, py, num_neg(vx), num_neg(vy), horizon, &t, &d2);
     const num_t r = num_add(e->d_s, margin);
-    return d2 < num_mul(r, r);
+    return d2 < num_sq(r);
 }
 
 /* Boundary distance of entry @p i: centre distance less its own D_s. */

@@ -2,32 +2,9 @@
 /* Geometry of the obstacle set for the "mstc" strategy (oset.h). */
 #include "ctrl/oset.h"
 
-/* Below this radius, dx² + dy² < 2 r² < 32768 cannot saturate Q16.16. */
-#define OSET_SQUARE_LIMIT NUM_C(128.0)
 /* Relative speeds below this are "no relative motion" [m/s]: t* is then 0.
  * Its square, 1e-4, is 6.6 Q16.16 steps: |v|² is never divided by 0. */
-#define OSET_MIN_SPEED    NUM_C(0.01)
-
-bool oset_within(num_t dx, num_t dy, num_t r)
-{
-    const num_t ax = num_abs(dx);
-    const num_t ay = num_abs(dy);
-    if (ax >= r || ay >= r) {
-        return false; /* also every r <= 0 */
-    }
-    if (r < OSET_SQUARE_LIMIT) {
-        return num_add(num_mul(dx, dx), num_mul(dy, dy)) < num_mul(r, r);
-    }
-    return num_hypot(dx, dy) < r;
-}
-
-num_t oset_distance(num_t dx, num_t dy)
-{
-    if (num_abs(dx) < OSET_SQUARE_LIMIT && num_abs(dy) < OSET_SQUARE_LIMIT) {
-        return num_sqrt(num_add(num_mul(dx, dx), num_mul(dy, dy)));
-    }
-    return num_hypot(dx, dy);
-}
+#define OSET_MIN_SPEED NUM_C(0.01)
 
 oset_link_t oset_link(const sup_entry_t *a, const sup_entry_t *b, num_t width)
 {
@@ -82,7 +59,7 @@ bool oset_closing(num_t dx, num_t dy, num_t vx, num_t vy)
 void oset_closest_approach(num_t px, num_t py, num_t vx, num_t vy, num_t horizon, num_t *t,
                            num_t *d2)
 {
-    const num_t v2 = num_add(num_mul(vx, vx), num_mul(vy, vy));
+    const num_t v2 = num_sum_sq(vx, vy);
     num_t ts = NUM_ZERO;
     if (v2 >= num_mul(OSET_MIN_SPEED, OSET_MIN_SPEED)) {
         /* t* = −p·v / |v|², in the past (< 0: receding) or beyond the horizon
@@ -95,5 +72,5 @@ void oset_closest_approach(num_t px, num_t py, num_t vx, num_t vy, num_t horizon
     const num_t cx = num_add(px, num_mul(vx, ts));
     const num_t cy = num_add(py, num_mul(vy, ts));
     *t = ts;
-    *d2 = num_add(num_mul(cx, cx), num_mul(cy, cy));
+    *d2 = num_sum_sq(cx, cy);
 }

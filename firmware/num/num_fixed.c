@@ -48,17 +48,57 @@ static inline int32_t q30_to_q16(int32_t a) { return (int32_t)(((int64_t)a + (1 
 
 /* ----------------------------------------------------------- square roots */
 
+/* floor(sqrt(n)) for n in [2^30, 2^32), in [2^15, 2^16): one integer Newton
+ * step from a seed by the top 8 bits of n (the table: sqrt of the middle of
+ * each of the 192 intervals [i·2^24, (i + 1)·2^24), i = 64 … 255, rounded),
+ * at most 128.5 from the root; the step then lands on floor or floor + 1
+ * (rarely + 2): from any start it is >= floor(sqrt(n)) (integer Newton from
+ * above or below), the clamp keeps that (floor(sqrt(n)) <= 0xFFFF), and the
+ * loop comes down to the floor exactly, whatever the seed. */
+static const uint16_t SQRT_SEED[192] = {
+    32896u, 33150u, 33402u, 33652u, 33900u, 34147u, 34392u, 34635u, 34876u, 35116u, 35354u, 35590u,
+    35825u, 36059u, 36291u, 36521u, 36750u, 36978u, 37204u, 37429u, 37652u, 37874u, 38095u, 38315u,
+    38533u, 38750u, 38966u, 39181u, 39394u, 39606u, 39818u, 40028u, 40237u, 40445u, 40652u, 40857u,
+    41062u, 41266u, 41469u, 41671u, 41871u, 42071u, 42270u, 42468u, 42665u, 42861u, 43057u, 43251u,
+    43445u, 43637u, 43829u, 44020u, 44210u, 44400u, 44588u, 44776u, 44963u, 45149u, 45334u, 45519u,
+    45703u, 45886u, 46069u, 46250u, 46431u, 46612u, 46791u, 46970u, 47149u, 47326u, 47503u, 47679u,
+    47855u, 48030u, 48204u, 48378u, 48551u, 48723u, 48895u, 49067u, 49237u, 49407u, 49577u, 49746u,
+    49914u, 50082u, 50249u, 50416u, 50582u, 50747u, 50912u, 51077u, 51241u, 51404u, 51567u, 51730u,
+    51892u, 52053u, 52214u, 52374u, 52534u, 52694u, 52853u, 53011u, 53169u, 53327u, 53484u, 53640u,
+    53797u, 53952u, 54108u, 54262u, 54417u, 54571u, 54724u, 54877u, 55030u, 55182u, 55334u, 55485u,
+    55636u, 55787u, 55937u, 56087u, 56236u, 56385u, 56534u, 56682u, 56830u, 56977u, 57124u, 57271u,
+    57417u, 57563u, 57709u, 57854u, 57999u, 58143u, 58287u, 58431u, 58574u, 58717u, 58860u, 59002u,
+    59144u, 59286u, 59427u, 59568u, 59709u, 59849u, 59989u, 60129u, 60268u, 60407u, 60546u, 60684u,
+    60822u, 60960u, 61098u, 61235u, 61372u, 61508u, 61644u, 61780u, 61916u, 62051u, 62186u, 62321u,
+    62456u, 62590u, 62724u, 62857u, 62991u, 63124u, 63256u, 63389u, 63521u, 63653u, 63785u, 63916u,
+    64047u, 64178u, 64309u, 64439u, 64569u, 64699u, 64828u, 64957u, 65086u, 65215u, 65344u, 65472u
+};
+
+static inline uint32_t isqrt32_floor(uint32_t n)
+{
+    uint32_t g = SQRT_SEED[(n >> 24) - 64u];
+    g = (g + n / g) >> 1;
+    if (g > 0xFFFFu) {
+        g = 0xFFFFu;
+    }
+    while (g * g > n) {
+        g--;
+    }
+    return g;
+}
+
 /*
  * round(sqrt(s)) for s <= 2^63, as uint32 (<= 3037000500); larger s are
  * outside its contract (the final check would overflow).
  *
  * s is normalised by an even shift 2k so that n = s·4^k has bit 63 or 62 set;
- * g = floor(sqrt(n >> 32)) comes from two Newton steps in 32 bits (hardware
- * division on a Cortex-M3), then one more Newton step on the remainder gives
- * sqrt(n) to within a few units, and shifting back by k and a final check
- * against s in exact 64-bit arithmetic give the correctly rounded result.
- * On a Cortex-M3 num_sqrt takes 92 instructions, libfixmath's bit-by-bit
- * fix16_sqrt 178 (docs/performance.md).
+ * g = floor(sqrt(n >> 32)) comes from isqrt32_floor (a seed and a Newton
+ * step in 32 bits, hardware division on a Cortex-M3), then one more Newton
+ * step on the remainder gives sqrt(n) to within a few units, and shifting
+ * back by k and a final check against s in exact 64-bit arithmetic give the
+ * correctly rounded result. num_hypot's root (86 instructions a num_hypot
+ * on a Cortex-M3); num_sqrt takes the same steps in 32 bits (46, where
+ * libfixmath's bit-by-bit fix16_sqrt takes 178: docs/performance.md).
  */
 static uint32_t isqrt64_round(uint64_t s)
 {
@@ -72,22 +112,8 @@ static uint32_t isqrt64_round(uint64_t s)
     const uint32_t hi = (uint32_t)(n >> 32); /* in [2^30, 2^32) */
     const uint32_t lo = (uint32_t)n;
 
-    /* sqrt(hi) in [2^15, 2^16): start from the chord 2^15·(m + 2)/3 with
-     * m = hi/2^30 in [1, 4), which is below √m by at most 6.07 % (at m = 2),
-     * lifted by 1/16 so that it is never below the root (and at most 6.25 %
-     * above); integer Newton steps from above stay >= floor(√hi), and two
-     * bring the 6.25 % down to 2e-6, i.e. to floor or floor + 1. */
-    uint32_t g = ((hi >> 15) + 65536u) / 3u;
-    g += g >> 4;
-    g = (g + hi / g) >> 1;
-    g = (g + hi / g) >> 1;
-    if (g > 0xFFFFu) {
-        g = 0xFFFFu;
-    }
-    while (g * g > hi) {
-        g--;
-    }
-    const uint32_t rem = hi - g * g; /* ≤ 2g < 2^17 */
+    const uint32_t g = isqrt32_floor(hi); /* floor(sqrt(hi)) in [2^15, 2^16) */
+    const uint32_t rem = hi - g * g;      /* ≤ 2g < 2^17 */
 
     /* sqrt(n) ≈ g·2^16 + (rem·2^32 + lo) / (2·g·2^16); the numerator below is
      * that over 2^17 and fits in 32 bits (rem·2^15 ≤ 2^32 − 2^16). */
@@ -99,13 +125,16 @@ static uint32_t isqrt64_round(uint64_t s)
     if (k > 0u) {
         r = (r + ((uint64_t)1 << (k - 1u))) >> k;
     }
-    while (r * r + r < s) {
-        r++;
+    /* sqrt(s) <= 3037000500 and r is within a few units of it: 32 bits, and
+     * q² + q < 2^64 (a 32×32-bit product where r² took a 64-bit one). */
+    uint32_t q = (uint32_t)r;
+    while ((uint64_t)q * q + q < s) {
+        q++;
     }
-    while (r > 0u && r * r - r >= s) {
-        r--;
+    while (q > 0u && (uint64_t)q * q - q >= s) {
+        q--;
     }
-    return (uint32_t)r;
+    return q;
 }
 
 num_t num_sqrt(num_t a)
@@ -113,8 +142,38 @@ num_t num_sqrt(num_t a)
     if (a <= 0) {
         return NUM_ZERO;
     }
-    /* sqrt(a/2^16)·2^16 = sqrt(a·2^16): at most 181.02·2^16, in range. */
-    return (num_t)isqrt64_round((uint64_t)(uint32_t)a << 16);
+    /* round(sqrt(s)) for s = a·2^16 < 2^47 (sqrt(a/2^16)·2^16 = sqrt(a·2^16):
+     * at most 181.02·2^16, in range), in 32-bit arithmetic but for the final
+     * check: isqrt64_round's steps for an s whose low 16 bits are zero.
+     * n = a·4^k lies in [2^30, 2^32); g = floor(sqrt(n)) (isqrt32_floor);
+     * then sqrt(n)·2^8 ≈ g·2^8 + rem·2^7/g to
+     * within one unit (the tangent is above the root by at most
+     * 2^8 rem²/(8 g³) <= 2^7/g < 2^-8, and the quotient is truncated), and
+     * sqrt(s) = sqrt(n)·2^8 / 2^k, rounded. That is within one of
+     * round(sqrt(s)), and one check each way against s, exact in 64 bits,
+     * makes it the r with r² − r < s <= r² + r: the same value as
+     * isqrt64_round(s) for every a (checked against it over all 2^31
+     * non-negative inputs when it was written). On a Cortex-M3 it takes
+     * half the instructions it took through isqrt64_round (92 -> 46). */
+    const uint32_t u = (uint32_t)a;
+    const unsigned k = clz32(u) >> 1; /* 0 … 15 */
+    const uint32_t n = u << (2u * k);
+    const uint32_t g = isqrt32_floor(n);
+    const uint32_t rem = n - g * g; /* <= 2g < 2^17 */
+    uint32_t r = (g << 8) + (rem << 7) / g;
+    if (k > 0u) {
+        r = (r + (1u << (k - 1u))) >> k;
+    }
+    const uint64_t s = (uint64_t)u << 16;
+    const uint64_t r2 = (uint64_t)r * r;
+    if (r2 + r < s) {
+        r++;
+    } else if (r2 - r >= s) {
+        r--;
+    } else {
+        /* r is the root */
+    }
+    return (num_t)r;
 }
 
 num_t num_hypot(num_t x, num_t y)
@@ -216,7 +275,7 @@ void num_sincos(num_t a, num_t *s, num_t *c)
  * from a 32/16 hardware division and at most two corrections (Knuth's
  * algorithm D; Hacker's Delight, divlu).
  */
-static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
+static inline uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
 {
     const uint32_t b = 65536u;
     const uint32_t vn1 = v >> 16;
@@ -244,6 +303,77 @@ static uint32_t udiv64_32(uint32_t u1, uint32_t u0, uint32_t v)
         }
     }
     return q1 * b + q0;
+}
+
+/*
+ * num_div: fix16_sdiv's result (deps/libfixmath/fix16.c, its fix16_div for
+ * processors with a 32-bit hardware division, rounding and overflow
+ * detection on) in closed form. With A = |a|, B = |b| as unsigned values
+ * (|INT32_MIN| = 2^31, as fix_abs gives it):
+ *
+ * - fix16_div forms the quotient Q in units of 2^-17 and returns
+ *   (Q + 1) >> 1 with the sign of a·b. For B >= 2^20 it first takes the
+ *   estimate q0 = floor(A / (floor(B/2^17) + 1)) and the remainder
+ *   A − floor(q0 B / 2^17), whose floor dropped e = (q0 B) mod 2^17; its
+ *   loop of 32-bit divisions then divides the remainder exactly (long
+ *   division, the divisor's factors of 16 shifted out alike), so
+ *   Q = q0 + floor((A 2^17 − q0 B + e) / B) = floor((A 2^17 + e) / B).
+ *   For B < 2^20 there is no estimate: e = 0.
+ * - Its overflow test fires on a digit whose place puts the quotient at
+ *   2^32 or beyond: for B >= 2^20, Q < 2^29 and it never does; for B < 2^20
+ *   exactly when Q >= 2^32 (the first digit, taken from the remainder
+ *   shifted left as far as it goes, is the one). Q = 2^32 − 1 passes the
+ *   test and (Q + 1) >> 1 = 2^31 becomes INT32_MIN, which fix16_div and then
+ *   fix16_sdiv read as an overflow too. fix16_sdiv saturates an overflow, and
+ *   b == 0, by the signs: NUM_MAX when a and b have the same sign (b = 0
+ *   counting as positive), NUM_MIN otherwise.
+ *
+ * So: saturate when b == 0 or Q >= 2^32 − 1, else ±((Q + 1) >> 1). Q by
+ * long division with 32-bit hardware divisions: the integer part
+ * q = floor(A / B) and its remainder r < B, then floor(r 2^17 / B) in one
+ * digit when B < 2^15, in two (12 and 5 bits) when B < 2^20, each digit's
+ * dividend below 2^32; for B >= 2^20, with e, from one 64/32 division
+ * (udiv64_32, the divisor normalised; there Q < 2^29). Checked against
+ * fix16_sdiv in tests/unit/test_num.c (edges and 10^6 pairs at every
+ * magnitude) and on 4·10^9 pairs when it was written.
+ */
+num_t num_div(num_t a, num_t b)
+{
+    const num_t saturated = (a ^ b) < 0 ? NUM_MIN : NUM_MAX;
+    if (b == 0) {
+        return saturated;
+    }
+    const uint32_t ua = uabs32(a);
+    const uint32_t ub = uabs32(b);
+    uint32_t q;
+    if (ub < (1u << 20)) {
+        const uint32_t q_int = ua / ub;
+        if (q_int >= (1u << 15)) {
+            return saturated; /* Q >= 2^32 */
+        }
+        const uint32_t r = ua - q_int * ub;
+        uint32_t low;
+        if (ub < (1u << 15)) {
+            low = (r << 17) / ub;
+        } else {
+            const uint32_t r12 = r << 12; /* < 2^32 */
+            const uint32_t d12 = r12 / ub;
+            low = (d12 << 5) + ((r12 - d12 * ub) << 5) / ub;
+        }
+        q = (q_int << 17) + low;
+        if (q == UINT32_MAX) {
+            return saturated; /* (Q + 1) >> 1 = 2^31 */
+        }
+    } else {
+        const uint32_t q0 = ua / ((ub >> 17) + 1u);
+        const uint32_t e = (q0 * ub) & 0x1FFFFu; /* the low 17 bits of the 64-bit product */
+        const unsigned sh = clz32(ub);           /* <= 11 */
+        /* (A 2^17 + e) 2^sh < 2^(49 + 11): its high word is below ub 2^sh. */
+        const uint64_t nn = (((uint64_t)ua << 17) + e) << sh;
+        q = udiv64_32((uint32_t)(nn >> 32), (uint32_t)nn, ub << sh);
+    }
+    const num_t m = (num_t)((q + 1u) >> 1); /* q < 2^32 − 1: m < 2^31 */
+    return (a ^ b) < 0 ? -m : m;
 }
 
 /* Coefficients of atan(t) ≈ t·(A1 + A3·t² + … + A13·t¹²) on [0, 1], in

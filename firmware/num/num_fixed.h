@@ -13,16 +13,18 @@
  * Who computes what (see docs/numerics.md for the measured errors, and
  * tools/numerics/ for the tool that measures them):
  * - add, sub, neg, abs, conversions, wrap: here and in num_fixed.c;
- * - div: libfixmath (fix16_sdiv: rounding, saturation), built from its
- *   source with the configuration below for the host and for every cross
- *   build alike, so both compute the same numbers;
+ * - div: num_fixed.c, the same bits as libfixmath's fix16_sdiv (rounding,
+ *   saturation) in closed form; libfixmath is built from its source with the
+ *   configuration below for the host and for every cross build alike, and is
+ *   the reference of num_mul and num_div in the tests;
  * - mul: here, inline, the same bits as libfixmath's fix16_smul (64-bit
  *   product, rounding, saturation) in that configuration;
  * - sqrt, hypot, sin, cos, atan2: num_fixed.c. libfixmath's versions were
  *   measured and fall short: its sin/cos are off by up to 7.8e-3 (509 LSB)
  *   near ±π (the x^11 term of its series overflows Q16.16), its atan2 by
  *   1.0e-2 rad (a cubic), it has no hypot, and its sqrt, correctly rounded,
- *   takes twice the instructions of num_sqrt on a Cortex-M3 (178 against 92).
+ *   takes almost four times the instructions of num_sqrt on a Cortex-M3 (178
+ *   against 46).
  *   Figures: docs/numerics.md and docs/performance.md.
  *
  * libfixmath configuration (mk/numeric.mk, the same for every build):
@@ -126,7 +128,7 @@ static inline num_t num_abs(num_t a) { return a < 0 ? num_neg(a) : a; }
 /* libfixmath (deps/libfixmath/fix16.c), declared here so that users of num.h
  * do not see its header, which is not clean under -Wconversion. num_fixed.c
  * includes fix16.h, so the compiler checks that these declarations match.
- * fix16_smul is the reference of num_mul in the tests. */
+ * They are the references of num_mul and num_div in the tests. */
 int32_t fix16_smul(int32_t inArg0, int32_t inArg1);
 int32_t fix16_sdiv(int32_t inArg0, int32_t inArg1);
 
@@ -159,14 +161,44 @@ static inline num_t num_mul(num_t a, num_t b)
     return (num_t)r;
 }
 
+/* a², rounded, unsaturated: (a² + 2^15) >> 16, at most 2^46. The product is
+ * never negative, so num_mul's rounding adds 2^15. */
+static inline uint64_t num_sq_wide(num_t a)
+{
+    return ((uint64_t)((int64_t)a * a) + UINT64_C(0x8000)) >> 16;
+}
+
+/** @brief a², the same bits as num_mul(a, a): only the upper saturation can
+ *         apply. */
+static inline num_t num_sq(num_t a)
+{
+    const uint64_t r = num_sq_wide(a);
+    return r > (uint64_t)INT32_MAX ? NUM_MAX : (num_t)r;
+}
+
 /**
- * @brief a / b, rounded to nearest (libfixmath fix16_sdiv), saturated to
- *        [NUM_MIN, NUM_MAX]. Error ≤ 0.56 LSB when in range (measured,
- *        docs/numerics.md: libfixmath's first estimate for |b| >= 16 costs a
- *        little over the 0.5 of rounding).
- *        b == 0 gives NUM_MAX for a >= 0 and NUM_MIN for a < 0.
+ * @brief x² + y², the same bits as num_add(num_mul(x, x), num_mul(y, y)):
+ *        both squares are >= 0, so saturating each and then their sum is
+ *        saturating the exact sum of the rounded squares once.
  */
-static inline num_t num_div(num_t a, num_t b) { return fix16_sdiv(a, b); }
+static inline num_t num_sum_sq(num_t x, num_t y)
+{
+    const uint64_t r = num_sq_wide(x) + num_sq_wide(y);
+    return r > (uint64_t)INT32_MAX ? NUM_MAX : (num_t)r;
+}
+
+/**
+ * @brief a / b, rounded to nearest as libfixmath's fix16_sdiv rounds,
+ *        saturated to [NUM_MIN, NUM_MAX]: the same bits as fix16_sdiv (in
+ *        the configuration of mk/numeric.mk) for every pair of inputs.
+ *        Error ≤ 0.56 LSB when in range (measured, docs/numerics.md:
+ *        libfixmath's first estimate for |b| >= 16 costs a little over the
+ *        0.5 of rounding). b == 0 gives NUM_MAX for a >= 0 and NUM_MIN for
+ *        a < 0. num_fixed.c derives the closed form it computes from
+ *        fix16_div's steps; on a Cortex-M3 it takes fewer instructions than
+ *        fix16_div's loop of 32-bit divisions.
+ */
+num_t num_div(num_t a, num_t b);
 
 /**
  * @brief Square root, rounded to nearest: error ≤ 0.5 LSB over the whole
@@ -216,8 +248,24 @@ static inline bool num_is_finite(num_t a)
     return true;
 }
 
-/** @brief num_is_finite(a) && num_abs(a) <= lim: |a| <= lim here. */
-static inline bool num_within(num_t a, num_t lim) { return num_abs(a) <= lim; }
+/**
+ * @brief num_is_finite(a) && num_abs(a) <= lim: |a| <= lim here.
+ *
+ * For 0 <= lim < NUM_MAX (every range check of the controllers: a constant
+ * lim folds the test away) it is −lim <= a <= lim (num_abs(NUM_MIN) =
+ * NUM_MAX > lim, and NUM_MIN < −lim), which is one unsigned comparison:
+ * a ↦ a + lim modulo 2^32 takes [−lim, lim] onto [0, 2 lim] and, as
+ * 2 lim < 2^32, every other a above it. The same result for every a and lim
+ * (checked over all 2^32 values of a for lim = 0, 1, NUM_MAX − 1, NUM_MAX,
+ * −1 and others when it was written).
+ */
+static inline bool num_within(num_t a, num_t lim)
+{
+    if (lim >= 0 && lim < NUM_MAX) {
+        return (uint32_t)a + (uint32_t)lim <= 2u * (uint32_t)lim;
+    }
+    return num_abs(a) <= lim;
+}
 
 /**
  * @brief Angle wrapped into (−π, π] as float mode does it: the result lies in

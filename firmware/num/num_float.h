@@ -35,6 +35,10 @@ static inline num_t num_add(num_t a, num_t b) { return a + b; }
 static inline num_t num_sub(num_t a, num_t b) { return a - b; }
 static inline num_t num_neg(num_t a) { return -a; }
 static inline num_t num_mul(num_t a, num_t b) { return a * b; }
+/** @brief a², as num_mul(a, a). */
+static inline num_t num_sq(num_t a) { return a * a; }
+/** @brief x² + y², as num_add(num_mul(x, x), num_mul(y, y)). */
+static inline num_t num_sum_sq(num_t x, num_t y) { return x * x + y * y; }
 /** @brief a / b; b == 0 gives ±inf or NaN: callers guard against it. */
 static inline num_t num_div(num_t a, num_t b) { return a / b; }
 static inline num_t num_abs(num_t a) { return fabsf(a); }

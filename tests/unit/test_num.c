@@ -473,6 +473,21 @@ static void test_num_fixed_add_sub_edges(void)
     TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MAX - 1));
     TEST_ASSERT_TRUE(num_within(-NUM_ONE, NUM_ONE));
     TEST_ASSERT_FALSE(num_within(NUM_ONE + 1, NUM_ONE));
+    /* num_within's one comparison (0 <= lim < NUM_MAX), at its edges: |a| =
+     * lim passes, lim + 1 does not, on either side; NUM_MIN never does;
+     * lim = 0 takes 0 alone; a negative lim takes nothing. */
+    TEST_ASSERT_FALSE(num_within(-NUM_ONE - 1, NUM_ONE));
+    TEST_ASSERT_TRUE(num_within(NUM_MAX - 1, NUM_MAX - 1));
+    TEST_ASSERT_TRUE(num_within(NUM_MIN + 2, NUM_MAX - 1));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN + 1, NUM_MAX - 1));
+    TEST_ASSERT_FALSE(num_within(NUM_MAX, NUM_MAX - 1));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MAX - 1));
+    TEST_ASSERT_TRUE(num_within(NUM_MIN + 1, NUM_MAX));
+    TEST_ASSERT_TRUE(num_within(0, 0));
+    TEST_ASSERT_FALSE(num_within(1, 0));
+    TEST_ASSERT_FALSE(num_within(-1, 0));
+    TEST_ASSERT_FALSE(num_within(0, -1));
+    TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MIN));
 }
 
 /* A xorshift64 generator: the same pseudo-random pairs on every run. */
@@ -534,6 +549,185 @@ static void test_num_fixed_mul_is_libfixmath_smul(void)
     }
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
+
+/* num_sq and num_sum_sq: the same bits as num_mul(a, a) and
+ * num_add(num_mul(x, x), num_mul(y, y)) (num_mul: libfixmath's fix16_smul,
+ * test above), and hand values: 2² = 4, (1 + 2^-16)² = 1 + 2^-15 (+ 2^-32,
+ * rounded away), 181² = 32761 in range, 182² saturates, as does
+ * 128² + 128². */
+static void test_num_fixed_squares_are_mul_and_add(void)
+{
+    TEST_ASSERT_EQUAL_INT32(4 * NUM_ONE, num_sq(2 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(4 * NUM_ONE, num_sq(-2 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_ONE + 2, num_sq(NUM_ONE + 1));
+    TEST_ASSERT_EQUAL_INT32(32761 * NUM_ONE, num_sq(181 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sq(182 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sq(NUM_MIN));
+    TEST_ASSERT_EQUAL_INT32(25 * NUM_ONE, num_sum_sq(3 * NUM_ONE, -4 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_sum_sq(128 * NUM_ONE, 128 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(0, num_sum_sq(0, 0));
+    uint64_t s = 7046029254386353131u;
+    unsigned long differ = 0;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t x = (int32_t)(uint32_t)r >> (k % 31u);
+        const int32_t y = (int32_t)(uint32_t)(r >> 32) >> ((k / 31u) % 31u);
+        differ += num_sq(x) != num_mul(x, x);
+        differ += num_sum_sq(x, y) != num_add(num_mul(x, x), num_mul(y, y));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* num_div is libfixmath's fix16_sdiv in closed form (num_fixed.c): the same
+ * bits for every pair (the reference is libfixmath itself, linked in fixed
+ * mode). The edges (0, ±1, the divisors where num_div changes method: 2^15,
+ * 2^20 and libfixmath's estimate, the extremes) ±3 codes each with each;
+ * quotients within a few codes of saturation; then random pairs with each
+ * operand shifted down to every magnitude. */
+static void test_num_fixed_div_is_libfixmath_sdiv(void)
+{
+    static const int32_t edge[] = { 0,         1,          16,        0x7FFF,      0x8000,
+                                    0x10000,   0xFFFFF,    0x100000,  0x1FFFF,     0x20000,
+                                    0x3FFFFFF, 0x40000000, INT32_MAX, -1,          -0x8000,
+                                    -0x10000,  -0x100000,  -0x20000,  -0x40000000, INT32_MIN };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    char msg[64];
+    unsigned long differ = 0;
+    for (size_t i = 0; i < n_edge; i++) {
+        for (size_t j = 0; j < n_edge; j++) {
+            for (uint32_t d = 0; d < 7u; d++) {
+                for (uint32_t f = 0; f < 7u; f++) {
+                    const int32_t a = (int32_t)((uint32_t)edge[i] + d - 3u);
+                    const int32_t b = (int32_t)((uint32_t)edge[j] + f - 3u);
+                    if (num_div(a, b) != fix16_sdiv(a, b) && differ++ == 0u) {
+                        snprintf(msg, sizeof msg, "a %ld b %ld", (long)a, (long)b);
+                        TEST_FAIL_MESSAGE(msg);
+                    }
+                }
+            }
+        }
+    }
+    uint64_t s = 1181783497276652981u;
+    for (int k = 0; k < 200000; k++) {
+        const uint64_t x = xorshift64(&s);
+        const int32_t b = ((int32_t)(uint32_t)x >> (x >> 59)) | 1;
+        /* a = q b / 2^16 for a quotient q within 2^8 codes of ±NUM_MAX. */
+        const int64_t q = (INT32_MAX - (int64_t)((x >> 32) & 0xFFu)) * ((x & 2u) != 0u ? 1 : -1);
+        const int64_t a = (q * b) / 65536;
+        for (int64_t d = -2; d <= 2; d++) {
+            if (a + d >= INT32_MIN && a + d <= INT32_MAX) {
+                differ += num_div((int32_t)(a + d), b) != fix16_sdiv((int32_t)(a + d), b);
+            }
+        }
+    }
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t x = xorshift64(&s);
+        const int32_t a = (int32_t)(uint32_t)x >> (k % 31u);
+        const int32_t b = (int32_t)(uint32_t)(x >> 32) >> ((k / 31u) % 31u);
+        differ += num_div(a, b) != fix16_sdiv(a, b);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* round(sqrt(s)) for s < 2^64 the slow, plain way, independent of
+ * num_fixed.c: the floor root bit by bit (restoring, one result bit per
+ * step), then up by one when s − f² > f: s and f² are integers, so that is
+ * s − f² >= f + 1 > f + 1/4, i.e. s > (f + 1/2)² (never a tie). */
+static uint32_t ref_sqrt_round(uint64_t s)
+{
+    uint64_t rem = s;
+    uint64_t root = 0;
+    for (uint64_t bit = UINT64_C(1) << 62; bit != 0u; bit >>= 2) {
+        if (rem >= root + bit) {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+    }
+    return (uint32_t)(rem > root ? root + 1u : root);
+}
+
+/* num_sqrt(a) = round(sqrt(a·2^16)), correctly rounded (num_fixed.h), against
+ * the bit-by-bit reference: the edges (1, the codes around every power of
+ * two, perfect squares, the codes at which the rounding turns,
+ * s = r² ± r, and INT32_MAX), then random codes at every magnitude. */
+static void test_num_fixed_sqrt_is_correctly_rounded(void)
+{
+    char msg[64];
+    unsigned long differ = 0;
+    for (uint32_t e = 0; e < 31u; e++) {
+        for (int32_t d = -2; d <= 2; d++) {
+            const int64_t a = ((int64_t)1 << e) + d;
+            if (a > 0 && a <= INT32_MAX) {
+                differ += (uint32_t)num_sqrt((num_t)a) != ref_sqrt_round((uint64_t)a << 16);
+            }
+        }
+    }
+    /* a·2^16 = r² ± r and ± 1 around it: a = (r² ± r)/2^16 for r a multiple of
+     * 256 (then r² ± r is not a multiple of 2^16; take the codes either side). */
+    for (uint32_t r = 256u; r < 11863283u; r += 256u * 97u) {
+        const uint64_t r2 = (uint64_t)r * r;
+        const uint64_t turns[] = { r2 - r, r2 + r, r2 };
+        for (size_t i = 0; i < 3u; i++) {
+            for (int32_t d = -1; d <= 1; d++) {
+                const int64_t a = (int64_t)(turns[i] >> 16) + d;
+                if (a > 0 && a <= INT32_MAX) {
+                    const uint32_t got = (uint32_t)num_sqrt((num_t)a);
+                    const uint32_t want = ref_sqrt_round((uint64_t)a << 16);
+                    if (got != want && differ++ == 0u) {
+                        snprintf(msg, sizeof msg, "a %lld: %lu, not %lu", (long long)a,
+                                 (unsigned long)got, (unsigned long)want);
+                        TEST_FAIL_MESSAGE(msg);
+                    }
+                }
+            }
+        }
+    }
+    differ += (uint32_t)num_sqrt(NUM_MAX) != ref_sqrt_round((uint64_t)NUM_MAX << 16);
+    TEST_ASSERT_EQUAL_UINT32(11863283u, (uint32_t)num_sqrt(NUM_MAX)); /* 181.02·2^16 */
+    TEST_ASSERT_EQUAL_INT32(256, num_sqrt(1));                        /* sqrt(2^16) */
+    TEST_ASSERT_EQUAL_INT32(NUM_ONE, num_sqrt(NUM_ONE));              /* 1 */
+    TEST_ASSERT_EQUAL_INT32(2 * NUM_ONE, num_sqrt(4 * NUM_ONE));
+    uint64_t s = 2463534242u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const int32_t a = (int32_t)((uint32_t)xorshift64(&s) >> 1 >> (k % 31u));
+        if (a > 0) {
+            differ += (uint32_t)num_sqrt(a) != ref_sqrt_round((uint64_t)a << 16);
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* num_hypot(x, y) = round(sqrt(x² + y²)) from the exact 64-bit sum,
+ * saturated (num_fixed.h), against the bit-by-bit reference: the extremes,
+ * then random pairs at every magnitude. */
+static void test_num_fixed_hypot_is_correctly_rounded(void)
+{
+    static const int32_t edge[] = { 0, 1, -1, 0x8000, 0x10000, 23170 << 16, INT32_MAX, INT32_MIN };
+    unsigned long differ = 0;
+    uint64_t s = 1442695040888963407u;
+    for (unsigned k = 0; k < 1000064u; k++) {
+        int32_t x;
+        int32_t y;
+        if (k < 64u) {
+            x = edge[k % 8u];
+            y = edge[k / 8u];
+        } else {
+            const uint64_t r = xorshift64(&s);
+            x = (int32_t)(uint32_t)r >> (k % 32u);
+            y = (int32_t)(uint32_t)(r >> 32) >> ((k / 32u) % 32u);
+        }
+        const uint64_t ax = x < 0 ? 0u - (uint64_t)(int64_t)x : (uint64_t)x;
+        const uint64_t ay = y < 0 ? 0u - (uint64_t)(int64_t)y : (uint64_t)y;
+        const uint32_t want = ref_sqrt_round(ax * ax + ay * ay);
+        const num_t expected = want > (uint32_t)INT32_MAX ? NUM_MAX : (num_t)want;
+        differ += num_hypot(x, y) != expected;
+    }
+    TEST_ASSERT_EQUAL_INT32(5 * NUM_ONE, num_hypot(3 * NUM_ONE, -4 * NUM_ONE));
+    TEST_ASSERT_EQUAL_INT32(NUM_MAX, num_hypot(INT32_MIN, INT32_MIN));
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
 #endif
 
 int main(void)
@@ -566,6 +760,10 @@ int main(void)
     RUN_TEST(test_num_fixed_overflow_saturates);
     RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
+    RUN_TEST(test_num_fixed_squares_are_mul_and_add);
+    RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
+    RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
+    RUN_TEST(test_num_fixed_hypot_is_correctly_rounded);
 #endif
     return UNITY_END();
 }

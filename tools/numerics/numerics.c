@@ -144,7 +144,7 @@ static void measure_mul(void)
 
 static void measure_div(void)
 {
-    stat_t *s = row("num_div", "libfixmath fix16_sdiv", "a, b log-uniform, |a/b| < 32768",
+    stat_t *s = row("num_div", "fix16_sdiv's bits, num_fixed.c", "a, b log-uniform, |a/b| < 32768",
                     "rounded quotient");
     rng_seed(2);
     while (s->n < N_RANDOM) {
@@ -160,7 +160,7 @@ static void measure_div(void)
 
 static void measure_sqrt(void)
 {
-    stat_t *s = row("num_sqrt", "num_fixed.c (64-bit integer root)",
+    stat_t *s = row("num_sqrt", "num_fixed.c (integer root)",
                     "every code in (0, 16]; every 61st code up to 32768", "");
     stat_t *l = row("sqrt", "libfixmath fix16_sqrt (not used)", "the same", "");
     stat_t *f = row("sqrt", "float mode: sqrtf (reference)", "the same", "");
@@ -482,7 +482,7 @@ int main(void)
            "x + |y| overflows for large vectors.\n",
            fa->max_err, fa->max_err / LSB);
     printf("- sqrt: correctly rounded, but bit by bit, which takes more instructions than "
-           "num_sqrt's Newton steps on a Cortex-M3 (docs/performance.md); and there is no "
+           "num_sqrt's seed and Newton step on a Cortex-M3 (docs/performance.md); and there is no "
            "hypot, while squaring in Q16.16 overflows beyond 181.\n\n");
     printf("The polynomial of num_atan2 comes from `tools/numerics/fit-atan`.\n");
     return 0;
