@@ -95,12 +95,16 @@ MEASURED_COLUMNS = ("step_us",)
 column is the same for the same scenes, strategies and library."""
 ENGINES = ("batched", "scene")
 """What --engine takes (the module's docstring)."""
-BATCH = 1000
+BATCH = 4000
 """Most runs (scene and strategy) of one batch of the batched engine (--batch). Its cost per
-scene-step falls with the batch's size, as numpy's cost per call is spread
-over more scenes: on the standard suite's families, under "mstc" with ideal
-wheels, 1,000 gave 20 % more scene-steps per CPU-second than 500, and 2,000
-1 % more than 1,000 (a batch holds a few kB a scene)."""
+scene-step falls with the batch's size, as numpy's cost per call (some 230 µs a
+step of the batch, whatever its size) is spread over more scenes: on the
+standard suite's families, under "mstc" with ideal wheels, 2,000 scenes a
+family in batches of 1,000, 2,000 took turns and gave a median of 901,000 and
+991,000 scene-steps per CPU-second; 4,000 a family in batches of 2,000 and
+4,000, 985,000 and 1,077,000; in batches of 1,000 and 4,000 (another run),
+821,000 and 906,000. A batch holds 10 kB a scene (23 kB with noise: its draws
+are made 128 steps at a time), 39 to 91 MiB at 4,000."""
 
 
 @dataclass(frozen=True, slots=True)
