@@ -84,6 +84,8 @@ class BatchStep:
     dy: np.ndarray
     mode: np.ndarray
     """The firmware's mode number of this step."""
+    faults: np.ndarray
+    """The firmware's status bits of this step (:class:`mstc.model.Fault`)."""
     w: np.ndarray
     """Commanded body ω of this step [rad/s] (the trace's ``w``)."""
     events: Sequence[tuple[int, tuple[Event, ...]]]
@@ -138,7 +140,7 @@ def simulate_batch(
     reported = inputs["reported"][:, :width]
     outputs = controller.outputs
     out_left, out_right = outputs["wheel_left"], outputs["wheel_right"]
-    out_mode, out_events = outputs["mode"], outputs["n_events"]
+    out_mode, out_events, out_faults = outputs["mode"], outputs["n_events"], outputs["faults"]
     wheels = world.actuator
     speeds = given["wheel_speed"]
     if wheels is not None:  # their drivers report speeds from the first step on (0 at t = 0)
@@ -201,7 +203,20 @@ def simulate_batch(
         if watch is not None:
             watch(
                 BatchStep(
-                    k, t, active, x, y, world.x_r, world.y_r, d2, dx, dy, out_mode, w, emitted
+                    k,
+                    t,
+                    active,
+                    x,
+                    y,
+                    world.x_r,
+                    world.y_r,
+                    d2,
+                    dx,
+                    dy,
+                    out_mode,
+                    out_faults,
+                    w,
+                    emitted,
                 )
             )
         if k < last:
