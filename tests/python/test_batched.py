@@ -36,12 +36,12 @@ from mstc.errors import FirmwareError
 from mstc.firmware.sil import SilBatch, SilController
 from mstc.loop.batched import BatchStep, simulate_batch
 from mstc.loop.lockstep import simulate
-from mstc.loop.result import RunResult, Trace
+from mstc.loop.result import RunResult
 from mstc.model import Obstacle, Pose, Strategy, wrap_angle
 from mstc.plant.batch import BatchActuator, BatchWorld, wrap
 from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
 from mstc.plant.world import make_world
-from mstc.sweep import engine, metrics
+from mstc.sweep import engine
 from mstc.sweep.engine import MEASURED_COLUMNS, Job, Scene, run_batch
 from mstc.sweep.suite import IDEAL, load_suite, scene_text
 
@@ -159,33 +159,6 @@ def test_the_engines_agree_on_every_family_under_every_actuator_profile(
         != {**rows[(name.replace("-gearmotor", ""), strategy)], "scene": "", "actuator": ""}
     ]
     assert len(changed) > len(jobs) // 6
-
-
-def test_the_engines_agree_where_the_filter_decides_a_rejoin(
-    any_lib: str, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    # Circular references under "sluggish" wheels, scenes whose robot comes
-    # back on its reference and then brakes for the obstacle of its next
-    # lap before it is within that obstacle's D_act: the rejoin rule that
-    # holds a pass back to the safety filter's step (mstc.sweep.metrics),
-    # kept per step by the batched engine and judged on the whole trace by
-    # the per-scene one, must give the same rows.
-    suite = load_suite(STANDARD)
-    family = next(f for f in suite.families if f.name == "circle")
-    profile = next(a for a in suite.actuators if a.name == "sluggish")
-    jobs: list[Job] = []
-    for i in (19, 26, 32):
-        stem = suite.scene_name(family, i, profile)
-        scene = Scene(stem, stem, scene_text(suite, family, i, actuator=profile), "circle")
-        jobs.append((scene, "mstc"))
-    assert _differences(jobs, any_lib) == []
-    # The rule decided them: without the filter's bit each run failed a pass.
-    held = [o.row["rejoined"] for o in run_batch(jobs, any_lib, "batched")]
-    monkeypatch.setattr(metrics, "_FILTER", 0)
-    monkeypatch.setattr(Trace, "filtered", property(lambda t: np.zeros(len(t.values), bool)))
-    assert [o.row["rejoined"] for o in run_batch(jobs, any_lib, "batched")] == ["0"] * 3
-    assert [o.row["rejoined"] for o in run_batch(jobs, any_lib, "scene")] == ["0"] * 3
-    assert held == ["1"] * 3
 
 
 @pytest.mark.parametrize("plant", ["max_accel 0.1 % higher", "encoders unquantised"])

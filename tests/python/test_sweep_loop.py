@@ -26,18 +26,16 @@ R, L = 0.05, 0.3  # wheel radius, track width (Table 1)
 
 class Scripted:
     """A controller that commands body velocity (v, ω) from a function of the
-    step, reports the mode @p mode and the status bits @p faults give for the
-    step (tracking, none by default), and records what it was given."""
+    step, reports the mode @p mode gives for the step (tracking by default),
+    and records what it was given."""
 
     def __init__(
         self,
         command: Callable[[int], tuple[float, float]],
         mode: Callable[[int], Mode] = lambda k: Mode.TRACK,
-        faults: Callable[[int], Fault] = lambda k: Fault(0),
     ) -> None:
         self.command = command
         self.mode = mode
-        self.faults = faults
         self.k = 0
         self.seen: list[tuple[Pose, tuple[Obstacle, ...]]] = []
 
@@ -52,11 +50,11 @@ class Scripted:
         wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         v, w = self.command(self.k)
-        mode, faults = self.mode(self.k), self.faults(self.k)
+        mode = self.mode(self.k)
         self.k += 1
         self.seen.append((robot, tuple(obstacles)))
         left, right = (v - w * L / 2) / R, (v + w * L / 2) / R
-        status = Status(mode, 0, None, faults, 0.0, 0.0, 0.0, 0.0, v, w)
+        status = Status(mode, 0, None, Fault(0), 0.0, 0.0, 0.0, 0.0, v, w)
         return StepResult(left, right, status, ())
 
 
@@ -232,47 +230,6 @@ def test_rejoin_is_judged_on_every_pass(
     assert m.rejoined is want and not m.blocked
     behind = 0.25 * (2 - len(catch_up_after))
     assert m.final_error == pytest.approx(behind, abs=1e-9)
-
-
-@pytest.mark.parametrize(
-    ("catch_up", "filtered", "want"),
-    [
-        (True, range(1250, 1300), True),
-        (True, (), False),
-        (False, range(1250, 1300), False),
-        (True, (160,), False),
-    ],
-)
-def test_a_pass_is_back_until_the_filter_acts_for_the_next_obstacle(
-    write_scenario: WriteScenario, catch_up: bool, filtered: Sequence[int], want: bool
-) -> None:
-    # No obstacle. The controller reports avoiding at steps 100-149 and
-    # 1300-1349, running at 0.25 m/s there (0.005 m behind the 0.5 m/s
-    # reference a step: 0.25 m at step 150). It catches up at 0.75 m/s over
-    # steps 150-199 (back to error 0 at step 200, t = 4 s, within 10 s of the
-    # pass's start at 2.98 s) or never. Before the second spell it slows to
-    # 0.25 m/s from step 1250 on, as a robot braking for the obstacle ahead
-    # does: the error is (k - 1250) · 0.005 ≥ 0.05 m from step 1260, so the
-    # pass (steps 150-1299, 23 s) does not end under 0.05 m. Held back to
-    # a step at which the safety filter acted (the FILTER bit) while the
-    # robot was back, it is back; without that bit, or with the filter
-    # acting only while the robot was still catching up (step 160: 0.2 m
-    # behind), or a robot that never caught up, it failed. The last pass
-    # (from 26.98 s, 3 s to the end) cannot tell.
-    def speed(k: int) -> tuple[float, float]:
-        if 100 <= k < 150 or 1250 <= k < 1350:
-            return (0.25, 0.0)
-        return (0.75, 0.0) if catch_up and 150 <= k < 200 else (0.5, 0.0)
-
-    def busy(k: int) -> Mode:
-        return Mode.AVOID if 100 <= k < 150 or 1300 <= k < 1350 else Mode.TRACK
-
-    def faults(k: int) -> Fault:
-        return Fault.FILTER if k in filtered else Fault(0)
-
-    s = load_scenario(scene(write_scenario, duration=30.0), wire_limits())
-    m = evaluate(simulate(s, Scripted(speed, busy, faults)))
-    assert m.rejoined is want
 
 
 def test_moving_obstacle_distance_is_measured_at_the_same_step(
