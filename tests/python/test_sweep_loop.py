@@ -6,6 +6,7 @@ A scripted controller commands fixed wheel speeds, so every position, length
 and integral below follows from v, ω and dt alone.
 """
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -16,7 +17,7 @@ import pytest
 from mstc.can.protocol import wire_limits
 from mstc.errors import SimulationError
 from mstc.loop.lockstep import simulate
-from mstc.model import Fault, Mode, Obstacle, Pose, Status, StepResult
+from mstc.model import Event, EventKind, Fault, Mode, Obstacle, Pose, Side, Status, StepResult
 from mstc.plant.scenario import load_scenario
 from mstc.sweep.metrics import evaluate
 
@@ -230,6 +231,36 @@ def test_rejoin_is_judged_on_every_pass(
     assert m.rejoined is want and not m.blocked
     behind = 0.25 * (2 - len(catch_up_after))
     assert m.final_error == pytest.approx(behind, abs=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("activations", "want"),
+    [((400, 450, 1100, 1150), 2), ((400, 450, 500, 1100), 3), ((400, 450, 600), 3)],
+)
+def test_activations_count_per_encounter(
+    write_scenario: WriteScenario, activations: tuple[int, ...], want: int
+) -> None:
+    # The robot runs +x at 0.5 m/s (0.01 m a step) to x = 8 m at step 800,
+    # then back at −0.5 m/s; the obstacle at (5, 1) is within D_act + 1 m =
+    # 1.5 m of it while |x − 5| < sqrt(1.5² − 1²) = 1.118 m: steps 389-611 on
+    # the way out, 989-1211 on the way back. Activations at steps 400 and
+    # 450 (x = 4, 4.5) and 1100, 1150 (x = 5, 4.5 on the way back) are two
+    # encounters of two (the robot was 3.16 m away at step 800 in between);
+    # a third at step 500 (x = 5) or 600 (x = 6: 1.41 m, never beyond 1.5 m
+    # since step 450) counts with the first two.
+    class Activating(Scripted):
+        def step(self, *args: object, **kwargs: object) -> StepResult:
+            k = self.k
+            result = super().step(*args, **kwargs)  # type: ignore[arg-type]
+            if k not in activations:
+                return result
+            event = Event(k * 20000, EventKind.ACTIVATE, 1, Side.LEFT)
+            return dataclasses.replace(result, events=(event,))
+
+    path = scene(write_scenario, obstacles=[{"position": [5.0, 1.0]}], duration=30.0, name="enc")
+    ctl = Activating(lambda k: (0.5 if k < 800 else -0.5, 0.0))
+    m = evaluate(simulate(load_scenario(path, wire_limits()), ctl))
+    assert m.max_activations == want
 
 
 def test_moving_obstacle_distance_is_measured_at_the_same_step(

@@ -68,6 +68,11 @@ REJOIN_WINDOW = 10.0
 """Time after the last obstacle within which it must be back [s]."""
 _BUSY = (Mode.AVOID, Mode.BLOCKED)
 """Modes in which the controller is busy with an obstacle (t_last)."""
+ENCOUNTER_REACH = 1.0
+"""Two activations of an obstacle belong to one encounter unless the robot
+was farther than its D_act + this from it in between [m]: beyond the reach
+of any activation of the firmware ("mstc" activates a moving obstacle from
+D_act + 1 m + its braking distance on)."""
 BLOCKED_WINDOW = 5.0
 """The end of the run that decides whether the robot is blocked [s]."""
 BLOCKED_SHARE = 0.1
@@ -99,7 +104,7 @@ class Metrics:
     """∫|ω|dt [rad]."""
     switches: int
     max_activations: int
-    """Most activate events of one obstacle."""
+    """Most activate events of one obstacle in one encounter (most_activations)."""
     infeasible: bool
     """An ``infeasible`` event was reported."""
     contact_reported: bool
@@ -201,20 +206,49 @@ def evaluate(result: RunResult) -> Metrics:
         path_ratio=_path_length(x, y) / ref_length if ref_length > 0.0 else math.nan,
         int_abs_w=_in_order(np.abs(trace["w"][:-1])) * dt,
         switches=switches,
-        max_activations=most_activations(result.events),
+        max_activations=most_activations(
+            result.events,
+            scenario,
+            trace.distance,
+            np.array([e.t_us for e in result.events], dtype=np.int64) // max(1, scenario.sim.dt_us),
+        ),
         infeasible=bool(reports),
         contact_reported=contact_reported,
         step_us=result.step_time * 1e6,
     )
 
 
-def most_activations(events: tuple[Event, ...]) -> int:
-    """The most activate events of one obstacle."""
-    activations: dict[int, int] = {}
-    for e in events:
-        if e.kind is EventKind.ACTIVATE:
-            activations[e.obstacle] = activations.get(e.obstacle, 0) + 1
-    return max(activations.values(), default=0)
+def encounter_reach(scenario: Scenario) -> np.ndarray:
+    """Each obstacle's D_act + ENCOUNTER_REACH [m], in the scenario's order."""
+    p = scenario.params
+    return np.array([p.activation_distance(o.radius) + ENCOUNTER_REACH for o in scenario.obstacles])
+
+
+def most_activations(
+    events: tuple[Event, ...], scenario: Scenario, distance: np.ndarray, steps: np.ndarray
+) -> int:
+    """The most activate events of one obstacle in one encounter: activations
+    of an obstacle count together unless, at a step from one to the step
+    before the next, the robot was farther than encounter_reach() from it.
+
+    :param distance: (N+1, obstacles) the centre distances of each step.
+    :param steps: the step of each event of @p events.
+    """
+    column = {o.id: j for j, o in enumerate(scenario.obstacles)}
+    far = distance > encounter_reach(scenario)
+    last: dict[int, int] = {}
+    count: dict[int, int] = {}
+    most = 0
+    for e, k in zip(events, steps.tolist(), strict=True):
+        if e.kind is not EventKind.ACTIVATE or e.obstacle not in column:
+            continue
+        j = column[e.obstacle]
+        before = last.get(j)
+        again = before is not None and not far[before:k, j].any()
+        count[j] = count[j] + 1 if again else 1
+        last[j] = k
+        most = max(most, count[j])
+    return most
 
 
 class RunningMetrics:
@@ -249,6 +283,19 @@ class RunningMetrics:
         """Within R_m + r of an obstacle: a contact (:func:`evaluate`'s
         clearance below 0, up to a distance of exactly R_m + r)."""
         self._first_touch = np.full(n, -1, dtype=np.int64)
+        reach = np.full((n, width), -1.0)  # the padding: never within, never activated
+        for i, s in enumerate(scenarios):
+            reach[i, : len(s.obstacles)] = encounter_reach(s)
+        self._reach = Within(reach)
+        """Within encounter_reach() of an obstacle (most_activations)."""
+        self._column = [{o.id: j for j, o in enumerate(s.obstacles)} for s in scenarios]
+        self._activated = np.zeros((n, width), dtype=bool)
+        self._away = np.zeros((n, width), dtype=bool)
+        """Beyond encounter_reach() at a step since the obstacle's last activation."""
+        self._count = np.zeros((n, width), dtype=np.int64)
+        self._most = np.zeros(n, dtype=np.int64)
+        self._watching = False
+        """An obstacle of the batch was activated: its encounters are watched."""
         top = max(modes) + 1
         self._busy_mode = np.zeros(top, dtype=bool)
         self._avoid_mode = np.zeros(top, dtype=np.int64)
@@ -294,6 +341,23 @@ class RunningMetrics:
         t: np.ndarray = k * self.dt_us[rows] / 1e6
         return t
 
+    def _encounters(self, s: BatchStep) -> None:
+        """Count this step's activations per encounter, then note which
+        obstacles the robot is beyond encounter_reach() of (most_activations)."""
+        for i, emitted in s.events:
+            for e in emitted:
+                j = self._column[i].get(e.obstacle) if e.kind is EventKind.ACTIVATE else None
+                if j is None:
+                    continue
+                again = self._activated[i, j] and not self._away[i, j]
+                self._count[i, j] = self._count[i, j] + 1 if again else 1
+                self._activated[i, j] = True
+                self._away[i, j] = False
+                self._most[i] = max(self._most[i], self._count[i, j])
+                self._watching = True
+        if self._watching:
+            self._away |= ~self._reach(s.distance2, s.dx, s.dy)
+
     def _close(self, rows: np.ndarray, b: int) -> None:
         """Judge the passes of @p rows, which end at step @p b (_rejoined)."""
         if not len(rows):
@@ -317,6 +381,7 @@ class RunningMetrics:
             touched &= active
         if touched.any():
             np.copyto(self._first_touch, k, where=touched & (self._first_touch < 0))
+        self._encounters(s)
         mode = s.mode
         busy = near | self._busy_mode[mode]
         if not uniform:
@@ -434,7 +499,7 @@ class RunningMetrics:
             path_ratio=float(self._path[i]) / ref_length if ref_length > 0.0 else math.nan,
             int_abs_w=float(self._abs_w[i]) * dt,
             switches=int(self._switches[i]),
-            max_activations=most_activations(run.events),
+            max_activations=int(self._most[i]),
             infeasible=bool(reports),
             contact_reported=contact_reported,
             step_us=run.step_time * 1e6,
