@@ -391,6 +391,19 @@ static void find_cluster(msw_t *m, const sup_t *s)
     m->offset = num_max(m->offset, MSW_FOLLOW_OFFSET);
 }
 
+/* An obstacle the robot is beyond any activation's reach of (candidate())
+ * has been left: its count of activations starts again, so that a robot on a
+ * circular reference meets it afresh on its next lap. */
+static void forget_left(msw_t *m, const sup_t *s, const msw_input_t *in)
+{
+    for (uint8_t i = 0; i < s->n_obs; i++) {
+        if (m->acts[i] != 0u &&
+            in->dist[i] >= num_add(num_add(s->obs[i].d_act, MSW_CPA_REACH), in->reach)) {
+            m->acts[i] = 0u;
+        }
+    }
+}
+
 static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
                      sup_event_t *events, size_t *n_ev)
 {
@@ -435,6 +448,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             /* keep avoiding */
         }
     } else {
+        forget_left(m, s, in);
         const int i = candidate(m, s, &lk, 0u);
         if (i >= 0) {
             activate(m, s, in, (uint8_t)i, events, n_events);

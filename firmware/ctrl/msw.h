@@ -16,7 +16,9 @@
  *   within MSW_CPA_HORIZON comes inside D_s + MSW_CPA_MARGIN; whatever the
  *   reference does (no p1 here). Its cluster (oset_cluster()) is gone around
  *   on one side, chosen once (msw_choose_side()) and held. At most
- *   MSW_MAX_ACTIVATIONS activations per obstacle in a run.
+ *   MSW_MAX_ACTIVATIONS activations per obstacle and encounter: the count
+ *   starts again once the robot, tracking, is beyond D_act + MSW_CPA_REACH +
+ *   reach of it (out of any activation's reach).
  * - **Avoidance**: the avoidance law follows the member of the cluster
  *   nearest from the robot or just ahead of it, on a circle MSW_FOLLOW_OFFSET
  *   beyond its D_s (moving with it), or, when the cluster has gaps, half the
@@ -61,7 +63,7 @@
 #define MSW_FOLLOW_OFFSET   NUM_C(0.06) /**< circle followed: D_s + this [m] */
 #define MSW_FOLLOW_AHEAD    NUM_C(0.25) /**< member chosen from this far ahead too [m] */
 #define MSW_FILL_MARGIN     NUM_C(0.02) /**< gapped cluster: circles overlap by [m] */
-#define MSW_MAX_ACTIVATIONS 2u          /**< per obstacle and run */
+#define MSW_MAX_ACTIVATIONS 2u          /**< per obstacle and encounter */
 #define MSW_CPA_HORIZON     NUM_C(3.0)  /**< closest-approach horizon [s] */
 #define MSW_CPA_MARGIN      NUM_C(0.05) /**< closest approach below D_s + this activates [m] */
 #define MSW_CPA_REACH       NUM_C(1.0)  /**< ... when within D_act + this [m] */
@@ -99,7 +101,7 @@ typedef struct {
     num_t last_theta;                /**< heading at the previous step [rad] */
     num_t mark_x, mark_y;            /**< where the robot last made progress [m] */
     uint64_t t_mark_us;              /**< when */
-    uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index */
+    uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index, this encounter */
     /** Scratch of msw_step(): the tracking command's roll-out, written when a
      *  step first needs it (here rather than on the stack, where clearing
      *  it each step cost a memset). */

@@ -6,6 +6,7 @@ A scripted controller commands fixed wheel speeds, so every position, length
 and integral below follows from v, ω and dt alone.
 """
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -16,7 +17,7 @@ import pytest
 from mstc.can.protocol import wire_limits
 from mstc.errors import SimulationError
 from mstc.loop.lockstep import simulate
-from mstc.model import Fault, Mode, Obstacle, Pose, Status, StepResult
+from mstc.model import Event, EventKind, Fault, Mode, Obstacle, Pose, Side, Status, StepResult
 from mstc.plant.scenario import load_scenario
 from mstc.sweep.metrics import evaluate
 
@@ -26,18 +27,16 @@ R, L = 0.05, 0.3  # wheel radius, track width (Table 1)
 
 class Scripted:
     """A controller that commands body velocity (v, ω) from a function of the
-    step, reports the mode @p mode and the status bits @p faults give for the
-    step (tracking, none by default), and records what it was given."""
+    step, reports the mode @p mode gives for the step (tracking by default),
+    and records what it was given."""
 
     def __init__(
         self,
         command: Callable[[int], tuple[float, float]],
         mode: Callable[[int], Mode] = lambda k: Mode.TRACK,
-        faults: Callable[[int], Fault] = lambda k: Fault(0),
     ) -> None:
         self.command = command
         self.mode = mode
-        self.faults = faults
         self.k = 0
         self.seen: list[tuple[Pose, tuple[Obstacle, ...]]] = []
 
@@ -52,11 +51,11 @@ class Scripted:
         wheel_speeds: tuple[float, float] | None = None,
     ) -> StepResult:
         v, w = self.command(self.k)
-        mode, faults = self.mode(self.k), self.faults(self.k)
+        mode = self.mode(self.k)
         self.k += 1
         self.seen.append((robot, tuple(obstacles)))
         left, right = (v - w * L / 2) / R, (v + w * L / 2) / R
-        status = Status(mode, 0, None, faults, 0.0, 0.0, 0.0, 0.0, v, w)
+        status = Status(mode, 0, None, Fault(0), 0.0, 0.0, 0.0, 0.0, v, w)
         return StepResult(left, right, status, ())
 
 
@@ -235,44 +234,33 @@ def test_rejoin_is_judged_on_every_pass(
 
 
 @pytest.mark.parametrize(
-    ("catch_up", "filtered", "want"),
-    [
-        (True, range(1250, 1300), True),
-        (True, (), False),
-        (False, range(1250, 1300), False),
-        (True, (160,), False),
-    ],
+    ("activations", "want"),
+    [((400, 450, 1100, 1150), 2), ((400, 450, 500, 1100), 3), ((400, 450, 600), 3)],
 )
-def test_a_pass_is_back_until_the_filter_acts_for_the_next_obstacle(
-    write_scenario: WriteScenario, catch_up: bool, filtered: Sequence[int], want: bool
+def test_activations_count_per_encounter(
+    write_scenario: WriteScenario, activations: tuple[int, ...], want: int
 ) -> None:
-    # No obstacle. The controller reports avoiding at steps 100-149 and
-    # 1300-1349, running at 0.25 m/s there (0.005 m behind the 0.5 m/s
-    # reference a step: 0.25 m at step 150). It catches up at 0.75 m/s over
-    # steps 150-199 (back to error 0 at step 200, t = 4 s, within 10 s of the
-    # pass's start at 2.98 s) or never. Before the second spell it slows to
-    # 0.25 m/s from step 1250 on, as a robot braking for the obstacle ahead
-    # does: the error is (k - 1250) · 0.005 ≥ 0.05 m from step 1260, so the
-    # pass (steps 150-1299, 23 s) does not end under 0.05 m. Held back to
-    # a step at which the safety filter acted (the FILTER bit) while the
-    # robot was back, it is back; without that bit, or with the filter
-    # acting only while the robot was still catching up (step 160: 0.2 m
-    # behind), or a robot that never caught up, it failed. The last pass
-    # (from 26.98 s, 3 s to the end) cannot tell.
-    def speed(k: int) -> tuple[float, float]:
-        if 100 <= k < 150 or 1250 <= k < 1350:
-            return (0.25, 0.0)
-        return (0.75, 0.0) if catch_up and 150 <= k < 200 else (0.5, 0.0)
+    # The robot runs +x at 0.5 m/s (0.01 m a step) to x = 8 m at step 800,
+    # then back at −0.5 m/s; the obstacle at (5, 1) is within D_act + 1 m =
+    # 1.5 m of it while |x − 5| < sqrt(1.5² − 1²) = 1.118 m: steps 389-611 on
+    # the way out, 989-1211 on the way back. Activations at steps 400 and
+    # 450 (x = 4, 4.5) and 1100, 1150 (x = 5, 4.5 on the way back) are two
+    # encounters of two (the robot was 3.16 m away at step 800 in between);
+    # a third at step 500 (x = 5) or 600 (x = 6: 1.41 m, never beyond 1.5 m
+    # since step 450) counts with the first two.
+    class Activating(Scripted):
+        def step(self, *args: object, **kwargs: object) -> StepResult:
+            k = self.k
+            result = super().step(*args, **kwargs)  # type: ignore[arg-type]
+            if k not in activations:
+                return result
+            event = Event(k * 20000, EventKind.ACTIVATE, 1, Side.LEFT)
+            return dataclasses.replace(result, events=(event,))
 
-    def busy(k: int) -> Mode:
-        return Mode.AVOID if 100 <= k < 150 or 1300 <= k < 1350 else Mode.TRACK
-
-    def faults(k: int) -> Fault:
-        return Fault.FILTER if k in filtered else Fault(0)
-
-    s = load_scenario(scene(write_scenario, duration=30.0), wire_limits())
-    m = evaluate(simulate(s, Scripted(speed, busy, faults)))
-    assert m.rejoined is want
+    path = scene(write_scenario, obstacles=[{"position": [5.0, 1.0]}], duration=30.0, name="enc")
+    ctl = Activating(lambda k: (0.5 if k < 800 else -0.5, 0.0))
+    m = evaluate(simulate(load_scenario(path, wire_limits()), ctl))
+    assert m.max_activations == want
 
 
 def test_moving_obstacle_distance_is_measured_at_the_same_step(

@@ -401,6 +401,43 @@ static void test_msw_no_obstacle_is_activated_more_than_twice(void)
     expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
 }
 
+/* An obstacle activated twice is met again once the robot has been out of
+ * any activation's reach of it, D_act + MSW_CPA_REACH + reach = 0.5 + 1.0 +
+ * 0 = 1.5 m here (reach 0: ideal wheels), as on a circular reference's next
+ * lap; a robot that stayed within that distance gets no third activation. */
+static void test_msw_an_obstacle_left_behind_is_met_afresh(void)
+{
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    for (int leave = 0; leave < 2; leave++) {
+        msw_reset(&m);
+        uint64_t t = 0;
+        for (int round = 0; round < 2; round++) {
+            step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, t);
+            step(&k, &o, 1);
+            expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
+            k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, t + 600000);
+            step(&k, &o, 1);
+            expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+            t += 1000000;
+        }
+        /* Tracking, 1.5 m (leave) or 1.49 m from the obstacle, heading away
+         * from it (+x from (1.95, 0) or (1.94, 0)): no activation either way. */
+        step_t k = at(leave ? 1.95 : 1.94, 0.0, 0.0, 2.0, 0.0, 0.0, t);
+        step(&k, &o, 1);
+        TEST_ASSERT_EQUAL_size_t(0, n_ev);
+        TEST_ASSERT_EQUAL_UINT8(leave ? 0 : 2, m.acts[0]);
+        /* Back at the start, closing on it within D_act. */
+        k = at(0, 0, 0, 0.1, 0.0, 0.0, t + 1000000);
+        step(&k, &o, 1);
+        if (leave) {
+            expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
+        } else {
+            TEST_ASSERT_EQUAL_size_t(0, n_ev);
+            TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+        }
+    }
+}
+
 static void test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster(void)
 {
     /* Avoiding 1 at (0.45, 0); obstacle 2 at (0.8, 1.3) is 1.38 from it:
@@ -654,6 +691,7 @@ int main(void)
     RUN_TEST(test_msw_release_needs_p1);
     RUN_TEST(test_msw_release_needs_the_roll_out_clear);
     RUN_TEST(test_msw_no_obstacle_is_activated_more_than_twice);
+    RUN_TEST(test_msw_an_obstacle_left_behind_is_met_afresh);
     RUN_TEST(test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster);
     RUN_TEST(test_msw_blocked_after_a_full_turn_around);
     RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);

@@ -84,8 +84,6 @@ class BatchStep:
     dy: np.ndarray
     mode: np.ndarray
     """The firmware's mode number of this step."""
-    faults: np.ndarray
-    """The firmware's status bits of this step (:class:`mstc.model.Fault`)."""
     w: np.ndarray
     """Commanded body ω of this step [rad/s] (the trace's ``w``)."""
     events: Sequence[tuple[int, tuple[Event, ...]]]
@@ -140,7 +138,7 @@ def simulate_batch(
     reported = inputs["reported"][:, :width]
     outputs = controller.outputs
     out_left, out_right = outputs["wheel_left"], outputs["wheel_right"]
-    out_mode, out_events, out_faults = outputs["mode"], outputs["n_events"], outputs["faults"]
+    out_mode, out_events = outputs["mode"], outputs["n_events"]
     wheels = world.actuator
     speeds = given["wheel_speed"]
     if wheels is not None:  # their drivers report speeds from the first step on (0 at t = 0)
@@ -203,20 +201,7 @@ def simulate_batch(
         if watch is not None:
             watch(
                 BatchStep(
-                    k,
-                    t,
-                    active,
-                    x,
-                    y,
-                    world.x_r,
-                    world.y_r,
-                    d2,
-                    dx,
-                    dy,
-                    out_mode,
-                    out_faults,
-                    w,
-                    emitted,
+                    k, t, active, x, y, world.x_r, world.y_r, d2, dx, dy, out_mode, w, emitted
                 )
             )
         if k < last:

@@ -166,7 +166,7 @@ def simulate(
     values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
     modes: list[Mode] = []
     events: list[Event] = []
-    fault_masks = np.zeros(steps + 1, dtype=np.int64)
+    fault_masks: list[int] = []
     clock = time.perf_counter_ns
     spent = 0
     step = step_values(controller)
@@ -217,7 +217,8 @@ def simulate(
             modes.append(mode)
             if emitted:
                 events.extend(emitted)
-            fault_masks[k] = faults
+            if faults:
+                fault_masks.append(faults)
             if k < steps:
                 if actuator is not None:
                     measured_wheels = actuator.step(left, right)
@@ -243,10 +244,10 @@ def simulate(
     distance, obstacle_xy = distances(values, obstacles, moving)
     return RunResult(
         scenario=scenario,
-        trace=Trace(values, tuple(modes), distance, obstacle_xy, fault_masks),
+        trace=Trace(values, tuple(modes), distance, obstacle_xy),
         events=tuple(events),
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
-        faults=fault_counts(m for m in fault_masks.tolist() if m),
+        faults=fault_counts(fault_masks),
         step_time=spent / 1e9 / (steps + 1),
         halt=getattr(controller, "halt", None),
     )

@@ -524,7 +524,6 @@ def _run(
 
     rows: list[tuple[float, ...]] = []
     modes: list[Mode] = []
-    masks: list[int] = []
     plant_missed = 0
     stopped_at: float | None = None
     latest = first
@@ -580,7 +579,6 @@ def _run(
         errors = (s.e1, s.e2, s.e3, s.e) if s is not None else (0.0, 0.0, 0.0, 0.0)
         rows.append((now - t0, *robot, *reference, v, w, v_r, w_r, *errors))
         modes.append(s.mode if s is not None else Mode.STOP)
-        masks.append(int(s.faults) if s is not None else 0)
         ref.step(period)
         k += 1
         deadline = t0 + k * period
@@ -619,7 +617,7 @@ def _run(
     distance, obstacle_xy = distances(values, obstacles, moving)
     return RunResult(
         scenario=scenario,
-        trace=Trace(values, tuple(modes), distance, obstacle_xy, np.array(masks, dtype=np.int64)),
+        trace=Trace(values, tuple(modes), distance, obstacle_xy),
         events=_events(steps, odometry_sent),
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
         faults=fault_counts(s.status.faults for s in steps if s.status is not None),

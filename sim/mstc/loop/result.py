@@ -53,10 +53,6 @@ class Trace:
     obstacle_xy: np.ndarray | None = None
     """(N+1, number of obstacles, 2): each obstacle's centre at each step
     [m], when any obstacle moves; None when all stand still."""
-    faults: np.ndarray | None = None
-    """(N+1,) the controller's status bits at each step (:class:`Fault`
-    values), when the loop keeps them (the lock-step and real-time loops);
-    None for a decoded bus log."""
 
     def __getitem__(self, column: str) -> np.ndarray:
         """One numeric column by name, e.g. ``trace["e1"]``."""
@@ -66,15 +62,6 @@ class Trace:
     def avoiding(self) -> np.ndarray:
         """Boolean mask of the steps run by the avoidance controller."""
         return np.array([m is Mode.AVOID for m in self.mode], dtype=bool)
-
-    @property
-    def filtered(self) -> np.ndarray:
-        """Boolean mask of the steps at which the safety filter changed the
-        command (:attr:`Fault.FILTER`); none when the faults were not kept."""
-        if self.faults is None:
-            return np.zeros(len(self.values), dtype=bool)
-        filtered: np.ndarray = (self.faults & Fault.FILTER.value) != 0
-        return filtered
 
 
 @dataclass(frozen=True)

@@ -19,12 +19,8 @@ baseline's, is judged by the same code. Definitions (docs/sweeps.md):
 - **rejoined**: judged on every *pass*, the free time between leaving an
   obstacle (a busy step as above) and the next busy step or the end of the
   run; a run without a busy step is one pass from t = 0. A pass is *back*
-  when from some step no later than 10 s after its start the tracking error
-  stays under 0.05 m to its end, or to a step at which the controller's
-  safety filter changes its command (``Fault.FILTER``): a robot back on its
-  reference that then brakes or turns for the obstacle ahead before it is
-  within that obstacle's D_act is busy with the next obstacle, not failing
-  to come back from the last. It *failed* when it is not back and
+  when from some step no later than 10 s after its start to its end the
+  tracking error stays under 0.05 m; it *failed* when it is not back and
   lasts 10 s or more; otherwise (shorter, the robot busy again or the run
   over before its window ends) it cannot tell. The run is rejoined (True)
   when no pass failed and at least one is back or failed, that is, was
@@ -62,7 +58,7 @@ import numpy as np
 
 from mstc.loop.batched import BatchRun, BatchStep
 from mstc.loop.result import RunResult
-from mstc.model import Event, EventKind, Fault, Mode
+from mstc.model import Event, EventKind, Mode
 from mstc.plant.batch import Within
 from mstc.plant.scenario import Scenario
 
@@ -72,8 +68,11 @@ REJOIN_WINDOW = 10.0
 """Time after the last obstacle within which it must be back [s]."""
 _BUSY = (Mode.AVOID, Mode.BLOCKED)
 """Modes in which the controller is busy with an obstacle (t_last)."""
-_FILTER = Fault.FILTER.value
-"""The status bit of a step whose command the safety filter changed."""
+ENCOUNTER_REACH = 1.0
+"""Two activations of an obstacle belong to one encounter unless the robot
+was farther than its D_act + this from it in between [m]: beyond the reach
+of any activation of the firmware ("mstc" activates a moving obstacle from
+D_act + 1 m + its braking distance on)."""
 BLOCKED_WINDOW = 5.0
 """The end of the run that decides whether the robot is blocked [s]."""
 BLOCKED_SHARE = 0.1
@@ -105,7 +104,7 @@ class Metrics:
     """∫|ω|dt [rad]."""
     switches: int
     max_activations: int
-    """Most activate events of one obstacle."""
+    """Most activate events of one obstacle in one encounter (most_activations)."""
     infeasible: bool
     """An ``infeasible`` event was reported."""
     contact_reported: bool
@@ -128,12 +127,9 @@ def _path_length(x: np.ndarray, y: np.ndarray) -> float:
     return _in_order(np.hypot(np.diff(x), np.diff(y)))
 
 
-def _rejoined(
-    t: np.ndarray, error: np.ndarray, busy: np.ndarray, filtered: np.ndarray
-) -> bool | None:
+def _rejoined(t: np.ndarray, error: np.ndarray, busy: np.ndarray) -> bool | None:
     """Every pass judged (the module's docstring): False when one failed,
-    True when none failed and one was back, None when none could tell.
-    @p filtered: the steps at which the safety filter changed the command."""
+    True when none failed and one was back, None when none could tell."""
     ends = np.flatnonzero(busy[:-1] & ~busy[1:])  # the last busy step of each
     starts = np.flatnonzero(~busy[:-1] & busy[1:]) + 1  # the first busy step of each
     if not busy.any():
@@ -146,12 +142,9 @@ def _rejoined(
     judged = False
     for t0, a, b in passes:
         deadline = t0 + REJOIN_WINDOW + 1e-9
-        bad = error[a : b + 1] >= REJOIN_ERROR
-        # The step from which the error stays under REJOIN_ERROR up to each
-        # step of the pass (a + 1 + the last bad step so far).
-        back_from = a + 1 + np.maximum.accumulate(np.where(bad, np.arange(b - a + 1), -1))
-        held = [int(e) for e in np.flatnonzero(filtered[a : b + 1])]
-        if any(back_from[e] <= a + e and t[back_from[e]] <= deadline for e in [*held, b - a]):
+        bad = np.flatnonzero(error[a : b + 1] >= REJOIN_ERROR)
+        back_from = a if not len(bad) else a + int(bad[-1]) + 1
+        if back_from <= b and t[back_from] <= deadline:
             judged = True
         elif t[b] >= t0 + REJOIN_WINDOW - 1e-9:
             return False
@@ -182,7 +175,7 @@ def evaluate(result: RunResult) -> Metrics:
     busy = near | np.array([m in _BUSY for m in trace.mode], dtype=bool)
     t_last = float(t[np.flatnonzero(busy)[-1]]) if busy.any() else 0.0
 
-    rejoined = _rejoined(t, error, busy, trace.filtered)
+    rejoined = _rejoined(t, error, busy)
 
     window = t >= t[-1] - BLOCKED_WINDOW
     moved = _path_length(x[window], y[window])
@@ -213,20 +206,49 @@ def evaluate(result: RunResult) -> Metrics:
         path_ratio=_path_length(x, y) / ref_length if ref_length > 0.0 else math.nan,
         int_abs_w=_in_order(np.abs(trace["w"][:-1])) * dt,
         switches=switches,
-        max_activations=most_activations(result.events),
+        max_activations=most_activations(
+            result.events,
+            scenario,
+            trace.distance,
+            np.array([e.t_us for e in result.events], dtype=np.int64) // max(1, scenario.sim.dt_us),
+        ),
         infeasible=bool(reports),
         contact_reported=contact_reported,
         step_us=result.step_time * 1e6,
     )
 
 
-def most_activations(events: tuple[Event, ...]) -> int:
-    """The most activate events of one obstacle."""
-    activations: dict[int, int] = {}
-    for e in events:
-        if e.kind is EventKind.ACTIVATE:
-            activations[e.obstacle] = activations.get(e.obstacle, 0) + 1
-    return max(activations.values(), default=0)
+def encounter_reach(scenario: Scenario) -> np.ndarray:
+    """Each obstacle's D_act + ENCOUNTER_REACH [m], in the scenario's order."""
+    p = scenario.params
+    return np.array([p.activation_distance(o.radius) + ENCOUNTER_REACH for o in scenario.obstacles])
+
+
+def most_activations(
+    events: tuple[Event, ...], scenario: Scenario, distance: np.ndarray, steps: np.ndarray
+) -> int:
+    """The most activate events of one obstacle in one encounter: activations
+    of an obstacle count together unless, at a step from one to the step
+    before the next, the robot was farther than encounter_reach() from it.
+
+    :param distance: (N+1, obstacles) the centre distances of each step.
+    :param steps: the step of each event of @p events.
+    """
+    column = {o.id: j for j, o in enumerate(scenario.obstacles)}
+    far = distance > encounter_reach(scenario)
+    last: dict[int, int] = {}
+    count: dict[int, int] = {}
+    most = 0
+    for e, k in zip(events, steps.tolist(), strict=True):
+        if e.kind is not EventKind.ACTIVATE or e.obstacle not in column:
+            continue
+        j = column[e.obstacle]
+        before = last.get(j)
+        again = before is not None and not far[before:k, j].any()
+        count[j] = count[j] + 1 if again else 1
+        last[j] = k
+        most = max(most, count[j])
+    return most
 
 
 class RunningMetrics:
@@ -261,6 +283,19 @@ class RunningMetrics:
         """Within R_m + r of an obstacle: a contact (:func:`evaluate`'s
         clearance below 0, up to a distance of exactly R_m + r)."""
         self._first_touch = np.full(n, -1, dtype=np.int64)
+        reach = np.full((n, width), -1.0)  # the padding: never within, never activated
+        for i, s in enumerate(scenarios):
+            reach[i, : len(s.obstacles)] = encounter_reach(s)
+        self._reach = Within(reach)
+        """Within encounter_reach() of an obstacle (most_activations)."""
+        self._column = [{o.id: j for j, o in enumerate(s.obstacles)} for s in scenarios]
+        self._activated = np.zeros((n, width), dtype=bool)
+        self._away = np.zeros((n, width), dtype=bool)
+        """Beyond encounter_reach() at a step since the obstacle's last activation."""
+        self._count = np.zeros((n, width), dtype=np.int64)
+        self._most = np.zeros(n, dtype=np.int64)
+        self._watching = False
+        """An obstacle of the batch was activated: its encounters are watched."""
         top = max(modes) + 1
         self._busy_mode = np.zeros(top, dtype=bool)
         self._avoid_mode = np.zeros(top, dtype=np.int64)
@@ -284,8 +319,6 @@ class RunningMetrics:
         self._pass_a = np.zeros(n, dtype=np.int64)
         self._last_bad = np.full(n, -1, dtype=np.int64)
         """The last step with a tracking error of REJOIN_ERROR or more."""
-        self._held = np.zeros(n, dtype=bool)
-        """The pass under way was back at a step the safety filter acted in."""
         self._judged = np.zeros(n, dtype=bool)
         self._failed = np.zeros(n, dtype=bool)
         self._err2 = np.zeros(n)
@@ -308,22 +341,30 @@ class RunningMetrics:
         t: np.ndarray = k * self.dt_us[rows] / 1e6
         return t
 
-    def _back(self, rows: np.ndarray, b: int) -> np.ndarray:
-        """Whether the passes of @p rows are back at step @p b: the error under
-        REJOIN_ERROR from a step within their window to @p b (_rejoined)."""
-        t0, a, bad = self._pass_t0[rows], self._pass_a[rows], self._last_bad[rows]
-        back_from = np.where(bad < a, a, bad + 1)
-        back: np.ndarray = (back_from <= b) & (
-            self._t(back_from, rows) <= t0 + REJOIN_WINDOW + 1e-9
-        )
-        return back
+    def _encounters(self, s: BatchStep) -> None:
+        """Count this step's activations per encounter, then note which
+        obstacles the robot is beyond encounter_reach() of (most_activations)."""
+        for i, emitted in s.events:
+            for e in emitted:
+                j = self._column[i].get(e.obstacle) if e.kind is EventKind.ACTIVATE else None
+                if j is None:
+                    continue
+                again = self._activated[i, j] and not self._away[i, j]
+                self._count[i, j] = self._count[i, j] + 1 if again else 1
+                self._activated[i, j] = True
+                self._away[i, j] = False
+                self._most[i] = max(self._most[i], self._count[i, j])
+                self._watching = True
+        if self._watching:
+            self._away |= ~self._reach(s.distance2, s.dx, s.dy)
 
     def _close(self, rows: np.ndarray, b: int) -> None:
         """Judge the passes of @p rows, which end at step @p b (_rejoined)."""
         if not len(rows):
             return
-        t0 = self._pass_t0[rows]
-        back = self._back(rows, b) | self._held[rows]
+        t0, a, bad = self._pass_t0[rows], self._pass_a[rows], self._last_bad[rows]
+        back_from = np.where(bad < a, a, bad + 1)
+        back = (back_from <= b) & (self._t(back_from, rows) <= t0 + REJOIN_WINDOW + 1e-9)
         failed = ~back & (self._t(np.full(len(rows), b), rows) >= t0 + REJOIN_WINDOW - 1e-9)
         self._judged[rows] |= back
         self._failed[rows] |= failed
@@ -340,6 +381,7 @@ class RunningMetrics:
             touched &= active
         if touched.any():
             np.copyto(self._first_touch, k, where=touched & (self._first_touch < 0))
+        self._encounters(s)
         mode = s.mode
         busy = near | self._busy_mode[mode]
         if not uniform:
@@ -363,20 +405,12 @@ class RunningMetrics:
                 dropped = closing & self._initial
                 self._in_pass &= ~dropped
                 self._initial &= ~dropped
-                self._held &= ~dropped
                 starting = np.flatnonzero(change & ~busy)
                 if len(starting):
                     self._in_pass[starting] = True
-                    self._held[starting] = False
                     self._pass_t0[starting] = self._t(np.full(len(starting), k - 1), starting)
                     self._pass_a[starting] = k
         np.copyto(self._last_bad, k, where=error >= REJOIN_ERROR)
-        filtered = (s.faults & _FILTER) != 0
-        if not uniform:
-            filtered &= active
-        checking = np.flatnonzero(filtered & self._in_pass & ~self._held)
-        if len(checking):  # a pass held to the filter's step (_rejoined)
-            self._held[checking] = self._back(checking, k)
         np.copyto(self._last_busy, k, where=busy)
         ends: np.ndarray | None = None if uniform else np.asarray(k == self.steps)
         if uniform and k == self._last:
@@ -465,7 +499,7 @@ class RunningMetrics:
             path_ratio=float(self._path[i]) / ref_length if ref_length > 0.0 else math.nan,
             int_abs_w=float(self._abs_w[i]) * dt,
             switches=int(self._switches[i]),
-            max_activations=most_activations(run.events),
+            max_activations=int(self._most[i]),
             infeasible=bool(reports),
             contact_reported=contact_reported,
             step_us=run.step_time * 1e6,
