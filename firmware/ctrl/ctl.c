@@ -155,8 +155,15 @@ static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ct
         taken = reports;
     }
     size_t n_ev = 0;
-    /* Screened: every value finite (within()), or the report is id 0. */
-    sup_take_finite_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events, &n_ev);
+    /* Screened: every value finite (within()), or the report is id 0.
+     * "mstc" (with velocities) averages the reports of static obstacles. */
+    if (with_velocity) {
+        sup_take_averaged_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events,
+                                  &n_ev);
+    } else {
+        sup_take_finite_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events,
+                                &n_ev);
+    }
     out->n_events = n_ev;
     if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
         out->status.faults |= CTL_FAULT_OBSTACLE_DROPPED;

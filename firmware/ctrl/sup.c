@@ -91,12 +91,46 @@ static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o)
     e->d_act = num_add(s->p.d_act, extra);
 }
 
+/* 1 / n for n = 1 .. SUP_AVG_MAX: the weights of the running mean. */
+static const num_t avg_weight[SUP_AVG_MAX + 1u] = {
+    NUM_C(0.0),        NUM_C(1.0),        NUM_C(1.0 / 2.0),  NUM_C(1.0 / 3.0),  NUM_C(1.0 / 4.0),
+    NUM_C(1.0 / 5.0),  NUM_C(1.0 / 6.0),  NUM_C(1.0 / 7.0),  NUM_C(1.0 / 8.0),  NUM_C(1.0 / 9.0),
+    NUM_C(1.0 / 10.0), NUM_C(1.0 / 11.0), NUM_C(1.0 / 12.0), NUM_C(1.0 / 13.0), NUM_C(1.0 / 14.0),
+    NUM_C(1.0 / 15.0), NUM_C(1.0 / 16.0),
+};
+
+/* The report @p o of static entry @p e averaged into its centre, when it
+ * may be (sup_take_averaged_reports()), @p n its count of reports; false:
+ * take it as it comes. A report that has not @p moved_it (the same place and
+ * size) only counts. */
+static bool average_into(sup_entry_t *e, uint8_t *n, const sup_obstacle_t *o, bool moved_it)
+{
+    if (o->vx != NUM_ZERO || o->vy != NUM_ZERO || e->o.vx != NUM_ZERO || e->o.vy != NUM_ZERO) {
+        return false;
+    }
+    if (*n < SUP_AVG_MAX) {
+        (*n)++; /* started anew below when the report is not averaged in */
+    }
+    if (!moved_it) {
+        return true;
+    }
+    const num_t dx = num_sub(o->x, e->o.x);
+    const num_t dy = num_sub(o->y, e->o.y);
+    if (o->radius != e->o.radius || num_abs(dx) > SUP_AVG_GATE || num_abs(dy) > SUP_AVG_GATE) {
+        return false;
+    }
+    const num_t k = avg_weight[*n];
+    e->o.x = num_add(e->o.x, num_mul(dx, k));
+    e->o.y = num_add(e->o.y, num_mul(dy, k));
+    return true;
+}
+
 /* Definition 1: remember each reported obstacle from the first step at which
  * it lies within D_det. At most one new entry per id, so at most
  * SUP_MAX_OBSTACLES detect events per step. */
 static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                          size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev,
-                         bool finite)
+                         bool finite, bool average)
 {
     for (size_t i = 0; i < n_reports; i++) {
         const sup_obstacle_t *o = &reports[i];
@@ -106,9 +140,16 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
         }
         sup_entry_t *e = find(s, o->id);
         if (e != NULL) {
-            if (moved(&e->o, o)) {
+            const bool moved_it = moved(&e->o, o);
+            uint8_t *n = &s->n_avg[s->slot[o->id] - 1u];
+            if (average && average_into(e, n, o, moved_it)) {
+                if (moved_it) {
+                    s->revision++;
+                }
+            } else if (moved_it) {
                 s->revision++;
                 set_entry(s, e, o);
+                *n = 1u;
             } else {
                 /* Same place and size, so the same thresholds: only the
                  * velocity can differ (the cheaper way, every step). */
@@ -131,6 +172,7 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
             continue;
         }
         set_entry(s, &s->obs[s->n_obs], o);
+        s->n_avg[s->n_obs] = 1u;
         s->n_obs++;
         s->slot[o->id] = s->n_obs;
         s->revision++;
@@ -141,13 +183,19 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
 void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                       size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
 {
-    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, false);
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, false, false);
 }
 
 void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                              size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
 {
-    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true);
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true, false);
+}
+
+void sup_take_averaged_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                               size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+{
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true, true);
 }
 
 void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,
