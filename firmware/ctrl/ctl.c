@@ -402,6 +402,7 @@ static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, 
     m->side = c->act.lim.side;
     m->inv_side = c->act.lim.inv_side;
     m->gap = num_sub(c->p.d_s, num_add(c->p.r_m, c->p.r_ob));
+    m->horizon = wn->horizon;
 }
 
 /* The rate limiter and the braking guard (cbf_guard()). */

@@ -92,12 +92,12 @@ static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o)
 }
 
 /* 1 / n for n = 1 .. SUP_AVG_MAX: the weights of the running mean. */
-static const num_t avg_weight[SUP_AVG_MAX + 1u] = {
-    NUM_C(0.0),        NUM_C(1.0),        NUM_C(1.0 / 2.0),  NUM_C(1.0 / 3.0),  NUM_C(1.0 / 4.0),
-    NUM_C(1.0 / 5.0),  NUM_C(1.0 / 6.0),  NUM_C(1.0 / 7.0),  NUM_C(1.0 / 8.0),  NUM_C(1.0 / 9.0),
-    NUM_C(1.0 / 10.0), NUM_C(1.0 / 11.0), NUM_C(1.0 / 12.0), NUM_C(1.0 / 13.0), NUM_C(1.0 / 14.0),
-    NUM_C(1.0 / 15.0), NUM_C(1.0 / 16.0),
+static const num_t avg_weight[] = {
+    NUM_C(0.0),       NUM_C(1.0),       NUM_C(1.0 / 2.0), NUM_C(1.0 / 3.0), NUM_C(1.0 / 4.0),
+    NUM_C(1.0 / 5.0), NUM_C(1.0 / 6.0), NUM_C(1.0 / 7.0), NUM_C(1.0 / 8.0),
 };
+_Static_assert(sizeof avg_weight / sizeof avg_weight[0] == SUP_AVG_MAX + 1u,
+               "a weight for each count");
 
 /* The report @p o of static entry @p e averaged into its centre, when it
  * may be (sup_take_averaged_reports()), @p n its count of reports; false:

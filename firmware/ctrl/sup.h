@@ -91,7 +91,7 @@ typedef struct {
 /** @brief Most reports a static obstacle's centre is averaged over: a
  *         running mean of the first SUP_AVG_MAX, then an exponential one
  *         with weight 1 / SUP_AVG_MAX (sup_take_averaged_reports()). */
-#define SUP_AVG_MAX  16u
+#define SUP_AVG_MAX  8u
 /** @brief A static obstacle reported farther than this from its averaged
  *         centre (in x or y) is taken as it comes, the mean started anew:
  *         it was moved [m]. */

@@ -767,9 +767,10 @@ static void test_sup_averaged_reports_of_a_static_obstacle_take_their_mean(void)
 
 static void test_sup_averaged_reports_weigh_at_least_one_in_sup_avg_max(void)
 {
-    /* SUP_AVG_MAX (16) reports at x = 1: the mean is 1 and n stops at 16.
-     * Then 1.08, twice: each moves the centre by (report - centre) / 16:
-     * 1 + 0.08/16 = 1.005, then 1.005 + 0.075/16 = 1.0096875. */
+    /* SUP_AVG_MAX (8) reports at x = 1 and more: the mean is 1 and n stops
+     * at 8. Then 1.08, twice: each moves the centre by (report − centre) / 8:
+     * 1 + 0.08/8 = 1.01, then 1.01 + 0.07/8 = 1.01875. */
+    TEST_ASSERT_EQUAL_UINT(8u, SUP_AVG_MAX);
     const sup_obstacle_t o = obstacle(7, 1.0, 0.0, 0.1);
     for (unsigned i = 0; i < SUP_AVG_MAX + 3u; i++) {
         average(&o);
@@ -778,9 +779,9 @@ static void test_sup_averaged_reports_weigh_at_least_one_in_sup_avg_max(void)
     TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0, s.obs[0].o.x);
     const sup_obstacle_t far = obstacle(7, 1.08, 0.0, 0.1);
     average(&far);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.005, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.01, s.obs[0].o.x);
     average(&far);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0096875, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.01875, s.obs[0].o.x);
     TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.y);
 }
 
