@@ -99,25 +99,19 @@ static const num_t avg_weight[] = {
 _Static_assert(sizeof avg_weight / sizeof avg_weight[0] == SUP_AVG_MAX + 1u,
                "a weight for each count");
 
-/* The report @p o of static entry @p e averaged into its centre, when it
- * may be (sup_take_averaged_reports()), @p n its count of reports; false:
- * take it as it comes. A report that has not @p moved_it (the same place and
- * size) only counts. */
-static bool average_into(sup_entry_t *e, uint8_t *n, const sup_obstacle_t *o, bool moved_it)
+/* The report @p o, which moves static entry @p e, averaged into its centre
+ * when it may be (sup_take_averaged_reports()), @p n its count of reports
+ * averaged; false: take it as it comes. */
+static bool average_into(sup_entry_t *e, uint8_t *n, const sup_obstacle_t *o)
 {
-    if (o->vx != NUM_ZERO || o->vy != NUM_ZERO || e->o.vx != NUM_ZERO || e->o.vy != NUM_ZERO) {
+    const num_t dx = num_sub(o->x, e->o.x);
+    const num_t dy = num_sub(o->y, e->o.y);
+    if (o->vx != NUM_ZERO || o->vy != NUM_ZERO || e->o.vx != NUM_ZERO || e->o.vy != NUM_ZERO ||
+        o->radius != e->o.radius || num_abs(dx) > SUP_AVG_GATE || num_abs(dy) > SUP_AVG_GATE) {
         return false;
     }
     if (*n < SUP_AVG_MAX) {
-        (*n)++; /* started anew below when the report is not averaged in */
-    }
-    if (!moved_it) {
-        return true;
-    }
-    const num_t dx = num_sub(o->x, e->o.x);
-    const num_t dy = num_sub(o->y, e->o.y);
-    if (o->radius != e->o.radius || num_abs(dx) > SUP_AVG_GATE || num_abs(dy) > SUP_AVG_GATE) {
-        return false;
+        (*n)++;
     }
     const num_t k = avg_weight[*n];
     e->o.x = num_add(e->o.x, num_mul(dx, k));
@@ -140,16 +134,13 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
         }
         sup_entry_t *e = find(s, o->id);
         if (e != NULL) {
-            const bool moved_it = moved(&e->o, o);
-            uint8_t *n = &s->n_avg[s->slot[o->id] - 1u];
-            if (average && average_into(e, n, o, moved_it)) {
-                if (moved_it) {
-                    s->revision++;
-                }
-            } else if (moved_it) {
+            if (moved(&e->o, o)) {
                 s->revision++;
-                set_entry(s, e, o);
-                *n = 1u;
+                uint8_t *n = &s->n_avg[s->slot[o->id] - 1u];
+                if (!average || !average_into(e, n, o)) {
+                    set_entry(s, e, o);
+                    *n = 1u;
+                }
             } else {
                 /* Same place and size, so the same thresholds: only the
                  * velocity can differ (the cheaper way, every step). */

@@ -180,10 +180,10 @@ void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t
  *        its centre in x and y, moves the centre by (report − centre) / n,
  *        n the reports averaged so far, this one included, at most
  *        SUP_AVG_MAX: the mean of the first SUP_AVG_MAX reports, then an
- *        exponential mean. Any other report of a known obstacle is taken as
- *        it comes (n = 1). A report equal to the centre leaves it exactly
- *        as it is, so noiseless reports give the table
- *        sup_take_finite_reports() gives.
+ *        exponential mean. Any other report that moves a known obstacle is
+ *        taken as it comes (n = 1). A report equal to the centre leaves it
+ *        as it is and is not counted (it costs no more than in
+ *        sup_take_finite_reports(), whose table noiseless reports give).
  */
 void sup_take_averaged_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                                size_t n_reports, uint64_t t_us, sup_event_t *events,

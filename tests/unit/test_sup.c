@@ -767,21 +767,26 @@ static void test_sup_averaged_reports_of_a_static_obstacle_take_their_mean(void)
 
 static void test_sup_averaged_reports_weigh_at_least_one_in_sup_avg_max(void)
 {
-    /* SUP_AVG_MAX (8) reports at x = 1 and more: the mean is 1 and n stops
-     * at 8. Then 1.08, twice: each moves the centre by (report − centre) / 8:
-     * 1 + 0.08/8 = 1.01, then 1.01 + 0.07/8 = 1.01875. */
+    /* SUP_AVG_MAX (8) reports alternating 1 and 1.0625 (x): the running
+     * means are 1, 1.03125, 1.0208333, 1.03125, 1.025, 1.03125, 1.0267857,
+     * 1.03125 (four of each after 8), and n stops at 8. Then 1.12, twice:
+     * each moves the centre by (report − centre) / 8: 1.03125 + 0.08875/8 =
+     * 1.04234375, then 1.04234375 + 0.07765625/8 = 1.0520507813. */
     TEST_ASSERT_EQUAL_UINT(8u, SUP_AVG_MAX);
-    const sup_obstacle_t o = obstacle(7, 1.0, 0.0, 0.1);
-    for (unsigned i = 0; i < SUP_AVG_MAX + 3u; i++) {
+    const double means[8] = { 1.0,   1.03125, 1.0208333333, 1.03125,
+                              1.025, 1.03125, 1.0267857143, 1.03125 };
+    for (unsigned i = 0; i < 8u; i++) {
+        const sup_obstacle_t o = obstacle(7, (i % 2u) == 0u ? 1.0 : 1.0625, 0.0, 0.1);
         average(&o);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, means[i], s.obs[0].o.x);
+        TEST_ASSERT_EQUAL_UINT8((uint8_t)(i + 1u), s.n_avg[0]);
     }
+    const sup_obstacle_t far = obstacle(7, 1.12, 0.0, 0.1);
+    average(&far);
     TEST_ASSERT_EQUAL_UINT8(SUP_AVG_MAX, s.n_avg[0]);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0, s.obs[0].o.x);
-    const sup_obstacle_t far = obstacle(7, 1.08, 0.0, 0.1);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.04234375, s.obs[0].o.x);
     average(&far);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.01, s.obs[0].o.x);
-    average(&far);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.01875, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0520507813, s.obs[0].o.x);
     TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.y);
 }
 
@@ -848,6 +853,7 @@ static void test_sup_averaged_reports_that_do_not_move_change_nothing(void)
         sup_take_finite_reports(&plain, &robot, &o, 1, 0, ev, &n);
     }
     TEST_ASSERT_EQUAL_UINT16(rev, s.revision);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]); /* a repeated report is not counted */
     TEST_ASSERT_EQUAL_MEMORY(&plain.obs[0].o, &s.obs[0].o, sizeof s.obs[0].o);
     TEST_ASSERT_TRUE(plain.obs[0].d_s == s.obs[0].d_s && plain.obs[0].d_act == s.obs[0].d_act);
 }
