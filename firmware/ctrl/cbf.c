@@ -46,15 +46,16 @@ typedef struct {
     num_t inv_side;  /* 1 / side */
     num_t gap;       /* D_s − R_m − R_ob: an obstacle's d_s less its contact distance */
     num_t q1;        /* |qx| + |qy| [m/s] */
+    num_t horizon;   /* T_p [s]: a moving obstacle is taken at c + w T_p */
     cbf_t *f;        /* the step's constraint cache; NULL: none */
 } lookahead_t;
 
 /* The braking margin of an obstacle at Δ = p_l − c moving at w: with σ the
  * closing speed −Δ·(q − w)/|Δ| of the look-ahead point under the command in
  * force (0 when it does not close), σ T_b for a static obstacle (braking
- * along the path stops the closing in T_b), σ max(T_b, σ/a_v) for a moving
- * one (nulling a closing speed the robot does not cause takes σ/a_v). The
- * root only for an obstacle that closes. */
+ * along the path stops the closing in T_b), CBF_MOVING_GAIN σ max(T_b,
+ * σ/a_v) for a moving one (nulling a closing speed the robot does not cause
+ * takes σ/a_v). The root only for an obstacle that closes. */
 static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx, num_t dy, num_t d2,
                           bool *doomed)
 {
@@ -81,7 +82,7 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
         const num_t share =
             num_max(num_div(num_max(along_h, num_mul(fr->side, across)), d), fr->side);
         const num_t shed = num_div(num_mul(sigma, fr->inv_accel), share);
-        t = num_max(t, shed);
+        t = num_mul(num_max(t, shed), CBF_MOVING_GAIN);
         /* Closing faster than the robot can null before the bodies touch
          * (its centre l behind p_l): d − l − (R_m + r) < σ²/(2 a_β). */
         const num_t touch = num_sub(o->d_s, fr->gap);
@@ -91,11 +92,25 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
     return num_mul(sigma, t);
 }
 
+/* p_l − c, with a moving obstacle's centre where it will be at the end of
+ * the prediction's horizon, c + w T_p: the look-ahead point is compared
+ * where the lagging wheels carry it, so the obstacle is too. */
+static void offset_of(const lookahead_t *fr, const sup_entry_t *o, num_t *dx, num_t *dy)
+{
+    *dx = num_sub(fr->plx, o->o.x);
+    *dy = num_sub(fr->ply, o->o.y);
+    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+        *dx = num_sub(*dx, num_mul(o->o.vx, fr->horizon));
+        *dy = num_sub(*dy, num_mul(o->o.vy, fr->horizon));
+    }
+}
+
 static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constraint_t *k, num_t *h,
                           bool *doomed)
 {
-    const num_t dx = num_sub(fr->plx, o->o.x);
-    const num_t dy = num_sub(fr->ply, o->o.y);
+    num_t dx;
+    num_t dy;
+    offset_of(fr, o, &dx, &dy);
     const num_t d2 = num_sum_sq(dx, dy);
     *doomed = false;
     const num_t rho =
@@ -127,9 +142,10 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
  * |u − w| <= |v| + l|ω| + |w_x| + |w_y|. Saves the products for every
  * obstacle not close. The reach is d_s + 2l + extra + (2/α)(|v| + l|ω| + ov),
  * extra what the prediction and the braking margin add: the prediction moves
- * p_l by at most |shift|_1, and since σ <= |q − w|_1 = q1 + ov the margin is
- * at most q1 T_b for a static obstacle (reach_add holds it with the shift),
- * (q1 + ov)(T_b + (q1 + ov)/a_v) for a moving one. @p still is
+ * p_l by at most |shift|_1 and a moving obstacle by at most ov T_p, and
+ * since σ <= |q − w|_1 = q1 + ov the margin is at most q1 T_b for a static
+ * obstacle (reach_add holds it with the shift), CBF_MOVING_GAIN (q1 + ov)
+ * (T_b + (q1 + ov)/(a_v side)) for a moving one. @p still is
  * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
  * computed once per command. */
 static inline bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
@@ -142,8 +158,14 @@ static inline bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t
     if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
         const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
         const num_t qw = num_add(fr->q1, ov);
-        extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
-                        num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
+        /* reach_add holds q1 T_b once: the gain's share of it added. */
+        const num_t braked =
+            num_add(num_mul(ov, fr->brake_t),
+                    num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
+        extra = num_add(
+            num_add(extra, num_mul(ov, fr->horizon)),
+            num_add(num_mul(braked, CBF_MOVING_GAIN),
+                    num_mul(num_mul(fr->q1, fr->brake_t), num_sub(CBF_MOVING_GAIN, NUM_ONE))));
         term = num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov));
     }
     return dist >= num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra), term);
@@ -170,6 +192,7 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
     fr->inv_side = NUM_ONE;
     fr->gap = NUM_ZERO;
     fr->q1 = NUM_ZERO;
+    fr->horizon = NUM_ZERO;
     if (m != NULL) {
         fr->plx = num_add(fr->plx, m->shift_x);
         fr->ply = num_add(fr->ply, m->shift_y);
@@ -181,6 +204,7 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
         fr->inv_side = m->inv_side;
         fr->gap = m->gap;
         fr->q1 = num_add(num_abs(m->qx), num_abs(m->qy));
+        fr->horizon = m->horizon;
         fr->reach_add = num_add(num_add(num_abs(m->shift_x), num_abs(m->shift_y)),
                                 num_mul(num_add(num_abs(m->qx), num_abs(m->qy)), m->brake_t));
     }
@@ -194,8 +218,11 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
     constraint_t k;
     bool doomed;
     constraint_of(&fr, o, &k, h, &doomed);
-    *ax = num_add(num_sub(fr.plx, o->o.x), num_sub(fr.plx, o->o.x));
-    *ay = num_add(num_sub(fr.ply, o->o.y), num_sub(fr.ply, o->o.y));
+    num_t dx;
+    num_t dy;
+    offset_of(&fr, o, &dx, &dy);
+    *ax = num_add(dx, dx);
+    *ay = num_add(dy, dy);
 }
 
 /* The constraint of entry @p i into *k, unless it surely cannot bind

@@ -58,6 +58,10 @@
 /** @brief Violations of a_i·u >= b_i below this [m²/s] are left alone, so
  *         that rounding (float or Q16.16) never counts as an intervention. */
 #define CBF_TOLERANCE     NUM_C(0.0005)
+/** @brief A moving obstacle's braking margin, σ max(T_b, σ/a_β), is taken
+ *         this many times (docs/strategy.md, "The choices under real
+ *         wheels": 1.5 against 1 and 2 on the suite's moving family). */
+#define CBF_MOVING_GAIN   NUM_C(1.5)
 
 /**
  * @brief What the wheels do to the barrier (docs/strategy.md, "Real
@@ -78,6 +82,9 @@ typedef struct {
     num_t inv_side;         /**< 1 / side */
     num_t gap;              /**< D_s − R_m − R_ob: an obstacle's d_s less its
                                  contact distance R_m + r [m] */
+    num_t horizon;          /**< T_p [s], the prediction's horizon: a moving
+                                 obstacle is taken where it will be then,
+                                 c + w T_p, as the look-ahead point is */
 } cbf_motion_t;
 
 /** @brief One obstacle's constraint on the command: g1 v + g2 l ω >= b. */

@@ -155,8 +155,15 @@ static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ct
         taken = reports;
     }
     size_t n_ev = 0;
-    /* Screened: every value finite (within()), or the report is id 0. */
-    sup_take_finite_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events, &n_ev);
+    /* Screened: every value finite (within()), or the report is id 0.
+     * "mstc" (with velocities) averages the reports of static obstacles. */
+    if (with_velocity) {
+        sup_take_averaged_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events,
+                                  &n_ev);
+    } else {
+        sup_take_finite_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events,
+                                &n_ev);
+    }
     out->n_events = n_ev;
     if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
         out->status.faults |= CTL_FAULT_OBSTACLE_DROPPED;
@@ -395,6 +402,7 @@ static void filter_motion(const ctl_t *c, const wheels_now_t *wn, num_t cos_th, 
     m->side = c->act.lim.side;
     m->inv_side = c->act.lim.inv_side;
     m->gap = num_sub(c->p.d_s, num_add(c->p.r_m, c->p.r_ob));
+    m->horizon = wn->horizon;
 }
 
 /* The rate limiter and the braking guard (cbf_guard()). */

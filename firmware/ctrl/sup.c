@@ -91,12 +91,40 @@ static void set_entry(const sup_t *s, sup_entry_t *e, const sup_obstacle_t *o)
     e->d_act = num_add(s->p.d_act, extra);
 }
 
+/* 1 / n for n = 1 .. SUP_AVG_MAX: the weights of the running mean. */
+static const num_t avg_weight[] = {
+    NUM_C(0.0),       NUM_C(1.0),       NUM_C(1.0 / 2.0), NUM_C(1.0 / 3.0), NUM_C(1.0 / 4.0),
+    NUM_C(1.0 / 5.0), NUM_C(1.0 / 6.0), NUM_C(1.0 / 7.0), NUM_C(1.0 / 8.0),
+};
+_Static_assert(sizeof avg_weight / sizeof avg_weight[0] == SUP_AVG_MAX + 1u,
+               "a weight for each count");
+
+/* The report @p o, which moves static entry @p e, averaged into its centre
+ * when it may be (sup_take_averaged_reports()), @p n its count of reports
+ * averaged; false: take it as it comes. */
+static bool average_into(sup_entry_t *e, uint8_t *n, const sup_obstacle_t *o)
+{
+    const num_t dx = num_sub(o->x, e->o.x);
+    const num_t dy = num_sub(o->y, e->o.y);
+    if (o->vx != NUM_ZERO || o->vy != NUM_ZERO || e->o.vx != NUM_ZERO || e->o.vy != NUM_ZERO ||
+        o->radius != e->o.radius || num_abs(dx) > SUP_AVG_GATE || num_abs(dy) > SUP_AVG_GATE) {
+        return false;
+    }
+    if (*n < SUP_AVG_MAX) {
+        (*n)++;
+    }
+    const num_t k = avg_weight[*n];
+    e->o.x = num_add(e->o.x, num_mul(dx, k));
+    e->o.y = num_add(e->o.y, num_mul(dy, k));
+    return true;
+}
+
 /* Definition 1: remember each reported obstacle from the first step at which
  * it lies within D_det. At most one new entry per id, so at most
  * SUP_MAX_OBSTACLES detect events per step. */
 static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                          size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev,
-                         bool finite)
+                         bool finite, bool average)
 {
     for (size_t i = 0; i < n_reports; i++) {
         const sup_obstacle_t *o = &reports[i];
@@ -108,7 +136,11 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
         if (e != NULL) {
             if (moved(&e->o, o)) {
                 s->revision++;
-                set_entry(s, e, o);
+                uint8_t *n = &s->n_avg[s->slot[o->id] - 1u];
+                if (!average || !average_into(e, n, o)) {
+                    set_entry(s, e, o);
+                    *n = 1u;
+                }
             } else {
                 /* Same place and size, so the same thresholds: only the
                  * velocity can differ (the cheaper way, every step). */
@@ -131,6 +163,7 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
             continue;
         }
         set_entry(s, &s->obs[s->n_obs], o);
+        s->n_avg[s->n_obs] = 1u;
         s->n_obs++;
         s->slot[o->id] = s->n_obs;
         s->revision++;
@@ -141,13 +174,19 @@ static void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *re
 void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                       size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
 {
-    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, false);
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, false, false);
 }
 
 void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                              size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
 {
-    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true);
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true, false);
+}
+
+void sup_take_averaged_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                               size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev)
+{
+    take_reports(s, robot, reports, n_reports, t_us, events, n_ev, true, true);
 }
 
 void sup_step(sup_t *s, const pose_t *robot, const pose_t *ref, num_t v_r, num_t w_r,

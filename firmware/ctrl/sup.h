@@ -88,6 +88,15 @@ typedef struct {
     num_t d_act; /**< D_act + (radius − R_ob) [m] */
 } sup_entry_t;
 
+/** @brief Most reports a static obstacle's centre is averaged over: a
+ *         running mean of the first SUP_AVG_MAX, then an exponential one
+ *         with weight 1 / SUP_AVG_MAX (sup_take_averaged_reports()). */
+#define SUP_AVG_MAX  8u
+/** @brief A static obstacle reported farther than this from its averaged
+ *         centre (in x or y) is taken as it comes, the mean started anew:
+ *         it was moved [m]. */
+#define SUP_AVG_GATE NUM_C(0.1)
+
 /** @brief Supervisor state. */
 typedef struct {
     sup_params_t p;
@@ -100,6 +109,9 @@ typedef struct {
     uint16_t revision; /**< changes whenever an entry is added or moves (position or radius), or
                             the thresholds change: "mstc" recomputes its cluster only then
                             (msw.h) */
+    uint8_t n_avg[SUP_MAX_OBSTACLES]; /**< reports averaged into each entry's centre
+                                           (sup_take_averaged_reports()); 1 for one
+                                           taken as it came */
     uint8_t slot[256]; /**< index + 1 in obs[] of each id, 0 when unknown: a report finds its
                             entry without a search */
 } sup_t;
@@ -160,6 +172,22 @@ void sup_take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *repor
 void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                              size_t n_reports, uint64_t t_us, sup_event_t *events,
                              size_t *n_events);
+
+/**
+ * @brief sup_take_finite_reports() with the centres of static obstacles
+ *        averaged ("mstc"): a report with zero velocity of an entry whose
+ *        velocity is zero too, of the same radius, within SUP_AVG_GATE of
+ *        its centre in x and y, moves the centre by (report − centre) / n,
+ *        n the reports averaged so far, this one included, at most
+ *        SUP_AVG_MAX: the mean of the first SUP_AVG_MAX reports, then an
+ *        exponential mean. Any other report that moves a known obstacle is
+ *        taken as it comes (n = 1). A report equal to the centre leaves it
+ *        as it is and is not counted (it costs no more than in
+ *        sup_take_finite_reports(), whose table noiseless reports give).
+ */
+void sup_take_averaged_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
+                               size_t n_reports, uint64_t t_us, sup_event_t *events,
+                               size_t *n_events);
 
 /**
  * @brief One step of the switch strategy, on the state at the start of the

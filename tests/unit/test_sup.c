@@ -730,6 +730,134 @@ static void test_sup_revision_changes_only_when_the_table_does(void)
     TEST_ASSERT_TRUE(s.revision != rev);
 }
 
+/* -------------------------------------- averaged reports ("mstc", sup.h) */
+
+/* One report of @p o into the table through sup_take_averaged_reports(),
+ * the robot at the origin (every report here is within D_det). */
+static void average(const sup_obstacle_t *o)
+{
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0);
+    size_t n = 0;
+    sup_take_averaged_reports(&s, &robot, o, 1, 0, ev, &n);
+}
+
+static void test_sup_averaged_reports_of_a_static_obstacle_take_their_mean(void)
+{
+    /* Four reports of a static obstacle, each within SUP_AVG_GATE (0.1 m)
+     * of the centre so far: the centre is their running mean. By hand:
+     * x: 1.0, 1.0625, 0.9375, 1.0625 -> means 1.0, 1.03125, 1.0, 1.015625;
+     * y: 0.5, 0.4375, 0.5625, 0.4375 -> means 0.5, 0.46875, 0.5, 0.484375. */
+    const double xs[4] = { 1.0, 1.0625, 0.9375, 1.0625 };
+    const double ys[4] = { 0.5, 0.4375, 0.5625, 0.4375 };
+    const double mx[4] = { 1.0, 1.03125, 1.0, 1.015625 };
+    const double my[4] = { 0.5, 0.46875, 0.5, 0.484375 };
+    for (int i = 0; i < 4; i++) {
+        const sup_obstacle_t o = obstacle(7, xs[i], ys[i], 0.1);
+        average(&o);
+        TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, mx[i], s.obs[0].o.x);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, my[i], s.obs[0].o.y);
+        TEST_ASSERT_EQUAL_UINT8((uint8_t)(i + 1), s.n_avg[0]);
+    }
+    /* The thresholds are the obstacle's own, as for a report taken as it
+     * comes: D_s 0.35, D_act 0.5 (radius R_ob). */
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.35, s.obs[0].d_s);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.5, s.obs[0].d_act);
+}
+
+static void test_sup_averaged_reports_weigh_at_least_one_in_sup_avg_max(void)
+{
+    /* SUP_AVG_MAX (8) reports alternating 1 and 1.0625 (x): the running
+     * means are 1, 1.03125, 1.0208333, 1.03125, 1.025, 1.03125, 1.0267857,
+     * 1.03125 (four of each after 8), and n stops at 8. Then 1.12, twice:
+     * each moves the centre by (report − centre) / 8: 1.03125 + 0.08875/8 =
+     * 1.04234375, then 1.04234375 + 0.07765625/8 = 1.0520507813. */
+    TEST_ASSERT_EQUAL_UINT(8u, SUP_AVG_MAX);
+    const double means[8] = { 1.0,   1.03125, 1.0208333333, 1.03125,
+                              1.025, 1.03125, 1.0267857143, 1.03125 };
+    for (unsigned i = 0; i < 8u; i++) {
+        const sup_obstacle_t o = obstacle(7, (i % 2u) == 0u ? 1.0 : 1.0625, 0.0, 0.1);
+        average(&o);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, means[i], s.obs[0].o.x);
+        TEST_ASSERT_EQUAL_UINT8((uint8_t)(i + 1u), s.n_avg[0]);
+    }
+    const sup_obstacle_t far = obstacle(7, 1.12, 0.0, 0.1);
+    average(&far);
+    TEST_ASSERT_EQUAL_UINT8(SUP_AVG_MAX, s.n_avg[0]);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.04234375, s.obs[0].o.x);
+    average(&far);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0520507813, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.y);
+}
+
+static void test_sup_averaged_reports_take_other_reports_as_they_come(void)
+{
+    /* Started at (1, 0), one report averaged in: n = 2. */
+    sup_obstacle_t o = obstacle(7, 1.0, 0.0, 0.1);
+    average(&o);
+    o.x = tu_num(1.0625);
+    average(&o);
+    TEST_ASSERT_EQUAL_UINT8(2, s.n_avg[0]);
+    /* Beyond the gate (0.15 m > 0.1 m in y): moved, taken as it comes, the
+     * mean started anew (n = 1); the next report is averaged with weight
+     * 1/2: (1.0625 + 1.125) / 2 = 1.09375. */
+    o.y = tu_num(0.15);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0625, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.15, s.obs[0].o.y);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    o.x = tu_num(1.125);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.09375, s.obs[0].o.x);
+    /* Another radius: taken as it comes, thresholds with it (D_s
+     * 0.35 + 0.1 for radius 0.2). */
+    o.x = tu_num(1.0);
+    o.radius = tu_num(0.2);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.45, s.obs[0].d_s);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    /* A moving obstacle (a velocity in the report): as it comes, every
+     * step; so is the first report after it that says it stopped. */
+    o.vx = tu_num(0.25);
+    o.x = tu_num(1.0625);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0625, s.obs[0].o.x);
+    o.x = tu_num(1.0);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.25, s.obs[0].o.vx);
+    o.vx = NUM_ZERO;
+    o.x = tu_num(1.0625);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0625, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vx);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+}
+
+static void test_sup_averaged_reports_that_do_not_move_change_nothing(void)
+{
+    /* Noiseless reports (every report the same, as in the suite's families
+     * without [imperfections]): the table is bit for bit the one
+     * sup_take_finite_reports() keeps, and the revision does not change. */
+    static sup_t plain;
+    plain = s;
+    const sup_obstacle_t o = obstacle(7, 0.7, -0.3, 0.15);
+    const pose_t robot = tu_pose(0.0, 0.0, 0.0);
+    size_t n = 0;
+    average(&o);
+    sup_take_finite_reports(&plain, &robot, &o, 1, 0, ev, &n);
+    const uint16_t rev = s.revision;
+    for (int i = 0; i < 40; i++) {
+        average(&o);
+        sup_take_finite_reports(&plain, &robot, &o, 1, 0, ev, &n);
+    }
+    TEST_ASSERT_EQUAL_UINT16(rev, s.revision);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]); /* a repeated report is not counted */
+    TEST_ASSERT_EQUAL_MEMORY(&plain.obs[0].o, &s.obs[0].o, sizeof s.obs[0].o);
+    TEST_ASSERT_TRUE(plain.obs[0].d_s == s.obs[0].d_s && plain.obs[0].d_act == s.obs[0].d_act);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -762,5 +890,9 @@ int main(void)
     RUN_TEST(test_sup_take_reports_alone_detects_and_keeps_velocities);
     RUN_TEST(test_sup_take_finite_reports_drops_id_0_and_no_radius);
     RUN_TEST(test_sup_revision_changes_only_when_the_table_does);
+    RUN_TEST(test_sup_averaged_reports_of_a_static_obstacle_take_their_mean);
+    RUN_TEST(test_sup_averaged_reports_weigh_at_least_one_in_sup_avg_max);
+    RUN_TEST(test_sup_averaged_reports_take_other_reports_as_they_come);
+    RUN_TEST(test_sup_averaged_reports_that_do_not_move_change_nothing);
     return UNITY_END();
 }
