@@ -39,6 +39,11 @@ static inline num_t num_mul(num_t a, num_t b) { return a * b; }
 static inline num_t num_sq(num_t a) { return a * a; }
 /** @brief x² + y², as num_add(num_mul(x, x), num_mul(y, y)). */
 static inline num_t num_sum_sq(num_t x, num_t y) { return x * x + y * y; }
+/** @brief num_sq(a) for |a| < 128: the same expression (fixed mode drops a
+ *         saturation test there). */
+static inline num_t num_sq_small(num_t a) { return a * a; }
+/** @brief num_sum_sq(x, y) for |x|, |y| < 128: the same expression. */
+static inline num_t num_sum_sq_small(num_t x, num_t y) { return x * x + y * y; }
 /** @brief a / b; b == 0 gives ±inf or NaN: callers guard against it. */
 static inline num_t num_div(num_t a, num_t b) { return a / b; }
 static inline num_t num_abs(num_t a) { return fabsf(a); }
@@ -72,6 +77,9 @@ static inline bool num_within(num_t a, num_t lim)
 {
     return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
 }
+
+/** @brief num_abs(a) < lim (false for a NaN). */
+static inline bool num_below(num_t a, num_t lim) { return fabsf(a) < lim; }
 
 /**
  * @brief Angle wrapped into (-π, π].

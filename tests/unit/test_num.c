@@ -386,6 +386,24 @@ static void test_num_conversions_round_trip(void)
     TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_TWO_PI, NUM_TWO_PI);
 }
 
+/* num_below(a, lim) is |a| < lim (hand values, exact in both modes: the
+ * bound itself is not below, nothing is below a bound <= 0), and the squares
+ * of values below 128 are the squares: 1.5² = 2.25, 3² + 4² = 25. */
+static void test_num_below_and_small_squares_hand_values(void)
+{
+    TEST_ASSERT_TRUE(num_below(tu_num(1.0), tu_num(2.0)));
+    TEST_ASSERT_TRUE(num_below(tu_num(-1.5), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(tu_num(2.0), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(tu_num(-2.0), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(tu_num(-2.5), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(NUM_ZERO, NUM_ZERO));
+    TEST_ASSERT_FALSE(num_below(NUM_ZERO, tu_num(-1.0)));
+    TEST_ASSERT_TRUE(num_below(tu_num(-127.5), tu_num(128.0)));
+    TEST_ASSERT_EQUAL_FLOAT(2.25f, num_to_float(num_sq_small(tu_num(-1.5))));
+    TEST_ASSERT_EQUAL_FLOAT(25.0f, num_to_float(num_sum_sq_small(tu_num(3.0), tu_num(-4.0))));
+    TEST_ASSERT_EQUAL_FLOAT(0.0f, num_to_float(num_sum_sq_small(NUM_ZERO, NUM_ZERO)));
+}
+
 #ifndef NUM_FIXED
 /* Float mode only: Q16.16 has no NaN or infinity, so these values cannot be
  * built in fixed mode; test_num_every_fixed_value_is_finite covers it. */
@@ -578,6 +596,72 @@ static void test_num_fixed_squares_are_mul_and_add(void)
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 
+/* num_sq_small and num_sum_sq_small drop num_sq's saturation test for
+ * |a| < 128, where it cannot fire: hand values at the largest such a,
+ * 2^23 − 1 codes: a² = 2^46 − 2^24 + 1, rounded (+2^15, >> 16) to
+ * 2^30 − 256, and twice that, 2^31 − 512, still below NUM_MAX (where 128²
+ * + 128² saturates: test above); (1 + 2^-16)² = 1 + 2^-15. Then every a
+ * with |a| < 128 against num_sq, and 10^6 random pairs against
+ * num_sum_sq. */
+static void test_num_fixed_small_squares_are_sq_and_sum_sq(void)
+{
+    const int32_t top = (1 << 23) - 1;
+    TEST_ASSERT_EQUAL_INT32(1073741568, num_sq_small(top));
+    TEST_ASSERT_EQUAL_INT32(1073741568, num_sq_small(-top));
+    TEST_ASSERT_EQUAL_INT32(2147483136, num_sum_sq_small(top, -top));
+    TEST_ASSERT_EQUAL_INT32(NUM_ONE + 2, num_sq_small(NUM_ONE + 1));
+    unsigned long differ = 0;
+    for (int32_t a = -top; a <= top; a++) {
+        differ += num_sq_small(a) != num_sq(a);
+    }
+    uint64_t s = 1181783497276652981u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t x = (int32_t)(uint32_t)r >> (8u + k % 24u);
+        const int32_t y = (int32_t)(uint32_t)(r >> 32) >> (8u + (k / 24u) % 24u);
+        differ += num_sum_sq_small(x, y) != num_sum_sq(x, y);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* num_below(a, lim) is num_abs(a) < lim for every a and lim: hand values at
+ * the edges (|NUM_MIN| saturates to NUM_MAX, below no lim; NUM_MAX − 1 is
+ * below NUM_MAX; 0 is below 1 code, 1 code is not), then each edge ±2 codes
+ * with each, and 10^6 random pairs at every magnitude, against num_abs. */
+static void test_num_fixed_below_is_abs_less_than(void)
+{
+    TEST_ASSERT_FALSE(num_below(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_FALSE(num_below(NUM_MAX, NUM_MAX));
+    TEST_ASSERT_TRUE(num_below(NUM_MAX - 1, NUM_MAX));
+    TEST_ASSERT_TRUE(num_below(-(NUM_MAX - 1), NUM_MAX));
+    TEST_ASSERT_TRUE(num_below(0, 1));
+    TEST_ASSERT_FALSE(num_below(1, 1));
+    TEST_ASSERT_FALSE(num_below(-1, 1));
+    TEST_ASSERT_FALSE(num_below(0, NUM_MIN));
+    static const int32_t edge[] = { 0, 1, 2, 0x10000, 1 << 23, INT32_MAX, -1, -0x10000, INT32_MIN };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    unsigned long differ = 0;
+    for (size_t i = 0; i < n_edge; i++) {
+        for (size_t j = 0; j < n_edge; j++) {
+            for (uint32_t d = 0; d < 5u; d++) {
+                for (uint32_t f = 0; f < 5u; f++) {
+                    const int32_t a = (int32_t)((uint32_t)edge[i] + d - 2u);
+                    const int32_t lim = (int32_t)((uint32_t)edge[j] + f - 2u);
+                    differ += num_below(a, lim) != (num_abs(a) < lim);
+                }
+            }
+        }
+    }
+    uint64_t s = 2685821657736338717u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t a = (int32_t)(uint32_t)r >> (k % 32u);
+        const int32_t lim = (int32_t)(uint32_t)(r >> 32) >> ((k / 32u) % 32u);
+        differ += num_below(a, lim) != (num_abs(a) < lim);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
 /* num_div is libfixmath's fix16_sdiv in closed form (num_fixed.c): the same
  * bits for every pair (the reference is libfixmath itself, linked in fixed
  * mode). The edges (0, ±1, the divisors where num_div changes method: 2^15,
@@ -752,6 +836,7 @@ int main(void)
     RUN_TEST(test_num_sin_cos_hand_values);
     RUN_TEST(test_num_sincos_is_sin_and_cos);
     RUN_TEST(test_num_conversions_round_trip);
+    RUN_TEST(test_num_below_and_small_squares_hand_values);
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
     RUN_TEST(test_num_within_is_finite_and_in_range);
@@ -761,6 +846,8 @@ int main(void)
     RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
     RUN_TEST(test_num_fixed_squares_are_mul_and_add);
+    RUN_TEST(test_num_fixed_small_squares_are_sq_and_sum_sq);
+    RUN_TEST(test_num_fixed_below_is_abs_less_than);
     RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
     RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
     RUN_TEST(test_num_fixed_hypot_is_correctly_rounded);
