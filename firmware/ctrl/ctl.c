@@ -93,7 +93,7 @@ static bool inputs_in_range(const ctl_input_t *in)
 
 /* A report the supervisor may compute with: its values within their ranges
  * ("paper" ignores velocities: they reach it as 0, unchecked). */
-static bool report_ok(const sup_obstacle_t *o, bool with_velocity)
+static inline bool report_ok(const sup_obstacle_t *o, bool with_velocity)
 {
     const bool ok = within(o->x, CTL_MAX_ABS_POSITION) && within(o->y, CTL_MAX_ABS_POSITION) &&
                     within(o->radius, CTL_MAX_RADIUS);

@@ -14,6 +14,7 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 typedef float num_t;
 
@@ -72,9 +73,25 @@ static inline bool num_is_finite(num_t a) { return isfinite(a) != 0; }
  * One quiet comparison does both tests when lim < +inf: |a| <= lim is false
  * for a NaN a (unordered) and for an infinite a. Only lim = +inf needs the
  * finiteness test, and a constant lim removes it at compile time.
+ *
+ * For a lim of +0 up to the largest finite value (its sign bit clear, its
+ * exponent not all ones: bits below 0x7F800000) that comparison is one of
+ * integers: IEEE-754 orders the non-negative values as their bit patterns,
+ * and a's with the sign bit cleared is |a|'s, above every such lim's when a
+ * is infinite or NaN. The same result, with no floating-point comparison
+ * (4 instructions a check on a Cortex-M4F where the FPU's compare, its flags'
+ * transfer and the absolute value take 5, and no library call in soft
+ * float); a constant lim folds the test of its bits away.
  */
 static inline bool num_within(num_t a, num_t lim)
 {
+    uint32_t ua;
+    uint32_t ul;
+    memcpy(&ua, &a, sizeof ua);
+    memcpy(&ul, &lim, sizeof ul);
+    if (ul < UINT32_C(0x7F800000)) {
+        return (ua & UINT32_C(0x7FFFFFFF)) <= ul;
+    }
     return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
 }
 

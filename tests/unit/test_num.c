@@ -386,6 +386,15 @@ static void test_num_conversions_round_trip(void)
     TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_TWO_PI, NUM_TWO_PI);
 }
 
+/* A xorshift64 generator: the same pseudo-random pairs on every run. */
+static uint64_t xorshift64(uint64_t *s)
+{
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    return *s;
+}
+
 /* num_below(a, lim) is |a| < lim (hand values, exact in both modes: the
  * bound itself is not below, nothing is below a bound <= 0), and the squares
  * of values below 128 are the squares: 1.5² = 2.25, 3² + 4² = 25. */
@@ -445,6 +454,63 @@ static void test_num_within_is_finite_and_in_range(void)
     TEST_ASSERT_FALSE(num_within(-nan, inf));
     TEST_ASSERT_FALSE(num_within(two, nan));
     TEST_ASSERT_FALSE(fetestexcept(FE_INVALID));
+}
+
+/* num_within against its definition, num_is_finite(a) && |a| <= lim, in
+ * double (exact for every float): every lim of the integer comparison's
+ * range (+0 up to FLT_MAX) and outside it (−0, negative, +inf, NaN), each
+ * against a at and one ulp either side of ±lim, ±0, ±inf, NaN, and 10^6
+ * random bit patterns for both. */
+static bool within_by_definition(float a, float lim)
+{
+    return isfinite(a) && islessequal(fabs((double)a), (double)lim);
+}
+
+static float float_of_bits(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+static void test_num_within_is_its_definition(void)
+{
+    static const float lims[] = { 0.0f, -0.0f, 1e-45f,  1.0f,     2.0f,      100.0f, 10000.0f,
+                                  3.5f, -2.0f, FLT_MAX, INFINITY, -INFINITY, NAN };
+    /* Random bit patterns include signalling NaNs, whose conversion to
+     * double (and the fallback's comparison) raise FE_INVALID: no traps
+     * here (feholdexcept), the test_util.h ones again after. */
+    fenv_t env;
+    (void)feholdexcept(&env);
+    unsigned long differ = 0;
+    for (size_t i = 0; i < sizeof lims / sizeof lims[0]; i++) {
+        const float lim = lims[i];
+        uint32_t b;
+        memcpy(&b, &lim, sizeof b);
+        /* lim, and its neighbours by one code of its bit pattern either way
+         * (one ulp in magnitude), each with either sign. */
+        const float near[] = { lim, float_of_bits(b - 1u), float_of_bits(b + 1u) };
+        for (size_t j = 0; j < 3u; j++) {
+            differ += num_within(near[j], lim) != within_by_definition(near[j], lim);
+            differ += num_within(-near[j], lim) != within_by_definition(-near[j], lim);
+        }
+        const float special[] = { 0.0f, -0.0f, INFINITY, -INFINITY, NAN, 1.0f };
+        for (size_t j = 0; j < sizeof special / sizeof special[0]; j++) {
+            differ += num_within(special[j], lim) != within_by_definition(special[j], lim);
+        }
+    }
+    uint64_t s = 5573589319906701683u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const float a = float_of_bits((uint32_t)r);
+        /* Half the limits positive and finite, where the integer test runs. */
+        const uint32_t lb = (uint32_t)(r >> 32);
+        const float lim = float_of_bits((k & 1u) != 0u ? lb % 0x7F800000u : lb);
+        differ += num_within(a, lim) != within_by_definition(a, lim);
+    }
+    (void)feclearexcept(FE_ALL_EXCEPT);
+    (void)fesetenv(&env);
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 #else
 /* Fixed mode: every Q16.16 value is a finite number. */
@@ -506,15 +572,6 @@ static void test_num_fixed_add_sub_edges(void)
     TEST_ASSERT_FALSE(num_within(-1, 0));
     TEST_ASSERT_FALSE(num_within(0, -1));
     TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MIN));
-}
-
-/* A xorshift64 generator: the same pseudo-random pairs on every run. */
-static uint64_t xorshift64(uint64_t *s)
-{
-    *s ^= *s << 13;
-    *s ^= *s >> 7;
-    *s ^= *s << 17;
-    return *s;
 }
 
 /* num_mul is libfixmath's fix16_smul written inline: the same bits for every
@@ -840,6 +897,7 @@ int main(void)
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
     RUN_TEST(test_num_within_is_finite_and_in_range);
+    RUN_TEST(test_num_within_is_its_definition);
 #else
     RUN_TEST(test_num_every_fixed_value_is_finite);
     RUN_TEST(test_num_fixed_overflow_saturates);
