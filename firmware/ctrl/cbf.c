@@ -82,7 +82,7 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
     }
     const num_t sigma = num_div(num_neg(along), d);
     num_t t = fr->brake_t;
-    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+    if (num_any_nonzero(o->o.vx, o->o.vy)) {
         /* Away from the obstacle (along Δ, at angle β to the heading) the
          * look-ahead point accelerates at a_v max(|cos β|, side |sin β|) at
          * most, a_v side at least. */
@@ -155,7 +155,7 @@ CBF_INLINE bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t di
     num_t term = still;
     /* ov = |w_x| + |w_y| > 0 exactly when the obstacle moves (a sum of two
      * values >= 0 is 0 only when both are, in either mode): ov only then. */
-    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+    if (num_any_nonzero(o->o.vx, o->o.vy)) {
         const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
         const num_t qw = num_add(fr->q1, ov);
         extra = num_add(num_add(extra, num_mul(ov, fr->brake_t)),
@@ -395,7 +395,7 @@ bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *di
     rol_path_t path;
     for (uint8_t i = 0; i < n; i++) {
         const sup_entry_t *o = &e[i];
-        if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+        if (num_any_nonzero(o->o.vx, o->o.vy)) {
             continue; /* moving: stopping in its way does not help (cbf.h) */
         }
         num_t clear = num_add(o->d_s, CBF_GUARD_MARGIN);

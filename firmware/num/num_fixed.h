@@ -285,6 +285,9 @@ static inline bool num_within(num_t a, num_t lim)
     return num_abs(a) <= lim;
 }
 
+/** @brief a != 0 || b != 0, in one test. */
+static inline bool num_any_nonzero(num_t a, num_t b) { return (a | b) != 0; }
+
 /**
  * @brief num_abs(a) < lim, the same result for every a and lim: false for
  *        lim <= 0; else |a| <= lim − 1, num_within's one comparison for a

@@ -95,6 +95,21 @@ static inline bool num_within(num_t a, num_t lim)
     return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
 }
 
+/**
+ * @brief a != 0 || b != 0: a value is 0 exactly when its bits but the sign
+ *        are (±0), so one integer test of both patterns shifted past their
+ *        sign bits, with no floating-point comparison (a NaN is not 0 in
+ *        either).
+ */
+static inline bool num_any_nonzero(num_t a, num_t b)
+{
+    uint32_t ua;
+    uint32_t ub;
+    memcpy(&ua, &a, sizeof ua);
+    memcpy(&ub, &b, sizeof ub);
+    return ((ua | ub) << 1) != 0u;
+}
+
 /** @brief num_abs(a) < lim (false for a NaN). */
 static inline bool num_below(num_t a, num_t lim) { return fabsf(a) < lim; }
 

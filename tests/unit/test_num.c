@@ -395,6 +395,35 @@ static uint64_t xorshift64(uint64_t *s)
     return *s;
 }
 
+/* num_any_nonzero(a, b) is a != 0 || b != 0: hand values, then 10^6 random
+ * bit patterns (each half of the time a zero) against the definition. No
+ * traps meanwhile: in float mode the patterns include signalling NaNs, whose
+ * comparison raises FE_INVALID. */
+static void test_num_any_nonzero_is_a_or_b_not_zero(void)
+{
+    TEST_ASSERT_FALSE(num_any_nonzero(NUM_ZERO, NUM_ZERO));
+    TEST_ASSERT_FALSE(num_any_nonzero(num_neg(NUM_ZERO), NUM_ZERO));
+    TEST_ASSERT_TRUE(num_any_nonzero(tu_num(-1.5), NUM_ZERO));
+    TEST_ASSERT_TRUE(num_any_nonzero(NUM_ZERO, NUM_MAX));
+    TEST_ASSERT_TRUE(num_any_nonzero(NUM_ZERO, num_neg(NUM_MAX)));
+    TEST_ASSERT_TRUE(num_any_nonzero(tu_num(1e-4), tu_num(2.0)));
+    fenv_t env;
+    (void)feholdexcept(&env);
+    uint64_t s = 3141592653589793238u;
+    unsigned long differ = 0;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        uint32_t bits[2] = { (k & 1u) != 0u ? 0u : (uint32_t)r,
+                             (k & 2u) != 0u ? (uint32_t)(k & 4u) << 29 : (uint32_t)(r >> 32) };
+        num_t v[2];
+        memcpy(v, bits, sizeof v);
+        differ += num_any_nonzero(v[0], v[1]) != (v[0] != NUM_ZERO || v[1] != NUM_ZERO);
+    }
+    (void)feclearexcept(FE_ALL_EXCEPT);
+    (void)fesetenv(&env);
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
 /* num_below(a, lim) is |a| < lim (hand values, exact in both modes: the
  * bound itself is not below, nothing is below a bound <= 0), and the squares
  * of values below 128 are the squares: 1.5² = 2.25, 3² + 4² = 25. */
@@ -894,6 +923,7 @@ int main(void)
     RUN_TEST(test_num_sincos_is_sin_and_cos);
     RUN_TEST(test_num_conversions_round_trip);
     RUN_TEST(test_num_below_and_small_squares_hand_values);
+    RUN_TEST(test_num_any_nonzero_is_a_or_b_not_zero);
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
     RUN_TEST(test_num_within_is_finite_and_in_range);
