@@ -489,7 +489,9 @@ static void test_num_within_is_finite_and_in_range(void)
  * double (exact for every float): every lim of the integer comparison's
  * range (+0 up to FLT_MAX) and outside it (−0, negative, +inf, NaN), each
  * against a at and one ulp either side of ±lim, ±0, ±inf, NaN, and 10^6
- * random bit patterns for both. */
+ * random bit patterns for both; then the same random a against literal
+ * limits, the form in which the comparison of bits runs (num_float.h: only
+ * for a limit known at compile time, not under -Os). */
 static bool within_by_definition(float a, float lim)
 {
     return isfinite(a) && islessequal(fabs((double)a), (double)lim);
@@ -536,6 +538,28 @@ static void test_num_within_is_its_definition(void)
         const uint32_t lb = (uint32_t)(r >> 32);
         const float lim = float_of_bits((k & 1u) != 0u ? lb % 0x7F800000u : lb);
         differ += num_within(a, lim) != within_by_definition(a, lim);
+    }
+    /* Literal limits with a at them and one code either side. */
+    for (uint32_t d = 0; d < 3u; d++) {
+        const float at2 = float_of_bits(0x40000000u + d - 1u);           /* 2.0f's neighbours */
+        const float atmax = float_of_bits(0x7F7FFFFFu + d - 1u);         /* FLT_MAX's */
+        const float at0 = float_of_bits(d == 0u ? 0x80000000u : d - 1u); /* −0, +0, 1e-45 */
+        differ += num_within(at2, 2.0f) != within_by_definition(at2, 2.0f);
+        differ += num_within(-at2, 2.0f) != within_by_definition(-at2, 2.0f);
+        differ += num_within(atmax, FLT_MAX) != within_by_definition(atmax, FLT_MAX);
+        differ += num_within(-atmax, FLT_MAX) != within_by_definition(-atmax, FLT_MAX);
+        differ += num_within(at0, 0.0f) != within_by_definition(at0, 0.0f);
+        differ += num_within(at0, 1e-45f) != within_by_definition(at0, 1e-45f);
+    }
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const float a = float_of_bits((uint32_t)xorshift64(&s));
+        differ += num_within(a, 0.0f) != within_by_definition(a, 0.0f);
+        differ += num_within(a, 1e-45f) != within_by_definition(a, 1e-45f);
+        differ += num_within(a, 2.0f) != within_by_definition(a, 2.0f);
+        differ += num_within(a, 10000.0f) != within_by_definition(a, 10000.0f);
+        differ += num_within(a, FLT_MAX) != within_by_definition(a, FLT_MAX);
+        differ += num_within(a, -0.0f) != within_by_definition(a, -0.0f);
+        differ += num_within(a, INFINITY) != within_by_definition(a, INFINITY);
     }
     (void)feclearexcept(FE_ALL_EXCEPT);
     (void)fesetenv(&env);
