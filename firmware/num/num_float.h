@@ -14,9 +14,20 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
-#include <string.h>
 
 typedef float num_t;
+
+/* The bit pattern of @p a (IEEE-754 binary32), read through a union: C11
+ * reinterprets the bytes of the member written (6.5.2.3, note 95). For the
+ * integer tests of num_within() and num_any_nonzero(). */
+static inline uint32_t num_bits(num_t a)
+{
+    const union {
+        num_t f;
+        uint32_t u;
+    } v = { .f = a };
+    return v.u;
+}
 
 /** @brief Name of the numeric mode, for logs and reports. */
 #define NUM_MODE_NAME "float"
@@ -86,8 +97,7 @@ static inline bool num_is_finite(num_t a) { return isfinite(a) != 0; }
 static inline bool num_within(num_t a, num_t lim)
 {
 #if defined(__GNUC__) && !defined(__OPTIMIZE_SIZE__)
-    uint32_t ul;
-    memcpy(&ul, &lim, sizeof ul);
+    const uint32_t ul = num_bits(lim);
     /* Only for a limit known at compile time: a variable one is tested as a
      * float (moving it to an integer register and testing its bits first
      * would cost more). Not under -Os (the board images): there GCC keeps
@@ -95,9 +105,7 @@ static inline bool num_within(num_t a, num_t lim)
      * instructions more a step on the STM32F405's image (make bench's board
      * rows), where the comparison below is as short. */
     if (__builtin_constant_p(ul) && ul < UINT32_C(0x7F800000)) {
-        uint32_t ua;
-        memcpy(&ua, &a, sizeof ua);
-        return (ua & UINT32_C(0x7FFFFFFF)) <= ul;
+        return (num_bits(a) & UINT32_C(0x7FFFFFFF)) <= ul;
     }
 #endif
     return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
@@ -111,11 +119,7 @@ static inline bool num_within(num_t a, num_t lim)
  */
 static inline bool num_any_nonzero(num_t a, num_t b)
 {
-    uint32_t ua;
-    uint32_t ub;
-    memcpy(&ua, &a, sizeof ua);
-    memcpy(&ub, &b, sizeof ub);
-    return ((ua | ub) << 1) != 0u;
+    return ((num_bits(a) | num_bits(b)) << 1) != 0u;
 }
 
 /** @brief num_abs(a) < lim (false for a NaN). */
