@@ -17,6 +17,16 @@
 #define CBF_L2_OVER_KAPPA2                                                                         \
     NUM_C(CBF_LOOKAHEAD_M *CBF_LOOKAHEAD_M / (CBF_TURN_WEIGHT_M * CBF_TURN_WEIGHT_M))
 #define CBF_INV_LOOKAHEAD NUM_C(1.0 / CBF_LOOKAHEAD_M)
+/* Inline whatever GCC's heuristics say: binding() and slack_sure() run for
+ * every obstacle in every pass over them, and GCC -O2 keeps slack_sure() (or,
+ * with it inline, binding()) out of line on a Cortex-M3, where the calls
+ * cost some 190 instructions a step of the load-8 scene (docs/performance.md;
+ * the same code, the same bits). */
+#if defined(__GNUC__)
+#define CBF_INLINE static inline __attribute__((always_inline))
+#else
+#define CBF_INLINE static inline
+#endif
 
 void cbf_init(cbf_t *f) { cbf_reset(f); }
 
@@ -73,7 +83,7 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
     }
     const num_t sigma = num_div(num_neg(along), d);
     num_t t = fr->brake_t;
-    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+    if (num_any_nonzero(o->o.vx, o->o.vy)) {
         /* Away from the obstacle (along Δ, at angle β to the heading) the
          * look-ahead point accelerates at a_v max(|cos β|, side |sin β|) at
          * most, a_v side at least. */
@@ -123,16 +133,22 @@ static void constraint_of(const lookahead_t *fr, const sup_entry_t *o, constrain
     k->b = num_sub(num_add(num_mul(ax, o->o.vx), num_mul(ay, o->o.vy)), num_mul(CBF_ALPHA, *h));
 }
 
-/* a·u for the command (v, ω). */
-static num_t rate(const constraint_t *k, num_t v, num_t w)
+/* a·u for the command (v, ω), with @p lw = l ω (a pass over the obstacles
+ * forms it once). */
+static num_t rate_lw(const constraint_t *k, num_t v, num_t lw)
 {
-    return num_add(num_mul(k->g1, v), num_mul(k->g2, num_mul(CBF_LOOKAHEAD, w)));
+    return num_add(num_mul(k->g1, v), num_mul(k->g2, lw));
 }
 
 /* b − a·u: how far (v, ω) falls short of the constraint (> 0: violated). */
+static num_t shortfall_lw(const constraint_t *k, num_t v, num_t lw)
+{
+    return num_sub(k->b, rate_lw(k, v, lw));
+}
+
 static num_t shortfall(const constraint_t *k, num_t v, num_t w)
 {
-    return num_sub(k->b, rate(k, v, w));
+    return shortfall_lw(k, v, num_mul(CBF_LOOKAHEAD, w));
 }
 
 /* The constraint of entry @p i, at centre distance @p dist from the robot,
@@ -148,14 +164,14 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
  * (T_b + (q1 + ov)/(a_v side)) for a moving one. @p still is
  * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
  * computed once per command. */
-static inline bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
-                              num_t still)
+CBF_INLINE bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
+                           num_t still)
 {
     num_t extra = fr->reach_add;
     num_t term = still;
     /* ov = |w_x| + |w_y| > 0 exactly when the obstacle moves (a sum of two
      * values >= 0 is 0 only when both are, in either mode): ov only then. */
-    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+    if (num_any_nonzero(o->o.vx, o->o.vy)) {
         const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
         const num_t qw = num_add(fr->q1, ov);
         /* reach_add holds q1 T_b once: the gain's share of it added. */
@@ -227,8 +243,8 @@ void cbf_barrier(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_moti
 
 /* The constraint of entry @p i into *k, unless it surely cannot bind
  * (slack_sure): then false. Computed once a step (the cache in cbf_t). */
-static inline bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist,
-                           num_t speed, num_t still, constraint_t *k)
+CBF_INLINE bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, num_t dist,
+                        num_t speed, num_t still, constraint_t *k)
 {
     if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;
@@ -255,6 +271,7 @@ static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_
 {
     const num_t speed = speed_of(v, w);
     const num_t still = num_mul(CBF_TWO_OVER_ALPHA, speed);
+    const num_t lw = num_mul(CBF_LOOKAHEAD, w);
     int found = -1;
     num_t worst_gap = CBF_TOLERANCE;
     for (uint8_t i = 0; i < n; i++) {
@@ -262,7 +279,7 @@ static int most_violated(const lookahead_t *fr, const sup_entry_t *e, const num_
         if (!binding(fr, e, i, dist[i], speed, still, &k)) {
             continue;
         }
-        const num_t gap = shortfall(&k, v, w);
+        const num_t gap = shortfall_lw(&k, v, lw);
         if (gap > worst_gap) {
             worst_gap = gap;
             *worst = k;
@@ -280,17 +297,19 @@ static num_t brake_factor(const lookahead_t *fr, const sup_entry_t *e, const num
 {
     const num_t speed = speed_of(v, w);
     const num_t still = num_mul(CBF_TWO_OVER_ALPHA, speed);
+    const num_t lw = num_mul(CBF_LOOKAHEAD, w);
     num_t f = NUM_ONE;
     for (uint8_t i = 0; i < n; i++) {
         constraint_t k;
-        if (!binding(fr, e, i, dist[i], speed, still, &k) || shortfall(&k, v, w) <= CBF_TOLERANCE) {
+        if (!binding(fr, e, i, dist[i], speed, still, &k) ||
+            shortfall_lw(&k, v, lw) <= CBF_TOLERANCE) {
             continue;
         }
         if (k.b > NUM_ZERO) {
             *infeasible = true;
         } else {
             /* b <= 0 and a·u < b <= 0: f a·u >= b for f <= b / a·u, in [0, 1). */
-            f = num_min(f, num_div(k.b, rate(&k, v, w)));
+            f = num_min(f, num_div(k.b, rate_lw(&k, v, lw)));
         }
     }
     return num_max(f, NUM_ZERO);
@@ -403,7 +422,7 @@ bool cbf_brake_clear(const cbf_brake_t *b, const sup_entry_t *e, const num_t *di
     rol_path_t path;
     for (uint8_t i = 0; i < n; i++) {
         const sup_entry_t *o = &e[i];
-        if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+        if (num_any_nonzero(o->o.vx, o->o.vy)) {
             continue; /* moving: stopping in its way does not help (cbf.h) */
         }
         num_t clear = num_add(o->d_s, CBF_GUARD_MARGIN);

@@ -32,11 +32,11 @@
  */
 static inline bool oset_within(num_t dx, num_t dy, num_t r)
 {
-    if (num_abs(dx) >= r || num_abs(dy) >= r) {
+    if (!num_below(dx, r) || !num_below(dy, r)) {
         return false; /* also every r <= 0 */
     }
     if (r < OSET_SQUARE_LIMIT) {
-        return num_sum_sq(dx, dy) < num_sq(r);
+        return num_sum_sq_small(dx, dy) < num_sq_small(r); /* |dx|, |dy| < r < 128 */
     }
     return num_hypot(dx, dy) < r;
 }
@@ -51,8 +51,8 @@ static inline bool oset_within(num_t dx, num_t dy, num_t r)
  */
 static inline num_t oset_distance(num_t dx, num_t dy)
 {
-    if (num_abs(dx) < OSET_SQUARE_LIMIT && num_abs(dy) < OSET_SQUARE_LIMIT) {
-        return num_sqrt(num_sum_sq(dx, dy));
+    if (num_below(dx, OSET_SQUARE_LIMIT) && num_below(dy, OSET_SQUARE_LIMIT)) {
+        return num_sqrt(num_sum_sq_small(dx, dy));
     }
     return num_hypot(dx, dy);
 }

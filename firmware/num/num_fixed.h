@@ -188,6 +188,24 @@ static inline num_t num_sum_sq(num_t x, num_t y)
 }
 
 /**
+ * @brief num_sq(a) for |a| < 128 (not checked): the same bits, without the
+ *        saturation test, which cannot fire there: |a| <= 2^23 − 1 codes, so
+ *        a² <= 2^46 − 2^24 + 1 and the rounded square is below 2^30 − 255.
+ */
+static inline num_t num_sq_small(num_t a) { return (num_t)(uint32_t)num_sq_wide(a); }
+
+/**
+ * @brief num_sum_sq(x, y) for |x|, |y| < 128 (not checked): the same bits in
+ *        32-bit arithmetic after the products (each rounded square below
+ *        2^30 − 255, as num_sq_small's, so their sum is below 2^31 and is
+ *        never saturated).
+ */
+static inline num_t num_sum_sq_small(num_t x, num_t y)
+{
+    return (num_t)((uint32_t)num_sq_wide(x) + (uint32_t)num_sq_wide(y));
+}
+
+/**
  * @brief a / b, rounded to nearest as libfixmath's fix16_sdiv rounds,
  *        saturated to [NUM_MIN, NUM_MAX]: the same bits as fix16_sdiv (in
  *        the configuration of mk/numeric.mk) for every pair of inputs.
@@ -266,6 +284,16 @@ static inline bool num_within(num_t a, num_t lim)
     }
     return num_abs(a) <= lim;
 }
+
+/** @brief a != 0 || b != 0, in one test. */
+static inline bool num_any_nonzero(num_t a, num_t b) { return (a | b) != 0; }
+
+/**
+ * @brief num_abs(a) < lim, the same result for every a and lim: false for
+ *        lim <= 0; else |a| <= lim − 1, num_within's one comparison for a
+ *        constant lim (num_abs(NUM_MIN) = NUM_MAX is not below any lim).
+ */
+static inline bool num_below(num_t a, num_t lim) { return lim > 0 && num_within(a, lim - 1); }
 
 /**
  * @brief Angle wrapped into (−π, π] as float mode does it: the result lies in

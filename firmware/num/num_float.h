@@ -17,6 +17,18 @@
 
 typedef float num_t;
 
+/* The bit pattern of @p a (IEEE-754 binary32), read through a union: C11
+ * reinterprets the bytes of the member written (6.5.2.3, note 95). For the
+ * integer tests of num_within() and num_any_nonzero(). */
+static inline uint32_t num_bits(num_t a)
+{
+    const union {
+        num_t f;
+        uint32_t u;
+    } v = { .f = a };
+    return v.u;
+}
+
 /** @brief Name of the numeric mode, for logs and reports. */
 #define NUM_MODE_NAME "float"
 
@@ -39,6 +51,11 @@ static inline num_t num_mul(num_t a, num_t b) { return a * b; }
 static inline num_t num_sq(num_t a) { return a * a; }
 /** @brief x² + y², as num_add(num_mul(x, x), num_mul(y, y)). */
 static inline num_t num_sum_sq(num_t x, num_t y) { return x * x + y * y; }
+/** @brief num_sq(a) for |a| < 128: the same expression (fixed mode drops a
+ *         saturation test there). */
+static inline num_t num_sq_small(num_t a) { return a * a; }
+/** @brief num_sum_sq(x, y) for |x|, |y| < 128: the same expression. */
+static inline num_t num_sum_sq_small(num_t x, num_t y) { return x * x + y * y; }
 /** @brief a / b; b == 0 gives ±inf or NaN: callers guard against it. */
 static inline num_t num_div(num_t a, num_t b) { return a / b; }
 static inline num_t num_abs(num_t a) { return fabsf(a); }
@@ -67,11 +84,46 @@ static inline bool num_is_finite(num_t a) { return isfinite(a) != 0; }
  * One quiet comparison does both tests when lim < +inf: |a| <= lim is false
  * for a NaN a (unordered) and for an infinite a. Only lim = +inf needs the
  * finiteness test, and a constant lim removes it at compile time.
+ *
+ * For a lim of +0 up to the largest finite value (its sign bit clear, its
+ * exponent not all ones: bits below 0x7F800000) that comparison is one of
+ * integers: IEEE-754 orders the non-negative values as their bit patterns,
+ * and a's with the sign bit cleared is |a|'s, above every such lim's when a
+ * is infinite or NaN. The same result, with no floating-point comparison
+ * (4 instructions a check on a Cortex-M4F where the FPU's compare, its flags'
+ * transfer and the absolute value take 5, and no library call in soft
+ * float); a constant lim folds the test of its bits away.
  */
 static inline bool num_within(num_t a, num_t lim)
 {
+#if defined(__GNUC__) && !defined(__OPTIMIZE_SIZE__)
+    const uint32_t ul = num_bits(lim);
+    /* Only for a limit known at compile time: a variable one is tested as a
+     * float (moving it to an integer register and testing its bits first
+     * would cost more). Not under -Os (the board images): there GCC keeps
+     * the callers' range checks out of line for the longer body, 145
+     * instructions more a step on the STM32F405's image (make bench's board
+     * rows), where the comparison below is as short. */
+    if (__builtin_constant_p(ul) && ul < UINT32_C(0x7F800000)) {
+        return (num_bits(a) & UINT32_C(0x7FFFFFFF)) <= ul;
+    }
+#endif
     return islessequal(fabsf(a), lim) && (isless(lim, INFINITY) || isfinite(a));
 }
+
+/**
+ * @brief a != 0 || b != 0: a value is 0 exactly when its bits but the sign
+ *        are (±0), so one integer test of both patterns shifted past their
+ *        sign bits, with no floating-point comparison (a NaN is not 0 in
+ *        either).
+ */
+static inline bool num_any_nonzero(num_t a, num_t b)
+{
+    return ((num_bits(a) | num_bits(b)) << 1) != 0u;
+}
+
+/** @brief num_abs(a) < lim (false for a NaN). */
+static inline bool num_below(num_t a, num_t lim) { return fabsf(a) < lim; }
 
 /**
  * @brief Angle wrapped into (-π, π].

@@ -386,6 +386,62 @@ static void test_num_conversions_round_trip(void)
     TEST_ASSERT_NUM_WITHIN(TOL_WRAP_ABS, TU_TWO_PI, NUM_TWO_PI);
 }
 
+/* A xorshift64 generator: the same pseudo-random pairs on every run. */
+static uint64_t xorshift64(uint64_t *s)
+{
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    return *s;
+}
+
+/* num_any_nonzero(a, b) is a != 0 || b != 0: hand values, then 10^6 random
+ * bit patterns (each half of the time a zero) against the definition. No
+ * traps meanwhile: in float mode the patterns include signalling NaNs, whose
+ * comparison raises FE_INVALID. */
+static void test_num_any_nonzero_is_a_or_b_not_zero(void)
+{
+    TEST_ASSERT_FALSE(num_any_nonzero(NUM_ZERO, NUM_ZERO));
+    TEST_ASSERT_FALSE(num_any_nonzero(num_neg(NUM_ZERO), NUM_ZERO));
+    TEST_ASSERT_TRUE(num_any_nonzero(tu_num(-1.5), NUM_ZERO));
+    TEST_ASSERT_TRUE(num_any_nonzero(NUM_ZERO, NUM_MAX));
+    TEST_ASSERT_TRUE(num_any_nonzero(NUM_ZERO, num_neg(NUM_MAX)));
+    TEST_ASSERT_TRUE(num_any_nonzero(tu_num(1e-4), tu_num(2.0)));
+    fenv_t env;
+    (void)feholdexcept(&env);
+    uint64_t s = 3141592653589793238u;
+    unsigned long differ = 0;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        uint32_t bits[2] = { (k & 1u) != 0u ? 0u : (uint32_t)r,
+                             (k & 2u) != 0u ? (uint32_t)(k & 4u) << 29 : (uint32_t)(r >> 32) };
+        num_t v[2];
+        memcpy(v, bits, sizeof v);
+        differ += num_any_nonzero(v[0], v[1]) != (v[0] != NUM_ZERO || v[1] != NUM_ZERO);
+    }
+    (void)feclearexcept(FE_ALL_EXCEPT);
+    (void)fesetenv(&env);
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* num_below(a, lim) is |a| < lim (hand values, exact in both modes: the
+ * bound itself is not below, nothing is below a bound <= 0), and the squares
+ * of values below 128 are the squares: 1.5² = 2.25, 3² + 4² = 25. */
+static void test_num_below_and_small_squares_hand_values(void)
+{
+    TEST_ASSERT_TRUE(num_below(tu_num(1.0), tu_num(2.0)));
+    TEST_ASSERT_TRUE(num_below(tu_num(-1.5), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(tu_num(2.0), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(tu_num(-2.0), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(tu_num(-2.5), tu_num(2.0)));
+    TEST_ASSERT_FALSE(num_below(NUM_ZERO, NUM_ZERO));
+    TEST_ASSERT_FALSE(num_below(NUM_ZERO, tu_num(-1.0)));
+    TEST_ASSERT_TRUE(num_below(tu_num(-127.5), tu_num(128.0)));
+    TEST_ASSERT_EQUAL_FLOAT(2.25f, num_to_float(num_sq_small(tu_num(-1.5))));
+    TEST_ASSERT_EQUAL_FLOAT(25.0f, num_to_float(num_sum_sq_small(tu_num(3.0), tu_num(-4.0))));
+    TEST_ASSERT_EQUAL_FLOAT(0.0f, num_to_float(num_sum_sq_small(NUM_ZERO, NUM_ZERO)));
+}
+
 #ifndef NUM_FIXED
 /* Float mode only: Q16.16 has no NaN or infinity, so these values cannot be
  * built in fixed mode; test_num_every_fixed_value_is_finite covers it. */
@@ -427,6 +483,87 @@ static void test_num_within_is_finite_and_in_range(void)
     TEST_ASSERT_FALSE(num_within(-nan, inf));
     TEST_ASSERT_FALSE(num_within(two, nan));
     TEST_ASSERT_FALSE(fetestexcept(FE_INVALID));
+}
+
+/* num_within against its definition, num_is_finite(a) && |a| <= lim, in
+ * double (exact for every float): every lim of the integer comparison's
+ * range (+0 up to FLT_MAX) and outside it (−0, negative, +inf, NaN), each
+ * against a at and one ulp either side of ±lim, ±0, ±inf, NaN, and 10^6
+ * random bit patterns for both; then the same random a against literal
+ * limits, the form in which the comparison of bits runs (num_float.h: only
+ * for a limit known at compile time, not under -Os). */
+static bool within_by_definition(float a, float lim)
+{
+    return isfinite(a) && islessequal(fabs((double)a), (double)lim);
+}
+
+static float float_of_bits(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+static void test_num_within_is_its_definition(void)
+{
+    static const float lims[] = { 0.0f, -0.0f, 1e-45f,  1.0f,     2.0f,      100.0f, 10000.0f,
+                                  3.5f, -2.0f, FLT_MAX, INFINITY, -INFINITY, NAN };
+    /* Random bit patterns include signalling NaNs, whose conversion to
+     * double (and the fallback's comparison) raise FE_INVALID: no traps
+     * here (feholdexcept), the test_util.h ones again after. */
+    fenv_t env;
+    (void)feholdexcept(&env);
+    unsigned long differ = 0;
+    for (size_t i = 0; i < sizeof lims / sizeof lims[0]; i++) {
+        const float lim = lims[i];
+        uint32_t b;
+        memcpy(&b, &lim, sizeof b);
+        /* lim, and its neighbours by one code of its bit pattern either way
+         * (one ulp in magnitude), each with either sign. */
+        const float near[] = { lim, float_of_bits(b - 1u), float_of_bits(b + 1u) };
+        for (size_t j = 0; j < 3u; j++) {
+            differ += num_within(near[j], lim) != within_by_definition(near[j], lim);
+            differ += num_within(-near[j], lim) != within_by_definition(-near[j], lim);
+        }
+        const float special[] = { 0.0f, -0.0f, INFINITY, -INFINITY, NAN, 1.0f };
+        for (size_t j = 0; j < sizeof special / sizeof special[0]; j++) {
+            differ += num_within(special[j], lim) != within_by_definition(special[j], lim);
+        }
+    }
+    uint64_t s = 5573589319906701683u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const float a = float_of_bits((uint32_t)r);
+        /* Half the limits positive and finite, where the integer test runs. */
+        const uint32_t lb = (uint32_t)(r >> 32);
+        const float lim = float_of_bits((k & 1u) != 0u ? lb % 0x7F800000u : lb);
+        differ += num_within(a, lim) != within_by_definition(a, lim);
+    }
+    /* Literal limits with a at them and one code either side. */
+    for (uint32_t d = 0; d < 3u; d++) {
+        const float at2 = float_of_bits(0x40000000u + d - 1u);           /* 2.0f's neighbours */
+        const float atmax = float_of_bits(0x7F7FFFFFu + d - 1u);         /* FLT_MAX's */
+        const float at0 = float_of_bits(d == 0u ? 0x80000000u : d - 1u); /* −0, +0, 1e-45 */
+        differ += num_within(at2, 2.0f) != within_by_definition(at2, 2.0f);
+        differ += num_within(-at2, 2.0f) != within_by_definition(-at2, 2.0f);
+        differ += num_within(atmax, FLT_MAX) != within_by_definition(atmax, FLT_MAX);
+        differ += num_within(-atmax, FLT_MAX) != within_by_definition(-atmax, FLT_MAX);
+        differ += num_within(at0, 0.0f) != within_by_definition(at0, 0.0f);
+        differ += num_within(at0, 1e-45f) != within_by_definition(at0, 1e-45f);
+    }
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const float a = float_of_bits((uint32_t)xorshift64(&s));
+        differ += num_within(a, 0.0f) != within_by_definition(a, 0.0f);
+        differ += num_within(a, 1e-45f) != within_by_definition(a, 1e-45f);
+        differ += num_within(a, 2.0f) != within_by_definition(a, 2.0f);
+        differ += num_within(a, 10000.0f) != within_by_definition(a, 10000.0f);
+        differ += num_within(a, FLT_MAX) != within_by_definition(a, FLT_MAX);
+        differ += num_within(a, -0.0f) != within_by_definition(a, -0.0f);
+        differ += num_within(a, INFINITY) != within_by_definition(a, INFINITY);
+    }
+    (void)feclearexcept(FE_ALL_EXCEPT);
+    (void)fesetenv(&env);
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 #else
 /* Fixed mode: every Q16.16 value is a finite number. */
@@ -488,15 +625,6 @@ static void test_num_fixed_add_sub_edges(void)
     TEST_ASSERT_FALSE(num_within(-1, 0));
     TEST_ASSERT_FALSE(num_within(0, -1));
     TEST_ASSERT_FALSE(num_within(NUM_MIN, NUM_MIN));
-}
-
-/* A xorshift64 generator: the same pseudo-random pairs on every run. */
-static uint64_t xorshift64(uint64_t *s)
-{
-    *s ^= *s << 13;
-    *s ^= *s >> 7;
-    *s ^= *s << 17;
-    return *s;
 }
 
 /* num_mul is libfixmath's fix16_smul written inline: the same bits for every
@@ -574,6 +702,72 @@ static void test_num_fixed_squares_are_mul_and_add(void)
         const int32_t y = (int32_t)(uint32_t)(r >> 32) >> ((k / 31u) % 31u);
         differ += num_sq(x) != num_mul(x, x);
         differ += num_sum_sq(x, y) != num_add(num_mul(x, x), num_mul(y, y));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* num_sq_small and num_sum_sq_small drop num_sq's saturation test for
+ * |a| < 128, where it cannot fire: hand values at the largest such a,
+ * 2^23 − 1 codes: a² = 2^46 − 2^24 + 1, rounded (+2^15, >> 16) to
+ * 2^30 − 256, and twice that, 2^31 − 512, still below NUM_MAX (where 128²
+ * + 128² saturates: test above); (1 + 2^-16)² = 1 + 2^-15. Then every a
+ * with |a| < 128 against num_sq, and 10^6 random pairs against
+ * num_sum_sq. */
+static void test_num_fixed_small_squares_are_sq_and_sum_sq(void)
+{
+    const int32_t top = (1 << 23) - 1;
+    TEST_ASSERT_EQUAL_INT32(1073741568, num_sq_small(top));
+    TEST_ASSERT_EQUAL_INT32(1073741568, num_sq_small(-top));
+    TEST_ASSERT_EQUAL_INT32(2147483136, num_sum_sq_small(top, -top));
+    TEST_ASSERT_EQUAL_INT32(NUM_ONE + 2, num_sq_small(NUM_ONE + 1));
+    unsigned long differ = 0;
+    for (int32_t a = -top; a <= top; a++) {
+        differ += num_sq_small(a) != num_sq(a);
+    }
+    uint64_t s = 1181783497276652981u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t x = (int32_t)(uint32_t)r >> (8u + k % 24u);
+        const int32_t y = (int32_t)(uint32_t)(r >> 32) >> (8u + (k / 24u) % 24u);
+        differ += num_sum_sq_small(x, y) != num_sum_sq(x, y);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+}
+
+/* num_below(a, lim) is num_abs(a) < lim for every a and lim: hand values at
+ * the edges (|NUM_MIN| saturates to NUM_MAX, below no lim; NUM_MAX − 1 is
+ * below NUM_MAX; 0 is below 1 code, 1 code is not), then each edge ±2 codes
+ * with each, and 10^6 random pairs at every magnitude, against num_abs. */
+static void test_num_fixed_below_is_abs_less_than(void)
+{
+    TEST_ASSERT_FALSE(num_below(NUM_MIN, NUM_MAX));
+    TEST_ASSERT_FALSE(num_below(NUM_MAX, NUM_MAX));
+    TEST_ASSERT_TRUE(num_below(NUM_MAX - 1, NUM_MAX));
+    TEST_ASSERT_TRUE(num_below(-(NUM_MAX - 1), NUM_MAX));
+    TEST_ASSERT_TRUE(num_below(0, 1));
+    TEST_ASSERT_FALSE(num_below(1, 1));
+    TEST_ASSERT_FALSE(num_below(-1, 1));
+    TEST_ASSERT_FALSE(num_below(0, NUM_MIN));
+    static const int32_t edge[] = { 0, 1, 2, 0x10000, 1 << 23, INT32_MAX, -1, -0x10000, INT32_MIN };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    unsigned long differ = 0;
+    for (size_t i = 0; i < n_edge; i++) {
+        for (size_t j = 0; j < n_edge; j++) {
+            for (uint32_t d = 0; d < 5u; d++) {
+                for (uint32_t f = 0; f < 5u; f++) {
+                    const int32_t a = (int32_t)((uint32_t)edge[i] + d - 2u);
+                    const int32_t lim = (int32_t)((uint32_t)edge[j] + f - 2u);
+                    differ += num_below(a, lim) != (num_abs(a) < lim);
+                }
+            }
+        }
+    }
+    uint64_t s = 2685821657736338717u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t a = (int32_t)(uint32_t)r >> (k % 32u);
+        const int32_t lim = (int32_t)(uint32_t)(r >> 32) >> ((k / 32u) % 32u);
+        differ += num_below(a, lim) != (num_abs(a) < lim);
     }
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
@@ -752,15 +946,20 @@ int main(void)
     RUN_TEST(test_num_sin_cos_hand_values);
     RUN_TEST(test_num_sincos_is_sin_and_cos);
     RUN_TEST(test_num_conversions_round_trip);
+    RUN_TEST(test_num_below_and_small_squares_hand_values);
+    RUN_TEST(test_num_any_nonzero_is_a_or_b_not_zero);
 #ifndef NUM_FIXED
     RUN_TEST(test_num_is_finite_rejects_nan_and_inf);
     RUN_TEST(test_num_within_is_finite_and_in_range);
+    RUN_TEST(test_num_within_is_its_definition);
 #else
     RUN_TEST(test_num_every_fixed_value_is_finite);
     RUN_TEST(test_num_fixed_overflow_saturates);
     RUN_TEST(test_num_fixed_add_sub_edges);
     RUN_TEST(test_num_fixed_mul_is_libfixmath_smul);
     RUN_TEST(test_num_fixed_squares_are_mul_and_add);
+    RUN_TEST(test_num_fixed_small_squares_are_sq_and_sum_sq);
+    RUN_TEST(test_num_fixed_below_is_abs_less_than);
     RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
     RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
     RUN_TEST(test_num_fixed_hypot_is_correctly_rounded);

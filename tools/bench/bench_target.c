@@ -204,6 +204,11 @@ static void load(const bench_scenario_t *sc)
         printf(" %.2f:%u:%u:%d", (double)e->t_us * 1e-6, e->kind, e->obstacle, e->side);
     }
     printf("\n");
+    /* Every pose and wheel command of the load's closed loop, as `checksum`
+     * for the paper's scenarios: a change that keeps these keeps the bits. */
+    printf("load_checksum %s %s %08lx\n", sc->name,
+           sc->strategy == (uint8_t)CTL_STRATEGY_MSTC ? "mstc" : "paper",
+           (unsigned long)bench_checksum(steps, n));
     char key[48];
     snprintf(key, sizeof key, "load_mode %s %s", sc->name,
              sc->strategy == (uint8_t)CTL_STRATEGY_MSTC ? "mstc" : "paper");

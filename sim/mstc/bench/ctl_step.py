@@ -157,8 +157,8 @@ def parse(path: Path) -> Result:
                     "min_clearance": float(f[16]),
                 }
             )
-        elif key == "load_mode":
-            pass  # per-mode figures of the loads: in the raw results only
+        elif key in ("load_mode", "load_checksum"):
+            pass  # per-mode figures and hashes of the loads: in the raw results only
         elif key == "prim":
             name, value, domain = rest.split(" ", 2)
             r["prim"][name] = (float(value), domain)
