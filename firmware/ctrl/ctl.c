@@ -319,6 +319,29 @@ static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const 
     pe->s3 = r.s;
 }
 
+/* The least tracking speed near obstacles ("mstc", applied after the
+ * strategy's decision): a robot behind its reference (the reference ahead of
+ * it along the reference's own heading, e1 cos e3 + e2 sin e3 > 0 on the
+ * predicted errors, for a reference that drives forwards) keeps the speed its
+ * wheels have, up to |v_r|, while it turns towards the reference. Eq. (2)
+ * held within [0, speed_limit] (track_speed()) asks it to stop and turn in
+ * place whenever v_r cos e3 + k1 e1 < 0 (|e3| > π/2 with the reference
+ * beside it), which costs wheels that accelerate at a few rad/s² seconds
+ * while the reference drives away. Never more than it has: a robot that
+ * something brakes (the filter, the guard) slows, and turns in place once
+ * standing. Mirrored for a reference that drives backwards. Only when every
+ * obstacle near is static (mstc_step()). */
+static num_t track_least_speed(const ctl_input_t *in, const wheels_now_t *wn, const pred_err_t *pe)
+{
+    const num_t along = num_add(num_mul(pe->e.e1, pe->c3), num_mul(pe->e.e2, pe->s3));
+    const bool behind = in->v_r < NUM_ZERO ? along < NUM_ZERO : along > NUM_ZERO;
+    if (!behind) {
+        return NUM_ZERO;
+    }
+    const num_t has = in->v_r < NUM_ZERO ? num_neg(wn->v) : wn->v;
+    return num_min(num_abs(in->v_r), num_max(has, NUM_ZERO));
+}
+
 /* The tracking command through the wheels' limits ("mstc"): eq. (2)-(3) on
  * the errors the lag carries the robot to (predict_errors()); the turn
  * beyond ω_r held within 2γ'/(k3 |v_r|) and the speed beyond v_r cos e3
@@ -451,11 +474,15 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
      * (track_speed); elsewhere tracking is eq. (2)-(3) as is. */
     st->n_obstacles = c->sup.n_obs;
     bool near = false;
+    bool near_moving = false;
     for (uint8_t i = 0; i < c->sup.n_obs; i++) {
         const sup_entry_t *e = &c->sup.obs[i];
         st->obstacle_id[i] = e->o.id;
         st->distance[i] = oset_distance(num_sub(e->o.x, in->robot.x), num_sub(e->o.y, in->robot.y));
-        near = near || st->distance[i] < num_add(e->d_act, MSW_REGULATE);
+        if (st->distance[i] < num_add(e->d_act, MSW_REGULATE)) {
+            near = true;
+            near_moving = near_moving || msw_moving(e);
+        }
     }
     if (near) {
         v_trk = track_speed(v_trk, in->v_r);
@@ -480,6 +507,14 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     if (d.mode == SUP_MODE_TRACK) {
         v = v_trk;
         w = w_trk;
+        if (near && !near_moving) {
+            /* Not in v_trk: the release's roll-out judges the turn in place,
+             * so a robot facing an obstacle is not held in avoidance by a
+             * speed it would not keep. Not near a moving obstacle: the speed
+             * kept would carry the robot into its way. */
+            const num_t least = track_least_speed(in, &wn, &pe);
+            v = in->v_r < NUM_ZERO ? num_min(v, num_neg(least)) : num_max(v, least);
+        }
     } else if (d.mode == SUP_MODE_AVOID && d.followed != NULL) { /* msw_step sets both */
         st->active_obstacle = d.followed->o.id;
         st->side = d.side;
