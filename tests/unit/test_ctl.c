@@ -744,8 +744,10 @@ static void test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed(void)
 
 /* One step of "mstc" near an obstacle (moving at @p ob_vx along x), its
  * wheels measured at @p wheel rad/s both (v̂ = 0.05 · wheel), the reference
- * 1 m to the left heading @p ref_heading at 0.5 m/s. */
-static void step_behind(double ref_heading, double wheel, double ob_vx)
+ * 1 m to the left heading @p ref_heading at 0.5 m/s: tracking, at v with
+ * wheels @p right and @p left. */
+static void expect_behind(double ref_heading, double wheel, double ob_vx, double v, double right,
+                          double left)
 {
     mstc_init();
     sup_obstacle_t o = obstacle(1, -1.5, -1.0, 0.1);
@@ -756,6 +758,9 @@ static void step_behind(double ref_heading, double wheel, double ob_vx)
     in.wheels = (kin_wheels_t){ tu_num(wheel), tu_num(wheel) };
     ctl_step(&c, &in, &out);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, v, out.status.v);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, right, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, left, out.wheels.left);
 }
 
 static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(void)
@@ -778,37 +783,22 @@ static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(vo
      * (v̂ = 0.6, ė1 = −0.7136010 → e1 = −0.0071360, ω unchanged) give
      * v = |v_r| = 0.5: 36.852274 and −16.852274. (Before this rule: v = 0,
      * wheels ±26.852274.) */
-    step_behind(1.8, 8.0, 0.0);
-    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.4, out.status.v);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 34.852274, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -18.852274, out.wheels.left);
-    step_behind(1.8, 12.0, 0.0);
-    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.5, out.status.v);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 36.852274, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -16.852274, out.wheels.left);
+    expect_behind(1.8, 8.0, 0.0, 0.4, 34.852274, -18.852274);
+    expect_behind(1.8, 12.0, 0.0, 0.5, 36.852274, -16.852274);
     /* (b) The same standing (wheels 0): it has no speed to keep, v = 0 and
      * it turns in place: ė1 = −0.1136010 → e1 = −0.0011360, e2 as in (a)
      * (ė2 does not depend on v̂), so ω = 8.950758: wheels ±26.852274. */
-    step_behind(1.8, 0.0, 0.0);
-    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 26.852274, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -26.852274, out.wheels.left);
+    expect_behind(1.8, 0.0, 0.0, 0.0, 26.852274, -26.852274);
     /* (c) Moving, the reference heading e3 = −1.8 instead: it comes towards
      * the robot's side, the robot is ahead of it (ė2 = −0.4869238 → e2 =
      * 0.9951308; e1 cos e3 + e2 sin e3 = 0.0013941 − 0.9691057 < 0): it
      * waits as before, v = 0, ω = 0.5 (12 · 0.9951308 − 6 · 0.9738476) =
      * 3.049242: wheels ±9.147726. */
-    step_behind(-1.8, 10.0, 0.0);
-    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 9.147726, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -9.147726, out.wheels.left);
+    expect_behind(-1.8, 10.0, 0.0, 0.0, 9.147726, -9.147726);
     /* (d) As (a), the obstacle moving at 0.1 m/s (> MSW_MOVING_SPEED; 1.80 m
      * away, beyond D_act + MSW_CPA_REACH = 1.5 m: no activation): the rule
      * is off near moving obstacles, v = 0, ω as in (a): wheels ±26.852274. */
-    step_behind(1.8, 8.0, 0.1);
-    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 26.852274, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, -26.852274, out.wheels.left);
+    expect_behind(1.8, 8.0, 0.1, 0.0, 26.852274, -26.852274);
 }
 
 static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
