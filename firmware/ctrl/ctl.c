@@ -330,16 +330,30 @@ static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const 
  * while the reference drives away. Never more than it has: a robot that
  * something brakes (the filter, the guard) slows, and turns in place once
  * standing. Mirrored for a reference that drives backwards. Only when every
- * obstacle near is static (mstc_step()). */
-static num_t track_least_speed(const ctl_input_t *in, const wheels_now_t *wn, const pred_err_t *pe)
+ * obstacle within D_act + MSW_REGULATE (@p dist: centre distances) is
+ * static. Returns the tracking speed @p v, or that least speed when it is
+ * faster. */
+static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const wheels_now_t *wn,
+                               const pred_err_t *pe, const num_t *dist, num_t v)
 {
-    const num_t along = num_add(num_mul(pe->e.e1, pe->c3), num_mul(pe->e.e2, pe->s3));
-    const bool behind = in->v_r < NUM_ZERO ? along < NUM_ZERO : along > NUM_ZERO;
-    if (!behind) {
-        return NUM_ZERO;
+    const bool back = in->v_r < NUM_ZERO;
+    /* Speeds along the reference's direction of motion. */
+    const num_t has = back ? num_neg(wn->v) : wn->v;
+    const num_t least = num_min(num_abs(in->v_r), has);
+    if ((back ? num_neg(v) : v) >= least) {
+        return v; /* nothing to keep, or as fast already */
     }
-    const num_t has = in->v_r < NUM_ZERO ? num_neg(wn->v) : wn->v;
-    return num_min(num_abs(in->v_r), num_max(has, NUM_ZERO));
+    const num_t along = num_add(num_mul(pe->e.e1, pe->c3), num_mul(pe->e.e2, pe->s3));
+    if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {
+        return v; /* ahead of its reference: it waits */
+    }
+    for (uint8_t i = 0; i < c->sup.n_obs; i++) {
+        const sup_entry_t *e = &c->sup.obs[i];
+        if (dist[i] < num_add(e->d_act, MSW_REGULATE) && msw_moving(e)) {
+            return v; /* the speed kept would carry it into the way */
+        }
+    }
+    return back ? num_neg(least) : least;
 }
 
 /* The tracking command through the wheels' limits ("mstc"): eq. (2)-(3) on
@@ -474,15 +488,11 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
      * (track_speed); elsewhere tracking is eq. (2)-(3) as is. */
     st->n_obstacles = c->sup.n_obs;
     bool near = false;
-    bool near_moving = false;
     for (uint8_t i = 0; i < c->sup.n_obs; i++) {
         const sup_entry_t *e = &c->sup.obs[i];
         st->obstacle_id[i] = e->o.id;
         st->distance[i] = oset_distance(num_sub(e->o.x, in->robot.x), num_sub(e->o.y, in->robot.y));
-        if (st->distance[i] < num_add(e->d_act, MSW_REGULATE)) {
-            near = true;
-            near_moving = near_moving || msw_moving(e);
-        }
+        near = near || st->distance[i] < num_add(e->d_act, MSW_REGULATE);
     }
     if (near) {
         v_trk = track_speed(v_trk, in->v_r);
@@ -507,13 +517,11 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     if (d.mode == SUP_MODE_TRACK) {
         v = v_trk;
         w = w_trk;
-        if (near && !near_moving) {
+        if (near) {
             /* Not in v_trk: the release's roll-out judges the turn in place,
              * so a robot facing an obstacle is not held in avoidance by a
-             * speed it would not keep. Not near a moving obstacle: the speed
-             * kept would carry the robot into its way. */
-            const num_t least = track_least_speed(in, &wn, &pe);
-            v = in->v_r < NUM_ZERO ? num_min(v, num_neg(least)) : num_max(v, least);
+             * speed it would not keep. */
+            v = track_least_speed(c, in, &wn, &pe, st->distance, v);
         }
     } else if (d.mode == SUP_MODE_AVOID && d.followed != NULL) { /* msw_step sets both */
         st->active_obstacle = d.followed->o.id;
