@@ -320,19 +320,18 @@ static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const 
 }
 
 /* The least tracking speed near obstacles ("mstc", applied after the
- * strategy's decision): a robot behind its reference (the reference ahead of
- * it along the reference's own heading, e1 cos e3 + e2 sin e3 > 0 on the
- * predicted errors, for a reference that drives forwards) keeps the speed its
- * wheels have, up to |v_r|, while it turns towards the reference. Eq. (2)
- * held within [0, speed_limit] (track_speed()) asks it to stop and turn in
- * place whenever v_r cos e3 + k1 e1 < 0 (|e3| > π/2 with the reference
- * beside it), which costs wheels that accelerate at a few rad/s² seconds
- * while the reference drives away. Never more than it has: a robot that
- * something brakes (the filter, the guard) slows, and turns in place once
- * standing. Mirrored for a reference that drives backwards. Only when every
- * obstacle within D_act + MSW_REGULATE (@p dist: centre distances) is
- * static. Returns the tracking speed @p v, or that least speed when it is
- * faster. */
+ * strategy's decision): where eq. (2) held within [0, speed_limit]
+ * (track_speed()) stops the robot to turn in place (v_r cos e3 + k1 e1 <= 0:
+ * |e3| > π/2, the reference beside it and heading away), a robot behind its
+ * reference (the reference ahead of it along the reference's own heading,
+ * e1 cos e3 + e2 sin e3 > 0 on the predicted errors) keeps the speed its
+ * wheels have, up to |v_r|, while it turns towards the reference: stopping,
+ * spinning and driving off cost wheels that accelerate at a few rad/s²
+ * seconds while the reference drives away. Never more than it has: a robot
+ * that something brakes (the filter, the guard) slows, and turns in place
+ * once standing. Only when every obstacle within D_act + MSW_REGULATE
+ * (@p dist: centre distances) is static. Mirrored for a reference that
+ * drives backwards. Returns the tracking speed @p v, or that least speed. */
 static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const wheels_now_t *wn,
                                const pred_err_t *pe, const num_t *dist, num_t v)
 {
@@ -340,8 +339,8 @@ static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const whee
     /* Speeds along the reference's direction of motion. */
     const num_t has = back ? num_neg(wn->v) : wn->v;
     const num_t least = num_min(num_abs(in->v_r), has);
-    if ((back ? num_neg(v) : v) >= least) {
-        return v; /* nothing to keep, or as fast already */
+    if ((back ? num_neg(v) : v) > NUM_ZERO || least <= NUM_ZERO) {
+        return v; /* eq. (2) drives on, or nothing to keep */
     }
     const num_t along = num_add(num_mul(pe->e.e1, pe->c3), num_mul(pe->e.e2, pe->s3));
     if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {

@@ -799,6 +799,13 @@ static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(vo
      * away, beyond D_act + MSW_CPA_REACH = 1.5 m: no activation): the rule
      * is off near moving obstacles, v = 0, ω as in (a): wheels ±26.852274. */
     expect_behind(1.8, 8.0, 0.1, 0.0, 26.852274, -26.852274);
+    /* (e) As (a), the reference heading e3 = 1.2 rad: eq. (2) drives on,
+     * v = 0.5 cos 1.2 + 3 e1 = 0.1811789 − 0.0065646 = 0.1746142 > 0 (ė1 =
+     * −0.4 + 0.1811789 → e1 = −0.0021882), and is kept, below the speed the
+     * wheels have: the rule replaces only a stop. ė2 = 0.5 sin 1.2 →
+     * e2 = 1.0046602, ω = 0.5 (12 · 1.0046602 + 6 · 0.9320391) = 8.824078:
+     * wheels 29.964520 and −22.979950. */
+    expect_behind(1.2, 8.0, 0.0, 0.1746142, 29.964520, -22.979950);
 }
 
 static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
