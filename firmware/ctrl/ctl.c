@@ -326,6 +326,42 @@ static void predict_errors(const ctl_input_t *in, const wheels_now_t *wn, const 
     pe->s3 = r.s;
 }
 
+/* The least tracking speed near obstacles ("mstc", applied after the
+ * strategy's decision): where eq. (2) held within [0, speed_limit]
+ * (track_speed()) stops the robot to turn in place (v_r cos e3 + k1 e1 <= 0:
+ * |e3| > π/2, the reference beside it and heading away), a robot behind its
+ * reference (the reference ahead of it along the reference's own heading,
+ * e1 cos e3 + e2 sin e3 > 0 on the predicted errors) keeps the speed its
+ * wheels have, up to |v_r|, while it turns towards the reference: stopping,
+ * spinning and driving off cost wheels that accelerate at a few rad/s²
+ * seconds while the reference drives away. Never more than it has: a robot
+ * that something brakes (the filter, the guard) slows, and turns in place
+ * once standing. Only when every obstacle within D_act + MSW_REGULATE
+ * (@p dist: centre distances) is static. Mirrored for a reference that
+ * drives backwards. Returns the tracking speed @p v, or that least speed. */
+static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const wheels_now_t *wn,
+                               const pred_err_t *pe, const num_t *dist, num_t v)
+{
+    const bool back = in->v_r < NUM_ZERO;
+    /* Speeds along the reference's direction of motion. */
+    const num_t has = back ? num_neg(wn->v) : wn->v;
+    const num_t least = num_min(num_abs(in->v_r), has);
+    if ((back ? num_neg(v) : v) > NUM_ZERO || least <= NUM_ZERO) {
+        return v; /* eq. (2) drives on, or nothing to keep */
+    }
+    const num_t along = num_add(num_mul(pe->e.e1, pe->c3), num_mul(pe->e.e2, pe->s3));
+    if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {
+        return v; /* ahead of its reference: it waits */
+    }
+    for (uint8_t i = 0; i < c->sup.n_obs; i++) {
+        const sup_entry_t *e = &c->sup.obs[i];
+        if (dist[i] < num_add(e->d_act, MSW_REGULATE) && msw_moving(e)) {
+            return v; /* the speed kept would carry it into the way */
+        }
+    }
+    return back ? num_neg(least) : least;
+}
+
 /* The tracking command through the wheels' limits ("mstc"): eq. (2)-(3) on
  * the errors the lag carries the robot to (predict_errors()); the turn
  * beyond ω_r held within 2γ'/(k3 |v_r|) and the speed beyond v_r cos e3
@@ -488,6 +524,12 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     if (d.mode == SUP_MODE_TRACK) {
         v = v_trk;
         w = w_trk;
+        if (near) {
+            /* Not in v_trk: the release's roll-out judges the turn in place,
+             * so a robot facing an obstacle is not held in avoidance by a
+             * speed it would not keep. */
+            v = track_least_speed(c, in, &wn, &pe, st->distance, v);
+        }
     } else if (d.mode == SUP_MODE_AVOID && d.followed != NULL) { /* msw_step sets both */
         st->active_obstacle = d.followed->o.id;
         st->side = d.side;

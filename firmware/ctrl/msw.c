@@ -40,7 +40,7 @@ static void emit(sup_event_t *events, size_t *n, uint64_t t_us, sup_event_kind_t
     (*n)++;
 }
 
-static bool moving(const sup_entry_t *e)
+bool msw_moving(const sup_entry_t *e)
 {
     return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
 }
@@ -82,7 +82,7 @@ static void relative_velocity(look_t *lk, const sup_entry_t *e, num_t *vx, num_t
     const msw_input_t *in = lk->in;
     num_t ux = num_mul(in->v_trk, in->cos_th);
     num_t uy = num_mul(in->v_trk, in->sin_th);
-    if (moving(e)) {
+    if (msw_moving(e)) {
         const rol_path_t *path = rolled_out(lk);
         if (path->kind == ROL_ARC) {
             ux = num_mul(num_sub(path->s1x, path->s0x), MSW_ROLLOUT_INV);
@@ -148,7 +148,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
             continue;
         }
         bool trig = in->dist[i] < num_add(e->d_act, in->reach) && closing(lk, e);
-        if (!trig && moving(e)) {
+        if (!trig && msw_moving(e)) {
             /* Within d_act + MSW_CPA_REACH + reach: the test above. */
             trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, in->reach));
         }
@@ -269,7 +269,7 @@ avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, nu
                            const msw_input_t *in)
 {
     const sup_entry_t *t = &s->obs[trigger];
-    if (moving(t)) {
+    if (msw_moving(t)) {
         /* Obstacle velocity across the heading: [−sin θ, cos θ]·v_o. */
         const num_t across =
             num_add(num_mul(num_neg(in->sin_th), t->o.vx), num_mul(in->cos_th, t->o.vy));
@@ -306,7 +306,7 @@ static bool way_clear(const sup_t *s, look_t *lk)
          * activation, and its closest approach over the activation's horizon
          * stays beyond what activates by the margin (hysteresis). */
         bool ok;
-        if (moving(e)) {
+        if (msw_moving(e)) {
             ok = !(closing(lk, e) && in->dist[i] < num_add(e->d_act, MSW_RELEASE_REACH)) &&
                  !cpa_inside(lk, e, MSW_CPA_HORIZON,
                              num_max(num_sub(clear, e->d_s), num_add(MSW_CPA_MARGIN, MSW_MARGIN)));
@@ -343,7 +343,7 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
      * pass it: way_clear() judges it by its motion). */
     for (uint8_t i = 0; i < s->n_obs; i++) {
         const sup_entry_t *e = &s->obs[i];
-        if (in_mask(m->cluster, i) && !moving(e) && !p1(in, e)) {
+        if (in_mask(m->cluster, i) && !msw_moving(e) && !p1(in, e)) {
             return false;
         }
     }

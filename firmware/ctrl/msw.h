@@ -149,6 +149,9 @@ void msw_reset(msw_t *m);
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d);
 
+/** @brief Whether the entry moves (faster than MSW_MOVING_SPEED, |vx| + |vy|). */
+bool msw_moving(const sup_entry_t *e);
+
 /**
  * @brief Side for going around cluster @p cluster, whose activation came
  *        from entry @p trigger, each member a disc of radius D_s + @p offset:

@@ -742,6 +742,72 @@ static void test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed(void)
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, out.status.v);
 }
 
+/* One step of "mstc" near an obstacle (moving at @p ob_vx along x), its
+ * wheels measured at @p wheel rad/s both (v̂ = 0.05 · wheel), the reference
+ * 1 m to the left heading @p ref_heading at 0.5 m/s: tracking, at v with
+ * wheels @p right and @p left. */
+static void expect_behind(double ref_heading, double wheel, double ob_vx, double v, double right,
+                          double left)
+{
+    mstc_init();
+    sup_obstacle_t o = obstacle(1, -1.5, -1.0, 0.1);
+    o.vx = tu_num(ob_vx);
+    ctl_input_t in =
+        input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 1.0, ref_heading), 0.5, 0.0, &o, 1, 0);
+    in.wheels_measured = true;
+    in.wheels = (kin_wheels_t){ tu_num(wheel), tu_num(wheel) };
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, v, out.status.v);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, right, out.wheels.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, left, out.wheels.left);
+}
+
+static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(void)
+{
+    /* Hand derivation (docs/strategy.md "One step under real wheels", step
+     * 2): ideal wheels (mstc_init) but measured, wheel_tau 0, so the horizon
+     * is half the first period, T_p = 0.01 s; an obstacle 1.80 m away, behind
+     * (within D_act + MSW_REGULATE = 2.5 m: regulated; not closing: no
+     * activation, and too far for the filter or the guard to act).
+     *
+     * (a) Robot moving at v̂ = 0.4 (wheels 8 rad/s), the reference 1 m to
+     * its left heading e3 = 1.8 rad: ė1 = −v̂ + v_r cos e3 = −0.4 − 0.1136010
+     * → e1 = −0.0051360; ė2 = v_r sin e3 = 0.4869238 → e2 = 1.0048692.
+     * Eq. (2): v = v_r cos e3 + k1 e1 = −0.1136010 − 0.0154080 < 0, held to
+     * 0 near obstacles; eq. (3): ω = 0.5 (12 · 1.0048692 + 6 · 0.9738476) =
+     * 8.950758 (ideal wheels: no bound). The robot is behind its reference:
+     * e1 cos e3 + e2 sin e3 = 0.0011669 + 0.9785895 > 0, so it keeps the
+     * speed it has, up to |v_r|: wheels 8 rad/s (v̂ = 0.4) give v = 0.4,
+     * wheels (v ± 0.15 ω)/0.05 = 34.852274 and −18.852274; wheels 12 rad/s
+     * (v̂ = 0.6, ė1 = −0.7136010 → e1 = −0.0071360, ω unchanged) give
+     * v = |v_r| = 0.5: 36.852274 and −16.852274. (Before this rule: v = 0,
+     * wheels ±26.852274.) */
+    expect_behind(1.8, 8.0, 0.0, 0.4, 34.852274, -18.852274);
+    expect_behind(1.8, 12.0, 0.0, 0.5, 36.852274, -16.852274);
+    /* (b) The same standing (wheels 0): it has no speed to keep, v = 0 and
+     * it turns in place: ė1 = −0.1136010 → e1 = −0.0011360, e2 as in (a)
+     * (ė2 does not depend on v̂), so ω = 8.950758: wheels ±26.852274. */
+    expect_behind(1.8, 0.0, 0.0, 0.0, 26.852274, -26.852274);
+    /* (c) Moving, the reference heading e3 = −1.8 instead: it comes towards
+     * the robot's side, the robot is ahead of it (ė2 = −0.4869238 → e2 =
+     * 0.9951308; e1 cos e3 + e2 sin e3 = 0.0013941 − 0.9691057 < 0): it
+     * waits as before, v = 0, ω = 0.5 (12 · 0.9951308 − 6 · 0.9738476) =
+     * 3.049242: wheels ±9.147726. */
+    expect_behind(-1.8, 10.0, 0.0, 0.0, 9.147726, -9.147726);
+    /* (d) As (a), the obstacle moving at 0.1 m/s (> MSW_MOVING_SPEED; 1.80 m
+     * away, beyond D_act + MSW_CPA_REACH = 1.5 m: no activation): the rule
+     * is off near moving obstacles, v = 0, ω as in (a): wheels ±26.852274. */
+    expect_behind(1.8, 8.0, 0.1, 0.0, 26.852274, -26.852274);
+    /* (e) As (a), the reference heading e3 = 1.2 rad: eq. (2) drives on,
+     * v = 0.5 cos 1.2 + 3 e1 = 0.1811789 − 0.0065646 = 0.1746142 > 0 (ė1 =
+     * −0.4 + 0.1811789 → e1 = −0.0021882), and is kept, below the speed the
+     * wheels have: the rule replaces only a stop. ė2 = 0.5 sin 1.2 →
+     * e2 = 1.0046602, ω = 0.5 (12 · 1.0046602 + 6 · 0.9320391) = 8.824078:
+     * wheels 29.964520 and −22.979950. */
+    expect_behind(1.2, 8.0, 0.0, 0.1746142, 29.964520, -22.979950);
+}
+
 static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
 {
     /* Avoiding under "mstc"; a parameter set that switches to "paper" and
@@ -1034,6 +1100,7 @@ int main(void)
     RUN_TEST(test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper);
     RUN_TEST(test_ctl_mstc_drops_reports_beyond_the_table);
     RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);
+    RUN_TEST(test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns);
     RUN_TEST(test_ctl_changing_the_strategy_restarts_the_mstc_state);
     RUN_TEST(test_ctl_mstc_guard_holds_a_robot_that_would_back_into_the_margin);
     RUN_TEST(test_ctl_mstc_reports_once_an_obstacle_closing_faster_than_the_wheels_brake);
