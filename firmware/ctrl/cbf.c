@@ -21,8 +21,10 @@
  * every obstacle in every pass over them, and GCC -O2 keeps slack_sure() (or,
  * with it inline, binding()) out of line on a Cortex-M3, where the calls
  * cost some 190 instructions a step of the load-8 scene (docs/performance.md;
- * the same code, the same bits). */
-#if defined(__GNUC__)
+ * the same code, the same bits). Not when optimising nothing (the coverage
+ * build, -O0): there each function stays one, and gcov counts its branches
+ * once, not once per call site. */
+#if defined(__GNUC__) && defined(__OPTIMIZE__)
 #define CBF_INLINE static inline __attribute__((always_inline))
 #else
 #define CBF_INLINE static inline

@@ -746,14 +746,14 @@ static void test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed(void)
  * wheels measured at @p wheel rad/s both (v̂ = 0.05 · wheel), the reference
  * 1 m to the left heading @p ref_heading at 0.5 m/s: tracking, at v with
  * wheels @p right and @p left. */
-static void expect_behind(double ref_heading, double wheel, double ob_vx, double v, double right,
-                          double left)
+static void expect_behind_at(double v_r, double ref_heading, double wheel, double ob_vx, double v,
+                             double right, double left)
 {
     mstc_init();
     sup_obstacle_t o = obstacle(1, -1.5, -1.0, 0.1);
     o.vx = tu_num(ob_vx);
     ctl_input_t in =
-        input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 1.0, ref_heading), 0.5, 0.0, &o, 1, 0);
+        input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.0, 1.0, ref_heading), v_r, 0.0, &o, 1, 0);
     in.wheels_measured = true;
     in.wheels = (kin_wheels_t){ tu_num(wheel), tu_num(wheel) };
     ctl_step(&c, &in, &out);
@@ -761,6 +761,13 @@ static void expect_behind(double ref_heading, double wheel, double ob_vx, double
     TEST_ASSERT_NUM_WITHIN(TOL_VW, v, out.status.v);
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, right, out.wheels.right);
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, left, out.wheels.left);
+}
+
+/* expect_behind_at() with the reference driving forwards at 0.5 m/s. */
+static void expect_behind(double ref_heading, double wheel, double ob_vx, double v, double right,
+                          double left)
+{
+    expect_behind_at(0.5, ref_heading, wheel, ob_vx, v, right, left);
 }
 
 static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(void)
@@ -806,6 +813,16 @@ static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(vo
      * e2 = 1.0046602, ω = 0.5 (12 · 1.0046602 + 6 · 0.9320391) = 8.824078:
      * wheels 29.964520 and −22.979950. */
     expect_behind(1.2, 8.0, 0.0, 0.1746142, 29.964520, -22.979950);
+    /* (f) Mirrored: the reference drives backwards (v_r = −0.5) heading
+     * e3 = −1.8 rad, the robot reversing at v̂ = −0.4 (wheels −8 rad/s):
+     * ė1 = −v̂ + v_r cos e3 = 0.4 + 0.1136010 → e1 = 0.0051360; ė2 = v_r
+     * sin e3 = 0.4869238 → e2 = 1.0048692. Eq. (2): v = 0.1136010 +
+     * 0.0154080 > 0, held to 0 for a reference driving backwards; behind it
+     * along its motion (e1 cos e3 + e2 sin e3 = −0.0011669 − 0.9785895 < 0),
+     * so it keeps the speed it has backwards: v = −0.4; ω = v_r (12 e2 +
+     * 6 sin e3) = −0.5 (12.0584309 − 5.8430857) = −3.1076725: wheels
+     * (v ± 0.15 ω)/0.05 = −17.323018 and 1.323018. */
+    expect_behind_at(-0.5, -1.8, -8.0, 0.0, -0.4, -17.323018, 1.323018);
 }
 
 static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)

@@ -835,6 +835,37 @@ static void test_sup_averaged_reports_take_other_reports_as_they_come(void)
     TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
 }
 
+static void test_sup_averaged_reports_across_the_gate_or_moving_along_y_come_as_they_are(void)
+{
+    /* Started at (1, 0), one report averaged in: n = 2, x = 1.03125. Then
+     * 0.15 m beyond the gate in x alone (1.18125 − 1.03125 = 0.15 > 0.1):
+     * taken as it comes, n = 1. A report moving along y only (vy 0.25,
+     * 0.0625 m on): as it comes; the next one, static again, finds the entry
+     * moving (its vy): as it comes too, n = 1 each time. */
+    sup_obstacle_t o = obstacle(7, 1.0, 0.0, 0.1);
+    average(&o);
+    o.x = tu_num(1.0625);
+    average(&o);
+    TEST_ASSERT_EQUAL_UINT8(2, s.n_avg[0]);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.03125, s.obs[0].o.x);
+    o.x = tu_num(1.18125);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.18125, s.obs[0].o.x);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    o.vy = tu_num(0.25);
+    o.y = tu_num(0.0625);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0625, s.obs[0].o.y);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.25, s.obs[0].o.vy);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    o.vy = NUM_ZERO;
+    o.y = tu_num(0.125);
+    average(&o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.125, s.obs[0].o.y);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vy);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+}
+
 static void test_sup_averaged_reports_that_do_not_move_change_nothing(void)
 {
     /* Noiseless reports (every report the same, as in the suite's families
@@ -893,6 +924,7 @@ int main(void)
     RUN_TEST(test_sup_averaged_reports_of_a_static_obstacle_take_their_mean);
     RUN_TEST(test_sup_averaged_reports_weigh_at_least_one_in_sup_avg_max);
     RUN_TEST(test_sup_averaged_reports_take_other_reports_as_they_come);
+    RUN_TEST(test_sup_averaged_reports_across_the_gate_or_moving_along_y_come_as_they_are);
     RUN_TEST(test_sup_averaged_reports_that_do_not_move_change_nothing);
     return UNITY_END();
 }
