@@ -111,7 +111,7 @@ static void offset_of(const lookahead_t *fr, const sup_entry_t *o, num_t *dx, nu
 {
     *dx = num_sub(fr->plx, o->o.x);
     *dy = num_sub(fr->ply, o->o.y);
-    if (o->o.vx != NUM_ZERO || o->o.vy != NUM_ZERO) {
+    if (num_any_nonzero(o->o.vx, o->o.vy)) {
         *dx = num_sub(*dx, num_mul(o->o.vx, fr->horizon));
         *dy = num_sub(*dy, num_mul(o->o.vy, fr->horizon));
     }

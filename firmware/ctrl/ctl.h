@@ -144,7 +144,9 @@ typedef struct {
     bool wheels_measured;
 } ctl_input_t;
 
-/** @brief What the step did, for telemetry. */
+/** @brief What the step did, for telemetry. ctl_step() clears it member by
+ *         member (no memset on a Cortex-M): a member added here is cleared
+ *         there too. */
 typedef struct {
     sup_mode_t mode;
     uint8_t active_obstacle; /**< id of the obstacle avoided (followed, "mstc"), 0 when none */

@@ -741,6 +741,18 @@ static void average(const sup_obstacle_t *o)
     sup_take_averaged_reports(&s, &robot, o, 1, 0, ev, &n);
 }
 
+/* Report @p o through average(): taken as it comes, the entry's centre and
+ * velocity the report's, (x, y) and (vx, vy), and its mean started anew. */
+static void expect_as_it_comes(const sup_obstacle_t *o, double x, double y, double vx, double vy)
+{
+    average(o);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, x, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, y, s.obs[0].o.y);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, vx, s.obs[0].o.vx);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, vy, s.obs[0].o.vy);
+    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+}
+
 static void test_sup_averaged_reports_of_a_static_obstacle_take_their_mean(void)
 {
     /* Four reports of a static obstacle, each within SUP_AVG_GATE (0.1 m)
@@ -829,10 +841,7 @@ static void test_sup_averaged_reports_take_other_reports_as_they_come(void)
     TEST_ASSERT_NUM_WITHIN(TOL_M, 0.25, s.obs[0].o.vx);
     o.vx = NUM_ZERO;
     o.x = tu_num(1.0625);
-    average(&o);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0625, s.obs[0].o.x);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vx);
-    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    expect_as_it_comes(&o, 1.0625, 0.15, 0.0, 0.0);
 }
 
 static void test_sup_averaged_reports_across_the_gate_or_moving_along_y_come_as_they_are(void)
@@ -849,21 +858,13 @@ static void test_sup_averaged_reports_across_the_gate_or_moving_along_y_come_as_
     TEST_ASSERT_EQUAL_UINT8(2, s.n_avg[0]);
     TEST_ASSERT_NUM_WITHIN(TOL_M, 1.03125, s.obs[0].o.x);
     o.x = tu_num(1.18125);
-    average(&o);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.18125, s.obs[0].o.x);
-    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    expect_as_it_comes(&o, 1.18125, 0.0, 0.0, 0.0);
     o.vy = tu_num(0.25);
     o.y = tu_num(0.0625);
-    average(&o);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0625, s.obs[0].o.y);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.25, s.obs[0].o.vy);
-    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    expect_as_it_comes(&o, 1.18125, 0.0625, 0.0, 0.25);
     o.vy = NUM_ZERO;
     o.y = tu_num(0.125);
-    average(&o);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.125, s.obs[0].o.y);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vy);
-    TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+    expect_as_it_comes(&o, 1.18125, 0.125, 0.0, 0.0);
 }
 
 static void test_sup_averaged_reports_that_do_not_move_change_nothing(void)

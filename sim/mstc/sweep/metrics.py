@@ -206,12 +206,7 @@ def evaluate(result: RunResult) -> Metrics:
         path_ratio=_path_length(x, y) / ref_length if ref_length > 0.0 else math.nan,
         int_abs_w=_in_order(np.abs(trace["w"][:-1])) * dt,
         switches=switches,
-        max_activations=most_activations(
-            result.events,
-            scenario,
-            trace.distance,
-            np.array([e.t_us for e in result.events], dtype=np.int64) // max(1, scenario.sim.dt_us),
-        ),
+        max_activations=most_activations(result.events, scenario, trace.distance),
         infeasible=bool(reports),
         contact_reported=contact_reported,
         step_us=result.step_time * 1e6,
@@ -224,25 +219,23 @@ def encounter_reach(scenario: Scenario) -> np.ndarray:
     return np.array([p.activation_distance(o.radius) + ENCOUNTER_REACH for o in scenario.obstacles])
 
 
-def most_activations(
-    events: tuple[Event, ...], scenario: Scenario, distance: np.ndarray, steps: np.ndarray
-) -> int:
+def most_activations(events: tuple[Event, ...], scenario: Scenario, distance: np.ndarray) -> int:
     """The most activate events of one obstacle in one encounter: activations
     of an obstacle count together unless, at a step from one to the step
     before the next, the robot was farther than encounter_reach() from it.
 
     :param distance: (N+1, obstacles) the centre distances of each step.
-    :param steps: the step of each event of @p events.
     """
     column = {o.id: j for j, o in enumerate(scenario.obstacles)}
     far = distance > encounter_reach(scenario)
     last: dict[int, int] = {}
     count: dict[int, int] = {}
     most = 0
-    for e, k in zip(events, steps.tolist(), strict=True):
+    for e in events:
         if e.kind is not EventKind.ACTIVATE or e.obstacle not in column:
             continue
         j = column[e.obstacle]
+        k = e.t_us // scenario.sim.dt_us  # events are stamped with their step's time
         before = last.get(j)
         again = before is not None and not far[before:k, j].any()
         count[j] = count[j] + 1 if again else 1
@@ -289,7 +282,6 @@ class RunningMetrics:
         self._reach = Within(reach)
         """Within encounter_reach() of an obstacle (most_activations)."""
         self._column = [{o.id: j for j, o in enumerate(s.obstacles)} for s in scenarios]
-        self._activated = np.zeros((n, width), dtype=bool)
         self._away = np.zeros((n, width), dtype=bool)
         """Beyond encounter_reach() at a step since the obstacle's last activation."""
         self._count = np.zeros((n, width), dtype=np.int64)
@@ -349,9 +341,8 @@ class RunningMetrics:
                 j = self._column[i].get(e.obstacle) if e.kind is EventKind.ACTIVATE else None
                 if j is None:
                     continue
-                again = self._activated[i, j] and not self._away[i, j]
+                again = self._count[i, j] > 0 and not self._away[i, j]
                 self._count[i, j] = self._count[i, j] + 1 if again else 1
-                self._activated[i, j] = True
                 self._away[i, j] = False
                 self._most[i] = max(self._most[i], self._count[i, j])
                 self._watching = True
