@@ -63,11 +63,67 @@ static inline num_t num_abs(num_t a) { return fabsf(a); }
 static inline num_t num_sqrt(num_t a) { return a > 0.0f ? sqrtf(a) : 0.0f; }
 static inline num_t num_sin(num_t a) { return sinf(a); }
 static inline num_t num_cos(num_t a) { return cosf(a); }
-/** @brief Sine and cosine of one angle: *s = num_sin(a), *c = num_cos(a). */
+#if defined(__NEWLIB__)
+/* newlib's sinf() and cosf() (fdlibm's sf_sin.c, sf_cos.c) are the same three
+ * steps: the angle reduced to y = a − nπ/2, |y| <= π/4 (as the pair y[0] +
+ * y[1]; none when |a| <= π/4 already), then __kernel_sinf or __kernel_cosf of
+ * y by n's quadrant, negated in two quadrants. num_sincos() below takes those
+ * steps itself, reducing once for both. */
+int32_t __ieee754_rem_pio2f(float x, float *y);
+float __kernel_sinf(float x, float y, int iy);
+float __kernel_cosf(float x, float y);
+#endif
+
+/**
+ * @brief Sine and cosine of one angle: *s = num_sin(a), *c = num_cos(a), bit
+ *        for bit.
+ *
+ * With newlib (the Cortex-M images) one argument reduction serves both: the
+ * two calls reduce the angle twice (some 40 instructions each on a
+ * Cortex-M4F, make bench). The same library steps on the same values, so the
+ * same bits (make bench's `sincos_differs` checks it on the target, over
+ * 400,001 angles); elsewhere (the host's C library) the two calls.
+ */
 static inline void num_sincos(num_t a, num_t *s, num_t *c)
 {
+#if defined(__NEWLIB__)
+    const uint32_t ix = num_bits(a) & UINT32_C(0x7FFFFFFF);
+    if (ix <= UINT32_C(0x3F490FD8)) { /* |a| <= π/4: no reduction (nor quadrant) */
+        *s = __kernel_sinf(a, 0.0f, 0);
+        *c = __kernel_cosf(a, 0.0f);
+        return;
+    }
+    if (ix >= UINT32_C(0x7F800000)) { /* ±inf or NaN: NaN */
+        *s = a - a;
+        *c = a - a;
+        return;
+    }
+    float y[2];
+    const int32_t n = __ieee754_rem_pio2f(a, y);
+    const float ks = __kernel_sinf(y[0], y[1], 1);
+    const float kc = __kernel_cosf(y[0], y[1]);
+    switch (n & 3) {
+    case 0:
+        *s = ks;
+        *c = kc;
+        break;
+    case 1:
+        *s = kc;
+        *c = -ks;
+        break;
+    case 2:
+        *s = -ks;
+        *c = -kc;
+        break;
+    default:
+        *s = -kc;
+        *c = ks;
+        break;
+    }
+#else
     *s = sinf(a);
     *c = cosf(a);
+#endif
 }
 /** @brief atan2(y, x) in [-π, π]; atan2(0, 0) = 0. */
 static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }

@@ -6,6 +6,7 @@
  * semihosting console, then exits QEMU. */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "auth/auth.h"
 #include "bench.h"
@@ -148,6 +149,42 @@ static void primitives(void)
 #endif
     fill(-8.0, 8.0, 0.0, 1.0, 0);
     PRIM("num_wrap", "a in [-8, 8] (60 % outside (-pi, pi])", num_wrap(a));
+}
+
+/* num_sincos() against num_sin() and num_cos() on the target's library (in
+ * float mode with newlib it reduces the angle once for both, num_float.h):
+ * how many of 400,001 angles over [−40, 40], and of the multiples of π/4
+ * and the extremes, give other bits. Prints `sincos_differs N of M`. */
+static uint32_t bits_of(num_t a)
+{
+    uint32_t u;
+    memcpy(&u, &a, sizeof u);
+    return u;
+}
+
+static void sincos_check(void)
+{
+    const num_t edge[] = { NUM_ZERO,
+                           NUM_PI,
+                           num_neg(NUM_PI),
+                           NUM_HALF_PI,
+                           NUM_TWO_PI,
+                           NUM_MAX,
+                           num_neg(NUM_MAX),
+                           bench_num(0.7853981633974483),
+                           bench_num(-2.356194490192345) };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    unsigned long differ = 0;
+    unsigned long n = 0;
+    for (int32_t i = -200000; i <= 200000 + (int32_t)n_edge; i++) {
+        const num_t a = i <= 200000 ? bench_num((double)i * 2e-4) : edge[i - 200001];
+        num_t s;
+        num_t c;
+        num_sincos(a, &s, &c);
+        differ += bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a));
+        n++;
+    }
+    printf("sincos_differs %lu of %lu\n", differ, n);
 }
 
 /* ----------------------------------------------------------------- loads */
@@ -363,6 +400,7 @@ int main(void)
     wheel();
 
     primitives();
+    sincos_check();
     authenticated_commands();
     printf("done\n");
     return 0;
