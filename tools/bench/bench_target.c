@@ -4,6 +4,7 @@
  * (processor clock, 25 MHz) advances once per 40 executed instructions, the
  * same every run. Prints `key value` lines for mstc.bench.ctl_step on the
  * semihosting console, then exits QEMU. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -154,7 +155,9 @@ static void primitives(void)
 /* num_sincos() against num_sin() and num_cos() on the target's library (in
  * float mode with newlib it reduces the angle once for both, num_float.h):
  * how many of 400,001 angles over [−40, 40], and of the multiples of π/4
- * and the extremes, give other bits. Prints `sincos_differs N of M`. */
+ * and the extremes, give other bits. Prints `sincos_differs N of M`. Then
+ * num_sqrt() against sqrtf() (the FPU's instruction, in float mode on the
+ * Cortex-M4F) on 400,001 values over [0, 400]: `sqrt_differs N of M`. */
 static uint32_t bits_of(num_t a)
 {
     uint32_t u;
@@ -185,6 +188,16 @@ static void sincos_check(void)
         n++;
     }
     printf("sincos_differs %lu of %lu\n", differ, n);
+#if !defined(NUM_FIXED)
+    differ = 0;
+    n = 0;
+    for (int32_t i = 0; i <= 400000; i++) {
+        const num_t a = bench_num((double)i * 1e-3);
+        differ += bits_of(num_sqrt(a)) != bits_of(sqrtf(a));
+        n++;
+    }
+    printf("sqrt_differs %lu of %lu\n", differ, n);
+#endif
 }
 
 /* ----------------------------------------------------------------- loads */
