@@ -52,7 +52,7 @@ static inline bool oset_within(num_t dx, num_t dy, num_t r)
 static inline num_t oset_distance(num_t dx, num_t dy)
 {
     if (num_below(dx, OSET_SQUARE_LIMIT) && num_below(dy, OSET_SQUARE_LIMIT)) {
-        return num_sqrt(num_sum_sq_small(dx, dy));
+        return num_norm_small(dx, dy);
     }
     return num_hypot(dx, dy);
 }
