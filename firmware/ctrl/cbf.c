@@ -169,23 +169,23 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
 CBF_INLINE bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
                            num_t still)
 {
-    num_t extra = fr->reach_add;
-    num_t term = still;
     /* ov = |w_x| + |w_y| > 0 exactly when the obstacle moves (a sum of two
-     * values >= 0 is 0 only when both are, in either mode): ov only then. */
-    if (num_any_nonzero(o->o.vx, o->o.vy)) {
-        const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
-        const num_t qw = num_add(fr->q1, ov);
-        /* reach_add holds q1 T_b once: the gain's share of it added. */
-        const num_t braked =
-            num_add(num_mul(ov, fr->brake_t),
-                    num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
-        extra = num_add(
-            num_add(extra, num_mul(ov, fr->horizon)),
-            num_add(num_mul(braked, CBF_MOVING_GAIN),
-                    num_mul(num_mul(fr->q1, fr->brake_t), num_sub(CBF_MOVING_GAIN, NUM_ONE))));
-        term = num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov));
+     * values >= 0 is 0 only when both are, in either mode): ov only then.
+     * A static one first, on its own (GCC otherwise starts the moving
+     * one's work before the test). */
+    if (!num_any_nonzero(o->o.vx, o->o.vy)) {
+        return dist >= num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), fr->reach_add), still);
     }
+    const num_t ov = num_add(num_abs(o->o.vx), num_abs(o->o.vy));
+    const num_t qw = num_add(fr->q1, ov);
+    /* reach_add holds q1 T_b once: the gain's share of it added. */
+    const num_t braked = num_add(num_mul(ov, fr->brake_t),
+                                 num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
+    const num_t extra =
+        num_add(num_add(fr->reach_add, num_mul(ov, fr->horizon)),
+                num_add(num_mul(braked, CBF_MOVING_GAIN),
+                        num_mul(num_mul(fr->q1, fr->brake_t), num_sub(CBF_MOVING_GAIN, NUM_ONE))));
+    const num_t term = num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov));
     return dist >= num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra), term);
 }
 
