@@ -82,16 +82,12 @@ static inline num_t num_sqrt(num_t a)
 #endif
 }
 /**
- * @brief sqrt(x² + y²) for finite |x|, |y| < 128: num_sqrt(num_sum_sq_small(x,
- *        y)), bit for bit.
- *
- * The sum is >= +0 (never −0, never NaN for finite x, y), where num_sqrt()
- * is the root itself: its test of the sign is left out (3 instructions a
- * distance on a Cortex-M4F).
+ * @brief num_sqrt(a) for an @p a that is >= +0 and not NaN (a sum of squares
+ *        of finite values: never −0), bit for bit: num_sqrt()'s test of the
+ *        sign left out (3 instructions a root on a Cortex-M4F).
  */
-static inline num_t num_norm_small(num_t x, num_t y)
+static inline num_t num_sqrt_nonneg(num_t a)
 {
-    const num_t a = num_sum_sq_small(x, y);
 #if defined(__GNUC__) && defined(__ARM_FP) && (__ARM_FP & 4) != 0 && !defined(__SOFTFP__)
     num_t r;
     __asm__("vsqrt.f32 %0, %1" : "=t"(r) : "t"(a));
@@ -99,6 +95,15 @@ static inline num_t num_norm_small(num_t x, num_t y)
 #else
     return num_sqrt(a);
 #endif
+}
+
+/**
+ * @brief sqrt(x² + y²) for finite |x|, |y| < 128: num_sqrt(num_sum_sq_small(x,
+ *        y)), bit for bit (num_sqrt_nonneg()).
+ */
+static inline num_t num_norm_small(num_t x, num_t y)
+{
+    return num_sqrt_nonneg(num_sum_sq_small(x, y));
 }
 static inline num_t num_sin(num_t a) { return sinf(a); }
 static inline num_t num_cos(num_t a) { return cosf(a); }
