@@ -43,16 +43,6 @@ void act_estimate(act_t *a, num_t tau, num_t dt, const kin_wheels_t *meas)
     act_estimate_lag(a, meas != NULL ? NUM_ZERO : act_lag(tau, dt), meas);
 }
 
-void act_estimate_lag(act_t *a, num_t k, const kin_wheels_t *meas)
-{
-    if (meas != NULL) {
-        a->est = *meas;
-        return;
-    }
-    a->est.left = num_add(a->cmd.left, num_mul(num_sub(a->est.left, a->cmd.left), k));
-    a->est.right = num_add(a->cmd.right, num_mul(num_sub(a->est.right, a->cmd.right), k));
-}
-
 bool act_limit(act_t *a, num_t accel, num_t dt, kin_wheels_t *w)
 {
     const num_t step = num_mul(accel, dt);
@@ -69,42 +59,4 @@ bool act_limit(act_t *a, num_t accel, num_t dt, kin_wheels_t *w)
     }
     a->cmd = *w;
     return limited;
-}
-
-num_t act_brake_time(const kin_wheels_t *u, num_t inv_accel, num_t dt)
-{
-    const num_t top = num_max(num_abs(u->left), num_abs(u->right));
-    return num_mul(num_add(num_mul(top, inv_accel), dt), NUM_C(0.5));
-}
-
-num_t act_horizon(num_t tau, num_t dt, bool measured)
-{
-    return measured ? num_add(tau, num_mul(dt, NUM_C(0.5))) : tau;
-}
-
-/* The rotation of act_predict(): out->c, out->s; returns δ = ωt. */
-static num_t rotate(num_t c0, num_t s0, num_t w, num_t t, act_pose_t *out)
-{
-    const num_t d = num_mul(w, t);
-    const num_t d2 = num_mul(d, d);
-    const num_t cd = num_sub(NUM_ONE, num_mul(d2, NUM_C(0.5)));
-    const num_t sd = num_mul(d, num_sub(NUM_ONE, num_mul(d2, NUM_C(1.0 / 6.0))));
-    out->c = num_sub(num_mul(c0, cd), num_mul(s0, sd));
-    out->s = num_add(num_mul(s0, cd), num_mul(c0, sd));
-    return d;
-}
-
-void act_predict(const pose_t *p0, num_t c0, num_t s0, num_t v, num_t w, num_t t, act_pose_t *out)
-{
-    const num_t d = rotate(c0, s0, w, t, out);
-    const num_t hd = num_mul(d, NUM_C(0.5));
-    const num_t l = num_mul(v, t);
-    out->p.x = num_add(p0->x, num_mul(l, num_sub(c0, num_mul(s0, hd))));
-    out->p.y = num_add(p0->y, num_mul(l, num_add(s0, num_mul(c0, hd))));
-    out->p.theta = num_add(p0->theta, d);
-}
-
-void act_predict_heading(num_t theta, num_t c0, num_t s0, num_t w, num_t t, act_pose_t *out)
-{
-    out->p.theta = num_add(theta, rotate(c0, s0, w, t, out));
 }
