@@ -383,13 +383,13 @@ static bool hand_over(const msw_t *m, const sup_t *s, look_t *lk)
  * changes since the activation exceeds MSW_LOOP: it circles the cluster),
  * or has stayed within MSW_PROGRESS of one point for MSW_STILL_US (stuck,
  * the filter holding it). While p3 stops the robot, standing still is no
- * sign of anything: the mark follows it. */
-static bool no_progress(msw_t *m, const msw_input_t *in)
+ * sign of anything: the mark follows it (@p p3: sup_p3() of the step). */
+static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
 {
     m->turned = num_add(m->turned, num_wrap(num_sub(in->robot->theta, m->last_theta)));
     m->last_theta = in->robot->theta;
-    if (sup_p3(in->v_r, in->w_r) || !oset_within(num_sub(in->robot->x, m->mark_x),
-                                                 num_sub(in->robot->y, m->mark_y), MSW_PROGRESS)) {
+    if (p3 || !oset_within(num_sub(in->robot->x, m->mark_x), num_sub(in->robot->y, m->mark_y),
+                           MSW_PROGRESS)) {
         m->mark_x = in->robot->x;
         m->mark_y = in->robot->y;
         m->t_mark_us = in->t_us;
@@ -448,6 +448,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
 {
     /* The path is written when first needed (rolled_out()). */
     look_t lk = { .in = in, .rolled = false, .path = &m->path };
+    const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
     if (m->state == (uint8_t)MSW_BLOCKED) {
         if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
@@ -462,7 +463,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
-        } else if (no_progress(m, in)) {
+        } else if (no_progress(m, in, p3)) {
             m->state = (uint8_t)MSW_BLOCKED;
             emit(events, n_events, in->t_us, SUP_EVENT_BLOCKED, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
@@ -503,7 +504,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             d->mode = SUP_MODE_BLOCKED;
         }
     }
-    if (sup_p3(in->v_r, in->w_r)) {
+    if (p3) {
         d->mode = SUP_MODE_STOP;
     }
 }
