@@ -29,6 +29,16 @@ static inline uint32_t num_bits(num_t a)
     return v.u;
 }
 
+/* The value of bit pattern @p u (num_bits() reversed). */
+static inline num_t num_of_bits(uint32_t u)
+{
+    const union {
+        uint32_t u;
+        num_t f;
+    } v = { .u = u };
+    return v.f;
+}
+
 /** @brief Name of the numeric mode, for logs and reports. */
 #define NUM_MODE_NAME "float"
 
@@ -110,12 +120,66 @@ static inline num_t num_cos(num_t a) { return cosf(a); }
 #if defined(__NEWLIB__)
 /* newlib's sinf() and cosf() (fdlibm's sf_sin.c, sf_cos.c) are the same three
  * steps: the angle reduced to y = a − nπ/2, |y| <= π/4 (as the pair y[0] +
- * y[1]; none when |a| <= π/4 already), then __kernel_sinf or __kernel_cosf of
- * y by n's quadrant, negated in two quadrants. num_sincos() below takes those
- * steps itself, reducing once for both. */
+ * y[1], by __ieee754_rem_pio2f(); none when |a| <= π/4 already), then
+ * __kernel_sinf or __kernel_cosf of y by n's quadrant, negated in two
+ * quadrants. num_sincos() below takes those steps itself, reducing once for
+ * both. */
 int32_t __ieee754_rem_pio2f(float x, float *y);
 float __kernel_sinf(float x, float y, int iy);
 float __kernel_cosf(float x, float y);
+
+#if defined(__ARM_FEATURE_FMA) && defined(__ARM_FP) && (__ARM_FP & 4) != 0 && !defined(__SOFTFP__)
+/* The first steps of __ieee754_rem_pio2f() (fdlibm's ef_rem_pio2.c) as its
+ * library is compiled for the Cortex-M4F (fused multiply-adds included), for
+ * |a| < 3π/4 (n = ±1) and for n up to NUM_RP_MEDIUM_N where its first
+ * approximation stands: *n and y[0], y[1] as it gives them, and true; false
+ * for every other angle (the library's call then). Its constants: π/2 in
+ * parts of 24 bits (pio2_1 + pio2_1t, and pio2_1 + pio2_2 + pio2_2t), 2/π,
+ * and the top 24 bits of nπ/2 (npio2_hw), whose match with the angle's asks
+ * for its second approximation. */
+#define NUM_RP_MEDIUM_N 4
+static inline bool num_rem_pio2_quick(num_t a, uint32_t ix, int32_t *n, num_t *y0, num_t *y1)
+{
+    static const uint32_t npio2_hw[NUM_RP_MEDIUM_N] = { 0x3FC90F00u, 0x40490F00u, 0x4096CB00u,
+                                                        0x40C90F00u };
+    const num_t pio2_1 = num_of_bits(0x3FC90F80u);
+    const num_t pio2_1t = num_of_bits(0x37354443u);
+    const bool negative = (int32_t)num_bits(a) <= 0;
+    if (ix <= UINT32_C(0x4016CBE3)) { /* |a| < 3π/4: n = ±1 */
+        num_t z = negative ? a + pio2_1 : a - pio2_1;
+        num_t t = pio2_1t;
+        if ((ix & UINT32_C(0xFFFFFFF0)) == UINT32_C(0x3FC90FD0)) { /* near π/2: 72 bits */
+            const num_t pio2_2 = num_of_bits(0x37354400u);
+            z = negative ? z + pio2_2 : z - pio2_2;
+            t = num_of_bits(0x2E85A308u); /* pio2_2t */
+        }
+        if (negative) {
+            *y0 = z + t;
+            *y1 = (z - *y0) + t;
+            *n = -1;
+        } else {
+            *y0 = z - t;
+            *y1 = (z - *y0) - t;
+            *n = 1;
+        }
+        return true;
+    }
+    const num_t t = fabsf(a);
+    const int32_t k = (int32_t)fmaf(t, num_of_bits(0x3F22F984u), 0.5f); /* |a| 2/π, rounded */
+    if (k > NUM_RP_MEDIUM_N || (ix & UINT32_C(0xFFFFFF00)) == npio2_hw[k - 1]) {
+        return false;
+    }
+    const num_t fn = (num_t)k;
+    const num_t r = fmaf(-fn, pio2_1, t);
+    const num_t w = fn * pio2_1t;
+    const num_t r0 = r - w;
+    const num_t r1 = (r - r0) - w;
+    *y0 = negative ? -r0 : r0;
+    *y1 = negative ? -r1 : r1;
+    *n = negative ? -k : k;
+    return true;
+}
+#endif
 #endif
 
 /**
@@ -124,9 +188,11 @@ float __kernel_cosf(float x, float y);
  *
  * With newlib (the Cortex-M images) one argument reduction serves both: the
  * two calls reduce the angle twice (some 40 instructions each on a
- * Cortex-M4F, make bench). The same library steps on the same values, so the
- * same bits (make bench's `sincos_differs` checks it on the target, over
- * 400,001 angles); elsewhere (the host's C library) the two calls.
+ * Cortex-M4F, make bench); on the Cortex-M4F the reduction of the angles the
+ * controllers meet (|a| below 4.5 π/2, but near a multiple of π/2) is inline
+ * too (num_rem_pio2_quick()). The same library steps on the same values, so
+ * the same bits (make bench's `sincos_differs` checks it on the target);
+ * elsewhere (the host's C library) the two calls.
  */
 static inline void num_sincos(num_t a, num_t *s, num_t *c)
 {
@@ -143,7 +209,14 @@ static inline void num_sincos(num_t a, num_t *s, num_t *c)
         return;
     }
     float y[2];
-    const int32_t n = __ieee754_rem_pio2f(a, y);
+    int32_t n;
+#if defined(__ARM_FEATURE_FMA) && defined(__ARM_FP) && (__ARM_FP & 4) != 0 && !defined(__SOFTFP__)
+    if (!num_rem_pio2_quick(a, ix, &n, &y[0], &y[1])) {
+        n = __ieee754_rem_pio2f(a, y);
+    }
+#else
+    n = __ieee754_rem_pio2f(a, y);
+#endif
     const float ks = __kernel_sinf(y[0], y[1], 1);
     const float kc = __kernel_cosf(y[0], y[1]);
     switch (n & 3) {
@@ -171,15 +244,6 @@ static inline void num_sincos(num_t a, num_t *s, num_t *c)
 }
 /** @brief atan2(y, x) in [-π, π]; atan2(0, 0) = 0. */
 static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }
-/* The value of bit pattern @p u (num_bits() reversed). */
-static inline num_t num_of_bits(uint32_t u)
-{
-    const union {
-        uint32_t u;
-        num_t f;
-    } v = { .u = u };
-    return v.f;
-}
 
 /**
  * @brief sqrt(x² + y²) without intermediate overflow: hypotf(x, y), bit for

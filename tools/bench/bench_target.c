@@ -124,6 +124,15 @@ static void fill(double a_lo, double a_hi, double b_lo, double b_hi, int b_any_s
                ((double)t_op - (double)t_base) * ips / (double)(N_ARGS * N_REPS), DOMAIN);         \
     } while (0)
 
+/* num_sincos(a) as one value for PRIM (the sum: one addition more). */
+static num_t sincos_sum(num_t a)
+{
+    num_t s;
+    num_t c;
+    num_sincos(a, &s, &c);
+    return num_add(s, c);
+}
+
 static void primitives(void)
 {
     fill(-10.0, 10.0, -10.0, 10.0, 0);
@@ -145,6 +154,7 @@ static void primitives(void)
     fill(-4.0, 4.0, 0.0, 1.0, 0);
     PRIM("num_sin", "a in [-4, 4]", num_sin(a));
     PRIM("num_cos", "a in [-4, 4]", num_cos(a));
+    PRIM("num_sincos", "a in [-4, 4] (both, and their sum)", sincos_sum(a));
 #if defined(NUM_FIXED)
     PRIM("fix16_sin", "a in [-4, 4]", fix16_sin(a));
 #endif
@@ -187,6 +197,24 @@ static void sincos_check(void)
         differ += bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a));
         n++;
     }
+#if !defined(NUM_FIXED)
+    /* And every float within 4096 steps of nπ/2, n = ±1 .. ±8 (where the
+     * reduction's first approximation may not stand). */
+    for (int32_t q = -8; q <= 8; q++) {
+        const float centre = (float)q * 1.57079632679489662f;
+        uint32_t u;
+        memcpy(&u, &centre, sizeof u);
+        for (uint32_t k = u - 4096u; q != 0 && k != u + 4096u; k++) {
+            num_t a;
+            memcpy(&a, &k, sizeof a);
+            num_t s;
+            num_t c;
+            num_sincos(a, &s, &c);
+            differ += bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a));
+            n++;
+        }
+    }
+#endif
     printf("sincos_differs %lu of %lu\n", differ, n);
 #if !defined(NUM_FIXED)
     differ = 0;
