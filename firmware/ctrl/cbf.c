@@ -212,17 +212,19 @@ static void frame_of(const pose_t *robot, num_t cos_th, num_t sin_th, const cbf_
     fr->ply = num_add(robot->y, num_mul(CBF_LOOKAHEAD, sin_th));
     fr->c = cos_th;
     fr->s = sin_th;
-    fr->qx = NUM_ZERO;
-    fr->qy = NUM_ZERO;
-    fr->brake_t = NUM_ZERO;
-    fr->reach_add = NUM_ZERO;
-    fr->inv_accel = NUM_ZERO;
-    fr->side = NUM_ONE;
-    fr->inv_side = NUM_ONE;
-    fr->gap = NUM_ZERO;
-    fr->q1 = NUM_ZERO;
-    fr->horizon = NUM_ZERO;
-    if (m != NULL) {
+    if (m == NULL) {
+        /* Each field once (GCC stored these before the overwrite below). */
+        fr->qx = NUM_ZERO;
+        fr->qy = NUM_ZERO;
+        fr->brake_t = NUM_ZERO;
+        fr->reach_add = NUM_ZERO;
+        fr->inv_accel = NUM_ZERO;
+        fr->side = NUM_ONE;
+        fr->inv_side = NUM_ONE;
+        fr->gap = NUM_ZERO;
+        fr->q1 = NUM_ZERO;
+        fr->horizon = NUM_ZERO;
+    } else {
         fr->plx = num_add(fr->plx, m->shift_x);
         fr->ply = num_add(fr->ply, m->shift_y);
         fr->qx = m->qx;
