@@ -42,21 +42,3 @@ void act_estimate(act_t *a, num_t tau, num_t dt, const kin_wheels_t *meas)
 {
     act_estimate_lag(a, meas != NULL ? NUM_ZERO : act_lag(tau, dt), meas);
 }
-
-bool act_limit(act_t *a, num_t accel, num_t dt, kin_wheels_t *w)
-{
-    const num_t step = num_mul(accel, dt);
-    const num_t dl = num_sub(w->left, a->cmd.left);
-    const num_t dr = num_sub(w->right, a->cmd.right);
-    const num_t most = num_max(num_abs(dl), num_abs(dr));
-    bool limited = false;
-    if (most > step) {
-        /* most > step >= 0: the factor lies in [0, 1). */
-        const num_t k = num_div(step, most);
-        w->left = num_add(a->cmd.left, num_mul(k, dl));
-        w->right = num_add(a->cmd.right, num_mul(k, dr));
-        limited = true;
-    }
-    a->cmd = *w;
-    return limited;
-}
