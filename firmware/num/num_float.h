@@ -117,6 +117,18 @@ static inline num_t num_norm_small(num_t x, num_t y)
 }
 static inline num_t num_sin(num_t a) { return sinf(a); }
 static inline num_t num_cos(num_t a) { return cosf(a); }
+/* newlib's steps inline (num_hypot(), the reduction of num_sincos()): with
+ * newlib on a single-precision FPU with fused multiply-add (the Cortex-M4F),
+ * where they are written as that library is compiled; not when optimising
+ * for size (the board images, -Os: each caller's copy of them would cost
+ * 3.7 KB of the STM32F405's flash, make firmware-budget). */
+#if defined(__NEWLIB__) && defined(__ARM_FEATURE_FMA) && defined(__ARM_FP) &&                      \
+    (__ARM_FP & 4) != 0 && !defined(__SOFTFP__) && !defined(__OPTIMIZE_SIZE__)
+#define NUM_NEWLIB_INLINE 1
+#else
+#define NUM_NEWLIB_INLINE 0
+#endif
+
 #if defined(__NEWLIB__)
 /* newlib's sinf() and cosf() (fdlibm's sf_sin.c, sf_cos.c) are the same three
  * steps: the angle reduced to y = a − nπ/2, |y| <= π/4 (as the pair y[0] +
@@ -128,7 +140,7 @@ int32_t __ieee754_rem_pio2f(float x, float *y);
 float __kernel_sinf(float x, float y, int iy);
 float __kernel_cosf(float x, float y);
 
-#if defined(__ARM_FEATURE_FMA) && defined(__ARM_FP) && (__ARM_FP & 4) != 0 && !defined(__SOFTFP__)
+#if NUM_NEWLIB_INLINE
 /* The first steps of __ieee754_rem_pio2f() (fdlibm's ef_rem_pio2.c) as its
  * library is compiled for the Cortex-M4F (fused multiply-adds included), for
  * |a| < 3π/4 (n = ±1) and for n up to NUM_RP_MEDIUM_N where its first
@@ -188,7 +200,7 @@ static inline bool num_rem_pio2_quick(num_t a, uint32_t ix, int32_t *n, num_t *y
  *
  * With newlib (the Cortex-M images) one argument reduction serves both: the
  * two calls reduce the angle twice (some 40 instructions each on a
- * Cortex-M4F, make bench); on the Cortex-M4F the reduction of the angles the
+ * Cortex-M4F, make bench); on the Cortex-M4F (NUM_NEWLIB_INLINE) the reduction of the angles the
  * controllers meet (|a| below 4.5 π/2, but near a multiple of π/2) is inline
  * too (num_rem_pio2_quick()). The same library steps on the same values, so
  * the same bits (make bench's `sincos_differs` checks it on the target);
@@ -210,7 +222,7 @@ static inline void num_sincos(num_t a, num_t *s, num_t *c)
     }
     float y[2];
     int32_t n;
-#if defined(__ARM_FEATURE_FMA) && defined(__ARM_FP) && (__ARM_FP & 4) != 0 && !defined(__SOFTFP__)
+#if NUM_NEWLIB_INLINE
     if (!num_rem_pio2_quick(a, ix, &n, &y[0], &y[1])) {
         n = __ieee754_rem_pio2f(a, y);
     }
@@ -249,8 +261,8 @@ static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }
  * @brief sqrt(x² + y²) without intermediate overflow: hypotf(x, y), bit for
  *        bit.
  *
- * With newlib on a Cortex-M4F the arguments hypotf() takes without scaling
- * (its "medium" range: the larger below 2^50, the smaller at least 2^-50,
+ * With newlib on a Cortex-M4F (NUM_NEWLIB_INLINE) the arguments hypotf()
+ * takes without scaling (its "medium" range: the larger below 2^50, the smaller at least 2^-50,
  * their ratio below 2^30; every distance the controllers take) are taken
  * here, inline: the same steps as newlib's __ieee754_hypotf() (fdlibm's
  * e_hypotf.c) as its library is compiled, fused multiply-adds included, then
@@ -261,8 +273,7 @@ static inline num_t num_atan2(num_t y, num_t x) { return atan2f(y, x); }
  */
 static inline num_t num_hypot(num_t x, num_t y)
 {
-#if defined(__NEWLIB__) && defined(__ARM_FEATURE_FMA) && defined(__ARM_FP) &&                      \
-    (__ARM_FP & 4) != 0 && !defined(__SOFTFP__)
+#if NUM_NEWLIB_INLINE
     uint32_t ha = num_bits(x) & UINT32_C(0x7FFFFFFF);
     uint32_t hb = num_bits(y) & UINT32_C(0x7FFFFFFF);
     if (ha < hb) {
