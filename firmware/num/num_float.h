@@ -200,11 +200,11 @@ static inline bool num_rem_pio2_quick(num_t a, uint32_t ix, int32_t *n, num_t *y
  *
  * With newlib (the Cortex-M images) one argument reduction serves both: the
  * two calls reduce the angle twice (some 40 instructions each on a
- * Cortex-M4F, make bench); on the Cortex-M4F (NUM_NEWLIB_INLINE) the reduction of the angles the
- * controllers meet (|a| below 4.5 π/2, but near a multiple of π/2) is inline
- * too (num_rem_pio2_quick()). The same library steps on the same values, so
- * the same bits (make bench's `sincos_differs` checks it on the target);
- * elsewhere (the host's C library) the two calls.
+ * Cortex-M4F, make bench); on the Cortex-M4F (NUM_NEWLIB_INLINE) the
+ * reduction of the angles the controllers meet (|a| below 4.5 π/2, but near
+ * a multiple of π/2) is inline too (num_rem_pio2_quick()). The same library steps on the same
+ * values, so the same bits (make bench's `sincos_differs` checks it on the target); elsewhere (the
+ * host's C library) the two calls.
  */
 static inline void num_sincos(num_t a, num_t *s, num_t *c)
 {
