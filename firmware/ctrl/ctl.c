@@ -353,7 +353,8 @@ static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const whee
     if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {
         return v; /* ahead of its reference: it waits */
     }
-    for (uint8_t i = 0; i < c->sup.n_obs; i++) {
+    const unsigned n = c->sup.n_obs;
+    for (unsigned i = 0; i < n; i++) {
         const sup_entry_t *e = &c->sup.obs[i];
         if (dist[i] < num_add(e->d_act, MSW_REGULATE) && msw_moving(e)) {
             return v; /* the speed kept would carry it into the way */
@@ -493,13 +494,17 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
      * (oset_distance: as fill_distances, the cheaper way). Some obstacle
      * within its D_act + MSW_REGULATE: the tracking speed is regulated
      * (track_speed); elsewhere tracking is eq. (2)-(3) as is. */
-    st->n_obstacles = c->sup.n_obs;
+    const uint8_t n = c->sup.n_obs; /* a local: the id stores (bytes) may alias it */
+    const num_t rx = in->robot.x;
+    const num_t ry = in->robot.y;
+    st->n_obstacles = n;
     bool near = false;
-    for (uint8_t i = 0; i < c->sup.n_obs; i++) {
+    for (unsigned i = 0; i < n; i++) {
         const sup_entry_t *e = &c->sup.obs[i];
+        const num_t d = oset_distance(num_sub(e->o.x, rx), num_sub(e->o.y, ry));
         st->obstacle_id[i] = e->o.id;
-        st->distance[i] = oset_distance(num_sub(e->o.x, in->robot.x), num_sub(e->o.y, in->robot.y));
-        near = near || st->distance[i] < num_add(e->d_act, MSW_REGULATE);
+        st->distance[i] = d;
+        near = near || d < num_add(e->d_act, MSW_REGULATE);
     }
     if (near) {
         v_trk = track_speed(v_trk, in->v_r);

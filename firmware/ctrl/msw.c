@@ -45,7 +45,19 @@ bool msw_moving(const sup_entry_t *e)
     return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
 }
 
-static bool in_mask(uint16_t mask, uint8_t i) { return (mask & (1u << i)) != 0u; }
+static bool in_mask(uint16_t mask, unsigned i) { return (mask & (1u << i)) != 0u; }
+
+/* The lowest table index in @p mask (not 0), and @p mask without it: the
+ * loops over a cluster visit its members alone, in the order of their
+ * indices. */
+static unsigned lowest(uint16_t mask) { return (unsigned)__builtin_ctz(mask); }
+static uint16_t without_lowest(uint16_t mask) { return (uint16_t)(mask & (mask - 1u)); }
+
+/* @p mask's indices within the table. */
+static uint16_t in_table(uint16_t mask, const sup_t *s)
+{
+    return (uint16_t)(mask & ((1u << s->n_obs) - 1u));
+}
 
 /* Time since @p t0, 0 if the clock went backwards. */
 static uint64_t since(uint64_t now, uint64_t t0) { return now >= t0 ? now - t0 : 0u; }
@@ -137,23 +149,28 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, uint8_t i)
 static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
 {
     const msw_input_t *in = lk->in;
+    /* In locals, that the calls below leave in registers: the loop runs for
+     * every entry, every step. */
+    const num_t *const dist = in->dist;
+    const num_t reach = in->reach;
+    const unsigned n = s->n_obs;
     int best = -1;
     num_t best_b = NUM_ZERO;
-    for (uint8_t i = 0; i < s->n_obs; i++) {
+    for (unsigned i = 0; i < n; i++) {
         const sup_entry_t *e = &s->obs[i];
         /* Beyond any trigger's reach first: the cheapest test, and most
          * entries fail it. */
-        if (in->dist[i] >= num_add(num_add(e->d_act, MSW_CPA_REACH), in->reach) ||
+        if (dist[i] >= num_add(num_add(e->d_act, MSW_CPA_REACH), reach) ||
             m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
             continue;
         }
-        bool trig = in->dist[i] < num_add(e->d_act, in->reach) && closing(lk, e);
+        bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e);
         if (!trig && msw_moving(e)) {
             /* Within d_act + MSW_CPA_REACH + reach: the test above. */
-            trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, in->reach));
+            trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, reach));
         }
         if (trig) {
-            const num_t b = boundary(s, in, i);
+            const num_t b = num_sub(dist[i], e->d_s); /* boundary() */
             if (best < 0 || b < best_b) {
                 best = (int)i;
                 best_b = b;
@@ -173,17 +190,17 @@ static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint16_t cl
 {
     const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, in->cos_th));
     const num_t qy = num_add(in->robot->y, num_mul(MSW_FOLLOW_AHEAD, in->sin_th));
+    const num_t *const dist = in->dist;
     uint8_t best = fallback;
     num_t best_b = NUM_MAX;
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (in_mask(cluster, i)) {
-            const sup_entry_t *e = &s->obs[i];
-            const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
-            const num_t b = num_sub(num_min(in->dist[i], ahead), e->d_s);
-            if (b < best_b) {
-                best = i;
-                best_b = b;
-            }
+    for (uint16_t rest = in_table(cluster, s); rest != 0u; rest = without_lowest(rest)) {
+        const unsigned i = lowest(rest);
+        const sup_entry_t *e = &s->obs[i];
+        const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
+        const num_t b = num_sub(num_min(dist[i], ahead), e->d_s);
+        if (b < best_b) {
+            best = (uint8_t)i;
+            best_b = b;
         }
     }
     return best;
@@ -294,26 +311,28 @@ static bool way_clear(const sup_t *s, look_t *lk)
 {
     const msw_input_t *in = lk->in;
     const rol_path_t *path = rolled_out(lk);
-    for (uint8_t i = 0; i < s->n_obs; i++) {
+    const num_t *const dist = in->dist; /* locals, as in candidate() */
+    const num_t reach = in->reach;
+    const unsigned n = s->n_obs;
+    for (unsigned i = 0; i < n; i++) {
         const sup_entry_t *e = &s->obs[i];
         num_t clear = num_add(e->d_s, MSW_MARGIN);
         /* Within the reach of an activation (D_act + the braking reach,
          * candidate()), by the margin. */
-        if (in->dist[i] < num_add(num_add(e->d_act, in->reach), MSW_MARGIN)) {
-            clear = num_max(clear, num_sub(in->dist[i], MSW_MARGIN));
+        if (dist[i] < num_add(num_add(e->d_act, reach), MSW_MARGIN)) {
+            clear = num_max(clear, num_sub(dist[i], MSW_MARGIN));
         }
         /* A moving entry: the robot no longer closes on it within reach of an
          * activation, and its closest approach over the activation's horizon
          * stays beyond what activates by the margin (hysteresis). */
         bool ok;
         if (msw_moving(e)) {
-            ok = !(closing(lk, e) && in->dist[i] < num_add(e->d_act, MSW_RELEASE_REACH)) &&
+            ok = !(closing(lk, e) && dist[i] < num_add(e->d_act, MSW_RELEASE_REACH)) &&
                  !cpa_inside(lk, e, MSW_CPA_HORIZON,
                              num_max(num_sub(clear, e->d_s), num_add(MSW_CPA_MARGIN, MSW_MARGIN)));
         } else {
             /* Beyond the path's reach by the distance: clear without a look. */
-            ok = in->dist[i] >= num_add(path->reach, clear) ||
-                 rol_clears(path, e->o.x, e->o.y, clear);
+            ok = dist[i] >= num_add(path->reach, clear) || rol_clears(path, e->o.x, e->o.y, clear);
         }
         if (!ok) {
             return false;
@@ -341,9 +360,9 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
     }
     /* p1 for every static member (a moving one may never let the reference
      * pass it: way_clear() judges it by its motion). */
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        const sup_entry_t *e = &s->obs[i];
-        if (in_mask(m->cluster, i) && !msw_moving(e) && !p1(in, e)) {
+    for (uint16_t rest = in_table(m->cluster, s); rest != 0u; rest = without_lowest(rest)) {
+        const sup_entry_t *e = &s->obs[lowest(rest)];
+        if (!msw_moving(e) && !p1(in, e)) {
             return false;
         }
     }
@@ -364,13 +383,13 @@ static bool hand_over(const msw_t *m, const sup_t *s, look_t *lk)
  * changes since the activation exceeds MSW_LOOP: it circles the cluster),
  * or has stayed within MSW_PROGRESS of one point for MSW_STILL_US (stuck,
  * the filter holding it). While p3 stops the robot, standing still is no
- * sign of anything: the mark follows it. */
-static bool no_progress(msw_t *m, const msw_input_t *in)
+ * sign of anything: the mark follows it (@p p3: sup_p3() of the step). */
+static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
 {
     m->turned = num_add(m->turned, num_wrap(num_sub(in->robot->theta, m->last_theta)));
     m->last_theta = in->robot->theta;
-    if (sup_p3(in->v_r, in->w_r) || !oset_within(num_sub(in->robot->x, m->mark_x),
-                                                 num_sub(in->robot->y, m->mark_y), MSW_PROGRESS)) {
+    if (p3 || !oset_within(num_sub(in->robot->x, m->mark_x), num_sub(in->robot->y, m->mark_y),
+                           MSW_PROGRESS)) {
         m->mark_x = in->robot->x;
         m->mark_y = in->robot->y;
         m->t_mark_us = in->t_us;
@@ -396,9 +415,12 @@ static void find_cluster(msw_t *m, const sup_t *s)
  * circular reference meets it afresh on its next lap. */
 static void forget_left(msw_t *m, const sup_t *s, const msw_input_t *in)
 {
-    for (uint8_t i = 0; i < s->n_obs; i++) {
+    const num_t *const dist = in->dist; /* locals, as in candidate() */
+    const num_t reach = in->reach;
+    const unsigned n = s->n_obs;
+    for (unsigned i = 0; i < n; i++) {
         if (m->acts[i] != 0u &&
-            in->dist[i] >= num_add(num_add(s->obs[i].d_act, MSW_CPA_REACH), in->reach)) {
+            dist[i] >= num_add(num_add(s->obs[i].d_act, MSW_CPA_REACH), reach)) {
             m->acts[i] = 0u;
         }
     }
@@ -426,6 +448,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
 {
     /* The path is written when first needed (rolled_out()). */
     look_t lk = { .in = in, .rolled = false, .path = &m->path };
+    const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
     if (m->state == (uint8_t)MSW_BLOCKED) {
         if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
@@ -440,7 +463,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
-        } else if (no_progress(m, in)) {
+        } else if (no_progress(m, in, p3)) {
             m->state = (uint8_t)MSW_BLOCKED;
             emit(events, n_events, in->t_us, SUP_EVENT_BLOCKED, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
@@ -481,7 +504,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
             d->mode = SUP_MODE_BLOCKED;
         }
     }
-    if (sup_p3(in->v_r, in->w_r)) {
+    if (p3) {
         d->mode = SUP_MODE_STOP;
     }
 }

@@ -51,8 +51,18 @@ static inline bool oset_within(num_t dx, num_t dy, num_t r)
  */
 static inline num_t oset_distance(num_t dx, num_t dy)
 {
+#if !defined(NUM_FIXED)
+    /* Float: a sum of squares below 128² has |dx|, |dy| < 128 (a square is
+     * at most the sum: rounding is monotonic), where the root of that same
+     * sum is the value below; the two bounds tested only past it (5
+     * instructions fewer a distance on a Cortex-M4F). */
+    const num_t d2 = num_sum_sq(dx, dy);
+    if (d2 < NUM_C(16384.0)) {
+        return num_sqrt_nonneg(d2);
+    }
+#endif
     if (num_below(dx, OSET_SQUARE_LIMIT) && num_below(dy, OSET_SQUARE_LIMIT)) {
-        return num_sqrt(num_sum_sq_small(dx, dy));
+        return num_norm_small(dx, dy);
     }
     return num_hypot(dx, dy);
 }

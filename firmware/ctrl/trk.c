@@ -10,17 +10,6 @@ void trk_errors(const pose_t *robot, const pose_t *ref, trk_err_t *err)
     trk_errors_cs(robot, c, s, ref, err);
 }
 
-void trk_errors_cs(const pose_t *robot, num_t c, num_t s, const pose_t *ref, trk_err_t *err)
-{
-    /* eq. (1): the world-frame position error rotated into the body frame. */
-    const num_t dx = num_sub(ref->x, robot->x);
-    const num_t dy = num_sub(ref->y, robot->y);
-    err->e1 = num_add(num_mul(c, dx), num_mul(s, dy));
-    err->e2 = num_sub(num_mul(c, dy), num_mul(s, dx));
-    /* docs/equations.md erratum 2: e3 only makes sense wrapped. */
-    err->e3 = num_wrap(num_sub(ref->theta, robot->theta));
-}
-
 void trk_control(const trk_gains_t *g, const trk_err_t *err, num_t v_r, num_t w_r, num_t *v,
                  num_t *w)
 {

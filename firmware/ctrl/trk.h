@@ -34,12 +34,23 @@ void trk_errors(const pose_t *robot, const pose_t *ref, trk_err_t *err);
 /**
  * @brief trk_errors() for a caller that has cos θ and sin θ of the robot's
  *        heading already (the same numbers, one sine and cosine fewer).
+ *        Inline: once a step in ctl.c's "mstc" step.
  * @param robot the robot's pose.
  * @param c,s   cos θ, sin θ of robot->theta (num_cos, num_sin).
  * @param ref   the reference pose.
  * @param[out] err e1, e2 [m] and e3 [rad].
  */
-void trk_errors_cs(const pose_t *robot, num_t c, num_t s, const pose_t *ref, trk_err_t *err);
+static inline void trk_errors_cs(const pose_t *robot, num_t c, num_t s, const pose_t *ref,
+                                 trk_err_t *err)
+{
+    /* eq. (1): the world-frame position error rotated into the body frame. */
+    const num_t dx = num_sub(ref->x, robot->x);
+    const num_t dy = num_sub(ref->y, robot->y);
+    err->e1 = num_add(num_mul(c, dx), num_mul(s, dy));
+    err->e2 = num_sub(num_mul(c, dy), num_mul(s, dx));
+    /* docs/equations.md erratum 2: e3 only makes sense wrapped. */
+    err->e3 = num_wrap(num_sub(ref->theta, robot->theta));
+}
 
 /**
  * @brief Tracking control law, eq. (2)-(3).

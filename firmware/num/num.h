@@ -20,6 +20,12 @@
 #include "num_float.h"
 #endif
 
+#if defined(NUM_FIXED)
+/** @brief sqrt(x² + y²) for |x|, |y| < 128: num_sqrt(num_sum_sq_small(x, y))
+ *         (float mode: the same bits, without num_sqrt's test of the sign). */
+static inline num_t num_norm_small(num_t x, num_t y) { return num_sqrt(num_sum_sq_small(x, y)); }
+#endif
+
 /** @brief π/2, the avoidance rotation angle of eq. (10)-(12). */
 #define NUM_HALF_PI NUM_C(1.5707963267948966)
 

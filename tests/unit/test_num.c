@@ -369,6 +369,34 @@ static void test_num_sincos_is_sin_and_cos(void)
     TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 
+/* num_norm_small(x, y): 5 for (3, −4), 0 for (0, 0) (hand values), and
+ * num_sqrt(num_sum_sq_small(x, y)) bit for bit over a grid of both signs
+ * below 128; in float mode num_sqrt_nonneg(a) is num_sqrt(a) for a >= +0. */
+static void test_num_norm_small_is_the_root_of_the_squares(void)
+{
+    TEST_ASSERT_NUM_WITHIN(TOL_ROOT_ABS + TOL_ROOT_REL * 5.0, 5.0,
+                           num_norm_small(tu_num(3.0), tu_num(-4.0)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, num_norm_small(NUM_ZERO, NUM_ZERO));
+    unsigned long differ = 0;
+    for (int i = -1270; i <= 1270; i += 3) {
+        for (int j = -1270; j <= 1270; j += 13) {
+            const num_t x = tu_num((double)i * 0.1);
+            const num_t y = tu_num((double)j * 0.1);
+            differ += bits_of(num_norm_small(x, y)) != bits_of(num_sqrt(num_sum_sq_small(x, y)));
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+#if !defined(NUM_FIXED)
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 1.5, num_sqrt_nonneg(tu_num(2.25)));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, num_sqrt_nonneg(NUM_ZERO));
+    for (int32_t i = 0; i <= 100000; i++) {
+        const num_t a = tu_num((double)i * 0.37);
+        differ += bits_of(num_sqrt_nonneg(a)) != bits_of(num_sqrt(a));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
+#endif
+}
+
 static void test_num_conversions_round_trip(void)
 {
     const double in[] = { 0.0, 1.5, -0.1, 0.35, -12345.5, 20000.25 };
@@ -940,6 +968,7 @@ int main(void)
     RUN_TEST(test_num_hypot_known_triangles);
     RUN_TEST(test_num_hypot_across_a_100_m_field_and_beyond);
     RUN_TEST(test_num_sqrt_values_and_negative_input);
+    RUN_TEST(test_num_norm_small_is_the_root_of_the_squares);
     RUN_TEST(test_num_min_max_pick_the_right_operand);
     RUN_TEST(test_num_clamp_limits_and_passes_through);
     RUN_TEST(test_num_arithmetic_hand_values);

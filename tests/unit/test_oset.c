@@ -80,6 +80,31 @@ static void test_oset_distance_is_the_length_near_and_far(void)
     TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-5, 4e-5), 160.0, oset_distance(tu_num(96.0), tu_num(128.0)));
     TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-5, 4e-5), 160.0, oset_distance(tu_num(128.0), tu_num(-96.0)));
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-6, 4e-5), 5.0, oset_distance(tu_num(-3.0), tu_num(4.0)));
+    /* (90, −120) → 150 (3-4-5 times 30): both below 128, their squares'
+     * sum 22500 above 128² (float mode: past the sum's own test, the bounds
+     * decide: the root of the squares); (0, 0) → 0. */
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(2e-5, 4e-5), 150.0, oset_distance(tu_num(90.0), tu_num(-120.0)));
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(0.0, 0.0), 0.0, oset_distance(NUM_ZERO, NUM_ZERO));
+}
+
+/* oset_distance is the root of num_sum_sq_small below 128 in each
+ * component and num_hypot beyond, bit for bit (float mode tests the sum
+ * first: the same values, oset.h), over a grid of both signs reaching past
+ * 128. */
+static void test_oset_distance_is_its_two_definitions_bit_for_bit(void)
+{
+    unsigned long differ = 0;
+    for (int i = -1400; i <= 1400; i += 7) {
+        for (int j = -1400; j <= 1400; j += 11) {
+            const num_t dx = tu_num((double)i * 0.1 + 0.013);
+            const num_t dy = tu_num((double)j * 0.1 - 0.027);
+            const bool small = num_below(dx, OSET_SQUARE_LIMIT) && num_below(dy, OSET_SQUARE_LIMIT);
+            const num_t want = small ? num_sqrt(num_sum_sq_small(dx, dy)) : num_hypot(dx, dy);
+            const num_t got = oset_distance(dx, dy);
+            differ += memcmp(&want, &got, sizeof got) != 0;
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, differ);
 }
 
 /* ------------------------------------------------------------- clusters */
@@ -275,6 +300,7 @@ int main(void)
     RUN_TEST(test_oset_within_is_strict_and_exact_at_the_radius);
     RUN_TEST(test_oset_within_large_radii_use_the_root_without_overflow);
     RUN_TEST(test_oset_distance_is_the_length_near_and_far);
+    RUN_TEST(test_oset_distance_is_its_two_definitions_bit_for_bit);
     RUN_TEST(test_oset_link_overlap_gap_and_apart);
     RUN_TEST(test_oset_cluster_is_the_transitive_closure);
     RUN_TEST(test_oset_cluster_of_overlapping_circles_has_no_gap);

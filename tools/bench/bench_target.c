@@ -4,8 +4,10 @@
  * (processor clock, 25 MHz) advances once per 40 executed instructions, the
  * same every run. Prints `key value` lines for mstc.bench.ctl_step on the
  * semihosting console, then exits QEMU. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "auth/auth.h"
 #include "bench.h"
@@ -122,6 +124,15 @@ static void fill(double a_lo, double a_hi, double b_lo, double b_hi, int b_any_s
                ((double)t_op - (double)t_base) * ips / (double)(N_ARGS * N_REPS), DOMAIN);         \
     } while (0)
 
+/* num_sincos(a) as one value for PRIM (the sum: one addition more). */
+static num_t sincos_sum(num_t a)
+{
+    num_t s;
+    num_t c;
+    num_sincos(a, &s, &c);
+    return num_add(s, c);
+}
+
 static void primitives(void)
 {
     fill(-10.0, 10.0, -10.0, 10.0, 0);
@@ -143,11 +154,102 @@ static void primitives(void)
     fill(-4.0, 4.0, 0.0, 1.0, 0);
     PRIM("num_sin", "a in [-4, 4]", num_sin(a));
     PRIM("num_cos", "a in [-4, 4]", num_cos(a));
+    PRIM("num_sincos", "a in [-4, 4] (both, and their sum)", sincos_sum(a));
 #if defined(NUM_FIXED)
     PRIM("fix16_sin", "a in [-4, 4]", fix16_sin(a));
 #endif
     fill(-8.0, 8.0, 0.0, 1.0, 0);
     PRIM("num_wrap", "a in [-8, 8] (60 % outside (-pi, pi])", num_wrap(a));
+}
+
+/* num_sincos() against num_sin() and num_cos() on the target's library (in
+ * float mode with newlib it reduces the angle once for both, num_float.h):
+ * how many of 400,001 angles over [−40, 40], and of the multiples of π/4
+ * and the extremes, give other bits. Prints `sincos_differs N of M`. Then
+ * num_sqrt() against sqrtf() (the FPU's instruction, in float mode on the
+ * Cortex-M4F) on 400,001 values over [0, 400]: `sqrt_differs N of M`. */
+static uint32_t bits_of(num_t a)
+{
+    uint32_t u;
+    memcpy(&u, &a, sizeof u);
+    return u;
+}
+
+static void sincos_check(void)
+{
+    const num_t edge[] = { NUM_ZERO,
+                           NUM_PI,
+                           num_neg(NUM_PI),
+                           NUM_HALF_PI,
+                           NUM_TWO_PI,
+                           NUM_MAX,
+                           num_neg(NUM_MAX),
+                           bench_num(0.7853981633974483),
+                           bench_num(-2.356194490192345) };
+    const size_t n_edge = sizeof edge / sizeof edge[0];
+    unsigned long differ = 0;
+    unsigned long n = 0;
+    for (int32_t i = -200000; i <= 200000 + (int32_t)n_edge; i++) {
+        const num_t a = i <= 200000 ? bench_num((double)i * 2e-4) : edge[i - 200001];
+        num_t s;
+        num_t c;
+        num_sincos(a, &s, &c);
+        differ += bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a));
+        n++;
+    }
+#if !defined(NUM_FIXED)
+    /* And every float within 4096 steps of nπ/2, n = ±1 .. ±8 (where the
+     * reduction's first approximation may not stand). */
+    for (int32_t q = -8; q <= 8; q++) {
+        const float centre = (float)q * 1.57079632679489662f;
+        uint32_t u;
+        memcpy(&u, &centre, sizeof u);
+        for (uint32_t k = u - 4096u; q != 0 && k != u + 4096u; k++) {
+            num_t a;
+            memcpy(&a, &k, sizeof a);
+            num_t s;
+            num_t c;
+            num_sincos(a, &s, &c);
+            differ += bits_of(s) != bits_of(num_sin(a)) || bits_of(c) != bits_of(num_cos(a));
+            n++;
+        }
+    }
+#endif
+    printf("sincos_differs %lu of %lu\n", differ, n);
+#if !defined(NUM_FIXED)
+    differ = 0;
+    n = 0;
+    for (int32_t i = 0; i <= 400000; i++) {
+        const num_t a = bench_num((double)i * 1e-3);
+        differ += bits_of(num_sqrt(a)) != bits_of(sqrtf(a));
+        n++;
+    }
+    printf("sqrt_differs %lu of %lu\n", differ, n);
+    /* num_hypot() against hypotf() (inline with newlib on the Cortex-M4F):
+     * 2^20 pairs, each value of either sign with an exponent over
+     * [2^-64, 2^64) and any significand (every branch of hypotf), then
+     * the grid 0.01 .. 10 m of the scenes' distances. */
+    differ = 0;
+    n = 0;
+    lcg_state = 12345u;
+    for (uint32_t i = 0; i < (UINT32_C(1) << 20); i++) {
+        const float x = ldexpf((float)lcg_uniform(1.0, 2.0), (int)lcg_uniform(-64.0, 64.0));
+        const float y = ldexpf((float)lcg_uniform(1.0, 2.0), (int)lcg_uniform(-64.0, 64.0));
+        const num_t a = (i & 1u) != 0u ? -x : x;
+        const num_t b = (i & 2u) != 0u ? -y : y;
+        differ += bits_of(num_hypot(a, b)) != bits_of(hypotf(a, b));
+        n++;
+    }
+    for (int32_t i = 1; i <= 1000; i++) {
+        for (int32_t j = 0; j <= 1000; j += 7) {
+            const num_t a = (float)i * 0.01f;
+            const num_t b = (float)j * 0.01f;
+            differ += bits_of(num_hypot(a, b)) != bits_of(hypotf(a, b));
+            n++;
+        }
+    }
+    printf("hypot_differs %lu of %lu\n", differ, n);
+#endif
 }
 
 /* ----------------------------------------------------------------- loads */
@@ -363,6 +465,7 @@ int main(void)
     wheel();
 
     primitives();
+    sincos_check();
     authenticated_commands();
     printf("done\n");
     return 0;
