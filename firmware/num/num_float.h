@@ -129,6 +129,20 @@ static inline num_t num_cos(num_t a) { return cosf(a); }
 #define NUM_NEWLIB_INLINE 0
 #endif
 
+/* num_rem_pio2_quick() and num_hypot()'s inline steps below follow newlib's
+ * fdlibm routines (ef_rem_pio2.c, e_hypotf.c) step for step, with their
+ * constants; their notice, as those files give it:
+ *
+ * ====================================================
+ * Copyright (C) 1993 by Sun Microsystems, Inc. All rights reserved.
+ *
+ * Developed at SunPro, a Sun Microsystems, Inc. business.
+ * Permission to use, copy, modify, and distribute this
+ * software is freely granted, provided that this notice
+ * is preserved.
+ * ====================================================
+ *
+ * (Conversion to float by Ian Lance Taylor, Cygnus Support.) */
 #if defined(__NEWLIB__)
 /* newlib's sinf() and cosf() (fdlibm's sf_sin.c, sf_cos.c) are the same three
  * steps: the angle reduced to y = a − nπ/2, |y| <= π/4 (as the pair y[0] +
