@@ -53,9 +53,8 @@ void act_estimate_lag(act_t *a, num_t k, const kin_wheels_t *meas)
     a->est.right = num_add(a->cmd.right, num_mul(num_sub(a->est.right, a->cmd.right), k));
 }
 
-bool act_limit(act_t *a, num_t accel, num_t dt, kin_wheels_t *w)
+bool act_limit(act_t *a, num_t step, kin_wheels_t *w)
 {
-    const num_t step = num_mul(accel, dt);
     const num_t dl = num_sub(w->left, a->cmd.left);
     const num_t dr = num_sub(w->right, a->cmd.right);
     const num_t most = num_max(num_abs(dl), num_abs(dr));
