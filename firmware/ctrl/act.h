@@ -112,16 +112,16 @@ static inline void act_estimate_lag(act_t *a, num_t k, const kin_wheels_t *meas)
 /**
  * @brief Rate-limit the command @p w against a->cmd, then store it as a->cmd.
  * @param a     state.
- * @param accel wheel_accel [rad/s²], > 0.
- * @param dt    the period since the last step [s], in [0, ACT_MAX_DT].
+ * @param step  a·dt, the most a wheel may change this period [rad/s], >= 0:
+ *        wheel_accel times the period since the last step (in [0,
+ *        ACT_MAX_DT]), num_mul_period() of it (ctl.c).
  * @param[in,out] w the command [rad/s]: unchanged when within a·dt of a->cmd
  *        on both wheels, else a->cmd + k (w − a->cmd) with the largest
  *        k in [0, 1) that keeps both within.
  * @retval true @p w was limited.
  */
-static inline bool act_limit(act_t *a, num_t accel, num_t dt, kin_wheels_t *w)
+static inline bool act_limit(act_t *a, num_t step, kin_wheels_t *w)
 {
-    const num_t step = num_mul(accel, dt);
     const num_t dl = num_sub(w->left, a->cmd.left);
     const num_t dr = num_sub(w->right, a->cmd.right);
     const num_t most = num_max(num_abs(dl), num_abs(dr));

@@ -465,7 +465,7 @@ static bool guard_passes(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, c
                          uint8_t n, const kin_wheels_t *base, kin_wheels_t *u, cbf_body_t *body)
 {
     a->cmd = *base;
-    const bool limited = act_limit(a, g->accel, g->dt, u);
+    const bool limited = act_limit(a, g->step, u);
     cbf_brake_t b = { .start = g->start, .c = g->c, .s = g->s, .lead = g->lead };
     if (body->known && !limited) {
         b.v = body->v;
@@ -507,7 +507,7 @@ bool cbf_guard(act_t *a, const cbf_guard_t *g, const sup_entry_t *e, const num_t
     }
     *wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
     a->cmd = base;
-    (void)act_limit(a, g->accel, g->dt, wheels);
+    (void)act_limit(a, g->step, wheels);
     body->known = false;
     return true;
 }

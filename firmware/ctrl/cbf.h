@@ -194,8 +194,8 @@ typedef struct {
  *         (cbf_guard()). */
 typedef struct {
     const kin_params_t *kin; /**< wheel geometry */
-    num_t accel;             /**< wheel_accel [rad/s²] */
-    num_t inv_accel;         /**< 1 / accel */
+    num_t step;              /**< wheel_accel × dt: the rate limiter's step [rad/s] */
+    num_t inv_accel;         /**< 1 / wheel_accel */
     num_t dt;                /**< the period [s] */
     pose_t start;            /**< the predicted pose (act_predict()) */
     num_t c, s;              /**< cos, sin of its heading */

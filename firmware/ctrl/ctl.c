@@ -244,6 +244,15 @@ static num_t step_dt(ctl_t *c, uint64_t t_us, uint64_t *key)
     return dt;
 }
 
+/* The rate limiter's step wheel_accel × dt for the period @p dt of key @p key
+ * (step_dt()), from its microseconds: in Q16.16, a·dt would carry dt's
+ * rounding times a (num_mul_period()). */
+static num_t accel_step(const ctl_t *c, num_t dt, uint64_t key)
+{
+    return num_mul_period(c->p.wheel_accel, dt,
+                          key == CTL_FIRST_KEY ? CTL_FIRST_US : (uint32_t)key);
+}
+
 /* The look-ahead velocity u = v e_θ + l ω e⊥ of a body velocity (@p kv = v
  * and @p klw = l ω, each times a factor k), in the world frame. */
 static void lookahead_velocity(num_t kv, num_t klw, num_t cos_th, num_t sin_th, num_t *ux,
@@ -259,6 +268,7 @@ static void lookahead_velocity(num_t kv, num_t klw, num_t cos_th, num_t sin_th, 
  * and its braking time. */
 typedef struct {
     num_t dt;      /* [s] */
+    num_t step;    /* wheel_accel × dt: the rate limiter's step [rad/s] */
     num_t horizon; /* T_p [s] */
     num_t v, w;    /* estimated body velocity now [m/s], [rad/s] */
     act_pose_t at; /* the pose the lag carries the robot to */
@@ -273,6 +283,14 @@ static void wheels_now(ctl_t *c, const ctl_input_t *in, num_t cos_th, num_t sin_
     ctl_memo_t *mo = &c->memo;
     uint64_t key;
     wn->dt = step_dt(c, in->t_us, &key);
+    /* The rate limiter's step of the same period again (wheel_accel changes
+     * only with the parameters: memo_reset()). */
+    if (!mo->step_known || mo->step_us != key) {
+        mo->step = accel_step(c, wn->dt, key);
+        mo->step_us = key;
+        mo->step_known = true;
+    }
+    wn->step = mo->step;
     if (in->wheels_measured) {
         act_estimate_lag(&c->act, NUM_ZERO, &in->wheels);
     } else {
@@ -447,7 +465,7 @@ static bool limit_and_guard(ctl_t *c, const wheels_now_t *wn, const num_t *dist,
                             kin_wheels_t *wheels, cbf_body_t *body)
 {
     const cbf_guard_t g = { .kin = &c->p.kin,
-                            .accel = c->p.wheel_accel,
+                            .step = wn->step,
                             .inv_accel = c->act.lim.inv_accel,
                             .dt = wn->dt,
                             .start = wn->at.p,
@@ -558,8 +576,8 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
         body.known = false;
     }
     /* A moving obstacle no command within the wheels' limits keeps away. */
-    const uint8_t unreachable = cbf_unreachable(&c->cbf, c->sup.obs, c->sup.n_obs, &c->p.kin,
-                                                &c->act.cmd, num_mul(c->p.wheel_accel, wn.dt));
+    const uint8_t unreachable =
+        cbf_unreachable(&c->cbf, c->sup.obs, c->sup.n_obs, &c->p.kin, &c->act.cmd, wn.step);
     if (unreachable != 0u) {
         fr.infeasible = true;
         fr.new_infeasible = !was_infeasible;
@@ -667,7 +685,8 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
         st->faults = CTL_FAULT_INPUT_NONFINITE;
         if (ctl_is_mstc(&c->p)) {
             uint64_t key;
-            (void)act_limit(&c->act, c->p.wheel_accel, step_dt(c, in->t_us, &key), &out->wheels);
+            const num_t dt = step_dt(c, in->t_us, &key);
+            (void)act_limit(&c->act, accel_step(c, dt, key), &out->wheels);
             c->memo.cmd_known = false;
         }
         return;

@@ -180,11 +180,14 @@ typedef struct {
     num_t turn_most;    /**< 2γ' / (k3 |v_r|): the tracking turn's bound */
     num_t avoid_most;   /**< 2γ' / k2: the avoidance turn's bound */
     num_t dt;           /**< the period of dt_us microseconds [s] (step_dt()) */
+    num_t step;         /**< wheel_accel × dt for the period of key step_us */
     uint64_t dt_us;     /**< [µs] */
     uint64_t lag_us;    /**< the period's key (ctl.c, step_dt()) */
+    uint64_t step_us;   /**< the period's key of step */
     bool cmd_known;     /**< cmd_v, cmd_w hold */
     bool dt_known;      /**< dt holds */
     bool lag_known;     /**< lag_k holds */
+    bool step_known;    /**< step holds */
     bool turn_known;    /**< turn_most holds */
 } ctl_memo_t;
 
@@ -203,6 +206,8 @@ typedef struct {
 /** @brief The period the first "mstc" step assumes [s]: the inputs' DBC cycle
  *         time (the period before it is unknown). */
 #define CTL_FIRST_DT NUM_C(0.02)
+/** @brief CTL_FIRST_DT in microseconds. */
+#define CTL_FIRST_US 20000u
 
 /** @brief The defaults of the table: Table 1, with wheel geometry that never
  *         saturates in the paper's scenarios (r = 0.05 m, L = 0.3 m,

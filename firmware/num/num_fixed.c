@@ -376,6 +376,26 @@ num_t num_div(num_t a, num_t b)
     return (a ^ b) < 0 ? -m : m;
 }
 
+/*
+ * num_mul_period: the period in Q0.32, D = floor(us 2^32 / 10^6)
+ * = floor(us 2^26 / 15625) (< 2^32 for us < 10^6), by long division in
+ * two 32-bit digits: q1 = floor(us 2^10 / 15625) with remainder r1, then
+ * floor(r1 2^16 / 15625) (us 2^10 < 2^30 and r1 2^16 < 2^30: no overflow,
+ * no 64-bit division). D is below the period by less than 2^-32 s, so a·D
+ * by less than |a| 2^-32; rounding a·D / 2^32 to the nearest code adds
+ * 0.5 LSB at most (|a·D| < 2^63).
+ */
+num_t num_mul_period(num_t a, num_t dt, uint32_t us)
+{
+    (void)dt;
+    const uint32_t u = us << 10;
+    const uint32_t q1 = u / 15625u;
+    const uint32_t r1 = u - q1 * 15625u;
+    const uint32_t d = (q1 << 16) + (r1 << 16) / 15625u;
+    const int64_t p = (int64_t)a * (int64_t)d;
+    return (num_t)((p + (INT64_C(1) << 31)) >> 32);
+}
+
 /* Coefficients of atan(t) ≈ t·(A1 + A3·t² + … + A13·t¹²) on [0, 1], in
  * Q2.30: a minimax fit (tools/numerics/fit-atan), max error 2.48e-7 rad
  * (0.016 LSB) with the coefficients rounded as here. */

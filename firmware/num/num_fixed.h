@@ -219,6 +219,18 @@ static inline num_t num_sum_sq_small(num_t x, num_t y)
 num_t num_div(num_t a, num_t b);
 
 /**
+ * @brief a · dt for a period dt of @p us microseconds (@p us < 10^6), rounded
+ *        to nearest: error <= 0.5 LSB + |a| 2^-32 (0.52 LSB for |a| <= 1000).
+ *        @p dt is the period as num_t and is not used here: a period of whole
+ *        microseconds is rarely a whole number of codes (0.02 s is 1310.72,
+ *        held as 1311: 2.1e-4 too long), and a · dt carries that error times
+ *        a (20 rad/s² × 0.02 s gives 0.40009, 5.6 LSB above 0.4); from the
+ *        microseconds the product is as exact as the result can be. Float
+ *        mode multiplies a by dt.
+ */
+num_t num_mul_period(num_t a, num_t dt, uint32_t us);
+
+/**
  * @brief Square root, rounded to nearest: error ≤ 0.5 LSB over the whole
  *        range (exact integer square root of a·2^16). Negative input gives 0.
  *        Range of the result: [0, 181.02].

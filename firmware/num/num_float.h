@@ -370,6 +370,14 @@ static inline bool num_any_nonzero(num_t a, num_t b)
     return ((num_bits(a) | num_bits(b)) << 1) != 0u;
 }
 
+/** @brief a · dt, @p dt the period of @p us microseconds: a times dt here
+ *         (fixed mode computes it from @p us, num_fixed.h). */
+static inline num_t num_mul_period(num_t a, num_t dt, uint32_t us)
+{
+    (void)us;
+    return a * dt;
+}
+
 /** @brief num_abs(a) < lim (false for a NaN). */
 static inline bool num_below(num_t a, num_t lim) { return fabsf(a) < lim; }
 

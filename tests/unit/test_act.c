@@ -31,7 +31,7 @@ static void test_act_limit_scales_both_changes_by_one_factor(void)
      * wheel; the larger change (10) gives the factor 0.04: (0.4, 0.2), the
      * same direction in wheel space. */
     kin_wheels_t w = wheels(10.0, 5.0);
-    TEST_ASSERT_TRUE(act_limit(&a, tu_num(20.0), tu_num(0.02), &w));
+    TEST_ASSERT_TRUE(act_limit(&a, tu_num(20.0 * 0.02), &w));
     TEST_ASSERT_NUM_WITHIN(TOL, 0.4, w.left);
     TEST_ASSERT_NUM_WITHIN(TOL, 0.2, w.right);
     TEST_ASSERT_NUM_WITHIN(TOL, 0.4, a.cmd.left); /* the next step's base */
@@ -43,7 +43,7 @@ static void test_act_limit_keeps_a_command_within_reach(void)
     /* From (1, 1): changes +0.3 and −0.3 are within 0.4: unchanged. */
     act_sync(&a, &(kin_wheels_t){ tu_num(1.0), tu_num(1.0) });
     kin_wheels_t w = wheels(1.3, 0.7);
-    TEST_ASSERT_FALSE(act_limit(&a, tu_num(20.0), tu_num(0.02), &w));
+    TEST_ASSERT_FALSE(act_limit(&a, tu_num(20.0 * 0.02), &w));
     TEST_ASSERT_NUM_WITHIN(TOL, 1.3, w.left);
     TEST_ASSERT_NUM_WITHIN(TOL, 0.7, w.right);
 }
@@ -55,7 +55,7 @@ static void test_act_limit_reverses_a_turn_over_as_many_periods_as_it_needs(void
     act_sync(&a, &(kin_wheels_t){ tu_num(2.0), tu_num(-2.0) });
     for (int k = 1; k <= 12; k++) {
         kin_wheels_t w = wheels(-2.0, 2.0);
-        (void)act_limit(&a, tu_num(20.0), tu_num(0.02), &w);
+        (void)act_limit(&a, tu_num(20.0 * 0.02), &w);
         const double want = k < 10 ? 2.0 - 0.4 * k : -2.0;
         TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 1e-3), want, w.left);
         TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 1e-3), -want, w.right);
@@ -65,7 +65,7 @@ static void test_act_limit_reverses_a_turn_over_as_many_periods_as_it_needs(void
 static void test_act_limit_allows_nothing_over_no_time(void)
 {
     kin_wheels_t w = wheels(5.0, 5.0);
-    TEST_ASSERT_TRUE(act_limit(&a, tu_num(20.0), NUM_ZERO, &w));
+    TEST_ASSERT_TRUE(act_limit(&a, NUM_ZERO, &w));
     TEST_ASSERT_NUM_WITHIN(TOL, 0.0, w.left);
     TEST_ASSERT_NUM_WITHIN(TOL, 0.0, w.right);
 }

@@ -309,7 +309,7 @@ static double guarded_runs(double wheel_accel, double wheel_tau, unsigned runs)
             num_t ve, we;
             kin_vw_from_wheels(&kin, &a.est, &ve, &we);
             const cbf_guard_t g = { .kin = &kin,
-                                    .accel = tu_num(wheel_accel),
+                                    .step = tu_num(wheel_accel * dt),
                                     .inv_accel = tu_num(1.0 / wheel_accel),
                                     .dt = tu_num(dt) };
             cbf_guard_t gp = g;

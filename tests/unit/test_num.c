@@ -299,6 +299,17 @@ static void test_num_clamp_limits_and_passes_through(void)
 
 /* ------------------------------------------------- arithmetic, trig */
 
+/* num_mul_period(a, dt, us): a times a period of us microseconds. Hand
+ * values: 20 rad/s² over 20 ms is 0.4; −3 over 33,333 µs is −0.099999;
+ * nothing over no time. */
+static void test_num_mul_period_hand_values(void)
+{
+    TEST_ASSERT_NUM_WITHIN(TOL_ARITH, 0.4, num_mul_period(tu_num(20.0), tu_num(0.02), 20000u));
+    TEST_ASSERT_NUM_WITHIN(TOL_ARITH, -0.099999,
+                           num_mul_period(tu_num(-3.0), tu_num(0.033333), 33333u));
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0.0, num_mul_period(tu_num(20.0), NUM_ZERO, 0u));
+}
+
 static void test_num_arithmetic_hand_values(void)
 {
     /* Hand values: 1.5·(−2.25) = −3.375; 1/3; 0.75 + 1.5 = 2.25; 0.75 − 1.5
@@ -924,6 +935,33 @@ static void test_num_fixed_sqrt_is_correctly_rounded(void)
 /* num_hypot(x, y) = round(sqrt(x² + y²)) from the exact 64-bit sum,
  * saturated (num_fixed.h), against the bit-by-bit reference: the extremes,
  * then random pairs at every magnitude. */
+/* num_mul_period in Q16.16, by hand: 0.4 is 26214.4 codes, so 26214, where
+ * num_mul(20, 0.02) multiplies 0.02's code 1311 (1310.72 rounded) and
+ * gives 26220; −0.099999 is −6553.53 codes: −6554. Then 10^6 random
+ * pairs against the product formed in double (a below 2^31 codes, us
+ * below 10^6, both exact in double; the product a·us/10^6 in codes to
+ * within 2^-20): within 0.5 code of the exact product, plus |a| 2^-32 codes
+ * (num_fixed.h), plus the double's own 2^-20. */
+static void test_num_fixed_mul_period_is_rounded_from_microseconds(void)
+{
+    TEST_ASSERT_EQUAL_INT32(26214, num_mul_period(NUM_C(20.0), NUM_C(0.02), 20000u));
+    TEST_ASSERT_EQUAL_INT32(26220, num_mul(NUM_C(20.0), NUM_C(0.02)));
+    TEST_ASSERT_EQUAL_INT32(-6554, num_mul_period(NUM_C(-3.0), NUM_C(0.033333), 33333u));
+    TEST_ASSERT_EQUAL_INT32(0, num_mul_period(NUM_MAX, NUM_ZERO, 0u));
+    unsigned long worse = 0;
+    uint64_t s = 0x9E3779B97F4A7C15u;
+    for (unsigned k = 0; k < 1000000u; k++) {
+        const uint64_t r = xorshift64(&s);
+        const int32_t a = (int32_t)(uint32_t)r >> (k % 24u);
+        const uint32_t us = (uint32_t)(r >> 32) % 1000000u;
+        const double exact = (double)a * (double)us / 1.0e6;
+        const double err = fabs((double)num_mul_period(a, NUM_ZERO, us) - exact);
+        const double bound = 0.5 + fabs((double)a) / 4294967296.0 + 1.0 / 1048576.0;
+        worse += err > bound;
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, worse);
+}
+
 static void test_num_fixed_hypot_is_correctly_rounded(void)
 {
     static const int32_t edge[] = { 0, 1, -1, 0x8000, 0x10000, 23170 << 16, INT32_MAX, INT32_MIN };
@@ -972,6 +1010,7 @@ int main(void)
     RUN_TEST(test_num_min_max_pick_the_right_operand);
     RUN_TEST(test_num_clamp_limits_and_passes_through);
     RUN_TEST(test_num_arithmetic_hand_values);
+    RUN_TEST(test_num_mul_period_hand_values);
     RUN_TEST(test_num_sin_cos_hand_values);
     RUN_TEST(test_num_sincos_is_sin_and_cos);
     RUN_TEST(test_num_conversions_round_trip);
@@ -992,6 +1031,7 @@ int main(void)
     RUN_TEST(test_num_fixed_div_is_libfixmath_sdiv);
     RUN_TEST(test_num_fixed_sqrt_is_correctly_rounded);
     RUN_TEST(test_num_fixed_hypot_is_correctly_rounded);
+    RUN_TEST(test_num_fixed_mul_period_is_rounded_from_microseconds);
 #endif
     return UNITY_END();
 }
