@@ -17,6 +17,9 @@
 #define CBF_L2_OVER_KAPPA2                                                                         \
     NUM_C(CBF_LOOKAHEAD_M *CBF_LOOKAHEAD_M / (CBF_TURN_WEIGHT_M * CBF_TURN_WEIGHT_M))
 #define CBF_INV_LOOKAHEAD NUM_C(1.0 / CBF_LOOKAHEAD_M)
+/* The largest gain on a moving obstacle's margin, dead ahead (brake_margin):
+ * CBF_MOVING_GAIN + CBF_MOVING_RISE. */
+#define CBF_MOVING_MOST   NUM_C(CBF_MOVING_GAIN_X + CBF_MOVING_RISE_X)
 /* Inline whatever GCC's heuristics say: binding() and slack_sure() run for
  * every obstacle in every pass over them, and GCC -O2 keeps slack_sure() (or,
  * with it inline, binding()) out of line on a Cortex-M3, where the calls
@@ -65,9 +68,13 @@ typedef struct {
 /* The braking margin of an obstacle at Δ = p_l − c moving at w: with σ the
  * closing speed −Δ·(q − w)/|Δ| of the look-ahead point under the command in
  * force (0 when it does not close), σ T_b for a static obstacle (braking
- * along the path stops the closing in T_b), CBF_MOVING_GAIN σ max(T_b,
- * σ/a_v) for a moving one (nulling a closing speed the robot does not cause
- * takes σ/a_v). The root only for an obstacle that closes. */
+ * along the path stops the closing in T_b), σ max(CBF_MOVING_BRAKE T_b,
+ * G σ/a_β) for a moving one: nulling a closing speed the robot does not
+ * cause takes σ/a_β, and G = CBF_MOVING_GAIN + CBF_MOVING_RISE cos β_b,
+ * cos β_b = −Δ·[cos θ, sin θ]/|Δ|, is the most for an obstacle ahead, which
+ * the robot meets head on or has to let cross its way, the least for one
+ * behind, which it leaves by driving on. The root only for an obstacle that
+ * closes. */
 static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx, num_t dy, num_t d2,
                           bool *doomed)
 {
@@ -89,12 +96,15 @@ static num_t brake_margin(const lookahead_t *fr, const sup_entry_t *o, num_t dx,
         /* Away from the obstacle (along Δ, at angle β to the heading) the
          * look-ahead point accelerates at a_v max(|cos β|, side |sin β|) at
          * most, a_v side at least. */
-        const num_t along_h = num_abs(num_add(num_mul(dx, fr->c), num_mul(dy, fr->s)));
+        const num_t behind = num_add(num_mul(dx, fr->c), num_mul(dy, fr->s));
+        const num_t along_h = num_abs(behind);
         const num_t across = num_abs(num_sub(num_mul(dy, fr->c), num_mul(dx, fr->s)));
         const num_t share =
             num_max(num_div(num_max(along_h, num_mul(fr->side, across)), d), fr->side);
         const num_t shed = num_div(num_mul(sigma, fr->inv_accel), share);
-        t = num_mul(num_max(t, shed), CBF_MOVING_GAIN);
+        /* cos β_b = −Δ·heading/|Δ|. */
+        const num_t gain = num_sub(CBF_MOVING_GAIN, num_mul(CBF_MOVING_RISE, num_div(behind, d)));
+        t = num_max(num_mul(t, CBF_MOVING_BRAKE), num_mul(shed, gain));
         /* Closing faster than the robot can null before the bodies touch
          * (its centre l behind p_l): d − l − (R_m + r) < σ²/(2 a_β). */
         const num_t touch = num_sub(o->d_s, fr->gap);
@@ -153,19 +163,6 @@ static num_t shortfall(const constraint_t *k, num_t v, num_t w)
     return shortfall_lw(k, v, num_mul(CBF_LOOKAHEAD, w));
 }
 
-/* The constraint of entry @p i, at centre distance @p dist from the robot,
- * cannot bind for the command (v, ω): with ḣ = a·(u − w) >= −2 |p_l − c| |u − w|
- * and h = (|p_l − c| − ρ)(|p_l − c| + ρ), ḣ + α h >= 0 whenever
- * |p_l − c| >= ρ + 2 |u − w| / α; |p_l − c| >= dist − l − |shift|, and
- * |u − w| <= |v| + l|ω| + |w_x| + |w_y|. Saves the products for every
- * obstacle not close. The reach is d_s + 2l + extra + (2/α)(|v| + l|ω| + ov),
- * extra what the prediction and the braking margin add: the prediction moves
- * p_l by at most |shift|_1 and a moving obstacle by at most ov T_p, and
- * since σ <= |q − w|_1 = q1 + ov the margin is at most q1 T_b for a static
- * obstacle (reach_add holds it with the shift), CBF_MOVING_GAIN (q1 + ov)
- * (T_b + (q1 + ov)/(a_v side)) for a moving one. @p still is
- * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
- * computed once per command. */
 /* slack_sure() of a moving obstacle, out of line: inline, GCC would start
  * its work (loads, absolute values, constants) before the test that sends
  * every static obstacle past it, some 9 instructions an obstacle a pass
@@ -183,12 +180,26 @@ slack_sure_moving(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t
                                  num_mul(num_mul(num_mul(qw, qw), fr->inv_accel), fr->inv_side));
     const num_t extra =
         num_add(num_add(fr->reach_add, num_mul(ov, fr->horizon)),
-                num_add(num_mul(braked, CBF_MOVING_GAIN),
-                        num_mul(num_mul(fr->q1, fr->brake_t), num_sub(CBF_MOVING_GAIN, NUM_ONE))));
+                num_add(num_mul(braked, CBF_MOVING_MOST),
+                        num_mul(num_mul(fr->q1, fr->brake_t), num_sub(CBF_MOVING_MOST, NUM_ONE))));
     const num_t term = num_mul(CBF_TWO_OVER_ALPHA, num_add(speed, ov));
     return dist >= num_add(num_add(num_add(o->d_s, CBF_TWO_LOOKAHEADS), extra), term);
 }
 
+/* The constraint of entry @p i, at centre distance @p dist from the robot,
+ * cannot bind for the command (v, ω): with ḣ = a·(u − w) >= −2 |p_l − c| |u − w|
+ * and h = (|p_l − c| − ρ)(|p_l − c| + ρ), ḣ + α h >= 0 whenever
+ * |p_l − c| >= ρ + 2 |u − w| / α; |p_l − c| >= dist − l − |shift|, and
+ * |u − w| <= |v| + l|ω| + |w_x| + |w_y|. Saves the products for every
+ * obstacle not close. The reach is d_s + 2l + extra + (2/α)(|v| + l|ω| + ov),
+ * extra what the prediction and the braking margin add: the prediction moves
+ * p_l by at most |shift|_1 and a moving obstacle by at most ov T_p, and
+ * since σ <= |q − w|_1 = q1 + ov the margin is at most q1 T_b for a static
+ * obstacle (reach_add holds it with the shift), CBF_MOVING_MOST
+ * (q1 + ov) (T_b + (q1 + ov)/(a_v side)) for a moving one (the largest
+ * gain, CBF_MOVING_MOST > CBF_MOVING_BRAKE, on both terms). @p still is
+ * (2/α)(|v| + l|ω|), the last term of every static obstacle (ov = 0):
+ * computed once per command. */
 CBF_INLINE bool slack_sure(const lookahead_t *fr, const sup_entry_t *o, num_t dist, num_t speed,
                            num_t still)
 {

@@ -58,10 +58,23 @@
 /** @brief Violations of a_i·u >= b_i below this [m²/s] are left alone, so
  *         that rounding (float or Q16.16) never counts as an intervention. */
 #define CBF_TOLERANCE     NUM_C(0.0005)
-/** @brief A moving obstacle's braking margin, σ max(T_b, σ/a_β), is taken
- *         this many times (docs/strategy.md, "The choices under real
- *         wheels": 1.5 against 1 and 2 on the suite's moving family). */
-#define CBF_MOVING_GAIN   NUM_C(1.5)
+/** @brief A moving obstacle's braking margin is σ max(CBF_MOVING_BRAKE
+ *         T_b, G σ/a_β), G = CBF_MOVING_GAIN + CBF_MOVING_RISE cos β_b, β_b
+ *         the obstacle's bearing from the heading (cos β_b = −Δ·[cos θ,
+ *         sin θ] / |Δ|, Δ = p_l − c): G is 4 dead ahead, 2.75 beside, 1.5
+ *         dead behind (docs/strategy.md, "The choices under real wheels":
+ *         against 1.5, 2 and 3 in every direction and gains by half-planes
+ *         on the suite's moving family). Literals: cbf.c derives the
+ *         largest gain from them. */
+#define CBF_MOVING_GAIN_X 2.75
+#define CBF_MOVING_RISE_X 1.25
+#define CBF_MOVING_GAIN   NUM_C(CBF_MOVING_GAIN_X)
+#define CBF_MOVING_RISE   NUM_C(CBF_MOVING_RISE_X)
+/** @brief The braking time T_b in a moving obstacle's margin is taken this
+ *         many times (as every part of it was before the gain by bearing;
+ *         with fast wheels, where σ/a_β is next to nothing, the margin is
+ *         what it was). */
+#define CBF_MOVING_BRAKE  NUM_C(1.5)
 
 /**
  * @brief What the wheels do to the barrier (docs/strategy.md, "Real

@@ -120,9 +120,10 @@ static void test_cbf_braking_margin_widens_the_barrier_while_closing(void)
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.7425, h);
     /* The obstacle coming at 0.5 m/s, the robot at 0.5 m/s: σ = 1 m/s,
-     * faster than braking nulls (a_v = 1 m/s²: σ/a_v = 1 s > T_b = 0.36 s):
-     * the margin is CBF_MOVING_GAIN (1.5) × σ × 1 s = 1.5 m, ρ = 1.9,
-     * h = 0.9025 − 3.61 = −2.7075. */
+     * faster than braking nulls (a_v = 1 m/s²: σ/a_v = 1 s > T_b = 0.36 s).
+     * Dead ahead (Δ = (−0.95, 0): cos β_b = 1) the gain is 1.5 + 1.25 × 2
+     * = 4: the margin is 4 × σ × 1 s = 4 m, ρ = 4.4, h = 0.9025 − 19.36 =
+     * −18.4575. */
     const sup_entry_t moving = entry(1, 1.0, 0.0, 0.35, -0.5, 0);
     m = (cbf_motion_t){ .qx = tu_num(0.5),
                         .brake_t = tu_num(0.36),
@@ -130,39 +131,62 @@ static void test_cbf_braking_margin_widens_the_barrier_while_closing(void)
                         .side = tu_num(1.0 / 3.0),
                         .inv_side = tu_num(3.0) };
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &moving, &h, &ax, &ay);
-    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -2.7075, h);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-2), -18.4575, h);
     /* A robot at rest, an obstacle coming at 0.5 m/s: head on (centre
-     * (1.05, 0), Δ along the heading) the look-ahead point gets away at
-     * a_v = 1 m/s²: σ/a_v = 0.5 s > T_b, margin 1.5 × 0.25 = 0.375 m,
-     * ρ = 0.775, h = 1 − 0.600625 = 0.399375. From the side (centre
-     * (0.05, 1), coming down: Δ across the heading) only at a_v side =
-     * 1/3 m/s² (act_configure()): 1.5 s, margin 1.5 × 0.75 = 1.125 m,
-     * ρ = 1.525, h = 1 − 2.325625 = −1.325625. */
+     * (1.05, 0), Δ = (−1, 0) along the heading) the look-ahead point gets
+     * away at a_v = 1 m/s²: σ/a_v = 0.5 s > T_b, gain 4 (dead ahead),
+     * margin 4 × 0.25 = 1 m, ρ = 1.4, h = 1 − 1.96 = −0.96. From behind
+     * (centre (−0.95, 0) coming along +x: Δ = (1, 0), cos β_b = −1) the
+     * same but for the gain, 1.5: margin 0.375 m, ρ = 0.775,
+     * h = 1 − 0.600625 = 0.399375. From the side (centre (0.05, 1), coming
+     * down: Δ = (0, −1) across the heading, cos β_b = 0, gain 1.5 + 1.25 =
+     * 2.75) only at a_v side = 1/3 m/s² (act_configure()): 1.5 s, margin
+     * 2.75 × 0.75 = 2.0625 m, ρ = 2.4625, h = 1 − 6.06390625 =
+     * −5.06390625. At 60° off the heading (centre (0.55, √3/2), coming at
+     * p_l at 0.5 m/s: Δ = (−1/2, −√3/2), cos β_b = 1/2, gain 1.5 + 1.25 ×
+     * 1.5 = 3.375) at a_v max(1/2, (√3/2)/3) = 1/2 m/s²: 1 s, margin
+     * 3.375 × 0.5 = 1.6875 m, ρ = 2.0875, h = 1 − 4.35765625 =
+     * −3.35765625. */
     m.qx = NUM_ZERO;
     const sup_entry_t ahead = entry(1, 1.05, 0.0, 0.35, -0.5, 0);
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &ahead, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -0.96, h);
+    const sup_entry_t chasing = entry(1, -0.95, 0.0, 0.35, 0.5, 0);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &chasing, &h, &ax, &ay);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), 0.399375, h);
     const sup_entry_t beside = entry(1, 0.05, 1.0, 0.35, 0, -0.5);
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &beside, &h, &ax, &ay);
-    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -1.325625, h);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 1e-2), -5.06390625, h);
+    const double r3 = sqrt(3.0) / 2.0;
+    const sup_entry_t oblique = entry(1, 0.55, r3, 0.35, -0.25, -0.5 * r3);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &oblique, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 1e-2), -3.35765625, h);
+    /* Fast wheels (a_v = 10 m/s²), head on: σ/a_v = 0.05 s, 4 × 0.05 =
+     * 0.2 s < 1.5 T_b = 0.54 s: the braking time decides, margin 0.5 ×
+     * 0.54 = 0.27 m, ρ = 0.67, h = 1 − 0.4489 = 0.5511 (the gain by bearing
+     * on T_b too would give 0.72 m, h = −0.2544). */
+    m.inv_accel = tu_num(0.1);
+    cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &ahead, &h, &ax, &ay);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), 0.5511, h);
+    m.inv_accel = tu_num(1.0);
     /* The prediction's horizon T_p = 0.2 s: a moving obstacle is taken
      * where it will be then. Centre (1, 0) coming at 0.5 m/s, the robot at
      * rest: at (0.9, 0), Δ = (−0.85, 0), σ = 0.5, σ/a_v = 0.5 s > T_b,
-     * margin 1.5 × 0.25 = 0.375 m, ρ = 0.775, h = 0.7225 − 0.600625 =
-     * 0.121875, a_x = 2 Δ_x = −1.7; taken where it is now (T_p = 0):
-     * h = 0.9025 − 0.600625 = 0.301875. A static obstacle stays where it
+     * dead ahead: margin 4 × 0.25 = 1 m, ρ = 1.4, h = 0.7225 − 1.96 =
+     * −1.2375, a_x = 2 Δ_x = −1.7; taken where it is now (T_p = 0):
+     * h = 0.9025 − 1.96 = −1.0575. A static obstacle stays where it
      * is: (1, 0), no margin at rest, h = 0.9025 − 0.16 = 0.7425. */
     const sup_entry_t coming = entry(1, 1.0, 0.0, 0.35, -0.5, 0);
     m.horizon = tu_num(0.2);
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &coming, &h, &ax, &ay);
-    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), 0.121875, h);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -1.2375, h);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, -1.7, ax);
     TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.0, ay);
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.7425, h);
     m.horizon = NUM_ZERO;
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &coming, &h, &ax, &ay);
-    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), 0.301875, h);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 4e-3), -1.0575, h);
     m = (cbf_motion_t){ .shift_x = tu_num(0.1) };
     cbf_barrier(&p, NUM_ONE, NUM_ZERO, &m, &o, &h, &ax, &ay);
     TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-5, 2e-3), 0.5625, h);
@@ -638,11 +662,11 @@ static void test_cbf_keeps_the_barrier_non_negative_in_closed_loop(void)
  * From the side, centre (0.05, 0.6) coming down at 0.5 m/s: Δ = (0, −0.6),
  * σ = 0.5 m/s, and across the heading p_l leaves at a_v/3 = 1/3 m/s²:
  * σ/a_β = 1.5 s, braking covers σ²/(2 a_β) = 0.375 m > d − l − 0.30 =
- * 0.25 m: doomed. Its constraint, ρ = 0.4 + 1.5 × 0.5 × 1.5 = 1.525
- * (CBF_MOVING_GAIN 1.5), h = 0.36 − 2.325625 = −1.965625, g1 = 0,
- * g2 = −1.2, b = 0.6 + 20 × 1.965625 = 39.9125; on
- * the wheels c_L = 0.05 × 1.2 × 0.05/0.3 = 0.01, c_R = −0.01: at best
- * 0.4 × 0.02 = 0.008 < 39.9125: obstacle 1. At 0.2 m/s (σ²/(2a_β) = 0.06 m)
+ * 0.25 m: doomed. Its constraint, beside the heading (gain 1.5 + 1.25 =
+ * 2.75), ρ = 0.4 + 2.75 × 0.5 × 1.5 = 2.4625, h = 0.36 − 6.06390625 =
+ * −5.70390625, g1 = 0, g2 = −1.2, b = 0.6 + 20 × 5.70390625 = 114.678125;
+ * on the wheels c_L = 0.05 × 1.2 × 0.05/0.3 = 0.01, c_R = −0.01: at best
+ * 0.4 × 0.02 = 0.008 < 114.678125: obstacle 1. At 0.2 m/s (σ²/(2a_β) = 0.06 m)
  * it is not doomed; head on at 0.5 m/s (a_β = 1 m/s²: 0.125 m) neither. */
 static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keeps_away(void)
 {
@@ -674,10 +698,10 @@ static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keep
                                 cbf_unreachable(&f, &o, 1, &kin, &rest, tu_num(0.4)));
     }
     /* The doomed case behind a static obstacle that is not (entry 0 of two):
-     * reported by its own id, 2. Its constraint needs a·u >= 39.9125 and
-     * each rad/s of the box's corner (c_L, c_R) = (0.01, −0.01) gives 0.02:
-     * a box of 1,990 rad/s reaches 39.8, short by 0.1125: reported; one of
-     * 2,000 reaches 40: met, nobody is reported. */
+     * reported by its own id, 2. Its constraint needs a·u >= 114.678125
+     * and each rad/s of the box's corner (c_L, c_R) = (0.01, −0.01) gives
+     * 0.02: a box of 5,730 rad/s reaches 114.6, short by 0.078125:
+     * reported; one of 5,740 reaches 114.8: met, nobody is reported. */
     const sup_entry_t two[2] = { entry(1, 1.5, 0.0, 0.35, 0, 0),
                                  entry(2, 0.05, 0.6, 0.35, 0.0, -0.5) };
     const num_t dists[2] = { tu_num(1.5), tu_num(sqrt(0.05 * 0.05 + 0.6 * 0.6)) };
@@ -686,8 +710,8 @@ static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keep
     num_t w2 = NUM_ZERO;
     cbf_result_t r2;
     cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, two, dists, 2, &v2, &w2, &r2);
-    TEST_ASSERT_EQUAL_UINT8(2u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(1990.0)));
-    TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(2000.0)));
+    TEST_ASSERT_EQUAL_UINT8(2u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(5730.0)));
+    TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(5740.0)));
     /* A static obstacle is never reported: braking is the guard's. */
     const sup_entry_t still = entry(1, 0.05, 0.4, 0.35, 0, 0);
     const num_t dist = tu_num(sqrt(0.05 * 0.05 + 0.4 * 0.4));
