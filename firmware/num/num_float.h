@@ -17,25 +17,25 @@
 
 typedef float num_t;
 
-/* The bit pattern of @p a (IEEE-754 binary32), read through a union: C11
- * reinterprets the bytes of the member written (6.5.2.3, note 95). For the
- * integer tests of num_within() and num_any_nonzero(). */
+/* The two views of a binary32, for num_bits() and num_of_bits(): C11
+ * reinterprets the bytes of the member written (6.5.2.3, note 95). */
+typedef union {
+    num_t f;
+    uint32_t u;
+} num_pun_t;
+
+/* The bit pattern of @p a (IEEE-754 binary32). For the integer tests of
+ * num_within() and num_any_nonzero(). */
 static inline uint32_t num_bits(num_t a)
 {
-    const union {
-        num_t f;
-        uint32_t u;
-    } v = { .f = a };
+    const num_pun_t v = { .f = a };
     return v.u;
 }
 
 /* The value of bit pattern @p u (num_bits() reversed). */
 static inline num_t num_of_bits(uint32_t u)
 {
-    const union {
-        uint32_t u;
-        num_t f;
-    } v = { .u = u };
+    const num_pun_t v = { .u = u };
     return v.f;
 }
 
