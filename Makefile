@@ -137,8 +137,9 @@ typecheck: deps-sim  ## mypy, strict, over the package mstc (settings in pyproje
 test: deps-test lint typecheck check-protocol  ## every test: lint, types, generated files, static analysis, cross builds, Unity in both modes, coverage, fuzzing, pytest
 	@$(MAKE) --no-print-directory -j2 --output-sync=line test-vm
 # The host checks, one after another on the job the fuzzers leave: quality,
-# cross builds, coverage, Unity in both modes, then pytest but the VM tests.
-test-host: quality cross coverage test-unit-fixed test-unit-float deps-test libs-both \
+# cross builds, coverage, the Cortex-M4F benchmark image's checks
+# (mk/bench.mk), Unity in both modes, then pytest but the VM tests.
+test-host: quality cross coverage bench-check test-unit-fixed test-unit-float deps-test libs-both \
     build/host/float/mstc-fw
 	$(call pytest,float,-m "not vm")
 test-vm: fuzz test-host

@@ -113,3 +113,20 @@ bench: $(BENCH_ALL) | .venv/.requirements.sha256  ## instructions per control st
 	@$(PY) -m mstc.bench.doc --doc docs/performance.md \
 	  --text "boards:Board images: flash, RAM and stack against the budgets (make firmware-budget)" \
 	  < $(BENCH_DIR)/boards.txt
+
+# make test's run of the Cortex-M4F benchmark image (test-host): the only
+# -O2 Cortex-M4F build, so the only one with num_float.h's inline newlib
+# steps (NUM_NEWLIB_INLINE). Every replayed step as recorded, the paper's
+# events (scenario lines), and num_sincos, num_sqrt and num_hypot bit for bit
+# newlib's own (the *_differs lines): any difference, or a missing line,
+# fails.
+bench-check: $(BENCH_DIR)/m4f-float.txt  ## run the Cortex-M4F benchmark image and check its replays and its bit-for-bit comparisons with newlib
+	@awk '/^scenario / { s++; if ($$0 !~ / events_match 1 replay_differs 0 /) bad = bad "\n  " $$0 } \
+	  /^load / { l++; if ($$0 !~ / replay_differs 0 /) bad = bad "\n  " $$0 } \
+	  $$1 ~ /^[a-z]+_differs$$/ { d++; if ($$2 != "0") bad = bad "\n  " $$0 } \
+	  END { if (s < 2 || l < 8 || d < 3) { printf "bench-check: %s: %d scenario, %d load, %d *_differs lines (want 2, 8, 3)\n", \
+	          FILENAME, s, l, d; exit 1 } \
+	        if (bad != "") { printf "bench-check: %s differs:%s\n", FILENAME, bad; exit 1 } \
+	        printf "bench-check: %s: %d scenarios, %d load runs replayed alike; %d comparisons with newlib, no difference\n", \
+	          FILENAME, s, l, d }' $<
+.PHONY: bench-check
