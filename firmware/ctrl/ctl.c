@@ -283,26 +283,17 @@ static void wheels_now(ctl_t *c, const ctl_input_t *in, num_t cos_th, num_t sin_
     ctl_memo_t *mo = &c->memo;
     uint64_t key;
     wn->dt = step_dt(c, in->t_us, &key);
-    /* The rate limiter's step of the same period again (wheel_accel changes
-     * only with the parameters: memo_reset()). */
-    if (!mo->step_known || mo->step_us != key) {
+    /* The lag's factor and the rate limiter's step of the same period again
+     * (the period's key, and wheel_tau and wheel_accel, which only a
+     * parameter set changes: memo_reset()). */
+    if (!mo->period_known || mo->period_us != key) {
+        mo->lag_k = act_lag(p->wheel_tau, wn->dt);
         mo->step = accel_step(c, wn->dt, key);
-        mo->step_us = key;
-        mo->step_known = true;
+        mo->period_us = key;
+        mo->period_known = true;
     }
     wn->step = mo->step;
-    if (in->wheels_measured) {
-        act_estimate_lag(&c->act, NUM_ZERO, &in->wheels);
-    } else {
-        /* The lag's factor of the same period again (the period's key, and
-         * wheel_tau, which only a parameter set changes: memo_reset()). */
-        if (!mo->lag_known || mo->lag_us != key) {
-            mo->lag_k = act_lag(p->wheel_tau, wn->dt);
-            mo->lag_us = key;
-            mo->lag_known = true;
-        }
-        act_estimate_lag(&c->act, mo->lag_k, NULL);
-    }
+    act_estimate_lag(&c->act, mo->lag_k, in->wheels_measured ? &in->wheels : NULL);
     wn->horizon = act_horizon(p->wheel_tau, wn->dt, in->wheels_measured);
     kin_vw_from_wheels(&p->kin, &c->act.est, &wn->v, &wn->w);
     act_predict(&in->robot, cos_th, sin_th, wn->v, wn->w, wn->horizon, &wn->at);

@@ -175,19 +175,17 @@ typedef struct {
  *         whenever what it depends on may change (parameters, act.cmd). */
 typedef struct {
     num_t cmd_v, cmd_w; /**< kin_vw_from_wheels() of act.cmd */
-    num_t lag_k;        /**< act_lag(wheel_tau, dt) for the period of key lag_us */
+    num_t lag_k;        /**< act_lag(wheel_tau, dt) for the period of key period_us */
     num_t turn_k3v;     /**< k3 |v_r| for which turn_most holds */
     num_t turn_most;    /**< 2γ' / (k3 |v_r|): the tracking turn's bound */
     num_t avoid_most;   /**< 2γ' / k2: the avoidance turn's bound */
     num_t dt;           /**< the period of dt_us microseconds [s] (step_dt()) */
-    num_t step;         /**< wheel_accel × dt for the period of key step_us */
+    num_t step;         /**< wheel_accel × dt for the period of key period_us */
     uint64_t dt_us;     /**< [µs] */
-    uint64_t lag_us;    /**< the period's key (ctl.c, step_dt()) */
-    uint64_t step_us;   /**< the period's key of step */
+    uint64_t period_us; /**< the period's key (ctl.c, step_dt()) */
     bool cmd_known;     /**< cmd_v, cmd_w hold */
     bool dt_known;      /**< dt holds */
-    bool lag_known;     /**< lag_k holds */
-    bool step_known;    /**< step holds */
+    bool period_known;  /**< lag_k and step hold */
     bool turn_known;    /**< turn_most holds */
 } ctl_memo_t;
 

@@ -139,7 +139,7 @@ static bool cpa_inside(look_t *lk, const sup_entry_t *e, num_t horizon, num_t ma
 }
 
 /* Boundary distance of entry @p i: centre distance less its own D_s. */
-static num_t boundary(const sup_t *s, const msw_input_t *in, uint8_t i)
+static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
 {
     return num_sub(in->dist[i], s->obs[i].d_s);
 }
@@ -170,7 +170,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
             trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, reach));
         }
         if (trig) {
-            const num_t b = num_sub(dist[i], e->d_s); /* boundary() */
+            const num_t b = boundary(s, in, i);
             if (best < 0 || b < best_b) {
                 best = (int)i;
                 best_b = b;
@@ -375,7 +375,7 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
 static bool hand_over(const msw_t *m, const sup_t *s, look_t *lk)
 {
     const int other = candidate(m, s, lk, m->cluster);
-    return other >= 0 && boundary(s, lk->in, (uint8_t)other) < boundary(s, lk->in, m->followed);
+    return other >= 0 && boundary(s, lk->in, (unsigned)other) < boundary(s, lk->in, m->followed);
 }
 
 /* Progress watchdog while avoiding: true when no progress is possible, that
