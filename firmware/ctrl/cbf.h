@@ -111,8 +111,8 @@ typedef struct {
 typedef struct {
     bool active;     /**< an intervention episode is running */
     bool infeasible; /**< the previous step found a constraint it could not meet */
-    uint16_t cached; /**< bit i: k[i] holds entry i's constraint of this step */
-    uint16_t doomed; /**< bit i: and its obstacle closes faster than the robot
+    uint64_t cached; /**< bit i: k[i] holds entry i's constraint of this step */
+    uint64_t doomed; /**< bit i: and its obstacle closes faster than the robot
                           can null before the bodies touch (cbf_unreachable()) */
     cbf_constraint_t k[SUP_MAX_OBSTACLES];
 } cbf_t;

@@ -5,12 +5,14 @@
 #include <errno.h>
 
 #include "ctrl/oset.h"
+#define KNOB_AWAY 1
+#define KNOB_ROTATE 1
 
 /* |x| <= lim, for a finite x only, without FE_INVALID for a NaN (num.h). */
 static bool within(num_t x, num_t lim) { return num_within(x, lim); }
 
 /* The robot's width 2 R_m: the gap below which obstacles form a cluster. */
-static num_t robot_width(const ctl_params_t *p) { return num_add(p->r_m, p->r_m); }
+static num_t robot_width(const ctl_params_t *p) { (void)p; return num_add(MSW_FOLLOW_OFFSET, MSW_FOLLOW_OFFSET); }
 
 static sup_params_t sup_params_of(const ctl_params_t *p)
 {
@@ -362,6 +364,9 @@ static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const whee
     if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {
         return v; /* ahead of its reference: it waits */
     }
+    if (KNOB_AWAY && pe->e.e1 < NUM_ZERO) {
+        return v; /* heading away from it: turns in place */
+    }
     const unsigned n = c->sup.n_obs;
     for (unsigned i = 0; i < n; i++) {
         const sup_entry_t *e = &c->sup.obs[i];
@@ -417,10 +422,18 @@ static void avoid_command(const ctl_t *c, const ctl_input_t *in, const wheels_no
 {
     const act_limits_t *lim = &c->act.lim;
     const num_t v23 = num_add(num_mul(in->v_r, pe->c3), num_mul(c->p.avd.k1, pe->e.e1));
-    const num_t slowest = num_mul(MSW_SPEED_MIN, num_abs(in->v_r));
+    const num_t slowest = c->msw.held ? num_abs(in->v_r) : num_mul(MSW_SPEED_MIN, num_abs(in->v_r));
     const num_t cap = num_max(num_mul(d->circle.d_s, lim->sqrt_gamma), slowest);
     *v = num_clamp(v23, slowest, num_min(speed_limit(in->v_r), cap));
-    avd_turn(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, d->side, *v, w, e);
+    avd_turn_blend(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, &d->circle2, d->weight,
+                   d->side, *v, w, e);
+    if (KNOB_ROTATE) {
+        /* Far off the direction to follow: turn first (in place beyond a right angle). */
+        const num_t ce = num_cos(*e);
+        if (ce < NUM_C(0.7)) {
+            *v = num_mul(*v, num_max(num_div(ce, NUM_C(0.7)), NUM_ZERO));
+        }
+    }
     const num_t corr = num_mul(c->p.avd.k2, *e);
     const num_t most = c->memo.avoid_most; /* 2γ'/k2 */
     *w = num_add(num_sub(*w, corr), num_clamp(corr, num_neg(most), most));
@@ -484,8 +497,44 @@ static uint8_t nearest_id(const ctl_t *c, const ctl_status_t *st)
 /* The "mstc" step (ctl.h): the table, the strategy, the active controller
  * through the wheels' limits, kinematics, then the safety filter on what the
  * wheels will do, the rate limiter and the braking guard. */
-static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
+/* The input with the reference replaced by the strategy's aim while it
+ * holds (msw.h: the reference waits, and the robot goes to a point of its
+ * line ahead), else @p in. */
+static const ctl_input_t *aimed_input(ctl_t *c, const ctl_input_t *in, ctl_input_t *copy)
 {
+    msw_t *m = &c->msw;
+    if (!m->aimed) {
+        return in;
+    }
+    if (in->ref.x != m->aim_rx || in->ref.y != m->aim_ry) {
+        m->aimed = false; /* the reference moved on */
+        return in;
+    }
+    *copy = *in;
+    copy->ref = m->aim;
+    copy->w_r = NUM_ZERO;
+    return copy;
+}
+
+/* How far the obstacles are known [m]: D_det, or when the sensor reported
+ * as many as the table holds, the farthest report (nearer first). */
+static num_t known_range(const ctl_t *c, const ctl_input_t *in)
+{
+    if (in->n_obstacles < SUP_MAX_OBSTACLES) {
+        return c->p.d_det;
+    }
+    num_t far = NUM_ZERO;
+    for (size_t i = 0; i < in->n_obstacles; i++) {
+        far = num_max(far, oset_distance(num_sub(in->obstacles[i].x, in->robot.x),
+                                         num_sub(in->obstacles[i].y, in->robot.y)));
+    }
+    return num_min(far, c->p.d_det);
+}
+
+static void mstc_step(ctl_t *c, const ctl_input_t *in0, ctl_output_t *out)
+{
+    ctl_input_t copy;
+    const ctl_input_t *in = aimed_input(c, in0, &copy);
     ctl_status_t *st = &out->status;
     size_t n_ev = out->n_events;
     num_t sin_th;
@@ -520,6 +569,8 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     }
     const msw_input_t mi = { .robot = &in->robot,
                              .ref = &in->ref,
+                             .host = &in0->ref,
+                             .range = known_range(c, in0),
                              .v_r = in->v_r,
                              .w_r = in->w_r,
                              .cos_th = cos_th,

@@ -4,6 +4,15 @@
 
 #include "ctrl/oset.h"
 #include "ctrl/rol.h"
+#define KNOB_TANGENT 0
+#define KNOB_BLEND 1
+#define KNOB_SHORTCUT 1
+#define MSW_SHORTCUT_MIN NUM_C(0.3)
+#define MSW_SHORTCUT_MARGIN NUM_C(0.08)
+#define MSW_BLEND NUM_C(0.1)
+#define MSW_BLEND_INV NUM_C(5.0)
+static uint8_t m_second;
+static num_t m_weight;
 
 void msw_init(msw_t *m, num_t width)
 {
@@ -26,6 +35,11 @@ void msw_reset(msw_t *m)
     m->mark_x = NUM_ZERO;
     m->mark_y = NUM_ZERO;
     m->t_mark_us = 0u;
+    m->ref_x = NUM_ZERO;
+    m->ref_y = NUM_ZERO;
+    m->held = false;
+    m->ahead = false;
+    m->aimed = false;
     for (size_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
         m->acts[i] = 0u;
     }
@@ -45,18 +59,18 @@ bool msw_moving(const sup_entry_t *e)
     return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
 }
 
-static bool in_mask(uint16_t mask, unsigned i) { return (mask & (1u << i)) != 0u; }
+static bool in_mask(uint64_t mask, unsigned i) { return (mask & ((uint64_t)1 << i)) != 0u; }
 
 /* The lowest table index in @p mask (not 0), and @p mask without it: the
  * loops over a cluster visit its members alone, in the order of their
  * indices. */
-static unsigned lowest(uint16_t mask) { return (unsigned)__builtin_ctz(mask); }
-static uint16_t without_lowest(uint16_t mask) { return (uint16_t)(mask & (mask - 1u)); }
+static unsigned lowest(uint64_t mask) { return (unsigned)__builtin_ctzll(mask); }
+static uint64_t without_lowest(uint64_t mask) { return (uint64_t)(mask & (mask - 1u)); }
 
 /* @p mask's indices within the table. */
-static uint16_t in_table(uint16_t mask, const sup_t *s)
+static uint64_t in_table(uint64_t mask, const sup_t *s)
 {
-    return (uint16_t)(mask & ((1u << s->n_obs) - 1u));
+    return (uint64_t)(mask & (((uint64_t)1 << s->n_obs) - 1u));
 }
 
 /* Time since @p t0, 0 if the clock went backwards. */
@@ -138,6 +152,13 @@ static bool cpa_inside(look_t *lk, const sup_entry_t *e, num_t horizon, num_t ma
     return d2 < num_sq(r);
 }
 
+/* The tracking command's roll-out keeps static entry @p e beyond @p clear. */
+static bool clears(look_t *lk, const sup_entry_t *e, num_t clear, num_t d)
+{
+    const rol_path_t *path = rolled_out(lk);
+    return d >= num_add(path->reach, clear) || rol_clears(path, e->o.x, e->o.y, clear);
+}
+
 /* Boundary distance of entry @p i: centre distance less its own D_s. */
 static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
 {
@@ -146,7 +167,7 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
 
 /* The activation candidate (table index) outside the entries of @p skip,
  * or -1. */
-static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
+static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint64_t skip)
 {
     const msw_input_t *in = lk->in;
     /* In locals, that the calls below leave in registers: the loop runs for
@@ -164,7 +185,8 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
             m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
             continue;
         }
-        bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e);
+        bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e) &&
+                    (msw_moving(e) || !clears(lk, e, num_add(e->d_s, MSW_ACT_MARGIN), dist[i]));
         if (!trig && msw_moving(e)) {
             /* Within d_act + MSW_CPA_REACH + reach: the test above. */
             trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, reach));
@@ -185,23 +207,50 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
  * MSW_FOLLOW_AHEAD ahead of it, whichever is smaller. Looking ahead hands the
  * robot over to the next member before it reaches a concave corner of the
  * cluster, where the tangent of the member it leaves points into the next. */
-static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint16_t cluster,
-                              uint8_t fallback)
+static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint64_t cluster,
+                              uint8_t fallback, avd_side_t side)
 {
-    const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, in->cos_th));
-    const num_t qy = num_add(in->robot->y, num_mul(MSW_FOLLOW_AHEAD, in->sin_th));
+    num_t tx = in->cos_th;
+    num_t ty = in->sin_th;
+    if (KNOB_TANGENT) {
+        const sup_entry_t *f = &s->obs[fallback];
+        const num_t nx = num_sub(in->robot->x, f->o.x);
+        const num_t ny = num_sub(in->robot->y, f->o.y);
+        const num_t r = oset_distance(nx, ny);
+        if (r > NUM_C(0.001)) {
+            tx = side == AVD_SIDE_LEFT ? num_div(ny, r) : num_neg(num_div(ny, r));
+            ty = side == AVD_SIDE_LEFT ? num_neg(num_div(nx, r)) : num_div(nx, r);
+        }
+    }
+    const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, tx));
+    const num_t qy = num_add(in->robot->y, num_mul(MSW_FOLLOW_AHEAD, ty));
     const num_t *const dist = in->dist;
     uint8_t best = fallback;
     num_t best_b = NUM_MAX;
-    for (uint16_t rest = in_table(cluster, s); rest != 0u; rest = without_lowest(rest)) {
+    uint8_t next = fallback;
+    num_t next_b = NUM_MAX;
+    for (uint64_t rest = in_table(cluster, s); rest != 0u; rest = without_lowest(rest)) {
         const unsigned i = lowest(rest);
         const sup_entry_t *e = &s->obs[i];
         const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
         const num_t b = num_sub(num_min(dist[i], ahead), e->d_s);
         if (b < best_b) {
+            next = best;
+            next_b = best_b;
             best = (uint8_t)i;
             best_b = b;
+        } else if (b < next_b) {
+            next = (uint8_t)i;
+            next_b = b;
+        } else {
+            /* farther */
         }
+    }
+    m_second = next;
+    m_weight = NUM_ONE;
+    if (KNOB_BLEND && next != best && next_b < num_add(best_b, MSW_BLEND)) {
+        /* 0.5 at a tie, 1 at MSW_BLEND apart. */
+        m_weight = num_add(NUM_C(0.5), num_mul(num_sub(next_b, best_b), MSW_BLEND_INV));
     }
     return best;
 }
@@ -215,7 +264,7 @@ static num_t asin01(num_t x) { return num_atan2(x, num_sqrt(num_sub(NUM_ONE, num
  * left edge, max(offset + ρ); passing on the right to its right edge,
  * min(offset − ρ). The side whose edge lies nearer the path wins; NONE when
  * they are within MSW_TIE_OFFSET. */
-static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offset,
+static avd_side_t side_by_reference(const sup_t *s, uint64_t cluster, num_t offset,
                                     const msw_input_t *in)
 {
     num_t ey;
@@ -254,7 +303,7 @@ static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offs
  * L and R its left and right edges, LEFT when L + R < 0, i.e. the smaller
  * turn; for one obstacle this is eq. (11)-(12). NONE when |L + R| is within
  * 2 MSW_SIDE_DEADBAND. */
-static avd_side_t side_by_heading(const sup_t *s, uint16_t cluster, num_t offset,
+static avd_side_t side_by_heading(const sup_t *s, uint64_t cluster, num_t offset,
                                   const msw_input_t *in)
 {
     const pose_t *p = in->robot;
@@ -282,7 +331,7 @@ static avd_side_t side_by_heading(const sup_t *s, uint16_t cluster, num_t offset
     return AVD_SIDE_NONE;
 }
 
-avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
+avd_side_t msw_choose_side(const sup_t *s, uint64_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in)
 {
     const sup_entry_t *t = &s->obs[trigger];
@@ -307,7 +356,7 @@ avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, nu
 /* The tracking command's roll-out keeps every entry beyond its D_s + margin
  * and, for an entry within its D_act + margin, never comes more than the
  * margin closer than it is now (the robot is no longer closing on it). */
-static bool way_clear(const sup_t *s, look_t *lk)
+static bool way_clear_of(const sup_t *s, look_t *lk, uint64_t mask)
 {
     const msw_input_t *in = lk->in;
     const rol_path_t *path = rolled_out(lk);
@@ -315,13 +364,12 @@ static bool way_clear(const sup_t *s, look_t *lk)
     const num_t reach = in->reach;
     const unsigned n = s->n_obs;
     for (unsigned i = 0; i < n; i++) {
-        const sup_entry_t *e = &s->obs[i];
-        num_t clear = num_add(e->d_s, MSW_MARGIN);
-        /* Within the reach of an activation (D_act + the braking reach,
-         * candidate()), by the margin. */
-        if (dist[i] < num_add(num_add(e->d_act, reach), MSW_MARGIN)) {
-            clear = num_max(clear, num_sub(dist[i], MSW_MARGIN));
+        if (!in_mask(mask, i)) {
+            continue;
         }
+        const sup_entry_t *e = &s->obs[i];
+        num_t clear = num_add(e->d_s, num_add(MSW_ACT_MARGIN, NUM_C(0.015)));
+        (void)reach;
         /* A moving entry: the robot no longer closes on it within reach of an
          * activation, and its closest approach over the activation's horizon
          * stays beyond what activates by the margin (hysteresis). */
@@ -340,6 +388,8 @@ static bool way_clear(const sup_t *s, look_t *lk)
     }
     return true;
 }
+
+static bool way_clear(const sup_t *s, look_t *lk) { return way_clear_of(s, lk, ~(uint64_t)0); }
 
 /* p1, eq. (19)-(20), as sup_p1() but on squares (no root): u1·u2 > 0 and
  * |u2| >= D_act (the paper's |u2| > D_act but for the equality). */
@@ -360,13 +410,66 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
     }
     /* p1 for every static member (a moving one may never let the reference
      * pass it: way_clear() judges it by its motion). */
-    for (uint16_t rest = in_table(m->cluster, s); rest != 0u; rest = without_lowest(rest)) {
+    for (uint64_t rest = in_table(m->cluster, s); rest != 0u; rest = without_lowest(rest)) {
         const sup_entry_t *e = &s->obs[lowest(rest)];
+        if (m->held) {
+            break; /* judged by the reference's progress below */
+        }
         if (!msw_moving(e) && !p1(in, e)) {
             return false;
         }
     }
+    if (m->held) {
+        return m->ahead && way_clear_of(s, lk, m->cluster);
+    }
     return way_clear(s, lk);
+}
+
+/* The reference waits (held): a point P of its line ahead of it, the foot of
+ * the perpendicular from the robot, that the robot sees a clear straight way
+ * to (VisBug's shortcut to the m-line). */
+static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
+{
+    num_t uy;
+    num_t ux;
+    num_sincos(in->host->theta, &uy, &ux);
+    const num_t rx = num_sub(in->robot->x, in->host->x);
+    const num_t ry = num_sub(in->robot->y, in->host->y);
+    const num_t a = num_add(num_mul(rx, ux), num_mul(ry, uy));
+    if (a < MSW_SHORTCUT_MIN) {
+        return false;
+    }
+    const num_t px = num_add(in->host->x, num_mul(a, ux));
+    const num_t py = num_add(in->host->y, num_mul(a, uy));
+    const num_t sx = num_sub(px, in->robot->x);
+    const num_t sy = num_sub(py, in->robot->y);
+    const num_t len = oset_distance(sx, sy);
+    for (unsigned i = 0; i < s->n_obs; i++) {
+        const sup_entry_t *e = &s->obs[i];
+        const num_t clear = num_add(e->d_s, MSW_SHORTCUT_MARGIN);
+        if (num_add(len, clear) > in->range) {
+            return false; /* beyond what the sensor tells */
+        }
+        if (in->dist[i] >= num_add(len, clear)) {
+            continue;
+        }
+        const num_t cx = num_sub(e->o.x, in->robot->x);
+        const num_t cy = num_sub(e->o.y, in->robot->y);
+        num_t t = len > NUM_C(0.001) ? num_div(num_add(num_mul(cx, sx), num_mul(cy, sy)), num_mul(len, len)) : NUM_ZERO;
+        t = num_clamp(t, NUM_ZERO, NUM_ONE);
+        const num_t dx = num_sub(cx, num_mul(t, sx));
+        const num_t dy = num_sub(cy, num_mul(t, sy));
+        if (oset_within(dx, dy, clear)) {
+            return false;
+        }
+    }
+    m->aimed = true;
+    m->aim.x = px;
+    m->aim.y = py;
+    m->aim.theta = in->host->theta;
+    m->aim_rx = in->host->x;
+    m->aim_ry = in->host->y;
+    return true;
 }
 
 /* An obstacle outside the cluster calls for an activation and is nearer than
@@ -394,7 +497,7 @@ static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
         m->mark_y = in->robot->y;
         m->t_mark_us = in->t_us;
     }
-    return num_abs(m->turned) > MSW_LOOP || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
+    return (!m->held && num_abs(m->turned) > MSW_LOOP) || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
 }
 
 /* The cluster of the trigger, and the offset of the circles followed round
@@ -403,7 +506,7 @@ static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
 static void find_cluster(msw_t *m, const sup_t *s)
 {
     bool gapped;
-    m->cluster = oset_cluster(s->obs, s->n_obs, m->trigger, m->width, &gapped);
+    m->cluster = oset_cluster(s->obs, s->n_obs, m->followed, m->width, &gapped);
     m->revision = s->revision;
     m->offset =
         gapped ? num_add(num_mul(m->width, NUM_C(0.5)), MSW_FILL_MARGIN) : MSW_FOLLOW_OFFSET;
@@ -431,10 +534,14 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 {
     m->state = (uint8_t)MSW_AVOID;
     m->trigger = i;
+    m->followed = i;
     find_cluster(m, s);
     m->side = msw_choose_side(s, m->cluster, i, m->offset, in);
     m->acts[i]++;
     m->t_act_us = in->t_us;
+    m->held = false;
+    m->ahead = false;
+    m->aimed = false;
     m->turned = NUM_ZERO;
     m->last_theta = in->robot->theta;
     m->mark_x = in->robot->x;
@@ -449,6 +556,18 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
     /* The path is written when first needed (rolled_out()). */
     look_t lk = { .in = in, .rolled = false, .path = &m->path };
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
+    const bool still = in->host->x == m->ref_x && in->host->y == m->ref_y;
+    if (m->state == (uint8_t)MSW_AVOID) {
+        if (still) {
+            m->held = true;
+        } else if (m->held) {
+            m->ahead = true;
+        } else {
+            /* moving as scheduled */
+        }
+    }
+    m->ref_x = in->host->x;
+    m->ref_y = in->host->y;
     if (m->state == (uint8_t)MSW_BLOCKED) {
         if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
@@ -458,8 +577,11 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         if (s->revision != m->revision) {
             find_cluster(m, s); /* obstacles joined or moved */
         }
-        m->followed = nearest_member(s, in, m->cluster, m->trigger);
-        if (release_ok(m, s, &lk) || hand_over(m, s, &lk)) {
+        m->followed = nearest_member(s, in, m->cluster, m->followed, m->side);
+        m->second = m_second;
+        m->weight = m_weight;
+        if (release_ok(m, s, &lk) || (MSW_HAND_OVER && hand_over(m, s, &lk)) ||
+            (KNOB_SHORTCUT && m->held && shortcut(m, s, in))) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
@@ -475,7 +597,9 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         const int i = candidate(m, s, &lk, 0u);
         if (i >= 0) {
             activate(m, s, in, (uint8_t)i, events, n_events);
-            m->followed = nearest_member(s, in, m->cluster, (uint8_t)i);
+            m->followed = nearest_member(s, in, m->cluster, (uint8_t)i, m->side);
+            m->second = m_second;
+            m->weight = m_weight;
         }
     }
 
@@ -492,7 +616,15 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         d->circle.vx = f->o.vx;
         d->circle.vy = f->o.vy;
         d->circle.d_s = num_add(f->d_s, m->offset);
+        const sup_entry_t *g = &s->obs[m->second];
+        d->circle2.x = g->o.x;
+        d->circle2.y = g->o.y;
+        d->circle2.vx = g->o.vx;
+        d->circle2.vy = g->o.vy;
+        d->circle2.d_s = num_add(g->d_s, m->offset);
+        d->weight = m->weight;
     } else {
+        d->weight = NUM_ONE;
         /* No circle: zero, field by field (a compound literal costs a
          * memset). */
         d->circle.x = NUM_ZERO;

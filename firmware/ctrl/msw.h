@@ -60,7 +60,9 @@
 #define MSW_ROLLOUT         NUM_C(1.0)  /**< roll-out horizon [s] */
 #define MSW_ROLLOUT_INV     NUM_C(1.0)  /**< 1 / MSW_ROLLOUT [1/s] */
 #define MSW_MARGIN          NUM_C(0.02) /**< hysteresis margin of the release [m] */
-#define MSW_FOLLOW_OFFSET   NUM_C(0.06) /**< circle followed: D_s + this [m] */
+#define MSW_HAND_OVER 0
+#define MSW_ACT_MARGIN      NUM_C(0.03) /**< activation: roll-out within D_s + this [m] */
+#define MSW_FOLLOW_OFFSET   NUM_C(0.08) /**< circle followed: D_s + this [m] */
 #define MSW_FOLLOW_AHEAD    NUM_C(0.25) /**< member chosen from this far ahead too [m] */
 #define MSW_FILL_MARGIN     NUM_C(0.02) /**< gapped cluster: circles overlap by [m] */
 #define MSW_MAX_ACTIVATIONS 2u          /**< per obstacle and encounter */
@@ -92,8 +94,10 @@ typedef struct {
     uint8_t state;                   /**< msw_state_t */
     uint8_t trigger;                 /**< table index that activated the cluster */
     uint8_t followed;                /**< table index followed now */
+    uint8_t second;                  /**< the next member, blended in near a notch */
+    num_t weight;                    /**< weight of followed in the blend */
     avd_side_t side;                 /**< side held while avoiding */
-    uint16_t cluster;                /**< members, a bit per table index */
+    uint64_t cluster;                /**< members, a bit per table index */
     uint16_t revision;               /**< sup_t::revision the cluster was found at */
     num_t offset;                    /**< circles followed: D_s + this [m] */
     uint64_t t_act_us;               /**< time of the activation */
@@ -101,6 +105,12 @@ typedef struct {
     num_t last_theta;                /**< heading at the previous step [rad] */
     num_t mark_x, mark_y;            /**< where the robot last made progress [m] */
     uint64_t t_mark_us;              /**< when */
+    num_t ref_x, ref_y;              /**< the reference's position at the last step */
+    bool held;                       /**< the reference stood still since the activation */
+    bool ahead;                      /**< and moved on after that */
+    bool aimed;                      /**< tracking aims at aim, not the reference */
+    pose_t aim;                      /**< a point of the reference's line ahead of it */
+    num_t aim_rx, aim_ry;            /**< the reference when the aim was taken */
     uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index, this encounter */
     /** Scratch of msw_step(): the tracking command's roll-out, written when a
      *  step first needs it (here rather than on the stack, where clearing
@@ -112,6 +122,8 @@ typedef struct {
 typedef struct {
     const pose_t *robot;
     const pose_t *ref;
+    const pose_t *host;   /**< the reference as received (ref may be the aim) */
+    num_t range;          /**< obstacles are known within this of the robot [m] */
     num_t v_r, w_r;       /**< reference velocities */
     num_t cos_th, sin_th; /**< of the robot's heading */
     num_t v_trk, w_trk;   /**< the tracking command of this step, eq. (2)-(3) */
@@ -128,6 +140,8 @@ typedef struct {
     const sup_entry_t *followed; /**< entry followed (AVOID), else NULL */
     avd_side_t side;             /**< side held (AVOID), else AVD_SIDE_NONE */
     avd_obstacle_t circle;       /**< circle followed (AVOID) */
+    avd_obstacle_t circle2;      /**< the next member's circle (blended in) */
+    num_t weight;                /**< weight of circle in the blend, 1: circle alone */
 } msw_decision_t;
 
 /** @brief Initialise for a robot of width @p width = 2 R_m [m]: tracking. */
@@ -172,7 +186,7 @@ bool msw_moving(const sup_entry_t *e);
  * @param offset  circles followed: D_s + this [m].
  * @param in      robot, reference and distances.
  */
-avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
+avd_side_t msw_choose_side(const sup_t *s, uint64_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in);
 
 #endif /* MSTC_MSW_H */

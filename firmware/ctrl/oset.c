@@ -17,24 +17,24 @@ oset_link_t oset_link(const sup_entry_t *a, const sup_entry_t *b, num_t width)
     return oset_within(dx, dy, touch) ? OSET_OVERLAP : OSET_GAP;
 }
 
-uint16_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped)
+uint64_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped)
 {
     /* Breadth first over bit masks: each member is expanded once, against
      * every other entry: the ones not yet in the cluster may join it, the
      * ones in it already may leave a gap with it. */
-    uint16_t members = (uint16_t)(1u << seed);
-    uint16_t todo = members;
-    uint16_t done = 0u;
+    uint64_t members = (uint64_t)((uint64_t)1 << seed);
+    uint64_t todo = members;
+    uint64_t done = 0u;
     *gapped = false;
     while (todo != 0u) {
         uint8_t i = 0;
-        while ((todo & (1u << i)) == 0u) {
+        while ((todo & ((uint64_t)1 << i)) == 0u) {
             i++;
         }
-        todo = (uint16_t)(todo & ~(1u << i));
-        done = (uint16_t)(done | (1u << i));
+        todo = (uint64_t)(todo & ~((uint64_t)1 << i));
+        done = (uint64_t)(done | ((uint64_t)1 << i));
         for (uint8_t j = 0; j < n; j++) {
-            const uint16_t bit = (uint16_t)(1u << j);
+            const uint64_t bit = (uint64_t)((uint64_t)1 << j);
             if ((done & bit) != 0u) {
                 continue; /* itself, or a pair tested from the other end */
             }
@@ -42,8 +42,8 @@ uint16_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width
             if (link != OSET_APART) {
                 *gapped = *gapped || link == OSET_GAP;
                 if ((members & bit) == 0u) {
-                    members = (uint16_t)(members | bit);
-                    todo = (uint16_t)(todo | bit);
+                    members = (uint64_t)(members | bit);
+                    todo = (uint64_t)(todo | bit);
                 }
             }
         }
