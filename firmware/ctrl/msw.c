@@ -5,7 +5,7 @@
 #include "ctrl/oset.h"
 #include "ctrl/rol.h"
 #define KNOB_TANGENT 0
-#define KNOB_BLEND 1
+#define KNOB_BLEND 0
 #define KNOB_SHORTCUT 1
 #define MSW_SHORTCUT_MIN NUM_C(0.3)
 #define MSW_SHORTCUT_MARGIN NUM_C(0.08)
