@@ -7,6 +7,8 @@
 #define KNOB_TANGENT 0
 #define KNOB_BLEND 0
 #define KNOB_SHORTCUT 1
+#define KNOB_FACING 0
+#define MSW_FACING NUM_C(0.5)
 #define MSW_SHORTCUT_MIN NUM_C(0.3)
 #define MSW_SHORTCUT_MARGIN NUM_C(0.08)
 #define MSW_BLEND NUM_C(0.1)
@@ -82,6 +84,7 @@ static uint64_t since(uint64_t now, uint64_t t0) { return now >= t0 ? now - t0 :
 typedef struct {
     const msw_input_t *in;
     bool rolled;
+    bool aiming; /* the tracking command of this step goes to msw_t::aim */
     rol_path_t *path;
 } look_t;
 
@@ -402,6 +405,16 @@ static bool p1(const msw_input_t *in, const sup_entry_t *e)
     return dot > NUM_ZERO && !oset_within(u2x, u2y, e->d_act);
 }
 
+/* The reference (or the aim) lies ahead of the robot: in the half-plane its
+ * heading points into. */
+static bool facing(const msw_input_t *in)
+{
+    num_t sr;
+    num_t cr;
+    num_sincos(in->ref->theta, &sr, &cr);
+    return num_add(num_mul(cr, in->cos_th), num_mul(sr, in->sin_th)) > MSW_FACING;
+}
+
 static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
 {
     const msw_input_t *in = lk->in;
@@ -420,7 +433,13 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
         }
     }
     if (m->held) {
-        return m->ahead && way_clear_of(s, lk, m->cluster);
+        /* Bug2: back on the path further along than before, or VisBug: the
+         * tracking command of this step goes to the aim (a point of the
+         * reference's line ahead, shortcut()) and its way is clear. */
+        if (KNOB_FACING && !facing(in)) {
+            return false; /* turning round by the boundary could be held by the filter */
+        }
+        return (m->ahead && way_clear_of(s, lk, m->cluster)) || (lk->aiming && way_clear(s, lk));
     }
     return way_clear(s, lk);
 }
@@ -463,7 +482,6 @@ static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
             return false;
         }
     }
-    m->aimed = true;
     m->aim.x = px;
     m->aim.y = py;
     m->aim.theta = in->host->theta;
@@ -554,7 +572,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
               size_t *n_events, msw_decision_t *d)
 {
     /* The path is written when first needed (rolled_out()). */
-    look_t lk = { .in = in, .rolled = false, .path = &m->path };
+    look_t lk = { .in = in, .rolled = false, .aiming = m->aimed, .path = &m->path };
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
     const bool still = in->host->x == m->ref_x && in->host->y == m->ref_y;
     if (m->state == (uint8_t)MSW_AVOID) {
@@ -580,8 +598,10 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         m->followed = nearest_member(s, in, m->cluster, m->followed, m->side);
         m->second = m_second;
         m->weight = m_weight;
-        if (release_ok(m, s, &lk) || (MSW_HAND_OVER && hand_over(m, s, &lk)) ||
-            (KNOB_SHORTCUT && m->held && shortcut(m, s, in))) {
+        if (KNOB_SHORTCUT && m->held) {
+            m->aimed = shortcut(m, s, in); /* the aim of the next step's tracking */
+        }
+        if (release_ok(m, s, &lk) || (MSW_HAND_OVER && hand_over(m, s, &lk))) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
