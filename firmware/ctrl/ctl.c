@@ -510,6 +510,7 @@ static const ctl_input_t *aimed_input(ctl_t *c, const ctl_input_t *in, ctl_input
         m->aimed = false; /* the reference moved on */
         return in;
     }
+    msw_slide_aim(m, &in->robot, &in->ref);
     *copy = *in;
     copy->ref = m->aim;
     copy->w_r = NUM_ZERO;

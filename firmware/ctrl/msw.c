@@ -8,7 +8,9 @@
 #define KNOB_BLEND 0
 #define KNOB_SHORTCUT 1
 #define KNOB_FACING 0
+#define KNOB_SIDE 0
 #define MSW_FACING NUM_C(0.5)
+#define MSW_AIM_LEAD NUM_C(0.3)
 #define MSW_SHORTCUT_MIN NUM_C(0.3)
 #define MSW_SHORTCUT_MARGIN NUM_C(0.08)
 #define MSW_BLEND NUM_C(0.1)
@@ -306,8 +308,17 @@ static avd_side_t side_by_reference(const sup_t *s, uint64_t cluster, num_t offs
  * L and R its left and right edges, LEFT when L + R < 0, i.e. the smaller
  * turn; for one obstacle this is eq. (11)-(12). NONE when |L + R| is within
  * 2 MSW_SIDE_DEADBAND. */
+static avd_side_t side_by_bearing(const sup_t *s, uint64_t cluster, num_t offset,
+                                  const msw_input_t *in, num_t theta);
+
 static avd_side_t side_by_heading(const sup_t *s, uint64_t cluster, num_t offset,
                                   const msw_input_t *in)
+{
+    return side_by_bearing(s, cluster, offset, in, in->robot->theta);
+}
+
+static avd_side_t side_by_bearing(const sup_t *s, uint64_t cluster, num_t offset,
+                                  const msw_input_t *in, num_t theta)
 {
     const pose_t *p = in->robot;
     num_t left = num_neg(NUM_MAX);
@@ -316,7 +327,7 @@ static avd_side_t side_by_heading(const sup_t *s, uint64_t cluster, num_t offset
         if (in_mask(cluster, i)) {
             const sup_entry_t *e = &s->obs[i];
             const num_t psi = num_wrap(
-                num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), p->theta));
+                num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), theta));
             const num_t rho = num_add(e->d_s, offset);
             const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
             left = num_max(left, num_add(psi, half));
@@ -349,9 +360,10 @@ avd_side_t msw_choose_side(const sup_t *s, uint64_t cluster, uint8_t trigger, nu
             return AVD_SIDE_LEFT;
         }
     }
-    avd_side_t side = side_by_reference(s, cluster, offset, in);
+    avd_side_t side = KNOB_SIDE ? side_by_bearing(s, cluster, offset, in, in->ref->theta)
+                                : side_by_reference(s, cluster, offset, in);
     if (side == AVD_SIDE_NONE) {
-        side = side_by_heading(s, cluster, offset, in);
+        side = KNOB_SIDE ? side_by_reference(s, cluster, offset, in) : side_by_heading(s, cluster, offset, in);
     }
     return side == AVD_SIDE_NONE ? AVD_SIDE_LEFT : side;
 }
@@ -482,12 +494,23 @@ static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
             return false;
         }
     }
-    m->aim.x = px;
-    m->aim.y = py;
-    m->aim.theta = in->host->theta;
     m->aim_rx = in->host->x;
     m->aim_ry = in->host->y;
+    msw_slide_aim(m, in->robot, in->host);
     return true;
+}
+
+void msw_slide_aim(msw_t *m, const pose_t *robot, const pose_t *host)
+{
+    num_t uy;
+    num_t ux;
+    num_sincos(host->theta, &uy, &ux);
+    const num_t a = num_add(num_mul(num_sub(robot->x, host->x), ux),
+                            num_mul(num_sub(robot->y, host->y), uy));
+    const num_t along = num_add(num_max(a, NUM_ZERO), MSW_AIM_LEAD);
+    m->aim.x = num_add(host->x, num_mul(along, ux));
+    m->aim.y = num_add(host->y, num_mul(along, uy));
+    m->aim.theta = host->theta;
 }
 
 /* An obstacle outside the cluster calls for an activation and is nearer than

@@ -163,6 +163,11 @@ void msw_reset(msw_t *m);
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d);
 
+/** @brief The aim (msw_t::aim) moved to the foot of the perpendicular from
+ *         @p robot onto the line of @p host (the reference as received),
+ *         plus a lead along it. */
+void msw_slide_aim(msw_t *m, const pose_t *robot, const pose_t *host);
+
 /** @brief Whether the entry moves (faster than MSW_MOVING_SPEED, |vx| + |vy|). */
 bool msw_moving(const sup_entry_t *e);
 
