@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import time
 import tomllib
 from dataclasses import replace
@@ -405,9 +406,11 @@ def _run(args: argparse.Namespace, plan: Plan, suites: list[str]) -> int:
         f"in {elapsed:.1f} s; {tally.error_count} error rows"
     )
     here = time.process_time() - cpu
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(
         f"CPU: {result.make_cpu:.1f} s making scenes and {result.run_cpu:.1f} s running them "
-        f"(the workers), {here:.1f} s writing the outputs and the summary (here)"
+        f"(the workers), {here:.1f} s writing the outputs and the summary (this process, "
+        f"whose peak resident memory was {peak:.0f} MiB)"
     )
     print(f"output: {args.out}/runs.csv, {summary}")
     return EXIT_OK

@@ -34,9 +34,12 @@ lost) loses the tasks it held, never their results:
 
 Each task's result is emitted once: a task run again emits its one result,
 a split task its parts' results, in order. The pool's workers are forked
-from a server process that has imported the module of the work already
-(``forkserver``, where the platform has it), so a worker starts in
-milliseconds, fresh, without the caller's state.
+from the calling process where the platform can (Linux) and the caller runs
+no other thread, so a worker starts in milliseconds with the modules the
+caller has imported; otherwise from a server process that has imported the
+module of the work (``forkserver``), else spawned. A forked worker holds
+copies of the caller's open files: it writes to none of them, and ends
+without flushing them (``os._exit``).
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from __future__ import annotations
 import importlib.util
 import multiprocessing
 import socket
+import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -176,7 +180,14 @@ def run_tasks(
 
 
 def _context(preload: tuple[str, ...]) -> multiprocessing.context.BaseContext:
-    if "forkserver" in multiprocessing.get_all_start_methods():
+    """How the pool starts its workers: forked from this process where the
+    platform can and no other thread runs (a worker then starts with what
+    this process imported, in milliseconds); else forked from a server
+    process that imported @p preload; else spawned."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    if "forkserver" in methods:
         context = multiprocessing.get_context("forkserver")
         context.set_forkserver_preload(list(preload))
         return context

@@ -106,9 +106,11 @@ def _bins(x: np.ndarray) -> np.ndarray:
     return np.where(u & _TOP, ~u, u | _TOP) >> _SHIFT
 
 
-def _floats(texts: Sequence[str]) -> np.ndarray:
-    """runs.csv's values of a column, "nan" left out (as a median leaves them)."""
-    x = np.array(texts, dtype=np.str_).astype(np.float64) if texts else np.zeros(0)
+def _floats(rows: Sequence[Sequence[str]], column: str) -> np.ndarray:
+    """The values of @p column of @p rows (runs.csv's fields), "nan" left
+    out (as a median leaves them)."""
+    i = _C[column]
+    x = np.fromiter((float(r[i]) for r in rows), np.float64, len(rows))
     return x[~np.isnan(x)]
 
 
@@ -201,11 +203,11 @@ class _Group:
         self.judged = self.rejoined = self.blocked = self.activations = 0
         self.medians = {c: _Median() for c in MEDIANS}
 
-    def add(self, rows: Sequence[Sequence[str]]) -> None:
-        """Count @p rows (all of this group)."""
-        self.runs += len(rows)
-        ok = [r for r in rows if not r[_C["error"]]]
-        self.errors += len(rows) - len(ok)
+    def add(self, rows: int, ok: Sequence[Sequence[str]], values: dict[str, np.ndarray]) -> None:
+        """Count @p rows rows of this group, @p ok those without an error,
+        whose median columns hold @p values."""
+        self.runs += rows
+        self.errors += rows - len(ok)
         if not ok:
             return
 
@@ -223,8 +225,7 @@ class _Group:
         i = _C["max_activations"]
         self.activations = max(self.activations, max(int(r[i]) for r in ok))
         for column, median in self.medians.items():
-            i = _C[column]
-            median.add(_floats([r[i] for r in ok]))
+            median.add(values[column])
 
     def cells(self, family: str, actuator: str, strategy: str, final: bool) -> str:
         """The group's line of summary.md's tables."""
@@ -312,12 +313,13 @@ class Tally:
             self.rows += len(mine)
             self.families.setdefault(family)
             self.actuators.setdefault(actuator)
-            self.groups.setdefault(key, _Group()).add(mine)
-            self.totals.setdefault((actuator, strategy), _Group()).add(mine)
             ok = self._errors(mine)
+            values = {column: _floats(ok, column) for column in MEDIANS}
+            self.groups.setdefault(key, _Group()).add(len(mine), ok, values)
+            self.totals.setdefault((actuator, strategy), _Group()).add(len(mine), ok, values)
             self._worst(strategy, ok)
             for column, _, _ in _HISTOGRAMS:
-                x = _floats([r[_C[column]] for r in ok])
+                x = values[column]
                 x = x[np.isfinite(x)]
                 if len(x):
                     span = self.ranges[column]
@@ -365,12 +367,12 @@ class Tally:
                 ok = [r for r in mine if not r[_C["error"]]]
                 if not ok:
                     continue
-                for column in MEDIANS:
-                    x = _floats([r[_C[column]] for r in ok])
+                values = {column: _floats(ok, column) for column in MEDIANS}
+                for column, x in values.items():
                     self.groups[key].medians[column].take(x)
                     self.totals[(actuator, strategy)].medians[column].take(x)
                 for column, e in edges.items():
-                    x = _floats([r[_C[column]] for r in ok])
+                    x = values[column]
                     if strategy in self.counts[column]:
                         self.counts[column][strategy] += np.histogram(x[np.isfinite(x)], e)[0]
         self.final = True
@@ -468,9 +470,7 @@ class Tally:
             edges = self.edges(column)
             if math.isfinite(self.ranges[column][0]):
                 for strategy, counts in self.counts[column].items():
-                    ax.hist(
-                        edges[:-1], bins=edges.tolist(), weights=counts, alpha=0.5, label=strategy
-                    )
+                    ax.stairs(counts, edges, fill=True, alpha=0.5, label=strategy)
             if column == "min_clearance":
                 ax.axvline(0.0, color="black", lw=1.0, ls="--", label="contact")
             ax.set_xlabel(label)
