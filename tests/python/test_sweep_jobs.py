@@ -18,6 +18,7 @@ import os
 import signal
 import threading
 import time
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -114,7 +115,7 @@ def _keep_even(row: dict[str, str]) -> int | None:
 
 def test_a_row_file_is_written_as_the_rows_come(tmp_path: Path) -> None:
     path = tmp_path / "runs.csv"
-    with RowFile(path, COLUMNS) as table:
+    with closing(RowFile(path, COLUMNS)) as table:
         table.write([(0, ("0", "a")), (1, ("1", "b,c"))])
         assert path.read_text() == 'key,value\n0,a\n1,"b,c"\n'  # flushed
         table.write([(2, ("2", "d"))])
@@ -130,7 +131,7 @@ def test_resuming_keeps_the_rows_kept_once_each_in_order(tmp_path: Path) -> None
     path = tmp_path / "runs.csv"
     path.write_text("key,value\n2,old2\n0,old0\n4,old4\n1,old1\n4,again4\n5\n3,old3\n6,cut")
     (tmp_path / ".runs.csv.resume").write_text("key,value\n6,old6\n8,old8\n")
-    with RowFile(path, COLUMNS, keep=_keep_even) as table:
+    with closing(RowFile(path, COLUMNS, keep=_keep_even)) as table:
         assert table.kept.tolist() == [0, 2, 4, 6, 8]
         assert path.read_text() == "key,value\n"
         copied = table.write([(1, ("1", "new1")), (3, ("3", "new3"))])
@@ -157,7 +158,7 @@ def test_an_interrupted_resume_resumes(tmp_path: Path) -> None:
     def keep_all(row: dict[str, str]) -> int | None:
         return int(row["key"])
 
-    with RowFile(path, COLUMNS, keep=keep_all) as again:
+    with closing(RowFile(path, COLUMNS, keep=keep_all)) as again:
         assert again.kept.tolist() == [0, 1, 2]
         assert again.finish() == [["0", "a"], ["1", "B"], ["2", "c"]]
     assert path.read_text() == "key,value\n0,a\n1,B\n2,c\n"
@@ -166,7 +167,7 @@ def test_an_interrupted_resume_resumes(tmp_path: Path) -> None:
 def test_a_file_of_other_columns_is_not_resumed(tmp_path: Path) -> None:
     path = tmp_path / "runs.csv"
     path.write_text("key,other\n0,a\n")
-    with RowFile(path, COLUMNS, keep=_keep_even) as table:
+    with closing(RowFile(path, COLUMNS, keep=_keep_even)) as table:
         assert table.kept.tolist() == []
         table.finish()
     assert path.read_text() == "key,value\n"

@@ -36,8 +36,7 @@ Each task's result is emitted once: a task run again emits its one result,
 a split task its parts' results, in order. The pool's workers are forked
 from the calling process where the platform can (Linux) and the caller runs
 no other thread, so a worker starts in milliseconds with the modules the
-caller has imported; otherwise from a server process that has imported the
-module of the work (``forkserver``), else spawned. A forked worker holds
+caller has imported; otherwise they are spawned. A forked worker holds
 copies of the caller's open files: it writes to none of them, and ends
 without flushing them (``os._exit``).
 """
@@ -155,7 +154,6 @@ def run_tasks(
     *,
     workers: int = 1,
     scheduler: str | None = None,
-    preload: tuple[str, ...] = (),
 ) -> None:
     """Run @p tasks with @p work, calling @p emit in their order (the
     module's docstring).
@@ -165,9 +163,6 @@ def run_tasks(
         them for the workers.
     :param workers: processes of the local pool (ignored with @p scheduler).
     :param scheduler: a Dask scheduler's address, or None for the local pool.
-    :param preload: modules the pool's workers import before their first
-        task (the module of @p work): imported once, by the server process
-        the workers are forked from.
 
     :raises DependencyError: @p scheduler without Dask installed.
     :raises ClusterError: the scheduler cannot be reached.
@@ -176,21 +171,16 @@ def run_tasks(
         _run_dask(tasks, emit, work, scheduler)
     else:
         window = _Window(tasks(workers) if callable(tasks) else tasks, emit)
-        _run_pool(window, work, workers, _context(preload))
+        _run_pool(window, work, workers, _context())
 
 
-def _context(preload: tuple[str, ...]) -> multiprocessing.context.BaseContext:
+def _context() -> multiprocessing.context.BaseContext:
     """How the pool starts its workers: forked from this process where the
     platform can and no other thread runs (a worker then starts with what
-    this process imported, in milliseconds); else forked from a server
-    process that imported @p preload; else spawned."""
-    methods = multiprocessing.get_all_start_methods()
-    if "fork" in methods and threading.active_count() == 1:
+    this process imported, in milliseconds), else spawned (a worker imports
+    the work's module itself)."""
+    if "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1:
         return multiprocessing.get_context("fork")
-    if "forkserver" in methods:
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(list(preload))
-        return context
     return multiprocessing.get_context("spawn")
 
 

@@ -44,6 +44,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -691,7 +692,7 @@ def run_sweep(
             rows(list(written))
         done += len(written)
 
-    with RowFile(out / "runs.csv", ROW_COLUMNS, keep) as table:
+    with closing(RowFile(out / "runs.csv", ROW_COLUMNS, keep)) as table:
         # sources.json after runs.csv starts afresh: the rows kept are those
         # of the sources of now.
         write_sources(out, plan.sources(local_sha))
@@ -739,7 +740,6 @@ def run_sweep(
             emit,
             workers=workers,
             scheduler=scheduler,
-            preload=(__name__,),
         )
         take(table.finish())
         if progress:

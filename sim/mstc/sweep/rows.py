@@ -29,7 +29,6 @@ import io
 import os
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
-from types import TracebackType
 
 import numpy as np
 
@@ -40,7 +39,8 @@ Fields = Sequence[str]
 
 
 class RowFile:
-    """@p path written afresh with @p columns, or resumed (@p keep)."""
+    """@p path written afresh with @p columns, or resumed (@p keep); close it
+    (``contextlib.closing``) or :meth:`finish` it."""
 
     def __init__(self, path: Path, columns: Sequence[str], keep: Keep | None = None) -> None:
         self.path = path
@@ -62,17 +62,6 @@ class RowFile:
         self._file.flush()
         if keep is None or not len(self.kept):
             self._resume.unlink(missing_ok=True)
-
-    def __enter__(self) -> RowFile:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        value: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def close(self) -> None:
         """Close the files (an unfinished file keeps its resume file)."""
