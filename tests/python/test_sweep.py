@@ -207,3 +207,46 @@ def test_summary_has_the_tables_figures_and_gallery(first: Path) -> None:
     for name in ("clearance.png", "tracking_error.png"):
         assert (first / name).stat().st_size > 1000 and f"]({name})" in text
     assert len(list((first / "gallery").rglob("*.png"))) == 2
+
+
+def test_more_scenes_a_family_keeps_the_rows_run_already(
+    first: Path,
+    inputs: tuple[Path, ...],
+    sil_lib: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Scene i of a family does not depend on the family's count: resumed
+    with --count 3, the sweep of 2 scenes a family keeps its 8 rows and runs
+    the 4 of the third scenes; the rows are those of a fresh sweep of 3."""
+    out = tmp_path / "out"
+    shutil.copytree(first, out)
+    text = sweep(out, inputs, sil_lib, "--resume", "--count", "3", capsys=capsys, every=False)
+    assert "12 runs (4 run now, 8 resumed)" in text
+    fresh = tmp_path / "fresh"
+    sweep(fresh, inputs, sil_lib, "--count", "3", every=False)
+    assert reproducible(rows(out)) == reproducible(rows(fresh))
+
+
+def test_only_the_failures_and_the_gallery_leave_scene_files_by_default(
+    inputs: tuple[Path, ...], sil_lib: Path, tmp_path: Path
+) -> None:
+    """Without --write-scenes and --write-events: the scene file and
+    events.json of each run with a contact, and of the gallery's runs (one
+    a strategy here), nothing else; each such scene file is byte for byte
+    what --generate-only writes for it."""
+    sweep(tmp_path, inputs, sil_lib, every=False)
+    table = rows(tmp_path)
+    failures = {(r["scene"], r["strategy"]) for r in table if r["contact"] == "1" or r["error"]}
+    assert failures  # the premise: the paper's strategy touches some cluster 2 m ahead
+    gallery = {(p.stem, p.parent.name) for p in (tmp_path / "gallery").rglob("*.png")}
+    assert len(gallery) == 2
+    events = {(p.parent.name, p.parent.parent.name) for p in tmp_path.rglob("events.json")}
+    assert events == failures | gallery
+    scenes = {p.stem for p in (tmp_path / "scenes").rglob("*.toml")}
+    assert scenes == {scene for scene, _ in failures | gallery}
+    generated = tmp_path / "generated"
+    rc = main(["sweep", "--generate-only", "--out", str(generated), str(inputs[0])])
+    assert rc == 0
+    for path in (tmp_path / "scenes").rglob("*.toml"):
+        assert path.read_bytes() == (generated / path.relative_to(tmp_path)).read_bytes()
