@@ -253,7 +253,7 @@ def dwa_config(scenario: Scenario) -> DwaConfig:
     )
 
 
-def _new_row(scene: Scene, strategy: str) -> dict[str, str]:
+def new_row(scene: Scene, strategy: str) -> dict[str, str]:
     """A row of runs.csv for @p scene and @p strategy, nothing run yet."""
     row = {c: "" for c in ROW_COLUMNS}
     row.update(scene=scene.name, family=scene.family, strategy=strategy, actuator=scene.actuator)
@@ -263,7 +263,7 @@ def _new_row(scene: Scene, strategy: str) -> dict[str, str]:
 
 def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
     """Run one scene with one strategy; the result (None on failure) and its row."""
-    row = _new_row(scene, strategy)
+    row = new_row(scene, strategy)
     try:
         scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
@@ -272,14 +272,14 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
         result = simulate(scenario, controller, wheels=wheels_for(scenario, lib))
         metrics = evaluate(result)
     except Exception as exc:  # any failure of one scene is its row, not the sweep's end
-        row["error"] = _one_line(exc)
+        row["error"] = one_line(exc)
         return None, row
     row["steps"] = str(scenario.sim.steps + 1)
     row.update(format_metrics(metrics))
     return result, row
 
 
-def _one_line(exc: BaseException) -> str:
+def one_line(exc: BaseException) -> str:
     return " ".join(f"{type(exc).__name__}: {exc}".split())
 
 
@@ -313,11 +313,11 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
     outcomes: dict[int, Outcome] = {}
     ready: list[tuple[int, Scenario, dict[str, str]]] = []
     for index, (scene, strategy) in enumerate(jobs):
-        row = _new_row(scene, strategy)
+        row = new_row(scene, strategy)
         try:
             scenario = scene.parsed()
         except Exception as exc:  # as run_job: a scene's failure is its row
-            row["error"] = _one_line(exc)
+            row["error"] = one_line(exc)
             outcomes[index] = Outcome(scene.name, strategy, row, None, sha)
             continue
         if strategy == "dwa" or scenario.actuator.model == "dc":
@@ -341,7 +341,7 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
         runs = simulate_batch(scenarios, controller, metrics)
     except Exception as exc:  # the batch's failure is each of its rows
         for index, _, row in ready:
-            row["error"] = _one_line(exc)
+            row["error"] = one_line(exc)
             outcomes[index] = Outcome(row["scene"], row["strategy"], row, None, sha)
         ready = []
         runs = []
@@ -384,7 +384,7 @@ def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outc
         sha = library_sha256(path)
     except (OSError, FirmwareError) as exc:
         path, sha = lib, ""
-        failure = _one_line(exc)
+        failure = one_line(exc)
     else:
         failure = ""
     if engine == "batched" and not failure:
@@ -430,7 +430,7 @@ def well_formed(row: Mapping[str, str]) -> bool:
 def crash_row(job: Job, why: str) -> Outcome:
     """The outcome of @p job that failed before it could run (@p why)."""
     scene, strategy = job
-    row = _new_row(scene, strategy)
+    row = new_row(scene, strategy)
     row["error"] = why
     return Outcome(scene.name, strategy, row, None, "")
 

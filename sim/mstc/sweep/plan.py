@@ -10,10 +10,11 @@ its block's first position, plus the scene's index times the number of
 strategies, plus the strategy's; runs.csv holds the rows in that order
 (:class:`mstc.sweep.rows.RowFile`).
 
-The plan is cut into *slices* (:class:`Slice`: a block's scenes from one
-index to another, or some of their runs), which :func:`mstc.sweep.jobs.run_tasks`
-sends to the workers. A suite's scene is a pure function of the suite,
-family, actuator profile and index (:func:`mstc.sweep.suite.scene_doc`): a
+The plan is cut into *slices* (:class:`Slice`: parts of one or more blocks,
+in plan order, each a block's scenes from one index to another or some of
+their runs), which :func:`mstc.sweep.jobs.run_tasks` sends to the workers.
+A suite's scene is a pure function of the suite, family, actuator profile
+and index (:func:`mstc.sweep.suite.scene_doc`): a
 slice of a suite carries the suite's few numbers and the range of indices,
 and the worker makes each scene's document and parses it (no text is written
 or read), runs them (:func:`mstc.sweep.engine.run_batch`) and sends back the
@@ -62,10 +63,10 @@ from mstc.sweep.engine import (
     Job,
     Outcome,
     Scene,
-    _new_row,
-    _one_line,
     crash_row,
     library_sha256,
+    new_row,
+    one_line,
     run_batch,
     run_job,
     shipped,
@@ -344,14 +345,14 @@ def _make(
         docs[key] = block.doc(index)
         scenes[key] = block.make(index, task.folder, docs[key])
     except Exception as exc:  # a scene that cannot be made is its rows' error
-        errors[key] = _one_line(exc)
+        errors[key] = one_line(exc)
 
 
 def _failed(block: Block, index: int, strategy: str, error: str) -> Outcome:
     """The error row of scene @p index of a suite's @p block under @p strategy."""
     family = block.family
     scene = Scene(block.name(index), "", "", family.name, family.scene_seed(index))
-    row = _new_row(scene, strategy)
+    row = new_row(scene, strategy)
     row["actuator"] = block.profile.name
     row["error"] = error
     return Outcome(scene.name, strategy, row, None, "")
