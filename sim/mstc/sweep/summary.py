@@ -11,11 +11,12 @@ Nothing of it grows with the number of rows but the medians' bins, and those
 are bounded (below).
 
 A median is exact, in two passes: as the rows come, each value is counted in
-its *bin* (the values that share a float's sign, exponent and first 12 bits
-of mantissa: 2⁻¹² wide, relatively); at the end, the bins of the middle
-value or values are known, and one pass over runs.csv takes the values of
-those bins alone. runs.csv holds 6 significant digits, so a bin holds at
-most some hundreds of distinct values, which are kept with their counts.
+its *bin* (the values that share a float's sign, exponent and first 8 bits
+of mantissa: 2⁻⁸ wide, relatively; a few thousand bins a column at most, some
+hundreds in practice); at the end, the bins of the middle value or values
+are known, and one pass over runs.csv takes the values of those bins alone.
+runs.csv holds 6 significant digits, so a bin holds at most a few thousand
+distinct values, which are kept with their counts.
 The same pass fills the histograms of clearance.png and tracking_error.png,
 whose range the tally has kept. While the sweep runs, summary.md is written
 now and then with the counts alone (:meth:`Tally.write` with ``final=False``).
@@ -94,14 +95,15 @@ _HISTOGRAMS = (
     ("min_clearance", "smallest clearance over the run [m] (< 0: contact)", "clearance"),
     ("rms_error", "RMS tracking error [m]", "tracking_error"),
 )
-_SHIFT = np.uint64(40)
-"""A median's bin: a float's 64 bits in sort order, less the last 40."""
+_SHIFT = np.uint64(44)
+"""A median's bin: a float's 64 bits in sort order, less the last 44 (sign,
+exponent and 8 bits of mantissa are left)."""
 _TOP = np.uint64(1 << 63)
 
 
 def _bins(x: np.ndarray) -> np.ndarray:
     """The bin of each value of @p x (float64): the float's bits turned so
-    that they sort as the floats do, less the last 40."""
+    that they sort as the floats do, less the last :data:`_SHIFT`."""
     u = x.view(np.uint64)
     return np.where(u & _TOP, ~u, u | _TOP) >> _SHIFT
 
