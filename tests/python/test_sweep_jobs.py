@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import threading
 import time
 from contextlib import closing
@@ -34,16 +36,21 @@ Task = tuple[int, ...]
 class Squares:
     """The toy work. A task holding @p die kills its worker (exit status 3,
     as a crash in a C library would); a task holding @p stall waits until
-    @p gate exists, having written its worker's pid into @p pid."""
+    @p gate exists, having written its worker's pid into @p pid; every task
+    but the first sleeps @p slow seconds."""
 
     die: int = -1
     stall: int = -1
     pid: str = ""
     gate: str = ""
+    slow: float = 0.0
+    """Seconds every task but the first (0, ...) takes."""
 
     def __call__(self, task: Task) -> list[int | str]:
         if self.die in task:
             os._exit(3)
+        if task and task[0]:
+            time.sleep(self.slow)
         if self.stall in task:
             Path(self.pid).write_text(str(os.getpid()))
             while not Path(self.gate).exists():
@@ -102,6 +109,36 @@ def test_a_worker_killed_from_outside_loses_no_result(tmp_path: Path) -> None:
     killer.join()
     assert [task for task, _ in emitted] == TASKS
     assert [r for _, result in emitted for r in result] == [x * x for x in range(40)]
+
+
+def test_an_interrupt_stops_the_workers_at_once() -> None:
+    """Ctrl-C (SIGINT to the caller alone) once the first result came: the
+    caller ends within seconds, not after the 60 s tasks its two workers
+    hold and the ones queued for them."""
+    here = Path(__file__).parent
+    code = (
+        f"import sys; sys.path.insert(0, {str(here)!r})\n"
+        "from test_sweep_jobs import Squares\n"
+        "from mstc.sweep.jobs import run_tasks\n"
+        "run_tasks([(i,) for i in range(8)], Squares(slow=60.0),"
+        " lambda task, result: print('emitted', task, flush=True), workers=2)\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", code],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        assert child.stdout is not None
+        assert child.stdout.readline() == "emitted (0,)\n"
+        time.sleep(0.5)  # the workers are in their 60 s tasks
+        child.send_signal(signal.SIGINT)
+        assert child.wait(timeout=30) != 0
+    finally:
+        if child.poll() is None:
+            child.kill()
 
 
 COLUMNS = ("key", "value")

@@ -215,11 +215,20 @@ def _run_pool(
                 pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
             window.flush()
     except BaseException:
-        # Interrupted or failed: drop the tasks not started rather than
-        # wait for them.
-        pool.shutdown(wait=False, cancel_futures=True)
+        _stop(pool)
         raise
     pool.shutdown()
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Interrupted (Ctrl-C) or failed: stop the workers now, their tasks
+    with them, rather than let them finish those they hold (a task is run
+    again when the caller resumes). The workers are the pool's processes
+    (CPython's ``_processes``; Python 3.14 names this ``terminate_workers``)."""
+    processes = getattr(pool, "_processes", None) or {}
+    for process in list(processes.values()):
+        process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _collect(finished: set[Future[R]], running: dict[Future[R], _Slot[T, R]]) -> list[_Slot[T, R]]:
@@ -254,6 +263,11 @@ def _isolate(
                 pool.shutdown(wait=True)
                 pool = None
                 todo.extendleft(reversed(slot.split(work, DIED)))
+    except BaseException:
+        if pool is not None:
+            _stop(pool)
+            pool = None
+        raise
     finally:
         if pool is not None:
             pool.shutdown(wait=True)
