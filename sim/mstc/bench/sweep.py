@@ -293,7 +293,8 @@ def _end_to_end_rows(e: dict[str, Any]) -> list[str]:
         f"{rest:.1f} the rest (process starts, imports, the slices' travel) | — |",
         f"| the engine's own CPU time for those scenes (the same slices, made beforehand, "
         f"in one process; median of {e['repeats']}) | — | **{engine:.1f} CPU-s** "
-        f"| end to end ≤ 1.3× it: {_verdict(ratio <= 1.3)} (**{ratio:.2f}×**) |",
+        f"| end to end ≤ 1.3× it: {_verdict(ratio <= 1.3)} (**{ratio:.2f}×**; "
+        f"{m['cpu'] / m['run']:.2f}× the workers' own time running them in the sweep) |",
         f"| making the scenes and writing the outputs, share of the sweep's CPU time | — | "
         f"**{100 * overhead / m['cpu']:.1f} %** ({overhead:.1f} CPU-s) | < 30 %: "
         f"{_verdict(overhead / m['cpu'] < 0.3)} |",
