@@ -171,8 +171,10 @@ def test_resuming_keeps_the_rows_kept_once_each_in_order(tmp_path: Path) -> None
     with closing(RowFile(path, COLUMNS, keep=_keep_even)) as table:
         assert table.kept.tolist() == [0, 2, 4, 6, 8]
         assert path.read_text() == "key,value\n"
+        assert table.copy_kept(1) == [["0", "old0"]]  # before the first row to make
+        assert path.read_text() == "key,value\n0,old0\n"
         copied = table.write([(1, ("1", "new1")), (3, ("3", "new3"))])
-        assert copied == [["0", "old0"], ["2", "old2"]]
+        assert copied == [["2", "old2"]]
         copied = table.write([(5, ("5", "new5")), (7, ("7", "new7")), (9, ("9", "new9"))])
         assert copied == [["4", "old4"], ["6", "old6"], ["8", "old8"]]
         assert table.finish() == []

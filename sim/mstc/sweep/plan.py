@@ -698,6 +698,9 @@ def run_sweep(
         # of the sources of now.
         write_sources(out, plan.sources(local_sha))
         result.ran = plan.runs - len(table.kept)
+        # The rows kept before the first run to make: at once.
+        missing = np.flatnonzero(table.kept != np.arange(len(table.kept)))
+        take(table.copy_kept(int(missing[0]) if len(missing) else len(table.kept)))
         if progress:
             progress(done, plan.runs)
 

@@ -138,6 +138,14 @@ class RowFile:
             self._file.write("".join(lines))
         return [next(csv.reader([line])) for line in lines]
 
+    def copy_kept(self, before: int) -> list[list[str]]:
+        """Copy back now the kept rows before position @p before (those
+        before the first run to make: runs.csv shows them at once, not when
+        that run's row comes), then flush. Returns them."""
+        copied = self._copy_kept(before)
+        self._file.flush()
+        return copied
+
     def write(self, rows: Iterable[tuple[int, Fields]]) -> list[list[str]]:
         """Write @p rows, (position, fields) in increasing positions after
         those written before, and the kept rows before and among them, then
