@@ -94,9 +94,10 @@ $(BENCH_DIR)/can-realtime.json: build/host/mstc-fw sim/mstc/bench/realtime.py \
 	  tools/vm/with-vcan --timeout 1200 -- \
 	  $(PY) -m mstc.bench.realtime run --fw build/host/mstc-fw --out $@
 
-# Sweeps: scene-steps per second in memory, 1,000 paper-like scenes on every
-# core, the same on a local Dask cluster, the batched engine against the
-# per-scene one (python -m mstc.bench.sweep).
+# Sweeps: scene-steps per second in memory, the batched engine against the
+# per-scene one, `mstc sweep` of 10,000 scenes end to end against its engine's
+# own CPU time, 1,000 paper-like scenes on every core and the same on a local
+# Dask cluster (python -m mstc.bench.sweep).
 $(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so sim/mstc/bench/sweep.py | .venv/.requirements.sha256
 	$(PY) -m mstc.bench.sweep run --lib $< --out $@
 
