@@ -21,9 +21,15 @@
  * when it began, whatever max_wheel_speed is set to meanwhile: docs/safety.md),
  * and the application is either running or halted with a reason; otherwise
  * abort() (a finding).
+ *
+ * With MSTC_FUZZ_TRACE set in the environment it also writes, on stderr, the
+ * identifier of every frame it hands to the application (`frame 0x105`) and
+ * every change of the halt reason (`halt 7`): tests/python/test_fuzz_frames.py
+ * runs it on inputs of its own and reads them.
  */
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -54,6 +60,10 @@ static bool wheel_ok(num_t w, num_t max, bool halted, num_t before)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
+    static int trace = -1;
+    if (trace < 0) {
+        trace = getenv("MSTC_FUZZ_TRACE") != NULL ? 1 : 0;
+    }
     hal_fake_reset();
     memset(counters, 0, sizeof counters);
     (void)app_init(&app, NULL);
@@ -61,6 +71,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(last_set, 0, sizeof last_set);
     uint64_t now = 0;
     kin_wheels_t before = *app_last_wheels(&app);
+    uint8_t halt_before = app.halt;
     for (size_t at = 0; at + 12u <= size; at += 12u) {
         const uint8_t *r = &data[at];
         const uint8_t op = r[0] & 3u;
@@ -88,6 +99,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 memcpy(&buf[2], &f.data[1], 7);
                 f.data[0] = comm_crc8h2f(buf, sizeof buf);
             }
+            if (trace != 0) {
+                (void)fprintf(stderr, "frame 0x%03x\n", (unsigned)f.id);
+            }
             (void)app_on_frame(&app, &f);
         } else if (op == 2u) {
             now += (uint64_t)r[11] * 1000u;
@@ -97,6 +111,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             hal_fake.can_status.state = (hal_can_state_t)(r[11] % 5u);
             hal_fake.can_status.bus_off += r[3] & 1u;
         }
+        if (trace != 0 && app.halt != halt_before) {
+            (void)fprintf(stderr, "halt %u\n", (unsigned)app.halt);
+        }
+        halt_before = app.halt;
         const kin_wheels_t *w = app_last_wheels(&app);
         const num_t max = app.ctl.p.kin.max_wheel_speed;
         const bool halted = app.halt != (uint8_t)COMM_HALT_NONE;

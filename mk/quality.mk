@@ -54,6 +54,9 @@ $(foreach m,$(NUM_MODES),$(eval $(call FUZZ_BUILD,$(m))))
 
 .PHONY: fuzz fuzz-build
 fuzz-build: $(addprefix $(FUZZ_DIR)/,$(FUZZ_NAMES))
+# tests/python/test_fuzz_frames.py runs the frames harness on inputs of its
+# own: built before pytest, once, also when make test builds it beside it.
+test-host: $(FUZZ_DIR)/frames
 fuzz: fuzz-build  ## run every libFuzzer harness for FUZZ_SECONDS (default 60) each
 	@set -e; for n in $(FUZZ_NAMES); do \
 	  mkdir -p $(FUZZ_DIR)/corpus/$$n $(FUZZ_DIR)/findings/$$n; \
