@@ -6,8 +6,10 @@
  * lock-step, and the CAN controller's state, in any order.
  *
  * Input: records of 12 bytes, [op, id, dlc, b0..b7, arg].
- *   op & 3  0 raw frame: identifier from id (a protocol frame for id < 0xF0,
- *           else 0x100 + id), DLC dlc & 15, bytes b0..b7 as given;
+ *   op & 3  0 raw frame: identifier by id % (n + 1), n the number of frames
+ *           of the DBC: the (id % (n + 1))-th of them, in the DBC's order,
+ *           or for n 0x100 + id (any identifier, mostly unknown); DLC
+ *           dlc & 15, bytes b0..b7 as given;
  *           1 the same with alive counter and CRC made right (so the fuzzer
  *           reaches past the E2E checks), and for PARAM_AUTH the right
  *           freshness and MAC for the last PARAM_SET sent (so it reaches
@@ -34,23 +36,25 @@
 #include <string.h>
 
 #include "app/app.h"
+#include "comm/mstc_dbc.h"
 #include "hal_fake.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
+/* Every frame of the DBC: mk/quality.mk writes the list at build time from
+ * the codec's header, generated from firmware/comm/mstc.dbc, so that a frame
+ * added to the DBC is fuzzed from the first build that has it. */
 static const uint32_t ids[] = {
-    COMM_ID_ODOM_XY,    COMM_ID_ODOM_THETA, COMM_ID_REF_XY,          COMM_ID_REF_MOTION,
-    COMM_ID_STEP,       COMM_ID_OBSTACLE,   COMM_ID_PARAM_SET,       COMM_ID_PARAM_GET,
-    COMM_ID_WHEEL_CMD,  COMM_ID_STATUS,     COMM_ID_STATUS_COUNTERS, COMM_ID_HEARTBEAT,
-    COMM_ID_PARAM_AUTH,
+#include "fuzz_dbc_ids.h"
 };
+#define N_IDS (sizeof ids / sizeof ids[0])
 
 /* The harness's device key (any will do: it authenticates its own commands). */
 static const uint8_t key[AUTH_KEY_LEN] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16 };
 static uint8_t last_set[AUTH_DATA_LEN]; /* bytes 2..7 of the last PARAM_SET sent */
 
 static app_t app;
-static uint8_t counters[16];
+static uint8_t counters[N_IDS]; /* alive counter of each frame, for op 1 */
 
 /* Wheel speed @p w within ±@p max or, while @p halted, no faster than @p before. */
 static bool wheel_ok(num_t w, num_t max, bool halted, num_t before)
@@ -77,8 +81,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         const uint8_t op = r[0] & 3u;
         hal_fake.n_sent = 0; /* the fake keeps the first 128 only */
         if (op <= 1u) {
-            const size_t k = r[1] % (sizeof ids / sizeof ids[0] + 1u);
-            hal_can_frame_t f = { .id = k < sizeof ids / sizeof ids[0] ? ids[k] : 0x100u + r[1],
+            const size_t k = r[1] % (N_IDS + 1u);
+            hal_can_frame_t f = { .id = k < N_IDS ? ids[k] : 0x100u + r[1],
                                   .dlc = (uint8_t)(r[2] & 15u) };
             memcpy(f.data, &r[3], 8);
             uint16_t did;
@@ -93,8 +97,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if (op == 1u && f.id == COMM_ID_PARAM_SET) {
                 memcpy(last_set, &f.data[2], sizeof last_set);
             }
-            if (op == 1u && comm_data_id(f.id, &did) == 0) {
-                f.data[1] = (uint8_t)((f.data[1] & 0xF0u) | (counters[k & 15u]++ & 0x0Fu));
+            if (op == 1u && k < N_IDS && comm_data_id(f.id, &did) == 0) {
+                f.data[1] = (uint8_t)((f.data[1] & 0xF0u) | (counters[k]++ & 0x0Fu));
                 uint8_t buf[9] = { (uint8_t)(did & 0xFFu), (uint8_t)(did >> 8) };
                 memcpy(&buf[2], &f.data[1], 7);
                 f.data[0] = comm_crc8h2f(buf, sizeof buf);
