@@ -17,6 +17,8 @@ Python's own allocations (tracemalloc), which hold every byte zlib inflates.
 from __future__ import annotations
 
 import struct
+import subprocess
+import sys
 import tracemalloc
 import zlib
 from pathlib import Path
@@ -119,3 +121,38 @@ def test_a_blf_log_reads_as_python_can_reads_it(tmp_path: Path, db: object) -> N
         assert frame.frame_id == want[k].arbitration_id
         assert bytes(frame.data) == bytes(want[k].data)
         assert frame.timestamp == want[k].timestamp
+
+
+def test_a_blf_object_that_says_it_has_no_size_ends_the_read_as_damage(tmp_path: Path) -> None:
+    """An object whose size field is 0 (less than its own header) never moves
+    python-can's parser on: it yields the same CAN frame for ever, and the
+    tools collected them until memory ran out, from a file of 93 kB. It is
+    damage, reported with its container and offset; the frames before are
+    used. Run in a process of its own, bounded in time and memory."""
+    path = tmp_path / "zero.blf"
+    offset = blf_of(DATA / "paper-line.log", path)
+    frame = struct.pack("<HBBL8s", 1, 0, 8, 0x100, bytes(8))  # a CAN_MESSAGE
+    obj = struct.pack("<4sHHLL", b"LOBJ", 32, 1, 0, 1) + struct.pack("<LHHQ", 1, 0, 0, 0) + frame
+    body = struct.pack("<H6xL4x", 0, len(obj)) + obj  # method 0: not compressed
+    with path.open("ab") as f:
+        f.write(struct.pack("<4sHHLL", b"LOBJ", 16, 1, 16 + len(body), 10) + body)
+    code = (
+        "import resource, sys\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))\n"
+        "from pathlib import Path\n"
+        "from mstc.can.dbc import load_database\n"
+        "from mstc.logs.read import read_log\n"
+        "log = read_log(Path(sys.argv[1]), load_database())\n"
+        "print(len(log)); print(*log.problems, sep='\\n')\n"
+    )
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=60
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail("reading a BLF object of size 0 did not end within 60 s")
+    assert done.returncode == 0, done.stderr
+    count, *problems = done.stdout.splitlines()
+    assert int(count) == len(list(can.LogReader(str(DATA / "paper-line.log"))))
+    assert len(problems) == 1, problems
+    assert f"container 5 at byte {offset}: an object of 0 bytes" in problems[0], problems
