@@ -10,7 +10,9 @@ before any check. Here each container is inflated :data:`CHUNK_BYTES` at a
 time, each piece parsed by python-can's own object parser, and two bounds
 hold: :data:`MAX_CONTAINER_BYTES` per container and :data:`MAX_LOG_BYTES`
 for the whole log; beyond either the read stops with a :class:`LogError`
-naming the container and its byte offset.
+naming the container and its byte offset. An object whose size is less than
+its own header, on which python-can's parser would turn for ever, is damage
+(:func:`_check_sizes`).
 
 Binary: a problem is reported by frame number. A file shorter than its header
 says (a recording cut off) is reported, and the frames before are used. mstc
@@ -55,6 +57,24 @@ def _size(n: int) -> str:
         if n >= 1 << shift and n % (1 << shift) == 0:
             return f"{n >> shift} {unit}"
     return f"{n} bytes"
+
+
+def _check_sizes(data: bytes) -> None:
+    """Walk the objects of @p data as python-can's parser does (each at the
+    next "LOBJ" within 8 bytes, the next one its size further on) up to the
+    first it cannot see whole.
+
+    :raises BLFParseError: an object smaller than its base header: python-can
+        would never move past it (the same frame yielded for ever).
+    """
+    pos = 0
+    while (at := data.find(b"LOBJ", pos, pos + 8)) >= 0:
+        if at + OBJ_HEADER_BASE_STRUCT.size > len(data):
+            return
+        obj_size = OBJ_HEADER_BASE_STRUCT.unpack_from(data, at)[3]
+        if obj_size < OBJ_HEADER_BASE_STRUCT.size:
+            raise BLFParseError(f"an object of {obj_size} bytes, less than its header")
+        pos = at + obj_size
 
 
 class BoundedBLFReader(can.BLFReader):
@@ -128,6 +148,7 @@ class BoundedBLFReader(can.BLFReader):
                     "the bound of a BLF log (docs/replay.md): refused"
                 )
             try:
+                _check_sizes(self._tail + data)
                 yield from self._parse_container(data)
             except BLFParseError as exc:  # damage: the caller keeps the frames before
                 raise BLFParseError(f"container {index} at byte {offset}: {exc}") from exc
