@@ -33,7 +33,11 @@ from mstc.errors import ControllerError, FrameDropped
 from mstc.loop.lockstep import (
     ACCEPTED,
     AGAIN,
+    CONTESTED,
     STEP_MODULO,
+    answer_despite_counter,
+    contested,
+    contested_error,
     decides,
     no_status,
     obstacle_frames,
@@ -221,7 +225,13 @@ class Board:
             answer, signed = self._set(index, value)
             assert st0 is not None  # can_sign() needs a status
             st = self._await_status(decides(st0.session, signed))
-            verdict = outcome(st0, signed, st, answer.signals["result"] == unauth)
+            with self._lock:
+                answers = list(self._answers)  # every PARAM_VALUE since it went out
+            verdict = outcome(
+                st0, signed, st, answer.signals["result"] == unauth, contested(answers, index)
+            )
+            if verdict == CONTESTED:
+                raise contested_error(what, answers, index, self.tables)
             if verdict == ACCEPTED:
                 return answer
             if verdict != AGAIN:
@@ -318,8 +328,15 @@ class Board:
         self.counts.received += 1
         try:
             frame = self.proto.decode(msg)
-        except FrameDropped:
-            return  # counted in proto.drops
+        except FrameDropped as dropped:  # counted in proto.drops
+            # A PARAM_VALUE dropped as a repeat: a node may have answered
+            # first under the firmware's next counter; the command's outcome
+            # weighs it (lockstep.outcome), nothing else sees it.
+            repeat = answer_despite_counter(self.proto, msg, dropped)
+            if repeat is not None:
+                self._answers.append(repeat)
+                self._answer.notify_all()
+            return
         name = frame.name
         s = frame.signals
         if name in ("AUTH_STATUS", "AUTH_CHALLENGE"):
