@@ -54,20 +54,26 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mstc.can import secoc
 from mstc.can.protocol import Frame
-from mstc.errors import DependencyError, MstcError, UsageError
+from mstc.errors import ControllerError, DependencyError, MstcError, UsageError
+from mstc.limits import Held, violation
 from mstc.logs.play import open_bus as open_can_bus
 from mstc.loop.lockstep import decode_event
 from mstc.model import Event, Fault, Obstacle, Pose
 from mstc.ros import diagnostics
 from mstc.ros.board import Board
-from mstc.ros.parameters import FIRMWARE_PREFIX, PARAMETERS, STEP_SOURCES
+from mstc.ros.parameters import (
+    FIRMWARE_PREFIX,
+    PARAMETERS,
+    RANGES,
+    RUN_TIME,
+    STEP_SOURCES,
+    problem,
+)
 from mstc.ros.reference import PathReference, ReferenceSample, StampedReference
 
 NODE_NAME = "mstc_bridge"
 OBSTACLE_IDS = range(1, 16)
 """The firmware's obstacle ids (OBSTACLE_id, 4 bits)."""
-POSITIVE_PARAMETERS = ("rate_hz", "status_rate_hz", "command_timeout", "plan_speed")
-"""The parameters that must be positive (and finite)."""
 ODOM_STEP_SLACK = 0.01
 """With step_source odom, a step runs for the first odometry at least
 (1 - this) periods after the last step's."""
@@ -156,11 +162,10 @@ class Bridge(Node):
             except ParameterException as exc:  # given with another type than the default's
                 raise UsageError(str(exc)) from exc
         p = self._param
-        for name in POSITIVE_PARAMETERS:
-            if not (math.isfinite(float(p(name))) and float(p(name)) > 0):
-                raise UsageError(f"{name} {p(name)!r}: a positive number")
-        if int(p("qos_depth")) < 1:
-            raise UsageError(f"qos_depth {p('qos_depth')!r}: at least 1")
+        for name in RANGES:
+            why = problem(name, p(name))
+            if why is not None:
+                raise UsageError(why)
         interface = str(p("can_interface"))
         step_source = str(p("step_source")) or ("timer" if interface == "mstc-sil" else "none")
         if step_source not in STEP_SOURCES:
@@ -255,12 +260,18 @@ class Bridge(Node):
     # ------------------------------------------------------- parameters
 
     def _firmware_parameters(self) -> None:
-        """``firmware.<name>`` for every parameter of the DBC: a value given
-        at start (a parameters file, ``-p``) is sent to the firmware; the
-        others are read from it."""
+        """``firmware.<name>`` for every parameter of the DBC: the values
+        given at start (a parameters file, ``-p``) are sent to the firmware as
+        one set (:meth:`_set_firmware`); the others are read from it.
+
+        :raises UsageError: a value given that the parameter table refuses.
+        :raises ControllerError: one the firmware refuses, or no answer.
+        """
         tables = self.board.tables
         self._syncing = True
         try:
+            given: dict[str, Any] = {}
+            held: dict[str, float] = {}
             for raw, name in tables.param_index.entries.items():
                 if raw == tables.arm_index:
                     continue
@@ -268,54 +279,129 @@ class Bridge(Node):
                 text = f"the firmware's parameter {name} (PARAM_SET index {raw})"
                 if name == "strategy":
                     text += ": " + " or ".join(tables.strategy.entries.values())
-                given = self.declare_parameter(
+                value = self.declare_parameter(
                     full, None, ParameterDescriptor(description=text, dynamic_typing=True)
                 ).value
-                if given is not None:
-                    self._set_firmware(name, given)
-                    continue
+                if value is not None:
+                    given[name] = value
                 answer = self.board.request(raw, None)
                 if answer.signals["result"] != tables.param_ok:
                     continue  # not readable: left unset
-                value = float(answer.signals["value"])
-                shown: Any = value
-                if name == "strategy":
-                    shown = tables.strategy.name_of(round(value)) or value
-                self.set_parameters([Parameter(full, value=shown)])
+                held[name] = float(answer.signals["value"])
+                if value is None:
+                    shown: Any = held[name]
+                    if name == "strategy":
+                        shown = tables.strategy.name_of(round(held[name])) or held[name]
+                    self.set_parameters([Parameter(full, value=shown)])
+            if given:
+                self._set_firmware(given, held)
         finally:
             self._syncing = False
 
-    def _set_firmware(self, name: str, value: Any) -> str | None:
-        """Send one parameter; None when accepted, else why not."""
+    def _firmware_number(self, name: str, value: Any) -> float:
+        """@p value of firmware parameter @p name as PARAM_SET sends it.
+
+        :raises UsageError: not a number (nor a strategy's name).
+        """
         tables = self.board.tables
         if name == "strategy" and isinstance(value, str):
-            try:
-                value = tables.strategy.value(value)
-            except MstcError as exc:
-                return str(exc)
+            return float(tables.strategy.value(value))
         if isinstance(value, bool) or not isinstance(value, int | float):
-            return f"{name}: a number, not {value!r}"
+            raise UsageError(f"firmware.{name}: a number, not {value!r}")
+        return float(value)
+
+    def _firmware_held(self) -> dict[str, float]:
+        """What the firmware holds, as the node's ``firmware.*`` parameters
+        show it (read at start, then set only through :meth:`_set_firmware`)."""
+        held = {}
+        for raw, name in self.board.tables.param_index.entries.items():
+            if raw == self.board.tables.arm_index:
+                continue
+            value = self.get_parameter(FIRMWARE_PREFIX + name).value
+            if value is not None:
+                held[name] = self._firmware_number(name, value)
+        return held
+
+    def _set_firmware(self, values: dict[str, Any], held: dict[str, float]) -> None:
+        """Send @p values to the firmware as one set, or none of them: checked
+        as a whole against the parameter table (:func:`mstc.limits.violation`,
+        the firmware's own check) with the values it @p held, then sent one by
+        one in an order that keeps the firmware's set valid at every step;
+        when the firmware refuses one all the same (armed, not authenticated,
+        no answer), those already sent are set back.
+
+        :raises UsageError: the table refuses the set.
+        :raises ControllerError: the firmware refused a value (the others
+            set back, or the error says which could not be).
+        """
+        tables = self.board.tables
+        new = {name: self._firmware_number(name, v) for name, v in values.items()}
+        for name in new:
+            if name not in tables.param_index.entries.values() or name == "arm":
+                raise UsageError(f"firmware.{name}: no such parameter of the firmware")
+        ways = (Held.FLOAT, Held.FIXED_FRAME)  # as a frame's float32 reaches either build
+        wrong = violation({**held, **new}, ways)
+        if wrong is not None:
+            names = ", ".join(FIRMWARE_PREFIX + n for n in wrong.names if n in new) or "the set"
+            raise UsageError(f"{names}: {wrong.problem}")
+        now = dict(held)
+        pending = dict(new)
+        done: list[tuple[str, float | None]] = []  # sent, with the value before
+        while pending:
+            ready = [n for n, v in pending.items() if violation({**now, n: v}, ways) is None]
+            if not ready:  # cannot happen for a set the table accepts but by rounding
+                ready = list(pending)[:1]
+            name = ready[0]
+            value = pending.pop(name)
+            why = self._send_firmware(name, value)
+            if why is not None:
+                raise ControllerError(why + self._undo(done))
+            done.append((name, now.get(name)))
+            now[name] = value
+
+    def _send_firmware(self, name: str, value: float) -> str | None:
+        """Send one parameter; None when the firmware accepted it, else why not."""
+        tables = self.board.tables
         try:
-            answer = self.board.command(tables.param_index.value(name), float(value))
-        except MstcError as exc:  # no answer, not authenticated
+            answer = self.board.command(tables.param_index.value(name), value)
+        except MstcError as exc:  # no answer, not authenticated, a forged answer
             return str(exc)
         if answer.signals["result"] != tables.param_ok:
             result = tables.param_result.name_of(int(answer.signals["result"]))
-            return f"the firmware answers {result} to {name} = {value}"
+            return f"the firmware answers {result} to {name} = {value:g}"
         return None
+
+    def _undo(self, done: list[tuple[str, float | None]]) -> str:
+        """Set back the parameters of @p done (sent, with their values
+        before), the last first; what to add to the error."""
+        if not done:
+            return ""
+        failed = []
+        for name, before in reversed(done):
+            if before is None or self._send_firmware(name, before) is not None:
+                failed.append(name)
+        if failed:
+            return f"; the firmware keeps the new {', '.join(failed)}: set it again"
+        return f"; {', '.join(n for n, _ in done)} set back"
 
     def _on_set_parameters(self, params: list[Parameter[Any]]) -> SetParametersResult:
         if self._syncing:
             return SetParametersResult(successful=True)
+        firmware: dict[str, Any] = {}
         for param in params:
             if param.name.startswith(FIRMWARE_PREFIX):
-                why = self._set_firmware(param.name.removeprefix(FIRMWARE_PREFIX), param.value)
-                if why is not None:
-                    return SetParametersResult(successful=False, reason=why)
-            elif param.name in PARAMETERS and param.name not in ("plan_speed", "obstacle_timeout"):
+                firmware[param.name.removeprefix(FIRMWARE_PREFIX)] = param.value
+            elif param.name in PARAMETERS and param.name not in RUN_TIME:
                 return SetParametersResult(
                     successful=False, reason=f"{param.name} is read at start: restart the bridge"
                 )
+            elif (why := problem(param.name, param.value)) is not None:
+                return SetParametersResult(successful=False, reason=why)
+        if firmware:
+            try:
+                self._set_firmware(firmware, self._firmware_held())
+            except MstcError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
     def _on_arm(self, request: Any, response: Any) -> Any:
