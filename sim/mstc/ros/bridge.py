@@ -522,7 +522,7 @@ class Bridge(Node):
             frames += self.board.reference(ref.pose, ref.v, ref.w)
         timeout = float(self._param("obstacle_timeout"))
         if time.monotonic() - self.inputs.obstacles_at <= timeout:
-            frames += self.board.obstacles(self.inputs.obstacles)
+            frames += self.board.obstacles(self.inputs.obstacles, self.inputs.odom)
         return frames
 
     def _on_tick(self) -> None:
@@ -673,6 +673,8 @@ class Bridge(Node):
             ("frames_received", counts.received),
             ("send_failures", counts.send_failures),
             ("inputs_refused", counts.refused_inputs),
+            ("obstacles_clamped", counts.obstacles_clamped),
+            ("velocities_clamped", counts.velocities_clamped),
         ]
         values += [(f"input_dropped: {k}", v) for k, v in self.dropped_inputs.items()]
         now = self.get_clock().now().to_msg()
