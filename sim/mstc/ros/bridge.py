@@ -59,13 +59,17 @@ from mstc.limits import Held, violation
 from mstc.logs.play import open_bus as open_can_bus
 from mstc.loop.lockstep import decode_event
 from mstc.model import Event, Fault, Obstacle, Pose
+from mstc.plant.scenario import MAX_DT
 from mstc.ros import diagnostics
 from mstc.ros.board import Board
 from mstc.ros.parameters import (
     FIRMWARE_PREFIX,
+    FUTURE_BOUND_S,
     PARAMETERS,
     RANGES,
     RUN_TIME,
+    STALE_PERIODS,
+    STALE_S,
     STEP_SOURCES,
     problem,
 )
@@ -90,6 +94,8 @@ class Inputs:
         self.plan_tau = 0.0
         """How long the reference has moved along the plan [s]."""
         self.stream = StampedReference()
+        self.stream_age = 0
+        """Periods the stream's sample has been sent for."""
         self.obstacles: list[Obstacle] = []
         self.obstacles_at = -math.inf
         """When the obstacles arrived [s, monotonic]."""
@@ -105,6 +111,11 @@ class StepState:
     """Node time of the first step [ns] (its firmware time is 0)."""
     last_ns: int | None = None
     """Node time of the last step [ns]."""
+    t_us: int = 0
+    """Firmware time of the last step [µs]."""
+    offset_us: int = 0
+    """Added to the firmware's time since the first step: late steps move it
+    on by at least the firmware's timeout."""
     status: dict[str, float | int] = field(default_factory=dict)
     trk: dict[str, float | int] = field(default_factory=dict)
     events: list[Event] = field(default_factory=list)
@@ -188,6 +199,8 @@ class Bridge(Node):
         self.joints = [str(p("left_wheel_joint")), str(p("right_wheel_joint"))]
         self.inputs = Inputs()
         self.state = StepState()
+        self.late_steps = 0
+        """Control steps more than MAX_DT after the last (or before it)."""
         self.dropped_inputs: dict[str, int] = {}
         """Messages not used, by reason (wrong frame, bad value, ...)."""
         self.board = Board(
@@ -437,6 +450,9 @@ class Bridge(Node):
         if msg.child_frame_id and msg.child_frame_id != base:
             self._drop(f"odom of {msg.child_frame_id}, not {base}")
             return
+        stamp = _ns(msg.header.stamp)
+        if self.step_source == "odom" and self._ahead(stamp, "odom"):
+            return
         p = msg.pose.pose
         self.inputs.odom = Pose(p.position.x, p.position.y, _yaw(p.orientation))
         self.inputs.odom_new = True
@@ -444,10 +460,24 @@ class Bridge(Node):
             self._send_odometry()
             return
         if self.step_source == "odom":
-            stamp = _ns(msg.header.stamp)
             last = self.state.last_ns
-            if last is None or stamp - last >= (1 - ODOM_STEP_SLACK) * self.period * 1e9:
+            # A stamp before the last step's is a clock that jumped back (a
+            # bag played in a loop, a restarted simulator): a step, which
+            # _control_step takes as late.
+            if (
+                last is None
+                or stamp < last
+                or stamp - last >= (1 - ODOM_STEP_SLACK) * self.period * 1e9
+            ):
                 self._control_step(stamp)
+
+    def _ahead(self, stamp_ns: int, topic: str) -> bool:
+        """A stamp more than FUTURE_BOUND_S ahead of the node's clock: the
+        message is not used, and counted."""
+        if stamp_ns - self.get_clock().now().nanoseconds > FUTURE_BOUND_S * 1e9:
+            self._drop(f"{topic} stamped more than {FUTURE_BOUND_S:g} s ahead of the clock")
+            return True
+        return False
 
     def _on_plan(self, msg: PathMsg) -> None:
         if not self._in_world(msg.header.frame_id, "plan"):
@@ -464,9 +494,13 @@ class Bridge(Node):
     def _on_reference(self, msg: PoseStamped) -> None:
         if not self._in_world(msg.header.frame_id, "reference"):
             return
+        stamp = _ns(msg.header.stamp)
+        if self._ahead(stamp, "reference"):
+            return
         p = msg.pose
         pose = Pose(p.position.x, p.position.y, _yaw(p.orientation))
-        self.inputs.stream.add(_ns(msg.header.stamp), pose)
+        if self.inputs.stream.add(stamp, pose):
+            self.inputs.stream_age = 0
 
     def _on_obstacles(self, msg: MarkerArray) -> None:
         cylinders: dict[int, Marker] = {}
@@ -518,6 +552,14 @@ class Bridge(Node):
         if self.state.running:
             self.inputs.plan_tau += dt
         ref = self._reference()
+        if self.reference_source == "reference" and ref is not None:
+            # A sample is sent for STALE_PERIODS periods, then no more: the
+            # firmware halts (reference) when the stream stops, as it would
+            # on the bus.
+            if self.inputs.stream_age >= STALE_PERIODS:
+                self._drop(f"reference older than {STALE_PERIODS} periods (not sent)")
+                ref = None
+            self.inputs.stream_age += 1
         if ref is not None:
             frames += self.board.reference(ref.pose, ref.v, ref.w)
         timeout = float(self._param("obstacle_timeout"))
@@ -533,14 +575,38 @@ class Bridge(Node):
 
     def _control_step(self, stamp_ns: int) -> None:
         """One lock-step control step at node time @p stamp_ns: odometry (if
-        new), reference, obstacles, STEP."""
+        new), reference, obstacles, STEP.
+
+        A step more than the filter's longest period (MAX_DT) after the last,
+        or before it (the clock jumped back), is late: the controller must not
+        run over such a gap. It goes without its odometry and at least the
+        firmware's timeout (STALE_S) after the last on the firmware's clock,
+        so that the firmware halts (odometry), as it does when the bus is
+        lost; counted (``late_steps``)."""
         st = self.state
         if st.origin_ns is None:
             st.origin_ns = stamp_ns
-        dt = (stamp_ns - st.last_ns) / 1e9 if st.last_ns is not None else 0.0
+        t_us = (stamp_ns - st.origin_ns) // 1000 + st.offset_us
+        late = st.last_ns is not None and not (
+            0 <= stamp_ns - st.last_ns <= MAX_DT * (1 + ODOM_STEP_SLACK) * 1e9
+        )
+        if late:
+            self.late_steps += 1
+            if self.late_steps == 1:
+                self.get_logger().warning(
+                    f"a control step {(stamp_ns - (st.last_ns or 0)) / 1e9:g} s after the last: "
+                    f"more than {MAX_DT:g} s, sent without odometry so that the firmware halts "
+                    "(counted in mstc/status, late_steps)"
+                )
+            least = st.t_us + round(STALE_S * 1e6)
+            if t_us < least:
+                st.offset_us += least - t_us
+                t_us = least
+        dt = (t_us - st.t_us) / 1e6 if st.last_ns is not None else 0.0
         st.last_ns = stamp_ns
-        frames = self._send_odometry() + self._inputs(dt)
-        step, msg = self.board.step((stamp_ns - st.origin_ns) // 1000)
+        st.t_us = t_us
+        frames = ([] if late else self._send_odometry()) + self._inputs(dt)
+        step, msg = self.board.step(t_us)
         st.stamps[step] = _time(stamp_ns)
         st.stamps.pop(step - 8, None)
         self.board.send([*frames, msg])
@@ -673,6 +739,7 @@ class Bridge(Node):
             ("frames_received", counts.received),
             ("send_failures", counts.send_failures),
             ("inputs_refused", counts.refused_inputs),
+            ("late_steps", self.late_steps),
             ("obstacles_clamped", counts.obstacles_clamped),
             ("velocities_clamped", counts.velocities_clamped),
         ]
