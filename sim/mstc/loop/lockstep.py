@@ -537,9 +537,15 @@ class CanController:
         twice at most: a status dropped by the E2E checks (a node on the bus
         that sent frames under the firmware's identifiers) is followed by the
         next."""
+        arm = self.tables.arm_index
         for attempt in range(2):
-            self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+            self._send(self.proto.encode("PARAM_GET", index=arm))
             try:
+                # Its PARAM_VALUE first: read later, it would come among the
+                # answers to the next command about the arm, which outcome()
+                # weighs all (a status left unread by another reader of the
+                # bus would otherwise end the wait before it).
+                self._await(_param_value(arm), "PARAM_VALUE arm")
                 self._await_status(lambda st: True)
                 return
             except ControllerError:
