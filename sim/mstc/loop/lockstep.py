@@ -545,7 +545,10 @@ class CanController:
                 # answers to the next command about the arm, which outcome()
                 # weighs all (a status left unread by another reader of the
                 # bus would otherwise end the wait before it).
-                self._await(_param_value(arm), "PARAM_VALUE arm")
+                try:
+                    self._await(_param_value(arm), "PARAM_VALUE arm")
+                except ControllerError:
+                    pass  # none: the status's wait says why, with the key's advice
                 self._await_status(lambda st: True)
                 return
             except ControllerError:
