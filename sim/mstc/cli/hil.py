@@ -8,12 +8,13 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import can
 
 from mstc.can import secoc
+from mstc.can.vmbridge import Bridge, BridgeBus
 from mstc.cli.common import add_key_argument, run_scenarios
 from mstc.cli.sim import add_output_arguments, tolerance
 from mstc.errors import ControllerError, UsageError
@@ -179,14 +180,25 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def _run_one(
     args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog]:
-    bus = open_bus(args.interface, args.channel)
+    # The vcan VM's bridge (with-vcan --bridge): the bus through it, the
+    # firmware started in the VM, and what crossed it counted.
+    bridge = Bridge.from_env(args.channel) if args.interface == "socketcan" else None
+    bus = bridge.open_bus() if bridge is not None else open_bus(args.interface, args.channel)
+    before = bridge.counters() if bridge is not None else {}
     period_ms = round(1000.0 / args.rate_hz) if args.realtime else None
     firmware = (
-        start_firmware(args.fw, args.channel, args.key_source, period_ms=period_ms)
+        start_firmware(
+            args.fw,
+            args.channel,
+            args.key_source,
+            period_ms=period_ms,
+            prefix=bridge.runner() if bridge is not None else (),
+        )
         if args.fw is not None
         else None
     )
     ctl: CanController
+    crossed: dict[str, int] | None = None
     try:
         if args.realtime:
             ctl = RealtimeLink(bus, scenario.params, key=args.key)
@@ -204,10 +216,31 @@ def _run_one(
             ctl.traffic.frames[:0] = primer
             result = simulate(scenario, ctl, bar)
     finally:
-        bus.shutdown()
+        # The firmware first: the bridge's count is complete once it is quiet.
         if firmware is not None:
             stop_firmware(firmware)
+        try:
+            if bridge is not None and isinstance(bus, BridgeBus):
+                crossed = bridge.tally(bus, before)
+        finally:
+            bus.shutdown()
+    if crossed is not None:
+        result = _with_bridge(result, crossed)
     return bus.channel_info, result, BusLog(args.channel, ctl)
+
+
+def _with_bridge(result: RunResult, crossed: dict[str, int]) -> RunResult:
+    """The bridge's count in the run's timing (real time); a lock-step run,
+    which waits for every answer, cannot have lost a frame without failing,
+    but a frame lost both ways is still an error worth its own message."""
+    lost = crossed["dropped_to_vcan"] + crossed["dropped_to_plant"]
+    if result.timing is None:
+        if lost:
+            raise ControllerError(f"the vcan VM's bridge lost frames: {crossed}")
+        return result
+    return replace(
+        result, timing=replace(result.timing, extra={**result.timing.extra, "bridge": crossed})
+    )
 
 
 # ------------------------------------------------------------ under QEMU
