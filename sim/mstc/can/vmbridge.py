@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import select
 import signal
 import socket
@@ -42,6 +43,7 @@ from mstc.errors import BusError
 
 ENV = "MSTC_VCAN_BRIDGE"
 """The variable with-vcan --bridge sets for its command."""
+_LINE_END = re.compile(rb"[\r\a]")
 CONNECT_TIMEOUT_S = 30.0
 """How long a control request waits for the control line (the guest agent
 takes one client at a time) [s]."""
@@ -243,7 +245,9 @@ class BridgeBus(can.BusABC):
                     raise can.CanOperationError("the vcan VM's bridge closed the connection")
                 if chunk:
                     arrived = time.time()
-                    *lines, self._in = (self._in + chunk).split(b"\r")
+                    # CR ends a line, and so does BEL (the answer to what
+                    # could not be done).
+                    *lines, self._in = _LINE_END.split(self._in + chunk)
                     self._lines += [(arrived, line) for line in lines]
             if deadline is not None and time.monotonic() >= deadline and not self._lines:
                 return None, False

@@ -399,6 +399,26 @@ def _arm(
             return first
 
 
+PHASE_STEPS = 25
+"""Steps whose arrivals place the samples (:func:`_arrival`)."""
+
+
+def _arrival(steps: Sequence[FirmwareStep], period: float) -> float:
+    """When the last of @p steps would have arrived on the firmware's grid:
+    the median, over the last PHASE_STEPS steps, of each arrival moved to the
+    last step by its step count. A single arrival is early or late by the
+    scheduling of the emulated side and of the bridge (milliseconds, under
+    load); samples placed after the first armed step alone would sit that
+    much off the intended phase for the whole run."""
+    last = steps[-1]
+    moved = [
+        s.t + ((last.step - s.step) % (1 << 16)) * period
+        for s in steps[-PHASE_STEPS:]
+        if (last.step - s.step) % (1 << 16) < 2 * PHASE_STEPS
+    ]
+    return float(np.median(moved))
+
+
 def _idle(link: RealtimeLink, until: float) -> None:
     """A bus whose ``recv`` returned before its timeout: wait a little on the
     clock, not in a busy loop."""
@@ -512,7 +532,7 @@ def _run(
     tick = max((last_k + 1) // PROGRESS_UPDATES, 1)
     first = _arm(link, plant.pose, ref.pose, v_r, w_r, period, phase)
     clock = link.now
-    t0 = first.t + phase * period if phase is not None else clock()
+    t0 = _arrival(link.steps, period) + phase * period if phase is not None else clock()
     wheels = (first.left, first.right)
     integrated = t0  # the plant's pose is its pose at this time
 
