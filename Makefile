@@ -115,6 +115,17 @@ hil: deps-hil build/host/mstc-fw build/host/can-bridge $(SIM_KEY_FILE)  ## the p
 	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan -v --bridge --timeout $(HIL_TIMEOUT) -- \
 	  $(MSTC) hil $(if $(REALTIME),--realtime) --key-file $(SIM_KEY_FILE) --channel vcan0 \
 	  --fw build/host/mstc-fw --no-figures --out $(HIL_OUT) $(SCENARIO)
+# The load test's long form (docs/hil.md, "Load"): HIL_LOAD_RUNS real-time runs
+# of both paper scenarios with 0, 1, 2 CPU-bound processes beside them, in one
+# boot; its table goes into docs/hil.md. Exit status 1 when a run did not hold.
+HIL_LOAD_RUNS ?= 5
+.PHONY: hil-load
+hil-load: deps-hil build/host/mstc-fw build/host/can-bridge  ## real-time HIL beside 0, 1, 2 busy cores, HIL_LOAD_RUNS runs each: docs/hil.md "Load"
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) tools/vm/with-vcan -v --bridge --timeout 7200 -- \
+	  $(PY) -m mstc.bench.realtime load --fw build/host/mstc-fw --busy 0 1 2 \
+	  --runs $(HIL_LOAD_RUNS) --out build/bench/hil-load.json; \
+	  status=$$?; $(PY) -m mstc.bench.realtime load-report --doc docs/hil.md \
+	  build/bench/hil-load.json && exit $$status
 
 # ---------------------------------------------------------------------- test
 # pytest with both modes' libraries. $(1): the numeric mode of MSTC_SIL_LIB
