@@ -82,7 +82,9 @@ def run_one(fw: Path, channel: str, path: Path) -> dict[str, object]:
     crossed = None
     try:
         link = RealtimeLink(bus, scenario.params)
-        result = simulate_realtime(scenario, link)
+        result = simulate_realtime(
+            scenario, link, boost=bridge.vm_threads() if bridge is not None else ()
+        )
     finally:
         vm1, t1 = _vm_cpu_s(), time.monotonic()
         stop_firmware(proc)

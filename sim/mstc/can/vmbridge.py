@@ -126,6 +126,20 @@ class Bridge:
             "rejected": delta["host_rejected"],
         }
 
+    @staticmethod
+    def vm_threads() -> list[int]:
+        """The threads of the VM's processes (QEMU's vCPU, its main loop...):
+        with-vcan names their process group in ``$MSTC_VCAN_VM_PGID``."""
+        pgid = os.environ.get("MSTC_VCAN_VM_PGID", "")
+        threads: list[int] = []
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                if stat.read_text().rsplit(")", 1)[1].split()[2] == pgid:
+                    threads += [int(t.name) for t in (stat.parent / "task").iterdir()]
+            except (OSError, IndexError, ValueError):
+                continue
+        return threads
+
     def runner(self) -> list[str]:
         """The command that runs the command after it in the guest (:func:`run`)."""
         return [sys.executable, "-m", "mstc.can.vmbridge", "run", "--"]

@@ -209,6 +209,7 @@ def _run_one(
                 phase=None if args.free_phase else DEFAULT_PHASE,
                 stop_odometry_at=args.stop_odometry_at,
                 progress=bar,
+                boost=bridge.vm_threads() if bridge is not None else (),
             )
         else:
             primer = enter_lockstep(bus) if args.board else []

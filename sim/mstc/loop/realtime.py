@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -435,6 +436,7 @@ def simulate_realtime(
     phase: float | None = DEFAULT_PHASE,
     stop_odometry_at: float | None = None,
     progress: Progress | None = None,
+    boost: Sequence[int] = (),
 ) -> RunResult:
     """Run a scenario in real time against a firmware on its own timer.
 
@@ -460,6 +462,8 @@ def simulate_realtime(
         reference and obstacles still are); the run ends COMM_LOSS_TAIL later.
     :param progress: told how many samples are done, now and then, and closed
         when the run ends.
+    :param boost: threads that run at the real-time priority with the loop
+        (:func:`real_time_priority`): the vcan VM's.
 
     The scenario's odometry noise is added to the pose sent, with the same
     stream as in lock-step, and the sensor's imperfections apply; its
@@ -482,13 +486,57 @@ def simulate_realtime(
         last_k = min(last_k, math.ceil((stop_odometry_at + COMM_LOSS_TAIL) * rate_hz - 1e-9))
     drops_before = dict(link.traffic.firmware_drops)
     try:
-        with _no_gc_pauses():
-            return _run(
+        # On a clock of its own (a test's) a run needs no priority.
+        wall = link.now is time.monotonic
+        with _no_gc_pauses(), real_time_priority(boost, enabled=wall) as priority:
+            result = _run(
                 scenario, link, period, phase, stop_odometry_at, last_k, drops_before, progress
             )
     finally:
         if progress is not None:
             progress.close()
+    assert result.timing is not None
+    extra = {**result.timing.extra, "priority": priority}
+    return replace(result, timing=replace(result.timing, extra=extra))
+
+
+RT_PRIORITY = 1
+"""The SCHED_RR priority of a real-time run: the lowest, above every ordinary
+process; nothing of the run needs more."""
+
+
+@contextmanager
+def real_time_priority(threads: Sequence[int] = (), *, enabled: bool = True) -> Iterator[str]:
+    """This process, and the threads @p threads (the vcan VM's), at the
+    real-time priority SCHED_RR RT_PRIORITY while the run lasts, as a HIL
+    rig runs its real-time parts; back to the normal policy after. Each
+    needs a few milliseconds of CPU per 20 ms period (docs/hil.md, "Load"),
+    and gets them at once however busy the host's cores are with ordinary
+    work. Where this user may not (no root, no CAP_SYS_NICE), they run as they
+    are.
+
+    :returns: (as the context) what was done, for timing.json: ``"SCHED_RR
+        1"`` or why not.
+    """
+    raised: list[int] = []
+    why = f"SCHED_RR {RT_PRIORITY}"
+    for tid in (0, *threads) if enabled else ():
+        try:
+            os.sched_setscheduler(tid, os.SCHED_RR, os.sched_param(RT_PRIORITY))
+            raised.append(tid)
+        except PermissionError:
+            why = "normal (not permitted to raise it)"
+            break
+        except ProcessLookupError:
+            continue
+    try:
+        yield why if raised else ("normal (not permitted to raise it)" if enabled else "normal")
+    finally:
+        for tid in raised:
+            try:
+                os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
+            except (PermissionError, ProcessLookupError):
+                pass
 
 
 @contextmanager
