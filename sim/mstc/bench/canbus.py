@@ -205,20 +205,34 @@ def section(results: list[dict[str, object]]) -> str:
         else:
             b, s, fw = (float(r[k]) for k in ("bare_per_s", "same_traffic_per_s", "firmware_per_s"))  # type: ignore[arg-type]
             added = b / fw - 1
-            lines += [
-                f"Lock-step round trips over `{r['channel']}` ({r['where']}: "
-                + (
-                    "the vcan VM under software emulation, tools/vm/with-vcan"
-                    if r["where"] == "vm"
-                    else "the host's vcan"
+            where = {
+                "vm": "the vcan VM under software emulation, plant and peer both inside "
+                "(tools/vm/with-vcan)",
+                "bridge": "the vcan VM's bridge: the plant on the host, the peer on vcan0 in the "
+                "VM under software emulation (tools/vm/with-vcan --bridge, docs/hil.md)",
+            }.get(str(r["where"]), "the host's vcan")
+
+            def ms(name: str, r: dict[str, object] = r) -> str:
+                t = r.get(f"{name}_round_trip_ms")
+                return (
+                    f"{t['p50']:.2f} / {t['p99']:.2f} / {t['max']:.2f}"
+                    if isinstance(t, dict)
+                    else ""
                 )
-                + f"), {r['count']} per run, median of {len(r['firmware_runs'])} runs, "  # type: ignore[arg-type]
-                "all measured in the same run, the peers taking turns run by run:\n",
-                "| peer answering each STEP frame | round trips per second |",
-                "|---|---|",
-                f"| bare: a C echo, one frame back | {b:,.0f} |",
-                f"| same traffic: a C echo, three frames back | {s:,.0f} |",
-                f"| the firmware, `mstc-fw`: a control step, then 3 frames | {fw:,.0f} |",
+
+            lines += [
+                f"Lock-step round trips over `{r['channel']}` ({where}), {r['count']} per run, "
+                f"median of {len(r['firmware_runs'])} runs, "  # type: ignore[arg-type]
+                "all measured in the same run, the peers taking turns run by run"
+                + (f"; load average {r['load']}" if "load" in r else "")
+                + ":\n",
+                "| peer answering each STEP frame | round trips per second "
+                "| round trip p50 / p99 / max [ms] |",
+                "|---|---|---|",
+                f"| bare: a C echo, one frame back | {b:,.0f} | {ms('bare')} |",
+                f"| same traffic: a C echo, three frames back | {s:,.0f} | {ms('same_traffic')} |",
+                f"| the firmware, `mstc-fw`: a control step, then 3 frames | {fw:,.0f} "
+                f"| {ms('firmware')} |",
                 "",
                 f"The firmware's round trip takes {added:+.0%} over the bare one "
                 f"(target: under +25 %); against the same traffic without a firmware, "

@@ -241,15 +241,16 @@ def load_section(r: dict[str, object]) -> str:
 
 def section(r: dict[str, object]) -> str:
     """The document's section."""
-    where = (
-        "the vcan VM under software emulation (tools/vm/with-vcan), plant and firmware both inside"
-        if r["where"] == "vm"
-        else "the host's vcan"
-    )
+    where = {
+        "vm": "the vcan VM under software emulation (tools/vm/with-vcan), plant and firmware "
+        "both inside",
+        "bridge": "the vcan VM's bridge: the plant on the host, mstc-fw on vcan0 in the VM "
+        "under software emulation (tools/vm/with-vcan --bridge)",
+    }.get(str(r["where"]), "the host's vcan")
     lines = [
         "## Real time: the plant on the wall clock, mstc-fw on its own timer\n",
         f"One `mstc hil --realtime` run per paper scenario over `{r['channel']}` ({where}; "
-        f"load average {r['load']} inside when it ran), against `mstc-fw --realtime --period-ms "
+        f"load average {r['load']} when it ran), against `mstc-fw --realtime --period-ms "
         "20`, each on a fresh firmware; the figures are the runs' timing.json (docs/hil.md). "
         "Period: between WHEEL_CMD arrivals at the plant. Latency: from sending an ODOM_XY frame "
         "to the arrival of the first wheel command computed from it (paired through the "
@@ -272,16 +273,11 @@ def section(r: dict[str, object]) -> str:
         )
     lines += [
         "",
-        "What limits these figures here: the VM is emulated (no KVM), on a 2-core machine, "
-        "and the plant is Python, which runs 20 to 50 times slower there than on the host. "
-        "Its frames cost most of its time (an encoded and sent frame, a received and decoded "
-        "one: each under a millisecond of CPU in the VM), so it needs most of each 20 ms "
-        "period (the plant CPU column; docs/hil.md says what brought it there from over "
-        "20 ms). The VM's vCPUs are descheduled at "
-        "the host's will: on a loaded machine samples come late, some are skipped, and the "
-        "firmware then finds no new odometry at a tick (stale steps). The firmware's own "
-        "period stays on its grid (it stamps steps on it and skips the periods it could not "
-        "keep).",
+        "Through the bridge only vcan0 and the firmware run on the emulated CPU; the plant "
+        "runs on the host (the plant CPU column), and the run holds the plant and the VM at "
+        'the real-time priority SCHED_RR 1 while it lasts (docs/hil.md, "The bridge"). '
+        "The bridge's own latency and what the emulated side costs per period are in "
+        "docs/hil.md; the load test (`make hil-load`) repeats these runs beside busy cores.",
         "",
         "On a workstation with a host vcan (docs/hil.md) there is no emulation: the same run "
         "should show a period within a fraction of a millisecond of 20 ms, a latency of about "
