@@ -46,8 +46,8 @@
 
 /* Frames to the host waiting for room in the port: far more than a control
  * step sends (about ten frames); beyond it they are counted as dropped. */
-#define OUT_MAX  (64u * SLCAN_FRAME_LINE_MAX)
-#define IN_CHUNK 4096u
+#define OUT_MAX         (64u * SLCAN_FRAME_LINE_MAX)
+#define IN_CHUNK        4096u
 /* While no host is connected the port reports a hang-up at once: look again
  * this often [ms] rather than spin. */
 #define NO_HOST_POLL_MS 50
@@ -66,25 +66,25 @@ static void on_signal(int sig)
 
 /* Everything counted since the start. */
 static struct {
-    uint64_t to_vcan;        /* host frames written to vcan0 */
-    uint64_t to_host;        /* vcan0 frames written to the port (or queued for it) */
-    uint64_t vcan_failed;    /* host frames vcan0 refused (hal_can_send) */
-    uint64_t host_rejected;  /* host lines that carried no standard data frame
-                              * for the bus: malformed (BEL), extended or
-                              * remote frames, frames while the channel was
-                              * closed */
-    uint64_t host_dropped;   /* vcan0 frames for the host that found no room */
-    uint64_t closed;         /* vcan0 frames while the channel was closed or no
-                              * host was connected (not sent, as an adapter's) */
-    uint64_t port_writes;    /* write() calls to the port */
-    uint64_t port_reads;     /* read() calls that returned bytes */
+    uint64_t to_vcan;       /* host frames written to vcan0 */
+    uint64_t to_host;       /* vcan0 frames written to the port (or queued for it) */
+    uint64_t vcan_failed;   /* host frames vcan0 refused (hal_can_send) */
+    uint64_t host_rejected; /* host lines that carried no standard data frame
+                             * for the bus: malformed (BEL), extended or
+                             * remote frames, frames while the channel was
+                             * closed */
+    uint64_t host_dropped;  /* vcan0 frames for the host that found no room */
+    uint64_t closed;        /* vcan0 frames while the channel was closed or no
+                             * host was connected (not sent, as an adapter's) */
+    uint64_t port_writes;   /* write() calls to the port */
+    uint64_t port_reads;    /* read() calls that returned bytes */
 } n;
 
 static void print_counters(void)
 {
-    printf("to_vcan %" PRIu64 " to_host %" PRIu64 " vcan_failed %" PRIu64
-           " host_rejected %" PRIu64 " host_dropped %" PRIu64 " closed %" PRIu64
-           " port_writes %" PRIu64 " port_reads %" PRIu64 "\n",
+    printf("to_vcan %" PRIu64 " to_host %" PRIu64 " vcan_failed %" PRIu64 " host_rejected %" PRIu64
+           " host_dropped %" PRIu64 " closed %" PRIu64 " port_writes %" PRIu64
+           " port_reads %" PRIu64 "\n",
            n.to_vcan, n.to_host, n.vcan_failed, n.host_rejected, n.host_dropped, n.closed,
            n.port_writes, n.port_reads);
     fflush(stdout);

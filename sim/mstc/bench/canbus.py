@@ -34,7 +34,7 @@ import can
 import numpy as np
 
 from mstc.bench import ROOT
-from mstc.bench.doc import report, write_result
+from mstc.bench.doc import report, vcan_where, write_result
 from mstc.can.protocol import Protocol, wire_limits
 from mstc.can.vmbridge import Bridge
 from mstc.firmware.sil import SilController
@@ -205,12 +205,7 @@ def section(results: list[dict[str, object]]) -> str:
         else:
             b, s, fw = (float(r[k]) for k in ("bare_per_s", "same_traffic_per_s", "firmware_per_s"))  # type: ignore[arg-type]
             added = b / fw - 1
-            where = {
-                "vm": "the vcan VM under software emulation, plant and peer both inside "
-                "(tools/vm/with-vcan)",
-                "bridge": "the vcan VM's bridge: the plant on the host, the peer on vcan0 in the "
-                "VM under software emulation (tools/vm/with-vcan --bridge, docs/hil.md)",
-            }.get(str(r["where"]), "the host's vcan")
+            where = vcan_where(r["where"])
 
             def ms(name: str, r: dict[str, object] = r) -> str:
                 t = r.get(f"{name}_round_trip_ms")

@@ -30,7 +30,7 @@ from pathlib import Path
 import can
 
 from mstc.bench import ROOT
-from mstc.bench.doc import report, write_result
+from mstc.bench.doc import report, vcan_where, write_result
 from mstc.can import secoc
 from mstc.can.protocol import wire_limits
 from mstc.can.vmbridge import Bridge
@@ -42,23 +42,6 @@ from mstc.report.table import match_events
 SCENARIOS = [ROOT / "sim" / "scenarios" / f"{n}.toml" for n in ("paper-line", "paper-circle")]
 BEGIN = "<!-- bench:realtime:begin (written by make bench, mstc.bench.realtime) -->"
 END = "<!-- bench:realtime:end -->"
-
-
-def _vm_cpu_s() -> float | None:
-    """CPU time [s] of the vcan VM's processes (QEMU: with-vcan --bridge names
-    their process group in $MSTC_VCAN_VM_PGID), or None outside it."""
-    pgid = os.environ.get("MSTC_VCAN_VM_PGID")
-    if not pgid:
-        return None
-    ticks = 0
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if fields[2] == pgid:  # pgrp
-            ticks += int(fields[11]) + int(fields[12])  # utime, stime
-    return ticks / os.sysconf("SC_CLK_TCK")
 
 
 def run_one(fw: Path, channel: str, path: Path) -> dict[str, object]:
@@ -78,7 +61,7 @@ def run_one(fw: Path, channel: str, path: Path) -> dict[str, object]:
         period_ms=20,
         prefix=bridge.runner() if bridge is not None else (),
     )
-    vm0, t0 = _vm_cpu_s(), time.monotonic()
+    vm0, t0 = Bridge.vm_cpu_s(), time.monotonic()
     crossed = None
     try:
         link = RealtimeLink(bus, scenario.params)
@@ -86,7 +69,7 @@ def run_one(fw: Path, channel: str, path: Path) -> dict[str, object]:
             scenario, link, boost=bridge.vm_threads() if bridge is not None else ()
         )
     finally:
-        vm1, t1 = _vm_cpu_s(), time.monotonic()
+        vm1, t1 = Bridge.vm_cpu_s(), time.monotonic()
         stop_firmware(proc)
         if bridge is not None:
             crossed = bridge.tally(bus, before)  # type: ignore[arg-type]
@@ -241,12 +224,7 @@ def load_section(r: dict[str, object]) -> str:
 
 def section(r: dict[str, object]) -> str:
     """The document's section."""
-    where = {
-        "vm": "the vcan VM under software emulation (tools/vm/with-vcan), plant and firmware "
-        "both inside",
-        "bridge": "the vcan VM's bridge: the plant on the host, mstc-fw on vcan0 in the VM "
-        "under software emulation (tools/vm/with-vcan --bridge)",
-    }.get(str(r["where"]), "the host's vcan")
+    where = vcan_where(r["where"], "mstc-fw")
     lines = [
         "## Real time: the plant on the wall clock, mstc-fw on its own timer\n",
         f"One `mstc hil --realtime` run per paper scenario over `{r['channel']}` ({where}; "

@@ -31,7 +31,7 @@ import signal
 import socket
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
@@ -127,18 +127,40 @@ class Bridge:
         }
 
     @staticmethod
-    def vm_threads() -> list[int]:
-        """The threads of the VM's processes (QEMU's vCPU, its main loop...):
-        with-vcan names their process group in ``$MSTC_VCAN_VM_PGID``."""
-        pgid = os.environ.get("MSTC_VCAN_VM_PGID", "")
-        threads: list[int] = []
+    def _vm_processes() -> Iterator[tuple[Path, list[str]]]:
+        """(/proc/PID, the fields of its stat after the name) of each process
+        of the VM: with-vcan names their process group in
+        ``$MSTC_VCAN_VM_PGID``."""
+        pgid = os.environ.get("MSTC_VCAN_VM_PGID")
+        if not pgid:
+            return
         for stat in Path("/proc").glob("[0-9]*/stat"):
             try:
-                if stat.read_text().rsplit(")", 1)[1].split()[2] == pgid:
-                    threads += [int(t.name) for t in (stat.parent / "task").iterdir()]
-            except (OSError, IndexError, ValueError):
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except (OSError, IndexError):
+                continue
+            if fields[2] == pgid:  # the process group
+                yield stat.parent, fields
+
+    @classmethod
+    def vm_threads(cls) -> list[int]:
+        """The threads of the VM's processes (QEMU's vCPU, its main loop...)."""
+        threads: list[int] = []
+        for proc, _ in cls._vm_processes():
+            try:
+                threads += [int(t.name) for t in (proc / "task").iterdir()]
+            except OSError:
                 continue
         return threads
+
+    @classmethod
+    def vm_cpu_s(cls) -> float | None:
+        """CPU time [s] the VM's processes have used, or None outside with-vcan
+        --bridge's VM."""
+        if not os.environ.get("MSTC_VCAN_VM_PGID"):
+            return None
+        ticks = sum(int(f[11]) + int(f[12]) for _, f in cls._vm_processes())  # utime, stime
+        return ticks / os.sysconf("SC_CLK_TCK")
 
     def runner(self) -> list[str]:
         """The command that runs the command after it in the guest (:func:`run`)."""
