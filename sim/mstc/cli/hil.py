@@ -57,7 +57,10 @@ the firmware must halt within 3 control periods and ramp the wheels down
 (docs/safety.md); the run ends {COMM_LOSS_TAIL:g} s later.
 
 On a host whose kernel has no CAN, `make hil` (REALTIME=1 for real time) runs
-this inside a small VM with vcan (docs/hil.md).
+the firmware in a small VM with vcan and this command on the host, through the
+VM's bridge (tools/vm/with-vcan --bridge, docs/hil.md); --fw then starts
+mstc-fw in the VM. A real-time run raises its priority (and the VM's) to
+SCHED_RR 1 while it lasts, where permitted (timing.json's "priority").
 
 A board in the loop (--board) steps on its own timer until its first STEP
 frame: one STEP goes first, before the parameters and the arming, so that
