@@ -420,6 +420,22 @@ def _arrival(steps: Sequence[FirmwareStep], period: float) -> float:
     return float(np.median(moved))
 
 
+def _drift(
+    steps: Sequence[FirmwareStep], t0: float, period: float, phase: float | None, last: float
+) -> float:
+    """How far the firmware's grid has moved from the samples' grid (t0 +
+    k·period) since the run began [s], the nearest to @p last (the previous
+    estimate: it moves by microseconds a period): the samples follow it. Two
+    clocks never run at quite the same rate (a VM's, calibrated
+    at its boot on a busy host, was some 400 ppm off: 8 ms in a 20 s run);
+    samples on a fixed grid would slide towards the firmware's ticks until
+    their frames came after them."""
+    if phase is None or not steps:
+        return last
+    want = _arrival(steps, period) + phase * period - t0 - last
+    return float(last + (want + period / 2) % period - period / 2)
+
+
 def _idle(link: RealtimeLink, until: float) -> None:
     """A bus whose ``recv`` returned before its timeout: wait a little on the
     clock, not in a busy loop."""
@@ -597,6 +613,7 @@ def _run(
     latest = first
     k = 0
     deadline = t0
+    shift = 0.0  # the firmware's grid against the samples' (_drift)
     cpu = time.process_time()
 
     def receive(timeout: float) -> bool:
@@ -649,7 +666,8 @@ def _run(
         modes.append(s.mode if s is not None else Mode.STOP)
         ref.step(period)
         k += 1
-        deadline = t0 + k * period
+        shift = _drift(link.steps, t0, period, phase, shift)
+        deadline = t0 + k * period + shift
         if progress is not None and k % tick == 0:
             progress.update(k)
 
