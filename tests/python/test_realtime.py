@@ -471,9 +471,7 @@ def test_the_samples_follow_a_firmware_whose_clock_runs_slow(
     run = run_virtual(short, sil_lib, period=0.0201)
     tr = truth(run)
     start, end = run_window(run, tr)
-    in_run = [
-        used for (_, used), a in zip(tr.ticks, tr.arrivals, strict=True) if start <= a <= end
-    ]
+    in_run = [used for (_, used), a in zip(tr.ticks, tr.arrivals, strict=True) if start <= a <= end]
     stale = sum(1 for a, b in zip(in_run, in_run[1:], strict=False) if a == b)
     rec = run.bus.record
     odom = [i for i, (t, m) in enumerate(rec.sent) if m.arbitration_id == ODOM_XY and t >= start]
