@@ -82,16 +82,17 @@ $(BENCH_DIR)/can_echo: $(call build_objs,bench-host-float,$(BENCH_ECHO_SRCS))
 	$(CC) $^ -o $@
 $(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so sim/mstc/bench/canbus.py | .venv/.requirements.sha256
 	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) -m mstc.bench.canbus sil --lib $< --out $@
-$(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo sim/mstc/bench/canbus.py | deps-hil
-	tools/vm/with-vcan --timeout 1200 -- $(PY) -m mstc.bench.canbus hil \
+$(BENCH_DIR)/can-hil.json: build/host/mstc-fw build/host/can-bridge $(BENCH_DIR)/can_echo \
+    sim/mstc/bench/canbus.py | deps-hil
+	tools/vm/with-vcan --bridge --timeout 1200 -- $(PY) -m mstc.bench.canbus hil \
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 # Real time: one mstc hil --realtime run per paper scenario against
 # mstc-fw --realtime, its timing.json figures (python -m mstc.bench.realtime).
-$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw sim/mstc/bench/realtime.py \
+$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw build/host/can-bridge sim/mstc/bench/realtime.py \
     $(wildcard sim/mstc/loop/*.py sim/mstc/plant/*.py sim/mstc/can/*.py) | deps-hil
 	MSTC_KEY_FILE=$(TEST_KEY_FILE) MPLCONFIGDIR=$(CURDIR)/build/mplconfig \
-	  tools/vm/with-vcan --timeout 1200 -- \
+	  tools/vm/with-vcan --bridge --timeout 1200 -- \
 	  $(PY) -m mstc.bench.realtime run --fw build/host/mstc-fw --out $@
 
 # Sweeps: scene-steps per second in memory, the batched engine against the
