@@ -115,6 +115,13 @@ static comm_halt_t check_inputs(app_t *a, uint64_t t_us, bool lockstep)
     } else {
         /* every input usable */
     }
+    if (!usable[APP_IN_WHEEL_SPEED]) {
+        /* Timed out: the last measurement is forgotten, and the watch with it
+         * once the wheels stand. What a node sent ends when it stops
+         * (docs/safety.md, "Threat model"), whoever it was. */
+        a->wheel_speed = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
+        a->wheel_speed_watched = a->wheel_speed_watched && wheels_move(a);
+    }
     return why;
 }
 
