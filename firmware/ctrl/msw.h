@@ -93,7 +93,7 @@ typedef struct {
     uint8_t trigger;                 /**< table index that activated the cluster */
     uint8_t followed;                /**< table index followed now */
     avd_side_t side;                 /**< side held while avoiding */
-    uint16_t cluster;                /**< members, a bit per table index */
+    sup_mask_t cluster;              /**< members, a bit per table index */
     uint16_t revision;               /**< sup_t::revision the cluster was found at */
     num_t offset;                    /**< circles followed: D_s + this [m] */
     uint64_t t_act_us;               /**< time of the activation */
@@ -172,7 +172,7 @@ bool msw_moving(const sup_entry_t *e);
  * @param offset  circles followed: D_s + this [m].
  * @param in      robot, reference and distances.
  */
-avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
+avd_side_t msw_choose_side(const sup_t *s, sup_mask_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in);
 
 #endif /* MSTC_MSW_H */

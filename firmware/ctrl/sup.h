@@ -17,6 +17,7 @@
 #ifndef MSTC_SUP_H
 #define MSTC_SUP_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -29,6 +30,56 @@
  *         more: a complete and an activate ("paper"), or one change of mode
  *         and a filter event ("mstc", msw.h). */
 #define SUP_MAX_EVENTS    (SUP_MAX_OBSTACLES + 2u)
+
+/**
+ * @brief A set of table indices: bit i stands for sup_t::obs[i] ("mstc"'s
+ *        clusters, msw.h; the safety filter's caches, cbf.h).
+ *
+ * 64 bits, read and written through the helpers below, which work on its
+ * 32-bit halves: a Cortex-M has no 64-bit shift (a shift by a variable
+ * amount is 7 instructions) and __builtin_ctzll is a call into libgcc
+ * there (__ctzdi2), where a half is one RBIT and one CLZ (make bench).
+ */
+typedef uint64_t sup_mask_t;
+_Static_assert(SUP_MAX_OBSTACLES <= 64u, "a bit of sup_mask_t per table entry");
+
+/** @brief The half of @p m that holds bit @p i (i < 64). */
+static inline uint32_t sup_mask_half(sup_mask_t m, unsigned i)
+{
+    return (uint32_t)(i < 32u ? m : m >> 32u);
+}
+
+/** @brief Whether index @p i (< 64) is in @p m. */
+static inline bool sup_mask_has(sup_mask_t m, unsigned i)
+{
+    return ((sup_mask_half(m, i) >> (i & 31u)) & 1u) != 0u;
+}
+
+/** @brief The set of index @p i (< 64) alone. */
+static inline sup_mask_t sup_mask_of(unsigned i)
+{
+    const sup_mask_t b = (sup_mask_t)(1u << (i & 31u));
+    return i < 32u ? b : b << 32u;
+}
+
+/** @brief The indices 0 .. @p n − 1 (n < 64). */
+static inline sup_mask_t sup_mask_first(unsigned n)
+{
+    return n < 32u ? (sup_mask_t)((1u << n) - 1u)
+                   : ((sup_mask_t)((1u << (n & 31u)) - 1u) << 32u) | UINT32_MAX;
+}
+
+/** @brief The lowest index in @p m, which is not empty: the loops over a set
+ *         visit its members in the order of their indices. */
+static inline unsigned sup_mask_lowest(sup_mask_t m)
+{
+    const uint32_t lo = (uint32_t)m;
+    return lo != 0u ? (unsigned)__builtin_ctz(lo)
+                    : 32u + (unsigned)__builtin_ctz((uint32_t)(m >> 32u));
+}
+
+/** @brief @p m without its lowest index. */
+static inline sup_mask_t sup_mask_without_lowest(sup_mask_t m) { return m & (m - 1u); }
 
 /** @brief Which controller runs. */
 typedef enum {

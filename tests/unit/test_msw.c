@@ -143,7 +143,7 @@ static void test_msw_side_of_a_cluster_uses_its_whole_extent(void)
      * right) alone would say LEFT. */
     const sup_obstacle_t o[2] = { obstacle(1, 0.45, 0.3, 0, 0), obstacle(2, 0.45, -0.1, 0, 0) };
     TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, side_for(0.0, 0.0, 0.5, o, 2));
-    TEST_ASSERT_EQUAL_HEX16(0x0003u, m.cluster);
+    TEST_ASSERT_EQUAL_HEX64(0x0003u, m.cluster);
 }
 
 static void test_msw_side_on_the_path_falls_back_to_the_heading_then_left(void)
@@ -223,13 +223,13 @@ static void test_msw_activates_the_nearest_boundary(void)
     step(&k, o, 2);
     TEST_ASSERT_EQUAL_size_t(1, n_ev);
     TEST_ASSERT_EQUAL_UINT8(2, ev[0].obstacle);
-    TEST_ASSERT_EQUAL_HEX16(0x0003u, m.cluster);
+    TEST_ASSERT_EQUAL_HEX64(0x0003u, m.cluster);
     /* Far apart instead (1.2): each its own cluster; the nearer triggers. */
     setUp();
     const sup_obstacle_t far[2] = { obstacle(1, 3.0, 0.0, 0, 0), obstacle(2, 0.3, -0.294, 0, 0) };
     step(&k, far, 2);
     TEST_ASSERT_EQUAL_UINT8(2, ev[0].obstacle);
-    TEST_ASSERT_EQUAL_HEX16(0x0002u, m.cluster);
+    TEST_ASSERT_EQUAL_HEX64(0x0002u, m.cluster);
 }
 
 static void test_msw_activates_early_for_a_moving_obstacle_on_a_collision_course(void)
@@ -291,7 +291,7 @@ static void test_msw_gapped_cluster_widens_the_circle_followed(void)
     step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
     step(&k, o, 2);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
-    TEST_ASSERT_EQUAL_HEX16(0x0003u, m.cluster);
+    TEST_ASSERT_EQUAL_HEX64(0x0003u, m.cluster);
     TEST_ASSERT_NUM_WITHIN(TOL_M, 0.57, d.circle.d_s);
 }
 
@@ -666,11 +666,11 @@ static void test_msw_obstacles_found_while_avoiding_join_the_cluster(void)
      * overlapping circles) is reported only now: the cluster grows. */
     const sup_obstacle_t o[2] = { obstacle(1, 0.45, 0.0, 0, 0), obstacle(2, 0.45, 0.6, 0, 0) };
     activate_one(&o[0]);
-    TEST_ASSERT_EQUAL_HEX16(0x0001u, m.cluster);
+    TEST_ASSERT_EQUAL_HEX64(0x0001u, m.cluster);
     step_t k = at(0.1, 0.1, 0.5, 0.1, 0.0, 0.0, 20000);
     step(&k, o, 2);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
-    TEST_ASSERT_EQUAL_HEX16(0x0003u, m.cluster);
+    TEST_ASSERT_EQUAL_HEX64(0x0003u, m.cluster);
 }
 
 int main(void)

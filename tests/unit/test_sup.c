@@ -890,6 +890,39 @@ static void test_sup_averaged_reports_that_do_not_move_change_nothing(void)
     TEST_ASSERT_TRUE(plain.obs[0].d_s == s.obs[0].d_s && plain.obs[0].d_act == s.obs[0].d_act);
 }
 
+/* ------------------------------------------- sets of table indices (sup.h) */
+
+static void test_sup_mask_helpers_work_on_both_halves(void)
+{
+    /* Hand values: bit i of a 64-bit word is 2^i. */
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x1), sup_mask_of(0));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x80000000), sup_mask_of(31));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x100000000), sup_mask_of(32));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x800000000000), sup_mask_of(47));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x8000000000000000), sup_mask_of(63));
+    const sup_mask_t m = UINT64_C(0x0000800100000001); /* indices 0, 32, 47 */
+    const bool want[64] = { [0] = true, [32] = true, [47] = true };
+    for (unsigned i = 0; i < 64u; i++) {
+        TEST_ASSERT_EQUAL_INT_MESSAGE(want[i], sup_mask_has(m, i), "index");
+    }
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0), sup_mask_first(0));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x1), sup_mask_first(1));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x7FFFFFFF), sup_mask_first(31));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0xFFFFFFFF), sup_mask_first(32));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x1FFFFFFFF), sup_mask_first(33));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0xFFFFFFFFFFFF), sup_mask_first(48));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x7FFFFFFFFFFFFFFF), sup_mask_first(63));
+    /* Walking m: 0, 32, 47, in that order, then empty. */
+    const unsigned order[3] = { 0, 32, 47 };
+    sup_mask_t rest = m;
+    for (unsigned k = 0; k < 3u; k++) {
+        TEST_ASSERT_EQUAL_UINT(order[k], sup_mask_lowest(rest));
+        rest = sup_mask_without_lowest(rest);
+    }
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0), rest);
+    TEST_ASSERT_EQUAL_UINT(63u, sup_mask_lowest(UINT64_C(0x8000000000000000)));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -927,5 +960,6 @@ int main(void)
     RUN_TEST(test_sup_averaged_reports_take_other_reports_as_they_come);
     RUN_TEST(test_sup_averaged_reports_across_the_gate_or_moving_along_y_come_as_they_are);
     RUN_TEST(test_sup_averaged_reports_that_do_not_move_change_nothing);
+    RUN_TEST(test_sup_mask_helpers_work_on_both_halves);
     return UNITY_END();
 }
