@@ -656,7 +656,7 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     st->faults = 0u;
     /* obstacle_id[] and distance[] hold n_obstacles entries, written by the
      * strategy's step; the rest are left as they were (ctl.h): clearing all
-     * SUP_MAX_OBSTACLES of them cost 90 instructions a step on a Cortex-M4F
+     * SUP_MAX_OBSTACLES of them cost about 100 instructions a step on a Cortex-M4F
      * (make bench). */
     st->n_obstacles = 0u;
     out->n_events = 0;

@@ -416,6 +416,20 @@ static void forget_left(msw_t *m, const sup_t *s, const msw_input_t *in)
     }
 }
 
+/* Each DETECT among the events of this step so far (sup_take_reports())
+ * names an entry that is a new obstacle, in a place that may have held
+ * another (an id that came back elsewhere, sup.h): what the strategy kept
+ * for that index, its count of activations, starts again. */
+static void forget_new(msw_t *m, const sup_t *s, const sup_event_t *events, size_t n_events)
+{
+    for (size_t k = 0; k < n_events; k++) {
+        const uint8_t slot = s->slot[events[k].obstacle]; /* index + 1, 0: not in the table */
+        if (events[k].kind == (uint8_t)SUP_EVENT_DETECT && slot != 0u) {
+            m->acts[slot - 1u] = 0u;
+        }
+    }
+}
+
 static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
                      sup_event_t *events, size_t *n_ev)
 {
@@ -436,6 +450,7 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
+    forget_new(m, s, events, *n_events);
     /* The path is written when first needed (rolled_out()). */
     look_t lk = { .in = in, .rolled = false, .path = &m->path };
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
