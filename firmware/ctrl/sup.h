@@ -25,7 +25,7 @@
 #include "ctrl/pose.h"
 
 /** @brief Obstacles the supervisor can remember at once. */
-#define SUP_MAX_OBSTACLES 16u
+#define SUP_MAX_OBSTACLES 48u
 /** @brief Most events one step can emit: a detect per new obstacle, and two
  *         more: a complete and an activate ("paper"), or one change of mode
  *         and a filter event ("mstc", msw.h). */

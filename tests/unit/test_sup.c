@@ -503,15 +503,16 @@ static void test_sup_drops_non_finite_reports(void)
 
 static void test_sup_table_full_drops_new_obstacles(void)
 {
-    /* 16 obstacles on a circle of 2 m around the robot: all detected (16
-     * DETECT events, fewer than SUP_MAX_EVENTS). A 17th id: dropped once per
-     * step; the 16 known ids are updates, not drops. */
+    /* SUP_MAX_OBSTACLES (48) obstacles on a circle of 2 m around the robot:
+     * all detected (48 DETECT events, fewer than SUP_MAX_EVENTS). Another
+     * id: dropped once per step; the 48 known ids are updates, not drops. */
     sup_obstacle_t r[SUP_MAX_OBSTACLES + 1];
     for (unsigned k = 0; k < SUP_MAX_OBSTACLES; k++) {
         const double a = TU_TWO_PI * (double)k / (double)SUP_MAX_OBSTACLES;
         r[k] = obstacle((uint8_t)(k + 1), 2.0 * cos(a), 2.0 * sin(a), 0.1);
     }
-    r[SUP_MAX_OBSTACLES] = obstacle(17, 0.0, 3.0, 0.1);
+    const uint8_t extra = (uint8_t)(SUP_MAX_OBSTACLES + 1u);
+    r[SUP_MAX_OBSTACLES] = obstacle(extra, 0.0, 3.0, 0.1);
     step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, SUP_MAX_OBSTACLES, 0);
     TEST_ASSERT_EQUAL_size_t(SUP_MAX_OBSTACLES, d.n_events);
     TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, s.n_obs);
@@ -521,7 +522,7 @@ static void test_sup_table_full_drops_new_obstacles(void)
     TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, s.n_obs);
     TEST_ASSERT_EQUAL_UINT16(1, s.dropped);
     for (unsigned k = 0; k < SUP_MAX_OBSTACLES; k++) {
-        TEST_ASSERT_TRUE(s.obs[k].o.id != 17);
+        TEST_ASSERT_TRUE(s.obs[k].o.id != extra);
     }
 }
 
