@@ -65,12 +65,21 @@ typedef struct {
     uint64_t t_us;
 } step_t;
 
+static void decide(const step_t *k);
+
 static void step(const step_t *k, const sup_obstacle_t *obs, size_t n)
 {
     memset(ev, 0, sizeof ev);
     n_ev = 0;
     sup_take_reports(&s, &k->robot, obs, n, k->t_us, ev, &n_ev);
     n_ev = 0; /* only the strategy's own events below */
+    decide(k);
+}
+
+/* The strategy's step at @p k on the table as it is, its events after the
+ * n_ev there already. */
+static void decide(const step_t *k)
+{
     for (uint8_t i = 0; i < s.n_obs; i++) {
         dist[i] = num_hypot(num_sub(s.obs[i].o.x, k->robot.x), num_sub(s.obs[i].o.y, k->robot.y));
     }
@@ -402,6 +411,25 @@ static void test_msw_no_obstacle_is_activated_more_than_twice(void)
     expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
 }
 
+/* Obstacle @p o (id 1, at (0.45, 0)) activated and released twice, from 0
+ * s: the robot at the origin closing on it, then past it (the case of
+ * test_msw_no_obstacle_is_activated_more_than_twice). Returns the time
+ * after the second release. */
+static uint64_t activate_twice(const sup_obstacle_t *o)
+{
+    uint64_t t = 0;
+    for (int round = 0; round < 2; round++) {
+        step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, t);
+        step(&k, o, 1);
+        expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
+        k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, t + 600000);
+        step(&k, o, 1);
+        expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+        t += 1000000;
+    }
+    return t;
+}
+
 /* An obstacle activated twice, whose id then comes back elsewhere (sup.h):
  * 0.15 m across, at (0.45, 0.15), it is another obstacle (DETECT), whose
  * count of activations starts at 0: the robot at the start, 0.474 m from
@@ -415,34 +443,14 @@ static void test_msw_an_id_that_comes_back_elsewhere_is_met_afresh(void)
     for (int far = 0; far < 2; far++) {
         setUp();
         const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
-        uint64_t t = 0;
-        for (int round = 0; round < 2; round++) {
-            step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, t);
-            step(&k, &o, 1);
-            expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
-            k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, t + 600000);
-            step(&k, &o, 1);
-            expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
-            t += 1000000;
-        }
+        const uint64_t t = activate_twice(&o);
         TEST_ASSERT_EQUAL_UINT8(2, m.acts[0]);
         const sup_obstacle_t back = obstacle(1, 0.45, far ? 0.15 : 0.05, 0, 0);
         const step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, t);
         memset(ev, 0, sizeof ev);
         n_ev = 0;
         sup_take_averaged_reports(&s, &k.robot, &back, 1, k.t_us, ev, &n_ev);
-        dist[0] = num_hypot(s.obs[0].o.x, s.obs[0].o.y);
-        const msw_input_t in = { .robot = &k.robot,
-                                 .ref = &k.ref,
-                                 .v_r = tu_num(k.v_r),
-                                 .w_r = NUM_ZERO,
-                                 .cos_th = NUM_ONE,
-                                 .sin_th = NUM_ZERO,
-                                 .v_trk = tu_num(k.v_trk),
-                                 .w_trk = NUM_ZERO,
-                                 .dist = dist,
-                                 .t_us = k.t_us };
-        msw_step(&m, &s, &in, ev, &n_ev, &d);
+        decide(&k);
         if (far) {
             TEST_ASSERT_EQUAL_size_t(2, n_ev);
             TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, ev[0].kind);
@@ -468,16 +476,7 @@ static void test_msw_an_obstacle_left_behind_is_met_afresh(void)
     const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
     for (int leave = 0; leave < 2; leave++) {
         msw_reset(&m);
-        uint64_t t = 0;
-        for (int round = 0; round < 2; round++) {
-            step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, t);
-            step(&k, &o, 1);
-            expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
-            k = at(0.45, 0.41, 0.0, 1.2, 0.45, 0.0, t + 600000);
-            step(&k, &o, 1);
-            expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
-            t += 1000000;
-        }
+        const uint64_t t = activate_twice(&o);
         /* Tracking, 1.5 m (leave) or 1.49 m from the obstacle, heading away
          * from it (+x from (1.95, 0) or (1.94, 0)): no activation either way. */
         step_t k = at(leave ? 1.95 : 1.94, 0.0, 0.0, 2.0, 0.0, 0.0, t);
