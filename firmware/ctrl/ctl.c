@@ -163,6 +163,7 @@ static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ct
             const size_t n = n_reports - at < CTL_SCREEN_CHUNK ? n_reports - at : CTL_SCREEN_CHUNK;
             sup_obstacle_t reports[CTL_SCREEN_CHUNK];
             /* Screened: every value finite (within()), or the report is id 0. */
+            /* cppcheck-suppress knownConditionTrueFalse ; false positive: n is 1 to 16 here */
             for (size_t i = 0; i < n; i++) {
                 screen(&in->obstacles[at + i], with_velocity, &reports[i]);
             }

@@ -58,7 +58,8 @@ static inline bool sup_mask_has(sup_mask_t m, unsigned i)
 /** @brief The set of index @p i (< 64) alone. */
 static inline sup_mask_t sup_mask_of(unsigned i)
 {
-    const sup_mask_t b = (sup_mask_t)(1u << (i & 31u));
+    const uint32_t bit = 1u << (i & 31u); /* in its half */
+    const sup_mask_t b = bit;
     return i < 32u ? b : b << 32u;
 }
 
