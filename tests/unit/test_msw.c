@@ -467,6 +467,26 @@ static void test_msw_an_id_that_comes_back_elsewhere_is_met_afresh(void)
     }
 }
 
+/* Only a DETECT of an entry of the table resets a count (msw.h: the events
+ * before the strategy's are the table's detections): after two activations
+ * of obstacle 1, a filter event naming it and a DETECT of an id the table
+ * does not know (9) leave its count at 2, so the robot closing on it gets no
+ * third activation. */
+static void test_msw_other_events_before_the_step_leave_the_counts(void)
+{
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    const uint64_t t = activate_twice(&o);
+    const step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, t);
+    memset(ev, 0, sizeof ev);
+    ev[0] = (sup_event_t){ .t_us = t, .kind = SUP_EVENT_FILTER, .obstacle = 1 };
+    ev[1] = (sup_event_t){ .t_us = t, .kind = SUP_EVENT_DETECT, .obstacle = 9 };
+    n_ev = 2;
+    decide(&k);
+    TEST_ASSERT_EQUAL_UINT8(2, m.acts[0]);
+    TEST_ASSERT_EQUAL_size_t(2, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+}
+
 /* An obstacle activated twice is met again once the robot has been out of
  * any activation's reach of it, D_act + MSW_CPA_REACH + reach = 0.5 + 1.0 +
  * 0 = 1.5 m here (reach 0: ideal wheels), as on a circular reference's next
@@ -774,6 +794,7 @@ int main(void)
     RUN_TEST(test_msw_no_obstacle_is_activated_more_than_twice);
     RUN_TEST(test_msw_an_obstacle_left_behind_is_met_afresh);
     RUN_TEST(test_msw_an_id_that_comes_back_elsewhere_is_met_afresh);
+    RUN_TEST(test_msw_other_events_before_the_step_leave_the_counts);
     RUN_TEST(test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster);
     RUN_TEST(test_msw_blocked_after_a_full_turn_around);
     RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);
