@@ -132,6 +132,11 @@ typedef enum {
  *         safety filter's. */
 #define COMM_FAULT_CLIPPED 0x20u
 
+/** @brief The largest obstacle id OBSTACLE, OBSTACLE_VEL, STATUS and EVENT
+ *         carry (6 bits, 1..48 in mstc.dbc): as many as the supervisor's
+ *         table holds (SUP_MAX_OBSTACLES, checked in comm.c). */
+#define COMM_OBSTACLE_ID_MAX 48u
+
 /** @brief Heartbeat states. */
 typedef enum {
     COMM_STATE_INIT = 0,
@@ -328,7 +333,8 @@ int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t fau
 /**
  * @brief STATUS from the status of a step.
  *
- * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
+ * mode and side from @p st; obstacle = st->active_obstacle (saturated at
+ * COMM_OBSTACLE_ID_MAX);
  * faults = st->faults bits 0..2 and 4 (CTL_FAULT_*), bit 3 = @p frame_faults, bit 5
  * = a value clipped since the previous STATUS, this one's e and distance
  * included (then cleared); e; distance = centre distance to the active

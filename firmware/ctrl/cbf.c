@@ -275,15 +275,15 @@ CBF_INLINE bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, 
     if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;
     }
-    const uint64_t bit = (uint64_t)((uint64_t)1 << i);
     cbf_t *const f = fr->f;
-    if ((f->cached & bit) == 0u) {
+    if (!sup_mask_has(f->cached, i)) {
         num_t h;
         bool doomed;
         constraint_of(fr, &e[i], &f->k[i], &h, &doomed);
-        f->cached = (uint64_t)(f->cached | bit);
+        const sup_mask_t bit = sup_mask_of(i);
+        f->cached |= bit;
         if (doomed) {
-            f->doomed = (uint64_t)(f->doomed | bit);
+            f->doomed |= bit;
         }
     }
     *k = fr->f->k[i];
@@ -535,7 +535,7 @@ uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const k
     for (uint8_t i = 0; i < n; i++) {
         const sup_entry_t *o = &e[i];
         /* Only a moving obstacle is ever doomed (brake_margin). */
-        if ((f->doomed & (uint64_t)((uint64_t)1 << i)) == 0u) {
+        if (!sup_mask_has(f->doomed, i)) {
             continue;
         }
         const cbf_constraint_t *k = &f->k[i];

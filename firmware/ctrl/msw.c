@@ -63,18 +63,10 @@ bool msw_moving(const sup_entry_t *e)
     return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
 }
 
-static bool in_mask(uint64_t mask, unsigned i) { return (mask & ((uint64_t)1 << i)) != 0u; }
-
-/* The lowest table index in @p mask (not 0), and @p mask without it: the
- * loops over a cluster visit its members alone, in the order of their
- * indices. */
-static unsigned lowest(uint64_t mask) { return (unsigned)__builtin_ctzll(mask); }
-static uint64_t without_lowest(uint64_t mask) { return (uint64_t)(mask & (mask - 1u)); }
-
 /* @p mask's indices within the table. */
-static uint64_t in_table(uint64_t mask, const sup_t *s)
+static sup_mask_t in_table(sup_mask_t mask, const sup_t *s)
 {
-    return (uint64_t)(mask & (((uint64_t)1 << s->n_obs) - 1u));
+    return mask & sup_mask_first(s->n_obs);
 }
 
 /* Time since @p t0, 0 if the clock went backwards. */
@@ -172,7 +164,7 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
 
 /* The activation candidate (table index) outside the entries of @p skip,
  * or -1. */
-static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint64_t skip)
+static int candidate(const msw_t *m, const sup_t *s, look_t *lk, sup_mask_t skip)
 {
     const msw_input_t *in = lk->in;
     /* In locals, that the calls below leave in registers: the loop runs for
@@ -187,7 +179,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint64_t skip)
         /* Beyond any trigger's reach first: the cheapest test, and most
          * entries fail it. */
         if (dist[i] >= num_add(num_add(e->d_act, MSW_CPA_REACH), reach) ||
-            m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
+            m->acts[i] >= MSW_MAX_ACTIVATIONS || sup_mask_has(skip, i)) {
             continue;
         }
         bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e) &&
@@ -212,7 +204,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint64_t skip)
  * MSW_FOLLOW_AHEAD ahead of it, whichever is smaller. Looking ahead hands the
  * robot over to the next member before it reaches a concave corner of the
  * cluster, where the tangent of the member it leaves points into the next. */
-static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint64_t cluster,
+static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, sup_mask_t cluster,
                               uint8_t fallback, avd_side_t side)
 {
     num_t tx = in->cos_th;
@@ -234,8 +226,8 @@ static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint64_t cl
     num_t best_b = NUM_MAX;
     uint8_t next = fallback;
     num_t next_b = NUM_MAX;
-    for (uint64_t rest = in_table(cluster, s); rest != 0u; rest = without_lowest(rest)) {
-        const unsigned i = lowest(rest);
+    for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
+        const unsigned i = sup_mask_lowest(rest);
         const sup_entry_t *e = &s->obs[i];
         const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
         const num_t b = num_sub(num_min(dist[i], ahead), e->d_s);
@@ -269,7 +261,7 @@ static num_t asin01(num_t x) { return num_atan2(x, num_sqrt(num_sub(NUM_ONE, num
  * left edge, max(offset + ρ); passing on the right to its right edge,
  * min(offset − ρ). The side whose edge lies nearer the path wins; NONE when
  * they are within MSW_TIE_OFFSET. */
-static avd_side_t side_by_reference(const sup_t *s, uint64_t cluster, num_t offset,
+static avd_side_t side_by_reference(const sup_t *s, sup_mask_t cluster, num_t offset,
                                     const msw_input_t *in)
 {
     num_t ey;
@@ -281,16 +273,14 @@ static avd_side_t side_by_reference(const sup_t *s, uint64_t cluster, num_t offs
     }
     num_t left = num_neg(NUM_MAX);
     num_t right = NUM_MAX;
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (in_mask(cluster, i)) {
-            const sup_entry_t *e = &s->obs[i];
-            /* Signed offset of the centre to the left of the path. */
-            const num_t off = num_sub(num_mul(ex, num_sub(e->o.y, in->ref->y)),
-                                      num_mul(ey, num_sub(e->o.x, in->ref->x)));
-            const num_t rho = num_add(e->d_s, offset);
-            left = num_max(left, num_add(off, rho));
-            right = num_min(right, num_sub(off, rho));
-        }
+    for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
+        const sup_entry_t *e = &s->obs[sup_mask_lowest(rest)];
+        /* Signed offset of the centre to the left of the path. */
+        const num_t off = num_sub(num_mul(ex, num_sub(e->o.y, in->ref->y)),
+                                  num_mul(ey, num_sub(e->o.x, in->ref->x)));
+        const num_t rho = num_add(e->d_s, offset);
+        left = num_max(left, num_add(off, rho));
+        right = num_min(right, num_sub(off, rho));
     }
     /* Deviation to pass left: left (if > 0); to pass right: −right. */
     const num_t lean = num_add(num_max(left, NUM_ZERO), num_min(right, NUM_ZERO));
@@ -308,31 +298,30 @@ static avd_side_t side_by_reference(const sup_t *s, uint64_t cluster, num_t offs
  * L and R its left and right edges, LEFT when L + R < 0, i.e. the smaller
  * turn; for one obstacle this is eq. (11)-(12). NONE when |L + R| is within
  * 2 MSW_SIDE_DEADBAND. */
-static avd_side_t side_by_bearing(const sup_t *s, uint64_t cluster, num_t offset,
+static avd_side_t side_by_bearing(const sup_t *s, sup_mask_t cluster, num_t offset,
                                   const msw_input_t *in, num_t theta);
 
-static avd_side_t side_by_heading(const sup_t *s, uint64_t cluster, num_t offset,
+static avd_side_t side_by_heading(const sup_t *s, sup_mask_t cluster, num_t offset,
                                   const msw_input_t *in)
 {
     return side_by_bearing(s, cluster, offset, in, in->robot->theta);
 }
 
-static avd_side_t side_by_bearing(const sup_t *s, uint64_t cluster, num_t offset,
+static avd_side_t side_by_bearing(const sup_t *s, sup_mask_t cluster, num_t offset,
                                   const msw_input_t *in, num_t theta)
 {
     const pose_t *p = in->robot;
     num_t left = num_neg(NUM_MAX);
     num_t right = NUM_MAX;
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (in_mask(cluster, i)) {
-            const sup_entry_t *e = &s->obs[i];
-            const num_t psi = num_wrap(
-                num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), theta));
-            const num_t rho = num_add(e->d_s, offset);
-            const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
-            left = num_max(left, num_add(psi, half));
-            right = num_min(right, num_sub(psi, half));
-        }
+    for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
+        const unsigned i = sup_mask_lowest(rest);
+        const sup_entry_t *e = &s->obs[i];
+        const num_t psi =
+            num_wrap(num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), theta));
+        const num_t rho = num_add(e->d_s, offset);
+        const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
+        left = num_max(left, num_add(psi, half));
+        right = num_min(right, num_sub(psi, half));
     }
     const num_t lean = num_add(left, right);
     const num_t band = num_add(MSW_SIDE_DEADBAND, MSW_SIDE_DEADBAND);
@@ -345,7 +334,7 @@ static avd_side_t side_by_bearing(const sup_t *s, uint64_t cluster, num_t offset
     return AVD_SIDE_NONE;
 }
 
-avd_side_t msw_choose_side(const sup_t *s, uint64_t cluster, uint8_t trigger, num_t offset,
+avd_side_t msw_choose_side(const sup_t *s, sup_mask_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in)
 {
     const sup_entry_t *t = &s->obs[trigger];
@@ -371,7 +360,7 @@ avd_side_t msw_choose_side(const sup_t *s, uint64_t cluster, uint8_t trigger, nu
 /* The tracking command's roll-out keeps every entry beyond its D_s + margin
  * and, for an entry within its D_act + margin, never comes more than the
  * margin closer than it is now (the robot is no longer closing on it). */
-static bool way_clear_of(const sup_t *s, look_t *lk, uint64_t mask)
+static bool way_clear_of(const sup_t *s, look_t *lk, sup_mask_t mask)
 {
     const msw_input_t *in = lk->in;
     const rol_path_t *path = rolled_out(lk);
@@ -379,7 +368,7 @@ static bool way_clear_of(const sup_t *s, look_t *lk, uint64_t mask)
     const num_t reach = in->reach;
     const unsigned n = s->n_obs;
     for (unsigned i = 0; i < n; i++) {
-        if (!in_mask(mask, i)) {
+        if (!sup_mask_has(mask, i)) {
             continue;
         }
         const sup_entry_t *e = &s->obs[i];
@@ -404,7 +393,7 @@ static bool way_clear_of(const sup_t *s, look_t *lk, uint64_t mask)
     return true;
 }
 
-static bool way_clear(const sup_t *s, look_t *lk) { return way_clear_of(s, lk, ~(uint64_t)0); }
+static bool way_clear(const sup_t *s, look_t *lk) { return way_clear_of(s, lk, ~(sup_mask_t)0); }
 
 /* p1, eq. (19)-(20), as sup_p1() but on squares (no root): u1·u2 > 0 and
  * |u2| >= D_act (the paper's |u2| > D_act but for the equality). */
@@ -435,8 +424,9 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
     }
     /* p1 for every static member (a moving one may never let the reference
      * pass it: way_clear() judges it by its motion). */
-    for (uint64_t rest = in_table(m->cluster, s); rest != 0u; rest = without_lowest(rest)) {
-        const sup_entry_t *e = &s->obs[lowest(rest)];
+    for (sup_mask_t rest = in_table(m->cluster, s); rest != 0u;
+         rest = sup_mask_without_lowest(rest)) {
+        const sup_entry_t *e = &s->obs[sup_mask_lowest(rest)];
         if (m->held) {
             break; /* judged by the reference's progress below */
         }
@@ -570,6 +560,20 @@ static void forget_left(msw_t *m, const sup_t *s, const msw_input_t *in)
     }
 }
 
+/* Each DETECT among the events of this step so far (sup_take_reports())
+ * names an entry that is a new obstacle, in a place that may have held
+ * another (an id that came back elsewhere, sup.h): what the strategy kept
+ * for that index, its count of activations, starts again. */
+static void forget_new(msw_t *m, const sup_t *s, const sup_event_t *events, size_t n_events)
+{
+    for (size_t k = 0; k < n_events; k++) {
+        const uint8_t slot = s->slot[events[k].obstacle]; /* index + 1, 0: not in the table */
+        if (events[k].kind == (uint8_t)SUP_EVENT_DETECT && slot != 0u) {
+            m->acts[slot - 1u] = 0u;
+        }
+    }
+}
+
 static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
                      sup_event_t *events, size_t *n_ev)
 {
@@ -594,6 +598,7 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
+    forget_new(m, s, events, *n_events);
     /* The path is written when first needed (rolled_out()). */
     look_t lk = { .in = in, .rolled = false, .aiming = m->aimed, .path = &m->path };
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */

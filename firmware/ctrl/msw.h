@@ -18,7 +18,9 @@
  *   on one side, chosen once (msw_choose_side()) and held. At most
  *   MSW_MAX_ACTIVATIONS activations per obstacle and encounter: the count
  *   starts again once the robot, tracking, is beyond D_act + MSW_CPA_REACH +
- *   reach of it (out of any activation's reach).
+ *   reach of it (out of any activation's reach), and when its entry becomes
+ *   another obstacle (a DETECT of its id: an id that came back elsewhere,
+ *   sup.h).
  * - **Avoidance**: the avoidance law follows the member of the cluster
  *   nearest from the robot or just ahead of it, on a circle MSW_FOLLOW_OFFSET
  *   beyond its D_s (moving with it), or, when the cluster has gaps, half the
@@ -97,7 +99,7 @@ typedef struct {
     uint8_t second;                  /**< the next member, blended in near a notch */
     num_t weight;                    /**< weight of followed in the blend */
     avd_side_t side;                 /**< side held while avoiding */
-    uint64_t cluster;                /**< members, a bit per table index */
+    sup_mask_t cluster;              /**< members, a bit per table index */
     uint16_t revision;               /**< sup_t::revision the cluster was found at */
     num_t offset;                    /**< circles followed: D_s + this [m] */
     uint64_t t_act_us;               /**< time of the activation */
@@ -157,7 +159,10 @@ void msw_reset(msw_t *m);
  * @param s      the supervisor's table (sup_take_reports()).
  * @param in     robot, reference, tracking command, distances, time.
  * @param events where events go (SUP_MAX_EVENTS entries).
- * @param[in,out] n_events events already there; at most one is added.
+ * @param[in,out] n_events events already there: this step's detections
+ *               (sup_take_reports()), each of which names an entry that is
+ *               a new obstacle, whose activation count is forgotten (an id
+ *               that came back elsewhere, sup.h); at most one is added.
  * @param[out] d the decision.
  */
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
@@ -191,7 +196,7 @@ bool msw_moving(const sup_entry_t *e);
  * @param offset  circles followed: D_s + this [m].
  * @param in      robot, reference and distances.
  */
-avd_side_t msw_choose_side(const sup_t *s, uint64_t cluster, uint8_t trigger, num_t offset,
+avd_side_t msw_choose_side(const sup_t *s, sup_mask_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in);
 
 #endif /* MSTC_MSW_H */

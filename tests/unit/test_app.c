@@ -56,9 +56,10 @@ static void send_ref(double x, double y, double theta, double v, double w)
 static void send_obstacle(uint8_t id, double x, double y, uint8_t radius_cm)
 {
     uint8_t p[8] = { 0 };
+    /* x, y in 2^-11 m (mstc.dbc). */
     const struct mstc_dbc_obstacle_t o = { .obstacle_id = id,
-                                           .obstacle_x = (int32_t)lround(x * 4096.0),
-                                           .obstacle_y = (int32_t)lround(y * 4096.0),
+                                           .obstacle_x = (int32_t)lround(x * 2048.0),
+                                           .obstacle_y = (int32_t)lround(y * 2048.0),
                                            .obstacle_radius = radius_cm };
     mstc_dbc_obstacle_pack(p, &o, 8);
     feed(tf_seal(COMM_ID_OBSTACLE, p));

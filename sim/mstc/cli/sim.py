@@ -36,7 +36,7 @@ is in docs/scenarios.md.
 Every scenario is validated before any runs: a bad file prints one line
 (file, key, problem) and nothing is written. Values the CAN frames cannot
 carry (positions beyond 128 m, speeds beyond 16, radii beyond 2.55 m or off
-whole centimetres, more than 15 obstacles) and runs of more than 100,000
+whole centimetres, more than 48 obstacles) and runs of more than 100,000
 control steps are refused (docs/scenarios.md). A run longer than a second
 shows its progress on stderr (--quiet hides it).
 
