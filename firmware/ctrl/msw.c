@@ -412,7 +412,9 @@ static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
         }
         const num_t cx = num_sub(e->o.x, in->robot->x);
         const num_t cy = num_sub(e->o.y, in->robot->y);
-        num_t t = len > NUM_C(0.001) ? num_div(num_add(num_mul(cx, sx), num_mul(cy, sy)), num_mul(len, len)) : NUM_ZERO;
+        num_t t = len > NUM_C(0.001)
+                      ? num_div(num_add(num_mul(cx, sx), num_mul(cy, sy)), num_mul(len, len))
+                      : NUM_ZERO;
         t = num_clamp(t, NUM_ZERO, NUM_ONE);
         const num_t dx = num_sub(cx, num_mul(t, sx));
         const num_t dy = num_sub(cy, num_mul(t, sy));
@@ -431,8 +433,8 @@ void msw_slide_aim(msw_t *m, const pose_t *robot, const pose_t *host)
     num_t uy;
     num_t ux;
     num_sincos(host->theta, &uy, &ux);
-    const num_t a = num_add(num_mul(num_sub(robot->x, host->x), ux),
-                            num_mul(num_sub(robot->y, host->y), uy));
+    const num_t a =
+        num_add(num_mul(num_sub(robot->x, host->x), ux), num_mul(num_sub(robot->y, host->y), uy));
     const num_t along = num_add(num_max(a, NUM_ZERO), MSW_AIM_LEAD);
     m->aim.x = num_add(host->x, num_mul(along, ux));
     m->aim.y = num_add(host->y, num_mul(along, uy));
@@ -455,7 +457,8 @@ static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
         m->mark_y = in->robot->y;
         m->t_mark_us = in->t_us;
     }
-    return (!m->held && num_abs(m->turned) > MSW_LOOP) || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
+    return (!m->held && num_abs(m->turned) > MSW_LOOP) ||
+           since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
 }
 
 /* The cluster of the trigger, and the offset of the circles followed round
@@ -531,8 +534,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
     /* The reference waits for the robot: it stands still though its
      * velocity says it moves (a reference at rest, v_r = 0, does not). */
-    const bool still =
-        in->v_r != NUM_ZERO && in->host->x == m->ref_x && in->host->y == m->ref_y;
+    const bool still = in->v_r != NUM_ZERO && in->host->x == m->ref_x && in->host->y == m->ref_y;
     if (m->state == (uint8_t)MSW_AVOID) {
         if (still) {
             m->held = true;

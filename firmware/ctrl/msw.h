@@ -75,32 +75,32 @@
 #include "ctrl/sup.h"
 
 /** @name Tunables of the strategy (docs/strategy.md says how each was chosen). @{ */
-#define MSW_DWELL_US        500000u     /**< least time in avoidance [µs] */
-#define MSW_ROLLOUT         NUM_C(1.0)  /**< roll-out horizon [s] */
-#define MSW_ROLLOUT_INV     NUM_C(1.0)  /**< 1 / MSW_ROLLOUT [1/s] */
-#define MSW_MARGIN          NUM_C(0.02) /**< hysteresis margin of the release [m] */
-#define MSW_ACT_MARGIN      NUM_C(0.03) /**< activation: roll-out within D_s + this [m] */
+#define MSW_DWELL_US        500000u      /**< least time in avoidance [µs] */
+#define MSW_ROLLOUT         NUM_C(1.0)   /**< roll-out horizon [s] */
+#define MSW_ROLLOUT_INV     NUM_C(1.0)   /**< 1 / MSW_ROLLOUT [1/s] */
+#define MSW_MARGIN          NUM_C(0.02)  /**< hysteresis margin of the release [m] */
+#define MSW_ACT_MARGIN      NUM_C(0.03)  /**< activation: roll-out within D_s + this [m] */
 #define MSW_CLEAR_MARGIN    NUM_C(0.045) /**< way clear: roll-out beyond D_s + this [m] */
-#define MSW_AIM_LEAD        NUM_C(0.3)  /**< aim: this far along the line past the robot [m] */
-#define MSW_SHORTCUT_MIN    NUM_C(0.3)  /**< aim taken this far past the waiting reference [m] */
-#define MSW_SHORTCUT_MARGIN NUM_C(0.08) /**< aim's segment beyond D_s + this [m] */
-#define MSW_FOLLOW_OFFSET   NUM_C(0.08) /**< circle followed: D_s + this [m] */
-#define MSW_FOLLOW_AHEAD    NUM_C(0.25) /**< member chosen from this far ahead too [m] */
-#define MSW_FILL_MARGIN     NUM_C(0.02) /**< gapped cluster: circles overlap by [m] */
-#define MSW_MAX_ACTIVATIONS 2u          /**< per obstacle and encounter */
-#define MSW_CPA_HORIZON     NUM_C(3.0)  /**< closest-approach horizon [s] */
-#define MSW_CPA_MARGIN      NUM_C(0.05) /**< closest approach below D_s + this activates [m] */
-#define MSW_CPA_REACH       NUM_C(1.0)  /**< ... when within D_act + this [m] */
-#define MSW_RELEASE_REACH   NUM_C(1.0)  /**< no release while closing within D_act + this [m] */
-#define MSW_LOOP            NUM_C(6.8)  /**< turned once around (2π + 0.5): blocked [rad] */
-#define MSW_STILL_US        5000000u    /**< within MSW_PROGRESS this long: blocked [µs] */
-#define MSW_PROGRESS        NUM_C(0.1)  /**< least motion that counts as progress [m] */
-#define MSW_SIDE_DEADBAND   NUM_C(0.05) /**< side ties below this [rad] */
-#define MSW_TIE_OFFSET      NUM_C(0.05) /**< reference-side ties below this [m] */
-#define MSW_MOVING_SPEED    NUM_C(0.02) /**< slower obstacles count as static [m/s] */
-#define MSW_SPEED_MIN       NUM_C(0.5)  /**< least avoidance speed, times |v_r| */
-#define MSW_CATCH_UP        NUM_C(1.0)  /**< largest speed: |v_r| + this [m/s] */
-#define MSW_REGULATE        NUM_C(2.0)  /**< speed regulated within D_act + this [m] */
+#define MSW_AIM_LEAD        NUM_C(0.3)   /**< aim: this far along the line past the robot [m] */
+#define MSW_SHORTCUT_MIN    NUM_C(0.3)   /**< aim taken this far past the waiting reference [m] */
+#define MSW_SHORTCUT_MARGIN NUM_C(0.08)  /**< aim's segment beyond D_s + this [m] */
+#define MSW_FOLLOW_OFFSET   NUM_C(0.08)  /**< circle followed: D_s + this [m] */
+#define MSW_FOLLOW_AHEAD    NUM_C(0.25)  /**< member chosen from this far ahead too [m] */
+#define MSW_FILL_MARGIN     NUM_C(0.02)  /**< gapped cluster: circles overlap by [m] */
+#define MSW_MAX_ACTIVATIONS 2u           /**< per obstacle and encounter */
+#define MSW_CPA_HORIZON     NUM_C(3.0)   /**< closest-approach horizon [s] */
+#define MSW_CPA_MARGIN      NUM_C(0.05)  /**< closest approach below D_s + this activates [m] */
+#define MSW_CPA_REACH       NUM_C(1.0)   /**< ... when within D_act + this [m] */
+#define MSW_RELEASE_REACH   NUM_C(1.0)   /**< no release while closing within D_act + this [m] */
+#define MSW_LOOP            NUM_C(6.8)   /**< turned once around (2π + 0.5): blocked [rad] */
+#define MSW_STILL_US        5000000u     /**< within MSW_PROGRESS this long: blocked [µs] */
+#define MSW_PROGRESS        NUM_C(0.1)   /**< least motion that counts as progress [m] */
+#define MSW_SIDE_DEADBAND   NUM_C(0.05)  /**< side ties below this [rad] */
+#define MSW_TIE_OFFSET      NUM_C(0.05)  /**< reference-side ties below this [m] */
+#define MSW_MOVING_SPEED    NUM_C(0.02)  /**< slower obstacles count as static [m/s] */
+#define MSW_SPEED_MIN       NUM_C(0.5)   /**< least avoidance speed, times |v_r| */
+#define MSW_CATCH_UP        NUM_C(1.0)   /**< largest speed: |v_r| + this [m/s] */
+#define MSW_REGULATE        NUM_C(2.0)   /**< speed regulated within D_act + this [m] */
 /** @} */
 
 /** @brief State of the strategy. */

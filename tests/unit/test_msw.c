@@ -674,8 +674,8 @@ static void test_msw_blocked_after_a_full_turn_around(void)
         const double th = 0.5 * (double)i;
         /* The reference on its schedule, creeping on behind (one standing
          * still would wait for the robot, test_msw_held_*). */
-        step_t k = at(0.45 - 0.41 * sin(th), 0.41 * cos(th), th, -1.0 + 0.001 * (double)i, 0.0,
-                      0.0, 20000 * i);
+        step_t k = at(0.45 - 0.41 * sin(th), 0.41 * cos(th), th, -1.0 + 0.001 * (double)i, 0.0, 0.0,
+                      20000 * i);
         step(&k, &o, 1);
         if (n_ev != 0) {
             break;
