@@ -31,6 +31,7 @@ void msw_reset(msw_t *m)
     m->held = false;
     m->ahead = false;
     m->aimed = false;
+    m->reversed = false;
     for (size_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
         m->acts[i] = 0u;
     }
@@ -363,23 +364,29 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
     }
     /* p1 for every static member (a moving one may never let the reference
      * pass it: way_clear() judges it by its motion). */
-    for (sup_mask_t rest = in_table(m->cluster, s); rest != 0u;
-         rest = sup_mask_without_lowest(rest)) {
-        const sup_entry_t *e = &s->obs[sup_mask_lowest(rest)];
-        if (m->held) {
-            break; /* judged by the reference's progress below */
-        }
-        if (!msw_moving(e) && !p1(in, e)) {
-            return false;
-        }
-    }
     if (m->held) {
         /* Bug2: back on the path further along than before, or VisBug: the
          * tracking command of this step goes to the aim (a point of the
          * reference's line ahead, shortcut()) and its way is clear. */
         return (m->ahead && way_clear_of(s, lk, m->cluster)) || (lk->aiming && way_clear(s, lk));
     }
+    for (sup_mask_t rest = in_table(m->cluster, s); rest != 0u;
+         rest = sup_mask_without_lowest(rest)) {
+        const sup_entry_t *e = &s->obs[sup_mask_lowest(rest)];
+        if (!msw_moving(e) && !p1(in, e)) {
+            return false;
+        }
+    }
     return way_clear(s, lk);
+}
+
+/* The robot's position along the line of @p host (the reference as
+ * received: its position and heading) [m], and the line's direction. */
+static num_t along_line(const pose_t *robot, const pose_t *host, num_t *ux, num_t *uy)
+{
+    num_sincos(host->theta, uy, ux);
+    return num_add(num_mul(num_sub(robot->x, host->x), *ux),
+                   num_mul(num_sub(robot->y, host->y), *uy));
 }
 
 /* The reference waits (held): a point P of its line ahead of it, the foot of
@@ -389,10 +396,7 @@ static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
 {
     num_t uy;
     num_t ux;
-    num_sincos(in->host->theta, &uy, &ux);
-    const num_t rx = num_sub(in->robot->x, in->host->x);
-    const num_t ry = num_sub(in->robot->y, in->host->y);
-    const num_t a = num_add(num_mul(rx, ux), num_mul(ry, uy));
+    const num_t a = along_line(in->robot, in->host, &ux, &uy);
     if (a < MSW_SHORTCUT_MIN) {
         return false;
     }
@@ -428,13 +432,24 @@ static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
     return true;
 }
 
+/* Held, the boundary has led the robot MSW_TURN_BACK behind the waiting
+ * reference along its line: it follows the boundary the other way (once an
+ * activation; the Bug family's reversal of direction). */
+static void turn_back(msw_t *m, const msw_input_t *in)
+{
+    num_t ux;
+    num_t uy;
+    if (!m->reversed && along_line(in->robot, in->host, &ux, &uy) < num_neg(MSW_TURN_BACK)) {
+        m->side = m->side == AVD_SIDE_LEFT ? AVD_SIDE_RIGHT : AVD_SIDE_LEFT;
+        m->reversed = true;
+    }
+}
+
 void msw_slide_aim(msw_t *m, const pose_t *robot, const pose_t *host)
 {
     num_t uy;
     num_t ux;
-    num_sincos(host->theta, &uy, &ux);
-    const num_t a =
-        num_add(num_mul(num_sub(robot->x, host->x), ux), num_mul(num_sub(robot->y, host->y), uy));
+    const num_t a = along_line(robot, host, &ux, &uy);
     const num_t along = num_add(num_max(a, NUM_ZERO), MSW_AIM_LEAD);
     m->aim.x = num_add(host->x, num_mul(along, ux));
     m->aim.y = num_add(host->y, num_mul(along, uy));
@@ -517,6 +532,7 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
     m->held = false;
     m->ahead = false;
     m->aimed = false;
+    m->reversed = false;
     m->turned = NUM_ZERO;
     m->last_theta = in->robot->theta;
     m->mark_x = in->robot->x;
@@ -557,6 +573,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         }
         m->followed = nearest_member(s, in, m->cluster, m->followed);
         if (m->held) {
+            turn_back(m, in);
             m->aimed = shortcut(m, s, in); /* the aim of the next step's tracking */
         }
         if (release_ok(m, s, &lk)) {

@@ -41,9 +41,12 @@
  *   MSW_SHORTCUT_MIN past the reference and within what the sensor covers,
  *   clears every entry by D_s + MSW_SHORTCUT_MARGIN: tracking then aims at
  *   that line (msw_t::aim, MSW_AIM_LEAD ahead of the robot's foot on it)
- *   and the release needs only the roll-out clear. While held, circling
- *   does not count as blocked (a boundary is followed as long as it takes;
- *   standing still still does).
+ *   and the release needs only the roll-out clear. When the boundary has
+ *   led the robot MSW_TURN_BACK behind the waiting reference along its
+ *   line, it follows the boundary the other way (once an activation: the
+ *   Bug family's reversal of direction). While held, circling does not
+ *   count as blocked (a boundary is followed as long as it takes; standing
+ *   still still does).
  * - **Release** (COMPLETE), with a reference on its schedule: after
  *   MSW_DWELL_US in avoidance, when p1 holds for every static member and the
  *   roll-out of the tracking command over MSW_ROLLOUT keeps every static
@@ -81,6 +84,7 @@
 #define MSW_MARGIN          NUM_C(0.02)  /**< hysteresis margin of the release [m] */
 #define MSW_ACT_MARGIN      NUM_C(0.03)  /**< activation: roll-out within D_s + this [m] */
 #define MSW_CLEAR_MARGIN    NUM_C(0.045) /**< way clear: roll-out beyond D_s + this [m] */
+#define MSW_TURN_BACK       NUM_C(1.0)   /**< held: side turned back this far behind [m] */
 #define MSW_AIM_LEAD        NUM_C(0.3)   /**< aim: this far along the line past the robot [m] */
 #define MSW_SHORTCUT_MIN    NUM_C(0.3)   /**< aim taken this far past the waiting reference [m] */
 #define MSW_SHORTCUT_MARGIN NUM_C(0.08)  /**< aim's segment beyond D_s + this [m] */
@@ -129,6 +133,7 @@ typedef struct {
     bool held;                       /**< the reference stood still since the activation */
     bool ahead;                      /**< and moved on after that */
     bool aimed;                      /**< tracking aims at aim, not the reference */
+    bool reversed;                   /**< the side was turned back (turn_back()) */
     pose_t aim;                      /**< a point of the reference's line ahead of it */
     num_t aim_rx, aim_ry;            /**< the reference when the aim was taken */
     uint8_t acts[SUP_MAX_OBSTACLES]; /**< activations per table index, this encounter */

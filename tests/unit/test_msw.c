@@ -642,6 +642,29 @@ static void test_msw_held_circling_is_no_block(void)
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
 }
 
+static void test_msw_held_turns_back_once_when_led_behind_the_reference(void)
+{
+    /* Held over obstacle 1 (side LEFT), the reference waiting at (0.1, 0)
+     * heading +x. At (−0.85, 0.3) the robot is 0.95 behind it along its
+     * line, less than MSW_TURN_BACK = 1.0: the side is kept. At (−0.95,
+     * 0.3), 1.05 behind: RIGHT from then on; further back still, it stays
+     * RIGHT (once an activation). */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    hold_over_one(&o, 1);
+    step_t k = at(-0.85, 0.3, TU_PI, 0.1, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, m.side);
+    k.robot = tu_pose(-0.95, 0.3, TU_PI);
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, m.side);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, d.side);
+    k.robot = tu_pose(-1.5, 0.3, TU_PI);
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, m.side);
+}
+
 static void test_msw_no_activation_beside_a_clear_way(void)
 {
     /* Closing within D_act, but the tracking command's roll-out (0.5 m
@@ -928,6 +951,7 @@ int main(void)
     RUN_TEST(test_msw_held_aims_at_the_reference_line_when_a_straight_way_is_clear);
     RUN_TEST(test_msw_held_takes_no_shortcut_past_an_obstacle);
     RUN_TEST(test_msw_held_circling_is_no_block);
+    RUN_TEST(test_msw_held_turns_back_once_when_led_behind_the_reference);
     RUN_TEST(test_msw_no_activation_beside_a_clear_way);
     RUN_TEST(test_msw_blocked_after_a_full_turn_around);
     RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);
