@@ -229,3 +229,28 @@ def test_pick_draws_the_same_subset_for_the_same_seed() -> None:
     assert [w.index for w in a] == [w.index for w in pick(worlds, "10-49", 5, 7)]
     assert all(10 <= w.index <= 49 for w in a) and len(a) == 5
     assert [w.index for w in pick(worlds, "3,1,2-4", None, 0)] == [1, 2, 3, 4]
+
+
+def test_mstc_sim_runs_a_barn_world_and_summarises_it(
+    tmp_path: Path, sil_lib: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # World 0 from the vendored file, the straight line, "mstc": a scenario as
+    # docs/barn.md writes it, through the lock-step loop in memory.
+    scenario = tmp_path / "world0.toml"
+    scenario.write_text(
+        "[robot]\npose = [-2.0, 3.0, 1.5708]\n"
+        "[reference]\npath = [[-2.0, 3.0], [-2.0, 13.0]]\nspeed = 0.5\ngoal_radius = 1.0\n"
+        f'[world]\nfile = "{WORLDS}"\nworld = 0\n'
+        '[sim]\nduration = 100.0\ndt = 0.02\nintegrator = "euler"\n'
+        "[params]\nR_m = 0.27\nR_ob = 0.075\nD_s = 0.35\nD_act = 0.5\nD_det = 1.5\n"
+        'wheel_radius = 0.098\ntrack_width = 0.376\nstrategy = "mstc"\n'
+    )
+    out = tmp_path / "out"
+    args = ["sim", "--bus", "memory", "--lib", str(sil_lib), "--out", str(out), "-q"]
+    assert main([*args, str(scenario)]) == 0
+    printed = capsys.readouterr().out
+    cylinders = len(load_worlds(WORLDS)[0].cylinders)
+    assert f"world         {cylinders} obstacles ({WORLDS}, world 0): nearest O" in printed
+    assert "came within D_s" in printed
+    assert " O150 " not in printed  # the world's obstacles are not listed one by one
+    assert {p.name for p in (out / "world0").iterdir()} >= {"path.png", "trace.csv", "events.json"}
