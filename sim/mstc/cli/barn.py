@@ -27,7 +27,7 @@ from mstc.barn.run import (
 from mstc.barn.summary import gallery, lines, picked_runs, table, worst
 from mstc.barn.worlds import WORLDS, load_worlds, pick, published_dwa
 from mstc.can.library import LIB_ENV
-from mstc.cli.common import ROOT, library
+from mstc.cli.common import ROOT, add_lib_argument, library
 from mstc.errors import EXIT_OK, SuiteError, UsageError, writing
 from mstc.report.progress import ProgressBar
 from mstc.sweep.folder import locked
@@ -149,12 +149,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default=Path("build/barn"),
         help="output folder (default: %(default)s)",
     )
-    parser.add_argument(
-        "--lib",
-        metavar="PATH",
-        type=Path,
-        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
-    )
+    add_lib_argument(parser)
     parser.add_argument(
         "--workers",
         metavar="N",
