@@ -349,12 +349,14 @@ DWA_BATCH = 4
 """Runs of "dwa" in one task (each runs alone, in Python)."""
 
 
-def tasks(planned: Sequence[tuple[World, Run]], workers: int) -> list[Task]:
+def tasks(
+    planned: Sequence[tuple[World, Run]], workers: int, per_worker: int = PER_WORKER
+) -> list[Task]:
     """@p planned cut into tasks: the firmware's runs in batches that give
-    every worker :data:`PER_WORKER` at least (at most :data:`BATCH` runs), the DWA's in
+    every worker @p per_worker at least (at most :data:`BATCH` runs), the DWA's in
     tasks of :data:`DWA_BATCH`; each task carries the worlds it names."""
     firmware = sum(1 for _, r in planned if r.strategy in FIRMWARE)
-    size = max(1, min(BATCH, math.ceil(firmware / max(1, PER_WORKER * workers))))
+    size = max(1, min(BATCH, math.ceil(firmware / max(1, per_worker * workers))))
     out: list[Task] = []
     start = 0
     while start < len(planned):
