@@ -344,7 +344,12 @@ with all 300), so smaller batches cost no more: paper and mstc, both
 references, 300 worlds took 85.6 s of CPU in batches of 300 and 86.5 s in
 batches of 75, with the same rows; smaller ones share the workers better."""
 PER_WORKER = 8
-"""Tasks of the firmware's runs a worker gets at least (while :data:`BATCH` allows)."""
+"""Tasks of the firmware's runs a worker gets at least (while :data:`BATCH`
+and :data:`LEAST` allow)."""
+LEAST = 32
+"""Fewest runs of a task of the firmware's, while every worker still gets
+one: a step costs about 1 ms whatever the batch's width, so a batch of a few
+runs costs nearly as much as one of 32."""
 DWA_BATCH = 4
 """Runs of "dwa" in one task (each runs alone, in Python)."""
 
@@ -357,6 +362,7 @@ def tasks(
     tasks of :data:`DWA_BATCH`; each task carries the worlds it names."""
     firmware = sum(1 for _, r in planned if r.strategy in FIRMWARE)
     size = max(1, min(BATCH, math.ceil(firmware / max(1, per_worker * workers))))
+    size = max(size, min(LEAST, math.ceil(firmware / max(1, workers))))
     out: list[Task] = []
     start = 0
     while start < len(planned):
