@@ -105,26 +105,3 @@ void avd_turn(const avd_gains_t *g, const pose_t *robot, num_t cos_th, num_t sin
     *e = num_wrap(num_sub(dir.beta, robot->theta));
     *w = num_add(dir.beta_dot, num_mul(g->k2, *e));
 }
-
-void avd_turn_blend(const avd_gains_t *g, const pose_t *robot, num_t cos_th, num_t sin_th,
-                    const avd_obstacle_t *o, const avd_obstacle_t *o2, num_t weight,
-                    avd_side_t side, num_t v, num_t *w, num_t *e)
-{
-    if (weight >= NUM_ONE) {
-        avd_turn(g, robot, cos_th, sin_th, o, side, v, w, e);
-        return;
-    }
-    const num_t xd = num_sub(num_mul(v, cos_th), o->vx);
-    const num_t yd = num_sub(num_mul(v, sin_th), o->vy);
-    avd_dir_t d1;
-    direction(robot, o->x, o->y, o->d_s, side, xd, yd, &d1);
-    const num_t xd2 = num_sub(num_mul(v, cos_th), o2->vx);
-    const num_t yd2 = num_sub(num_mul(v, sin_th), o2->vy);
-    avd_dir_t d2;
-    direction(robot, o2->x, o2->y, o2->d_s, side, xd2, yd2, &d2);
-    const num_t rest = num_sub(NUM_ONE, weight);
-    const num_t beta = num_wrap(num_add(d1.beta, num_mul(rest, num_wrap(num_sub(d2.beta, d1.beta)))));
-    const num_t beta_dot = num_add(num_mul(weight, d1.beta_dot), num_mul(rest, d2.beta_dot));
-    *e = num_wrap(num_sub(beta, robot->theta));
-    *w = num_add(beta_dot, num_mul(g->k2, *e));
-}

@@ -100,10 +100,4 @@ typedef struct {
 void avd_turn(const avd_gains_t *g, const pose_t *robot, num_t cos_th, num_t sin_th,
               const avd_obstacle_t *o, avd_side_t side, num_t v, num_t *w, num_t *e);
 
-/** @brief avd_turn() between two circles: the directions β of each blended,
- *         @p weight (in [0, 1]) of @p o's (experimental). */
-void avd_turn_blend(const avd_gains_t *g, const pose_t *robot, num_t cos_th, num_t sin_th,
-                    const avd_obstacle_t *o, const avd_obstacle_t *o2, num_t weight,
-                    avd_side_t side, num_t v, num_t *w, num_t *e);
-
 #endif /* MSTC_AVD_H */

@@ -5,14 +5,19 @@
 #include <errno.h>
 
 #include "ctrl/oset.h"
-#define KNOB_AWAY 1
-#define KNOB_ROTATE 1
+
+/* Avoiding, a heading error e with cos e below this slows the robot by
+ * cos e / this (to a turn in place beyond a right angle): the circle's
+ * direction is met by turning, not by a wide arc into the next member. */
+#define CTL_TURN_FIRST NUM_C(0.7)
 
 /* |x| <= lim, for a finite x only, without FE_INVALID for a NaN (num.h). */
 static bool within(num_t x, num_t lim) { return num_within(x, lim); }
 
-/* The robot's width 2 R_m: the gap below which obstacles form a cluster. */
-static num_t robot_width(const ctl_params_t *p) { (void)p; return num_add(MSW_FOLLOW_OFFSET, MSW_FOLLOW_OFFSET); }
+/* The gap between two obstacles' D_s circles below which they form one
+ * cluster: where the circles the robot follows round them (D_s +
+ * MSW_FOLLOW_OFFSET) overlap, so that following one leads into the other. */
+static num_t cluster_gap(void) { return num_add(MSW_FOLLOW_OFFSET, MSW_FOLLOW_OFFSET); }
 
 static sup_params_t sup_params_of(const ctl_params_t *p)
 {
@@ -37,7 +42,7 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     }
     const sup_params_t sp = sup_params_of(&c->p);
     sup_init(&c->sup, &sp);
-    msw_init(&c->msw, robot_width(&c->p));
+    msw_init(&c->msw, cluster_gap());
     cbf_init(&c->cbf);
     act_init(&c->act);
     act_configure(&c->act, &c->p.kin, c->p.wheel_accel, CBF_LOOKAHEAD);
@@ -61,7 +66,7 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
         c->p = *p;
         const sup_params_t sp = sup_params_of(p);
         sup_set_params(&c->sup, &sp);
-        c->msw.width = robot_width(p);
+        c->msw.width = cluster_gap();
         act_configure(&c->act, &p->kin, p->wheel_accel, CBF_LOOKAHEAD);
         /* A lowered max_wheel_speed holds from the next step: the rate
          * limiter starts from commands within it. */
@@ -376,8 +381,8 @@ static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const whee
     if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {
         return v; /* ahead of its reference: it waits */
     }
-    if (KNOB_AWAY && pe->e.e1 < NUM_ZERO) {
-        return v; /* heading away from it: turns in place */
+    if (back ? pe->e.e1 > NUM_ZERO : pe->e.e1 < NUM_ZERO) {
+        return v; /* its reference behind its direction of motion: it turns first */
     }
     const unsigned n = c->sup.n_obs;
     for (unsigned i = 0; i < n; i++) {
@@ -437,14 +442,10 @@ static void avoid_command(const ctl_t *c, const ctl_input_t *in, const wheels_no
     const num_t slowest = c->msw.held ? num_abs(in->v_r) : num_mul(MSW_SPEED_MIN, num_abs(in->v_r));
     const num_t cap = num_max(num_mul(d->circle.d_s, lim->sqrt_gamma), slowest);
     *v = num_clamp(v23, slowest, num_min(speed_limit(in->v_r), cap));
-    avd_turn_blend(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, &d->circle2, d->weight,
-                   d->side, *v, w, e);
-    if (KNOB_ROTATE) {
-        /* Far off the direction to follow: turn first (in place beyond a right angle). */
-        const num_t ce = num_cos(*e);
-        if (ce < NUM_C(0.7)) {
-            *v = num_mul(*v, num_max(num_div(ce, NUM_C(0.7)), NUM_ZERO));
-        }
+    avd_turn(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, d->side, *v, w, e);
+    const num_t ce = num_cos(*e);
+    if (ce < CTL_TURN_FIRST) {
+        *v = num_mul(*v, num_max(num_div(ce, CTL_TURN_FIRST), NUM_ZERO));
     }
     const num_t corr = num_mul(c->p.avd.k2, *e);
     const num_t most = c->memo.avoid_most; /* 2γ'/k2 */

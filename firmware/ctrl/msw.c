@@ -4,19 +4,6 @@
 
 #include "ctrl/oset.h"
 #include "ctrl/rol.h"
-#define KNOB_TANGENT 0
-#define KNOB_BLEND 0
-#define KNOB_SHORTCUT 1
-#define KNOB_FACING 0
-#define KNOB_SIDE 0
-#define MSW_FACING NUM_C(0.5)
-#define MSW_AIM_LEAD NUM_C(0.3)
-#define MSW_SHORTCUT_MIN NUM_C(0.3)
-#define MSW_SHORTCUT_MARGIN NUM_C(0.08)
-#define MSW_BLEND NUM_C(0.1)
-#define MSW_BLEND_INV NUM_C(5.0)
-static uint8_t m_second;
-static num_t m_weight;
 
 void msw_init(msw_t *m, num_t width)
 {
@@ -205,49 +192,22 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, sup_mask_t skip
  * robot over to the next member before it reaches a concave corner of the
  * cluster, where the tangent of the member it leaves points into the next. */
 static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, sup_mask_t cluster,
-                              uint8_t fallback, avd_side_t side)
+                              uint8_t fallback)
 {
-    num_t tx = in->cos_th;
-    num_t ty = in->sin_th;
-    if (KNOB_TANGENT) {
-        const sup_entry_t *f = &s->obs[fallback];
-        const num_t nx = num_sub(in->robot->x, f->o.x);
-        const num_t ny = num_sub(in->robot->y, f->o.y);
-        const num_t r = oset_distance(nx, ny);
-        if (r > NUM_C(0.001)) {
-            tx = side == AVD_SIDE_LEFT ? num_div(ny, r) : num_neg(num_div(ny, r));
-            ty = side == AVD_SIDE_LEFT ? num_neg(num_div(nx, r)) : num_div(nx, r);
-        }
-    }
-    const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, tx));
-    const num_t qy = num_add(in->robot->y, num_mul(MSW_FOLLOW_AHEAD, ty));
+    const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, in->cos_th));
+    const num_t qy = num_add(in->robot->y, num_mul(MSW_FOLLOW_AHEAD, in->sin_th));
     const num_t *const dist = in->dist;
     uint8_t best = fallback;
     num_t best_b = NUM_MAX;
-    uint8_t next = fallback;
-    num_t next_b = NUM_MAX;
     for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
         const unsigned i = sup_mask_lowest(rest);
         const sup_entry_t *e = &s->obs[i];
         const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
         const num_t b = num_sub(num_min(dist[i], ahead), e->d_s);
         if (b < best_b) {
-            next = best;
-            next_b = best_b;
             best = (uint8_t)i;
             best_b = b;
-        } else if (b < next_b) {
-            next = (uint8_t)i;
-            next_b = b;
-        } else {
-            /* farther */
         }
-    }
-    m_second = next;
-    m_weight = NUM_ONE;
-    if (KNOB_BLEND && next != best && next_b < num_add(best_b, MSW_BLEND)) {
-        /* 0.5 at a tie, 1 at MSW_BLEND apart. */
-        m_weight = num_add(NUM_C(0.5), num_mul(num_sub(next_b, best_b), MSW_BLEND_INV));
     }
     return best;
 }
@@ -298,17 +258,8 @@ static avd_side_t side_by_reference(const sup_t *s, sup_mask_t cluster, num_t of
  * L and R its left and right edges, LEFT when L + R < 0, i.e. the smaller
  * turn; for one obstacle this is eq. (11)-(12). NONE when |L + R| is within
  * 2 MSW_SIDE_DEADBAND. */
-static avd_side_t side_by_bearing(const sup_t *s, sup_mask_t cluster, num_t offset,
-                                  const msw_input_t *in, num_t theta);
-
 static avd_side_t side_by_heading(const sup_t *s, sup_mask_t cluster, num_t offset,
                                   const msw_input_t *in)
-{
-    return side_by_bearing(s, cluster, offset, in, in->robot->theta);
-}
-
-static avd_side_t side_by_bearing(const sup_t *s, sup_mask_t cluster, num_t offset,
-                                  const msw_input_t *in, num_t theta)
 {
     const pose_t *p = in->robot;
     num_t left = num_neg(NUM_MAX);
@@ -317,7 +268,7 @@ static avd_side_t side_by_bearing(const sup_t *s, sup_mask_t cluster, num_t offs
         const unsigned i = sup_mask_lowest(rest);
         const sup_entry_t *e = &s->obs[i];
         const num_t psi =
-            num_wrap(num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), theta));
+            num_wrap(num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), p->theta));
         const num_t rho = num_add(e->d_s, offset);
         const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
         left = num_max(left, num_add(psi, half));
@@ -349,31 +300,29 @@ avd_side_t msw_choose_side(const sup_t *s, sup_mask_t cluster, uint8_t trigger, 
             return AVD_SIDE_LEFT;
         }
     }
-    avd_side_t side = KNOB_SIDE ? side_by_bearing(s, cluster, offset, in, in->ref->theta)
-                                : side_by_reference(s, cluster, offset, in);
+    avd_side_t side = side_by_reference(s, cluster, offset, in);
     if (side == AVD_SIDE_NONE) {
-        side = KNOB_SIDE ? side_by_reference(s, cluster, offset, in) : side_by_heading(s, cluster, offset, in);
+        side = side_by_heading(s, cluster, offset, in);
     }
     return side == AVD_SIDE_NONE ? AVD_SIDE_LEFT : side;
 }
 
-/* The tracking command's roll-out keeps every entry beyond its D_s + margin
- * and, for an entry within its D_act + margin, never comes more than the
- * margin closer than it is now (the robot is no longer closing on it). */
+/* The tracking command's roll-out keeps every static entry of @p mask beyond
+ * its D_s + MSW_CLEAR_MARGIN (that it turns away from an entry it passes
+ * close to is not asked: the release's p1 and the safety filter see to
+ * that); a moving one is judged by its motion. */
 static bool way_clear_of(const sup_t *s, look_t *lk, sup_mask_t mask)
 {
     const msw_input_t *in = lk->in;
     const rol_path_t *path = rolled_out(lk);
     const num_t *const dist = in->dist; /* locals, as in candidate() */
-    const num_t reach = in->reach;
     const unsigned n = s->n_obs;
     for (unsigned i = 0; i < n; i++) {
         if (!sup_mask_has(mask, i)) {
             continue;
         }
         const sup_entry_t *e = &s->obs[i];
-        num_t clear = num_add(e->d_s, num_add(MSW_ACT_MARGIN, NUM_C(0.015)));
-        (void)reach;
+        const num_t clear = num_add(e->d_s, MSW_CLEAR_MARGIN);
         /* A moving entry: the robot no longer closes on it within reach of an
          * activation, and its closest approach over the activation's horizon
          * stays beyond what activates by the margin (hysteresis). */
@@ -406,16 +355,6 @@ static bool p1(const msw_input_t *in, const sup_entry_t *e)
     return dot > NUM_ZERO && !oset_within(u2x, u2y, e->d_act);
 }
 
-/* The reference (or the aim) lies ahead of the robot: in the half-plane its
- * heading points into. */
-static bool facing(const msw_input_t *in)
-{
-    num_t sr;
-    num_t cr;
-    num_sincos(in->ref->theta, &sr, &cr);
-    return num_add(num_mul(cr, in->cos_th), num_mul(sr, in->sin_th)) > MSW_FACING;
-}
-
 static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
 {
     const msw_input_t *in = lk->in;
@@ -438,9 +377,6 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
         /* Bug2: back on the path further along than before, or VisBug: the
          * tracking command of this step goes to the aim (a point of the
          * reference's line ahead, shortcut()) and its way is clear. */
-        if (KNOB_FACING && !facing(in)) {
-            return false; /* turning round by the boundary could be held by the filter */
-        }
         return (m->ahead && way_clear_of(s, lk, m->cluster)) || (lk->aiming && way_clear(s, lk));
     }
     return way_clear(s, lk);
@@ -476,7 +412,9 @@ static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
         }
         const num_t cx = num_sub(e->o.x, in->robot->x);
         const num_t cy = num_sub(e->o.y, in->robot->y);
-        num_t t = len > NUM_C(0.001) ? num_div(num_add(num_mul(cx, sx), num_mul(cy, sy)), num_mul(len, len)) : NUM_ZERO;
+        num_t t = len > NUM_C(0.001)
+                      ? num_div(num_add(num_mul(cx, sx), num_mul(cy, sy)), num_mul(len, len))
+                      : NUM_ZERO;
         t = num_clamp(t, NUM_ZERO, NUM_ONE);
         const num_t dx = num_sub(cx, num_mul(t, sx));
         const num_t dy = num_sub(cy, num_mul(t, sy));
@@ -495,21 +433,12 @@ void msw_slide_aim(msw_t *m, const pose_t *robot, const pose_t *host)
     num_t uy;
     num_t ux;
     num_sincos(host->theta, &uy, &ux);
-    const num_t a = num_add(num_mul(num_sub(robot->x, host->x), ux),
-                            num_mul(num_sub(robot->y, host->y), uy));
+    const num_t a =
+        num_add(num_mul(num_sub(robot->x, host->x), ux), num_mul(num_sub(robot->y, host->y), uy));
     const num_t along = num_add(num_max(a, NUM_ZERO), MSW_AIM_LEAD);
     m->aim.x = num_add(host->x, num_mul(along, ux));
     m->aim.y = num_add(host->y, num_mul(along, uy));
     m->aim.theta = host->theta;
-}
-
-/* An obstacle outside the cluster calls for an activation and is nearer than
- * the member followed: the avoidance ends here, and the next step activates
- * the other's cluster. */
-static bool hand_over(const msw_t *m, const sup_t *s, look_t *lk)
-{
-    const int other = candidate(m, s, lk, m->cluster);
-    return other >= 0 && boundary(s, lk->in, (unsigned)other) < boundary(s, lk->in, m->followed);
 }
 
 /* Progress watchdog while avoiding: true when no progress is possible, that
@@ -528,7 +457,8 @@ static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
         m->mark_y = in->robot->y;
         m->t_mark_us = in->t_us;
     }
-    return (!m->held && num_abs(m->turned) > MSW_LOOP) || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
+    return (!m->held && num_abs(m->turned) > MSW_LOOP) ||
+           since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
 }
 
 /* The cluster of the trigger, and the offset of the circles followed round
@@ -602,7 +532,9 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
     /* The path is written when first needed (rolled_out()). */
     look_t lk = { .in = in, .rolled = false, .aiming = m->aimed, .path = &m->path };
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
-    const bool still = in->host->x == m->ref_x && in->host->y == m->ref_y;
+    /* The reference waits for the robot: it stands still though its
+     * velocity says it moves (a reference at rest, v_r = 0, does not). */
+    const bool still = in->v_r != NUM_ZERO && in->host->x == m->ref_x && in->host->y == m->ref_y;
     if (m->state == (uint8_t)MSW_AVOID) {
         if (still) {
             m->held = true;
@@ -623,13 +555,11 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         if (s->revision != m->revision) {
             find_cluster(m, s); /* obstacles joined or moved */
         }
-        m->followed = nearest_member(s, in, m->cluster, m->followed, m->side);
-        m->second = m_second;
-        m->weight = m_weight;
-        if (KNOB_SHORTCUT && m->held) {
+        m->followed = nearest_member(s, in, m->cluster, m->followed);
+        if (m->held) {
             m->aimed = shortcut(m, s, in); /* the aim of the next step's tracking */
         }
-        if (release_ok(m, s, &lk) || (MSW_HAND_OVER && hand_over(m, s, &lk))) {
+        if (release_ok(m, s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);
@@ -645,9 +575,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         const int i = candidate(m, s, &lk, 0u);
         if (i >= 0) {
             activate(m, s, in, (uint8_t)i, events, n_events);
-            m->followed = nearest_member(s, in, m->cluster, (uint8_t)i, m->side);
-            m->second = m_second;
-            m->weight = m_weight;
+            m->followed = nearest_member(s, in, m->cluster, (uint8_t)i);
         }
     }
 
@@ -664,15 +592,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         d->circle.vx = f->o.vx;
         d->circle.vy = f->o.vy;
         d->circle.d_s = num_add(f->d_s, m->offset);
-        const sup_entry_t *g = &s->obs[m->second];
-        d->circle2.x = g->o.x;
-        d->circle2.y = g->o.y;
-        d->circle2.vx = g->o.vx;
-        d->circle2.vy = g->o.vy;
-        d->circle2.d_s = num_add(g->d_s, m->offset);
-        d->weight = m->weight;
     } else {
-        d->weight = NUM_ONE;
         /* No circle: zero, field by field (a compound literal costs a
          * memset). */
         d->circle.x = NUM_ZERO;

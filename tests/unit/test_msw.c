@@ -85,6 +85,8 @@ static void decide(const step_t *k)
     }
     const msw_input_t in = { .robot = &k->robot,
                              .ref = &k->ref,
+                             .host = &k->ref,
+                             .range = NUM_C(1.5),
                              .v_r = tu_num(k->v_r),
                              .w_r = tu_num(k->w_r),
                              .cos_th = num_cos(k->robot.theta),
@@ -199,8 +201,8 @@ static void test_msw_activates_within_d_act_when_closing_whatever_the_reference(
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
     TEST_ASSERT_EQUAL_PTR(&s.obs[0], d.followed);
     TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, d.side);
-    /* It follows the circle D_s + MSW_FOLLOW_OFFSET = 0.41 around it. */
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.41, d.circle.d_s);
+    /* It follows the circle D_s + MSW_FOLLOW_OFFSET = 0.43 around it. */
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.43, d.circle.d_s);
     TEST_ASSERT_TRUE(d.circle.x == s.obs[0].o.x && d.circle.y == s.obs[0].o.y);
 }
 
@@ -346,6 +348,7 @@ static void test_msw_release_waits_for_the_dwell_then_completes(void)
     TEST_ASSERT_EQUAL_size_t(0, n_ev);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
     k.t_us = 500000;
+    k.ref.x = tu_num(1.21); /* on its schedule (a still one waits: test_msw_held_*) */
     step(&k, &o, 1);
     expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
     TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
@@ -379,6 +382,7 @@ static void test_msw_release_needs_the_roll_out_clear(void)
     TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
     k.w_trk = 0.0;
     k.t_us += 20000;
+    k.ref.x = tu_num(1.21); /* on its schedule */
     step(&k, &o, 1);
     expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
 }
@@ -515,24 +519,145 @@ static void test_msw_an_obstacle_left_behind_is_met_afresh(void)
     }
 }
 
-static void test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster(void)
+static void test_msw_keeps_its_cluster_near_an_obstacle_outside_it(void)
 {
     /* Avoiding 1 at (0.45, 0); obstacle 2 at (0.8, 1.3) is 1.38 from it:
      * not one cluster. The robot, moved to (0.8, 0.9) heading +y, is 0.4
-     * from 2 (boundary 0.05) and closing; 1 is 0.97 away. The avoidance ends
-     * (COMPLETE, naming the member followed), and the next step activates 2. */
+     * from 2 (boundary 0.05) and closing; 1 is 0.97 away. No hand-over: the
+     * avoidance of 1's cluster goes on (the filter keeps 2 beyond D_s), no
+     * event, still following 1. */
     const sup_obstacle_t o[2] = { obstacle(1, 0.45, 0.0, 0, 0), obstacle(2, 0.8, 1.3, 0, 0) };
     step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
     step(&k, o, 2);
     expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
-    k = at(0.8, 0.9, TU_PI / 2, 0.1, 0.0, 0.0, 20000);
+    k = at(0.8, 0.9, TU_PI / 2, 0.2, 0.0, 0.0, 20000);
     step(&k, o, 2);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    TEST_ASSERT_EQUAL_PTR(&s.obs[0], d.followed);
+}
+
+/* ------------------------------------------------ a reference that waits */
+
+/* Obstacle 1 at (0.45, 0) activated from the origin with the reference at
+ * (0.1, 0) heading +x at v_r = 0.5; then, 0.6 s on (past the dwell), the
+ * robot at (0.45, 0.43) above it and the reference still at (0.1, 0): it
+ * waits (held), p1 does not hold (the reference is behind), no release. */
+static void hold_over_one(const sup_obstacle_t *o, size_t n)
+{
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, o, n);
+    expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_LEFT);
+    k = at(0.45, 0.43, 0.0, 0.1, 0.0, 0.0, 600000);
+    step(&k, o, n);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_TRUE(m.held);
+    TEST_ASSERT_FALSE(m.ahead);
+    /* The foot of the robot's perpendicular on the reference's line is
+     * (0.45, 0): the obstacle's centre, no shortcut. */
+    TEST_ASSERT_FALSE(m.aimed);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+}
+
+static void test_msw_held_leaves_where_the_reference_moves_on_and_the_way_is_clear(void)
+{
+    /* Bug2's leave: past the obstacle at (0.95, 0.1), the reference moved
+     * on to (1.0, 0) (the robot met its path again, further along). Heading
+     * back (−x), the roll-out, 0.5 m straight on, ends at (0.45, 0.1), 0.1
+     * from the obstacle, within D_s + MSW_CLEAR_MARGIN = 0.395: no release.
+     * Heading +x it stays hypot(0.5, 0.1) = 0.510 > 0.395 from it:
+     * COMPLETE. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    hold_over_one(&o, 1);
+    step_t k = at(0.95, 0.1, TU_PI, 1.0, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_TRUE(m.ahead);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    k.robot = tu_pose(0.95, 0.1, 0.0);
+    k.ref.x = tu_num(1.01);
+    k.t_us += 20000;
+    step(&k, &o, 1);
     expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
-    k.t_us = 40000;
+}
+
+static void test_msw_held_aims_at_the_reference_line_when_a_straight_way_is_clear(void)
+{
+    /* VisBug's shortcut: the reference still at (0.1, 0); the robot at
+     * (0.9, 0.3) heading +x is 0.8 >= MSW_SHORTCUT_MIN past it along its
+     * line; the segment to the foot (0.9, 0) keeps 0.45 from the obstacle
+     * (its nearest point, the foot), more than D_s + MSW_SHORTCUT_MARGIN =
+     * 0.43, within the sensor's 1.5 m: the aim is the foot plus MSW_AIM_LEAD
+     * along the line, (1.2, 0) heading 0. This step's tracking went to the
+     * reference, so no release yet; the next step's goes to the aim, and
+     * its roll-out (0.5 m straight on, beyond hypot(0.45, 0.3) = 0.54 >
+     * 0.395) is clear: COMPLETE. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    hold_over_one(&o, 1);
+    step_t k = at(0.9, 0.3, 0.0, 0.1, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_TRUE(m.aimed);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.2, m.aim.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, m.aim.y);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, m.aim.theta);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+}
+
+static void test_msw_held_takes_no_shortcut_past_an_obstacle(void)
+{
+    /* As above, the robot further on at (1.6, 0.3), with obstacle 2 at
+     * (2.0, 0.2) (1.56 from 1: not in its cluster): 0.40 < 0.43 from the
+     * segment (1.6, 0.3)-(1.6, 0) (its point (1.6, 0.2)): no aim, no
+     * release. */
+    const sup_obstacle_t o[2] = { obstacle(1, 0.45, 0.0, 0, 0), obstacle(2, 2.0, 0.2, 0, 0) };
+    hold_over_one(o, 2);
+    step_t k = at(1.6, 0.3, 0.0, 0.1, 0.0, 0.0, 620000);
     step(&k, o, 2);
+    TEST_ASSERT_FALSE(m.aimed);
+    k.t_us += 20000;
+    step(&k, o, 2);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+}
+
+static void test_msw_held_circling_is_no_block(void)
+{
+    /* As test_msw_blocked_after_a_full_turn_around, the reference standing
+     * still at (−1, 0) with v_r = 0.5 (it waits for the robot): turning
+     * 7 rad round the obstacle is following its boundary, not a block. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    step_t k = at(0, 0, 0, -1.0, 0.0, 0.0, 0);
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    for (size_t i = 1; i <= 20; i++) {
+        const double th = 0.5 * (double)i;
+        k = at(0.45 - 0.43 * sin(th), 0.43 * cos(th), th, -1.0, 0.0, 0.0, 20000 * i);
+        step(&k, &o, 1);
+        TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    }
+    TEST_ASSERT_TRUE(m.held);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+}
+
+static void test_msw_no_activation_beside_a_clear_way(void)
+{
+    /* Closing within D_act, but the tracking command's roll-out (0.5 m
+     * straight on along +x) passes obstacle 1 at (0.3, 0.39), 0.492 away,
+     * at 0.39 > D_s + MSW_ACT_MARGIN = 0.38: no activation. At (0.3, 0.37)
+     * (0.474 away) it passes at 0.37 < 0.38: ACTIVATE. */
+    const sup_obstacle_t beside = obstacle(1, 0.3, 0.39, 0, 0);
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, &beside, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+    setUp();
+    const sup_obstacle_t nearer = obstacle(1, 0.3, 0.37, 0, 0);
+    step(&k, &nearer, 1);
     TEST_ASSERT_EQUAL_size_t(1, n_ev);
     TEST_ASSERT_EQUAL_INT(SUP_EVENT_ACTIVATE, ev[0].kind);
-    TEST_ASSERT_EQUAL_UINT8(2, ev[0].obstacle);
 }
 
 /* --------------------------------------------------------------- blocked */
@@ -547,7 +672,10 @@ static void test_msw_blocked_after_a_full_turn_around(void)
     size_t i = 1;
     for (; i <= 14; i++) {
         const double th = 0.5 * (double)i;
-        step_t k = at(0.45 - 0.41 * sin(th), 0.41 * cos(th), th, -1.0, 0.0, 0.0, 20000 * i);
+        /* The reference on its schedule, creeping on behind (one standing
+         * still would wait for the robot, test_msw_held_*). */
+        step_t k = at(0.45 - 0.41 * sin(th), 0.41 * cos(th), th, -1.0 + 0.001 * (double)i, 0.0, 0.0,
+                      20000 * i);
         step(&k, &o, 1);
         if (n_ev != 0) {
             break;
@@ -795,7 +923,12 @@ int main(void)
     RUN_TEST(test_msw_an_obstacle_left_behind_is_met_afresh);
     RUN_TEST(test_msw_an_id_that_comes_back_elsewhere_is_met_afresh);
     RUN_TEST(test_msw_other_events_before_the_step_leave_the_counts);
-    RUN_TEST(test_msw_hands_over_to_a_nearer_obstacle_outside_the_cluster);
+    RUN_TEST(test_msw_keeps_its_cluster_near_an_obstacle_outside_it);
+    RUN_TEST(test_msw_held_leaves_where_the_reference_moves_on_and_the_way_is_clear);
+    RUN_TEST(test_msw_held_aims_at_the_reference_line_when_a_straight_way_is_clear);
+    RUN_TEST(test_msw_held_takes_no_shortcut_past_an_obstacle);
+    RUN_TEST(test_msw_held_circling_is_no_block);
+    RUN_TEST(test_msw_no_activation_beside_a_clear_way);
     RUN_TEST(test_msw_blocked_after_a_full_turn_around);
     RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);
     RUN_TEST(test_msw_p3_stops_and_is_not_blocked);
