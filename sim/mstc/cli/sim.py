@@ -11,7 +11,7 @@ import can
 
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
-from mstc.cli.common import add_key_argument, library, run_scenarios
+from mstc.cli.common import add_key_argument, add_lib_argument, library, run_scenarios
 from mstc.errors import UsageError
 from mstc.firmware.sil import SilController
 from mstc.firmware.wheels import wheels_for
@@ -119,12 +119,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--lib",
-        metavar="PATH",
-        type=Path,
-        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
-    )
+    add_lib_argument(parser)
     parser.add_argument(
         "--bus",
         choices=("sil", "memory"),

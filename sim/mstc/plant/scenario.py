@@ -203,6 +203,9 @@ class Scenario:
     actuator: ActuatorSpec = ActuatorSpec()
     world: int = 0
     """How many of :attr:`obstacles` (the last ones) come from ``[world]``."""
+    world_source: str = ""
+    """Where the ``[world]`` came from: ``FILE, world N`` or ``inline``
+    (reports summarise a world by it rather than list its obstacles)."""
     slots: int = 0
     """With a world, the slot ids the sensor reports under (what OBSTACLE's id
     carries: :class:`mstc.plant.sensor.SlotSensor`); 0: obstacle i under id i."""
@@ -501,6 +504,7 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
         meta=_parse_meta(c, data.get("meta", {})),
         actuator=actuator,
         world=len(world),
+        world_source=_world_source(data["world"]) if world else "",
         slots=wire.max_obstacles if world else 0,
     )
 
@@ -666,6 +670,14 @@ def _parse_world(c: _Checker, value: object, path: str, wire: WireLimits) -> tup
         c.within(y, where, wire.obstacle[1], "element y ")
         result.append(Obstacle(i, x, y, round(reported, 9)))
     return tuple(result)
+
+
+def _world_source(table: object) -> str:
+    """:attr:`Scenario.world_source` of a valid ``[world]`` table."""
+    assert isinstance(table, Mapping)
+    if "file" not in table:
+        return "inline"
+    return f"{table['file']}" + (f", world {table['world']}" if "world" in table else "")
 
 
 def _world_file(

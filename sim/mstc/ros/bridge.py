@@ -485,7 +485,8 @@ class Bridge(Node):
         points = [(ps.pose.position.x, ps.pose.position.y) for ps in msg.poses]
         try:
             speed = float(self._param("plan_speed"))
-            self.inputs.plan = PathReference(points, speed, self.period)
+            # On its clock (at(τ)): the bridge has no goal to wait for the robot at.
+            self.inputs.plan = PathReference(points, speed, self.period, wait=False)
         except ValueError as exc:
             self._drop(f"plan: {exc}")
             return
