@@ -38,7 +38,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mstc.model import Pose
 from mstc.plant.actuator import substeps
 from mstc.plant.plant import Integrator
 from mstc.plant.reference import LEAD, ON_PATH, VERTEX_TOLERANCE, PathReference
@@ -71,9 +70,7 @@ class BatchSlots:
     :param slots: the slot ids 1..slots.
     """
 
-    def __init__(
-        self, radius: np.ndarray, reach: np.ndarray, near: np.ndarray, slots: int
-    ) -> None:
+    def __init__(self, radius: np.ndarray, reach: np.ndarray, near: np.ndarray, slots: int) -> None:
         self.radius, self.reach, self.near, self.slots = radius, reach, near, slots
         n, m = radius.shape
         self.slot_of = np.zeros((n, m), dtype=np.int64)
@@ -168,8 +165,9 @@ class BatchPaths:
 
     def _segment(self, s: np.ndarray) -> np.ndarray:
         """bisect_right(starts, s + tolerance) − 1, clamped to the segments."""
-        i = (self.start <= (s + VERTEX_TOLERANCE)[:, None]).sum(axis=1) - 1
-        return np.clip(i, 0, self.count - 1)
+        i: np.ndarray = (self.start <= (s + VERTEX_TOLERANCE)[:, None]).sum(axis=1) - 1
+        clipped: np.ndarray = np.clip(i, 0, self.count - 1)
+        return clipped
 
     def _pose(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s = np.minimum(np.maximum(s, 0.0), self.length)
@@ -184,7 +182,8 @@ class BatchPaths:
         ry = y[:, None] - self.ay
         t = np.clip(rx * self.ux + ry * self.uy, 0.0, self.seg)
         near = (np.hypot(rx - t * self.ux, ry - t * self.uy) <= ON_PATH) & self._real
-        return np.where(near, self.start + t, -np.inf).max(axis=1)
+        best: np.ndarray = np.where(near, self.start + t, -np.inf).max(axis=1)
+        return best
 
     def sample(
         self, k: int, x: np.ndarray, y: np.ndarray
@@ -198,7 +197,9 @@ class BatchPaths:
         px, py, theta = self._pose(s)
         end = s >= self.length - VERTEX_TOLERANCE
         step = self.speed * self.period
-        follow = np.minimum(np.maximum(np.maximum(s, np.minimum(s + step, self.q + LEAD)), self.q), self.length)
+        follow = np.minimum(
+            np.maximum(np.maximum(s, np.minimum(s + step, self.q + LEAD)), self.q), self.length
+        )
         ahead_s = np.where(self.wait, follow, np.minimum(s + step, self.length))
         ahead = np.where(
             self.wait, self._pose(ahead_s)[2], self.heading[self._rows, self._segment(ahead_s)]

@@ -653,7 +653,9 @@ def _parse_world(c: _Checker, value: object, path: str, wire: WireLimits) -> tup
         raw = table["obstacles"]
         if not isinstance(raw, list):
             raise c.fail("world.obstacles", f"must be an array of [x, y], got {_type_name(raw)}")
-        centres = [c.numbers(item, f"world.obstacles[{i}]", ("x", "y")) for i, item in enumerate(raw, 1)]
+        centres = [
+            c.numbers(item, f"world.obstacles[{i}]", ("x", "y")) for i, item in enumerate(raw, 1)
+        ]
     key = "world.radius" if "radius" in table else "world.file"
     c.within(radius, key, wire.radius)
     # What OBSTACLE_radius carries, on the safe side: BARN's 0.075 m is 0.08 m.
