@@ -29,7 +29,7 @@ CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*
 FW_SRCS := $(sort $(wildcard firmware/*/*.c))
 # ctl_step clears the status member by member: loops that clear stay loops,
 # not calls to the C library's memset (some 130 instructions a step on a
-# Cortex-M for its 64 B of distances; docs/strategy.md, Cost).
+# Cortex-M for its 64 B of distances; docs/strategy-cost.md).
 SRC_CFLAGS_firmware/ctrl/ctl.c := -fno-tree-loop-distribute-patterns
 
 STAMP := build/.stamps
