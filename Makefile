@@ -132,7 +132,7 @@ hil-load: deps-hil build/host/mstc-fw build/host/can-bridge  ## real-time HIL be
 # and MSTC_FW; $(2): pytest's arguments.
 pytest = MSTC_SIL_LIB=build/host/$(1)/libmstc_sil.so MSTC_SIL_LIB_FLOAT=build/host/float/libmstc_sil.so \
   MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/$(1)/mstc-fw \
-  $(PY) -m pytest -q --durations=20 $(2) tests/python
+  $(PY) -m pytest -q --durations=20 $(2) $(if $(filter tests/%,$(2)),,tests/python)
 .PHONY: test test-python test-host test-vm lint typecheck
 # PYTEST_ARGS: more arguments for pytest, e.g. PYTEST_ARGS='-m vm' (only the
 # tests that boot the vcan VM), PYTEST_ARGS='-k hil'.

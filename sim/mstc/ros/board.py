@@ -29,6 +29,7 @@ from functools import partial
 import can
 
 from mstc.can import secoc
+from mstc.can.dbc import Tables
 from mstc.can.protocol import DropReason, Frame, Protocol, wire_limits
 from mstc.errors import ControllerError, FrameDropped
 from mstc.loop.lockstep import (
@@ -53,6 +54,33 @@ from mstc.model import Obstacle, Pose
 READ_TIMEOUT = 0.1
 """How long the reader thread waits for a frame before it looks whether it
 should stop [s]."""
+
+
+RESULT_REASONS = {
+    "unknown_index": "the firmware has no such parameter",
+    "out_of_range": "outside the parameter's range as the firmware holds it",
+    "rejected": "the set that would result breaks a relation of the limits table "
+    "(docs/safety.md, Parameters)",
+    "unauthenticated": "no valid PARAM_AUTH followed it (the key, docs/safety.md)",
+    "armed": "a parameter of the control law, refused while armed: disarm first",
+}
+"""Why the firmware answers a PARAM_SET with each result but ok (the DBC's
+comment on PARAM_VALUE_result, docs/protocol.md)."""
+ARM_REASONS = {
+    "rejected": "not ready: the firmware arms only when odometry and reference are valid "
+    "and their last 5 frames each arrived in sequence, and CAN is not bus-off",
+    "out_of_range": "the arm command takes 1 (arm) or 0 (disarm)",
+}
+"""The same, for the arm command (PARAM_SET index arm), where they differ."""
+
+
+def result_text(tables: Tables, index: int, result: int) -> str:
+    """PARAM_VALUE's @p result of a PARAM_SET of @p index as a user reads it:
+    its name, and for a refusal the reason (``rejected: not ready: ...``)."""
+    name = tables.param_result.name_of(result) or str(result)
+    reasons = RESULT_REASONS | ARM_REASONS if index == tables.arm_index else RESULT_REASONS
+    reason = reasons.get(name)
+    return f"{name}: {reason}" if reason else name
 
 
 @dataclass
