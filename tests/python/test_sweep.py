@@ -156,7 +156,14 @@ def test_events_json_is_what_mstc_sim_writes(
             str(paper),
         ]
     )
-    assert rc == 0
+    # A run that touches an obstacle fails (exit 4), as its row's contact says.
+    with (first / "runs.csv").open(newline="") as f:
+        row = next(
+            r
+            for r in csv.DictReader(f)
+            if r["scene"] == "cluster-0001" and r["strategy"] == "paper"
+        )
+    assert rc == (4 if row["contact"] == "1" else 0)
     capsys.readouterr()
     want = (tmp_path / "sim" / "cluster-0001" / "events.json").read_text()
     assert (first / "paper" / "cluster-0001" / "events.json").read_text() == want
