@@ -126,6 +126,8 @@ class Board:
     :param answers_in_send: the bus hands the firmware's answers back before
         ``send`` returns (the in-process ``mstc-sil``): no reader thread.
     :param timeout: how long a command waits for its answer [s].
+    :param node_id: the board's node id (its identifiers are the DBC's plus
+        0x100 times it; docs/protocol.md).
     """
 
     def __init__(
@@ -136,9 +138,10 @@ class Board:
         *,
         answers_in_send: bool,
         timeout: float = 0.5,
+        node_id: int = 0,
     ) -> None:
         self.bus = bus
-        self.proto = Protocol(node=None)
+        self.proto = Protocol(node=None, node_id=node_id)
         self.tables = self.proto.tables
         self.wire = wire_limits()
         self.auth = secoc.Authenticator(key)
@@ -151,6 +154,7 @@ class Board:
         self._lock = threading.RLock()
         self._answer = threading.Condition(self._lock)
         self._answers: list[Frame] = []
+        self._versions: list[Frame] = []
         self._stop = threading.Event()
         self._reader: threading.Thread | None = None
 
@@ -391,6 +395,25 @@ class Board:
                     )
                 self._answer.wait(left)
 
+    def version(self) -> Frame:
+        """FW_VERSION_GET; the firmware's FW_VERSION.
+
+        :raises ControllerError: no answer within the timeout.
+        """
+        with self._lock:
+            self._versions.clear()
+            self.send([self.proto.encode("FW_VERSION_GET")])
+            deadline = time.monotonic() + self.timeout
+            while not self._versions:
+                left = deadline - time.monotonic()
+                if left <= 0 or self.answers_in_send:
+                    raise ControllerError(
+                        f"no FW_VERSION from node {self.proto.node_id} within {self.timeout:g} s: "
+                        f"is it on this bus ({self.bus.channel_info}), with this node id?"
+                    )
+                self._answer.wait(left)
+            return self._versions[-1]
+
     # ----------------------------------------------------------- receiving
 
     def _read(self) -> None:
@@ -437,6 +460,9 @@ class Board:
             self.counts.heartbeat = self._choice("HEARTBEAT", "state", s["state"])
         elif name == "PARAM_VALUE":
             self._answers.append(frame)
+            self._answer.notify_all()
+        elif name == "FW_VERSION":
+            self._versions.append(frame)
             self._answer.notify_all()
         self.on_frame(frame)
 
