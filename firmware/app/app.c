@@ -35,7 +35,6 @@ int app_init(app_t *a, const ctl_params_t *p)
 
 int app_set_node(app_t *a, uint8_t node) { return comm_set_node(&a->comm, node); }
 
-
 void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session)
 {
     /* At start (app.h): the challenge is issued at time 0, as app_init()

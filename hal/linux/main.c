@@ -235,7 +235,8 @@ int main(int argc, char **argv)
     }
     fprintf(stderr, "mstc-fw: %s mode on %s (%s)%s, node %u, %s%s\n",
             realtime ? "real-time" : "lock-step", iface, NUM_MODE_NAME, period,
-            (unsigned)app.comm.node, key_rc == 0 ? "key from " : "no key: every PARAM_SET is refused",
+            (unsigned)app.comm.node,
+            key_rc == 0 ? "key from " : "no key: every PARAM_SET is refused",
             key_rc == 0 ? key_source : "");
 
     uint64_t overruns = 0;

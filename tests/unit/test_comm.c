@@ -157,11 +157,16 @@ static void test_comm_crc8h2f_of_nothing_is_init_xor_final(void)
 static void test_comm_data_ids_are_the_dbc_attribute(void)
 {
     static const uint32_t ids[] = {
-        COMM_ID_ODOM_XY,     COMM_ID_ODOM_THETA,      COMM_ID_REF_XY,       COMM_ID_REF_MOTION,
-        COMM_ID_STEP,        COMM_ID_OBSTACLE,        COMM_ID_OBSTACLE_VEL, COMM_ID_PARAM_SET,
-        COMM_ID_PARAM_GET,   COMM_ID_PARAM_AUTH,      COMM_ID_WHEEL_CMD,    COMM_ID_STATUS,
-        COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,        COMM_ID_HEARTBEAT,
-        COMM_ID_AUTH_STATUS, COMM_ID_PARAM_VALUE,     COMM_ID_WHEEL_SPEED,  COMM_ID_AUTH_CHALLENGE,
+        COMM_ID_ODOM_XY,        COMM_ID_ODOM_THETA,
+        COMM_ID_REF_XY,         COMM_ID_REF_MOTION,
+        COMM_ID_STEP,           COMM_ID_OBSTACLE,
+        COMM_ID_OBSTACLE_VEL,   COMM_ID_PARAM_SET,
+        COMM_ID_PARAM_GET,      COMM_ID_PARAM_AUTH,
+        COMM_ID_WHEEL_CMD,      COMM_ID_STATUS,
+        COMM_ID_STATUS_TRK,     COMM_ID_STATUS_COUNTERS,
+        COMM_ID_EVENT,          COMM_ID_HEARTBEAT,
+        COMM_ID_AUTH_STATUS,    COMM_ID_PARAM_VALUE,
+        COMM_ID_WHEEL_SPEED,    COMM_ID_AUTH_CHALLENGE,
         COMM_ID_FW_VERSION_GET, COMM_ID_FW_VERSION,
     };
     TEST_ASSERT_EQUAL_UINT(COMM_N_FRAMES, sizeof ids / sizeof ids[0]);
