@@ -389,21 +389,20 @@ def separate_labels(fig: Figure, dpi: float) -> None:
     come close on the path (a cluster, a narrow passage) their times stay
     readable. Placed on the laid-out figure, so that the text's real
     extent is known."""
-    canvas = FigureCanvasAgg(fig)
+    FigureCanvasAgg(fig)
     fig.set_dpi(dpi)
-    canvas.draw()
-    renderer = canvas.get_renderer()
+    fig.draw_without_rendering()  # the layout, as saving does it
     for ax in fig.axes:
         placed: list[Bbox] = []
         for label in (t for t in ax.texts if t.get_gid() == _EVENT_LABEL):
             assert isinstance(label, Annotation)
             for _ in range(_MAX_LABEL_MOVES):
-                box = label.get_window_extent(renderer)
+                box = label.get_window_extent()
                 if not any(box.overlaps(other) for other in placed):
                     break
                 dx, dy = label.xyann
                 label.xyann = (dx, dy - box.height * 72.0 / dpi - 1.0)
-            placed.append(label.get_window_extent(renderer))
+            placed.append(label.get_window_extent())
 
 
 def _save(fig: Figure, path: Path, dpi: int) -> None:
