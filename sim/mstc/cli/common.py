@@ -114,9 +114,11 @@ def add_bus_arguments(
     )
 
 
-def open_args_bus(args: argparse.Namespace, **config: Any) -> can.BusABC:
-    """The bus of :func:`add_bus_arguments`' options, with the interface's
-    other settings @p config.
+def open_args_bus(
+    args: argparse.Namespace, channel: str | None = None, **config: Any
+) -> can.BusABC:
+    """The bus of :func:`add_bus_arguments`' options (on @p channel instead
+    of --channel when given), with the interface's other settings @p config.
 
     :raises BusError: it cannot be opened (says why).
     """
@@ -124,7 +126,7 @@ def open_args_bus(args: argparse.Namespace, **config: Any) -> can.BusABC:
         if args.bitrate <= 0:
             raise UsageError(f"--bitrate {args.bitrate}: a positive number of bit/s")
         config["bitrate"] = args.bitrate
-    return open_bus(args.interface, args.channel, **config)
+    return open_bus(args.interface, channel or args.channel, **config)
 
 
 def add_key_argument(parser: argparse.ArgumentParser) -> None:
