@@ -42,6 +42,7 @@ ships only the standard distribution's types.
 from __future__ import annotations
 
 import math
+import shutil
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -211,11 +212,12 @@ class _Bag:
     def write(self, out: Path, summary: ExportSummary) -> None:
         """Write the bag folder @p out; count its messages into @p summary.
 
-        :raises WriteError: @p out cannot be written, or exists already
-            (rosbag2 never overwrites).
+        :raises WriteError: @p out cannot be written, or exists and is not a
+            rosbag2 folder (an earlier bag there is replaced).
         """
         with writing(str(out)):
             out.parent.mkdir(parents=True, exist_ok=True)
+            replace_bag(out)
             try:
                 writer = Writer(
                     out, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP
@@ -242,6 +244,21 @@ class _Bag:
         if self.pending:
             summary.start_ns = min(m[0] for m in self.pending)
             summary.end_ns = max(m[0] for m in self.pending)
+
+
+def replace_bag(out: Path) -> None:
+    """Remove the bag an earlier export wrote at @p out, so that an export
+    replaces it, as the MCAP export replaces its file and `mstc sim` its
+    run (rosbag2's writer refuses a folder that exists).
+
+    :raises WriteError: @p out exists and is not a rosbag2 folder (no
+        metadata.yaml): left alone.
+    """
+    if not out.exists() and not out.is_symlink():
+        return
+    if out.is_symlink() or not (out / "metadata.yaml").is_file():
+        raise WriteError(f"{out} exists and is not a rosbag2 folder: left alone")
+    shutil.rmtree(out)
 
 
 def _obstacle_reports(decoded: DecodedLog, db: Database) -> dict[int, list[tuple[int, ...]]]:
@@ -293,8 +310,8 @@ def _measured_speeds(decoded: DecodedLog, db: Database) -> list[tuple[int, float
 def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's raw frames) as a rosbag2 folder @p out.
 
-    :raises WriteError: @p out cannot be written, or exists already (rosbag2
-        never overwrites).
+    :raises WriteError: @p out cannot be written, or exists and is not a
+        rosbag2 folder (an earlier bag there is replaced).
     """
     store = typestore()
     m = _Messages(store)
