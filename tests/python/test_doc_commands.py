@@ -112,13 +112,18 @@ def run_block(block: Block, env: dict[str, str]) -> None:
     )
 
 
-@pytest.mark.parametrize("page", PAGES)
-def test_the_pages_commands_run_as_pasted(page: str) -> None:
+def test_the_pages_commands_run_as_pasted() -> None:
+    """README.md's blocks, then docs/getting-started.md's, in one sequence
+    (a reader does both); a block the same as one run already (`make sim`,
+    `make hil` in both pages) is not run twice."""
     env = {k: v for k, v in os.environ.items() if k not in USER_ENV_DROPPED}
-    for block in blocks(page):
-        if block.hardware:
-            continue  # needs a board or an adapter this machine does not have
-        run_block(block, env)
+    done: set[str] = set()
+    for page in PAGES:
+        for block in blocks(page):
+            if block.hardware or block.text in done:
+                continue  # needs a board or an adapter this machine does not have; or ran
+            run_block(block, env)
+            done.add(block.text)
 
 
 def test_the_markers_skip_only_what_needs_hardware() -> None:
