@@ -286,3 +286,11 @@ def test_an_export_replaces_an_earlier_one_and_leaves_anything_else(
         f"error: {tmp_path / 'dir'} exists and is not a rosbag2 folder: left alone",
     ]
     assert other.read_text() == "mine\n"
+
+
+def test_the_bag_names_its_distribution(run: tuple[Path, Path, str]) -> None:
+    """metadata.yaml names the ROS 2 distribution whose message definitions
+    the bag holds (Kilted: rosbags' store ROS2_KILTED), not "rosbags"."""
+    _, bag, _ = run
+    meta = (bag / "metadata.yaml").read_text()
+    assert "ros_distro: kilted" in meta, meta

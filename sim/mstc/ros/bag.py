@@ -81,6 +81,8 @@ uint8[8] data
 """
 """can_msgs/msg/Frame (ros-industrial/ros_canopen, BSD; ROS 2 branches)."""
 STORE = Stores.ROS2_KILTED
+DISTRO = "kilted"
+"""The ROS 2 distribution of STORE, named in the bag's metadata.yaml."""
 """The type definitions written into the bag (Kilted's; the standard
 messages used here are the same from Humble on)."""
 WORLD = str(PARAMETERS["world_frame"][0])
@@ -240,6 +242,11 @@ class _Bag:
                 writer.write(connections[topic], ns, data)
                 counts[topic] += 1
             writer.close()
+            # The distribution whose definitions the bag holds, which rosbags
+            # leaves as its own name ("rosbags"): ros2 bag info shows it.
+            meta = out / "metadata.yaml"
+            text = meta.read_text().replace("ros_distro: rosbags", f"ros_distro: {DISTRO}")
+            meta.write_text(text)
         summary.messages = dict(counts)
         if self.pending:
             summary.start_ns = min(m[0] for m in self.pending)
