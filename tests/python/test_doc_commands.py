@@ -131,3 +131,12 @@ def test_the_markers_skip_only_what_needs_hardware() -> None:
     skipped = [(b.page, b.hardware) for page in PAGES for b in blocks(page) if b.hardware]
     for _, why in skipped:
         assert re.search(r"board|adapter|can0|probe", why), why
+
+
+def test_the_index_links_every_page() -> None:
+    """docs/index.md links every page of docs/, and every link it has exists."""
+    index = (ROOT / "docs" / "index.md").read_text()
+    linked = set(re.findall(r"\]\(([^)#]+\.md)\)", index))
+    pages = {p.name for p in (ROOT / "docs").glob("*.md")} - {"index.md"}
+    assert pages - linked == set(), "not linked from docs/index.md"
+    assert {x for x in linked if not (ROOT / "docs" / x).is_file()} == set()
