@@ -28,28 +28,33 @@ TOP = Path(__file__).resolve().parents[2]
 WITH_VCAN = TOP / "tools" / "vm" / "with-vcan"
 KEY = TOP / "tests" / "data" / "test.key"
 
-# Runs where vcan0 is: the two firmwares, then each `mstc board` command as
-# its own process; prints (arguments, exit status, stdout, stderr) of each.
+# Runs on the host under with-vcan --bridge (vcan0 and the firmwares in the
+# VM where the host has no CAN, as make hil runs): the two firmwares, started
+# in the guest through the bridge's agent, then each `mstc board` command as
+# a process of its own on the host; prints (arguments, exit status, stdout,
+# stderr) of each.
 GUEST = r"""
-import json, subprocess, sys, time
+import json, os, subprocess, sys
 fw, key = sys.argv[1], sys.argv[2]
+runner = [sys.executable, "-m", "mstc.can.vmbridge", "run", "--"]
+if not os.environ.get("MSTC_VCAN_BRIDGE"):
+    runner = []  # the host has vcan0
 procs = [
-    subprocess.Popen([fw, "--can", "vcan0", "--key-file", key, "--node", "0"],
-                     stderr=subprocess.PIPE, text=True),
-    subprocess.Popen([fw, "--can", "vcan0", "--key-file", key, "--node", "1", "--realtime"],
-                     stderr=subprocess.PIPE, text=True),
+    subprocess.Popen([*runner, fw, "--can", "vcan0", "--key-file", key, *extra],
+                     stderr=subprocess.PIPE, text=True)
+    for extra in (["--node", "0"], ["--node", "1", "--realtime"])
 ]
 starts = [p.stderr.readline().strip() for p in procs]
 runs = []
 for args in json.loads(sys.argv[3]):
     done = subprocess.run(
         [sys.executable, "-m", "mstc", "board", "-i", "socketcan", "-c", "vcan0",
-         "--key-file", key, *args],
-        capture_output=True, text=True, timeout=120)
+         "--key-file", key, "--timeout", "3", *args],
+        capture_output=True, text=True, timeout=300)
     runs.append([args, done.returncode, done.stdout, done.stderr])
 for p in procs:
     p.terminate()
-    p.wait(timeout=10)
+    p.wait(timeout=30)
 print(json.dumps({"starts": starts, "runs": runs}))
 """
 
@@ -70,7 +75,8 @@ COMMANDS = [
 def test_two_mstc_fw_on_vcan_each_driven_by_its_own_mstc_board(tmp_path: Path) -> None:
     fw = os.environ.get("MSTC_FW", str(TOP / "build" / "host" / "mstc-fw"))
     proc = subprocess.run(
-        [str(WITH_VCAN), "--verbose", "--timeout", "600", "--", sys.executable, "-c", GUEST]
+        [str(WITH_VCAN), "--bridge", "--verbose", "--timeout", "900", "--"]
+        + [sys.executable, "-c", GUEST]
         + [str(Path(fw).resolve()), str(KEY), json.dumps(COMMANDS)],
         cwd=TOP,
         capture_output=True,

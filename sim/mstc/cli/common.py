@@ -18,6 +18,7 @@ from mstc.can import secoc
 from mstc.can.dbc import tables
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import DBC_PATH, load_database, wire_limits
+from mstc.can.vmbridge import Bridge
 from mstc.errors import (
     EXIT_OK,
     BusError,
@@ -126,7 +127,13 @@ def open_args_bus(
         if args.bitrate <= 0:
             raise UsageError(f"--bitrate {args.bitrate}: a positive number of bit/s")
         config["bitrate"] = args.bitrate
-    return open_bus(args.interface, channel or args.channel, **config)
+    channel = channel or args.channel
+    # Under tools/vm/with-vcan --bridge the vcan interface is the VM's,
+    # reached through the bridge it made (docs/hil.md).
+    bridge = Bridge.from_env(channel) if args.interface == "socketcan" else None
+    if bridge is not None:
+        return bridge.open_bus()
+    return open_bus(args.interface, channel, **config)
 
 
 def add_key_argument(parser: argparse.ArgumentParser) -> None:
