@@ -432,6 +432,16 @@ class Protocol:
         self._counters = _Counters()
         self.drops = dict.fromkeys(DropReason, 0)
 
+    @property
+    def tx_counters(self) -> dict[int, int]:
+        """The next alive counter to send, by the DBC's identifier: what a
+        tool that runs again later continues from (``mstc board``)."""
+        return dict(self._counters.tx)
+
+    @tx_counters.setter
+    def tx_counters(self, counters: Mapping[int, int]) -> None:
+        self._counters.tx = {int(k): int(v) % COUNTER_MODULO for k, v in counters.items()}
+
     def data_id(self, frame_id: int) -> int:
         """The E2E data ID of a frame (its ``E2EDataID`` attribute)."""
         return self._data_ids[frame_id]

@@ -6,10 +6,13 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import json
+import os
 import sys
 import time
 from collections.abc import Callable
 from functools import partial
+from pathlib import Path
 from typing import Any, TypeVar
 
 import can
@@ -141,6 +144,57 @@ def again(ask: Callable[[], T]) -> T:
         return ask()
 
 
+COUNTERS_FILE = "board-counters.json"
+"""Under $XDG_CACHE_HOME/mstc (~/.cache/mstc): the alive counters each `mstc
+board` sent last, by bus and node."""
+
+
+def _counters_path() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mstc" / COUNTERS_FILE
+
+
+def _bus_key(args: argparse.Namespace) -> str:
+    return f"{args.interface}:{args.channel or ''}:{args.node}"
+
+
+def load_counters(args: argparse.Namespace) -> dict[int, int]:
+    """The alive counters the last `mstc board` on this bus and node sent.
+
+    A board follows each identifier's counter from frame to frame, and drops
+    a frame whose counter repeats the last or jumps too far (docs/safety.md,
+    E2E). A tool that starts again at 0 would have its first PARAM_SET and
+    PARAM_AUTH dropped; the authenticated command then cannot be signed again
+    for the same challenge. So `mstc board` goes on from where the last one
+    left off, as one long-running tool would. Nothing for the in-process
+    firmware, which each run starts afresh.
+    """
+    if args.interface == "mstc-sil":
+        return {}
+    try:
+        data = json.loads(_counters_path().read_text())
+        return {int(k): int(v) for k, v in data.get(_bus_key(args), {}).items()}
+    except (OSError, ValueError, AttributeError):
+        return {}
+
+
+def save_counters(args: argparse.Namespace, counters: dict[int, int]) -> None:
+    """Keep @p counters for the next `mstc board` on this bus and node (best
+    effort: a cache that cannot be written only costs a dropped first frame)."""
+    if args.interface == "mstc-sil":
+        return
+    path = _counters_path()
+    try:
+        data = json.loads(path.read_text()) if path.is_file() else {}
+        data[_bus_key(args)] = {str(k): v for k, v in counters.items()}
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(data))
+        tmp.replace(path)
+    except (OSError, ValueError):
+        pass
+
+
 def open_board(args: argparse.Namespace, latest: dict[str, Frame]) -> Board:
     """The board of @p args on its bus, started; frames kept by name in @p latest."""
     if not 0 <= args.node <= MAX_NODE_ID:
@@ -161,6 +215,7 @@ def open_board(args: argparse.Namespace, latest: dict[str, Frame]) -> Board:
         timeout=args.timeout,
         node_id=args.node,
     )
+    board.proto.tx_counters = load_counters(args)
     again(board.start)
     return board
 
@@ -182,6 +237,7 @@ def run(args: argparse.Namespace) -> int:
         }
         return actions[args.action]()
     finally:
+        save_counters(args, board.proto.tx_counters)
         board.stop()
         board.bus.shutdown()
 
