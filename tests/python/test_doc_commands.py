@@ -112,6 +112,7 @@ def run_block(block: Block, env: dict[str, str]) -> None:
     )
 
 
+@pytest.mark.vm  # make hil boots the vcan VM where the kernel has no CAN
 def test_the_pages_commands_run_as_pasted() -> None:
     """README.md's blocks, then docs/getting-started.md's, in one sequence
     (a reader does both); a block the same as one run already (`make sim`,
