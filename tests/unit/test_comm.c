@@ -258,6 +258,25 @@ static void test_comm_node_offsets_the_identifiers_sent_and_received(void)
     assert_drops(0, 0, 0, 1);
 }
 
+static void test_comm_decodes_fw_version_get_and_encodes_a_clean_float_build(void)
+{
+    comm_msg_t m;
+    const hal_can_frame_t g = sealed(COMM_ID_FW_VERSION_GET, zeros, 0);
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &g, &m));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_FW_VERSION_GET, m.id);
+    /* Not dirty, float: both bits 0; the version as given. */
+    const comm_fw_version_t v = { .major = 2, .minor = 3, .patch = 4, .build = 0xabcdefu };
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_fw_version(&c, &v, &f));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_FW_VERSION, f.id);
+    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 15, 1, false));
+    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 35, 1, false));
+    TEST_ASSERT_EQUAL_INT64(2, get_field(f.data, 20, 4, false));
+    TEST_ASSERT_EQUAL_INT64(3, get_field(f.data, 24, 6, false));
+    TEST_ASSERT_EQUAL_INT64(4, get_field(f.data, 30, 5, false));
+    TEST_ASSERT_EQUAL_INT64(0xabcdef, get_field(f.data, 36, 28, false));
+}
+
 static void test_comm_set_node_refuses_a_node_beyond_6(void)
 {
     TEST_ASSERT_EQUAL_INT(0, comm_set_node(&c, 6));
@@ -1021,6 +1040,7 @@ int main(void)
     RUN_TEST(test_comm_decode_drops_an_unknown_identifier);
     RUN_TEST(test_comm_node_offsets_the_identifiers_sent_and_received);
     RUN_TEST(test_comm_set_node_refuses_a_node_beyond_6);
+    RUN_TEST(test_comm_decodes_fw_version_get_and_encodes_a_clean_float_build);
     RUN_TEST(test_comm_encode_fw_version_packs_each_field);
     RUN_TEST(test_comm_decode_drops_a_frame_the_firmware_sends);
     RUN_TEST(test_comm_decode_drops_a_wrong_length);
