@@ -29,6 +29,7 @@ board or ``mstc-fw --realtime``; no STEP frame is sent).
 from __future__ import annotations
 
 import math
+import signal
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -48,6 +49,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from std_srvs.srv import SetBool
@@ -759,8 +761,12 @@ def run(args: Sequence[str]) -> int:
 
     :raises MstcError: the bridge cannot start (see :class:`Bridge`).
     """
+    # Ctrl-C and SIGTERM both end spin with KeyboardInterrupt, Python's own
+    # way, at any point of the start (rclpy's handlers shut the context
+    # down under a starting executor, which then fails with a traceback).
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
-        rclpy.init(args=["mstc-ros", *args])
+        rclpy.init(args=["mstc-ros", *args], signal_handler_options=SignalHandlerOptions.NO)
     except RuntimeError as exc:  # rclpy's RCLError: arguments rcl cannot parse
         why = str(exc).removeprefix("failed to initialize rcl: ").split(". Error:")[0]
         raise UsageError(f"ROS arguments {' '.join(args)}: {why}") from exc
@@ -768,7 +774,7 @@ def run(args: Sequence[str]) -> int:
     try:
         node = Bridge()
         rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C; SIGTERM (rclpy's handler)
+    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, SIGTERM
         pass
     finally:
         if node is not None:
