@@ -29,8 +29,20 @@ CORE_SRCS := $(sort $(wildcard firmware/num/*.c firmware/ctrl/*.c firmware/kin/*
 FW_SRCS := $(sort $(wildcard firmware/*/*.c))
 # ctl_step clears the status member by member: loops that clear stay loops,
 # not calls to the C library's memset (some 130 instructions a step on a
-# Cortex-M for its 64 B of distances; docs/strategy.md, Cost).
+# Cortex-M for its 64 B of distances; docs/strategy-cost.md).
 SRC_CFLAGS_firmware/ctrl/ctl.c := -fno-tree-loop-distribute-patterns
+# What FW_VERSION answers (firmware/app/app.h): the package's version, the
+# build id (the git commit's first 7 hex digits, 0 outside a git tree; the
+# commit of app.c's last compile), whether the tree had changes, and the
+# node id of the build (NODE=0..6: its identifiers are the DBC's plus 0x100
+# times it; mstc-fw --node and the in-process firmware can set another).
+NODE ?= 0
+APP_VERSION := $(subst ., ,$(shell sed -n 's/^version = "\([0-9.]*\)"/\1/p' pyproject.toml))
+APP_BUILD := $(shell git rev-parse HEAD 2>/dev/null | cut -c1-7)
+APP_DIRTY := $(if $(shell git status --porcelain --untracked-files=no 2>/dev/null),1,0)
+SRC_CFLAGS_firmware/app/app.c := -DAPP_VERSION_MAJOR=$(word 1,$(APP_VERSION))u \
+  -DAPP_VERSION_MINOR=$(word 2,$(APP_VERSION))u -DAPP_VERSION_PATCH=$(word 3,$(APP_VERSION))u \
+  -DAPP_BUILD_ID=0x$(or $(APP_BUILD),0)u -DAPP_BUILD_DIRTY=$(APP_DIRTY)u -DAPP_NODE=$(NODE)u
 
 STAMP := build/.stamps
 $(STAMP):
@@ -141,7 +153,7 @@ hil-load: deps-hil build/host/mstc-fw build/host/can-bridge  ## real-time HIL be
 # and MSTC_FW; $(2): pytest's arguments.
 pytest = MSTC_SIL_LIB=build/host/$(1)/libmstc_sil.so MSTC_SIL_LIB_FLOAT=build/host/float/libmstc_sil.so \
   MSTC_SIL_LIB_FIXED=build/host/fixed/libmstc_sil.so MSTC_FW=build/host/$(1)/mstc-fw \
-  $(PY) -m pytest -q --durations=20 $(2) tests/python
+  $(PY) -m pytest -q --durations=20 $(2) $(if $(filter tests/%,$(2)),,tests/python)
 .PHONY: test test-python test-host test-vm lint typecheck
 # PYTEST_ARGS: more arguments for pytest, e.g. PYTEST_ARGS='-m vm' (only the
 # tests that boot the vcan VM), PYTEST_ARGS='-k hil'.

@@ -30,8 +30,11 @@ int app_init(app_t *a, const ctl_params_t *p)
     odo_init(&a->odo);
     const int rc = ctl_init(&a->ctl, p != NULL ? p : &defaults);
     a->ramp_decel = a->ctl.p.max_wheel_decel;
+    (void)comm_set_node(&a->comm, (uint8_t)APP_NODE);
     return rc;
 }
+
+int app_set_node(app_t *a, uint8_t node) { return comm_set_node(&a->comm, node); }
 
 void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session)
 {
@@ -43,6 +46,27 @@ void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session)
 /* A frame that cannot be queued is lost; the bus is the only way out, so
  * there is nothing better to do than to carry on (the plant times out). */
 static void send(const hal_can_frame_t *f) { (void)hal_can_send(f); }
+
+/* FW_VERSION_GET: the version, build and node, at once (no authentication:
+ * it changes nothing). */
+static void send_fw_version(app_t *a)
+{
+    static const comm_fw_version_t version = {
+        .major = (uint8_t)APP_VERSION_MAJOR,
+        .minor = (uint8_t)APP_VERSION_MINOR,
+        .patch = (uint8_t)APP_VERSION_PATCH,
+        .dirty = APP_BUILD_DIRTY != 0u,
+        .build = (uint32_t)APP_BUILD_ID,
+#if defined(NUM_FIXED)
+        .fixed = true,
+#else
+        .fixed = false,
+#endif
+    };
+    hal_can_frame_t f;
+    (void)comm_encode_fw_version(&a->comm, &version, &f);
+    send(&f);
+}
 
 /* ------------------------------------------------------- safety supervisor */
 
@@ -453,6 +477,9 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
 {
     comm_msg_t m;
     const int rc = comm_decode(&a->comm, f, &m);
+    if (rc == -EXDEV) {
+        return rc; /* another board's frame on a shared bus: not for us, not a fault */
+    }
     if (rc != 0) {
         a->frame_dropped = true;
         return rc;
@@ -493,6 +520,7 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
     case COMM_ID_PARAM_SET: on_param_set(a, &m); break;
     case COMM_ID_PARAM_AUTH: on_param_auth(a, &m); break;
     case COMM_ID_WHEEL_SPEED: a->wheel_speed = m.u.wheel_speed; break;
+    case COMM_ID_FW_VERSION_GET: send_fw_version(a); break;
     default: /* COMM_ID_PARAM_GET: comm_decode only returns frames the firmware receives */
         on_param(a, m.u.param_get, false, false, 0.0f);
         break;

@@ -199,6 +199,39 @@ int app_init(app_t *a, const ctl_params_t *p);
  */
 void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session);
 
+/** @name The firmware's version and build id, answered in FW_VERSION
+ *  (comm.h): the build defines them (mk/compile.mk: the package's version,
+ *  the git commit's first 7 hex digits, whether the tree had changes). @{ */
+#ifndef APP_VERSION_MAJOR
+#define APP_VERSION_MAJOR 0u
+#endif
+#ifndef APP_VERSION_MINOR
+#define APP_VERSION_MINOR 0u
+#endif
+#ifndef APP_VERSION_PATCH
+#define APP_VERSION_PATCH 0u
+#endif
+#ifndef APP_BUILD_ID
+#define APP_BUILD_ID 0u
+#endif
+#ifndef APP_BUILD_DIRTY
+#define APP_BUILD_DIRTY 0u
+#endif
+/** The node id of a build that is not told another (make NODE=n). */
+#ifndef APP_NODE
+#define APP_NODE 0u
+#endif
+/** @} */
+
+/**
+ * @brief Set the node id (comm_set_node()): the board's identifiers are
+ *        mstc.dbc's plus 0x100 times @p node. At start, after app_init()
+ *        (which sets APP_NODE), before the first frame.
+ * @retval 0 set.
+ * @retval -EINVAL @p node above COMM_MAX_NODE: nothing changed.
+ */
+int app_set_node(app_t *a, uint8_t node);
+
 /**
  * @brief Handle one received frame; replies go out through hal_can_send().
  *        A frame that fails its checks is dropped and counted.

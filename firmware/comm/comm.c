@@ -37,6 +37,8 @@ _Static_assert(COMM_ID_AUTH_STATUS == MSTC_DBC_AUTH_STATUS_FRAME_ID, "AUTH_STATU
 _Static_assert(COMM_ID_AUTH_CHALLENGE == MSTC_DBC_AUTH_CHALLENGE_FRAME_ID, "AUTH_CHALLENGE id");
 _Static_assert(COMM_ID_PARAM_VALUE == MSTC_DBC_PARAM_VALUE_FRAME_ID, "PARAM_VALUE id");
 _Static_assert(COMM_ID_WHEEL_SPEED == MSTC_DBC_WHEEL_SPEED_FRAME_ID, "WHEEL_SPEED id");
+_Static_assert(COMM_ID_FW_VERSION_GET == MSTC_DBC_FW_VERSION_GET_FRAME_ID, "FW_VERSION_GET id");
+_Static_assert(COMM_ID_FW_VERSION == MSTC_DBC_FW_VERSION_FRAME_ID, "FW_VERSION id");
 _Static_assert(COMM_WHEEL_FAULTS_MASK == 15u, "WHEEL_SPEED_faults: 4 bits (mstc.dbc)");
 _Static_assert(COMM_OBSTACLE_ID_MAX == SUP_MAX_OBSTACLES,
                "an entry of the supervisor's table for every id the frames carry");
@@ -118,6 +120,7 @@ static const frame_t frames[COMM_N_FRAMES] = {
     { COMM_ID_AUTH_STATUS, 0x1186u, false }, { COMM_ID_PARAM_VALUE, 0x1190u, false },
     { COMM_ID_WHEEL_SPEED, 0x1105u, true },
     { COMM_ID_AUTH_CHALLENGE, COMM_AUTH_CHALLENGE_DATA_ID, false },
+    { COMM_ID_FW_VERSION_GET, 0x1123u, true }, { COMM_ID_FW_VERSION, 0x1191u, false },
 };
 /* clang-format on */
 
@@ -179,7 +182,7 @@ static uint8_t frame_crc(uint16_t data_id, const uint8_t *payload)
 /* Counter, then CRC (the CRC covers the counter) on a packed payload. */
 static void e2e_protect(comm_t *c, size_t i, hal_can_frame_t *f)
 {
-    f->id = frames[i].id;
+    f->id = frames[i].id + (uint32_t)c->node * COMM_NODE_STRIDE;
     f->dlc = FRAME_LEN;
     f->data[1] = (uint8_t)((f->data[1] & ~COUNTER_MASK) | c->tx_counter[i]);
     c->tx_counter[i] = (uint8_t)((c->tx_counter[i] + 1u) & COUNTER_MASK);
@@ -194,6 +197,22 @@ static void count_drop(uint16_t *n)
 }
 
 void comm_init(comm_t *c) { *c = (comm_t){ 0 }; }
+
+int comm_set_node(comm_t *c, uint8_t node)
+{
+    if (node > COMM_MAX_NODE) {
+        return -EINVAL;
+    }
+    c->node = node;
+    return 0;
+}
+
+/* Whether @p id is a protocol identifier of node @p node. */
+static bool of_node(uint32_t id, uint32_t node)
+{
+    const uint32_t offset = node * COMM_NODE_STRIDE;
+    return id >= offset && frame_index(id - offset) < COMM_N_FRAMES;
+}
 
 /* ------------------------------------------------------------------ scaling */
 
@@ -409,6 +428,7 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
         m->u.wheel_speed.right = num_from_raw(s.wheel_speed_right, &s_wheel);
         break;
     }
+    case COMM_ID_FW_VERSION_GET: break; /* no payload */
     default: { /* COMM_ID_PARAM_GET, the last frame comm_decode() lets through */
         struct mstc_dbc_param_get_t s;
         (void)mstc_dbc_param_get_unpack(&s, d, FRAME_LEN);
@@ -512,8 +532,15 @@ static comm_e2e_status_t sequence(comm_rx_t *r, uint8_t counter)
 
 int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg)
 {
-    const size_t i = frame_index(f->id);
+    const uint32_t offset = (uint32_t)c->node * COMM_NODE_STRIDE;
+    const uint32_t id = f->id >= offset ? f->id - offset : UINT32_MAX;
+    const size_t i = frame_index(id);
     if (i == COMM_N_FRAMES || !frames[i].rx) {
+        for (uint32_t n = 0; n <= COMM_MAX_NODE && i == COMM_N_FRAMES; n++) {
+            if (n != c->node && of_node(f->id, n)) {
+                return -EXDEV; /* another board's, on a shared bus: not ours to count */
+            }
+        }
         count_drop(&c->drops.unknown);
         return -ENOENT;
     }
@@ -539,7 +566,7 @@ int comm_decode(comm_t *c, const hal_can_frame_t *f, comm_msg_t *msg)
             rc = -ERANGE;
         } else {
             r->accepted = (uint8_t)(r->accepted < UINT8_MAX ? r->accepted + 1u : UINT8_MAX);
-            decode_payload(f->id, f->data, msg);
+            decode_payload(id, f->data, msg);
         }
     }
     sm_feed(r, st);
@@ -733,5 +760,22 @@ int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result
     };
     (void)mstc_dbc_param_value_pack(f->data, &s, FRAME_LEN);
     e2e_protect(c, frame_index(COMM_ID_PARAM_VALUE), f);
+    return 0;
+}
+
+int comm_encode_fw_version(comm_t *c, const comm_fw_version_t *v, hal_can_frame_t *f)
+{
+    const struct mstc_dbc_fw_version_t s = {
+        .fw_version_node = c->node,
+        .fw_version_numeric = v->fixed ? 1u : 0u,
+        .fw_version_protocol = (uint8_t)COMM_PROTOCOL_VERSION,
+        .fw_version_major = sat_u8(v->major, 15u),
+        .fw_version_minor = sat_u8(v->minor, 63u),
+        .fw_version_patch = sat_u8(v->patch, 31u),
+        .fw_version_dirty = v->dirty ? 1u : 0u,
+        .fw_version_build = v->build & 0x0FFFFFFFu,
+    };
+    (void)mstc_dbc_fw_version_pack(f->data, &s, FRAME_LEN);
+    e2e_protect(c, frame_index(COMM_ID_FW_VERSION), f);
     return 0;
 }

@@ -52,6 +52,7 @@ enum {
     COMM_ID_PARAM_SET = 0x120,
     COMM_ID_PARAM_GET = 0x121,
     COMM_ID_PARAM_AUTH = 0x122,
+    COMM_ID_FW_VERSION_GET = 0x123,
     COMM_ID_WHEEL_CMD = 0x180,
     COMM_ID_STATUS = 0x181,
     COMM_ID_STATUS_TRK = 0x182,
@@ -61,7 +62,18 @@ enum {
     COMM_ID_AUTH_STATUS = 0x186,
     COMM_ID_AUTH_CHALLENGE = 0x187,
     COMM_ID_PARAM_VALUE = 0x190,
+    COMM_ID_FW_VERSION = 0x191,
 };
+
+/** @name Node ids (mstc.dbc, FW_VERSION): a board's identifiers are the
+ *  COMM_ID_* plus COMM_NODE_STRIDE times its node id, so that up to
+ *  COMM_MAX_NODE + 1 boards share a bus. @{ */
+#define COMM_NODE_STRIDE 0x100u
+#define COMM_MAX_NODE    6u
+/** @} */
+
+/** @brief The protocol the codec speaks: N of mstc.dbc's VERSION line ("mstc N"). */
+#define COMM_PROTOCOL_VERSION 1u
 
 /** @brief E2E data ID of PARAM_SET, also the data ID its MAC covers (auth.h). */
 #define COMM_PARAM_SET_DATA_ID      0x1120u
@@ -69,7 +81,7 @@ enum {
 #define COMM_AUTH_CHALLENGE_DATA_ID 0x1187u
 
 /** @brief Number of distinct frames in the protocol. */
-#define COMM_N_FRAMES 20u
+#define COMM_N_FRAMES 22u
 
 /** @brief Parameter indices of PARAM_SET / PARAM_GET / PARAM_VALUE. */
 typedef enum {
@@ -246,12 +258,32 @@ typedef struct {
     comm_rx_t rx[COMM_N_FRAMES];
     comm_counters_t drops;
     bool clipped; /**< a value was clipped since the last STATUS (COMM_FAULT_CLIPPED) */
+    uint8_t node; /**< node id, 0..COMM_MAX_NODE: offsets the identifiers (comm_set_node()) */
 } comm_t;
+
+/** @brief The firmware's version and identity, as FW_VERSION carries them. */
+typedef struct {
+    uint8_t major, minor, patch; /**< version (at most 15, 63, 31: larger saturate) */
+    bool dirty;                  /**< built from a work tree with changes not committed */
+    uint32_t build;              /**< build id: the commit's first 7 hex digits (28 bits) */
+    bool fixed;                  /**< NUMERIC=fixed (Q16.16), else float */
+} comm_fw_version_t;
 
 /** @brief Reset counters and sequence state: the next frame of every
  *         identifier is accepted whatever its alive counter, and every
  *         identifier's first frame sent carries counter 0. */
 void comm_init(comm_t *c);
+
+/**
+ * @brief Set the node id: every identifier sent and received is offset by
+ *        COMM_NODE_STRIDE times @p node. Frames of another node's
+ *        identifiers are ignored by comm_decode() (-EXDEV), not counted.
+ *        Call after comm_init(), which sets node 0. Task context.
+ * @param node 0 .. COMM_MAX_NODE.
+ * @retval 0 set.
+ * @retval -EINVAL @p node out of range: nothing changed.
+ */
+int comm_set_node(comm_t *c, uint8_t node);
 
 /**
  * @brief E2E data ID of a frame (the DBC attribute E2EDataID).
@@ -368,6 +400,8 @@ int comm_encode_heartbeat(comm_t *c, comm_state_t state, hal_can_frame_t *f);
  *         freshness last decided, and the status MAC, auth_status_mac(),
  *         which authenticates both). Send them in that order. */
 int comm_encode_auth_status(comm_t *c, const auth_t *s, hal_can_frame_t f[2]);
+/** @brief FW_VERSION: @p v, the node id and COMM_PROTOCOL_VERSION. */
+int comm_encode_fw_version(comm_t *c, const comm_fw_version_t *v, hal_can_frame_t *f);
 /** @brief PARAM_VALUE. */
 int comm_encode_param_value(comm_t *c, uint8_t index, comm_param_result_t result, float value,
                             hal_can_frame_t *f);

@@ -1357,6 +1357,69 @@ bool mstc_dbc_param_auth_param_auth_mac_is_in_phys_range(float value)
     return ((value >= 0.0f) && (value <= 4294967295.0f));
 }
 
+int mstc_dbc_fw_version_get_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_fw_version_get_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->fw_version_get_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->fw_version_get_counter, 0u, 0x0fu);
+
+    return (8);
+}
+
+int mstc_dbc_fw_version_get_unpack(
+    struct mstc_dbc_fw_version_get_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->fw_version_get_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->fw_version_get_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+
+    return (0);
+}
+
+int mstc_dbc_fw_version_get_init(struct mstc_dbc_fw_version_get_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_fw_version_get_t));
+
+    return 0;
+}
+
+bool mstc_dbc_fw_version_get_fw_version_get_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_fw_version_get_fw_version_get_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_fw_version_get_fw_version_get_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_fw_version_get_fw_version_get_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
 int mstc_dbc_wheel_cmd_pack(
     uint8_t *dst_p,
     const struct mstc_dbc_wheel_cmd_t *src_p,
@@ -2455,4 +2518,171 @@ bool mstc_dbc_param_value_param_value_value_is_in_range(float value)
 bool mstc_dbc_param_value_param_value_value_is_in_phys_range(float value)
 {
     return ((value >= -3.4e+38f) && (value <= 3.4e+38f));
+}
+
+int mstc_dbc_fw_version_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_fw_version_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    memset(&dst_p[0], 0, 8);
+
+    dst_p[0] |= pack_left_shift_u8(src_p->fw_version_crc, 0u, 0xffu);
+    dst_p[1] |= pack_left_shift_u8(src_p->fw_version_counter, 0u, 0x0fu);
+    dst_p[1] |= pack_left_shift_u8(src_p->fw_version_node, 4u, 0x70u);
+    dst_p[1] |= pack_left_shift_u8(src_p->fw_version_numeric, 7u, 0x80u);
+    dst_p[2] |= pack_left_shift_u8(src_p->fw_version_protocol, 0u, 0x0fu);
+    dst_p[2] |= pack_left_shift_u8(src_p->fw_version_major, 4u, 0xf0u);
+    dst_p[3] |= pack_left_shift_u8(src_p->fw_version_minor, 0u, 0x3fu);
+    dst_p[3] |= pack_left_shift_u8(src_p->fw_version_patch, 6u, 0xc0u);
+    dst_p[4] |= pack_right_shift_u8(src_p->fw_version_patch, 2u, 0x07u);
+    dst_p[4] |= pack_left_shift_u8(src_p->fw_version_dirty, 3u, 0x08u);
+    dst_p[4] |= pack_left_shift_u32(src_p->fw_version_build, 4u, 0xf0u);
+    dst_p[5] |= pack_right_shift_u32(src_p->fw_version_build, 4u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(src_p->fw_version_build, 12u, 0xffu);
+    dst_p[7] |= pack_right_shift_u32(src_p->fw_version_build, 20u, 0xffu);
+
+    return (8);
+}
+
+int mstc_dbc_fw_version_unpack(
+    struct mstc_dbc_fw_version_t *dst_p,
+    const uint8_t *src_p,
+    size_t size)
+{
+    if (size < 8u) {
+        return (-EINVAL);
+    }
+
+    dst_p->fw_version_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
+    dst_p->fw_version_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
+    dst_p->fw_version_node = unpack_right_shift_u8(src_p[1], 4u, 0x70u);
+    dst_p->fw_version_numeric = unpack_right_shift_u8(src_p[1], 7u, 0x80u);
+    dst_p->fw_version_protocol = unpack_right_shift_u8(src_p[2], 0u, 0x0fu);
+    dst_p->fw_version_major = unpack_right_shift_u8(src_p[2], 4u, 0xf0u);
+    dst_p->fw_version_minor = unpack_right_shift_u8(src_p[3], 0u, 0x3fu);
+    dst_p->fw_version_patch = unpack_right_shift_u8(src_p[3], 6u, 0xc0u);
+    dst_p->fw_version_patch |= unpack_left_shift_u8(src_p[4], 2u, 0x07u);
+    dst_p->fw_version_dirty = unpack_right_shift_u8(src_p[4], 3u, 0x08u);
+    dst_p->fw_version_build = unpack_right_shift_u32(src_p[4], 4u, 0xf0u);
+    dst_p->fw_version_build |= unpack_left_shift_u32(src_p[5], 4u, 0xffu);
+    dst_p->fw_version_build |= unpack_left_shift_u32(src_p[6], 12u, 0xffu);
+    dst_p->fw_version_build |= unpack_left_shift_u32(src_p[7], 20u, 0xffu);
+
+    return (0);
+}
+
+int mstc_dbc_fw_version_init(struct mstc_dbc_fw_version_t *msg_p)
+{
+    if (msg_p == NULL) return -1;
+
+    memset(msg_p, 0, sizeof(struct mstc_dbc_fw_version_t));
+
+    return 0;
+}
+
+bool mstc_dbc_fw_version_fw_version_crc_is_in_range(uint8_t value)
+{
+    (void)value;
+
+    return (true);
+}
+
+bool mstc_dbc_fw_version_fw_version_crc_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 255.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_counter_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_fw_version_fw_version_counter_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_node_is_in_range(uint8_t value)
+{
+    return (value <= 6u);
+}
+
+bool mstc_dbc_fw_version_fw_version_node_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 6.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_numeric_is_in_range(uint8_t value)
+{
+    return (value <= 1u);
+}
+
+bool mstc_dbc_fw_version_fw_version_numeric_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 1.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_protocol_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_fw_version_fw_version_protocol_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_major_is_in_range(uint8_t value)
+{
+    return (value <= 15u);
+}
+
+bool mstc_dbc_fw_version_fw_version_major_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 15.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_minor_is_in_range(uint8_t value)
+{
+    return (value <= 63u);
+}
+
+bool mstc_dbc_fw_version_fw_version_minor_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 63.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_patch_is_in_range(uint8_t value)
+{
+    return (value <= 31u);
+}
+
+bool mstc_dbc_fw_version_fw_version_patch_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 31.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_dirty_is_in_range(uint8_t value)
+{
+    return (value <= 1u);
+}
+
+bool mstc_dbc_fw_version_fw_version_dirty_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 1.0f));
+}
+
+bool mstc_dbc_fw_version_fw_version_build_is_in_range(uint32_t value)
+{
+    return (value <= 268435455u);
+}
+
+bool mstc_dbc_fw_version_fw_version_build_is_in_phys_range(float value)
+{
+    return ((value >= 0.0f) && (value <= 268435455.0f));
 }

@@ -57,6 +57,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_FRAME_ID (0x120u)
 #define MSTC_DBC_PARAM_GET_FRAME_ID (0x121u)
 #define MSTC_DBC_PARAM_AUTH_FRAME_ID (0x122u)
+#define MSTC_DBC_FW_VERSION_GET_FRAME_ID (0x123u)
 #define MSTC_DBC_WHEEL_CMD_FRAME_ID (0x180u)
 #define MSTC_DBC_STATUS_FRAME_ID (0x181u)
 #define MSTC_DBC_STATUS_TRK_FRAME_ID (0x182u)
@@ -66,6 +67,7 @@ extern "C" {
 #define MSTC_DBC_AUTH_STATUS_FRAME_ID (0x186u)
 #define MSTC_DBC_AUTH_CHALLENGE_FRAME_ID (0x187u)
 #define MSTC_DBC_PARAM_VALUE_FRAME_ID (0x190u)
+#define MSTC_DBC_FW_VERSION_FRAME_ID (0x191u)
 
 /* Frame lengths in bytes. */
 #define MSTC_DBC_ODOM_XY_LENGTH (8u)
@@ -79,6 +81,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_LENGTH (8u)
 #define MSTC_DBC_PARAM_GET_LENGTH (8u)
 #define MSTC_DBC_PARAM_AUTH_LENGTH (8u)
+#define MSTC_DBC_FW_VERSION_GET_LENGTH (8u)
 #define MSTC_DBC_WHEEL_CMD_LENGTH (8u)
 #define MSTC_DBC_STATUS_LENGTH (8u)
 #define MSTC_DBC_STATUS_TRK_LENGTH (8u)
@@ -88,6 +91,7 @@ extern "C" {
 #define MSTC_DBC_AUTH_STATUS_LENGTH (8u)
 #define MSTC_DBC_AUTH_CHALLENGE_LENGTH (8u)
 #define MSTC_DBC_PARAM_VALUE_LENGTH (8u)
+#define MSTC_DBC_FW_VERSION_LENGTH (8u)
 
 /* Extended or standard frame types. */
 #define MSTC_DBC_ODOM_XY_IS_EXTENDED (0)
@@ -101,6 +105,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_GET_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_AUTH_IS_EXTENDED (0)
+#define MSTC_DBC_FW_VERSION_GET_IS_EXTENDED (0)
 #define MSTC_DBC_WHEEL_CMD_IS_EXTENDED (0)
 #define MSTC_DBC_STATUS_IS_EXTENDED (0)
 #define MSTC_DBC_STATUS_TRK_IS_EXTENDED (0)
@@ -110,6 +115,7 @@ extern "C" {
 #define MSTC_DBC_AUTH_STATUS_IS_EXTENDED (0)
 #define MSTC_DBC_AUTH_CHALLENGE_IS_EXTENDED (0)
 #define MSTC_DBC_PARAM_VALUE_IS_EXTENDED (0)
+#define MSTC_DBC_FW_VERSION_IS_EXTENDED (0)
 
 /* Frame cycle times in milliseconds. */
 #define MSTC_DBC_ODOM_XY_CYCLE_TIME_MS (20u)
@@ -264,6 +270,9 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_UNAUTHENTICATED_CHOICE (4u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_ARMED_CHOICE (5u)
 
+#define MSTC_DBC_FW_VERSION_FW_VERSION_NUMERIC_FLOAT_CHOICE (0u)
+#define MSTC_DBC_FW_VERSION_FW_VERSION_NUMERIC_FIXED_CHOICE (1u)
+
 /* Frame Names. */
 #define MSTC_DBC_ODOM_XY_NAME "ODOM_XY"
 #define MSTC_DBC_ODOM_THETA_NAME "ODOM_THETA"
@@ -276,6 +285,7 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_NAME "PARAM_SET"
 #define MSTC_DBC_PARAM_GET_NAME "PARAM_GET"
 #define MSTC_DBC_PARAM_AUTH_NAME "PARAM_AUTH"
+#define MSTC_DBC_FW_VERSION_GET_NAME "FW_VERSION_GET"
 #define MSTC_DBC_WHEEL_CMD_NAME "WHEEL_CMD"
 #define MSTC_DBC_STATUS_NAME "STATUS"
 #define MSTC_DBC_STATUS_TRK_NAME "STATUS_TRK"
@@ -285,6 +295,7 @@ extern "C" {
 #define MSTC_DBC_AUTH_STATUS_NAME "AUTH_STATUS"
 #define MSTC_DBC_AUTH_CHALLENGE_NAME "AUTH_CHALLENGE"
 #define MSTC_DBC_PARAM_VALUE_NAME "PARAM_VALUE"
+#define MSTC_DBC_FW_VERSION_NAME "FW_VERSION"
 
 /* Signal Names. */
 #define MSTC_DBC_ODOM_XY_ODOM_XY_CRC_NAME "ODOM_XY_CRC"
@@ -334,6 +345,8 @@ extern "C" {
 #define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_COUNTER_NAME "PARAM_AUTH_Counter"
 #define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_FRESHNESS_NAME "PARAM_AUTH_freshness"
 #define MSTC_DBC_PARAM_AUTH_PARAM_AUTH_MAC_NAME "PARAM_AUTH_mac"
+#define MSTC_DBC_FW_VERSION_GET_FW_VERSION_GET_CRC_NAME "FW_VERSION_GET_CRC"
+#define MSTC_DBC_FW_VERSION_GET_FW_VERSION_GET_COUNTER_NAME "FW_VERSION_GET_Counter"
 #define MSTC_DBC_WHEEL_CMD_WHEEL_CMD_CRC_NAME "WHEEL_CMD_CRC"
 #define MSTC_DBC_WHEEL_CMD_WHEEL_CMD_COUNTER_NAME "WHEEL_CMD_Counter"
 #define MSTC_DBC_WHEEL_CMD_WHEEL_CMD_STEP_NAME "WHEEL_CMD_step"
@@ -385,6 +398,16 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_NAME "PARAM_VALUE_index"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_RESULT_NAME "PARAM_VALUE_result"
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_VALUE_NAME "PARAM_VALUE_value"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_CRC_NAME "FW_VERSION_CRC"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_COUNTER_NAME "FW_VERSION_Counter"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_NODE_NAME "FW_VERSION_node"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_NUMERIC_NAME "FW_VERSION_numeric"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_PROTOCOL_NAME "FW_VERSION_protocol"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_MAJOR_NAME "FW_VERSION_major"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_MINOR_NAME "FW_VERSION_minor"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_PATCH_NAME "FW_VERSION_patch"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_DIRTY_NAME "FW_VERSION_dirty"
+#define MSTC_DBC_FW_VERSION_FW_VERSION_BUILD_NAME "FW_VERSION_build"
 
 /**
  * Signals in message ODOM_XY.
@@ -822,6 +845,29 @@ struct mstc_dbc_param_auth_t {
      * Offset: 0
      */
     uint32_t param_auth_mac;
+};
+
+/**
+ * Signals in message FW_VERSION_GET.
+ *
+ * Ask for the firmware's FW_VERSION, which it sends at once: no authentication, it changes nothing.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_fw_version_get_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_get_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_get_counter;
 };
 
 /**
@@ -1286,6 +1332,97 @@ struct mstc_dbc_param_value_t {
      * Offset: 0
      */
     float param_value_value;
+};
+
+/**
+ * Signals in message FW_VERSION.
+ *
+ * The firmware's version and identity, the answer to FW_VERSION_GET. A board's identifiers are those of this file plus 0x100 times its node id (FW_VERSION_node, docs/protocol.md), so that up to 7 boards share a bus; node 0 uses them as written.
+ *
+ * All signal values are as on the CAN bus.
+ */
+struct mstc_dbc_fw_version_t {
+    /**
+     * Range: 0..255 (0..255 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_crc;
+
+    /**
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_counter;
+
+    /**
+     * The node id the firmware was started or built with (mstc-fw --node, NODE= of make firmware, mstc_sil_fw_set_node): its identifiers are this file's plus 0x100 times it.
+     *
+     * Range: 0..6 (0..6 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_node;
+
+    /**
+     * The numeric mode of the build (NUMERIC): float, or Q16.16 fixed point.
+     *
+     * Range: 0..1 (0..1 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_numeric;
+
+    /**
+     * The protocol the firmware speaks: N of this file's VERSION line (mstc N).
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_protocol;
+
+    /**
+     * The firmware's version, major.minor.patch: the version of the mstc package (pyproject.toml) it was built with.
+     *
+     * Range: 0..15 (0..15 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_major;
+
+    /**
+     * Range: 0..63 (0..63 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_minor;
+
+    /**
+     * Range: 0..31 (0..31 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_patch;
+
+    /**
+     * 1: built from a work tree with changes not committed (build is then the commit they are on).
+     *
+     * Range: 0..1 (0..1 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint8_t fw_version_dirty;
+
+    /**
+     * The build id: the first 7 hex digits of the git commit the firmware was built from (git log --oneline shows them); 0 when built outside a git work tree.
+     *
+     * Range: 0..268435455 (0..268435455 -)
+     * Scale: 1
+     * Offset: 0
+     */
+    uint32_t fw_version_build;
 };
 
 /**
@@ -2728,6 +2865,87 @@ bool mstc_dbc_param_auth_param_auth_mac_is_in_range(uint32_t value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_param_auth_param_auth_mac_is_in_phys_range(float value);
+
+/**
+ * Pack message FW_VERSION_GET.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_fw_version_get_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_fw_version_get_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message FW_VERSION_GET.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_fw_version_get_unpack(
+    struct mstc_dbc_fw_version_get_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from FW_VERSION_GET.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_fw_version_get_init(struct mstc_dbc_fw_version_get_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_get_fw_version_get_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_get_fw_version_get_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_get_fw_version_get_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_get_fw_version_get_counter_is_in_phys_range(float value);
 
 /**
  * Pack message WHEEL_CMD.
@@ -4183,6 +4401,263 @@ bool mstc_dbc_param_value_param_value_value_is_in_range(float value);
  * @return true if in range, false otherwise.
  */
 bool mstc_dbc_param_value_param_value_value_is_in_phys_range(float value);
+
+/**
+ * Pack message FW_VERSION.
+ *
+ * @param[out] dst_p Buffer to pack the message into.
+ * @param[in] src_p Data to pack.
+ * @param[in] size Size of dst_p.
+ *
+ * @return Size of packed data, or negative error code.
+ */
+int mstc_dbc_fw_version_pack(
+    uint8_t *dst_p,
+    const struct mstc_dbc_fw_version_t *src_p,
+    size_t size);
+
+/**
+ * Unpack message FW_VERSION.
+ *
+ * @param[out] dst_p Object to unpack the message into.
+ * @param[in] src_p Message to unpack.
+ * @param[in] size Size of src_p.
+ *
+ * @return zero(0) or negative error code.
+ */
+int mstc_dbc_fw_version_unpack(
+    struct mstc_dbc_fw_version_t *dst_p,
+    const uint8_t *src_p,
+    size_t size);
+
+/**
+ * Init message fields to default values from FW_VERSION.
+ *
+ * @param[in] msg_p Message to init.
+ *
+ * @return zero(0) on success or (-1) in case of nullptr argument.
+ */
+int mstc_dbc_fw_version_init(struct mstc_dbc_fw_version_t *msg_p);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_crc_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_crc_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_counter_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_counter_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_node_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_node_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_numeric_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_numeric_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_protocol_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_protocol_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_major_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_major_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_minor_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_minor_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_patch_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_patch_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_dirty_is_in_range(uint8_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_dirty_is_in_phys_range(float value);
+
+/**
+ * Check that given signal is in allowed range.
+ *
+ * @param[in] value Signal to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_build_is_in_range(uint32_t value);
+
+/**
+ * Check that given physical value is in allowed range before encoding.
+ *
+ * Use this BEFORE calling _encode() to avoid silent integer overflow:
+ *   encode(-1.0) on a [0,100] signal wraps to 255 and passes is_in_range().
+ *   is_in_phys_range(-1.0) correctly returns false.
+ *
+ * @param[in] value Physical signal value to check.
+ *
+ * @return true if in range, false otherwise.
+ */
+bool mstc_dbc_fw_version_fw_version_build_is_in_phys_range(float value);
 
 
 #ifdef __cplusplus

@@ -61,7 +61,8 @@ static uint64_t run_realtime(uint64_t period_us)
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: mstc-fw --can IFACE [--key-file PATH] [--realtime] [--period-ms MS]\n"
+    fprintf(out, "usage: mstc-fw --can IFACE [--key-file PATH] [--node N] [--realtime]\n"
+                 "               [--period-ms MS]\n"
                  "\n"
                  "Run the mstc firmware on a SocketCAN interface (e.g. vcan0) until\n"
                  "SIGINT or SIGTERM. The protocol is firmware/comm/mstc.dbc.\n"
@@ -78,6 +79,9 @@ static void usage(FILE *out)
                  "                  digits, # comments (default: $MSTC_KEY as hex digits,\n"
                  "                  else the file $MSTC_KEY_FILE; without a key every\n"
                  "                  PARAM_SET is refused; docs/safety.md)\n"
+                 "  --node N        node id 0..6: the identifiers are mstc.dbc's plus\n"
+                 "                  0x100 times N, so that boards share a bus (default:\n"
+                 "                  the build's, NODE= of make, 0)\n"
                  "  --help          this text\n");
 }
 
@@ -157,6 +161,7 @@ int main(int argc, char **argv)
     const char *key_file = NULL;
     int realtime = 0;
     long period_ms = 20;
+    long node = -1; /* the build's (APP_NODE) */
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             usage(stdout);
@@ -176,6 +181,14 @@ int main(int argc, char **argv)
                         "mstc-fw: --period-ms: expected an integer in 1..%u, got '%s' (the safety "
                         "filter's guarantee needs alpha dt <= 1, alpha = %g/s: docs/strategy.md)\n",
                         CBF_MAX_PERIOD_MS, argv[i], CBF_ALPHA_PER_S);
+                return 2;
+            }
+        } else if (strcmp(argv[i], "--node") == 0 && i + 1 < argc) {
+            char *end = NULL;
+            node = strtol(argv[++i], &end, 10);
+            if (end == NULL || *end != '\0' || node < 0 || node > (long)COMM_MAX_NODE) {
+                fprintf(stderr, "mstc-fw: --node: expected an integer in 0..%u, got '%s'\n",
+                        COMM_MAX_NODE, argv[i]);
                 return 2;
             }
         } else {
@@ -202,6 +215,9 @@ int main(int argc, char **argv)
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     app_init(&app, NULL);
+    if (node >= 0) {
+        (void)app_set_node(&app, (uint8_t)node); /* in range: checked above */
+    }
     if (key_rc == 0) {
         /* A session of its own for every start (docs/safety.md, "Sessions"). */
         uint32_t session;
@@ -217,8 +233,9 @@ int main(int argc, char **argv)
     if (realtime) {
         (void)snprintf(period, sizeof period, ", period %ld ms", period_ms);
     }
-    fprintf(stderr, "mstc-fw: %s mode on %s (%s)%s, %s%s\n", realtime ? "real-time" : "lock-step",
-            iface, NUM_MODE_NAME, period,
+    fprintf(stderr, "mstc-fw: %s mode on %s (%s)%s, node %u, %s%s\n",
+            realtime ? "real-time" : "lock-step", iface, NUM_MODE_NAME, period,
+            (unsigned)app.comm.node,
             key_rc == 0 ? "key from " : "no key: every PARAM_SET is refused",
             key_rc == 0 ? key_source : "");
 

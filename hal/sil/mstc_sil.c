@@ -159,6 +159,8 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p)
     return app_init(&app, &c);
 }
 
+int mstc_sil_fw_set_node(uint8_t node) { return app_set_node(&app, node); }
+
 _Static_assert(MSTC_SIL_KEY_LEN == AUTH_KEY_LEN, "key lengths differ");
 
 int mstc_sil_fw_set_key(const uint8_t *key, size_t len)

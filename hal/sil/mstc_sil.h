@@ -175,6 +175,14 @@ int mstc_sil_fw_init(const mstc_sil_params_t *p);
 int mstc_sil_fw_set_key(const uint8_t *key, size_t len);
 
 /**
+ * @brief Set the firmware's node id (app_set_node()): its identifiers are
+ *        mstc.dbc's plus 0x100 times @p node. After mstc_sil_fw_init(),
+ *        which sets the build's (NODE= of make, 0).
+ * @retval 0 done. @retval -EINVAL @p node above 6.
+ */
+int mstc_sil_fw_set_node(uint8_t node);
+
+/**
  * @brief Start session @p session instead (freshness 0): for the replay of a
  *        log recorded in that session (mstc replay), never for a run.
  * @retval 0 done. @retval -EINVAL no key was given.

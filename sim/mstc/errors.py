@@ -29,7 +29,8 @@ EXIT_NO_TARGET = 3
 be opened (``mstc play``)."""
 EXIT_MISSED = 4
 """The run was done, but missed what its scenario expects: an ``[[expected]]``
-event beyond its tolerance, or a firmware that ended the run halted
+event beyond its tolerance, a contact with an obstacle (COLLISION), or a
+firmware that ended the run halted
 (``mstc sim``, ``mstc hil``)."""
 EXIT_INTERRUPTED = 130
 """Interrupted (Ctrl-C)."""

@@ -124,6 +124,14 @@ MSG(param_value, FIELD(param_value, param_value_crc), FIELD(param_value, param_v
     FIELD(param_value, param_value_index), FIELD(param_value, param_value_result),
     FIELD(param_value, param_value_value))
 
+MSG(fw_version_get, FIELD(fw_version_get, fw_version_get_crc),
+    FIELD(fw_version_get, fw_version_get_counter))
+MSG(fw_version, FIELD(fw_version, fw_version_crc), FIELD(fw_version, fw_version_counter),
+    FIELD(fw_version, fw_version_node), FIELD(fw_version, fw_version_numeric),
+    FIELD(fw_version, fw_version_protocol), FIELD(fw_version, fw_version_major),
+    FIELD(fw_version, fw_version_minor), FIELD(fw_version, fw_version_patch),
+    FIELD(fw_version, fw_version_dirty), FIELD(fw_version, fw_version_build))
+
 static const msg_t msgs[] = {
     ENTRY(odom_xy, ODOM_XY),
     ENTRY(odom_theta, ODOM_THETA),
@@ -145,6 +153,8 @@ static const msg_t msgs[] = {
     ENTRY(auth_status, AUTH_STATUS),
     ENTRY(auth_challenge, AUTH_CHALLENGE),
     ENTRY(param_value, PARAM_VALUE),
+    ENTRY(fw_version_get, FW_VERSION_GET),
+    ENTRY(fw_version, FW_VERSION),
 };
 #define N_MSGS (sizeof msgs / sizeof msgs[0])
 
@@ -294,6 +304,7 @@ static num_t num(double v) { return num_from_float((float)v); }
  *   AUTH_CHALLENGE  the same, then freshness (the status MAC under the
  *                   all-zero key)
  *   PARAM_VALUE     index, result, value
+ *   FW_VERSION      major, minor, patch, dirty, build, fixed (node 0)
  * @retval the encoder's result, or -ENOENT for another identifier.
  */
 int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
@@ -364,6 +375,16 @@ int shim_comm_encode(uint32_t id, const double *in, uint8_t *out)
         rc = comm_encode_param_value(&comm, (uint8_t)in[0], (comm_param_result_t)in[1],
                                      (float)in[2], &f);
         break;
+    case COMM_ID_FW_VERSION: {
+        const comm_fw_version_t v = { .major = (uint8_t)in[0],
+                                      .minor = (uint8_t)in[1],
+                                      .patch = (uint8_t)in[2],
+                                      .dirty = in[3] != 0.0,
+                                      .build = (uint32_t)in[4],
+                                      .fixed = in[5] != 0.0 };
+        rc = comm_encode_fw_version(&comm, &v, &f);
+        break;
+    }
     default: return -ENOENT;
     }
     if (f.id != id || f.dlc != 8u) {
@@ -427,6 +448,7 @@ int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
         out[1] = (double)m.u.param_set.value;
         break;
     case COMM_ID_PARAM_GET: out[0] = (double)m.u.param_get; break;
+    case COMM_ID_FW_VERSION_GET: break; /* no signal but CRC and counter */
     case COMM_ID_PARAM_AUTH:
         out[0] = (double)m.u.param_auth.freshness_low;
         out[1] =

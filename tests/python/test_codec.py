@@ -361,6 +361,24 @@ def _auth_challenge(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     return [*inputs, freshness], {"freshness": freshness, "mac": mac}
 
 
+def _fw_version(rng: random.Random) -> tuple[list[float], dict[str, float]]:
+    """Version fields beyond their bits saturate (4, 6 and 5 bits); the build
+    id keeps its low 28 bits; node 0 (comm_init's), protocol 1 (the DBC's
+    VERSION "mstc 1")."""
+    major, minor, patch = rng.randint(0, 20), rng.randint(0, 70), rng.randint(0, 40)
+    dirty, fixed, build = rng.randint(0, 1), rng.randint(0, 1), rng.randint(0, 2**32 - 1)
+    return [major, minor, patch, dirty, build, fixed], {
+        "node": 0,
+        "numeric": fixed,
+        "protocol": 1,
+        "major": min(major, 15),
+        "minor": min(minor, 63),
+        "patch": min(patch, 31),
+        "dirty": dirty,
+        "build": build & (2**28 - 1),
+    }
+
+
 CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]] = {
     "WHEEL_CMD": _wheel_cmd,
     "WHEEL_SPEED": _wheel_speed,
@@ -372,6 +390,7 @@ CASES: dict[str, Callable[[random.Random], tuple[list[float], dict[str, float]]]
     "AUTH_STATUS": _auth_status,
     "AUTH_CHALLENGE": _auth_challenge,
     "PARAM_VALUE": _param_value,
+    "FW_VERSION": _fw_version,
 }
 
 

@@ -118,7 +118,7 @@ def test_a_pose_is_the_odometry_the_step_used(exported: tuple[Path, str]) -> Non
     xy, theta = last_before(0x100), last_before(0x101)["ODOM_THETA_theta"]
     poses = dict(decoded(path, "/robot/pose"))
     pose = poses[round(step_time * 1e9)]
-    assert pose.frame_id == "world"
+    assert pose.frame_id == "odom"  # REP 105, as the rosbag2 export and the bridge
     assert pose.pose.position.x == pytest.approx(xy["ODOM_XY_x"], abs=1e-9)
     assert pose.pose.position.y == pytest.approx(xy["ODOM_XY_y"], abs=1e-9)
     q = pose.pose.orientation

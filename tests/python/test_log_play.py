@@ -216,3 +216,32 @@ def test_player_wakes_on_time_after_sleeping_in_pieces() -> None:
     assert stats.sent == 2
     assert sum(clock.sleeps) == pytest.approx(5000.0)
     assert clock.now == pytest.approx(5100.0)
+
+
+def test_cli_takes_canplayers_options_count_verbose_and_mapping(run_play: Run) -> None:
+    """-n (canplayer -n: stop after N frames), -v (echo each frame sent, in
+    candump -L form) and interface mapping BUS=LOG (canplayer's vcan0=can0:
+    the frames logged on LOG go onto BUS; a channel not mapped is not sent)."""
+    lines = log_lines("paper-line")
+    logged_on = lines[0].split()[1]  # the channel the log was recorded on
+    first = [line for line in lines if split(line)[1] == 0x104][:5]
+    channel = "mstc-test-map"
+    with can.Bus(interface="virtual", channel=channel) as rx:
+        rc, out, _ = run_play(
+            "-i", "virtual", "-m", f"{channel}={logged_on}", "--rate", "inf", "--id-filter",
+            "STEP", "-n", "5", "-v", DATA / "paper-line.log",
+        )  # fmt: skip
+        received = []
+        while (msg := rx.recv(0)) is not None:
+            received.append(msg)
+    assert rc == 0, out
+    assert len(received) == 5
+    echoed = [line for line in out.splitlines() if line.startswith("(")]
+    # The echo is the log's own line, the time stamp and channel aside.
+    assert [e.split()[2] for e in echoed] == [f.split()[2] for f in first]
+    assert all(e.split()[1] == channel for e in echoed)
+    assert "sent 5 frames" in out
+    rc, out, _ = run_play(
+        "-i", "virtual", "-m", f"{channel}=not-in-the-log", DATA / "paper-line.log"
+    )  # fmt: skip
+    assert rc == 2

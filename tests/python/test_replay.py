@@ -189,3 +189,28 @@ def test_a_replay_that_compared_nothing_passes_when_asked(tmp_path: Path, run_re
     assert rc == 0
     assert "nothing compared" in out
     assert "error" not in err
+
+
+def test_a_replay_under_another_key_says_the_commands_were_refused(
+    tmp_path: Path, run_replay: Run
+) -> None:
+    """Without the log's key the firmware refuses the log's authenticated
+    commands, and the replay says so and names the keys (issue 35: it said
+    only DIFFERENT). paper-line.log holds 17 authenticated PARAM_SETs (its
+    17 PARAM_AUTH frames), each refused under another key; its own firmware
+    refused none (AUTH_STATUS_refused 0 throughout the log)."""
+    frames = [split(line) for line in log_lines("paper-line")]
+    auths = sum(1 for _, i, _ in frames if i == 0x122)
+    assert auths == 17
+    other = tmp_path / "other.key"
+    other.write_text("00112233445566778899aabbccddeeff\n")
+    other.chmod(0o600)
+    rc, out, err = run_replay("--quiet", "--key-file", other, DATA / "paper-line.log")
+    assert rc == 1
+    assert "DIFFERENT" in out
+    assert err.splitlines() == [
+        f"error: {DATA / 'paper-line.log'}: the firmware refused {auths} of the log's "
+        f"authenticated commands (AUTH_STATUS_refused {auths}, the log's 0): it has another key "
+        f"than the log's firmware had (the key of {other}); the committed logs under tests/data "
+        "are signed with tests/data/test.key: --key-file tests/data/test.key"
+    ]

@@ -18,6 +18,7 @@ import contextlib
 import math
 import os
 import random
+import signal
 import subprocess
 import sys
 import time
@@ -33,6 +34,7 @@ from rclpy.parameter import Parameter
 from std_srvs.srv import SetBool
 
 from conftest import ROOT, SCENARIOS
+from mstc.can import secoc
 from mstc.can.protocol import wire_limits
 from mstc.errors import UsageError
 from mstc.model import param_values
@@ -304,3 +306,51 @@ def test_ros_arguments_rcl_cannot_parse_are_a_usage_error() -> None:
     assert errors == [
         "error: ROS arguments --ros-args -p bad: Couldn't parse parameter override rule: '-p bad'"
     ], stderr
+
+
+def test_the_in_process_firmware_runs_on_the_simulation_key(
+    ros_context: None, sil_lib: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`mstc ros` right after `make sim` (issue 35): only keys/sim.key
+    exists, no device key, no $MSTC_KEY*. The bridge on mstc-sil starts on
+    the simulations' key, as mstc sim does, and its arm command is
+    authenticated (answered `rejected: not ready ...`: there is no odometry
+    yet), where it stopped with `error: no key: .../keys/device.key`."""
+    sim_key = tmp_path / "sim.key"
+    sim_key.write_text("0f1e2d3c4b5a69788796a5b4c3d2e1f0\n")
+    sim_key.chmod(0o600)
+    monkeypatch.delenv("MSTC_KEY", raising=False)
+    monkeypatch.delenv("MSTC_KEY_FILE", raising=False)
+    monkeypatch.setattr(secoc, "SIM_KEY_FILE", sim_key)
+    monkeypatch.setattr(secoc, "DEFAULT_KEY_FILE", tmp_path / "no-device.key")
+    node = Bridge(
+        namespace="sim_key",
+        parameter_overrides=[Parameter("sil_lib", value=str(sil_lib))],
+    )
+    try:
+        assert node.board.auth.key == secoc.read_key(sim_key)
+        response = node._on_arm(SetBool.Request(data=True), SetBool.Response())
+        assert not response.success
+        assert response.message.startswith("rejected: not ready: the firmware arms only when "), (
+            response.message
+        )
+    finally:
+        node.destroy_node()
+
+
+def test_sigterm_stops_the_bridge_cleanly(ros_context: None, sil_lib: Path, tmp_path: Path) -> None:
+    """SIGTERM (kill, systemd, a launch file) stops `mstc ros` as Ctrl-C
+    does: exit status 0, no traceback (issue 35: it printed rclpy's
+    ExternalShutdownException)."""
+    log = tmp_path / "bridge.log"
+    node = Node("mstc_test_sigterm")
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    with bridge(sil_lib, log) as proc:
+        client = node.create_client(SetBool, "/mstc_bridge/arm")
+        spin_until(executor, client.service_is_ready, DISCOVERY_TIMEOUT, "no arm service", log)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 0, log.read_text()
+    assert "Traceback" not in log.read_text(), log.read_text()
+    executor.shutdown()
+    node.destroy_node()

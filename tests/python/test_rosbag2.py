@@ -17,6 +17,7 @@ import csv
 import io
 import json
 import math
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -227,7 +228,9 @@ def test_measured_wheel_speeds_are_the_wheel_speed_frames(sil_lib: Path, tmp_pat
     quiet = io.StringIO()
     with contextlib.redirect_stdout(quiet):
         rc = main(["sim", "--lib", str(sil_lib), "--out", str(tmp_path), "-q", str(scenario)])
-        assert rc == 0
+        # The paper's strategy on lagging wheels may touch an obstacle (exit 4,
+        # docs/strategy-wheels.md); the run's outputs are written either way.
+        assert rc in (0, 4)
         rc = main(["export", str(tmp_path / "lag"), "--rosbag2", str(tmp_path / "bag"), "-q"])
         assert rc == 0
     db = cantools.database.load_file(str(DBC))
@@ -254,3 +257,40 @@ def test_measured_wheel_speeds_are_the_wheel_speed_frames(sil_lib: Path, tmp_pat
 def test_a_run_with_ideal_wheels_has_no_measured_speeds(run: tuple[Path, Path, str]) -> None:
     _, bag, _ = run
     assert messages(bag, "/wheel_speeds") == []
+
+
+def test_an_export_replaces_an_earlier_one_and_leaves_anything_else(
+    run: tuple[Path, Path, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One overwrite rule for both exports (issue 35: the MCAP export
+    overwrote silently, the rosbag2 export refused): an earlier export at
+    the path is replaced, anything else there is left alone (exit 1)."""
+    folder, bag, _ = run
+    copy = tmp_path / "bag"
+    shutil.copytree(bag, copy)
+    before = len(messages(copy, "/odom"))
+    assert main(["export", str(folder), "--rosbag2", str(copy), "-q"]) == 0
+    assert len(messages(copy, "/odom")) == before
+    mcap = tmp_path / "run.mcap"
+    for _ in range(2):
+        assert main(["export", str(folder), "--mcap", str(mcap), "-q"]) == 0
+    other = tmp_path / "notes.txt"
+    other.write_text("mine\n")
+    (tmp_path / "dir").mkdir()
+    capsys.readouterr()
+    assert main(["export", str(folder), "--mcap", str(other), "-q"]) == 1
+    assert main(["export", str(folder), "--rosbag2", str(tmp_path / "dir"), "-q"]) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"error: {other} exists and is not an MCAP file: left alone",
+        f"error: {tmp_path / 'dir'} exists and is not a rosbag2 folder: left alone",
+    ]
+    assert other.read_text() == "mine\n"
+
+
+def test_the_bag_names_its_distribution(run: tuple[Path, Path, str]) -> None:
+    """metadata.yaml names the ROS 2 distribution whose message definitions
+    the bag holds (Kilted: rosbags' store ROS2_KILTED), not "rosbags"."""
+    _, bag, _ = run
+    meta = (bag / "metadata.yaml").read_text()
+    assert "ros_distro: kilted" in meta, meta

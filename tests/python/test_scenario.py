@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from conftest import SCENARIOS
+from conftest import ROOT, SCENARIOS
 from mstc.can.protocol import wire_limits
 from mstc.cli import main
 from mstc.errors import ScenarioError
@@ -118,7 +118,11 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
     "missing sim": (edit("sim", delete=True), "sim", "missing"),
     "missing sim.dt": (edit("sim.dt", delete=True), "sim.dt", "missing"),
     "missing sim.duration": (edit("sim.duration", delete=True), "sim.duration", "missing"),
-    "missing sim.integrator": (edit("sim.integrator", delete=True), "sim.integrator", "missing"),
+    "obstacle on the robot's start": (
+        edit("obstacles[1].position", [0.1, 2.6]),  # 0.141 m from the robot: R_m + R_ob = 0.3 m
+        "obstacles[1].position",
+        "the robot starts inside it",
+    ),
     "missing obstacle position": (
         edit("obstacles[2].position", delete=True),
         "obstacles[2].position",
@@ -360,7 +364,8 @@ def test_bad_file_raises_one_line_naming_file_and_key(
 def test_values_at_the_frames_limits_load(write_scenario: WriteScenario) -> None:
     doc = edit("robot.pose", [127.99, -128.0, 100.0])  # θ is sent wrapped: any heading
     doc["reference"] = {"pose": [-125.0, 125.0, -50.0], "v": -15.99, "w": 15.99}  # a 1 m circle
-    doc["obstacles"] = [{"position": [127.99, -128.0], "radius": 2.55}] * 48
+    # At the opposite corner from the robot: an obstacle on its start is refused.
+    doc["obstacles"] = [{"position": [-128.0, 127.99], "radius": 2.55}] * 48
     doc["expected"] = []
     s = load_scenario(write_scenario(doc, "limits"), wire_limits())
     assert len(s.obstacles) == 48
@@ -502,3 +507,45 @@ def test_cli_refuses_two_scenarios_writing_the_same_folder(
     assert rc == 2
     assert not out.exists()
     assert "would both write" in capsys.readouterr().err
+
+
+def test_the_integrator_defaults_to_the_papers_euler(write_scenario: WriteScenario) -> None:
+    """[sim] integrator is optional (issue 35: the README marked it so and
+    the loader demanded it): forward Euler, the scheme of the paper's figures."""
+    s = load_scenario(
+        write_scenario(edit("sim.integrator", delete=True), "no_integrator"), wire_limits()
+    )
+    assert s.sim.integrator is Integrator.EULER
+
+
+def test_a_suite_file_is_named_as_one(capsys: pytest.CaptureFixture[str]) -> None:
+    """`mstc sim` on a suite says what it is and which command runs it,
+    rather than `suite: unknown key` (issue 35)."""
+    suite = ROOT / "sim" / "suites" / "standard.toml"
+    assert main(["sim", "--bus", "memory", str(suite)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"error: {suite}: this is a suite of scenes, not a scenario: run it with mstc sweep"
+    ]
+
+
+def test_a_run_that_touches_an_obstacle_fails_with_status_4(
+    write_scenario: WriteScenario, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A contact fails the run, so that CI notices (issue 35: it printed
+    COLLISION and exited 0). The obstacle comes head-on at 3 m/s from 3 m
+    while the robot drives at it at 0.5 m/s: the gap of 3 m - R_m - R_ob =
+    2.7 m closes in 0.77 s if the robot only steers, and the paper's
+    strategy has no safety filter that would slow it (docs/strategy.md)."""
+    doc = {
+        "robot": {"pose": [0.0, 0.0, 0.0]},
+        "reference": {"pose": [0.0, 0.0, 0.0], "v": 0.5, "w": 0.0},
+        "obstacles": [{"position": [3.0, 0.0], "velocity": [-3.0, 0.0]}],
+        "sim": {"duration": 2.0, "dt": 0.02},
+        "params": {"strategy": "paper"},
+    }
+    path = write_scenario(doc, "head_on")
+    assert main(["sim", "--bus", "memory", "--out", str(tmp_path / "out"), str(path)]) == 4
+    captured = capsys.readouterr()
+    assert "COLLISION" in captured.out
+    assert captured.err.startswith(f"error: {path}: missed its expectations: contact with O1: ")

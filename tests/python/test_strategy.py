@@ -10,16 +10,16 @@ no contact, the centre distance never below D_s, back on the reference
 sim/mstc/sweep/metrics.py says) in every run that is not blocked, no
 obstacle activated more than twice. The float and fixed runs give the same
 events, in the same order, on the same obstacles and sides. The full suite
-(500 scenes a family) is the benchmark of docs/strategy.md; these are its
+(500 scenes a family) is the benchmark of docs/strategy-results.md; these are its
 first scenes, so a change that breaks the strategy fails here.
 
 Under real wheels (issue 19, the suite's actuator profile "sluggish": lag
 0.1 s, 10 rad/s², two periods of delay) the first SLUGGISH_SCENES scenes of
 every family run too, in both modes, and what the strategy guarantees there
-is asserted on both (docs/strategy.md, "Real wheels": the braking guard
+is asserted on both (docs/strategy-wheels.md: the braking guard
 keeps every static obstacle beyond D_s): no contact and D_s kept in every
 scene without moving obstacles, at most two activations. What it does not
-guarantee is reported, not asserted (docs/strategy.md gives the rates and
+guarantee is reported, not asserted (docs/strategy-wheels-results.md gives the rates and
 says why): rejoin, scenes with moving obstacles, and whether the two modes
 switch alike (under real wheels their paths part at the guard's decisions).
 
@@ -158,7 +158,7 @@ def test_float_and_fixed_give_the_same_events(
     name: str, libs: dict[str, Path], scenes_dir: Path
 ) -> None:
     # With imperfections (noisy reports) the filter may act for a period in one
-    # build and not in the other (docs/strategy.md, "Float and fixed
+    # build and not in the other (docs/strategy-results.md, "Float and fixed
     # builds"): there the switch's events must agree, and the filter's are
     # reported when they do not; elsewhere every event.
     noisy = bool(_family(name).imperfections)

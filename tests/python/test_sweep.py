@@ -156,7 +156,14 @@ def test_events_json_is_what_mstc_sim_writes(
             str(paper),
         ]
     )
-    assert rc == 0
+    # A run that touches an obstacle fails (exit 4), as its row's contact says.
+    with (first / "runs.csv").open(newline="") as f:
+        row = next(
+            r
+            for r in csv.DictReader(f)
+            if r["scene"] == "cluster-0001" and r["strategy"] == "paper"
+        )
+    assert rc == (4 if row["contact"] == "1" else 0)
     capsys.readouterr()
     want = (tmp_path / "sim" / "cluster-0001" / "events.json").read_text()
     assert (first / "paper" / "cluster-0001" / "events.json").read_text() == want
@@ -250,3 +257,28 @@ def test_only_the_failures_and_the_gallery_leave_scene_files_by_default(
     assert rc == 0
     for path in (tmp_path / "scenes").rglob("*.toml"):
         assert path.read_bytes() == (generated / path.relative_to(tmp_path)).read_bytes()
+
+
+def test_a_second_sweep_into_the_folder_leaves_nothing_of_the_first(
+    first: Path, sil_lib: Path, tmp_path: Path
+) -> None:
+    """A sweep with other families and strategies into the folder of an
+    earlier one: the folder then holds the second sweep alone (issue 35: the
+    first's strategy folders, gallery and scenes stayed beside the new
+    runs.csv). A file the sweep did not write stays."""
+    out = tmp_path / "out"
+    shutil.copytree(first, out)
+    (out / "notes.txt").write_text("mine\n")
+    suite = tmp_path / "one.toml"
+    suite.write_text(
+        '[suite]\nname = "one"\n\n[family.head_on]\ncount = 1\nseed = 3\nduration = 2.0\n'
+    )
+    rc = main(
+        ["sweep", "--lib", str(sil_lib), "--strategy", "mstc", "--out", str(out), "-q"]
+        + ["--jobs", "1", "--write-scenes", str(suite)]
+    )
+    assert rc == 0
+    assert {r["strategy"] for r in rows(out)} == {"mstc"}
+    assert not (out / "paper").exists() and not (out / "dwa").exists()
+    assert sorted(p.name for p in (out / "scenes").iterdir()) == ["head_on"]
+    assert (out / "notes.txt").read_text() == "mine\n"

@@ -362,6 +362,38 @@ static void test_app_accepts_an_obstacle_velocity_frame(void)
     TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent);
 }
 
+/* ---------------------------------------------------------------- issue 35 */
+
+/* FW_VERSION_GET is answered at once with FW_VERSION under the node's
+ * identifier (0x191 + 0x100 x node), carrying the node id (bits 12..14) and
+ * the protocol (bits 16..19: 1, the DBC's VERSION "mstc 1"). */
+static void test_app_answers_fw_version_get_under_its_node_id(void)
+{
+    const uint8_t zeros[8] = { 0 };
+    TEST_ASSERT_EQUAL_INT(-EINVAL, app_set_node(&app, 7));
+    TEST_ASSERT_EQUAL_INT(0, app_set_node(&app, 3));
+    hal_can_frame_t f = tf_seal(COMM_ID_FW_VERSION_GET, zeros);
+    f.id += 0x300u;
+    TEST_ASSERT_EQUAL_INT(0, app_on_frame(&app, &f));
+    TEST_ASSERT_EQUAL_UINT(1, hal_fake.n_sent);
+    TEST_ASSERT_EQUAL_HEX32(0x491u, hal_fake.sent[0].id);
+    TEST_ASSERT_EQUAL_UINT8(3, (hal_fake.sent[0].data[1] >> 4) & 0x7u);
+    TEST_ASSERT_EQUAL_UINT8(1, hal_fake.sent[0].data[2] & 0x0Fu);
+}
+
+/* Node 0's frames reach a board of node 1 on a shared bus: not its own, so
+ * neither answered nor counted, nor flagged as a dropped frame. */
+static void test_app_ignores_another_nodes_frames(void)
+{
+    const uint8_t zeros[8] = { 0 };
+    TEST_ASSERT_EQUAL_INT(0, app_set_node(&app, 1));
+    const hal_can_frame_t f = tf_seal(COMM_ID_FW_VERSION_GET, zeros);
+    TEST_ASSERT_EQUAL_INT(-EXDEV, app_on_frame(&app, &f));
+    TEST_ASSERT_EQUAL_UINT(0, hal_fake.n_sent);
+    TEST_ASSERT_FALSE(app.frame_dropped);
+    TEST_ASSERT_EQUAL_UINT16(0, app.comm.drops.unknown);
+}
+
 /* ---------------------------------------------------------------- issue 13 */
 
 /* Case 2: an obstacle radius that switches avoidance off. D_s (0.35) must be
@@ -423,6 +455,8 @@ int main(void)
     RUN_TEST(test_app_status_trk_echoes_the_latest_odometry_frame_in_real_time);
     RUN_TEST(test_app_rejects_bad_parameters_at_init_and_keeps_the_defaults);
     RUN_TEST(test_app_accepts_an_obstacle_velocity_frame);
+    RUN_TEST(test_app_answers_fw_version_get_under_its_node_id);
+    RUN_TEST(test_app_ignores_another_nodes_frames);
     RUN_TEST(test_app_refuses_an_obstacle_radius_that_switches_avoidance_off);
     RUN_TEST(test_app_refuses_a_wheel_limit_that_wheel_cmd_cannot_carry);
     RUN_TEST(test_app_flags_a_clipped_tracking_error_in_status_fault_bit_5);

@@ -157,11 +157,17 @@ static void test_comm_crc8h2f_of_nothing_is_init_xor_final(void)
 static void test_comm_data_ids_are_the_dbc_attribute(void)
 {
     static const uint32_t ids[] = {
-        COMM_ID_ODOM_XY,     COMM_ID_ODOM_THETA,      COMM_ID_REF_XY,       COMM_ID_REF_MOTION,
-        COMM_ID_STEP,        COMM_ID_OBSTACLE,        COMM_ID_OBSTACLE_VEL, COMM_ID_PARAM_SET,
-        COMM_ID_PARAM_GET,   COMM_ID_PARAM_AUTH,      COMM_ID_WHEEL_CMD,    COMM_ID_STATUS,
-        COMM_ID_STATUS_TRK,  COMM_ID_STATUS_COUNTERS, COMM_ID_EVENT,        COMM_ID_HEARTBEAT,
-        COMM_ID_AUTH_STATUS, COMM_ID_PARAM_VALUE,     COMM_ID_WHEEL_SPEED,  COMM_ID_AUTH_CHALLENGE,
+        COMM_ID_ODOM_XY,        COMM_ID_ODOM_THETA,
+        COMM_ID_REF_XY,         COMM_ID_REF_MOTION,
+        COMM_ID_STEP,           COMM_ID_OBSTACLE,
+        COMM_ID_OBSTACLE_VEL,   COMM_ID_PARAM_SET,
+        COMM_ID_PARAM_GET,      COMM_ID_PARAM_AUTH,
+        COMM_ID_WHEEL_CMD,      COMM_ID_STATUS,
+        COMM_ID_STATUS_TRK,     COMM_ID_STATUS_COUNTERS,
+        COMM_ID_EVENT,          COMM_ID_HEARTBEAT,
+        COMM_ID_AUTH_STATUS,    COMM_ID_PARAM_VALUE,
+        COMM_ID_WHEEL_SPEED,    COMM_ID_AUTH_CHALLENGE,
+        COMM_ID_FW_VERSION_GET, COMM_ID_FW_VERSION,
     };
     TEST_ASSERT_EQUAL_UINT(COMM_N_FRAMES, sizeof ids / sizeof ids[0]);
     for (size_t i = 0; i < COMM_N_FRAMES; i++) {
@@ -222,6 +228,82 @@ static void test_comm_decode_drops_an_unknown_identifier(void)
     f.id = 0x7FF;
     TEST_ASSERT_EQUAL_INT(-ENOENT, comm_decode(&c, &f, &m));
     assert_drops(0, 0, 0, 2);
+}
+
+/* ------------------------------------------------------------ node ids */
+
+static void test_comm_node_offsets_the_identifiers_sent_and_received(void)
+{
+    /* Node 2: HEARTBEAT at 0x185 + 0x200, the bytes of node 0's (the data
+     * ID, hence the CRC, is the DBC's: test_comm_encode_protects_counter_then_crc). */
+    static const uint8_t golden[8] = { 0x6C, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00 };
+    TEST_ASSERT_EQUAL_INT(0, comm_set_node(&c, 2));
+    hal_can_frame_t f;
+    comm_encode_heartbeat(&c, COMM_STATE_READY, &f);
+    assert_frame(golden, 0x385u, &f);
+    /* Its own PARAM_GET (0x121 + 0x200) is decoded as PARAM_GET. */
+    comm_msg_t m;
+    f = sealed(COMM_ID_PARAM_GET, zeros, 0);
+    f.id = 0x321u;
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_PARAM_GET, m.id);
+    /* Node 0's and node 6's frames are another board's: ignored, not counted. */
+    f.id = COMM_ID_PARAM_GET;
+    TEST_ASSERT_EQUAL_INT(-EXDEV, comm_decode(&c, &f, &m));
+    f.id = 0x780u; /* node 6's WHEEL_CMD */
+    TEST_ASSERT_EQUAL_INT(-EXDEV, comm_decode(&c, &f, &m));
+    /* An identifier of no node is unknown, as on node 0. */
+    f.id = 0x306u;
+    TEST_ASSERT_EQUAL_INT(-ENOENT, comm_decode(&c, &f, &m));
+    assert_drops(0, 0, 0, 1);
+}
+
+static void test_comm_decodes_fw_version_get_and_encodes_a_clean_float_build(void)
+{
+    comm_msg_t m;
+    const hal_can_frame_t g = sealed(COMM_ID_FW_VERSION_GET, zeros, 0);
+    TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &g, &m));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_FW_VERSION_GET, m.id);
+    /* Not dirty, float: both bits 0; the version as given. */
+    const comm_fw_version_t v = { .major = 2, .minor = 3, .patch = 4, .build = 0xabcdefu };
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_fw_version(&c, &v, &f));
+    TEST_ASSERT_EQUAL_HEX32(COMM_ID_FW_VERSION, f.id);
+    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 15, 1, false));
+    TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 35, 1, false));
+    TEST_ASSERT_EQUAL_INT64(2, get_field(f.data, 20, 4, false));
+    TEST_ASSERT_EQUAL_INT64(3, get_field(f.data, 24, 6, false));
+    TEST_ASSERT_EQUAL_INT64(4, get_field(f.data, 30, 5, false));
+    TEST_ASSERT_EQUAL_INT64(0xabcdef, get_field(f.data, 36, 28, false));
+}
+
+static void test_comm_set_node_refuses_a_node_beyond_6(void)
+{
+    TEST_ASSERT_EQUAL_INT(0, comm_set_node(&c, 6));
+    TEST_ASSERT_EQUAL_INT(-EINVAL, comm_set_node(&c, 7));
+    TEST_ASSERT_EQUAL_UINT8(6, c.node);
+}
+
+static void test_comm_encode_fw_version_packs_each_field(void)
+{
+    /* The DBC's layout (FW_VERSION, read by hand): node 12|3, numeric 15|1,
+     * protocol 16|4, major 20|4, minor 24|6, patch 30|5, dirty 35|1,
+     * build 36|28; larger values saturate at the field's maximum. */
+    const comm_fw_version_t v = {
+        .major = 1, .minor = 70, .patch = 9, .dirty = true, .build = 0xe1396e8u, .fixed = true
+    };
+    TEST_ASSERT_EQUAL_INT(0, comm_set_node(&c, 5));
+    hal_can_frame_t f;
+    TEST_ASSERT_EQUAL_INT(0, comm_encode_fw_version(&c, &v, &f));
+    TEST_ASSERT_EQUAL_HEX32(0x191u + 0x500u, f.id);
+    TEST_ASSERT_EQUAL_INT64(5, get_field(f.data, 12, 3, false));
+    TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 15, 1, false));
+    TEST_ASSERT_EQUAL_INT64(COMM_PROTOCOL_VERSION, get_field(f.data, 16, 4, false));
+    TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 20, 4, false));
+    TEST_ASSERT_EQUAL_INT64(63, get_field(f.data, 24, 6, false));
+    TEST_ASSERT_EQUAL_INT64(9, get_field(f.data, 30, 5, false));
+    TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 35, 1, false));
+    TEST_ASSERT_EQUAL_INT64(0xe1396e8, get_field(f.data, 36, 28, false));
 }
 
 static void test_comm_decode_drops_a_frame_the_firmware_sends(void)
@@ -339,7 +421,7 @@ static void test_comm_decode_counts_a_frame_once_under_its_first_failed_check(vo
 {
     comm_msg_t m;
     /* Unknown identifier and wrong length: unknown. */
-    hal_can_frame_t f = sealed(0x300, zeros, 0);
+    hal_can_frame_t f = sealed(0x306, zeros, 0); /* no node's identifier */
     f.dlc = 3;
     TEST_ASSERT_EQUAL_INT(-ENOENT, comm_decode(&c, &f, &m));
     /* Wrong length and bad CRC: length. */
@@ -373,7 +455,7 @@ static void test_comm_decode_leaves_msg_untouched_on_a_drop(void)
 static void test_comm_drop_counters_saturate_at_4095(void)
 {
     comm_msg_t m;
-    hal_can_frame_t f = sealed(0x300, zeros, 0);
+    hal_can_frame_t f = sealed(0x306, zeros, 0); /* no node's identifier */
     for (unsigned i = 0; i < 5000u; i++) {
         comm_decode(&c, &f, &m);
     }
@@ -976,6 +1058,10 @@ int main(void)
     RUN_TEST(test_comm_encode_counter_counts_per_identifier_and_wraps);
     RUN_TEST(test_comm_decode_accepts_the_first_frame_whatever_its_counter);
     RUN_TEST(test_comm_decode_drops_an_unknown_identifier);
+    RUN_TEST(test_comm_node_offsets_the_identifiers_sent_and_received);
+    RUN_TEST(test_comm_set_node_refuses_a_node_beyond_6);
+    RUN_TEST(test_comm_decodes_fw_version_get_and_encodes_a_clean_float_build);
+    RUN_TEST(test_comm_encode_fw_version_packs_each_field);
     RUN_TEST(test_comm_decode_drops_a_frame_the_firmware_sends);
     RUN_TEST(test_comm_decode_drops_a_wrong_length);
     RUN_TEST(test_comm_decode_drops_a_bad_crc);

@@ -363,6 +363,7 @@ def _declare(dll: ctypes.CDLL) -> None:
         ),
         ("mstc_sil_fw_init", [pointer(ParamsStruct)], c_int),
         ("mstc_sil_fw_set_key", [ctypes.c_char_p, ctypes.c_size_t], c_int),
+        ("mstc_sil_fw_set_node", [ctypes.c_uint8], c_int),
         ("mstc_sil_fw_set_session", [ctypes.c_uint32], c_int),
         ("mstc_sil_fw_send", [pointer(FrameStruct)], c_int),
         ("mstc_sil_fw_recv", [pointer(FrameStruct)], c_int),

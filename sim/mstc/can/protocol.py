@@ -100,6 +100,12 @@ def _frame_crc(start: int, payload: bytes | bytearray) -> int:
     return crc ^ 0xFF
 
 
+NODE_STRIDE = 0x100
+"""What one step of node id adds to every identifier (FW_VERSION_node)."""
+MAX_NODE_ID = 6
+"""The largest node id: 0x191 + 6 x 0x100 is still an 11-bit identifier."""
+
+
 class DropReason(enum.Enum):
     """Why a received frame was dropped; the values are the firmware's counter names."""
 
@@ -385,13 +391,26 @@ class Protocol:
         drops the frames it only sends. ``None`` accepts every frame of the
         DBC (log decoders, monitors).
     :param dbc_path: the DBC; the package's by default.
+    :param node_id: the board's node id, 0 .. :data:`MAX_NODE_ID`: frames are
+        sent and received under the DBC's identifiers plus
+        :data:`NODE_STRIDE` times it (FW_VERSION_node, docs/protocol.md);
+        another board's frames are dropped uncounted (``foreign``).
     """
 
-    def __init__(self, node: str | None = None, dbc_path: Path = DBC_PATH) -> None:
+    def __init__(
+        self, node: str | None = None, dbc_path: Path = DBC_PATH, node_id: int = 0
+    ) -> None:
         self.db = load_database(dbc_path)
         if node is not None and node not in {n.name for n in self.db.nodes}:
             raise ValueError(f"no node {node!r} in {dbc_path.name}")
+        if not 0 <= node_id <= MAX_NODE_ID:
+            raise ValueError(f"node id {node_id}: 0 to {MAX_NODE_ID}")
         self.node = node
+        self.node_id = node_id
+        self.offset = node_id * NODE_STRIDE
+        """What the node id adds to every identifier."""
+        self.foreign = 0
+        """Frames of another board's identifiers, dropped uncounted."""
         self._data_ids = e2e_data_ids(self.db)
         self._crc_starts = {i: _crc_start(d) for i, d in self._data_ids.items()}
         self._codecs = {m.frame_id: _Codec(m) for m in self.db.messages}
@@ -412,6 +431,16 @@ class Protocol:
         """Forget counters and drop counts, as comm_init() does."""
         self._counters = _Counters()
         self.drops = dict.fromkeys(DropReason, 0)
+
+    @property
+    def tx_counters(self) -> dict[int, int]:
+        """The next alive counter to send, by the DBC's identifier: what a
+        tool that runs again later continues from (``mstc board``)."""
+        return dict(self._counters.tx)
+
+    @tx_counters.setter
+    def tx_counters(self, counters: Mapping[int, int]) -> None:
+        self._counters.tx = {int(k): int(v) % COUNTER_MODULO for k, v in counters.items()}
 
     def data_id(self, frame_id: int) -> int:
         """The E2E data ID of a frame (its ``E2EDataID`` attribute)."""
@@ -464,7 +493,7 @@ class Protocol:
         data = codec.pack(values, raw=raw, saturate=saturate)
         self.protect(message.frame_id, data)
         return can.Message(
-            arbitration_id=message.frame_id,
+            arbitration_id=message.frame_id + self.offset,
             is_extended_id=False,
             dlc=DLC,
             data=data,
@@ -495,11 +524,15 @@ class Protocol:
         :returns: the frame's alive counter.
         :raises FrameDropped: a check failed; the drop is counted.
         """
-        frame_id = msg.arbitration_id
+        frame_id = msg.arbitration_id - self.offset
         codec = self._codecs.get(frame_id) if not msg.is_extended_id else None
         message = codec.message if codec is not None else None
         if message is None:
-            raise self._drop(DropReason.UNKNOWN, frame_id, "not in the DBC")
+            other = self.node_of(msg)
+            if other is not None:  # as the firmware: another board's, not counted
+                self.foreign += 1
+                raise FrameDropped(DropReason.UNKNOWN, msg.arbitration_id, f"node {other}'s")
+            raise self._drop(DropReason.UNKNOWN, msg.arbitration_id, "not in the DBC")
         if self.node is not None and self.node not in message.receivers:
             raise self._drop(DropReason.UNKNOWN, frame_id, f"{self.node} does not receive it")
         if msg.dlc != DLC or len(msg.data) != DLC:
@@ -528,6 +561,16 @@ class Protocol:
         :raises FrameDropped: a check failed; the drop is counted.
         """
         counter = self.check(msg)
-        codec = self._codecs[msg.arbitration_id]
+        codec = self._codecs[msg.arbitration_id - self.offset]
         signals = codec.unpack(bytes(msg.data))
-        return Frame(codec.name, msg.arbitration_id, counter, signals, msg.timestamp)
+        return Frame(codec.name, codec.message.frame_id, counter, signals, msg.timestamp)
+
+    def node_of(self, msg: can.Message) -> int | None:
+        """The node id whose identifiers hold @p msg's (the DBC's plus
+        :data:`NODE_STRIDE` times it), None for none."""
+        if msg.is_extended_id:
+            return None
+        node, base = divmod(msg.arbitration_id - NODE_STRIDE, NODE_STRIDE)
+        if 0 <= node <= MAX_NODE_ID and base + NODE_STRIDE in self._codecs:
+            return node
+        return None

@@ -274,7 +274,10 @@ class Authenticator:
             )
         pset = proto.encode("PARAM_SET", index=index, value=value)
         data = bytes(pset.data)[2:8]
-        tag = cmac(self.key, mac_input(proto.data_id(pset.arbitration_id), data, st.session, fv))
+        tag = cmac(
+            self.key,
+            mac_input(proto.data_id(pset.arbitration_id - proto.offset), data, st.session, fv),
+        )
         pauth = proto.encode(
             "PARAM_AUTH",
             freshness=fv,

@@ -42,6 +42,8 @@ class SilBus(can.BusABC):
         default one drawn from the OS at start, as a board draws one at every
         start (docs/safety.md, "Sessions"). Only the replay of a log sets it:
         to the session the log was recorded in.
+    :param node: the firmware's node id, 0..6 (its identifiers are the DBC's
+        plus 0x100 times it); default: the build's (NODE= of make, 0).
     :raises can.CanInitializationError: the library cannot be loaded (its
         bindings, :class:`mstc.can.library.Library`, say why), the firmware
         started, or the key read.
@@ -53,6 +55,7 @@ class SilBus(can.BusABC):
         lib: str | os.PathLike[str] | None = None,
         key: bytes | None = None,
         session: int | None = None,
+        node: int | None = None,
         **kwargs: Any,
     ) -> None:
         try:
@@ -64,6 +67,7 @@ class SilBus(can.BusABC):
         self.channel = channel if channel is not None else "sil0"
         self.channel_info = f"mstc-sil ({self.numeric}) {library.path}"
         self._now = 0.0
+        self._node = node
         try:
             self._key = secoc.load_key() if key is None else key
         except AuthKeyError as exc:
@@ -82,6 +86,8 @@ class SilBus(can.BusABC):
         rc = self._lib.mstc_sil_fw_init(None)
         if rc != 0:
             raise can.CanInitializationError(f"mstc-sil: firmware init failed ({rc})")
+        if self._node is not None and self._lib.mstc_sil_fw_set_node(self._node) != 0:
+            raise can.CanInitializationError(f"mstc-sil: node id {self._node}: 0 to 6")
         if self._lib.mstc_sil_fw_set_key(self._key, len(self._key)) != 0:
             raise can.CanInitializationError(
                 f"mstc-sil: the firmware refused the key ({len(self._key)} bytes, want "

@@ -9,13 +9,16 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
+import can
 from cantools.database.can import Database
 
 from mstc.can import secoc
 from mstc.can.dbc import tables
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import DBC_PATH, load_database, wire_limits
+from mstc.can.vmbridge import Bridge
 from mstc.errors import (
     EXIT_OK,
     BusError,
@@ -29,6 +32,7 @@ from mstc.errors import (
 )
 from mstc.logs.decode import DecodedLog, decode_log
 from mstc.logs.framelog import FrameLog, ProblemList
+from mstc.logs.play import open_bus
 from mstc.logs.read import FORMATS, read_log
 from mstc.loop.result import RunResult
 from mstc.plant.scenario import Scenario, changed_params, load_scenarios
@@ -89,6 +93,57 @@ def add_lib_argument(parser: argparse.ArgumentParser) -> None:
         type=Path,
         help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
     )
+
+
+def add_bus_arguments(
+    parser: argparse.ArgumentParser, default_interface: str, default_channel: str | None = None
+) -> None:
+    """The bus options python-can's and can-utils' users type: ``-i``/
+    ``--interface``, ``-c``/``--channel``, ``-b``/``--bitrate`` (as
+    python-can's ``can.player`` and ``can.logger`` take them)."""
+    parser.add_argument(
+        "-i",
+        "--interface",
+        default=default_interface,
+        help="python-can interface: mstc-sil (the firmware in process), socketcan, slcan, "
+        "virtual, ... (default: %(default)s)",
+    )
+    parser.add_argument(
+        "-c",
+        "--channel",
+        default=default_channel,
+        help="the interface's channel: vcan0, can0, /dev/ttyACM0, ... (default: "
+        + (f"{default_channel})" if default_channel else "the interface's own)"),
+    )
+    parser.add_argument(
+        "-b",
+        "--bitrate",
+        metavar="BIT/S",
+        type=int,
+        help="bit rate, for interfaces that set it (slcan, pcan, ...; socketcan takes the "
+        "link's: `ip link set can0 type can bitrate 500000`)",
+    )
+
+
+def open_args_bus(
+    args: argparse.Namespace, channel: str | None = None, **config: Any
+) -> can.BusABC:
+    """The bus of :func:`add_bus_arguments`' options (on @p channel instead
+    of --channel when given), with the interface's other settings @p config.
+
+    :raises BusError: it cannot be opened (says why).
+    """
+    if args.bitrate is not None:
+        if args.bitrate <= 0:
+            raise UsageError(f"--bitrate {args.bitrate}: a positive number of bit/s")
+        config["bitrate"] = args.bitrate
+    channel = channel or args.channel
+    # Under tools/vm/with-vcan --bridge the vcan interface is the VM's,
+    # reached through the bridge it made (docs/hil.md).
+    bridge = Bridge.from_env(channel) if args.interface == "socketcan" else None
+    if bridge is not None:
+        return bridge.open_bus()
+    return open_bus(args.interface, channel, **config)
 
 
 def add_key_argument(parser: argparse.ArgumentParser) -> None:

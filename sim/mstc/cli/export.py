@@ -21,7 +21,8 @@ any bus log mstc replay reads. The file holds every CAN frame decoded with the
 DBC on /can/<MESSAGE> (JSON), the robot's and the reference's poses and paths,
 the obstacles and the switching events as Foxglove schemas (protobuf), each
 stamped with the log's time. Open it in Foxglove: its 3D panel shows the
-paths and obstacles in the frame "world"; a Plot panel takes any signal, e.g.
+paths and obstacles in the frame "odom" (REP 105, as the rosbag2 export);
+a Plot panel takes any signal, e.g.
 /can/STATUS.e. See docs/replay.md.
 
 With --rosbag2 the run becomes a rosbag2 folder (MCAP storage) of standard ROS 2
@@ -30,9 +31,13 @@ messages in the frames odom and base_link: /odom, /tf, /reference,
 raw frame on /can/frames (can_msgs/msg/Frame), for ros2 bag play, rviz2, rqt
 (docs/ros2.md). It needs the extra mstc[ros].
 
-exit status: 0 written; 1 the file cannot be written (a rosbag2 folder that
-exists already); 2 bad arguments, a log that cannot be used (with --strict, any
-problem in it), or --rosbag2 without rosbags installed.
+Either replaces what an earlier export wrote at the same path (the MCAP file,
+the rosbag2 folder); a path that holds anything else is left alone.
+
+exit status: 0 written; 1 the file cannot be written (a path that holds
+something other than an earlier export); 2 bad arguments, a log that cannot
+be used (with --strict, any problem in it), or --rosbag2 without rosbags
+installed.
 
 examples:
   .venv/bin/mstc export tests/data/paper-line.log --mcap build/paper-line.mcap

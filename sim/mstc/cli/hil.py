@@ -15,12 +15,11 @@ import can
 
 from mstc.can import secoc
 from mstc.can.vmbridge import Bridge, BridgeBus
-from mstc.cli.common import add_key_argument, run_scenarios
+from mstc.cli.common import add_bus_arguments, add_key_argument, open_args_bus, run_scenarios
 from mstc.cli.sim import add_output_arguments, tolerance
 from mstc.errors import ControllerError, UsageError
 from mstc.firmware.process import start_firmware, stop_firmware
 from mstc.firmware.qemu import ICOUNT, BoardVm, LoopStats
-from mstc.logs.play import open_bus
 from mstc.loop.lockstep import CanController, enter_lockstep, simulate
 from mstc.loop.realtime import (
     COMM_LOSS_TAIL,
@@ -115,17 +114,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--interface",
-        default="socketcan",
-        help="python-can interface (default: %(default)s)",
-    )
-    parser.add_argument(
-        "--channel",
-        metavar="NAME",
-        default="vcan0",
-        help="the interface's channel (default: %(default)s)",
-    )
+    add_bus_arguments(parser, default_interface="socketcan", default_channel="vcan0")
     parser.add_argument(
         "--fw",
         metavar="PATH",
@@ -186,7 +175,7 @@ def _run_one(
     # The vcan VM's bridge (with-vcan --bridge): the bus through it, the
     # firmware started in the VM, and what crossed it counted.
     bridge = Bridge.from_env(args.channel) if args.interface == "socketcan" else None
-    bus = bridge.open_bus() if bridge is not None else open_bus(args.interface, args.channel)
+    bus = bridge.open_bus() if bridge is not None else open_args_bus(args)
     before = bridge.counters() if bridge is not None else {}
     period_ms = round(1000.0 / args.rate_hz) if args.realtime else None
     firmware = (

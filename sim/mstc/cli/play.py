@@ -7,9 +7,12 @@ import argparse
 import math
 import sys
 
-from mstc.cli.common import add_log_arguments, load_log
+import can
+
+from mstc.cli.common import add_bus_arguments, add_log_arguments, load_log, open_args_bus
 from mstc.errors import EXIT_OK, UsageError
-from mstc.logs.play import IdFilter, Player, open_bus, select
+from mstc.logs.candump import candump_line
+from mstc.logs.play import IdFilter, Player, select
 from mstc.logs.replay import firmware_ids
 from mstc.report.progress import ProgressBar
 
@@ -42,14 +45,27 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_log_arguments(parser)
+    add_bus_arguments(parser, default_interface="socketcan", default_channel="vcan0")
     parser.add_argument(
-        "--interface",
-        default="socketcan",
-        help="python-can interface to play the log onto (socketcan, virtual, ...; "
-        "default: %(default)s)",
+        "-m",
+        "--map",
+        metavar="BUS=LOG",
+        action="append",
+        default=[],
+        help="interface mapping, as canplayer's vcan0=can0: send the frames logged on LOG "
+        "onto the bus channel BUS (repeatable; the others are not sent); without it every "
+        "frame goes onto --channel",
     )
     parser.add_argument(
-        "--channel", default="vcan0", help="the interface's channel (default: %(default)s)"
+        "-n",
+        "--count",
+        metavar="N",
+        type=int,
+        default=0,
+        help="stop after N frames sent (default: all)",
+    )
+    parser.add_argument(
+        "-v", "--verbose", action="store_true", help="print each frame as it is sent (candump -L)"
     )
     parser.add_argument(
         "--rate",
@@ -88,30 +104,59 @@ def run(args: argparse.Namespace) -> int:
         parser.error(f"--rate must be > 0 (inf: back to back), got {args.rate}")
     if loops < 0:
         parser.error(f"--loop must be >= 0 (0: until interrupted), got {loops}")
+    if args.count < 0:
+        parser.error(f"--count must be >= 0 (0: all), got {args.count}")
+    mapping: dict[str, str] = {}
+    for item in args.map:
+        bus_channel, sep, log_channel = item.partition("=")
+        if not sep or not bus_channel or not log_channel:
+            parser.error(f"--map {item!r}: BUS=LOG, e.g. vcan0=can0")
+        mapping[log_channel] = bus_channel
     db, log = load_log(args)
     id_filter = IdFilter.parse(args.id_filter, db) if args.id_filter is not None else None
     inputs, _ = firmware_ids(db)
-    frames = select(log, inputs=None if args.all else inputs, id_filter=id_filter)
+    frames = select(
+        log,
+        inputs=None if args.all else inputs,
+        id_filter=id_filter,
+        channels=mapping or None,
+    )
     what = "every frame" if args.all else "the firmware's input frames"
     if not frames:
         raise UsageError(
             f"{args.log}: nothing to send ({what}, ID filter {args.id_filter or 'none'})"
         )
-    bus = open_bus(args.interface, args.channel)
+    buses = {ch: open_args_bus(args, channel=ch) for ch in sorted(set(mapping.values()))}
+    bus = open_args_bus(args) if not buses else next(iter(buses.values()))
     total = len(frames) * loops if loops else len(frames)
+    total = min(total, args.count) if args.count else total
     bar = ProgressBar(total, "play", "frames", enabled=not args.quiet and loops != 0)
-    player = Player(bus, rate=rate, loops=loops)
+
+    def echo(msg: can.Message) -> None:
+        channel = mapping.get(str(msg.channel), args.channel) if mapping else args.channel
+        print(candump_line(msg, str(channel)), flush=True)
+
+    player = Player(
+        bus,
+        rate=rate,
+        loops=loops,
+        limit=args.count,
+        echo=echo if args.verbose else None,
+        route=(lambda msg: buses[mapping[str(msg.channel)]]) if mapping else None,
+    )
     span = frames[-1].timestamp - frames[0].timestamp
     print(
         f"play: {args.log}: {len(frames):,} frames ({what}) over {span:.3f} s of log time, "
         f"rate {rate:g}, {'until interrupted' if loops == 0 else f'{loops} loop(s)'}, "
-        f"onto {args.interface} {args.channel}"
+        f"onto {args.interface} "
+        + (", ".join(f"{b} (from {c})" for c, b in mapping.items()) if mapping else args.channel)
     )
     try:
         player.play(frames, bar)
     finally:
         bar.close()
-        bus.shutdown()
+        for b in {bus, *buses.values()}:
+            b.shutdown()
         # How far it came, unless interrupted: after every frame, or up to a
         # failed send (whose error main() prints).
         if not isinstance(sys.exception(), KeyboardInterrupt):

@@ -8,7 +8,14 @@ import argparse
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
 from mstc.cli.common import add_key_argument, add_lib_argument, add_log_arguments, library, load_log
-from mstc.errors import EXIT_FAILED, EXIT_NO_TARGET, EXIT_OK, FirmwareError, UsageError
+from mstc.errors import (
+    EXIT_FAILED,
+    EXIT_NO_TARGET,
+    EXIT_OK,
+    FirmwareError,
+    MstcError,
+    UsageError,
+)
 from mstc.logs.replay import format_difference, format_summary, replay
 from mstc.report.progress import ProgressBar
 
@@ -32,7 +39,9 @@ reported, the log's order kept. See docs/replay.md.
 
 The firmware must have the key the log's commands were authenticated with
 (--key-file; the committed logs: tests/data/test.key), or it refuses them and
-answers otherwise than the log says.
+answers otherwise than the log says: the replay then ends with `error: ...
+the firmware refused N of the log's authenticated commands ...` (exit 1),
+naming the key it had.
 
 To play a log onto a bus with its timing instead (like canplayer): mstc play.
 
@@ -89,6 +98,15 @@ def run(args: argparse.Namespace) -> int:
     if result.first is not None:
         print(format_difference(result.first, log, db))
     print(format_summary(result, db))
+    in_log, in_replay = result.auth_refused
+    if in_replay > in_log:
+        source = secoc.key_file(args.key_file, secoc.SIM_KEY_FILE) or f"${secoc.KEY_ENV}"
+        raise MstcError(
+            f"{args.log}: the firmware refused {in_replay - in_log} of the log's authenticated "
+            f"commands (AUTH_STATUS_refused {in_replay}, the log's {in_log}): it has another key "
+            f"than the log's firmware had (the key of {source}); the committed logs "
+            "under tests/data are signed with tests/data/test.key: --key-file tests/data/test.key"
+        )
     if result.nothing_compared and not args.allow_empty:
         raise UsageError(
             f"{args.log}: nothing compared: the log holds no frame the firmware sends and the "

@@ -30,7 +30,7 @@ Arm with `ros2 service call /mstc_bridge/arm std_srvs/srv/SetBool "{{data: true}
 
 Needs the extra mstc[ros] (pip install 'mstc[ros]'; `make venv` installs it).
 
-exit status: 0 stopped (Ctrl-C); 1 the firmware does not answer on the bus;
+exit status: 0 stopped (Ctrl-C, SIGTERM); 1 the firmware does not answer on the bus;
 2 ROS 2 not installed, a bad parameter or no key; 3 a bus that cannot be opened.
 
 examples:

@@ -48,12 +48,13 @@ inside DIR (a file called ...toml) are refused (exit 2) and left alone.
 
 A run that misses its scenario's [[expected]] events (one not reproduced,
 further from its time than its tolerance and --tolerance, or on the other
-side) says so on the last line, after its outputs are written, and exits 4.
+side), touches an obstacle (COLLISION in its report) or ends halted says so
+on the last line, after its outputs are written, and exits 4.
 
 exit status: 0 done; 1 the firmware library failed or refused the scenario's
 parameters, the run failed, or an output could not be written; 2 bad
 arguments, a bad scenario file, or an output folder that cannot be used;
-4 a run missed its scenario's expectations.
+4 a run missed its scenario's expectations or touched an obstacle.
 
 buses:
   sil     the firmware in process behind CAN frames: python-can's interface

@@ -21,7 +21,7 @@ from mstc.model import Params, WireLimits
 from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
 from mstc.report.progress import ProgressBar
 from mstc.sweep.engine import BATCH, ENGINES, STRATEGIES, Scene
-from mstc.sweep.folder import locked, text_sha256
+from mstc.sweep.folder import clear, locked, text_sha256
 from mstc.sweep.jobs import check_scheduler
 from mstc.sweep.plan import Plan, rerun, run_sweep
 from mstc.sweep.spool import Spool
@@ -68,8 +68,10 @@ A scene that fails (an exception, a non-finite state, a worker that dies) is
 a row with its error, never the end of the sweep. Interrupted, the sweep goes
 on where it stopped with --resume (same DIR and inputs): it keeps the rows run
 from the same suites, scene files and library (DIR/sources.json) and runs the
-rest. One sweep at a time writes DIR (a lock on DIR/.lock): another is
-refused. Every scenario file, and the first scene of each family of a suite,
+rest. Without --resume (and --generate-only), what an earlier sweep wrote
+into DIR (the files above, the strategies' folders) is removed first, so that DIR holds one
+sweep; other files are left alone. One sweep at a time writes DIR (a lock on
+DIR/.lock): another is refused. Every scenario file, and the first scene of each family of a suite,
 is validated before anything runs.
 
 exit status: 0 done (error rows included); 1 the firmware library could not
@@ -337,6 +339,8 @@ def run(args: argparse.Namespace) -> int:
     with locked(args.out):  # one sweep at a time in a folder
         if args.generate_only:
             return _generate(args)
+        if not args.resume:  # the folder holds this sweep alone, none of an earlier one's
+            clear(args.out, STRATEGIES)
         with writing("the sweep's spool"):
             spool = Spool(args.out)
         with spool:

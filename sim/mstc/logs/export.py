@@ -62,11 +62,17 @@ from mcap.writer import Writer
 from mcap_protobuf.schema import register_schema
 
 from mstc.can.dbc import short_name, signal_values
-from mstc.errors import writing
+from mstc.errors import WriteError, writing
 from mstc.logs.decode import DecodedLog
 
-WORLD = "world"
-"""The fixed frame every pose is in."""
+MCAP_MAGIC = b"\x89MCAP"
+"""How an MCAP file starts: an earlier export, which an export replaces."""
+WORLD = "odom"
+"""The fixed frame every pose is in: REP 105's odom, as the ROS 2 bridge and
+the rosbag2 export name it (their world_frame's default)."""
+CHILD_FRAMES = {"robot": "base_link", "reference": "mstc_reference"}
+"""The /tf child frame of each pose: REP 105's base_link for the robot, and
+the bridge's reference_frame default for the reference."""
 OBSTACLE_HEIGHT = 0.3
 """Height of the obstacles' cylinders in the 3D view [m] (the plant is planar)."""
 CIRCLE_POINTS = 72
@@ -266,11 +272,14 @@ def _scene(decoded: DecodedLog, ns: int, paths: dict[str, list[Pose]]) -> SceneU
 def export_mcap(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's frames, decoded with @p db) to @p out.
 
-    :raises WriteError: @p out cannot be written.
+    :raises WriteError: @p out cannot be written, or exists and is not an
+        MCAP file (an earlier export there is replaced).
     """
     summary = ExportSummary(out)
     left_out: Counter[str] = Counter()
     with writing(str(out)):
+        if out.is_dir() or (out.is_file() and out.open("rb").read(len(MCAP_MAGIC)) != MCAP_MAGIC):
+            raise WriteError(f"{out} exists and is not an MCAP file: left alone")
         out.parent.mkdir(parents=True, exist_ok=True)
         with out.open("wb") as stream:
             writer = Writer(stream)
@@ -320,7 +329,7 @@ def export_mcap(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
                         FrameTransform(
                             timestamp=_stamp(ns),
                             parent_frame_id=WORLD,
-                            child_frame_id=name,
+                            child_frame_id=CHILD_FRAMES[name],
                             translation=pose.position,
                             rotation=pose.orientation,
                         ),

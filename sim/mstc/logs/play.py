@@ -20,7 +20,7 @@ import errno
 import itertools
 import re
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Container, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -98,15 +98,20 @@ def select(
     *,
     inputs: frozenset[int] | None,
     id_filter: IdFilter | None = None,
+    channels: Container[str] | None = None,
 ) -> list[can.Message]:
     """The frames of @p log to play, as messages with the log's time stamps.
 
     :param inputs: identifiers to send (the firmware's inputs); None sends
         every frame of the log.
     :param id_filter: further keeps only these identifiers.
+    :param channels: further keeps only the frames logged on these channels
+        (None: every channel).
     """
     out = []
     for row in range(len(log)):
+        if channels is not None and log.channel[row] not in channels:
+            continue
         frame_id = int(log.frame_id[row])
         extended = bool(log.extended[row])
         if inputs is not None and (extended or frame_id not in inputs):
@@ -140,6 +145,9 @@ class Player:
     :param loops: times to play the frames; 0 repeats until interrupted.
     :param clock: a monotonic clock [s].
     :param sleep: sleeps a number of seconds.
+    :param limit: stop after this many frames in all (0: no limit).
+    :param echo: called with each frame sent.
+    :param route: the bus to send each frame on (default: @p bus).
     """
 
     def __init__(
@@ -150,6 +158,9 @@ class Player:
         loops: int = 1,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        limit: int = 0,
+        echo: Callable[[can.Message], None] | None = None,
+        route: Callable[[can.Message], can.BusABC] | None = None,
     ) -> None:
         if not rate > 0:
             raise ValueError(f"rate must be > 0, got {rate}")
@@ -160,6 +171,13 @@ class Player:
         self.loops = loops
         self.clock = clock
         self.sleep = sleep
+        self.limit = limit
+        """Stop after this many frames sent in all (0: no limit; canplayer -n)."""
+        self.echo = echo
+        """Called with each frame once sent (canplayer -v)."""
+        self.route = route
+        """The bus of each frame (interface mapping, canplayer's vcan0=can0);
+        None: :attr:`bus`."""
         self.stats = PlayStats()
         """What the current (or last) :meth:`play` did so far."""
 
@@ -185,14 +203,20 @@ class Player:
                     self.sleep(min(due - now, MAX_SLEEP_S))
                     now = self.clock()
                 stats.late_max = max(stats.late_max, now - due)
+                bus = self.bus if self.route is None else self.route(msg)
                 try:
-                    self.bus.send(msg, timeout=SEND_TIMEOUT_S)
+                    bus.send(msg, timeout=SEND_TIMEOUT_S)
                 except can.CanError as exc:
                     stats.seconds = self.clock() - begin
                     raise SendError(f"cannot send {msg.arbitration_id:03X}: {exc}") from exc
                 stats.sent += 1
+                if self.echo is not None:
+                    self.echo(msg)
                 if progress is not None:
                     progress.update(stats.sent)
+                if stats.sent == self.limit:
+                    stats.seconds = self.clock() - begin
+                    return stats
             stats.loops += 1
         stats.seconds = self.clock() - begin
         return stats

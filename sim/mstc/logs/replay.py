@@ -32,7 +32,7 @@ import ctypes
 import difflib
 import errno
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -260,6 +260,10 @@ class ReplayResult:
     extra: int = 0
     refused: list[tuple[LogFrame, int]] = field(default_factory=list)
     """Input frames the library refused, with its return code."""
+    auth_refused: tuple[int, int] = (0, 0)
+    """Authenticated commands refused (the last AUTH_STATUS_refused): by the
+    firmware of the log, and by the replayed firmware. More in the replay:
+    it has another key than the log's firmware had."""
     first: Difference | None = None
     """The earliest difference in log order."""
     messages: list[MessageStats] = field(default_factory=list)
@@ -488,6 +492,16 @@ def recorded_session(log: FrameLog, db: Database) -> int | None:
     return int(signals["session"]) if isinstance(signals, dict) else None
 
 
+def _last_refused(db: Database, frames: Iterable[tuple[int, bytes]]) -> int:
+    """AUTH_STATUS_refused of the last AUTH_STATUS among @p frames (id, data); 0 if none."""
+    message = db.get_message_by_name("AUTH_STATUS")
+    last = next((data for fid, data in reversed(list(frames)) if fid == message.frame_id), None)
+    if last is None:
+        return 0
+    signals = decode_signals(db, message.frame_id, last, choices=False)
+    return int(signals["refused"]) if isinstance(signals, dict) else 0
+
+
 def replay(
     log: FrameLog,
     db: Database,
@@ -527,6 +541,12 @@ def replay(
     result.not_fed = int((~known).sum())
     result.refused = [(log.frame(int(input_rows[j])), rc) for j, rc in refused]
     compare(log, db, input_rows, output_rows, counts, sent, result)
+    auth_id = db.get_message_by_name("AUTH_STATUS").frame_id
+    recorded = [
+        (auth_id, bytes(log.data[r][: int(log.dlc[r])]))
+        for r in np.flatnonzero(log.standard_ids_in([auth_id]))
+    ]
+    result.auth_refused = (_last_refused(db, recorded), _last_refused(db, map(_payload, sent)))
     result.seconds = time.perf_counter() - start
     return result
 

@@ -418,7 +418,9 @@ def answer_despite_counter(
     good): read for the outcome of a command (:func:`outcome`), never as an
     input; None for any other frame or reason."""
     message = proto.message("PARAM_VALUE")
-    if dropped.reason is not DropReason.SEQUENCE or msg.arbitration_id != message.frame_id:
+    if dropped.reason is not DropReason.SEQUENCE or msg.arbitration_id != (
+        message.frame_id + proto.offset
+    ):
         return None
     decoded = message.decode(bytes(msg.data), decode_choices=False)
     assert isinstance(decoded, dict)  # a message of single signals, choices not decoded
@@ -428,7 +430,7 @@ def answer_despite_counter(
         for k, v in signals.items()
         if k not in ("CRC", "Counter") and isinstance(v, int | float)
     }
-    return Frame(message.name, msg.arbitration_id, msg.data[1] & 0x0F, values, msg.timestamp)
+    return Frame(message.name, message.frame_id, msg.data[1] & 0x0F, values, msg.timestamp)
 
 
 def contested(answers: Sequence[Frame], index: int) -> bool:

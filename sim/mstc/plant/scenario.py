@@ -34,6 +34,9 @@ from mstc.limits import Limit, Violation, load_table, violation
 from mstc.model import EventKind, Obstacle, Params, Pose, Side, SignalRange, Strategy, WireLimits
 from mstc.plant.plant import Integrator
 
+DEFAULT_INTEGRATOR = Integrator.EULER.value
+"""[sim] integrator when a file names none: forward Euler, the paper's
+scheme (its figures), so a file without it runs as the paper's do."""
 MAX_DT = 0.05
 """The longest control period a scenario may have [s]: the "mstc" safety
 filter's guarantee (ḣ >= −α h kept by a step of dt) needs α·dt <= 1, α = 20/s
@@ -460,6 +463,10 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
     :raises ScenarioError: the document is not a valid scenario.
     """
     c = _Checker(path)
+    if "suite" in data and "robot" not in data:
+        raise ScenarioError(
+            path, None, "this is a suite of scenes, not a scenario: run it with mstc sweep"
+        )
     c.keys(data, "", _TOP_REQUIRED, _TOP_KEYS)
 
     params = _parse_params(c, data.get("params", {}))
@@ -471,7 +478,21 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
     reference = _parse_reference(c, data["reference"], wire)
     world = _parse_world(c, data["world"], path, wire) if "world" in data else ()
     obstacles = _parse_obstacles(c, data.get("obstacles", []), params, wire, bool(world))
-    obstacles += tuple(replace(o, id=len(obstacles) + o.id) for o in world)
+    listed = len(obstacles)
+    obstacles += tuple(replace(o, id=listed + o.id) for o in world)
+    for o in obstacles:
+        gap = math.hypot(o.x - robot_pose.x, o.y - robot_pose.y) - params.r_m - o.radius
+        if gap < 0.0:  # the bodies overlap at t = 0: a collision before the first step
+            where = (
+                f"obstacles[{o.id}].position"
+                if o.id <= listed
+                else f"world (obstacle {o.id - listed}, at {o.x:g}, {o.y:g})"
+            )
+            raise c.fail(
+                where,
+                f"the robot starts inside it (its body, R_m = {params.r_m:g} m, overlaps the "
+                f"obstacle's, radius {o.radius:g} m, by {-gap:.4g} m)",
+            )
     sim = _parse_sim(c, data["sim"])
     actuator = _parse_actuator(c, data.get("actuator", {}))
     params = _hand_actuator(c, params, actuator, c.table(data.get("params", {}), "params"), sim)
@@ -893,8 +914,8 @@ def _parse_meta(c: _Checker, value: object) -> MetaSpec:
 
 def _parse_sim(c: _Checker, value: object) -> SimSpec:
     table = c.table(value, "sim")
-    required = ("duration", "dt", "integrator")
-    c.keys(table, "sim", required, required)
+    allowed = ("duration", "dt", "integrator")
+    c.keys(table, "sim", allowed[:2], allowed)
     duration = c.positive(table["duration"], "sim.duration")
     dt = c.positive(table["dt"], "sim.dt")
     dt_us = dt * 1e6
@@ -917,7 +938,9 @@ def _parse_sim(c: _Checker, value: object) -> SimSpec:
         raise c.fail(
             "sim.duration", f"{duration:g} s is beyond the firmware's clock (2^64 microseconds)"
         )
-    integrator = c.choice(table["integrator"], "sim.integrator", tuple(Integrator))
+    integrator = c.choice(
+        table.get("integrator", DEFAULT_INTEGRATOR), "sim.integrator", tuple(Integrator)
+    )
     return SimSpec(duration, dt, Integrator(integrator))
 
 

@@ -17,6 +17,8 @@ from matplotlib.collections import PatchCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
+from matplotlib.text import Annotation
+from matplotlib.transforms import Bbox
 
 from mstc.logs.decode import DecodedLog
 from mstc.loop.result import RunResult, Trace
@@ -28,6 +30,10 @@ _REFERENCE = "0.35"
 _AVOIDING = "tab:orange"
 _OBSTACLE_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink")
 _LABEL_BOX = {"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5}
+_EVENT_LABEL = "mstc-event-time"
+"""The gid of the path figure's event time labels (:func:`separate_labels`)."""
+_MAX_LABEL_MOVES = 40
+"""How far down a label may be moved, in label heights."""
 """Behind small labels, so lines under them do not hide them."""
 _MARKERS = {
     EventKind.DETECT: "o",
@@ -232,6 +238,7 @@ def draw_path(ax: Axes, result: PlotData) -> None:
                 xytext=(6, -10),
                 fontsize="x-small",
                 bbox=_LABEL_BOX,
+                gid=_EVENT_LABEL,
             )
 
     handles, _ = ax.get_legend_handles_labels()
@@ -402,8 +409,30 @@ def plot_timing(timing: Timing, name: str, path: Path) -> Path:
     return path
 
 
-def _save(fig: Figure, path: Path, dpi: int) -> None:
+def separate_labels(fig: Figure, dpi: float) -> None:
+    """Move the event labels of @p fig (drawn at @p dpi) that would cover
+    another down, in time order, until none covers another: where events
+    come close on the path (a cluster, a narrow passage) their times stay
+    readable. Placed on the laid-out figure, so that the text's real
+    extent is known."""
     FigureCanvasAgg(fig)
+    fig.set_dpi(dpi)
+    fig.draw_without_rendering()  # the layout, as saving does it
+    for ax in fig.axes:
+        placed: list[Bbox] = []
+        for label in (t for t in ax.texts if t.get_gid() == _EVENT_LABEL):
+            assert isinstance(label, Annotation)
+            for _ in range(_MAX_LABEL_MOVES):
+                box = label.get_window_extent()
+                if not any(box.overlaps(other) for other in placed):
+                    break
+                dx, dy = label.xyann
+                label.xyann = (dx, dy - box.height * 72.0 / dpi - 1.0)
+            placed.append(label.get_window_extent())
+
+
+def _save(fig: Figure, path: Path, dpi: int) -> None:
+    separate_labels(fig, dpi)
     fig.savefig(path, dpi=dpi)
 
 

@@ -67,8 +67,9 @@ def _steps(match: Match, dt_us: int) -> str:
 def missed(result: RunResult, slack: float = 0.0, stop_at: float | None = None) -> list[str]:
     """What @p result missed of its scenario's expectations, one phrase each:
     an ``[[expected]]`` event not reproduced, further from its time than its
-    tolerance plus @p slack [s], or on the other side; a firmware that ended
-    the run halted. Empty when it met them all.
+    tolerance plus @p slack [s], or on the other side; a contact with an
+    obstacle (closer than R_m + its radius); a firmware that ended the run
+    halted. Empty when it met them all.
 
     :param stop_at: a comm-loss trial's time [s]: the odometry stopped then,
         so the halt was asked for and the events expected from then on are
@@ -89,6 +90,10 @@ def missed(result: RunResult, slack: float = 0.0, stop_at: float | None = None) 
             problems.append(f"{what}: at {sim.t:g} s, Δ {steps} steps (tolerance {allowed:g} s)")
         elif exp.side != sim.side:
             problems.append(f"{what}: on the {sim.side}, expected on the {exp.side}")
+    p = scenario.params
+    for i, (o, d) in enumerate(zip(scenario.obstacles, result.min_distance, strict=True)):
+        if d < p.r_m + o.radius:  # the bodies overlapped: a collision, whatever was expected
+            problems.append(f"contact with O{i + 1}: {d:.4f} m, closer than R_m + radius")
     if result.halt and stop_at is None:
         reason = tables().halt.name_of(result.halt) or "?"
         problems.append(f"the firmware ended the run halted (STATUS_halt {result.halt}, {reason})")

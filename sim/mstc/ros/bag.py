@@ -42,6 +42,7 @@ ships only the standard distribution's types.
 from __future__ import annotations
 
 import math
+import shutil
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -80,6 +81,8 @@ uint8[8] data
 """
 """can_msgs/msg/Frame (ros-industrial/ros_canopen, BSD; ROS 2 branches)."""
 STORE = Stores.ROS2_KILTED
+DISTRO = "kilted"
+"""The ROS 2 distribution of STORE, named in the bag's metadata.yaml."""
 """The type definitions written into the bag (Kilted's; the standard
 messages used here are the same from Humble on)."""
 WORLD = str(PARAMETERS["world_frame"][0])
@@ -211,11 +214,12 @@ class _Bag:
     def write(self, out: Path, summary: ExportSummary) -> None:
         """Write the bag folder @p out; count its messages into @p summary.
 
-        :raises WriteError: @p out cannot be written, or exists already
-            (rosbag2 never overwrites).
+        :raises WriteError: @p out cannot be written, or exists and is not a
+            rosbag2 folder (an earlier bag there is replaced).
         """
         with writing(str(out)):
             out.parent.mkdir(parents=True, exist_ok=True)
+            replace_bag(out)
             try:
                 writer = Writer(
                     out, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP
@@ -238,10 +242,30 @@ class _Bag:
                 writer.write(connections[topic], ns, data)
                 counts[topic] += 1
             writer.close()
+            # The distribution whose definitions the bag holds, which rosbags
+            # leaves as its own name ("rosbags"): ros2 bag info shows it.
+            meta = out / "metadata.yaml"
+            text = meta.read_text().replace("ros_distro: rosbags", f"ros_distro: {DISTRO}")
+            meta.write_text(text)
         summary.messages = dict(counts)
         if self.pending:
             summary.start_ns = min(m[0] for m in self.pending)
             summary.end_ns = max(m[0] for m in self.pending)
+
+
+def replace_bag(out: Path) -> None:
+    """Remove the bag an earlier export wrote at @p out, so that an export
+    replaces it, as the MCAP export replaces its file and `mstc sim` its
+    run (rosbag2's writer refuses a folder that exists).
+
+    :raises WriteError: @p out exists and is not a rosbag2 folder (no
+        metadata.yaml): left alone.
+    """
+    if not out.exists() and not out.is_symlink():
+        return
+    if out.is_symlink() or not (out / "metadata.yaml").is_file():
+        raise WriteError(f"{out} exists and is not a rosbag2 folder: left alone")
+    shutil.rmtree(out)
 
 
 def _obstacle_reports(decoded: DecodedLog, db: Database) -> dict[int, list[tuple[int, ...]]]:
@@ -293,8 +317,8 @@ def _measured_speeds(decoded: DecodedLog, db: Database) -> list[tuple[int, float
 def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
     """Write @p decoded (and its log's raw frames) as a rosbag2 folder @p out.
 
-    :raises WriteError: @p out cannot be written, or exists already (rosbag2
-        never overwrites).
+    :raises WriteError: @p out cannot be written, or exists and is not a
+        rosbag2 folder (an earlier bag there is replaced).
     """
     store = typestore()
     m = _Messages(store)

@@ -29,6 +29,7 @@ from functools import partial
 import can
 
 from mstc.can import secoc
+from mstc.can.dbc import Tables
 from mstc.can.protocol import DropReason, Frame, Protocol, wire_limits
 from mstc.errors import ControllerError, FrameDropped
 from mstc.loop.lockstep import (
@@ -53,6 +54,33 @@ from mstc.model import Obstacle, Pose
 READ_TIMEOUT = 0.1
 """How long the reader thread waits for a frame before it looks whether it
 should stop [s]."""
+
+
+RESULT_REASONS = {
+    "unknown_index": "the firmware has no such parameter",
+    "out_of_range": "outside the parameter's range as the firmware holds it",
+    "rejected": "the set that would result breaks a relation of the limits table "
+    "(docs/safety.md, Parameters)",
+    "unauthenticated": "no valid PARAM_AUTH followed it (the key, docs/safety.md)",
+    "armed": "a parameter of the control law, refused while armed: disarm first",
+}
+"""Why the firmware answers a PARAM_SET with each result but ok (the DBC's
+comment on PARAM_VALUE_result, docs/protocol.md)."""
+ARM_REASONS = {
+    "rejected": "not ready: the firmware arms only when odometry and reference are valid "
+    "and their last 5 frames each arrived in sequence, and CAN is not bus-off",
+    "out_of_range": "the arm command takes 1 (arm) or 0 (disarm)",
+}
+"""The same, for the arm command (PARAM_SET index arm), where they differ."""
+
+
+def result_text(tables: Tables, index: int, result: int) -> str:
+    """PARAM_VALUE's @p result of a PARAM_SET of @p index as a user reads it:
+    its name, and for a refusal the reason (``rejected: not ready: ...``)."""
+    name = tables.param_result.name_of(result) or str(result)
+    reasons = RESULT_REASONS | ARM_REASONS if index == tables.arm_index else RESULT_REASONS
+    reason = reasons.get(name)
+    return f"{name}: {reason}" if reason else name
 
 
 @dataclass
@@ -98,6 +126,8 @@ class Board:
     :param answers_in_send: the bus hands the firmware's answers back before
         ``send`` returns (the in-process ``mstc-sil``): no reader thread.
     :param timeout: how long a command waits for its answer [s].
+    :param node_id: the board's node id (its identifiers are the DBC's plus
+        0x100 times it; docs/protocol.md).
     """
 
     def __init__(
@@ -108,9 +138,10 @@ class Board:
         *,
         answers_in_send: bool,
         timeout: float = 0.5,
+        node_id: int = 0,
     ) -> None:
         self.bus = bus
-        self.proto = Protocol(node=None)
+        self.proto = Protocol(node=None, node_id=node_id)
         self.tables = self.proto.tables
         self.wire = wire_limits()
         self.auth = secoc.Authenticator(key)
@@ -123,6 +154,7 @@ class Board:
         self._lock = threading.RLock()
         self._answer = threading.Condition(self._lock)
         self._answers: list[Frame] = []
+        self._versions: list[Frame] = []
         self._stop = threading.Event()
         self._reader: threading.Thread | None = None
 
@@ -363,6 +395,25 @@ class Board:
                     )
                 self._answer.wait(left)
 
+    def version(self) -> Frame:
+        """FW_VERSION_GET; the firmware's FW_VERSION.
+
+        :raises ControllerError: no answer within the timeout.
+        """
+        with self._lock:
+            self._versions.clear()
+            self.send([self.proto.encode("FW_VERSION_GET")])
+            deadline = time.monotonic() + self.timeout
+            while not self._versions:
+                left = deadline - time.monotonic()
+                if left <= 0 or self.answers_in_send:
+                    raise ControllerError(
+                        f"no FW_VERSION from node {self.proto.node_id} within {self.timeout:g} s: "
+                        f"is it on this bus ({self.bus.channel_info}), with this node id?"
+                    )
+                self._answer.wait(left)
+            return self._versions[-1]
+
     # ----------------------------------------------------------- receiving
 
     def _read(self) -> None:
@@ -409,6 +460,9 @@ class Board:
             self.counts.heartbeat = self._choice("HEARTBEAT", "state", s["state"])
         elif name == "PARAM_VALUE":
             self._answers.append(frame)
+            self._answer.notify_all()
+        elif name == "FW_VERSION":
+            self._versions.append(frame)
             self._answer.notify_all()
         self.on_frame(frame)
 

@@ -29,6 +29,7 @@ board or ``mstc-fw --realtime``; no STEP frame is sent).
 from __future__ import annotations
 
 import math
+import signal
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -44,9 +45,11 @@ from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from std_srvs.srv import SetBool
@@ -61,7 +64,7 @@ from mstc.loop.lockstep import decode_event
 from mstc.model import Event, Fault, Obstacle, Pose
 from mstc.plant.scenario import MAX_DT
 from mstc.ros import diagnostics
-from mstc.ros.board import Board
+from mstc.ros.board import Board, result_text
 from mstc.ros.parameters import (
     FIRMWARE_PREFIX,
     FUTURE_BOUND_S,
@@ -139,8 +142,8 @@ def _yaw(q: Any) -> float:
 
 def open_bus(interface: str, channel: str, bitrate: int, lib: str) -> can.BusABC:
     """The python-can bus of the parameters. The firmware in process
-    (mstc-sil) has the key a board would have: $MSTC_KEY, $MSTC_KEY_FILE or
-    keys/device.key, whatever the bridge's key_file.
+    (mstc-sil) is a simulation and has the key a simulated board has:
+    $MSTC_KEY, $MSTC_KEY_FILE or keys/sim.key, whatever the bridge's key_file.
 
     :raises UsageError: a channel is needed and not given.
     :raises BusError: it cannot be opened (:func:`mstc.logs.play.open_bus`
@@ -149,6 +152,7 @@ def open_bus(interface: str, channel: str, bitrate: int, lib: str) -> can.BusABC
     config: dict[str, Any] = {}
     if interface == "mstc-sil":
         config["lib"] = lib or None
+        config["key"] = secoc.load_key(None, secoc.SIM_KEY_FILE)
     elif not channel:
         raise UsageError(f"can_interface {interface} needs can_channel (can0, /dev/ttyACM0, ...)")
     elif interface == "slcan":
@@ -188,7 +192,11 @@ class Bridge(Node):
         if reliability not in ("reliable", "best_effort"):
             raise UsageError(f"qos_reliability {reliability!r}: reliable or best_effort")
         key_path = str(p("key_file"))
-        key = secoc.load_key(Path(key_path) if key_path else None)
+        # The firmware in process is a simulation: the simulations' key by
+        # default (keys/sim.key, which make sim writes), as mstc sim's.
+        simulated = interface == "mstc-sil"
+        default = secoc.SIM_KEY_FILE if simulated else secoc.DEFAULT_KEY_FILE
+        key = secoc.load_key(Path(key_path) if key_path else None, default)
         self.bus = open_bus(
             interface, str(p("can_channel")), int(p("can_bitrate")), str(p("sil_lib"))
         )
@@ -425,9 +433,8 @@ class Bridge(Node):
         except MstcError as exc:  # no answer, not authenticated
             response.success, response.message = False, str(exc)
             return response
-        result = tables.param_result.name_of(int(answer.signals["result"])) or "?"
         response.success = answer.signals["result"] == tables.param_ok
-        response.message = result
+        response.message = result_text(tables, tables.arm_index, int(answer.signals["result"]))
         return response
 
     # ------------------------------------------------------------ inputs
@@ -757,8 +764,12 @@ def run(args: Sequence[str]) -> int:
 
     :raises MstcError: the bridge cannot start (see :class:`Bridge`).
     """
+    # Ctrl-C and SIGTERM both end spin with KeyboardInterrupt, Python's own
+    # way, at any point of the start (rclpy's handlers shut the context
+    # down under a starting executor, which then fails with a traceback).
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
-        rclpy.init(args=["mstc-ros", *args])
+        rclpy.init(args=["mstc-ros", *args], signal_handler_options=SignalHandlerOptions.NO)
     except RuntimeError as exc:  # rclpy's RCLError: arguments rcl cannot parse
         why = str(exc).removeprefix("failed to initialize rcl: ").split(". Error:")[0]
         raise UsageError(f"ROS arguments {' '.join(args)}: {why}") from exc
@@ -766,7 +777,7 @@ def run(args: Sequence[str]) -> int:
     try:
         node = Bridge()
         rclpy.spin(node)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, SIGTERM
         pass
     finally:
         if node is not None:

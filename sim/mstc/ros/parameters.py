@@ -21,7 +21,11 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "can_channel": ("", "the interface's channel: can0, vcan0, /dev/ttyACM0; empty for mstc-sil"),
     "can_bitrate": (500000, "bit rate [bit/s] for interfaces that set it (slcan)"),
     "sil_lib": ("", "mstc-sil: the firmware library (default $MSTC_SIL_LIB, else the build's)"),
-    "key_file": ("", "the firmware's key file (default $MSTC_KEY_FILE, else keys/device.key)"),
+    "key_file": (
+        "",
+        "the firmware's key file (default $MSTC_KEY_FILE, else keys/sim.key on mstc-sil, "
+        "keys/device.key on a board)",
+    ),
     "step_source": ("", "odom, timer or none (default: timer for mstc-sil, none otherwise)"),
     "rate_hz": (50.0, "control rate [Hz], at least 20: the timer's, the one odometry steps keep"),
     "reference_source": ("plan", "plan (nav_msgs/Path at plan_speed) or reference (PoseStamped)"),

@@ -20,7 +20,8 @@ import fcntl
 import hashlib
 import json
 import os
-from collections.abc import Iterator, Mapping
+import shutil
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -58,6 +59,37 @@ def locked(out: Path) -> Iterator[None]:
         yield
     finally:
         f.close()
+
+
+OUTPUTS = (
+    "runs.csv",
+    ".runs.csv.resume",
+    "summary.md",
+    SOURCES,
+    "clearance.png",
+    "tracking_error.png",
+    "gallery",
+    "scenes",
+)
+"""What a sweep writes at the top of its folder, besides a folder per strategy."""
+
+
+def clear(out: Path, strategies: Iterable[str]) -> None:
+    """Remove from @p out what an earlier sweep wrote there (:data:`OUTPUTS`
+    and the folders of @p strategies, every strategy a sweep can run), so
+    that the folder holds one sweep: a sweep into it with other families or
+    strategies leaves none of the earlier one's files beside its own. Other
+    files are left alone.
+
+    :raises WriteError: one cannot be removed.
+    """
+    with writing(str(out)):
+        for name in (*OUTPUTS, *strategies):
+            path = out / name
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            elif path.exists() or path.is_symlink():
+                path.unlink()
 
 
 def text_sha256(text: str) -> str:

@@ -464,6 +464,7 @@ class Tally:
         """clearance.png and tracking_error.png: one histogram per strategy."""
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
+        from matplotlib.ticker import MaxNLocator
 
         written = []
         for column, label, name in _HISTOGRAMS:
@@ -477,6 +478,7 @@ class Tally:
                 ax.axvline(0.0, color="black", lw=1.0, ls="--", label="contact")
             ax.set_xlabel(label)
             ax.set_ylabel("runs")
+            ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # whole runs
             ax.grid(True, alpha=0.3)
             ax.legend(loc="upper right")
             FigureCanvasAgg(fig)
@@ -489,7 +491,7 @@ class Tally:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        from mstc.report.plots import PlotData, draw_path
+        from mstc.report.plots import PlotData, draw_path, separate_labels
 
         lines = []
         for strategy in self.strategies:
@@ -510,6 +512,7 @@ class Tally:
                 ax.set_title(f"{scene} ({strategy}): min clearance {clearance:.3f} m")
                 FigureCanvasAgg(fig)
                 name = f"gallery/{strategy}/{scene}.png"
+                separate_labels(fig, 80)
                 fig.savefig(out / name, dpi=80)
                 contact = "yes" if row[_C["contact"]] == "1" else "no"
                 family = row[_C["family"]] or "no family"
