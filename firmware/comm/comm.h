@@ -73,7 +73,7 @@ enum {
 /** @} */
 
 /** @brief The protocol the codec speaks: N of mstc.dbc's VERSION line ("mstc N"). */
-#define COMM_PROTOCOL_VERSION 1u
+#define COMM_PROTOCOL_VERSION 2u
 
 /** @brief E2E data ID of PARAM_SET, also the data ID its MAC covers (auth.h). */
 #define COMM_PARAM_SET_DATA_ID      0x1120u
