@@ -24,14 +24,17 @@ TEST_SRCS_test_slcan := hal/stm32/slcan_codec.c
 SRC_CFLAGS_tests/unit/test_bxcan.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_stm32_calc.c := -Ihal/stm32
 SRC_CFLAGS_tests/unit/test_slcan.c := -Ihal/stm32
-# The DC motor model (model/: a plant, not firmware) that the wheel loop is
-# tested against, here, and simulated against, in the SIL library.
-MODEL_SRCS := $(sort $(wildcard model/*.c))
-TEST_SRCS_test_dcm := $(MODEL_SRCS)
-TEST_SRCS_test_whl := $(MODEL_SRCS)
-SRC_CFLAGS_tests/unit/test_dcm.c := -Imodel
-SRC_CFLAGS_tests/unit/test_whl.c := -Imodel
-SRC_CFLAGS_hal/sil := -Imodel
+# The DC motor model, sim/dcmotor/ (the plant's motors in C, not firmware):
+# what the wheel loop is tested against (Unity, here), simulated against (the
+# SIL library, here) and measured against (the benchmarks, mk/bench.mk,
+# mk/wheel.mk). Every user compiles with DCMOTOR_INC and links DCMOTOR_SRCS.
+DCMOTOR_SRCS := $(sort $(wildcard sim/dcmotor/*.c))
+DCMOTOR_INC := -Isim/dcmotor
+TEST_SRCS_test_dcm := $(DCMOTOR_SRCS)
+TEST_SRCS_test_whl := $(DCMOTOR_SRCS)
+SRC_CFLAGS_tests/unit/test_dcm.c := $(DCMOTOR_INC)
+SRC_CFLAGS_tests/unit/test_whl.c := $(DCMOTOR_INC)
+SRC_CFLAGS_hal/sil := $(DCMOTOR_INC)
 TEST_SRCS := $(sort $(foreach t,$(UNIT_TESTS),$(TEST_SRCS_$(t))))
 SRC_CFLAGS_tests/unit := -DUNITY_INCLUDE_DOUBLE -Ideps/unity -Itests/unit -Ihal/fake
 
@@ -70,7 +73,7 @@ BUILD_DEPS_host-$(1) := $$(NUM_DEPS_$(1)) $$(AUTH_DEPS)
 BUILD_ORDER_host-$(1) := $$(STAMP)/apt-sim
 $$(eval $$(call BUILD,host-$(1)))
 build/host/$(1)/libmstc_sil.so: $$(call build_objs,host-$(1),$$(call fw_srcs,$(1)) $$(SIL_SRCS) \
-    $$(MODEL_SRCS))
+    $$(DCMOTOR_SRCS))
 	$$(CC) -shared -Wl,--no-undefined -o $$@ $$^ -lm
 build/host/$(1)/mstc-fw: $$(call build_objs,host-$(1),$$(call fw_srcs,$(1)) $$(LINUX_SRCS))
 	$$(CC) -o $$@ $$^ -lm

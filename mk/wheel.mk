@@ -4,20 +4,20 @@
 # window against tracking loop, and the closed loop against the DC motor
 # model in the acceptance's situations, in both numeric modes. Included by
 # the top Makefile after mk/host.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
-# mk/host.mk's MODEL_SRCS and mk/numeric.mk's NUM_MODES, NUM_*_<mode>. Each
-# mode is a build of mk/compile.mk (wheel-<mode>).
+# mk/host.mk's DCMOTOR_SRCS and DCMOTOR_INC, and mk/numeric.mk's NUM_MODES,
+# NUM_*_<mode>. Each mode is a build of mk/compile.mk (wheel-<mode>).
 
 WHEEL_DIR := build/wheel
 # The wheel loop and what its defaults come from (the limits table).
 WHEEL_CORE_SRCS := firmware/wheel/whl.c firmware/ctrl/ctl_params.c firmware/ctrl/ctl_limits.c
-SRC_CFLAGS_tools/wheel := -Imodel
+SRC_CFLAGS_tools/wheel := $(DCMOTOR_INC)
 
 # $(1): numeric mode.
 define WHEEL_RULES
 BUILD_CC_wheel-$(1) := $$(CC)
 BUILD_CFLAGS_wheel-$(1) := $$(CSTD) $$(OPT) $$(FW_INC) $$(NUM_CFLAGS_$(1))
 BUILD_DIR_wheel-$(1) := $(WHEEL_DIR)/$(1)/obj
-BUILD_SRCS_wheel-$(1) := tools/wheel/wheel_study.c $$(WHEEL_CORE_SRCS) $$(MODEL_SRCS) \
+BUILD_SRCS_wheel-$(1) := tools/wheel/wheel_study.c $$(WHEEL_CORE_SRCS) $$(DCMOTOR_SRCS) \
   $$(NUM_SRCS_$(1))
 BUILD_DEPS_wheel-$(1) := $$(NUM_DEPS_$(1))
 BUILD_ORDER_wheel-$(1) := $$(STAMP)/apt-sim

@@ -2,7 +2,7 @@
 /**
  * @file mstc_sil_wheel.h
  * @brief C ABI of the firmware's wheel loop (firmware/wheel/whl.h) running
- *        against two DC motor models (model/dcm.h) in the shared library
+ *        against two DC motor models (sim/dcmotor/dcm.h) in the shared library
  *        (build/host/<numeric>/libmstc_sil.so), for the plant's "dc"
  *        actuator: the simulation drives the robot with the wheels the
  *        firmware's own inner loop turns (docs/wheel.md).

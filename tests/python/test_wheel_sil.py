@@ -2,7 +2,7 @@
 """The firmware's wheel loop in the simulation: the "dc" actuator.
 
 - The Python motor (mstc.firmware.wheels.Motor.pololu_37d) and the C model's
-  defaults (model/dcm.c, through mstc_sil_wheels_defaults) are two
+  defaults (sim/dcmotor/dcm.c, through mstc_sil_wheels_defaults) are two
   derivations from one datasheet: they must agree; both must give the
   datasheet's points.
 - The loop through the library behaves as the acceptance of issue 20 asks

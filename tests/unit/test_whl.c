@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the wheel-speed loop (firmware/wheel/whl.h), in closed loop
- * against the DC gearmotor model (model/dcm.h, itself tested against its
+ * against the DC gearmotor model (sim/dcmotor/dcm.h, itself tested against its
  * datasheet and its first-order solution in test_dcm.c), at 1 kHz, with the
  * defaults of the limits table: the acceptance of the wheel loop.
  *

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* The wheel loop's benchmark (make bench, bench_wheel.h): a closed loop of
- * whl_step against two DC motor models (model/dcm.h), recorded, then
+ * whl_step against two DC motor models (sim/dcmotor/dcm.h), recorded, then
  * replayed through whl_step alone. */
 #include "bench_wheel.h"
 

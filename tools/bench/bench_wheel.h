@@ -2,7 +2,7 @@
 /**
  * @file bench_wheel.h
  * @brief The wheel loop's benchmark (make bench): whl_step for both wheels
- *        against two DC motor models (model/dcm.h) at 1 kHz, the default
+ *        against two DC motor models (sim/dcmotor/dcm.h) at 1 kHz, the default
  *        motor and parameters with docs/wheel.md's ramp, through a start, a
  *        turn under a 30 %-of-stall load, a reversal and a stop, recorded
  *        once, then replayed through whl_step alone and timed (bench_target.c

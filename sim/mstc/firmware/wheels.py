@@ -1,10 +1,10 @@
 # SPDX-License-Identifier: MIT
 """The firmware's wheel loop against DC motors, in this process: the bindings
 of ``mstc_sil_wheels_*`` (hal/sil/mstc_sil_wheel.h), the library's wheel loop
-(firmware/wheel/whl.h) running two DC gearmotors (model/dcm.h) on its own
+(firmware/wheel/whl.h) running two DC gearmotors (sim/dcmotor/dcm.h) on its own
 clock; and :class:`DcWheels`, which makes of it the plant's "dc" actuator
 (``[actuator] model = "dc"``, docs/wheel.md): two brushed DC gearmotors
-(model/dcm.h) whose speed loop is the firmware's own (firmware/wheel/whl.h):
+(sim/dcmotor/dcm.h) whose speed loop is the firmware's own (firmware/wheel/whl.h):
 the control step's wheel speeds are the loop's setpoints, the loop runs at
 its rate (1 kHz) on the motors' encoders, and the plant's pose follows the
 wheels as they turn, in substeps of at most 1 ms. So ``mstc sim`` and the
@@ -105,7 +105,7 @@ WHEEL_STRUCTS: tuple[type[AbiStruct], ...] = (
 
 @dataclass(frozen=True)
 class Motor:
-    """A DC gearmotor's constants at its output shaft, SI units (model/dcm.h)."""
+    """A DC gearmotor's constants at its output shaft, SI units (sim/dcmotor/dcm.h)."""
 
     r_ohm: float
     """Armature resistance R [Ω]."""
