@@ -233,6 +233,18 @@ void app_housekeeping(app_t *a, uint64_t now_us);
 static inline const kin_wheels_t *app_last_wheels(const app_t *a) { return &a->wheels; }
 
 /**
+ * @brief The setpoint ramp of a board's wheel loop [rad/s²] (whl.h):
+ *        wheel_accel, what the wheels can do; while halted at least the
+ *        halt's deceleration, so that the wheel loop passes the halt's ramp
+ *        on unslowed (the wheels then brake as fast as they can).
+ */
+static inline num_t app_wheel_accel(const app_t *a)
+{
+    const num_t accel = a->ctl.p.wheel_accel;
+    return a->halt != (uint8_t)COMM_HALT_NONE ? num_max(accel, a->ramp_decel) : accel;
+}
+
+/**
  * @brief Re-arm (@p arm true) or disarm. Disarming halts (COMM_HALT_NOT_ARMED,
  *        ramped) unless already halted. Re-arming clears the halt when
  *        app_ready() holds.

@@ -52,13 +52,13 @@ typedef struct {
      *  parameter the table checks (an enumerated one: a whole number). */
     num_t strategy;
     /** What the wheels can do [rad/s²]: "mstc" changes no wheel command
-     *  faster (act.h) and brakes with it in its safety filter (cbf.h). */
+     *  faster (act.h) and brakes with it in its safety filter (cbf.h); the
+     *  boards' wheel loop ramps its setpoint at it (whl.h). */
     num_t wheel_accel;
     /** The wheels' lag to their command, delays included [s] (act.h). */
     num_t wheel_tau;
-    /** The boards' wheel-speed loop (firmware/wheel, PARAM_SET 17..): not
-     *  used by the control step; in the set for its checks (wheel_ramp is
-     *  bounded by max_wheel_decel). */
+    /** The boards' wheel-speed loop (firmware/wheel, PARAM_SET 17..25): not
+     *  used by the control step; in the set for its checks. */
     whl_params_t wheel;
 } ctl_params_t;
 

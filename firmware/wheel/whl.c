@@ -13,9 +13,10 @@ uint32_t whl_period_us(const whl_params_t *p)
     return (uint32_t)(1.0e6f / num_to_float(p->rate) + 0.5f);
 }
 
-void whl_set_params(whl_t *w, const whl_params_t *p)
+void whl_set_params(whl_t *w, const whl_params_t *p, num_t accel)
 {
     w->p = *p;
+    w->accel = accel;
     uint32_t win = periods(num_mul(p->window, p->rate));
     win = win < 1u ? 1u : (win > WHL_MAX_WINDOW ? WHL_MAX_WINDOW : win);
     if (win != w->window) {
@@ -36,7 +37,7 @@ void whl_set_params(whl_t *w, const whl_params_t *p)
         num_div(num_div(num_mul(NUM_TWO_PI, p->rate), p->counts), num_from_int((int32_t)win));
     w->inv_free_speed = num_div(NUM_ONE, p->free_speed);
     w->accel_ff = num_div(num_mul(p->rate, p->motor_tau), p->free_speed);
-    w->ramp_step = num_div(p->ramp, p->rate);
+    w->ramp_step = num_div(accel, p->rate);
     w->ki_dt = num_div(p->ki, p->rate);
     const uint32_t stall = periods(num_mul(p->stall_time, p->rate));
     const uint32_t dead = periods(num_mul(WHL_DEAD_TIME, p->rate));
@@ -49,10 +50,10 @@ void whl_set_params(whl_t *w, const whl_params_t *p)
         (int32_t)periods(num_mul(per_period, num_mul(WHL_MAX_SPEED_FACTOR, p->free_speed))) + 1;
 }
 
-void whl_init(whl_t *w, const whl_params_t *p)
+void whl_init(whl_t *w, const whl_params_t *p, num_t accel)
 {
     *w = (whl_t){ 0 };
-    whl_set_params(w, p);
+    whl_set_params(w, p, accel);
 }
 
 void whl_clear_faults(whl_t *w)

@@ -14,8 +14,10 @@
  *    the measurement in docs/wheel.md: at 1,920 counts/rev and the same noise
  *    it lags less.
  * 2. **Setpoint ramp**: the command moves towards the control step's wheel
- *    speed by at most ramp/rate a period (ODrive's vel_ramp_rate, VESC's
- *    s_pid_ramp_erpms_s).
+ *    speed by at most accel/rate a period (ODrive's vel_ramp_rate, VESC's
+ *    s_pid_ramp_erpms_s), accel being what the wheels can do: the control
+ *    step's wheel_accel (ctl.h), handed to whl_init() and whl_set_params()
+ *    beside the loop's own parameters.
  * 3. **Drive** u = ω_sp/free_speed + kp·e + I, e = ω_sp − ω̂, clamped to
  *    [−1, 1] (full drive). The feed-forward term is the drive that holds
  *    ω_sp with no load (the motor constant: speed proportional to voltage).
@@ -77,9 +79,11 @@ enum whl_fault {
 };
 
 /**
- * @brief The wheel loop's parameters (PARAM_SET indexes 17.., the rows
+ * @brief The wheel loop's own parameters (PARAM_SET indexes 17..25, the rows
  *        wheel_* of firmware/ctrl/ctl_params.toml, which hold their ranges
- *        and defaults: the Pololu 37D 30:1 gearmotor of docs/wheel.md).
+ *        and defaults: the Pololu 37D 30:1 gearmotor of docs/wheel.md). Its
+ *        setpoint ramp is not among them: it is what the wheels can do, the
+ *        control step's wheel_accel, one parameter for one fact.
  */
 typedef struct {
     num_t kp;         /**< proportional gain [drive per rad/s] */
@@ -90,7 +94,6 @@ typedef struct {
     num_t counts;     /**< encoder counts per wheel revolution (×4 quadrature) */
     num_t rate;       /**< loop rate [Hz] */
     num_t window;     /**< speed window [s] */
-    num_t ramp;       /**< setpoint ramp [rad/s²] */
     num_t stall_time; /**< full drive without motion for this long is a stall [s] */
 } whl_params_t;
 
@@ -113,6 +116,7 @@ typedef struct {
 /** @brief The loop: both wheels and what the parameters give. */
 typedef struct {
     whl_params_t p;
+    num_t accel; /**< setpoint ramp [rad/s²] (wheel_accel) */
     whl_wheel_t w[WHL_N];
     uint8_t head;          /**< ring index of the latest count */
     uint8_t window;        /**< W [periods] */
@@ -122,7 +126,7 @@ typedef struct {
     num_t inv_window;      /**< 1/W */
     num_t inv_free_speed;  /**< 1/free_speed */
     num_t accel_ff;        /**< rate·motor_tau/free_speed [drive per rad/s of ramp step] */
-    num_t ramp_step;       /**< ramp/rate [rad/s] */
+    num_t ramp_step;       /**< accel/rate [rad/s] */
     num_t ki_dt;           /**< ki/rate [drive per rad/s] */
     uint16_t stall_limit;  /**< stall_time·rate [periods] */
     uint16_t dead_limit;   /**< WHL_DEAD_TIME·rate [periods] */
@@ -145,15 +149,17 @@ typedef struct {
 
 /**
  * @brief Start at rest with parameters @p p (which ctl_params_check() has
- *        accepted: every one positive, within its range).
+ *        accepted: every one positive, within its range) and the setpoint
+ *        ramp @p accel [rad/s²] (wheel_accel, > 0).
  */
-void whl_init(whl_t *w, const whl_params_t *p);
+void whl_init(whl_t *w, const whl_params_t *p, num_t accel);
 
 /**
- * @brief Take new parameters, keeping the state (speeds, integrators,
- *        faults). Cheap enough to call every control period.
+ * @brief Take new parameters and ramp (as whl_init()), keeping the state
+ *        (speeds, integrators, faults). Cheap enough to call every control
+ *        period.
  */
-void whl_set_params(whl_t *w, const whl_params_t *p);
+void whl_set_params(whl_t *w, const whl_params_t *p, num_t accel);
 
 /** @brief Forget the faults (a re-arm): the wheels may be driven again. */
 void whl_clear_faults(whl_t *w);

@@ -44,8 +44,8 @@ void mstc_sil_wheels_defaults(mstc_sil_wheel_params_t *wp, mstc_sil_motor_t *mp)
         .counts = to_d(p->counts),
         .rate = to_d(p->rate),
         .window = to_d(p->window),
-        .ramp = to_d(p->ramp),
         .stall_time = to_d(p->stall_time),
+        .accel = to_d(c.wheel_accel),
     };
     dcm_params_t d;
     dcm_params_default(&d);
@@ -55,10 +55,10 @@ void mstc_sil_wheels_defaults(mstc_sil_wheel_params_t *wp, mstc_sil_motor_t *mp)
 
 /* The wheel parameters as the firmware holds them, checked as a PARAM_SET
  * of each would be: within the default set, by ctl_params_check(). */
-static int params_from(const mstc_sil_wheel_params_t *wp, whl_params_t *out)
+static int params_from(const mstc_sil_wheel_params_t *wp, whl_params_t *out, num_t *accel)
 {
     const double v[] = { wp->kp,   wp->ki,     wp->free_speed, wp->motor_tau, wp->counts,
-                         wp->rate, wp->window, wp->ramp,       wp->stall_time };
+                         wp->rate, wp->window, wp->stall_time, wp->accel };
     for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
         if (!isfinite(v[i])) {
             return -EINVAL; /* fixed mode has no NaN to refuse later */
@@ -74,13 +74,14 @@ static int params_from(const mstc_sil_wheel_params_t *wp, whl_params_t *out)
         .counts = num_from_float((float)wp->counts),
         .rate = num_from_float((float)wp->rate),
         .window = num_from_float((float)wp->window),
-        .ramp = num_from_float((float)wp->ramp),
         .stall_time = num_from_float((float)wp->stall_time),
     };
+    c.wheel_accel = num_from_float((float)wp->accel);
     if (ctl_params_check(&c) != 0) {
         return -EINVAL;
     }
     *out = c.wheel;
+    *accel = c.wheel_accel;
     return 0;
 }
 
@@ -107,7 +108,8 @@ int mstc_sil_wheels_init(void *mem, const mstc_sil_wheel_params_t *wp, const mst
         return -EINVAL;
     }
     whl_params_t p;
-    if (params_from(wp, &p) != 0) {
+    num_t accel;
+    if (params_from(wp, &p, &accel) != 0) {
         return -EINVAL;
     }
     wheels_t *w = mem;
@@ -116,7 +118,7 @@ int mstc_sil_wheels_init(void *mem, const mstc_sil_wheel_params_t *wp, const mst
                 mp->counts_per_rev, mp->hold_k, mp->hold_c },
         .period_us = whl_period_us(&p),
     };
-    whl_init(&w->loop, &p);
+    whl_init(&w->loop, &p, accel);
     dcm_init(&w->motor[0]);
     dcm_init(&w->motor[1]);
     return 0;
@@ -224,8 +226,8 @@ static const mstc_sil_layout_t layout[] = {
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, counts),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, rate),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, window),
-    MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, ramp),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, stall_time),
+    MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, accel),
 
     MSTC_SIL_LAYOUT_STRUCT(mstc_sil_wheels_input_t),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_input_t, setpoint),

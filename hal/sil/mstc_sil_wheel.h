@@ -32,9 +32,10 @@ typedef struct {
 } mstc_sil_motor_t;
 
 /** @brief The wheel loop's parameters (whl_params_t; ctl_params.toml's
- *         wheel_* rows), SI units. */
+ *         wheel_* rows) and its setpoint ramp, wheel_accel, SI units. */
 typedef struct {
-    double kp, ki, free_speed, motor_tau, counts, rate, window, ramp, stall_time;
+    double kp, ki, free_speed, motor_tau, counts, rate, window, stall_time;
+    double accel; /**< the setpoint ramp: wheel_accel [rad/s²] */
 } mstc_sil_wheel_params_t;
 
 /** @brief What the wheels are asked and what they meet. */
@@ -56,7 +57,8 @@ typedef struct {
 /** @brief Bytes the caller must provide. */
 size_t mstc_sil_wheels_size(void);
 
-/** @brief The defaults: the limits table's wheel loop, the default motor. */
+/** @brief The defaults: the limits table's wheel loop and wheel_accel, the
+ *         default motor. */
 void mstc_sil_wheels_defaults(mstc_sil_wheel_params_t *wp, mstc_sil_motor_t *mp);
 
 /**

@@ -122,8 +122,9 @@ static struct {
 static void wheel_params(void)
 {
     const whl_params_t *p = &app.ctl.p.wheel;
-    if (memcmp(p, &wheels.p, sizeof *p) != 0) {
-        whl_set_params(&wheels, p);
+    const num_t accel = app_wheel_accel(&app);
+    if (memcmp(p, &wheels.p, sizeof *p) != 0 || accel != wheels.accel) {
+        whl_set_params(&wheels, p, accel);
     }
     const uint32_t ms = (whl_period_us(p) + 500u) / 1000u;
     wheel_sched.period_ms = ms > 0u ? ms : 1u;
@@ -248,7 +249,7 @@ int main(void)
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
     }
     (void)app_init(&app, NULL);
-    whl_init(&wheels, &app.ctl.p.wheel);
+    whl_init(&wheels, &app.ctl.p.wheel, app_wheel_accel(&app));
     wheel_params();
     wheel_sched.halt = app.halt;
     install_key();

@@ -93,8 +93,19 @@ def _run(loop: WheelLoop, sp: float, ms: int, load: float = 0.0) -> list[float]:
     return [loop.advance(sp, sp, 1000, (load, load)).speed[0] for _ in range(ms)]
 
 
+def _stepping_params() -> WheelParams:
+    """The table's wheel loop with wheel_accel at its largest, 10000 rad/s²
+    (wheels that follow at once): its setpoint steps, as the acceptance's
+    tests want."""
+    return dataclasses.replace(WheelParams.defaults(), accel=10000.0)
+
+
+def _stepping(lib: Library) -> WheelLoop:
+    return WheelLoop(lib, _stepping_params())
+
+
 def test_step_through_the_library_meets_the_acceptance(lib: Library) -> None:
-    loop = WheelLoop(lib)  # the table's ramp: none, a step
+    loop = _stepping(lib)
     speeds = _run(loop, 20.0, 400)
     outside = [k for k, w in enumerate(speeds) if abs(w - 20.0) > 0.4]
     assert outside[-1] + 1 < 150  # settled within 2 % in under 150 ms
@@ -103,7 +114,7 @@ def test_step_through_the_library_meets_the_acceptance(lib: Library) -> None:
 
 
 def test_load_through_the_library_is_rejected_within_100_ms(lib: Library) -> None:
-    loop = WheelLoop(lib)
+    loop = _stepping(lib)
     _run(loop, 20.0, 300)
     speeds = _run(loop, 20.0, 300, load=0.3 * STALL_TORQUE)
     assert min(speeds) < 19.6  # the load did knock it off
@@ -111,7 +122,7 @@ def test_load_through_the_library_is_rejected_within_100_ms(lib: Library) -> Non
 
 
 def test_faults_show_through_the_library(lib: Library) -> None:
-    loop = WheelLoop(lib)
+    loop = _stepping(lib)
     loop.hold(0, True)
     states = [loop.advance(20.0, 20.0, 1000) for _ in range(600)]
     first = next(k for k, s in enumerate(states) if s.faults)
@@ -131,7 +142,7 @@ def test_the_library_refuses_what_the_firmware_would(lib: Library) -> None:
         dataclasses.replace(defaults, kp=-1.0),
         dataclasses.replace(defaults, rate=5000.0),
         dataclasses.replace(defaults, counts=math.nan),
-        dataclasses.replace(defaults, ramp=10.0),  # below max_wheel_decel (125)
+        dataclasses.replace(defaults, accel=0.5),  # below wheel_accel's range (1 .. 10000)
     ):
         with pytest.raises(FirmwareError, match="refuses"):
             WheelLoop(lib, bad)
@@ -141,7 +152,7 @@ def test_the_library_refuses_what_the_firmware_would(lib: Library) -> None:
 
 def test_the_plant_moves_by_the_wheels_angles(lib: Library) -> None:
     plant = UnicyclePlant(Pose(0.0, 0.0, 0.0), 0.05, 0.3, Integrator.EULER)
-    wheels = DcWheels(lib)
+    wheels = DcWheels(lib, _stepping_params())
     for _ in range(50):
         wheels.drive(plant, 10.0, 10.0, 0.02)
     # Straight ahead: x = r·(θL + θR)/2, y = 0, θ = 0.
@@ -226,7 +237,7 @@ def test_the_gearmotor_profiles_lag_is_no_faster_than_this_loop(lib: Library) ->
     start 0 -> 20 rad/s; both lags are shorter than 0.06 s."""
 
     def fitted(w0: float, w1: float, before_ms: int) -> float:
-        loop = WheelLoop(lib)
+        loop = _stepping(lib)
         _run(loop, w0, before_ms)
         speeds = _run(loop, w1, 300)
         best = min(

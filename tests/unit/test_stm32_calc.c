@@ -289,7 +289,7 @@ static void loop_start(void)
 {
     ctl_params_t c;
     ctl_params_default(&c);
-    whl_init(&loop, &c.wheel);
+    whl_init(&loop, &c.wheel, c.wheel_accel);
 }
 
 static void test_wheel_period_reads_encoders_and_drives_the_motors(void)

@@ -26,13 +26,14 @@
 static dcm_params_t mp;
 static dcm_t m[WHL_N];
 static whl_params_t wp;
+static num_t accel; /* the setpoint ramp, wheel_accel [rad/s²] */
 static whl_t w;
 static whl_output_t out;
 static unsigned k; /* periods run */
 
 static void start(void)
 {
-    whl_init(&w, &wp);
+    whl_init(&w, &wp, accel);
     k = 0;
 }
 
@@ -44,6 +45,9 @@ void setUp(void)
     ctl_params_t c;
     ctl_params_default(&c);
     wp = c.wheel;
+    /* No ramp of the loop's own: 10000 rad/s², wheel_accel's largest
+     * (wheels that follow at once), 10 rad/s a period. */
+    accel = tu_num(10000.0);
     start();
 }
 void tearDown(void) {}
@@ -70,7 +74,7 @@ static double stall_torque(void) { return mp.kt * mp.v_supply / mp.r_ohm - mp.ta
 
 static void test_whl_step_settles_within_2_percent_in_150_ms(void)
 {
-    TEST_ASSERT_NUM_WITHIN(1e-3, 10000.0, wp.ramp); /* the default: a step */
+    TEST_ASSERT_NUM_WITHIN(1e-3, 10.0, w.ramp_step); /* 10000 / 1000: a step */
     double peak[2] = { 0.0, 0.0 };
     double settled[2] = { 0.0, 0.0 }; /* last time outside ±2 % */
     double drive_sum[2] = { 0.0, 0.0 };
@@ -111,7 +115,7 @@ static void test_whl_ramp_is_tracked_within_1_rad_s(void)
      * for this motor (four fifths of what full drive gives at 20 rad/s,
      * (34.56/0.0856)·(1 − 20/34.56) = 170 rad/s²), tracked thanks to the
      * acceleration feed-forward. */
-    wp.ramp = tu_num(125.0);
+    accel = tu_num(125.0);
     start();
     double worst = 0.0;
     while (now() < 1.5) {
@@ -131,6 +135,36 @@ static void test_whl_ramp_is_tracked_within_1_rad_s(void)
     }
     TEST_ASSERT_TRUE_MESSAGE(worst <= 1.0, "ramp tracked within 1 rad/s");
     TEST_ASSERT_TRUE(worst > 0.0);
+}
+
+static void test_whl_setpoint_ramps_at_wheel_accel(void)
+{
+    /* One parameter for one fact: the loop's ramp is the control step's
+     * wheel_accel, handed beside the loop's parameters. The table's default,
+     * 20 rad/s² at 1 kHz: 0.02 rad/s a period, so 2 rad/s after 100 periods
+     * and the 10 rad/s asked after 500 (by hand). */
+    ctl_params_t c;
+    ctl_params_default(&c);
+    TEST_ASSERT_NUM_WITHIN(1e-3, 20.0, c.wheel_accel);
+    accel = c.wheel_accel;
+    start();
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-6, 2e-5), 0.02, w.ramp_step);
+    while (k < 100u) {
+        period(10.0, -10.0);
+    }
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-3), 2.0, w.w[0].setpoint);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-3), -2.0, w.w[1].setpoint);
+    while (k < 520u) {
+        period(10.0, -10.0);
+    }
+    TEST_ASSERT_NUM_WITHIN(1e-6, 10.0, w.w[0].setpoint);
+    /* A new ramp takes effect at once, the state kept: 125 rad/s² down to
+     * 0 from 10 rad/s is 80 periods (0.125 rad/s each). */
+    whl_set_params(&w, &wp, tu_num(125.0));
+    for (unsigned i = 0; i < 40u; i++) {
+        period(0.0, 0.0);
+    }
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-3), 5.0, w.w[0].setpoint);
 }
 
 static void test_whl_release_after_a_1_s_stall_overshoots_at_most_10_percent(void)
@@ -326,7 +360,7 @@ static void test_whl_more_counts_than_the_wheel_can_turn_are_an_encoder_fault(vo
 
 static void test_whl_faults_latch_until_cleared_then_resume_without_a_jump(void)
 {
-    wp.ramp = tu_num(125.0);
+    accel = tu_num(125.0);
     start();
     dcm_hold(&m[0], true);
     while (now() < 0.6) {
@@ -400,10 +434,10 @@ static void test_whl_window_is_whole_periods_within_the_ring(void)
     TEST_ASSERT_EQUAL_UINT8(32u, w.window);
     wp.rate = tu_num(100.0);
     wp.window = tu_num(0.001); /* a tenth of a period: one */
-    whl_set_params(&w, &wp);
+    whl_set_params(&w, &wp, accel);
     TEST_ASSERT_EQUAL_UINT8(1u, w.window);
     wp.window = tu_num(0.032); /* 3.2 periods at 100 Hz */
-    whl_set_params(&w, &wp);
+    whl_set_params(&w, &wp, accel);
     TEST_ASSERT_EQUAL_UINT8(3u, w.window);
     TEST_ASSERT_EQUAL_UINT32(10000u, whl_period_us(&wp));
 }
@@ -435,6 +469,7 @@ int main(void)
     UNITY_BEGIN();
     RUN_TEST(test_whl_step_settles_within_2_percent_in_150_ms);
     RUN_TEST(test_whl_ramp_is_tracked_within_1_rad_s);
+    RUN_TEST(test_whl_setpoint_ramps_at_wheel_accel);
     RUN_TEST(test_whl_release_after_a_1_s_stall_overshoots_at_most_10_percent);
     RUN_TEST(test_whl_load_step_of_30_percent_stall_is_rejected_within_100_ms);
     RUN_TEST(test_whl_speed_noise_at_10_rad_s_is_below_0_4_rad_s);

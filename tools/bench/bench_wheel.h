@@ -27,8 +27,9 @@ typedef struct {
     int16_t cmd[2];
 } bench_wheel_period_t;
 
-/** @brief The benchmark's parameters. */
-void bench_wheel_params(whl_params_t *p);
+/** @brief The benchmark's parameters into @p p. @return its setpoint ramp
+ *         (wheel_accel) [rad/s²]. */
+num_t bench_wheel_params(whl_params_t *p);
 
 /** @brief Record @p n periods of the closed loop. @return @p n. */
 size_t bench_wheel_record(bench_wheel_period_t *rec, size_t n);

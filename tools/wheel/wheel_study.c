@@ -37,6 +37,12 @@ static void whl_params_defaults(whl_params_t *p)
     *p = c.wheel;
 }
 
+/* The setpoint ramps (wheel_accel) of the runs: none of the loop's own
+ * (wheel_accel's largest, wheels that follow at once), and docs/wheel.md's
+ * for this motor. */
+#define NO_RAMP    10000.0f
+#define MOTOR_RAMP 125.0f
+
 /* A shaft turning θ(t) = θ0 + ω0·t + α·t²/2, as the encoder counts it. */
 static int32_t count_at(double theta0, double w0, double alpha, double t)
 {
@@ -57,7 +63,7 @@ static void window_figures(double window_s, double w0, double alpha, double *rms
     long n = 0;
     for (int ph = 0; ph < 64; ph++) {
         whl_t w;
-        whl_init(&w, &p);
+        whl_init(&w, &p, num_from_float(NO_RAMP));
         const double theta0 = TWO_PI / COUNTS * ph / 64.0;
         for (int k = 0; k < 2000; k++) {
             const whl_input_t in = { { NUM_ZERO, NUM_ZERO },
@@ -76,7 +82,7 @@ static void window_figures(double window_s, double w0, double alpha, double *rms
     *rms = sqrt(sq / (double)n);
     *max = worst;
     whl_t w;
-    whl_init(&w, &p);
+    whl_init(&w, &p, num_from_float(NO_RAMP));
     double lag_sum = 0.0;
     long m = 0;
     for (int k = 0; k < 400; k++) {
@@ -204,14 +210,13 @@ static int response(const char *dir)
         fprintf(f, "t,setpoint,speed,estimate,drive\n");
         whl_params_t p;
         whl_params_defaults(&p);
-        if (runs[r].kind == RUN_RAMP || runs[r].kind == RUN_STALL) {
-            p.ramp = num_from_float(125.0f); /* docs/wheel.md's ramp for this motor */
-        }
+        const bool ramped = runs[r].kind == RUN_RAMP || runs[r].kind == RUN_STALL;
+        const float ramp = ramped ? MOTOR_RAMP : NO_RAMP;
         if (runs[r].kind == RUN_STALL) {
             p.stall_time = num_from_float(5.0f); /* the windup, not the fault */
         }
         whl_t w;
-        whl_init(&w, &p);
+        whl_init(&w, &p, num_from_float(ramp));
         dcm_t m;
         dcm_init(&m);
         for (int k = 0; k < 1500; k++) {

@@ -22,7 +22,7 @@ import ctypes
 import errno
 import math
 from collections.abc import Callable
-from dataclasses import astuple, dataclass, fields
+from dataclasses import astuple, dataclass, fields, replace
 from pathlib import Path
 
 from mstc.can.library import AbiStruct, Library, check_layout, library_layout
@@ -67,8 +67,8 @@ class WheelParamsStruct(AbiStruct):
             "counts",
             "rate",
             "window",
-            "ramp",
             "stall_time",
+            "accel",
         )
     ]
 
@@ -181,7 +181,8 @@ class Motor:
 
 @dataclass(frozen=True)
 class WheelParams:
-    """The wheel loop's parameters (firmware/ctrl/ctl_params.toml's wheel_* rows)."""
+    """The wheel loop's parameters (firmware/ctrl/ctl_params.toml's wheel_* rows),
+    its setpoint ramp among them: wheel_accel, what the wheels can do."""
 
     kp: float
     ki: float
@@ -190,8 +191,9 @@ class WheelParams:
     counts: float
     rate: float
     window: float
-    ramp: float
     stall_time: float
+    accel: float
+    """The setpoint ramp [rad/s²]: the firmware's wheel_accel."""
 
     @classmethod
     def defaults(cls) -> WheelParams:
@@ -386,7 +388,10 @@ class DcWheels:
 
 def wheels_for(scenario: Scenario, lib: str | Path | None) -> DcWheels | None:
     """The wheels @p scenario's ``[actuator]`` asks for: :class:`DcWheels` on
-    the firmware library @p lib for "dc", None for the ideal ones."""
+    the firmware library @p lib for "dc", their loop ramping at the
+    scenario's wheel_accel (what the firmware is told they can do), None for
+    the ideal ones."""
     if scenario.actuator.model != "dc":
         return None
-    return DcWheels(Library.open(lib))
+    params = replace(WheelParams.defaults(), accel=scenario.params.wheel_accel)
+    return DcWheels(Library.open(lib), params)
