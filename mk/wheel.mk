@@ -9,7 +9,8 @@
 
 WHEEL_DIR := build/wheel
 # The wheel loop and what its defaults come from (the limits table).
-WHEEL_CORE_SRCS := firmware/wheel/whl.c firmware/ctrl/ctl_params.c firmware/ctrl/ctl_limits.c
+WHEEL_CORE_SRCS := firmware/wheel/whl.c firmware/ctrl/ctl_params.c firmware/ctrl/ctl_limits.c \
+  $(sort $(wildcard firmware/num/*.c))
 SRC_CFLAGS_tools/wheel := $(DCMOTOR_INC)
 
 # $(1): numeric mode.
