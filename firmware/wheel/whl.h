@@ -29,13 +29,14 @@
  *    count per window gives u = 0 and I = 0 (VESC's s_pid_min_erpm), so a
  *    stopped robot does not hum.
  * 5. **Faults**, latched: a *stall* (|u| ≥ WHL_STALL_DRIVE and ω̂ below
- *    WHL_STALL_SPEED in the drive's direction, for stall_time: held, or an
- *    encoder that died while turning or counts backwards), a *dead encoder*
- *    (|u| ≥ WHL_DEAD_DRIVE in one direction for WHL_DEAD_TIME without a
- *    single count since it rose there) and an *implausible encoder* (more
- *    counts in a period than WHL_MAX_SPEED_FACTOR times the free speed
- *    gives). Any stops both wheels (u = 0) until whl_clear_faults(): a robot
- *    with one wheel driven turns on the spot.
+ *    WHL_STALL_SPEED in the drive's direction, for stall_time: a wheel that
+ *    barely creeps under its load, or an encoder that counts backwards), a
+ *    *dead encoder* (|u| ≥ WHL_DEAD_DRIVE in one direction for WHL_DEAD_TIME
+ *    without a single count: dead from the start, dead while turning, or a
+ *    wheel held so rigidly that it does not turn) and an *implausible
+ *    encoder* (more counts in a period than WHL_MAX_SPEED_FACTOR times the
+ *    free speed gives). Any stops both wheels (u = 0) until
+ *    whl_clear_faults(): a robot with one wheel driven turns on the spot.
  *
  * Both numeric modes (num.h). No clock, no heap: the period is the
  * parameter rate, the caller keeps the time.
@@ -107,10 +108,8 @@ typedef struct {
     num_t integ;                   /**< integral term I [drive] */
     num_t drive;                   /**< drive u of the last step, [−1, 1] */
     uint16_t stall_periods;        /**< periods in the stall condition */
-    uint16_t dead_periods;         /**< periods of the present drive episode */
-    int32_t dead_count;            /**< count when the episode began */
-    bool dead_moved;               /**< a count came during the episode */
-    bool dead_fwd;                 /**< the episode's drive is forward */
+    uint16_t dead_periods;         /**< periods in a row driven one way without a count */
+    bool dead_fwd;                 /**< ... the way they were driven */
 } whl_wheel_t;
 
 /** @brief The loop: both wheels and what the parameters give. */
@@ -164,8 +163,21 @@ void whl_set_params(whl_t *w, const whl_params_t *p, num_t accel);
 /** @brief Forget the faults (a re-arm): the wheels may be driven again. */
 void whl_clear_faults(whl_t *w);
 
+/** @brief Latch faults found outside the loop: @p faults (WHL_FAULT_* bits),
+ *         such as an encoder its driver could not read (hal_encoder.h), as
+ *         the loop's own until whl_clear_faults(); the next whl_step() stops
+ *         both wheels. */
+void whl_latch_faults(whl_t *w, uint8_t faults);
+
 /** @brief Period [µs] of the loop at the parameters' rate, rounded. */
 uint32_t whl_period_us(const whl_params_t *p);
+
+/**
+ * @brief Age of the speed estimate at the period it was made [µs]: half its
+ *        window (W periods), the middle of the time it averages. A caller
+ *        that uses it later adds the time since that period.
+ */
+uint32_t whl_age_us(const whl_t *w);
 
 /**
  * @brief One period. Total: a non-finite setpoint counts as 0; a count that

@@ -12,6 +12,7 @@
 
 #include "ctrl/ctl.h"
 #include "dcm.h"
+#include "hal_sil.h"
 #include "wheel/whl.h"
 
 typedef struct {
@@ -172,7 +173,26 @@ int mstc_sil_wheels_advance(void *mem, const mstc_sil_wheels_input_t *in, uint32
     }
     out->faults = w->out.faults;
     out->periods = w->periods;
+    kin_wheels_t speed;
+    uint8_t faults;
+    uint32_t age_us;
+    out->age_us = hal_sil_wheels_measurement(w, &speed, &faults, &age_us) ? age_us : 0u;
     return 0;
+}
+
+bool hal_sil_wheels_measurement(const void *mem, kin_wheels_t *speed, uint8_t *faults,
+                                uint32_t *age_us)
+{
+    const wheels_t *w = mem;
+    if (w->periods == 0u) {
+        return false;
+    }
+    *speed = (kin_wheels_t){ w->out.speed[0], w->out.speed[1] };
+    *faults = w->out.faults;
+    /* The last period ran at next_us − period_us, at or before t_us. */
+    const uint64_t since = w->t_us - (w->next_us - w->period_us);
+    *age_us = whl_age_us(&w->loop) + (uint32_t)since;
+    return true;
 }
 
 int mstc_sil_wheels_hold(void *mem, uint32_t wheel, uint32_t held)
@@ -240,6 +260,7 @@ static const mstc_sil_layout_t layout[] = {
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, drive),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, faults),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, periods),
+    MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, age_us),
 };
 
 const mstc_sil_layout_t *mstc_sil_wheels_layout(size_t *n)

@@ -52,6 +52,8 @@ typedef struct {
     double drive[2];    /**< the drives in force, [−1, 1] */
     uint32_t faults;    /**< WHL_FAULT_* bits (whl.h): the drives are then 0 */
     uint32_t periods;   /**< wheel periods run since init */
+    uint32_t age_us;    /**< the estimate's age now [µs]: half its window plus the
+                             time since the last period (0 before the first) */
 } mstc_sil_wheels_output_t;
 
 /** @brief Bytes the caller must provide. */

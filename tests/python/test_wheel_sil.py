@@ -41,6 +41,7 @@ from mstc.firmware.wheels import (
     WheelLoop,
     WheelParams,
     library_defaults,
+    loop_figures,
     wheels_for,
 )
 from mstc.loop.lockstep import simulate
@@ -123,17 +124,28 @@ def test_load_through_the_library_is_rejected_within_100_ms(lib: Library) -> Non
 
 def test_faults_show_through_the_library(lib: Library) -> None:
     loop = _stepping(lib)
-    loop.hold(0, True)
-    states = [loop.advance(20.0, 20.0, 1000) for _ in range(600)]
+    # A load full drive turns the left wheel against at 0.5 rad/s only
+    # (ω∞ = (Kt·V/R − τc − τL)/(b + Kt·Ke/R), by hand): a stall after 0.5 s.
+    motor = Motor.pololu_37d()
+    creep = STALL_TORQUE - 0.5 * motor.damping
+    assert motor.speed_steady(1.0, creep) == pytest.approx(0.5)
+    states = [loop.advance(20.0, 20.0, 1000, (creep, 0.0)) for _ in range(600)]
     first = next(k for k, s in enumerate(states) if s.faults)
     assert states[-1].faults == 0x1  # left stall (WHL_FAULT_STALL_LEFT)
     assert 500 <= first + 1 <= 550
     assert states[-1].drive == (0.0, 0.0)
     loop.clear_faults()
-    loop.hold(0, False)
     loop.kill_encoder(1)
     states = [loop.advance(10.0, 10.0, 1000) for _ in range(200)]
     assert states[-1].faults == 0x8  # right encoder (WHL_FAULT_ENCODER_RIGHT)
+    # Held rigidly: the windup's few counts, then none: an encoder fault
+    # 0.1 s after the last (the loop cannot tell it from a dead encoder).
+    loop = _stepping(lib)
+    loop.hold(0, True)
+    states = [loop.advance(20.0, 20.0, 1000) for _ in range(400)]
+    first = next(k for k, s in enumerate(states) if s.faults)
+    assert states[first].faults == 0x4  # left encoder (WHL_FAULT_ENCODER_LEFT)
+    assert 100 <= first + 1 <= 150
 
 
 def test_the_library_refuses_what_the_firmware_would(lib: Library) -> None:
@@ -163,6 +175,33 @@ def test_the_plant_moves_by_the_wheels_angles(lib: Library) -> None:
     # 1 s at 10 rad/s, less the start: between 0.94 and 1.0 of r·10·1 s.
     assert 0.94 * 0.5 < plant.pose.x < 0.5
     assert wheels.measured[0] == pytest.approx(10.0, abs=0.4)
+
+
+def test_loop_figures_of_a_first_order_lag_by_hand() -> None:
+    """A wheel following a constant 10 rad/s as a first-order lag of 20 ms,
+    sampled every millisecond: ω_i = 10·(1 − e^(−(i+1)·T/τ)). It reaches 63 %
+    at −τ·ln(0.37) = 19.885 ms and 90 % at −τ·ln(0.1) = 46.052 ms (linear
+    interpolation between samples: within 0.01 ms here). With a ramp of
+    10,000 rad/s² the reference is 10 from the first period, so the largest
+    error is the first sample's, 10·e^(−1/20) = 9.5123, and the RMS is
+    10·sqrt(Σ e^(−2(i+1)/20) / N)."""
+    tau, n = 0.02, 200
+    speeds = [(10 * (1 - math.exp(-(i + 1) * 1e-3 / tau)), 0.0) for i in range(n)]
+    commands = [(10.0, 0.0)] * (n // 20)
+    fig = loop_figures(speeds, commands, 20, 10000.0)
+    assert fig.rise_63_ms[0] == pytest.approx(-tau * math.log(0.37) * 1e3, abs=0.01)
+    assert fig.rise_90_ms[0] == pytest.approx(-tau * math.log(0.1) * 1e3, abs=0.01)
+    assert fig.track_max[0] == pytest.approx(10 * math.exp(-1 / 20), rel=1e-12)
+    rms = 10 * math.sqrt(sum(math.exp(-2 * (i + 1) / 20) for i in range(n)) / n)
+    assert fig.track_rms[0] == pytest.approx(rms, rel=1e-12)
+    # The right wheel is not commanded: no rise, no error.
+    assert math.isnan(fig.rise_63_ms[1]) and fig.track_max[1] == 0.0
+    # A ramp of 125 rad/s² as the reference: the wheel that follows it
+    # exactly has no error (0.125 rad/s a period, 10 reached after 80).
+    ramp = [(min(10.0, 0.125 * (i + 1)), 0.0) for i in range(n)]
+    assert loop_figures(ramp, commands, 20, 125.0).track_max[0] == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError):
+        loop_figures(speeds, commands[:2], 20, 125.0)
 
 
 # ------------------------------------------------------------ the scenario
@@ -195,8 +234,9 @@ def test_the_actuator_table_is_read_and_checked() -> None:
 
 def _judge(data: dict[str, object], name: str, lib_path: Path) -> tuple[bool, bool, bool | None]:
     scenario = parse_scenario(data, name, wire_limits())
-    controller = SilController(scenario.params, lib_path)
-    result = simulate(scenario, controller, wheels=wheels_for(scenario, lib_path))
+    wheels = wheels_for(scenario, lib_path)
+    controller = SilController(scenario.params, lib_path, wheels)
+    result = simulate(scenario, controller, wheels=wheels)
     m = evaluate(result)
     return m.contact, m.ds_kept, m.rejoined
 

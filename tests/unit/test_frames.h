@@ -122,14 +122,19 @@ static inline hal_can_frame_t tf_ref_motion(double theta, double v, double w)
     return tf_seal(COMM_ID_REF_MOTION, p);
 }
 
-static inline hal_can_frame_t tf_wheel_speed(double left, double right)
+static inline hal_can_frame_t tf_wheel_speed_faults(double left, double right, uint8_t faults)
 {
     uint8_t p[8] = { 0 };
     const struct mstc_dbc_wheel_speed_t s = { .wheel_speed_left = (int32_t)lround(left * 1024.0),
-                                              .wheel_speed_right =
-                                                  (int32_t)lround(right * 1024.0) };
+                                              .wheel_speed_right = (int32_t)lround(right * 1024.0),
+                                              .wheel_speed_faults = faults };
     (void)mstc_dbc_wheel_speed_pack(p, &s, 8);
     return tf_seal(COMM_ID_WHEEL_SPEED, p);
+}
+
+static inline hal_can_frame_t tf_wheel_speed(double left, double right)
+{
+    return tf_wheel_speed_faults(left, right, 0u);
 }
 
 static inline hal_can_frame_t tf_step(uint16_t step, uint32_t time_us)

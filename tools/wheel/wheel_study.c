@@ -199,6 +199,11 @@ static int response(const char *dir)
     dcm_params_t mp;
     dcm_params_default(&mp);
     const double tau_stall = mp.kt * mp.v_supply / mp.r_ohm - mp.tau_c;
+    /* The hold: a load full drive turns the wheel against at 2 rad/s only
+     * (dcm.h's ω∞ with u = 1), the drive saturated: the windup's situation.
+     * A wheel held rigidly gives no count and is stopped within 0.1 s
+     * (docs/wheel.md, "Faults"). */
+    const double hold_load = tau_stall - 2.0 * (mp.b + mp.kt * mp.ke / mp.r_ohm);
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++) {
         char path[512];
         snprintf(path, sizeof path, "%s/%s.csv", dir, runs[r].name);
@@ -229,7 +234,7 @@ static int response(const char *dir)
                 sp = t < 0.1 ? 0.0 : (t < 0.5 ? 20.0 : (t < 1.0 ? -20.0 : 0.0));
             }
             if (runs[r].kind == RUN_STALL) {
-                dcm_hold(&m, t >= 0.3 && t < 1.3);
+                m.load = t >= 0.3 && t < 1.3 ? hold_load : 0.0;
             }
             if (runs[r].kind == RUN_LOAD) {
                 m.load = t >= 0.5 ? 0.3 * tau_stall : 0.0;

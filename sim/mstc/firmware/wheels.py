@@ -21,7 +21,7 @@ from __future__ import annotations
 import ctypes
 import errno
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import astuple, dataclass, fields, replace
 from pathlib import Path
 
@@ -91,6 +91,7 @@ class WheelsOutputStruct(AbiStruct):
         ("drive", ctypes.c_double * 2),
         ("faults", ctypes.c_uint32),
         ("periods", ctypes.c_uint32),
+        ("age_us", ctypes.c_uint32),
     ]
 
 
@@ -218,6 +219,9 @@ class WheelsState:
     faults: int
     """The loop's fault bits (WHL_FAULT_*, WHEEL_SPEED_faults)."""
     periods: int
+    age_us: int
+    """The estimate's age now [µs]: half its window plus the time since the
+    loop's last period (0 before the first)."""
 
 
 def _declare(lib: Library) -> None:
@@ -319,7 +323,15 @@ class WheelLoop:
             drive=(o.drive[0], o.drive[1]),
             faults=int(o.faults),
             periods=int(o.periods),
+            age_us=int(o.age_us),
         )
+
+    @property
+    def address(self) -> int:
+        """Where the loop and its motors are in memory: for
+        ``mstc_sil_fw_wheels()``, which makes them a board's own
+        (:meth:`mstc.can.silbus.SilBus.attach_wheels`)."""
+        return int(self._mem.value or 0)
 
     def hold(self, wheel: int, held: bool) -> None:
         """Hold wheel @p wheel (0 left, 1 right), or let it go."""
@@ -358,6 +370,12 @@ class DcWheels:
         self.state = self.loop.advance(0.0, 0.0, 0)
         self.load = (0.0, 0.0)
         """Torque against each wheel's forward motion [N·m]."""
+        self.record = 0
+        """Substeps still to record in :attr:`speeds` (0: none)."""
+        self.speeds: list[tuple[float, float]] = []
+        """The true wheel speeds at the end of each recorded substep [rad/s]."""
+        self.commands: list[tuple[float, float]] = []
+        """The setpoints of each recorded period (one per :meth:`drive`)."""
 
     @property
     def measured(self) -> tuple[float, float]:
@@ -372,11 +390,16 @@ class DcWheels:
         pose = plant.pose
         state = self.state
         done = 0
+        if self.record > 0:
+            self.commands.append((left, right))
         for k in range(1, n + 1):
             h_us = dt_us * k // n - done
             done += h_us
             before = state.angle
             state = self.loop.advance(left, right, h_us, self.load)
+            if self.record > 0:
+                self.speeds.append(state.speed)
+                self.record -= 1
             h = h_us * 1e-6
             mean_l = (state.angle[0] - before[0]) / h
             mean_r = (state.angle[1] - before[1]) / h
@@ -384,6 +407,78 @@ class DcWheels:
             pose = integrate(pose, v, w, h, integrator)
         plant.pose = pose
         self.state = state
+
+
+@dataclass(frozen=True)
+class LoopFigures:
+    """How a wheel loop followed its commands at the start of a run
+    (:func:`loop_figures`), each wheel's figure (left, right)."""
+
+    rise_63_ms: tuple[float, float]
+    """When the wheel first reached 63 % of the command in force [ms], from
+    the first control step, interpolated between periods."""
+    rise_90_ms: tuple[float, float]
+    """... 90 % of it [ms]."""
+    track_max: tuple[float, float]
+    """The largest |ω − r| [rad/s], r the commands ramped at wheel_accel as
+    the loop ramps its setpoint."""
+    track_rms: tuple[float, float]
+    """The RMS of ω − r [rad/s]."""
+
+    def as_dict(self) -> dict[str, list[float]]:
+        """Each figure as [left, right], rounded for a report."""
+        return {f.name: [round(v, 4) for v in getattr(self, f.name)] for f in fields(self)}
+
+
+def loop_figures(
+    speeds: Sequence[tuple[float, float]],
+    commands: Sequence[tuple[float, float]],
+    per_step: int,
+    accel: float,
+    period_s: float = SUBSTEP_US * 1e-6,
+) -> LoopFigures:
+    """The step response and ramp tracking of a wheel loop from its wheels'
+    true speeds @p speeds (after each loop period of @p period_s, from the
+    first control step on) and the control step's commands @p commands, each
+    in force for @p per_step periods: the same figures from a board's motors
+    under QEMU and from the simulation's (docs/hil.md).
+
+    The reference r is each command ramped at @p accel [rad/s²], a step of
+    accel·period a period from 0, as ``whl_step`` ramps its setpoint
+    (firmware/wheel/whl.c); a rise is timed against the command in force at
+    each period, in the command's direction.
+
+    :raises ValueError: fewer commands than the speeds need, or no speeds.
+    """
+    if not speeds or len(commands) * per_step < len(speeds):
+        raise ValueError(f"{len(speeds)} periods of speeds, {len(commands)} commands")
+    step = accel * period_s
+    figures: dict[str, list[float]] = {"r63": [], "r90": [], "max": [], "rms": []}
+    for wheel in (0, 1):
+        r = 0.0
+        rise = {0.63: math.nan, 0.9: math.nan}
+        worst, sq = 0.0, 0.0
+        before = 0.0  # the share of the command reached at the last period
+        for i, pair in enumerate(speeds):
+            w = pair[wheel]
+            c = commands[i // per_step][wheel]
+            r += min(max(c - r, -step), step)
+            e = w - r
+            worst, sq = max(worst, abs(e)), sq + e * e
+            reached = w / c if c != 0.0 else 0.0
+            for share in rise:
+                if math.isnan(rise[share]) and reached >= share:
+                    # Interpolated between this period and the last: the
+                    # figures are finer than a period.
+                    frac = (share - before) / (reached - before) if reached > before else 1.0
+                    rise[share] = (i + frac) * period_s * 1e3
+            before = reached
+        figures["r63"].append(rise[0.63])
+        figures["r90"].append(rise[0.9])
+        figures["max"].append(worst)
+        figures["rms"].append(math.sqrt(sq / len(speeds)))
+    pair2 = {k: (v[0], v[1]) for k, v in figures.items()}
+    return LoopFigures(pair2["r63"], pair2["r90"], pair2["max"], pair2["rms"])
 
 
 def wheels_for(scenario: Scenario, lib: str | Path | None) -> DcWheels | None:
