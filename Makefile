@@ -95,13 +95,37 @@ sweep: deps-sim $(B)/libmstc_sil.so  ## run a scenario suite for several strateg
 # socketcan interface; inside a VM where the host kernel has no CAN.
 # REALTIME=1: mstc-fw on its own timer, the plant on the wall clock
 # (docs/hil.md, "Real time"), into build/hil-realtime/ with timing.json.
+# In the VM only vcan0 and the firmware run on the emulated CPU: the plant runs
+# on the host and reaches vcan0 through the bridge (with-vcan --bridge; the
+# guest's end is build/host/can-bridge, tools/vm/can-bridge.c, on hal/linux's
+# SocketCAN driver and the slcan codec of the board images).
+CAN_BRIDGE_SRCS := tools/vm/can-bridge.c hal/linux/hal_can_socketcan.c hal/stm32/slcan_codec.c
+BUILD_CC_can-bridge := $(CC)
+BUILD_CFLAGS_can-bridge := $(CSTD) $(OPT) $(FW_INC) -Ihal/linux -Ihal/stm32
+BUILD_DIR_can-bridge := build/host/can-bridge-obj
+BUILD_SRCS_can-bridge := $(CAN_BRIDGE_SRCS)
+BUILD_ORDER_can-bridge := $(STAMP)/apt-sim
+$(eval $(call BUILD,can-bridge))
+build/host/can-bridge: $(BUILD_OBJS_can-bridge)
+	$(CC) $^ -o $@
 HIL_TIMEOUT ?= 1800
 HIL_OUT := $(if $(REALTIME),build/hil-realtime,build/hil)
 .PHONY: hil
-hil: deps-hil build/host/mstc-fw $(SIM_KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/; REALTIME=1: in real time)
-	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan -v --timeout $(HIL_TIMEOUT) -- \
+hil: deps-hil build/host/mstc-fw build/host/can-bridge $(SIM_KEY_FILE)  ## the paper's scenarios over vcan0 with mstc-fw as its own process (build/hil/; REALTIME=1: in real time)
+	MPLCONFIGDIR=$(CURDIR)/build/mplconfig tools/vm/with-vcan -v --bridge --timeout $(HIL_TIMEOUT) -- \
 	  $(MSTC) hil $(if $(REALTIME),--realtime) --key-file $(SIM_KEY_FILE) --channel vcan0 \
 	  --fw build/host/mstc-fw --no-figures --out $(HIL_OUT) $(SCENARIO)
+# The load test's long form (docs/hil.md, "Load"): HIL_LOAD_RUNS real-time runs
+# of both paper scenarios with 0, 1, 2 CPU-bound processes beside them, in one
+# boot; its table goes into docs/hil.md. Exit status 1 when a run did not hold.
+HIL_LOAD_RUNS ?= 5
+.PHONY: hil-load
+hil-load: deps-hil build/host/mstc-fw build/host/can-bridge  ## real-time HIL beside 0, 1, 2 busy cores, HIL_LOAD_RUNS runs each: docs/hil.md "Load"
+	MSTC_KEY_FILE=$(TEST_KEY_FILE) tools/vm/with-vcan -v --bridge --timeout 7200 -- \
+	  $(PY) -m mstc.bench.realtime load --fw build/host/mstc-fw --busy 0 1 2 \
+	  --runs $(HIL_LOAD_RUNS) --out build/bench/hil-load.json; \
+	  status=$$?; $(PY) -m mstc.bench.realtime load-report --doc docs/hil.md \
+	  build/bench/hil-load.json && exit $$status
 
 # ---------------------------------------------------------------------- test
 # pytest with both modes' libraries. $(1): the numeric mode of MSTC_SIL_LIB
@@ -112,7 +136,7 @@ pytest = MSTC_SIL_LIB=build/host/$(1)/libmstc_sil.so MSTC_SIL_LIB_FLOAT=build/ho
 .PHONY: test test-python test-host test-vm lint typecheck
 # PYTEST_ARGS: more arguments for pytest, e.g. PYTEST_ARGS='-m vm' (only the
 # tests that boot the vcan VM), PYTEST_ARGS='-k hil'.
-test-python: deps-test libs-both build/host/mstc-fw  ## pytest (both numeric modes' libraries; PYTEST_ARGS='-m vm': only those that boot the vcan VM)
+test-python: deps-test libs-both build/host/mstc-fw build/host/can-bridge  ## pytest (both numeric modes' libraries; PYTEST_ARGS='-m vm': only those that boot the vcan VM)
 	$(call pytest,$(NUMERIC),$(PYTEST_ARGS))
 # Directories (their *.py) and the Python programs of tools/ (no extension:
 # found by their first line).
@@ -140,7 +164,7 @@ test: deps-test lint typecheck check-protocol  ## every test: lint, types, gener
 # cross builds, coverage, the Cortex-M4F benchmark image's checks
 # (mk/bench.mk), Unity in both modes, then pytest but the VM tests.
 test-host: quality cross coverage bench-check test-unit-fixed test-unit-float deps-test libs-both \
-    build/host/float/mstc-fw
+    build/host/float/mstc-fw build/host/can-bridge
 	$(call pytest,float,-m "not vm")
 test-vm: fuzz test-host
 	$(call pytest,float,-m vm)

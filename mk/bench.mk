@@ -82,21 +82,23 @@ $(BENCH_DIR)/can_echo: $(call build_objs,bench-host-float,$(BENCH_ECHO_SRCS))
 	$(CC) $^ -o $@
 $(BENCH_DIR)/can-sil.json: $(B)/libmstc_sil.so sim/mstc/bench/canbus.py | .venv/.requirements.sha256
 	MSTC_KEY_FILE=$(TEST_KEY_FILE) $(PY) -m mstc.bench.canbus sil --lib $< --out $@
-$(BENCH_DIR)/can-hil.json: build/host/mstc-fw $(BENCH_DIR)/can_echo sim/mstc/bench/canbus.py | deps-hil
-	tools/vm/with-vcan --timeout 1200 -- $(PY) -m mstc.bench.canbus hil \
+$(BENCH_DIR)/can-hil.json: build/host/mstc-fw build/host/can-bridge $(BENCH_DIR)/can_echo \
+    sim/mstc/bench/canbus.py | deps-hil
+	tools/vm/with-vcan --bridge --timeout 1200 -- $(PY) -m mstc.bench.canbus hil \
 	  --fw build/host/mstc-fw --echo $(BENCH_DIR)/can_echo --out $@
 BENCH_CAN := $(BENCH_DIR)/can-sil.json $(BENCH_DIR)/can-hil.json
 # Real time: one mstc hil --realtime run per paper scenario against
 # mstc-fw --realtime, its timing.json figures (python -m mstc.bench.realtime).
-$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw sim/mstc/bench/realtime.py \
+$(BENCH_DIR)/can-realtime.json: build/host/mstc-fw build/host/can-bridge sim/mstc/bench/realtime.py \
     $(wildcard sim/mstc/loop/*.py sim/mstc/plant/*.py sim/mstc/can/*.py) | deps-hil
 	MSTC_KEY_FILE=$(TEST_KEY_FILE) MPLCONFIGDIR=$(CURDIR)/build/mplconfig \
-	  tools/vm/with-vcan --timeout 1200 -- \
+	  tools/vm/with-vcan --bridge --timeout 1200 -- \
 	  $(PY) -m mstc.bench.realtime run --fw build/host/mstc-fw --out $@
 
-# Sweeps: scene-steps per second in memory, 1,000 paper-like scenes on every
-# core, the same on a local Dask cluster, the batched engine against the
-# per-scene one (python -m mstc.bench.sweep).
+# Sweeps: scene-steps per second in memory, the batched engine against the
+# per-scene one, `mstc sweep` of 10,000 scenes end to end against its engine's
+# own CPU time, 1,000 paper-like scenes on every core and the same on a local
+# Dask cluster (python -m mstc.bench.sweep).
 $(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so sim/mstc/bench/sweep.py | .venv/.requirements.sha256
 	$(PY) -m mstc.bench.sweep run --lib $< --out $@
 

@@ -52,8 +52,31 @@ $$(addprefix $$(FUZZ_DIR)/,$$(FUZZ_NAMES_$(1))):
 endef
 $(foreach m,$(NUM_MODES),$(eval $(call FUZZ_BUILD,$(m))))
 
+# fuzz_frames sends every frame of the DBC and allows every halt reason of
+# its STATUS_halt table: both lists are written at build time from the
+# codec's header, which tools/gen-codec generates from firmware/comm/mstc.dbc
+# (make check-protocol fails when it is stale), so that a frame or a halt
+# added to the DBC is fuzzed from the first build that has it.
+FUZZ_DBC_H := $(FUZZ_DIR)/include/fuzz_dbc_ids.h $(FUZZ_DIR)/include/fuzz_dbc_halts.h
+# The recipe of such a list: $(1), the pattern of the defines it lists.
+define FUZZ_DBC_LIST
+@mkdir -p $(@D)
+sed -n 's/^#define \($(1)\) .*/    \1,/p' $< > $@.tmp
+@test -s $@.tmp || { echo "error: nothing matches $(1) in $<" >&2; exit 1; }
+mv $@.tmp $@
+endef
+$(FUZZ_DIR)/include/fuzz_dbc_ids.h: firmware/comm/mstc_dbc.h
+	$(call FUZZ_DBC_LIST,MSTC_DBC_[A-Z0-9_]*_FRAME_ID)
+$(FUZZ_DIR)/include/fuzz_dbc_halts.h: firmware/comm/mstc_dbc.h
+	$(call FUZZ_DBC_LIST,MSTC_DBC_STATUS_STATUS_HALT_[A-Z0-9_]*_CHOICE)
+SRC_CFLAGS_fuzz/fuzz_frames.c := -I$(FUZZ_DIR)/include
+$(call build_objs,fuzz-float,fuzz/fuzz_frames.c): $(FUZZ_DBC_H)
+
 .PHONY: fuzz fuzz-build
 fuzz-build: $(addprefix $(FUZZ_DIR)/,$(FUZZ_NAMES))
+# tests/python/test_fuzz_frames.py runs the frames harness on inputs of its
+# own: built before pytest, once, also when make test builds it beside it.
+test-host: $(FUZZ_DIR)/frames
 fuzz: fuzz-build  ## run every libFuzzer harness for FUZZ_SECONDS (default 60) each
 	@set -e; for n in $(FUZZ_NAMES); do \
 	  mkdir -p $(FUZZ_DIR)/corpus/$$n $(FUZZ_DIR)/findings/$$n; \

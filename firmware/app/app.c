@@ -146,6 +146,14 @@ static comm_halt_t check_inputs(app_t *a, uint64_t t_us, bool lockstep)
     } else {
         /* every input usable */
     }
+    if (a->wheel_source != (uint8_t)APP_WHEELS_OWN && !usable[APP_IN_WHEEL_SPEED]) {
+        /* Timed out: the last measurement is forgotten, and the watch with it
+         * once the wheels stand. What a node sent ends when it stops
+         * (docs/safety.md, "Threat model"), whoever it was. The own wheel
+         * loop's estimate is no bus input: it is handed at every step. */
+        a->wheel_speed = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
+        a->wheel_speed_watched = a->wheel_speed_watched && wheels_move(a);
+    }
     return why;
 }
 
@@ -232,13 +240,15 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
     }
     comm_halt_t why = check_inputs(a, t_us, lockstep);
     /* Speeds the wheels measured, when they came with this step (the own
-     * wheel loop's, or WHEEL_SPEED's over the period that just ended): the
+     * wheel loop's, or WHEEL_SPEED's over the period that just ended, its
+     * state machine VALID: check_inputs() forgot one that is not): the
      * motion odometry must follow. Otherwise the commands: wheels that lag
      * them would make odometry look implausible. */
     const bool own = a->wheel_source == (uint8_t)APP_WHEELS_OWN;
     const bool measured =
         own ? a->wheels_handed
-            : a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u;
+            : a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u &&
+                  comm_rx(&a->comm, COMM_ID_WHEEL_SPEED)->state == (uint8_t)COMM_SM_VALID;
     if (a->halt == (uint8_t)COMM_HALT_NONE && why == COMM_HALT_NONE &&
         odo_step(&a->odo, &a->ctl.p.kin, measured ? &a->wheel_speed : &a->wheels,
                  num_from_float((float)dt_us * 1.0e-6f), &a->odom,

@@ -206,7 +206,8 @@ typedef struct {
     /** ... of this age at the step [µs]. */
     uint32_t wheel_age_us;
     /** WHEEL_SPEED has been valid at a step (its E2E state machine VALID,
-     *  fresh): from then on it is watched like odometry. */
+     *  fresh): from then on it is watched like odometry, until it times out
+     *  while the wheels stand (then optional again, and wheel_speed zero). */
     bool wheel_speed_watched;
 } app_t;
 

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "hal/hal_can.h"
+#include "hal_can_linux.h"
 
 static int sock = -1;
 
@@ -113,6 +114,8 @@ int hal_can_status(hal_can_status_t *st)
     (void)st;
     return -ENOTSUP;
 }
+
+int hal_can_linux_fd(void) { return sock; }
 
 void hal_can_close(void)
 {

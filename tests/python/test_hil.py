@@ -1,17 +1,22 @@
 # SPDX-License-Identifier: MIT
 """HIL over vcan (issue: CAN between plant and firmware; issue 15: real
-time): mstc-fw as its own process on vcan0 and the plant on python-can's
-socketcan interface, inside the vcan VM where the host kernel has no CAN
-(tools/vm/with-vcan), one boot for every run. Never skipped: without a vcan
-the test fails and says why.
+time; issue 33: the plant off the emulated CPU): mstc-fw as its own process
+on vcan0 and the plant on the host. Where the host kernel has no CAN, vcan0
+and mstc-fw run in the vcan VM and the plant reaches them through its bridge
+(tools/vm/with-vcan --bridge), one boot for every run. Never skipped: without
+a vcan the test fails and says why.
 
 Lock-step: the paper's events (via the scenario files' [[expected]] times,
 which test_paper.py checks against the paper's) and the in-memory loop,
-exactly. Real time (mstc-fw --realtime, mstc hil --realtime): the events of
-the lock-step run within ±3 control periods (the VM is emulated and shared:
-its timing is noisy), no obstacle closer than D_s, timing.json agreeing with
-a computation from bus.log written here; and the comm-loss trial, checked
-from bus.log against docs/safety.md.
+exactly. Real time (mstc-fw --realtime, mstc hil --realtime), with two
+CPU-bound processes at normal priority beside it the whole time (the load
+test's short form; ``make hil-load`` is the long one): the events of the
+lock-step run within two control periods, no obstacle closer than D_s, and
+the timing a HIL rig promises, judged once, never retried: no plant sample
+missed, no step on stale odometry, the WHEEL_CMD period's p99 within 2 ms of
+20 ms, no frame lost on the bridge; timing.json agreeing with a computation
+from bus.log written here. And the comm-loss trial, checked from bus.log
+against docs/safety.md.
 """
 
 import json
@@ -43,59 +48,37 @@ NAMES = ("paper-line", "paper-circle")
 PERIOD = 0.02
 OUT = ROOT / "build" / "test-hil"
 """Lock-step outputs; real time in OUT/realtime, the comm-loss trial in
-OUT/comm-loss. The VM shares the working directory read-write, so they go
-there."""
+OUT/comm-loss."""
 STOP_AT = 3.0
 """When the comm-loss trial stops the odometry [s]."""
+BUSY = 2
+"""CPU-bound processes beside the real-time runs (the host's two cores)."""
 
-PLANT_BEHIND = 0
-"""Samples a real-time run's plant may skip before its run says nothing of
-the firmware: more, and a failed run is run once more (below). A plant held
-up for three periods leaves the firmware without reference or odometry for
-three periods, and it halts, as it must (reason 2 or 3); one held up less
-applies its commands late (reason 6)."""
-
-# Runs inside the VM: the three runs in one Python, so that its (slow,
-# emulated) imports are paid once; each run's exit status goes to runs.json,
-# so that one failing does not hide the others. A failed real-time run whose
-# plant skipped more than PLANT_BEHIND samples of a scenario (its vCPU
-# descheduled by the emulation: the firmware then steps on stale inputs
-# while its commands reach a plant that applies them late, and may halt, as
-# it should) is run once more, and says so; a failed run whose plant kept up
-# fails at once.
+# Runs on the host, under with-vcan --bridge: the three runs in one Python and
+# one boot; each run's exit status goes to runs.json, so that one failing does
+# not hide the others. The real-time runs have BUSY CPU-bound processes at
+# normal priority beside them, started here and stopped after.
 GUEST = """
-import json, sys, time
-from pathlib import Path
+import json, subprocess, sys, time
 from mstc.cli import main
-fw, out, stop, behind, *scenarios = sys.argv[1:]
+fw, out, stop, busy, *scenarios = sys.argv[1:]
 common = ["hil", "--channel", "vcan0", "--fw", fw, "--no-figures"]
 status = {}
-
-def plant_skipped(folder):
-    skipped = {}
-    for s in scenarios:
-        timing = Path(folder) / Path(s).stem / "timing.json"
-        if timing.is_file():
-            skipped[Path(s).stem] = json.loads(timing.read_text())["plant"]["missed_periods"]
-    return skipped
-
+hogs = []
 for what, args, files in (
     ("lockstep", ["--out", out], scenarios),
     ("realtime", ["--realtime", "--out", out + "/realtime"], scenarios),
     ("comm-loss", ["--realtime", "--stop-odometry-at", stop, "--out", out + "/comm-loss"],
      scenarios[:1]),
 ):
+    if what == "realtime":
+        hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                for _ in range(int(busy))]
     t = time.monotonic()
     status[what] = main(common + args + files)
     print(f"{what}: exit {status[what]}, {time.monotonic() - t:.1f} s", flush=True)
-    if what == "realtime" and status[what] != 0:
-        skipped = plant_skipped(out + "/realtime")
-        if any(n > int(behind) for n in skipped.values()):
-            print(f"realtime: the plant skipped samples {skipped} (more than {behind}): "
-                  "once more", flush=True)
-            t = time.monotonic()
-            status[what] = main(common + args + files)
-            print(f"{what}: exit {status[what]}, {time.monotonic() - t:.1f} s", flush=True)
+for h in hogs:
+    h.kill()
 with open(out + "/runs.json", "w") as f:
     json.dump(status, f)
 """
@@ -112,7 +95,7 @@ class HilRuns:
     def folder(self, what: str) -> Path:
         """The outputs of run @p what, or fail with its log if it failed."""
         if self.status.get(what) != 0:
-            pytest.fail(f"the {what} run failed in the VM:\n{self.log}", pytrace=False)
+            pytest.fail(f"the {what} run failed:\n{self.log}", pytrace=False)
         return self.out if what == "lockstep" else self.out / what
 
 
@@ -124,6 +107,7 @@ def hil_runs() -> HilRuns:
     (OUT / "runs.json").unlink(missing_ok=True)
     cmd = [
         str(ROOT / "tools" / "vm" / "with-vcan"),
+        "--bridge",
         "--timeout",
         "1200",
         "--",
@@ -133,18 +117,17 @@ def hil_runs() -> HilRuns:
         fw,
         str(OUT),
         str(STOP_AT),
-        str(PLANT_BEHIND),
+        str(BUSY),
         *(str(SCENARIOS / f"{n}.toml") for n in NAMES),
     ]
-    # matplotlib's font cache, kept between boots (it takes minutes to build
-    # under emulation, and the guest's home is not writable).
+    # matplotlib's font cache, kept between runs.
     env = dict(os.environ, MPLCONFIGDIR=str(ROOT / "build" / "mplconfig"))
     start = time.monotonic()
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=2400)
     log = f"{done.stdout}\n{done.stderr}"
     if done.returncode != 0 or not (OUT / "runs.json").is_file():
-        pytest.fail(f"HIL in the VM failed ({done.returncode}):\n{log}", pytrace=False)
-    print(f"HIL in the VM: {time.monotonic() - start:.0f} s in all\n{done.stdout}")
+        pytest.fail(f"HIL over vcan failed ({done.returncode}):\n{log}", pytrace=False)
+    print(f"HIL over vcan: {time.monotonic() - start:.0f} s in all\n{done.stdout}")
     return HilRuns(OUT, json.loads((OUT / "runs.json").read_text()), log)
 
 
@@ -257,21 +240,39 @@ def test_realtime_hil_keeps_the_lock_step_events_and_distances(
         round((r["t"] - e["t"]) / PERIOD, 2) for r, e in zip(real["events"], lock, strict=True)
     ]
     print(f"{name}: real-time events minus lock-step, in periods: {shifts}")
-    assert all(abs(d) <= 3 for d in shifts), shifts
+    assert all(abs(d) <= 2 for d in shifts), (shifts, how_it_ran(folder))
     p = scenario.params
     for o, d in zip(scenario.obstacles, real["min_distance"], strict=True):
         assert d >= p.safe_distance(o.radius) > p.r_m + o.radius  # no contact
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_realtime_hil_timing_is_plausible_and_agrees_with_the_bus_log(
-    hil_runs: HilRuns, name: str
-) -> None:
+def test_realtime_hil_keeps_its_clock_beside_busy_cores(hil_runs: HilRuns, name: str) -> None:
+    """The timing a HIL rig promises, with BUSY CPU-bound processes beside
+    it: judged on this one run."""
+    folder = hil_runs.folder("realtime") / name
+    timing = json.loads((folder / "timing.json").read_text())
+    period = timing["wheel_cmd_period_ms"]
+    shown = ("wheel_cmd_period_ms", "latency_ms", "firmware", "plant", "bridge")
+    print(f"{name}: {json.dumps({k: timing.get(k) for k in shown})}")
+    why = how_it_ran(folder)
+    assert timing["plant"]["missed_periods"] == 0, why
+    assert timing["firmware"]["stale_steps"] == 0, why
+    assert abs(period["p99"] - 20.0) <= 2.0, why
+    assert timing["plant"]["send_failures"] == 0, why
+    assert timing["dropped"] == {"by_firmware": {}, "by_plant": {}}, why
+    if "bridge" in timing:  # the vcan VM's: every frame across, both ways
+        crossed = timing["bridge"]
+        assert crossed["reached_vcan"] == crossed["to_firmware"] > 0, crossed
+        assert crossed["reached_plant"] == crossed["from_firmware"] > 0, crossed
+        assert crossed["dropped_to_vcan"] == crossed["dropped_to_plant"] == 0, crossed
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_realtime_hil_timing_agrees_with_the_bus_log(hil_runs: HilRuns, name: str) -> None:
     folder = hil_runs.folder("realtime") / name
     timing = json.loads((folder / "timing.json").read_text())
     period, latency = timing["wheel_cmd_period_ms"], timing["latency_ms"]
-    shown = ("wheel_cmd_period_ms", "latency_ms", "firmware", "plant")
-    print(f"{name}: {json.dumps({k: timing[k] for k in shown})}")
     assert abs(period["p50"] - 20.0) <= 2.0 and abs(period["mean"] - 20.0) <= 2.0, period
     assert 0.0 < latency["p50"] < 3 * 20.0, latency
     assert latency["n"] >= 0.5 * timing["plant"]["samples"], (latency, timing["plant"])

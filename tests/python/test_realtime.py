@@ -459,6 +459,29 @@ def test_missed_doubled_and_stale_periods_are_counted(sil_lib: Path, short: Scen
     assert timing.steps == len(in_run)
 
 
+def test_the_samples_follow_a_firmware_whose_clock_runs_slow(
+    sil_lib: Path, short: Scenario
+) -> None:
+    """A firmware whose period is 20.1 ms on the plant's clock (0.5 % slow:
+    a VM's clock calibrated on a busy host was 400 ppm off) drifts 15 ms
+    over this 3 s run. Samples on a fixed 20 ms grid would meet its ticks
+    twice in some periods and none in others; following its grid, every tick
+    takes a new frame and none is passed over. From the firmware's side of
+    the record, not from the plant's bookkeeping."""
+    run = run_virtual(short, sil_lib, period=0.0201)
+    tr = truth(run)
+    start, end = run_window(run, tr)
+    in_run = [used for (_, used), a in zip(tr.ticks, tr.arrivals, strict=True) if start <= a <= end]
+    stale = sum(1 for a, b in zip(in_run, in_run[1:], strict=False) if a == b)
+    rec = run.bus.record
+    odom = [i for i, (t, m) in enumerate(rec.sent) if m.arbitration_id == ODOM_XY and t >= start]
+    unused = sum(1 for i in odom if i not in set(in_run) and i < max(in_run))
+    assert (stale, unused) == (0, 0)
+    timing = run.result.timing
+    assert timing is not None
+    assert (timing.stale, timing.unused, timing.plant_missed) == (0, 0, 0)
+
+
 def check_ramp(ramp: list[tuple[float, float, float]], decel_step: float, lsb: float) -> None:
     """docs/safety.md: each step the faster wheel loses max_wheel_decel·dt
     (@p decel_step for one nominal period, or a whole multiple of it when

@@ -7,6 +7,7 @@ import math
 import os
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,7 @@ from mstc.can.protocol import wire_limits
 from mstc.errors import SuiteError
 from mstc.model import Params
 from mstc.plant.scenario import Scenario, load_scenario
-from mstc.sweep.suite import generate, load_suite
+from mstc.sweep.suite import IDEAL, ActuatorProfile, generate, load_suite, scene_doc, scene_text
 
 ROOT = Path(__file__).resolve().parents[2]
 STANDARD = ROOT / "sim" / "suites" / "standard.toml"
@@ -64,6 +65,19 @@ def test_scene_i_does_not_depend_on_the_count(tmp_path: Path) -> None:
     (tmp_path / "more").mkdir()
     many = _generate_in_subprocess(_small(tmp_path / "more", count=6), tmp_path / "many", "0")
     assert all(many[name] == text for name, text in few.items())
+
+
+def test_a_scenes_document_is_its_file_parsed(tmp_path: Path) -> None:
+    """What a worker runs (the document, never written as text) is what the
+    file `--generate-only` writes gives to a TOML parser (tomllib, an
+    independent reader of the text), for every family and profile."""
+    suite = load_suite(_small(tmp_path, count=4))
+    for family in suite.families:
+        for profile in suite.actuators:
+            wheels = None if profile == ActuatorProfile(IDEAL, {}) else profile
+            for i in (0, 3, 99_999):
+                doc = scene_doc(suite, family, i, actuator=wheels)
+                assert tomllib.loads(scene_text(suite, family, i, actuator=wheels)) == doc
 
 
 def test_every_scene_is_a_valid_scenario_with_at_most_15_obstacles(

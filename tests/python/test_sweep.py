@@ -1,25 +1,23 @@
 # SPDX-License-Identifier: MIT
 """`mstc sweep` end to end: the same inputs give the same files and rows; a
 scene that fails in a worker is an error row, never a lost sweep; --resume
-finishes an interrupted sweep without running again what was done; a Dask
-cluster (a real scheduler and two workers on the loopback interface) gives the
-local pool's rows, row for row. The expected events.json is what `mstc sim --bus memory` writes."""
+finishes an interrupted sweep without running again what was done; the
+scene files and events.json of every failure and gallery run are written,
+and of every run only when asked. The expected events.json is what
+`mstc sim --bus memory` writes. The Dask cluster's tests are
+test_sweep_cluster.py."""
 
 import csv
-import os
 import shutil
-import socket
-import subprocess
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from mstc.cli import main
-from mstc.sweep.engine import MEASURED_COLUMNS, ROW_COLUMNS, Scene, run_sweep
-from mstc.sweep.summary import write_summary
+from mstc.sweep.engine import MEASURED_COLUMNS, ROW_COLUMNS, Scene
+from mstc.sweep.plan import Plan, run_sweep
+from mstc.sweep.summary import Tally
 
 SUITE = """\
 [suite]
@@ -68,8 +66,12 @@ def sweep(
     lib: Path,
     *extra: str,
     capsys: pytest.CaptureFixture[str] | None = None,
+    every: bool = True,
 ) -> str:
+    """Sweep @p inputs into @p out; with @p every, write every scene file and
+    events.json (--write-scenes, --write-events)."""
     args = ["sweep", "--lib", str(lib), "--strategy", "paper,dwa", "--out", str(out), "-q"]
+    args += ["--write-scenes", "--write-events"] if every else []
     rc = main([*args, "--jobs", "2", "--gallery", "1", *extra, *map(str, inputs)])
     text = capsys.readouterr().out if capsys is not None else ""
     assert rc == 0, text
@@ -115,8 +117,13 @@ def test_a_scene_failing_in_a_worker_is_an_error_row(
     ok = Scene.from_file(next((tmp_path / "scenes").rglob("*.toml")))
     crash = Scene("crash", "crash.toml", CRASH)
     out = tmp_path / "out"
-    result = run_sweep([ok, crash], ["paper", "dwa"], out, str(sil_lib.resolve()), workers=2)
-    by_scene = {(r["scene"], r["strategy"]): r for r in result.rows}
+    plan = Plan(["paper", "dwa"])
+    assert plan.add_scenes([ok, crash]) == []
+    tally = Tally(plan.strategies)
+    result = run_sweep(plan, out, str(sil_lib.resolve()), workers=2, events=True, rows=tally.add)
+    assert (result.runs, result.ran) == (4, 4)
+    with (out / "runs.csv").open(newline="") as f:
+        by_scene = {(r["scene"], r["strategy"]): r for r in csv.DictReader(f)}
     assert len(by_scene) == 4
     for strategy in ("paper", "dwa"):
         bad = by_scene[("crash", strategy)]
@@ -124,8 +131,8 @@ def test_a_scene_failing_in_a_worker_is_an_error_row(
         assert not (out / strategy / "crash" / "events.json").exists()
         assert by_scene[(ok.name, strategy)]["error"] == ""
         assert (out / strategy / ok.name / "events.json").is_file()
-    summary = write_summary(result.rows, ["paper", "dwa"], out, title="crash", firmware="test")
-    text = summary.read_text()
+    tally.finish(out / "runs.csv")
+    text = tally.write(out, title="crash", firmware="test").read_text()
     assert "| (none) | ideal | paper | 1 | 1 |" in text  # the crash scene: one run, one error
     assert "## Errors (2)" in text
 
@@ -202,77 +209,44 @@ def test_summary_has_the_tables_figures_and_gallery(first: Path) -> None:
     assert len(list((first / "gallery").rglob("*.png"))) == 2
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-@pytest.fixture
-def cluster(sil_lib: Path, tmp_path: Path) -> Iterator[str]:
-    """A Dask scheduler and two single-threaded workers on 127.0.0.1."""
-    dask = Path(sys.executable).with_name("dask")
-    if not dask.exists():
-        pytest.fail(f"{dask} not found: the Dask tests need distributed (requirements.txt)")
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    env = {**os.environ, "MSTC_SIL_LIB": str(sil_lib.resolve())}
-    log = (tmp_path / "dask.log").open("w")
-    common = ["--no-dashboard"]
-    procs = [
-        subprocess.Popen(
-            [str(dask), "scheduler", "--host", "127.0.0.1", "--port", str(port), *common],
-            env=env,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            cwd=tmp_path,
-        )
-    ]
-    try:
-        from distributed import Client
-
-        for _ in range(2):
-            procs.append(
-                subprocess.Popen(
-                    [str(dask), "worker", address, "--nworkers", "1", "--nthreads", "1", *common],
-                    env=env,
-                    stdout=log,
-                    stderr=subprocess.STDOUT,
-                    cwd=tmp_path,
-                )
-            )
-        deadline = time.monotonic() + 90
-        while True:
-            try:
-                with Client(address, timeout="5s") as client:
-                    client.wait_for_workers(2, timeout=60)
-                break
-            except OSError:
-                if time.monotonic() > deadline:
-                    raise
-                time.sleep(0.5)
-        yield address
-    finally:
-        for p in reversed(procs):
-            p.terminate()
-        for p in procs:
-            try:
-                p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                p.kill()
-        log.close()
-
-
-def test_dask_cluster_gives_the_local_rows(
+def test_more_scenes_a_family_keeps_the_rows_run_already(
     first: Path,
     inputs: tuple[Path, ...],
     sil_lib: Path,
-    cluster: str,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    text = sweep(tmp_path, inputs, sil_lib, "--scheduler", cluster, capsys=capsys)
-    assert cluster in text
-    assert reproducible(rows(tmp_path)) == reproducible(rows(first))
-    for path in first.rglob("events.json"):
-        assert (tmp_path / path.relative_to(first)).read_text() == path.read_text()
+    """Scene i of a family does not depend on the family's count: resumed
+    with --count 3, the sweep of 2 scenes a family keeps its 8 rows and runs
+    the 4 of the third scenes; the rows are those of a fresh sweep of 3."""
+    out = tmp_path / "out"
+    shutil.copytree(first, out)
+    text = sweep(out, inputs, sil_lib, "--resume", "--count", "3", capsys=capsys, every=False)
+    assert "12 runs (4 run now, 8 resumed)" in text
+    fresh = tmp_path / "fresh"
+    sweep(fresh, inputs, sil_lib, "--count", "3", every=False)
+    assert reproducible(rows(out)) == reproducible(rows(fresh))
+
+
+def test_only_the_failures_and_the_gallery_leave_scene_files_by_default(
+    inputs: tuple[Path, ...], sil_lib: Path, tmp_path: Path
+) -> None:
+    """Without --write-scenes and --write-events: the scene file and
+    events.json of each run with a contact, and of the gallery's runs (one
+    a strategy here), nothing else; each such scene file is byte for byte
+    what --generate-only writes for it."""
+    sweep(tmp_path, inputs, sil_lib, every=False)
+    table = rows(tmp_path)
+    failures = {(r["scene"], r["strategy"]) for r in table if r["contact"] == "1" or r["error"]}
+    assert failures  # the premise: the paper's strategy touches some cluster 2 m ahead
+    gallery = {(p.stem, p.parent.name) for p in (tmp_path / "gallery").rglob("*.png")}
+    assert len(gallery) == 2
+    events = {(p.parent.name, p.parent.parent.name) for p in tmp_path.rglob("events.json")}
+    assert events == failures | gallery
+    scenes = {p.stem for p in (tmp_path / "scenes").rglob("*.toml")}
+    assert scenes == {scene for scene, _ in failures | gallery}
+    generated = tmp_path / "generated"
+    rc = main(["sweep", "--generate-only", "--out", str(generated), str(inputs[0])])
+    assert rc == 0
+    for path in (tmp_path / "scenes").rglob("*.toml"):
+        assert path.read_bytes() == (generated / path.relative_to(tmp_path)).read_bytes()

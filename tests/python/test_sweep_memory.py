@@ -1,19 +1,21 @@
 # SPDX-License-Identifier: MIT
-"""`mstc sweep`'s client holds no parsed scene while the sweep runs: the
-validation pass parses each file once into the spool (mstc.sweep.spool), and
-a batch is read back from it as it is sent, so only the batches in flight
-are in memory (docs/sweeps.md, "Memory").
+"""`mstc sweep`'s client holds neither the scenes nor the rows of a sweep.
 
-The first test fails on the client that kept every parsed scene (the commit
-before the spool): 12 live Scenario objects when the pool starts, not 0."""
+A suite's scenes are made where they run: the client sends slices (a few
+numbers of the suite and a range of indices) and gets rows back, never a
+scene; a slice's size does not grow with its scenes. Scenario files are
+parsed once by the validation pass into the spool (mstc.sweep.spool), and a
+slice reads its scenes back from it as it is sent. The rows go to runs.csv
+and into the summary's counts, which do not grow with them (docs/sweeps.md,
+"Memory")."""
 
 from __future__ import annotations
 
-import gc
 import hashlib
-import inspect
 import json
-from collections.abc import Callable
+import pickle
+import tracemalloc
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -21,12 +23,14 @@ import pytest
 
 from mstc.can.protocol import wire_limits
 from mstc.cli import main
-from mstc.plant.scenario import Scenario, load_scenario
-from mstc.sweep import engine
-from mstc.sweep.engine import IN_FLIGHT, Job, Scene, run_batch, shipped
+from mstc.plant.scenario import load_scenario
+from mstc.sweep import plan
+from mstc.sweep.engine import ROW_COLUMNS, Job, Scene, run_batch, shipped
 from mstc.sweep.folder import text_sha256
+from mstc.sweep.plan import Slice, SliceResult
 from mstc.sweep.spool import Spool
 from mstc.sweep.suite import generate, load_suite
+from mstc.sweep.summary import Tally
 
 SCENES = 12
 SUITE = f"""\
@@ -40,67 +44,69 @@ duration = 2.0
 """
 
 
-def _live(kind: type) -> list[Any]:
-    gc.collect()
-    return [o for o in gc.get_objects() if type(o) is kind]
-
-
-def test_the_client_holds_no_parsed_scene_while_the_sweep_runs(
+def test_a_suites_slices_carry_no_scene_and_its_results_no_scene_but_failures(
     tmp_path: Path, sil_lib: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The pool runs one worker with batches of one job (12 scenes, two
-    strategies: 24 batches): when it starts, no Scenario more is alive in the client
-    than before the sweep; each time a batch is made, none either, and the
-    scenes carrying their pickled scenario are the new batch's and those of
-    at most IN_FLIGHT others: the ones in the pool's hands (IN_FLIGHT - 1)
-    and one whose result has come back while the pool's thread has not yet
-    dropped it. The client before the spool held all 12 scenarios."""
+    """Each slice is pickled as the pool and Dask send it: no Scenario in
+    it, and no bigger with 6 scenes (12 runs: half the scenes on the one
+    worker, two strategies) than with 1 (the first slices are smaller); the
+    results hold the rows, and no scene file or events.json unless the run
+    failed (none does here)."""
     (tmp_path / "memory.toml").write_text(SUITE)
-    real = engine.run_local
-    at_start: list[int] = []
-    made: list[tuple[int, int]] = []
+    real = plan.run_tasks
+    sent: list[tuple[int, int]] = []
+    results: list[SliceResult] = []
 
-    def watched(*args: Any, **kwargs: Any) -> None:
-        at_start.append(len(_live(Scenario)))
-        bound = inspect.signature(real).bind(*args, **kwargs)
-        ship: Callable[[list[Job]], list[Job]] | None = bound.arguments.get("ship")
-        if ship is not None:
+    def watched(tasks: Callable[[int], Iterable[Slice]], work: Any, emit: Any, **kw: Any) -> None:
+        def seen(task: Slice, result: SliceResult) -> None:
+            data = pickle.dumps(task)
+            assert b"Scenario" not in data and b"[robot]" not in data
+            sent.append((len(data), len(task.runs())))
+            results.append(result)
+            emit(task, result)
 
-            def counted(batch: list[Job]) -> list[Job]:
-                sent = ship(batch)
-                carrying = sum(1 for s in _live(Scene) if s.pickled is not None)
-                made.append((len(_live(Scenario)) - scenarios_before, carrying - carrying_before))
-                return sent
+        real(tasks, work, seen, **kw)
 
-            bound.arguments["ship"] = counted
-        real(*bound.args, **bound.kwargs)
-
-    monkeypatch.setattr(engine, "run_local", watched)
-    scenarios_before = len(_live(Scenario))
-    carrying_before = sum(1 for s in _live(Scene) if s.pickled is not None)
-    args = ["--lib", str(sil_lib), "--strategy", "paper,mstc", "--jobs", "1", "--batch", "1"]
+    monkeypatch.setattr(plan, "run_tasks", watched)
+    args = ["--lib", str(sil_lib), "--strategy", "paper,mstc", "--jobs", "1", "--batch", "24"]
     out = tmp_path / "out"
-    assert (
-        main(
-            [
-                "sweep",
-                *args,
-                "--gallery",
-                "0",
-                "-q",
-                "--out",
-                str(out),
-                str(tmp_path / "memory.toml"),
-            ]
-        )
-        == 0
-    )
-    assert [n - scenarios_before for n in at_start] == [0]
-    assert len(made) == 2 * SCENES  # --batch 1: a batch is one job
-    assert all(scenarios == 0 for scenarios, _ in made), made
-    assert all(1 <= carrying <= IN_FLIGHT + 1 for _, carrying in made), made
-    assert sum(1 for _ in (out / "mstc").iterdir()) == SCENES
+    args += ["--gallery", "0", "-q", "--out", str(out), str(tmp_path / "memory.toml")]
+    assert main(["sweep", *args]) == 0
+    runs = [n for _, n in sent]
+    assert sum(runs) == 2 * SCENES and min(runs) == 2 and max(runs) == 12
+    small = min(size for size, n in sent if n == min(runs))
+    assert all(size <= small + 200 for size, _ in sent), sent
+    assert all(len(r.rows) and not r.files for r in results)
+    assert not (out / "scenes").exists() and not (out / "mstc").exists()
     assert not [p for p in out.iterdir() if p.name.startswith(".spool")]
+
+
+def test_the_summarys_counts_do_not_grow_with_the_rows() -> None:
+    """A Tally of 2,000 rows and one of 20,000 (of one family, the same
+    values over and over, as a long sweep gives them) take the same memory
+    within 64 kB: each row kept would take some 0.8 kB, 14 MB more."""
+
+    def rows(n: int) -> list[list[str]]:
+        values = dict.fromkeys(ROW_COLUMNS, "0")
+        values.update(scene="s", family="f", actuator="ideal", strategy="mstc", error="")
+        out = []
+        for i in range(n):
+            row = dict(values, min_clearance=f"{0.1 + (i % 1000) * 1e-4:.6g}")
+            out.append([row[c] for c in ROW_COLUMNS])
+        return out
+
+    sizes = []
+    for n in (2000, 20000):
+        batch = rows(n)
+        tracemalloc.start()
+        tally = Tally(["mstc"], gallery=6)
+        for i in range(0, n, 500):
+            tally.add(batch[i : i + 500])
+        size = tracemalloc.get_traced_memory()[0]
+        tracemalloc.stop()
+        assert tally.rows == n
+        sizes.append(size)
+    assert abs(sizes[1] - sizes[0]) < 64 * 1024, sizes
 
 
 @pytest.fixture
@@ -150,7 +156,8 @@ def test_a_worker_unpickles_a_scene_once_and_a_broken_one_is_its_rows(
         record = Scene.from_scenario(load_scenario(path, wire_limits()), "")
         ((good, _),) = shipped([(record, "dwa")], spool)
     broken = Scene("broken", "broken.toml", "", pickled=b"not a pickle")
-    outcomes = run_batch([(good, "dwa"), (broken, "dwa"), (good, "dwa"), (broken, "dwa")], "")
+    jobs: list[Job] = [(good, "dwa"), (broken, "dwa"), (good, "dwa"), (broken, "dwa")]
+    outcomes = run_batch(jobs, "")
     assert [o.row["error"] == "" for o in outcomes] == [True, False, True, False]
     assert outcomes[0].events is not None and outcomes[0].events == outcomes[2].events
 

@@ -709,6 +709,36 @@ static void test_app_safety_wheel_speeds_lost_while_pivoting_on_the_left_wheel_h
     TEST_ASSERT_EQUAL_UINT8(COMM_HALT_WHEEL_SPEED, tf_last_status().status_halt);
 }
 
+/* Issue 30, C1: three WHEEL_SPEED frames from a node without the key (good
+ * CRC and counter need no key) while the robot stands, not armed, then
+ * nothing more from it. Whatever they set must end when the node stops
+ * (docs/safety.md, "Threat model"): ten quiet steps later the robot is armed
+ * and drives as if they had never come (70 rad/s, no halt), where the flag
+ * they once set made every later arm halt with reason 7 after one step. */
+static void test_app_safety_wheel_speeds_from_a_node_gone_quiet_do_not_halt_a_later_arm(void)
+{
+    k_step = 0;
+    t_us = 0;
+    for (unsigned k = 0; k < 3u; k++) {
+        feed(tf_wheel_speed(5.0, 5.0));
+        full_step();
+    }
+    for (unsigned k = 0; k < 10u; k++) {
+        full_step();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NOT_ARMED, tf_last_status().status_halt);
+    for (unsigned k = 0; k < APP_REARM_FRAMES; k++) {
+        odom();
+        ref();
+    }
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(1.0f));
+    for (unsigned k = 0; k < 5u; k++) {
+        full_step();
+        TEST_ASSERT_EQUAL_UINT8(COMM_HALT_NONE, tf_last_status().status_halt);
+        TEST_ASSERT_INT32_WITHIN(TOL_WHEEL_RAW, 71680, tf_last_wheels().wheel_cmd_left);
+    }
+}
+
 static void test_app_safety_ref_motion_alone_lost_is_a_reference_halt(void)
 {
     drive(5);
@@ -962,6 +992,7 @@ int main(void)
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_standing_do_not_halt);
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_only_measured_moving_halt);
     RUN_TEST(test_app_safety_wheel_speeds_lost_while_pivoting_on_the_left_wheel_halt);
+    RUN_TEST(test_app_safety_wheel_speeds_from_a_node_gone_quiet_do_not_halt_a_later_arm);
     RUN_TEST(test_app_safety_a_step_at_the_same_time_ramps_nothing_and_long_halts_saturate);
     RUN_TEST(test_app_safety_real_time_mode_needs_no_step_and_times_out);
     RUN_TEST(test_app_safety_a_deceleration_too_small_to_stop_in_time_is_refused);

@@ -123,6 +123,10 @@ static void test_app_wheels_external_by_default_the_bus_is_the_input(void)
 {
     TEST_ASSERT_EQUAL_UINT8(APP_WHEELS_EXTERNAL, app.wheel_source);
     start(APP_WHEELS_EXTERNAL);
+    /* Two frames at two steps: the first leaves WHEEL_SPEED's state machine
+     * in INIT (not usable, forgotten), the second makes it VALID. */
+    feed(tf_wheel_speed(5.0, -6.0));
+    step();
     feed(tf_wheel_speed(5.0, -6.0));
     own(1.0, 2.0, 0u); /* ignored: no wheel loop of its own */
     step();

@@ -31,10 +31,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 import can
+import numpy as np
 
 from mstc.bench import ROOT
-from mstc.bench.doc import report, write_result
+from mstc.bench.doc import report, vcan_where, write_result
 from mstc.can.protocol import Protocol, wire_limits
+from mstc.can.vmbridge import Bridge
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import CanController, simulate
 from mstc.plant.scenario import load_scenario
@@ -81,8 +83,12 @@ def bench_sil(lib: Path, runs: int) -> dict[str, object]:
     }
 
 
-def _start(cmd: list[str]) -> subprocess.Popen[str]:
-    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+def _start(cmd: list[str], channel: str) -> subprocess.Popen[str]:
+    """Start a peer: in the vcan VM, through its agent, when the bus is the
+    VM's bridge."""
+    bridge = Bridge.from_env(channel)
+    prefix = bridge.runner() if bridge is not None else []
+    proc = subprocess.Popen([*prefix, *cmd], stderr=subprocess.PIPE, text=True)
     assert proc.stderr is not None
     line = proc.stderr.readline()
     if " mode on " not in line:
@@ -91,11 +97,15 @@ def _start(cmd: list[str]) -> subprocess.Popen[str]:
     return proc
 
 
-def _round_trips(bus: can.BusABC, proto: Protocol, last_id: int, count: int) -> float:
+def _round_trips(
+    bus: can.BusABC, proto: Protocol, last_id: int, count: int, times: list[float] | None = None
+) -> float:
     """Send STEP frames; each round trip ends when a frame with @p last_id
-    arrives. Only identifiers are looked at, as cheaply as possible."""
+    arrives. Only identifiers are looked at, as cheaply as possible. Each
+    round trip's time [ms] goes to @p times."""
     t0 = time.perf_counter()
     for i in range(count):
+        t = time.perf_counter()
         bus.send(proto.encode("STEP", step=i & 0xFFFF, time=(i * 20000) & 0xFFFFFFFF, raw=True))
         while True:
             msg = bus.recv(1.0)
@@ -103,14 +113,28 @@ def _round_trips(bus: can.BusABC, proto: Protocol, last_id: int, count: int) -> 
                 raise SystemExit(f"error: no answer to round trip {i}")
             if msg.arbitration_id == last_id:
                 break
+        if times is not None:
+            times.append((time.perf_counter() - t) * 1e3)
     return count / (time.perf_counter() - t0)
 
 
-def _peer_rate(cmd: list[str], last_id: int, firmware: bool, channel: str, count: int) -> float:
+def _peer_rate(
+    cmd: list[str],
+    last_id: int,
+    firmware: bool,
+    channel: str,
+    count: int,
+    times: list[float] | None = None,
+) -> float:
     """Start a peer, measure @p count round trips to it, stop it."""
-    proc = _start(cmd)
+    bridge = Bridge.from_env(channel)
+    proc = _start(cmd, channel)
     try:
-        with can.Bus(interface="socketcan", channel=channel) as bus:
+        with (
+            bridge.open_bus()
+            if bridge is not None
+            else can.Bus(interface="socketcan", channel=channel)
+        ) as bus:
             proto = Protocol()
             if firmware:  # inputs once; every STEP then steps on them
                 for frame, values in (
@@ -121,7 +145,7 @@ def _peer_rate(cmd: list[str], last_id: int, firmware: bool, channel: str, count
                 ):
                     bus.send(proto.encode(frame, values))
             _round_trips(bus, proto, last_id, 50)  # warm up
-            return _round_trips(bus, proto, last_id, count)
+            return _round_trips(bus, proto, last_id, count, times)
     finally:
         proc.terminate()
         proc.wait(timeout=5)
@@ -143,12 +167,22 @@ def bench_hil(fw: Path, echo: Path, channel: str, runs: int, count: int) -> dict
         "firmware": ([str(fw), "--can", channel], WHEEL_CMD),
     }
     rates: dict[str, list[float]] = {name: [] for name in peers}
+    times: dict[str, list[float]] = {name: [] for name in peers}
     for _ in range(runs):
         for name, (cmd, last_id) in peers.items():
-            rates[name].append(_peer_rate(cmd, last_id, name == "firmware", channel, count))
+            rates[name].append(
+                _peer_rate(cmd, last_id, name == "firmware", channel, count, times[name])
+            )
     for name, values in rates.items():
         out[f"{name}_per_s"] = statistics.median(values)
         out[f"{name}_runs"] = values
+        p50, p99 = np.percentile(times[name], [50, 99])
+        out[f"{name}_round_trip_ms"] = {
+            "p50": round(float(p50), 3),
+            "p99": round(float(p99), 3),
+            "max": round(max(times[name]), 3),
+        }
+    out["load"] = round(os.getloadavg()[0], 1)
     return out
 
 
@@ -171,20 +205,29 @@ def section(results: list[dict[str, object]]) -> str:
         else:
             b, s, fw = (float(r[k]) for k in ("bare_per_s", "same_traffic_per_s", "firmware_per_s"))  # type: ignore[arg-type]
             added = b / fw - 1
-            lines += [
-                f"Lock-step round trips over `{r['channel']}` ({r['where']}: "
-                + (
-                    "the vcan VM under software emulation, tools/vm/with-vcan"
-                    if r["where"] == "vm"
-                    else "the host's vcan"
+            where = vcan_where(r["where"])
+
+            def ms(name: str, r: dict[str, object] = r) -> str:
+                t = r.get(f"{name}_round_trip_ms")
+                return (
+                    f"{t['p50']:.2f} / {t['p99']:.2f} / {t['max']:.2f}"
+                    if isinstance(t, dict)
+                    else ""
                 )
-                + f"), {r['count']} per run, median of {len(r['firmware_runs'])} runs, "  # type: ignore[arg-type]
-                "all measured in the same run, the peers taking turns run by run:\n",
-                "| peer answering each STEP frame | round trips per second |",
-                "|---|---|",
-                f"| bare: a C echo, one frame back | {b:,.0f} |",
-                f"| same traffic: a C echo, three frames back | {s:,.0f} |",
-                f"| the firmware, `mstc-fw`: a control step, then 3 frames | {fw:,.0f} |",
+
+            lines += [
+                f"Lock-step round trips over `{r['channel']}` ({where}), {r['count']} per run, "
+                f"median of {len(r['firmware_runs'])} runs, "  # type: ignore[arg-type]
+                "all measured in the same run, the peers taking turns run by run"
+                + (f"; load average {r['load']}" if "load" in r else "")
+                + ":\n",
+                "| peer answering each STEP frame | round trips per second "
+                "| round trip p50 / p99 / max [ms] |",
+                "|---|---|---|",
+                f"| bare: a C echo, one frame back | {b:,.0f} | {ms('bare')} |",
+                f"| same traffic: a C echo, three frames back | {s:,.0f} | {ms('same_traffic')} |",
+                f"| the firmware, `mstc-fw`: a control step, then 3 frames | {fw:,.0f} "
+                f"| {ms('firmware')} |",
                 "",
                 f"The firmware's round trip takes {added:+.0%} over the bare one "
                 f"(target: under +25 %); against the same traffic without a firmware, "

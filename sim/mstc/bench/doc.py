@@ -17,6 +17,18 @@ from collections.abc import Mapping
 from pathlib import Path
 
 
+def vcan_where(where: object, peer: str = "the peer") -> str:
+    """Where a benchmark over vcan ran, from its ``MSTC_VCAN_WHERE``
+    (tools/vm/with-vcan): in the vcan VM, through its bridge, or on the
+    host's vcan. @p peer names what ran on vcan0."""
+    return {
+        "vm": f"the vcan VM under software emulation, plant and {peer} both inside "
+        "(tools/vm/with-vcan)",
+        "bridge": f"the vcan VM's bridge: the plant on the host, {peer} on vcan0 in the VM "
+        "under software emulation (tools/vm/with-vcan --bridge, docs/hil.md)",
+    }.get(str(where), "the host's vcan")
+
+
 def update_doc(doc: Path, body: str, begin: str, end: str) -> bool:
     """Replace (or add) the section between @p begin and @p end in the
     document; True when it changed. Other tools' sections are left alone. The

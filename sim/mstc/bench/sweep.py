@@ -2,12 +2,15 @@
 """Sweep throughput: scene-steps per CPU-second of the batched engine against
 the per-scene one on the standard suite's families (with ideal wheels and
 with its "gearmotor" actuator), scene-steps per second of one scene in
-memory, sweeps on every core, and the same sweeps on a local Dask cluster.
+memory, `mstc sweep` end to end against its engine's own CPU time, sweeps on
+every core, and the same sweeps on a local Dask cluster.
 
   python -m mstc.bench.sweep run --lib build/host/float/libmstc_sil.so --out build/bench/sweep.json
   python -m mstc.bench.sweep report --doc docs/performance.md build/bench/sweep.json
   python -m mstc.bench.sweep engines --lib build/host/float/libmstc_sil.so --actuator gearmotor
       only the two engines' table under one actuator profile, printed
+  python -m mstc.bench.sweep end-to-end --lib build/host/float/libmstc_sil.so
+      only the end-to-end sweep against its engine, printed
 
 A benchmark, not a test: it prints and writes figures and fails on nothing.
 Beside each wall time it gives the CPU time of every process that did the
@@ -19,33 +22,31 @@ CPU time does not, so CPU time is the fair figure of the work itself.
 from __future__ import annotations
 
 import argparse
+import ctypes
 import json
 import os
+import re
 import resource
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
-import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from mstc.bench import ROOT
 from mstc.bench.doc import report, write_result
 from mstc.can.protocol import wire_limits
 from mstc.firmware.sil import SilController
 from mstc.loop.lockstep import simulate
-from mstc.plant.scenario import load_scenario, parse_scenario
-from mstc.sweep.engine import (
-    BATCH,
-    Job,
-    Scene,
-    library_sha256,
-    run_batch,
-    run_jobs_batched,
-    run_sweep,
-)
-from mstc.sweep.suite import IDEAL, generate, load_suite, scene_text
+from mstc.plant.scenario import load_scenario
+from mstc.sweep.engine import BATCH, Job, library_sha256, run_batch, run_jobs_batched
+from mstc.sweep.plan import Plan, run_sweep
+from mstc.sweep.suite import IDEAL, Suite, load_suite
 
 LINE = ROOT / "sim" / "scenarios" / "paper-line.toml"
 STANDARD = ROOT / "sim" / "suites" / "standard.toml"
@@ -95,32 +96,32 @@ def steps_per_second(lib: str, runs: int) -> dict[str, float]:
     }
 
 
+def _plan(suite: Suite, strategies: list[str], actuator: str | None = None) -> Plan:
+    """The plan of @p suite (only its profile @p actuator when given)."""
+    plan = Plan(strategies)
+    problems = plan.add_suite(
+        suite, str(suite.path), None, None if actuator is None else [actuator]
+    )
+    assert not problems, problems
+    return plan
+
+
 def _family_jobs(
     per_family: int, strategy: str, actuator: str = IDEAL
 ) -> tuple[dict[str, list[Job]], dict[str, float]]:
     """The first @p per_family scenes of every family of the standard suite
-    under its actuator profile @p actuator, parsed here as ``mstc sweep``'s
-    client parses them (it validates every scene before it runs any); and
-    the CPU time the parsing took per family [s]."""
+    under its actuator profile @p actuator, made as a worker makes them
+    (their documents, parsed); and the CPU time the making took per family [s]."""
     suite = load_suite(STANDARD)
-    profile = {a.name: a for a in suite.actuators}[actuator]
-    given = profile if profile.values else None
+    suite = replace(suite, families=tuple(replace(f, count=per_family) for f in suite.families))
     jobs: dict[str, list[Job]] = {}
-    parse: dict[str, float] = {}
-    wire = wire_limits()
-    for f in suite.families:
-        texts = [
-            (suite.scene_name(f, i, profile), scene_text(suite, f, i, actuator=given))
-            for i in range(per_family)
-        ]
+    make: dict[str, float] = {}
+    for block in _plan(suite, [strategy], actuator).blocks:
         c0 = time.process_time()
-        parsed = [parse_scenario(tomllib.loads(t), name, wire) for name, t in texts]
-        parse[f.name] = time.process_time() - c0
-        jobs[f.name] = [
-            (Scene(name, name, t, f.name, actuator=actuator, scenario=sc), strategy)
-            for (name, t), sc in zip(texts, parsed, strict=True)
-        ]
-    return jobs, parse
+        scenes = [block.make(i, "") for i in range(per_family)]
+        make[block.family.name] = time.process_time() - c0
+        jobs[block.family.name] = [(scene, strategy) for scene in scenes]
+    return jobs, make
 
 
 def engine_rates(
@@ -133,9 +134,9 @@ def engine_rates(
     times; each family's median, and the suite's (all its scene-steps over
     the sum of the families' median CPU times). A worker's work is counted
     (the runs, the metrics, events.json); the scenes come parsed, as the
-    client sends them, and the parsing's own cost is given beside."""
+    client sends them, and the making's own cost is given beside."""
     sha = library_sha256(lib)
-    batched_jobs, parse = _family_jobs(batch, strategy, actuator)
+    batched_jobs, make = _family_jobs(batch, strategy, actuator)
     scene_jobs = {f: jobs[:scenes] for f, jobs in batched_jobs.items()}
     families: dict[str, dict[str, float]] = {}
     for family in batched_jobs:
@@ -153,7 +154,7 @@ def engine_rates(
         families[family] = (
             {f"{e}_steps": float(steps[e]) for e in steps}
             | {f"{e}_cpu": statistics.median(cpu[e]) for e in cpu}
-            | {"parse_cpu": parse[family]}
+            | {"make_cpu": make[family]}
         )
     total = {
         e: sum(f[f"{e}_steps"] for f in families.values())
@@ -172,11 +173,11 @@ def engine_rates(
     }
 
 
-def _scenes(count: int, folder: Path) -> list[Scene]:
-    suite_path = folder / "paper-like.toml"
-    suite_path.write_text(PAPER_LIKE.format(count=count))
-    files = generate(load_suite(suite_path), folder / "scenes")
-    return [Scene.from_file(f.path) for f in files]
+def _paper_like(count: int, folder: Path) -> Plan:
+    """The plan of @p count paper-like scenes under "paper"."""
+    path = folder / "paper-like.toml"
+    path.write_text(PAPER_LIKE.format(count=count))
+    return _plan(load_suite(path), ["paper"])
 
 
 def process_cpu() -> float:
@@ -200,6 +201,106 @@ def _reproducible(out: Path) -> list[list[str]]:
     return [r[:drop] + r[drop + 1 :] for r in rows]
 
 
+def _subreaper() -> None:
+    """Adopt the orphans of the processes this one starts (Linux: a worker
+    whose parent ended before it), so that their CPU time is counted in
+    RUSAGE_CHILDREN once :func:`_reap` has waited for them."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) != 0:
+        raise OSError(ctypes.get_errno(), "prctl(PR_SET_CHILD_SUBREAPER)")
+
+
+PR_SET_CHILD_SUBREAPER = 36
+"""prctl's option (linux/prctl.h)."""
+
+
+def _reap() -> None:
+    """Wait for every child left, adopted orphans too."""
+    while True:
+        try:
+            os.wait()
+        except ChildProcessError:
+            return
+
+
+_CPU_LINE = re.compile(
+    r"CPU: ([\d.]+) s making scenes and ([\d.]+) s running them .*?, ([\d.]+) s writing"
+)
+
+
+def end_to_end(lib: str, per_family: int, workers: int, repeats: int) -> dict[str, object]:
+    """`mstc sweep` of @p per_family scenes of every family of the standard
+    suite (ideal wheels, "mstc") on @p workers local processes, end to end
+    (its process start, the scenes made, run, runs.csv, summary.md and its
+    figures; no gallery): the CPU time of every process of it. Beside it, the
+    engine's own CPU time for those scenes: the same slices, the scenes made
+    beforehand, run in this process with :func:`run_batch`. @p repeats
+    times each, taking turns; medians."""
+    _subreaper()
+    suite = load_suite(STANDARD)
+    suite = replace(suite, families=tuple(replace(f, count=per_family) for f in suite.families))
+    plan = _plan(suite, ["mstc"], IDEAL)
+    runs: list[dict[str, float]] = []
+    engine: list[float] = []
+    command = [sys.executable, "-m", "mstc", "sweep", "--lib", lib, "--count", str(per_family)]
+    command += ["--actuator", IDEAL, "--strategy", "mstc", "--gallery", "0", "-q"]
+    command += ["--jobs", str(workers)]
+    for _ in range(repeats):
+        with tempfile.TemporaryDirectory() as tmp:
+            c0, t0 = children_cpu(), time.perf_counter()
+            done = subprocess.run(
+                [*command, "--out", tmp, str(STANDARD)], capture_output=True, text=True, check=True
+            )
+            _reap()
+            cpu, wall = children_cpu() - c0, time.perf_counter() - t0
+        found = _CPU_LINE.search(done.stdout)
+        assert found is not None, done.stdout
+        make, run, here = (float(x) for x in found.groups())
+        runs.append({"cpu": cpu, "wall": wall, "make": make, "run": run, "here": here})
+        total = 0.0
+        for piece in plan.slices(workers, np.zeros(0, dtype=np.int64)):
+            jobs: list[Job] = []
+            for k, number in piece.runs():
+                _, index, strategy = piece.run(k, number)
+                jobs.append((piece.parts[k].block.make(index, ""), strategy))
+            c0 = time.process_time()
+            run_batch(jobs, lib, "batched")
+            total += time.process_time() - c0
+        engine.append(total)
+    middle = sorted(runs, key=lambda r: r["cpu"])[len(runs) // 2]
+    return {
+        "scenes": plan.scenes,
+        "workers": workers,
+        "repeats": repeats,
+        "runs": runs,
+        "engine_runs": engine,
+        "median": middle,
+        "engine_cpu": statistics.median(engine),
+    }
+
+
+def _end_to_end_rows(e: dict[str, Any]) -> list[str]:
+    m, engine = e["median"], float(e["engine_cpu"])
+    ratio = m["cpu"] / engine
+    overhead = m["make"] + m["here"]
+    rest = m["cpu"] - m["make"] - m["run"] - m["here"]
+    return [
+        f"| `mstc sweep` of {e['scenes']:,} scenes (the standard suite, "
+        f'{e["scenes"] // 10:,} a family, ideal wheels, "mstc", {e["workers"]} local '
+        f"workers), end to end; the run of median CPU time of {e['repeats']} | {m['wall']:.1f} s "
+        f"| **{m['cpu']:.1f} CPU-s**: {m['run']:.1f} running the scenes, {m['make']:.1f} making "
+        f"them (the workers), {m['here']:.1f} writing runs.csv and summary.md (the client), "
+        f"{rest:.1f} the rest (process starts, imports, the slices' travel) | — |",
+        f"| the engine's own CPU time for those scenes (the same slices, made beforehand, "
+        f"in one process; median of {e['repeats']}) | — | **{engine:.1f} CPU-s** "
+        f"| end to end ≤ 1.3× it: {_verdict(ratio <= 1.3)} (**{ratio:.2f}×**; "
+        f"{m['cpu'] / m['run']:.2f}× the workers' own time running them in the sweep) |",
+        f"| making the scenes and writing the outputs, share of the sweep's CPU time | — | "
+        f"**{100 * overhead / m['cpu']:.1f} %** ({overhead:.1f} CPU-s) | < 30 %: "
+        f"{_verdict(overhead / m['cpu'] < 0.3)} |",
+    ]
+
+
 def sweep_times(
     lib: str, count: int, workers: int, repeats: int, engine: str = "scene"
 ) -> dict[str, object]:
@@ -221,17 +322,16 @@ def sweep_times(
         Client(cluster) as client,
     ):
         folder = Path(tmp)
-        scenes = _scenes(count, folder)
+        plan = _paper_like(count, folder)
         address = cluster.scheduler_address
         for i in range(repeats):
             t0, c0, k0 = time.perf_counter(), process_cpu(), children_cpu()
-            run_sweep(scenes, ["paper"], folder / f"pool{i}", lib, workers=workers, engine=engine)
+            run_sweep(plan, folder / f"pool{i}", lib, workers=workers, engine=engine)
             pool.append((time.perf_counter() - t0, process_cpu() - c0 + children_cpu() - k0))
             w0 = sum(client.run(process_cpu).values())
             t0, c0 = time.perf_counter(), process_cpu()
             run_sweep(
-                scenes,
-                ["paper"],
+                plan,
                 folder / f"dask{i}",
                 lib,
                 workers=workers,
@@ -289,14 +389,14 @@ def _sweep_rows(sw: dict[str, object], what: str) -> list[str]:
 def engine_table(eng: dict[str, Any]) -> list[str]:
     """The table of :func:`engine_rates`' result: each family's rates, the suite's."""
     lines = [
-        "| family | batched | per scene | ratio | parsing the file [ns per scene-step] |",
+        "| family | batched | per scene | ratio | making the scene [ns per scene-step] |",
         "|---|---:|---:|---:|---:|",
     ]
     for family, f in eng["families"].items():
         b = f["batched_steps"] / f["batched_cpu"]
         sc = f["scene_steps"] / f["scene_cpu"]
-        parse = f["parse_cpu"] / f["batched_steps"] * 1e9
-        lines.append(f"| {family} | {b:,.0f} | {sc:,.0f} | {b / sc:.1f}× | {parse:,.0f} |")
+        make = f["make_cpu"] / f["batched_steps"] * 1e9
+        lines.append(f"| {family} | {b:,.0f} | {sc:,.0f} | {b / sc:.1f}× | {make:,.0f} |")
     lines.append(
         f"| **the suite** | **{eng['batched']:,.0f}** | **{eng['scene']:,.0f}** | "
         f"**{eng['batched'] / eng['scene']:.1f}×** | |"
@@ -306,6 +406,7 @@ def engine_table(eng: dict[str, Any]) -> list[str]:
 
 def section(r: dict[str, object]) -> str:
     rate, sw, swb, eng = r["rate"], r["sweep"], r["sweep_batched"], r["engines"]
+    e2e = r.get("end_to_end")
     assert isinstance(rate, dict) and isinstance(sw, dict)
     assert isinstance(swb, dict) and isinstance(eng, dict)
     ratio = eng["batched"] / eng["scene"]
@@ -329,9 +430,9 @@ def section(r: dict[str, object]) -> str:
         f"scenes, 1,501 steps): the batched engine on one batch of {eng['batch']} scenes of "
         f"the family, the per-scene engine on {eng['scenes']} of them, the two taking turns, "
         f"median of {eng['runs']} runs each. A worker's work is counted (the runs, the "
-        "metrics, events.json); the scenes come parsed, as `mstc sweep`'s client sends "
-        "them after validating every scene, and the parsing's own cost is the last column "
-        "(the client's, once per scene, whichever engine runs it; the sweeps below count it).",
+        "metrics, events.json); the scenes come made, and the making's own cost is the last "
+        "column (a worker's, once per scene, whichever engine runs it: the scene's document "
+        "drawn from its seed and parsed by the scenario loader; the sweeps below count it).",
         "",
         *engine_table(eng),
         "",
@@ -364,6 +465,7 @@ def section(r: dict[str, object]) -> str:
         "",
         "| measure | wall time | CPU time | target |",
         "|---|---:|---:|---|",
+        *(_end_to_end_rows(e2e) if isinstance(e2e, dict) else []),
         f"| scene-steps per second, one process, per-scene engine (paper-line: 2 obstacles, "
         f"50 Hz, {rate['steps']} steps; median of {r['runs']} runs) | {rate['wall']:,.0f} | "
         f"**{rate['cpu']:,.0f}** per CPU-second | ≥ 40,000 per core: "
@@ -379,8 +481,11 @@ def section(r: dict[str, object]) -> str:
     )
     lines += [
         "",
-        "The sweep times leave out writing the scene files (done first) and include "
-        "starting the pool's workers, writing every events.json and runs.csv; the Dask "
+        "The end-to-end sweep is the command as a user runs it, its CPU time that of the "
+        "`mstc sweep` process and of every process it started (counted when they end). "
+        "The other sweep times are `run_sweep` in this process: they leave out the "
+        "command's start and the summary, and include starting the pool's workers, making "
+        "the scenes and writing runs.csv; the Dask "
         "cluster is started before the clocks run, as a real one would be, and the pool's "
         "and the cluster's sweeps take turns. \"on "
         f'{sw["workers"]} idle cores" is the CPU time spread evenly over the cores, what '
@@ -401,6 +506,9 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--runs", type=int, default=7)
     run.add_argument("--scenes", type=int, default=1000)
     run.add_argument("--batched-scenes", type=int, default=10000)
+    run.add_argument(
+        "--per-family", type=int, default=1000, help="scenes a family, end-to-end sweep"
+    )
     run.add_argument("--batch", type=int, default=BATCH, help="scenes of a family in one batch")
     run.add_argument(
         "--per-scene", type=int, default=6, help="scenes of a family, per-scene engine"
@@ -418,6 +526,11 @@ def main(argv: list[str] | None = None) -> int:
     eng.add_argument("--per-scene", type=int, default=6)
     eng.add_argument("--engine-runs", type=int, default=3)
     eng.add_argument("--out", type=Path, help="also write the figures here (JSON)")
+    e2e = sub.add_parser("end-to-end", help="only the end-to-end sweep against its engine")
+    e2e.add_argument("--lib", required=True)
+    e2e.add_argument("--per-family", type=int, default=1000)
+    e2e.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    e2e.add_argument("--repeats", type=int, default=3)
     rep = sub.add_parser("report")
     rep.add_argument("--doc", type=Path, required=True)
     rep.add_argument("result", type=Path)
@@ -433,6 +546,7 @@ def main(argv: list[str] | None = None) -> int:
                 lib, a.batch, a.per_scene, a.engine_runs, actuator=GEARMOTOR
             ),
             "rate": steps_per_second(lib, a.runs),
+            "end_to_end": end_to_end(lib, a.per_family, a.workers, a.repeats),
             "sweep": sweep_times(lib, a.scenes, a.workers, a.repeats, "scene"),
             "sweep_batched": sweep_times(lib, a.batched_scenes, a.workers, a.repeats, "batched"),
         }
@@ -454,6 +568,13 @@ def main(argv: list[str] | None = None) -> int:
             f"{os.getloadavg()[0]:.1f} at the end)\n"
         )
         print("\n".join(engine_table(rates)))
+        return 0
+    if a.cmd == "end-to-end":
+        load = os.getloadavg()[0]
+        lib = str(Path(a.lib).resolve())
+        measured = end_to_end(lib, a.per_family, a.workers, a.repeats)
+        print(f"load average {load:.1f} at the start, {os.getloadavg()[0]:.1f} at the end\n")
+        print("\n".join(_end_to_end_rows(measured)))
         return 0
     report(a.doc, section(json.loads(a.result.read_text())), BEGIN, END)
     return 0

@@ -8,13 +8,14 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import can
 
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
+from mstc.can.vmbridge import Bridge, BridgeBus
 from mstc.cli.common import add_key_argument, library, run_scenarios
 from mstc.cli.sim import add_output_arguments, tolerance
 from mstc.errors import ControllerError, UsageError
@@ -58,7 +59,10 @@ the firmware must halt within 3 control periods and ramp the wheels down
 (docs/safety.md); the run ends {COMM_LOSS_TAIL:g} s later.
 
 On a host whose kernel has no CAN, `make hil` (REALTIME=1 for real time) runs
-this inside a small VM with vcan (docs/hil.md).
+the firmware in a small VM with vcan and this command on the host, through the
+VM's bridge (tools/vm/with-vcan --bridge, docs/hil.md); --fw then starts
+mstc-fw in the VM. A real-time run raises its priority (and the VM's) to
+SCHED_RR 1 while it lasts, where permitted (timing.json's "priority").
 
 A board in the loop (--board) steps on its own timer until its first STEP
 frame: one STEP goes first, before the parameters and the arming, so that
@@ -194,14 +198,25 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def _run_one(
     args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog]:
-    bus = open_bus(args.interface, args.channel)
+    # The vcan VM's bridge (with-vcan --bridge): the bus through it, the
+    # firmware started in the VM, and what crossed it counted.
+    bridge = Bridge.from_env(args.channel) if args.interface == "socketcan" else None
+    bus = bridge.open_bus() if bridge is not None else open_bus(args.interface, args.channel)
+    before = bridge.counters() if bridge is not None else {}
     period_ms = round(1000.0 / args.rate_hz) if args.realtime else None
     firmware = (
-        start_firmware(args.fw, args.channel, args.key_source, period_ms=period_ms)
+        start_firmware(
+            args.fw,
+            args.channel,
+            args.key_source,
+            period_ms=period_ms,
+            prefix=bridge.runner() if bridge is not None else (),
+        )
         if args.fw is not None
         else None
     )
     ctl: CanController
+    crossed: dict[str, int] | None = None
     try:
         if args.realtime:
             ctl = RealtimeLink(bus, scenario.params, key=args.key)
@@ -212,6 +227,7 @@ def _run_one(
                 phase=None if args.free_phase else DEFAULT_PHASE,
                 stop_odometry_at=args.stop_odometry_at,
                 progress=bar,
+                boost=bridge.vm_threads() if bridge is not None else (),
             )
         else:
             primer = enter_lockstep(bus) if args.board else []
@@ -219,10 +235,31 @@ def _run_one(
             ctl.traffic.frames[:0] = primer
             result = simulate(scenario, ctl, bar)
     finally:
-        bus.shutdown()
+        # The firmware first: the bridge's count is complete once it is quiet.
         if firmware is not None:
             stop_firmware(firmware)
+        try:
+            if bridge is not None and isinstance(bus, BridgeBus):
+                crossed = bridge.tally(bus, before)
+        finally:
+            bus.shutdown()
+    if crossed is not None:
+        result = _with_bridge(result, crossed)
     return bus.channel_info, result, BusLog(args.channel, ctl)
+
+
+def _with_bridge(result: RunResult, crossed: dict[str, int]) -> RunResult:
+    """The bridge's count in the run's timing (real time); a lock-step run,
+    which waits for every answer, cannot have lost a frame without failing,
+    but a frame lost both ways is still an error worth its own message."""
+    lost = crossed["dropped_to_vcan"] + crossed["dropped_to_plant"]
+    if result.timing is None:
+        if lost:
+            raise ControllerError(f"the vcan VM's bridge lost frames: {crossed}")
+        return result
+    return replace(
+        result, timing=replace(result.timing, extra={**result.timing.extra, "bridge": crossed})
+    )
 
 
 # ------------------------------------------------------------ under QEMU

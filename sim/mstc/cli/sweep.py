@@ -6,57 +6,50 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
+import resource
 import time
 import tomllib
-from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
 from mstc.cli.common import find_library, library
-from mstc.errors import EXIT_OK, ScenarioError, SuiteError, UsageError, writing
+from mstc.errors import EXIT_OK, ScenarioError, UsageError, writing
 from mstc.firmware.sil import SilController
-from mstc.loop.result import RunResult
 from mstc.model import Params, WireLimits
 from mstc.plant.scenario import Scenario, load_scenario, parse_scenario
 from mstc.report.progress import ProgressBar
-from mstc.sweep.engine import (
-    BATCH,
-    ENGINES,
-    STRATEGIES,
-    Scene,
-    check_scheduler,
-    run_job,
-    run_sweep,
-    shipped,
-)
+from mstc.sweep.engine import BATCH, ENGINES, STRATEGIES, Scene
 from mstc.sweep.folder import locked, text_sha256
+from mstc.sweep.jobs import check_scheduler
+from mstc.sweep.plan import Plan, rerun, run_sweep
 from mstc.sweep.spool import Spool
-from mstc.sweep.suite import MAX_COUNT, Family, Suite, generate, is_suite, load_suite
-from mstc.sweep.summary import runs_of, write_summary
+from mstc.sweep.suite import MAX_COUNT, Suite, generate, is_suite, load_suite
+from mstc.sweep.summary import Tally
 
 NAME = "sweep"
 HELP = "run scenario files or suites for several strategies, on all cores or a Dask cluster"
 
 _EPILOG = f"""\
-INPUT is a suite file (a TOML file with [family.<name>] tables: its scenes
-are generated into DIR/scenes/<family>/ first), a scenario file, or a folder
-of scenario files (every *.toml below it). Formats: docs/sweeps.md (suites),
-docs/scenarios.md (scenarios).
+INPUT is a suite file (a TOML file with [family.<name>] tables), a scenario
+file, or a folder of scenario files (every *.toml below it). Formats:
+docs/sweeps.md (suites), docs/scenarios.md (scenarios). A suite's scenes are
+made where they run, by the workers, from the suite's numbers; the client
+sends slices of them and gets rows back.
 
-Writes under DIR:
-  <strategy>/<scene>/events.json  exactly as `mstc sim` writes it
-  runs.csv                        one row per scene and strategy (columns:
-                                  docs/sweeps.md); appended as runs finish,
-                                  rewritten in order at the end
-  summary.md                      rates with 95 % Wilson intervals and
-                                  medians per family and strategy, histograms
-                                  (clearance.png, tracking_error.png) and the
-                                  runs of smallest clearance (gallery/)
-  sources.json                    the sha256 of each scene's text and of the
-                                  library the rows were run with (--resume)
+Writes under DIR, as the rows come:
+  runs.csv          one row per scene and strategy (columns: docs/sweeps.md),
+                    in plan order (scene, then strategy)
+  summary.md        rates with 95 % Wilson intervals and medians per family,
+                    actuator and strategy, histograms (clearance.png,
+                    tracking_error.png) and the runs of smallest clearance
+                    (gallery/); while the sweep runs, its counts so far
+  scenes/<family>/<scene>.toml and <strategy>/<scene>/events.json
+                    of every failure (an error row, a contact) and every
+                    gallery run, so that each can be run alone; of every
+                    run with --write-scenes and --write-events
+  sources.json      what the rows were run from (--resume)
 
 strategies:
   paper   the paper's switch strategy in the firmware (in memory, C step)
@@ -74,12 +67,10 @@ engines (the firmware's strategies; dwa always runs scene by scene):
 A scene that fails (an exception, a non-finite state, a worker that dies) is
 a row with its error, never the end of the sweep. Interrupted, the sweep goes
 on where it stopped with --resume (same DIR and inputs): it keeps the rows run
-from the same scene files and library (DIR/sources.json) and runs the rest.
-One sweep at a time writes DIR (a lock on DIR/.lock): another is refused.
-Every scene is validated before anything runs; parsed, it waits on disk (an
-unnamed file in DIR, gone when the sweep ends) until its batch is sent, so
-the sweep holds a small record a scene, not the scenes (docs/sweeps.md,
-"Memory").
+from the same suites, scene files and library (DIR/sources.json) and runs the
+rest. One sweep at a time writes DIR (a lock on DIR/.lock): another is
+refused. Every scenario file, and the first scene of each family of a suite,
+is validated before anything runs.
 
 exit status: 0 done (error rows included); 1 the firmware library could not
 be loaded or differs between workers, the Dask scheduler cannot be reached,
@@ -149,10 +140,9 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         metavar="N",
         type=int,
         default=BATCH,
-        help="most runs (a scene under one strategy each) a batch of the batched engine "
-        "steps together; a worker's memory "
-        "grows with it, not with the scenes' length, and so does the client's, which sends "
-        "two batches a worker at a time (default: %(default)s)",
+        help="most runs (a scene under one strategy each) of a slice, which a worker makes "
+        "and, with the batched engine, steps together; a worker's memory grows with it, not "
+        "with the scenes' length (default: %(default)s)",
     )
     parser.add_argument(
         "--scheduler",
@@ -168,6 +158,18 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--generate-only",
         action="store_true",
         help="write the suites' scene files into DIR/scenes/ and stop",
+    )
+    parser.add_argument(
+        "--write-scenes",
+        action="store_true",
+        help="write every scene file of the suites into DIR/scenes/ as it runs (by default "
+        "only those of the failures and of the gallery)",
+    )
+    parser.add_argument(
+        "--write-events",
+        action="store_true",
+        help="write every run's DIR/<strategy>/<scene>/events.json (by default only those "
+        "of the failures and of the gallery)",
     )
     parser.add_argument(
         "--family",
@@ -198,22 +200,70 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(run=run)
 
 
-Origins = dict[Path, tuple[Path, str]]
-"""A generated scene file -> its suite file and family."""
+def _suite(path: Path, args: argparse.Namespace) -> Suite:
+    """The suite file @p path with --count, its --family and --actuator
+    names checked.
 
-
-def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite], Origins]:
-    """The scenario files to run (suites generated first), and where the
-    generated ones come from.
-
-    :raises UsageError: a folder without scenario files, an unknown family,
-        with --generate-only an input that is not a suite.
+    :raises UsageError: an unknown family or actuator profile.
     :raises SuiteError: a bad suite file.
-    :raises WriteError: the scene files cannot be written.
     """
+    suite = load_suite(path)
+    if args.count is not None:
+        suite = replace(suite, families=tuple(replace(f, count=args.count) for f in suite.families))
+    known = {f.name for f in suite.families}
+    for name in args.family or ():
+        if name not in known:
+            families = ", ".join(sorted(known))
+            raise UsageError(f"{path}: no family {name!r} (families: {families})")
+    profiles = {a.name for a in suite.actuators}
+    for name in args.actuator or ():
+        if name not in profiles:
+            names = ", ".join(sorted(profiles))
+            raise UsageError(f"{path}: no actuator {name!r} (actuators: {names})")
+    return suite
+
+
+def _generate(args: argparse.Namespace) -> int:
+    """--generate-only: write the suites' scene files.
+
+    :raises UsageError: an input that is not a suite.
+    """
+    written = 0
+    for path in args.inputs:
+        if path.is_dir() or not (path.is_file() and is_suite(path)):
+            raise UsageError(
+                f"{path}: not a suite file (no [family.<name>] table): --generate-only "
+                "writes the scenes of suites"
+            )
+        suite = _suite(path, args)
+        wanted = tuple(args.family) if args.family else None
+        chosen = tuple(args.actuator) if args.actuator else None
+        with writing("the scene files"):
+            written += len(generate(suite, args.out / "scenes", wanted, chosen))
+    print(f"{written} scene files in {args.out / 'scenes'}/")
+    return EXIT_OK
+
+
+def _plan(args: argparse.Namespace, strategies: list[str], spool: Spool) -> tuple[Plan, list[str]]:
+    """The sweep's plan from the inputs, in order: a suite's blocks (the
+    first scene of each made and checked here), scenario files read, parsed
+    and validated (into @p spool); and the suites' names.
+
+    :raises UsageError: a folder without scenario files, a scene that is not
+        valid, names two scenes would share (every problem, one a line).
+    :raises SuiteError: a bad suite file.
+    """
+    plan = Plan(strategies, spool)
+    problems: list[str] = []
+    suites: list[str] = []
     files: list[Path] = []
-    suites: list[Suite] = []
-    origins: Origins = {}
+
+    def add_files() -> None:
+        records, bad = _load(files, spool)
+        problems.extend(bad)
+        problems.extend(plan.add_scenes(records))
+        files.clear()
+
     for path in args.inputs:
         if path.is_dir():
             found = sorted(p for p in path.rglob("*.toml") if p.is_file())
@@ -221,58 +271,32 @@ def _scene_files(args: argparse.Namespace) -> tuple[list[Path], list[Suite], Ori
                 raise UsageError(f"{path}: no scenario files (*.toml) in this folder")
             files += found
         elif path.is_file() and is_suite(path):
-            suite = load_suite(path)
-            if args.count is not None:
-                suite = replace(
-                    suite, families=tuple(_with_count(f, args.count) for f in suite.families)
-                )
-            known = {f.name for f in suite.families}
-            for name in args.family or ():
-                if name not in known:
-                    families = ", ".join(sorted(known))
-                    raise UsageError(f"{path}: no family {name!r} (families: {families})")
-            profiles = {a.name for a in suite.actuators}
-            for name in args.actuator or ():
-                if name not in profiles:
-                    names = ", ".join(sorted(profiles))
-                    raise UsageError(f"{path}: no actuator {name!r} (actuators: {names})")
+            add_files()
+            suite = _suite(path, args)
+            suites.append(suite.name)
             wanted = tuple(args.family) if args.family else None
             chosen = tuple(args.actuator) if args.actuator else None
-            with writing("the scene files"):
-                scenes = generate(suite, args.out / "scenes", wanted, chosen)
-            files += [f.path for f in scenes]
-            origins.update((f.path, (path, f.family)) for f in scenes)
-            suites.append(suite)
-        elif args.generate_only:
-            raise UsageError(
-                f"{path}: not a suite file (no [family.<name>] table): --generate-only "
-                "writes the scenes of suites"
-            )
+            problems += plan.add_suite(suite, str(path), wanted, chosen)
         else:
             files.append(path)
-    return files, suites, origins
+    add_files()
+    problems += plan.problems()
+    if problems:
+        raise UsageError("\n".join(problems))
+    return plan, suites
 
 
-def _load(files: list[Path], origins: Origins, spool: Spool) -> tuple[list[Scene], list[str]]:
-    """Every scene validated (each file read and parsed once), and the
-    problem of each that is not: a generated scene's named with its suite and
-    family (docs/sweeps.md), since the suite is what to change. A valid
-    scene's parsed scenario goes into @p spool; the scene is its record
-    (:meth:`Scene.from_scenario`)."""
+def _load(files: list[Path], spool: Spool) -> tuple[list[Scene], list[str]]:
+    """Every scenario file validated (each read and parsed once), and the
+    problem of each that is not. A valid scene's parsed scenario goes into
+    @p spool; the scene is its record (:meth:`Scene.from_scenario`)."""
     wire = wire_limits()
     scenes, problems = [], []
     for path in files:
         try:
             text, scenario = _read(path, wire)
         except ScenarioError as exc:
-            if path not in origins:
-                problems.append(str(exc))
-                continue
-            suite, family = origins[path]
-            where = f"scene {path.stem}: {exc.key}" if exc.key else f"scene {path.stem}"
-            problems.append(
-                str(SuiteError(str(suite), f"family.{family}", f"{where}: {exc.problem}"))
-            )
+            problems.append(str(exc))
             continue
         # The text as Path.read_text gives it (universal newlines), the
         # digest DIR/sources.json has always held.
@@ -299,12 +323,8 @@ def _read(path: Path, wire: WireLimits) -> tuple[str, Scenario]:
     return text, parse_scenario(data, str(path), wire)
 
 
-def _with_count(family: Family, count: int) -> Family:
-    return replace(family, count=count)
-
-
 def run(args: argparse.Namespace) -> int:
-    """Generate, validate, run, summarise."""
+    """Plan, run, summarise."""
     strategies = [s.strip() for s in args.strategy.split(",") if s.strip()]
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown or not strategies:
@@ -320,52 +340,18 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
     with locked(args.out):  # one sweep at a time in a folder
-        return _sweep(args, strategies)
+        if args.generate_only:
+            return _generate(args)
+        with writing("the sweep's spool"):
+            spool = Spool(args.out)
+        with spool:
+            plan, suites = _plan(args, strategies, spool)
+            return _run(args, plan, suites)
 
 
-def _sweep(args: argparse.Namespace, strategies: list[str]) -> int:
-    if args.generate_only:
-        files, _, _ = _scene_files(args)
-        print(f"{len(files)} scene files in {args.out / 'scenes'}/")
-        return EXIT_OK
-    with writing("the sweep's spool"):
-        spool = Spool(args.out)
-    with spool:
-        scenes, suites = _validated(args, spool)
-        return _run(args, strategies, scenes, suites, spool)
-
-
-def _validated(args: argparse.Namespace, spool: Spool) -> tuple[list[Scene], list[Suite]]:
-    """Every scene of the inputs validated here, before anything runs, like
-    `mstc sim`; parsed, it waits in @p spool until its batch is sent. The
-    scenes' records and the suites.
-
-    :raises UsageError: a scene is not valid, or two would write one folder
-        (every problem, one a line).
-    """
-    files, suites, origins = _scene_files(args)
-    scenes, problems = _load(files, origins, spool)
-    seen: dict[str, str] = {}
-    for scene in scenes:
-        first = seen.setdefault(scene.name, scene.source)
-        if first != scene.source:
-            problems.append(
-                f"{first} and {scene.source} would both write {args.out}/<strategy>/{scene.name}/"
-            )
-    if problems:
-        raise UsageError("\n".join(problems))
-    return scenes, suites
-
-
-def _run(
-    args: argparse.Namespace,
-    strategies: list[str],
-    scenes: list[Scene],
-    suites: list[Suite],
-    spool: Spool,
-) -> int:
-    """Run the validated @p scenes (records; their scenarios in @p spool)."""
-
+def _run(args: argparse.Namespace, plan: Plan, suites: list[str]) -> int:
+    """Run @p plan, write the summary, print the counts."""
+    strategies = list(plan.strategies)
     # The DWA baseline alone needs no firmware library.
     given = library(args.lib) if set(strategies) != {"dwa"} else find_library(args.lib)
     if given is not None:
@@ -377,97 +363,54 @@ def _run(
 
     where = args.scheduler or f"{args.jobs} local processes"
     print(
-        f"sweep: {len(scenes)} scenes × {', '.join(strategies)} on {where}, engine "
-        f"{args.engine}; firmware {firmware}"
+        f"sweep: {plan.scenes:,} scenes × {', '.join(strategies)} on {where}, engine "
+        f"{args.engine}; firmware {firmware}",
+        flush=True,
     )
-    bar = ProgressBar(
-        len(scenes) * len(strategies), "sweep", "runs", delay=0.5, enabled=not args.quiet
-    )
-    start = time.monotonic()
+    title = ", ".join(suites) or ", ".join(str(p) for p in args.inputs)
+    tally = Tally(strategies, args.gallery)
+
+    def report() -> None:
+        tally.write(args.out, title=title, firmware=firmware, total=plan.runs)
+
+    bar = ProgressBar(plan.runs, "sweep", "runs", delay=0.5, enabled=not args.quiet)
+    start, cpu = time.monotonic(), time.process_time()
     try:
         with writing("the outputs"):
             result = run_sweep(
-                scenes,
-                strategies,
+                plan,
                 args.out,
                 lib,
                 workers=args.jobs,
                 scheduler=args.scheduler,
                 resume=args.resume,
-                progress=lambda done, total: bar.update(done),
                 engine=args.engine,
                 batch=args.batch,
-                spool=spool,
+                texts=args.write_scenes,
+                events=args.write_events,
+                rows=tally.add,
+                progress=lambda done, total: bar.update(done),
+                report=report,
             )
     finally:
         bar.close()
     elapsed = time.monotonic() - start
-
-    by_name = {s.name: s for s in scenes}
-
-    def rerun(row: Mapping[str, str]) -> RunResult | None:
-        ((scene, strategy),) = shipped([(by_name[row["scene"]], row["strategy"])], spool)
-        return run_job(scene, strategy, lib)[0]
-
-    title = ", ".join(s.name for s in suites) or ", ".join(str(p) for p in args.inputs)
     with writing("the summary"):
-        summary = write_summary(
-            result.rows,
-            strategies,
-            args.out,
-            title=title,
-            firmware=firmware,
-            gallery=args.gallery,
-            rerun=rerun,
+        tally.finish(args.out / "runs.csv")
+        summary = tally.write(
+            args.out, title=title, firmware=firmware, rerun=rerun(plan, lib, args.out)
         )
-    _print_table(result.rows, strategies)
-    errors = sum(1 for r in result.rows if r["error"])
+    print("\n".join(tally.table()))
     print(
-        f"{len(result.rows)} runs ({result.ran} run now, {len(result.rows) - result.ran} resumed) "
-        f"in {elapsed:.1f} s; {errors} error rows"
+        f"{result.runs} runs ({result.ran} run now, {result.runs - result.ran} resumed) "
+        f"in {elapsed:.1f} s; {tally.error_count} error rows"
+    )
+    here = time.process_time() - cpu
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(
+        f"CPU: {result.make_cpu:.1f} s making scenes and {result.run_cpu:.1f} s running them "
+        f"(the workers), {here:.1f} s writing the outputs and the summary (this process, "
+        f"whose peak resident memory was {peak:.0f} MiB)"
     )
     print(f"output: {args.out}/runs.csv, {summary}")
     return EXIT_OK
-
-
-def _print_table(rows: Sequence[Mapping[str, str]], strategies: list[str]) -> None:
-    groups = list(dict.fromkeys((r["family"] or "(none)", r["actuator"] or "ideal") for r in rows))
-    line = "  {:<16} {:<10} {:<9} {:>5} {:>8} {:>9} {:>9} {:>8} {:>7}"
-    print(
-        line.format(
-            "family",
-            "actuator",
-            "strategy",
-            "runs",
-            "contact",
-            "D_s kept",
-            "rejoined",
-            "blocked",
-            "errors",
-        )
-    )
-    for family, actuator in groups:
-        for strategy in strategies:
-            mine = runs_of(rows, family, actuator, strategy)
-            if not mine:
-                continue
-            ok = [r for r in mine if not r["error"]]
-
-            def count(column: str, rows: list[Mapping[str, str]] = ok) -> int:
-                return sum(1 for r in rows if r[column] == "1")
-
-            free = [r for r in ok if r["blocked"] == "0" and r["rejoined"] != ""]
-            print(
-                line.format(
-                    family,
-                    actuator,
-                    strategy,
-                    len(mine),
-                    count("contact"),
-                    count("ds_kept"),
-                    f"{count('rejoined', free)}/{len(free)}",
-                    count("blocked"),
-                    len(mine) - len(ok),
-                )
-            )
-    sys.stdout.flush()

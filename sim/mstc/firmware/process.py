@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import select
 import subprocess
+from collections.abc import Sequence
 from pathlib import Path
 
 from mstc.errors import FirmwareError
@@ -19,11 +20,14 @@ def start_firmware(
     timeout: float = 30.0,
     *,
     period_ms: int | None = None,
+    prefix: Sequence[str] = (),
 ) -> subprocess.Popen[str]:
     """Start ``exe --can channel [--key-file key_file]`` (with ``--realtime
     --period-ms`` when @p period_ms is given) and wait until it is on the bus
     (its first line on stderr says so). Without @p key_file it takes its key
-    from the environment, as the tools do.
+    from the environment, as the tools do. @p prefix goes in front of the
+    command: the vcan VM's runner (:meth:`mstc.can.vmbridge.Bridge.runner`)
+    starts it in the VM.
 
     :raises FirmwareError: it exited or said nothing in @p timeout seconds.
     """
@@ -34,7 +38,9 @@ def start_firmware(
         cmd += ["--key-file", str(key_file)]
     if period_ms is not None:
         cmd += ["--realtime", "--period-ms", str(period_ms)]
-    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    proc = subprocess.Popen(
+        [*prefix, *cmd], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True
+    )
     assert proc.stderr is not None
     ready, _, _ = select.select([proc.stderr], [], [], timeout)
     line = proc.stderr.readline() if ready else ""
@@ -49,7 +55,7 @@ def stop_firmware(proc: subprocess.Popen[str]) -> None:
     """Stop a firmware process started by :func:`start_firmware`."""
     proc.terminate()
     try:
-        proc.wait(timeout=5)
+        proc.wait(timeout=10)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()

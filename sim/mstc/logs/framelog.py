@@ -40,6 +40,8 @@ from typing import NamedTuple, Protocol
 import can
 import numpy as np
 
+from mstc.errors import LogError
+
 CAN_EFF_FLAG = 0x80000000
 """In candump's identifier: an extended frame (also written as 8 hex digits)."""
 CAN_ERR_FLAG = 0x20000000
@@ -321,7 +323,8 @@ def read_messages(
     """The frames a python-can reader gives, checked one by one, then the
     reader stopped: remote, error and FD frames, more than 8 data bytes and a
     time stamp beyond ±:data:`MAX_TIME_S` are problems, not frames; a reader
-    that fails in the middle is a problem, and the frames before are kept.
+    that fails in the middle is a problem, and the frames before are kept;
+    one that refuses to go on (a :class:`LogError`: a bound) is an error.
 
     :param fmt: the format's name, for ``where`` (:func:`where_in`).
     :param lines: a text format's numbered lines (ASC); None numbers the
@@ -358,6 +361,8 @@ def read_messages(
             cols.add(number, t, channel, msg.arbitration_id, msg.is_extended_id, data)
         if lines is not None:
             lines.passed()  # the last line
+    except LogError:
+        raise  # a bound of the reader's (mstc.logs.blf): not damage, a refusal
     except Exception as exc:  # a damaged file: keep what came before
         after = number if lines is None else lines.number
         where = f"{path}: after frame {after}" if lines is None else f"{path}:{after}"

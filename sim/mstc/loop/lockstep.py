@@ -28,7 +28,14 @@ import numpy as np
 
 from mstc.can import secoc
 from mstc.can.dbc import Tables, tables
-from mstc.can.protocol import COUNTER_MODULO, Frame, Protocol, e2e_crc, wire_limits
+from mstc.can.protocol import (
+    COUNTER_MODULO,
+    DropReason,
+    Frame,
+    Protocol,
+    e2e_crc,
+    wire_limits,
+)
 from mstc.can.silbus import SilBus
 from mstc.errors import ControllerError, FrameDropped, SignalRangeError, SimulationError
 from mstc.loop.result import (
@@ -368,21 +375,86 @@ def decides(session: int, signed: int) -> Callable[[secoc.Status], bool]:
     return lambda s: s.session != session or s.freshness >= signed
 
 
-ACCEPTED, AGAIN, REFUSED = "accepted", "again", "refused"
+ACCEPTED, AGAIN, REFUSED, CONTESTED = "accepted", "again", "refused", "contested"
 """What :func:`outcome` says of a signed command."""
 
 
-def outcome(before: secoc.Status, signed: int, after: secoc.Status, refused: bool) -> str:
+def outcome(
+    before: secoc.Status, signed: int, after: secoc.Status, refused: bool, contested: bool = False
+) -> str:
     """A command signed for @p signed under the status @p before, decided by
     the status @p after: :data:`ACCEPTED` when that status says it was the
     one used and its PARAM_VALUE is not @p refused as unauthenticated;
-    :data:`AGAIN` when the firmware restarted or the challenge was used up
-    before the command came (stale): signed once more for the new one; else
-    :data:`REFUSED`."""
+    :data:`CONTESTED` when it was the one used but PARAM_VALUE came in more
+    than one version (@p contested: a node without the key answered too, and
+    which answer is the firmware's cannot be told); :data:`AGAIN` when the
+    firmware restarted or the challenge was used up before the command came
+    (stale): signed once more for the new one; else :data:`REFUSED`.
+
+    Only the status is authenticated: it says whether the firmware used the
+    command, and PARAM_VALUE, which carries no MAC, only what it did with
+    it. So a command is never taken as done on a PARAM_VALUE alone, and
+    every PARAM_VALUE about it counts, those the E2E receiver dropped as
+    repeats included (:func:`answer_despite_counter`): a forged answer sent
+    first under the firmware's next counter makes the firmware's own a
+    "repeat"."""
     restarted = after.session != before.session
     if not restarted and after.freshness == signed and after.last == 0:
+        if contested:
+            return CONTESTED
         return REFUSED if refused else ACCEPTED
     return AGAIN if restarted or after.last == secoc.STALE else REFUSED
+
+
+def answer_despite_counter(
+    proto: Protocol, msg: can.Message, dropped: FrameDropped
+) -> Frame | None:
+    """@p msg as a PARAM_VALUE when the E2E receiver of @p proto dropped it
+    for its alive counter alone (its identifier known, its length and CRC
+    good): read for the outcome of a command (:func:`outcome`), never as an
+    input; None for any other frame or reason."""
+    message = proto.message("PARAM_VALUE")
+    if dropped.reason is not DropReason.SEQUENCE or msg.arbitration_id != message.frame_id:
+        return None
+    decoded = message.decode(bytes(msg.data), decode_choices=False)
+    assert isinstance(decoded, dict)  # a message of single signals, choices not decoded
+    signals = {k.removeprefix("PARAM_VALUE_"): v for k, v in decoded.items()}
+    values = {
+        k: v
+        for k, v in signals.items()
+        if k not in ("CRC", "Counter") and isinstance(v, int | float)
+    }
+    return Frame(message.name, msg.arbitration_id, msg.data[1] & 0x0F, values, msg.timestamp)
+
+
+def contested(answers: Sequence[Frame], index: int) -> bool:
+    """More than one version of the PARAM_VALUE about parameter @p index
+    among @p answers."""
+    seen = {
+        (int(a.signals["result"]), float(a.signals["value"]))
+        for a in answers
+        if a.signals["index"] == index
+    }
+    return len(seen) > 1
+
+
+def contested_error(
+    what: str, answers: Sequence[Frame], index: int, tables: Tables
+) -> ControllerError:
+    """The error of a command whose PARAM_VALUE came in several versions."""
+    versions = sorted(
+        {
+            f"{tables.param_result.name_of(int(a.signals['result']))} {float(a.signals['value']):g}"
+            for a in answers
+            if a.signals["index"] == index
+        }
+    )
+    return ControllerError(
+        f"{what}: the firmware used the command (its authenticated status says so), but "
+        f"PARAM_VALUE came as {' and as '.join(versions)}: a node on the bus forges PARAM_VALUE, "
+        "and which is the firmware's cannot be told; read the value back (PARAM_GET) once the "
+        "bus is clean. docs/safety.md, 'Authenticated commands'"
+    )
 
 
 def no_status(auth: secoc.Authenticator) -> ControllerError:
@@ -437,6 +509,8 @@ class CanController:
         self._now = 0.0
         self._steps = 0
         self._armed = False
+        self._answers: list[Frame] = []
+        """Every PARAM_VALUE since the last command went out (repeats too)."""
         self.halt: int | None = None
         """STATUS_halt of the latest step (0 running), None before the first."""
         self._configure()
@@ -460,8 +534,13 @@ class CanController:
             self.traffic.frames.append((msg, False))
             try:
                 frame = self.proto.decode(msg)
-            except FrameDropped:
-                continue  # counted in self.proto.drops
+            except FrameDropped as dropped:  # counted in self.proto.drops
+                repeat = answer_despite_counter(self.proto, msg, dropped)
+                if repeat is not None:
+                    self._answers.append(repeat)
+                continue
+            if frame.name == "PARAM_VALUE":
+                self._answers.append(frame)
             if frame.name == "STATUS_COUNTERS":
                 self.traffic.firmware_drops = {k: int(v) for k, v in frame.signals.items()}
             self.auth.sync(frame)
@@ -473,9 +552,18 @@ class CanController:
         twice at most: a status dropped by the E2E checks (a node on the bus
         that sent frames under the firmware's identifiers) is followed by the
         next."""
+        arm = self.tables.arm_index
         for attempt in range(2):
-            self._send(self.proto.encode("PARAM_GET", index=self.tables.arm_index))
+            self._send(self.proto.encode("PARAM_GET", index=arm))
             try:
+                # Its PARAM_VALUE first: read later, it would come among the
+                # answers to the next command about the arm, which outcome()
+                # weighs all (a status left unread by another reader of the
+                # bus would otherwise end the wait before it).
+                try:
+                    self._await(_param_value(arm), "PARAM_VALUE arm")
+                except ControllerError:
+                    pass  # none: the status's wait says why, with the key's advice
                 self._await_status(lambda st: True)
                 return
             except ControllerError:
@@ -519,13 +607,19 @@ class CanController:
             st0 = self.auth.status
             signed = self.auth.signed
             assert st0 is not None and signed is not None  # param_set needs both
+            self._answers = []
             for msg in msgs:
                 self._send(msg)
             answer = self._await(_param_value(index), f"PARAM_VALUE {what}")
             # The status follows every PARAM_VALUE: read the one that decided
             # this command (also so that the log keeps the bus's order).
             st = self._await_status(decides(st0.session, signed))
-            verdict = outcome(st0, signed, st, answer.signals["result"] == unauth)
+            answers = self._answers
+            verdict = outcome(
+                st0, signed, st, answer.signals["result"] == unauth, contested(answers, index)
+            )
+            if verdict == CONTESTED:
+                raise contested_error(what, answers, index, self.tables)
             if verdict == ACCEPTED:
                 return answer
             if verdict != AGAIN:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -399,6 +400,42 @@ def _arm(
             return first
 
 
+PHASE_STEPS = 25
+"""Steps whose arrivals place the samples (:func:`_arrival`)."""
+
+
+def _arrival(steps: Sequence[FirmwareStep], period: float) -> float:
+    """When the last of @p steps would have arrived on the firmware's grid:
+    the median, over the last PHASE_STEPS steps, of each arrival moved to the
+    last step by its step count. A single arrival is early or late by the
+    scheduling of the emulated side and of the bridge (milliseconds, under
+    load); samples placed after the first armed step alone would sit that
+    much off the intended phase for the whole run."""
+    last = steps[-1]
+    moved = [
+        s.t + ((last.step - s.step) % (1 << 16)) * period
+        for s in steps[-PHASE_STEPS:]
+        if (last.step - s.step) % (1 << 16) < 2 * PHASE_STEPS
+    ]
+    return float(np.median(moved))
+
+
+def _drift(
+    steps: Sequence[FirmwareStep], t0: float, period: float, phase: float | None, last: float
+) -> float:
+    """How far the firmware's grid has moved from the samples' grid (t0 +
+    k·period) since the run began [s], the nearest to @p last (the previous
+    estimate: it moves by microseconds a period): the samples follow it. Two
+    clocks never run at quite the same rate (a VM's, calibrated
+    at its boot on a busy host, was some 400 ppm off: 8 ms in a 20 s run);
+    samples on a fixed grid would slide towards the firmware's ticks until
+    their frames came after them."""
+    if phase is None or not steps:
+        return last
+    want = _arrival(steps, period) + phase * period - t0 - last
+    return float(last + (want + period / 2) % period - period / 2)
+
+
 def _idle(link: RealtimeLink, until: float) -> None:
     """A bus whose ``recv`` returned before its timeout: wait a little on the
     clock, not in a busy loop."""
@@ -415,6 +452,7 @@ def simulate_realtime(
     phase: float | None = DEFAULT_PHASE,
     stop_odometry_at: float | None = None,
     progress: Progress | None = None,
+    boost: Sequence[int] = (),
 ) -> RunResult:
     """Run a scenario in real time against a firmware on its own timer.
 
@@ -440,6 +478,8 @@ def simulate_realtime(
         reference and obstacles still are); the run ends COMM_LOSS_TAIL later.
     :param progress: told how many samples are done, now and then, and closed
         when the run ends.
+    :param boost: threads that run at the real-time priority with the loop
+        (:func:`real_time_priority`): the vcan VM's.
 
     The scenario's odometry noise is added to the pose sent, with the same
     stream as in lock-step, and the sensor's imperfections apply; its
@@ -462,13 +502,57 @@ def simulate_realtime(
         last_k = min(last_k, math.ceil((stop_odometry_at + COMM_LOSS_TAIL) * rate_hz - 1e-9))
     drops_before = dict(link.traffic.firmware_drops)
     try:
-        with _no_gc_pauses():
-            return _run(
+        # On a clock of its own (a test's) a run needs no priority.
+        wall = link.now is time.monotonic
+        with _no_gc_pauses(), real_time_priority(boost, enabled=wall) as priority:
+            result = _run(
                 scenario, link, period, phase, stop_odometry_at, last_k, drops_before, progress
             )
     finally:
         if progress is not None:
             progress.close()
+    assert result.timing is not None
+    extra = {**result.timing.extra, "priority": priority}
+    return replace(result, timing=replace(result.timing, extra=extra))
+
+
+RT_PRIORITY = 1
+"""The SCHED_RR priority of a real-time run: the lowest, above every ordinary
+process; nothing of the run needs more."""
+
+
+@contextmanager
+def real_time_priority(threads: Sequence[int] = (), *, enabled: bool = True) -> Iterator[str]:
+    """This process, and the threads @p threads (the vcan VM's), at the
+    real-time priority SCHED_RR RT_PRIORITY while the run lasts, as a HIL
+    rig runs its real-time parts; back to the normal policy after. Each
+    needs a few milliseconds of CPU per 20 ms period (docs/hil.md, "Load"),
+    and gets them at once however busy the host's cores are with ordinary
+    work. Where this user may not (no root, no CAP_SYS_NICE), they run as they
+    are.
+
+    :returns: (as the context) what was done, for timing.json: ``"SCHED_RR
+        1"`` or why not.
+    """
+    raised: list[int] = []
+    why = f"SCHED_RR {RT_PRIORITY}"
+    for tid in (0, *threads) if enabled else ():
+        try:
+            os.sched_setscheduler(tid, os.SCHED_RR, os.sched_param(RT_PRIORITY))
+            raised.append(tid)
+        except PermissionError:
+            why = "normal (not permitted to raise it)"
+            break
+        except ProcessLookupError:
+            continue
+    try:
+        yield why if raised else ("normal (not permitted to raise it)" if enabled else "normal")
+    finally:
+        for tid in raised:
+            try:
+                os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
+            except (PermissionError, ProcessLookupError):
+                pass
 
 
 @contextmanager
@@ -512,7 +596,7 @@ def _run(
     tick = max((last_k + 1) // PROGRESS_UPDATES, 1)
     first = _arm(link, plant.pose, ref.pose, v_r, w_r, period, phase)
     clock = link.now
-    t0 = first.t + phase * period if phase is not None else clock()
+    t0 = _arrival(link.steps, period) + phase * period if phase is not None else clock()
     wheels = (first.left, first.right)
     integrated = t0  # the plant's pose is its pose at this time
 
@@ -529,6 +613,7 @@ def _run(
     latest = first
     k = 0
     deadline = t0
+    shift = 0.0  # the firmware's grid against the samples' (_drift)
     cpu = time.process_time()
 
     def receive(timeout: float) -> bool:
@@ -581,7 +666,8 @@ def _run(
         modes.append(s.mode if s is not None else Mode.STOP)
         ref.step(period)
         k += 1
-        deadline = t0 + k * period
+        shift = _drift(link.steps, t0, period, phase, shift)
+        deadline = t0 + k * period + shift
         if progress is not None and k % tick == 0:
             progress.update(k)
 

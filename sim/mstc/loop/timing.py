@@ -209,7 +209,9 @@ class Timing:
     extra: dict[str, object] = field(default_factory=dict)
     """More of the run, as is: ``start_stamp``, the run's start in bus.log's
     time stamps [s]; ``plant_cpu_ms_per_sample``, the plant process's CPU
-    time over the run per sample [ms]."""
+    time over the run per sample [ms]; ``bridge``, what crossed the vcan VM's
+    bridge (:meth:`mstc.can.vmbridge.Bridge.tally`), when the run went
+    through it."""
 
     @property
     def period_s(self) -> float:
@@ -251,9 +253,12 @@ class Timing:
     def describe(self) -> str:
         """One line for the report."""
         p, lat = self.period, self.latency
+        bridge = self.extra.get("bridge")
+        crossed = bridge if isinstance(bridge, dict) else {}
         dropped = {
             **_prefixed("fw ", self.dropped_by_firmware),
             **_prefixed("plant ", self.dropped_by_plant),
+            **_prefixed("bridge ", {k: v for k, v in crossed.items() if k.startswith("dropped")}),
         }
         return (
             f"WHEEL_CMD every {p.mean:.2f} ms (p50 {p.p50:.2f}, p99 {p.p99:.2f}, "

@@ -19,21 +19,26 @@ and handed to ``on_frame`` in bus order.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 
 import can
 
 from mstc.can import secoc
-from mstc.can.protocol import DropReason, Frame, Protocol
+from mstc.can.protocol import DropReason, Frame, Protocol, wire_limits
 from mstc.errors import ControllerError, FrameDropped
 from mstc.loop.lockstep import (
     ACCEPTED,
     AGAIN,
+    CONTESTED,
     STEP_MODULO,
+    answer_despite_counter,
+    contested,
+    contested_error,
     decides,
     no_status,
     obstacle_frames,
@@ -62,6 +67,12 @@ class Counts:
     """Frames the bus refused to send."""
     refused_inputs: int = 0
     """Inputs not sent because a value was outside its signal's range or not finite."""
+    obstacles_clamped: int = 0
+    """Obstacles whose radius OBSTACLE cannot carry, sent clamped on the safe
+    side (:meth:`Board.obstacles`)."""
+    velocities_clamped: int = 0
+    """Obstacle velocities OBSTACLE_VEL cannot carry, sent clamped in their
+    direction (:meth:`Board.obstacles`)."""
     firmware_drops: dict[str, int] = field(default_factory=dict)
     """The firmware's latest STATUS_COUNTERS: frames it dropped, by reason."""
     auth_refused: int = 0
@@ -101,6 +112,7 @@ class Board:
         self.bus = bus
         self.proto = Protocol(node=None)
         self.tables = self.proto.tables
+        self.wire = wire_limits()
         self.auth = secoc.Authenticator(key)
         self.on_frame = on_frame
         self.answers_in_send = answers_in_send
@@ -184,13 +196,60 @@ class Board:
         """REF_XY and REF_MOTION (both or neither)."""
         return self._encoded(partial(reference_frames, self.proto, ref, v_r, w_r))
 
-    def obstacles(self, obstacles: Sequence[Obstacle]) -> list[can.Message]:
+    def obstacles(self, obstacles: Sequence[Obstacle], robot: Pose | None) -> list[can.Message]:
         """An OBSTACLE frame for each, followed by OBSTACLE_VEL for a moving
-        one; an obstacle that cannot be sent is left out."""
+        one, what the frames cannot carry clamped on the safe side and
+        counted (:meth:`fit`); one that cannot be sent even so (a position
+        beyond the frame's range, a value not finite) is left out and counted
+        in ``refused_inputs``."""
         frames: list[can.Message] = []
         for o in obstacles:
-            frames += self._encoded(partial(obstacle_frames, self.proto, o))
+            fitted = self.fit(o, robot)
+            if fitted is None:
+                self.counts.refused_inputs += 1
+                continue
+            frames += self._encoded(partial(obstacle_frames, self.proto, fitted))
         return frames
+
+    def fit(self, o: Obstacle, robot: Pose | None) -> Obstacle | None:
+        """@p o as the frames can carry it, for a robot at @p robot:
+
+        - a radius above OBSTACLE's largest (2.55 m) becomes the largest, the
+          circle moved towards the robot so that its point nearest to the
+          robot is the obstacle's: the distance and the direction the
+          controller sees are the true ones, at every step (a robot within
+          the obstacle gets it centred on itself); a radius below the
+          smallest (0.01 m) becomes the smallest;
+        - a velocity beyond OBSTACLE_VEL's ±32 m/s is scaled down to what it
+          carries, its direction kept; the position is sent all the same.
+
+        None when it cannot be sent: no robot pose yet for a radius to clamp.
+        """
+        lo, hi = self.wire.radius.lo, self.wire.radius.hi
+        if o.radius > hi:
+            if robot is None:
+                return None
+            dx, dy = robot.x - o.x, robot.y - o.y
+            d = math.hypot(dx, dy)
+            if d > o.radius:
+                shift = (o.radius - hi) / d
+                o = replace(o, x=o.x + shift * dx, y=o.y + shift * dy, radius=hi)
+            else:
+                o = replace(o, x=robot.x, y=robot.y, radius=hi)
+            self.counts.obstacles_clamped += 1
+        elif o.radius < lo:
+            o = replace(o, radius=lo)
+            self.counts.obstacles_clamped += 1
+        scale = 1.0
+        for v, r in zip((o.vx, o.vy), self.wire.velocity, strict=True):
+            if v > r.hi:
+                scale = min(scale, r.hi / v)
+            elif v < r.lo:
+                scale = min(scale, r.lo / v)
+        if scale < 1.0:
+            o = replace(o, vx=o.vx * scale, vy=o.vy * scale)
+            self.counts.velocities_clamped += 1
+        return o
 
     def step(self, t_us: int) -> tuple[int, can.Message]:
         """The next STEP frame, at firmware time @p t_us; and its step number."""
@@ -221,7 +280,13 @@ class Board:
             answer, signed = self._set(index, value)
             assert st0 is not None  # can_sign() needs a status
             st = self._await_status(decides(st0.session, signed))
-            verdict = outcome(st0, signed, st, answer.signals["result"] == unauth)
+            with self._lock:
+                answers = list(self._answers)  # every PARAM_VALUE since it went out
+            verdict = outcome(
+                st0, signed, st, answer.signals["result"] == unauth, contested(answers, index)
+            )
+            if verdict == CONTESTED:
+                raise contested_error(what, answers, index, self.tables)
             if verdict == ACCEPTED:
                 return answer
             if verdict != AGAIN:
@@ -318,8 +383,15 @@ class Board:
         self.counts.received += 1
         try:
             frame = self.proto.decode(msg)
-        except FrameDropped:
-            return  # counted in proto.drops
+        except FrameDropped as dropped:  # counted in proto.drops
+            # A PARAM_VALUE dropped as a repeat: a node may have answered
+            # first under the firmware's next counter; the command's outcome
+            # weighs it (lockstep.outcome), nothing else sees it.
+            repeat = answer_despite_counter(self.proto, msg, dropped)
+            if repeat is not None:
+                self._answers.append(repeat)
+                self._answer.notify_all()
+            return
         name = frame.name
         s = frame.signals
         if name in ("AUTH_STATUS", "AUTH_CHALLENGE"):

@@ -54,20 +54,30 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from mstc.can import secoc
 from mstc.can.protocol import Frame
-from mstc.errors import DependencyError, MstcError, UsageError
+from mstc.errors import ControllerError, DependencyError, MstcError, UsageError
+from mstc.limits import Held, violation
 from mstc.logs.play import open_bus as open_can_bus
 from mstc.loop.lockstep import decode_event
 from mstc.model import Event, Fault, Obstacle, Pose
+from mstc.plant.scenario import MAX_DT
 from mstc.ros import diagnostics
 from mstc.ros.board import Board
-from mstc.ros.parameters import FIRMWARE_PREFIX, PARAMETERS, STEP_SOURCES
+from mstc.ros.parameters import (
+    FIRMWARE_PREFIX,
+    FUTURE_BOUND_S,
+    PARAMETERS,
+    RANGES,
+    RUN_TIME,
+    STALE_PERIODS,
+    STALE_S,
+    STEP_SOURCES,
+    problem,
+)
 from mstc.ros.reference import PathReference, ReferenceSample, StampedReference
 
 NODE_NAME = "mstc_bridge"
 OBSTACLE_IDS = range(1, 16)
 """The firmware's obstacle ids (OBSTACLE_id, 4 bits)."""
-POSITIVE_PARAMETERS = ("rate_hz", "status_rate_hz", "command_timeout", "plan_speed")
-"""The parameters that must be positive (and finite)."""
 ODOM_STEP_SLACK = 0.01
 """With step_source odom, a step runs for the first odometry at least
 (1 - this) periods after the last step's."""
@@ -84,6 +94,8 @@ class Inputs:
         self.plan_tau = 0.0
         """How long the reference has moved along the plan [s]."""
         self.stream = StampedReference()
+        self.stream_age = 0
+        """Periods the stream's sample has been sent for."""
         self.obstacles: list[Obstacle] = []
         self.obstacles_at = -math.inf
         """When the obstacles arrived [s, monotonic]."""
@@ -99,6 +111,11 @@ class StepState:
     """Node time of the first step [ns] (its firmware time is 0)."""
     last_ns: int | None = None
     """Node time of the last step [ns]."""
+    t_us: int = 0
+    """Firmware time of the last step [µs]."""
+    offset_us: int = 0
+    """Added to the firmware's time since the first step: late steps move it
+    on by at least the firmware's timeout."""
     status: dict[str, float | int] = field(default_factory=dict)
     trk: dict[str, float | int] = field(default_factory=dict)
     events: list[Event] = field(default_factory=list)
@@ -156,11 +173,10 @@ class Bridge(Node):
             except ParameterException as exc:  # given with another type than the default's
                 raise UsageError(str(exc)) from exc
         p = self._param
-        for name in POSITIVE_PARAMETERS:
-            if not (math.isfinite(float(p(name))) and float(p(name)) > 0):
-                raise UsageError(f"{name} {p(name)!r}: a positive number")
-        if int(p("qos_depth")) < 1:
-            raise UsageError(f"qos_depth {p('qos_depth')!r}: at least 1")
+        for name in RANGES:
+            why = problem(name, p(name))
+            if why is not None:
+                raise UsageError(why)
         interface = str(p("can_interface"))
         step_source = str(p("step_source")) or ("timer" if interface == "mstc-sil" else "none")
         if step_source not in STEP_SOURCES:
@@ -183,6 +199,8 @@ class Bridge(Node):
         self.joints = [str(p("left_wheel_joint")), str(p("right_wheel_joint"))]
         self.inputs = Inputs()
         self.state = StepState()
+        self.late_steps = 0
+        """Control steps more than MAX_DT after the last (or before it)."""
         self.dropped_inputs: dict[str, int] = {}
         """Messages not used, by reason (wrong frame, bad value, ...)."""
         self.board = Board(
@@ -255,12 +273,18 @@ class Bridge(Node):
     # ------------------------------------------------------- parameters
 
     def _firmware_parameters(self) -> None:
-        """``firmware.<name>`` for every parameter of the DBC: a value given
-        at start (a parameters file, ``-p``) is sent to the firmware; the
-        others are read from it."""
+        """``firmware.<name>`` for every parameter of the DBC: the values
+        given at start (a parameters file, ``-p``) are sent to the firmware as
+        one set (:meth:`_set_firmware`); the others are read from it.
+
+        :raises UsageError: a value given that the parameter table refuses.
+        :raises ControllerError: one the firmware refuses, or no answer.
+        """
         tables = self.board.tables
         self._syncing = True
         try:
+            given: dict[str, Any] = {}
+            held: dict[str, float] = {}
             for raw, name in tables.param_index.entries.items():
                 if raw == tables.arm_index:
                     continue
@@ -268,54 +292,129 @@ class Bridge(Node):
                 text = f"the firmware's parameter {name} (PARAM_SET index {raw})"
                 if name == "strategy":
                     text += ": " + " or ".join(tables.strategy.entries.values())
-                given = self.declare_parameter(
+                value = self.declare_parameter(
                     full, None, ParameterDescriptor(description=text, dynamic_typing=True)
                 ).value
-                if given is not None:
-                    self._set_firmware(name, given)
-                    continue
+                if value is not None:
+                    given[name] = value
                 answer = self.board.request(raw, None)
                 if answer.signals["result"] != tables.param_ok:
                     continue  # not readable: left unset
-                value = float(answer.signals["value"])
-                shown: Any = value
-                if name == "strategy":
-                    shown = tables.strategy.name_of(round(value)) or value
-                self.set_parameters([Parameter(full, value=shown)])
+                held[name] = float(answer.signals["value"])
+                if value is None:
+                    shown: Any = held[name]
+                    if name == "strategy":
+                        shown = tables.strategy.name_of(round(held[name])) or held[name]
+                    self.set_parameters([Parameter(full, value=shown)])
+            if given:
+                self._set_firmware(given, held)
         finally:
             self._syncing = False
 
-    def _set_firmware(self, name: str, value: Any) -> str | None:
-        """Send one parameter; None when accepted, else why not."""
+    def _firmware_number(self, name: str, value: Any) -> float:
+        """@p value of firmware parameter @p name as PARAM_SET sends it.
+
+        :raises UsageError: not a number (nor a strategy's name).
+        """
         tables = self.board.tables
         if name == "strategy" and isinstance(value, str):
-            try:
-                value = tables.strategy.value(value)
-            except MstcError as exc:
-                return str(exc)
+            return float(tables.strategy.value(value))
         if isinstance(value, bool) or not isinstance(value, int | float):
-            return f"{name}: a number, not {value!r}"
+            raise UsageError(f"firmware.{name}: a number, not {value!r}")
+        return float(value)
+
+    def _firmware_held(self) -> dict[str, float]:
+        """What the firmware holds, as the node's ``firmware.*`` parameters
+        show it (read at start, then set only through :meth:`_set_firmware`)."""
+        held = {}
+        for raw, name in self.board.tables.param_index.entries.items():
+            if raw == self.board.tables.arm_index:
+                continue
+            value = self.get_parameter(FIRMWARE_PREFIX + name).value
+            if value is not None:
+                held[name] = self._firmware_number(name, value)
+        return held
+
+    def _set_firmware(self, values: dict[str, Any], held: dict[str, float]) -> None:
+        """Send @p values to the firmware as one set, or none of them: checked
+        as a whole against the parameter table (:func:`mstc.limits.violation`,
+        the firmware's own check) with the values it @p held, then sent one by
+        one in an order that keeps the firmware's set valid at every step;
+        when the firmware refuses one all the same (armed, not authenticated,
+        no answer), those already sent are set back.
+
+        :raises UsageError: the table refuses the set.
+        :raises ControllerError: the firmware refused a value (the others
+            set back, or the error says which could not be).
+        """
+        tables = self.board.tables
+        new = {name: self._firmware_number(name, v) for name, v in values.items()}
+        for name in new:
+            if name not in tables.param_index.entries.values() or name == "arm":
+                raise UsageError(f"firmware.{name}: no such parameter of the firmware")
+        ways = (Held.FLOAT, Held.FIXED_FRAME)  # as a frame's float32 reaches either build
+        wrong = violation({**held, **new}, ways)
+        if wrong is not None:
+            names = ", ".join(FIRMWARE_PREFIX + n for n in wrong.names if n in new) or "the set"
+            raise UsageError(f"{names}: {wrong.problem}")
+        now = dict(held)
+        pending = dict(new)
+        done: list[tuple[str, float | None]] = []  # sent, with the value before
+        while pending:
+            ready = [n for n, v in pending.items() if violation({**now, n: v}, ways) is None]
+            if not ready:  # cannot happen for a set the table accepts but by rounding
+                ready = list(pending)[:1]
+            name = ready[0]
+            value = pending.pop(name)
+            why = self._send_firmware(name, value)
+            if why is not None:
+                raise ControllerError(why + self._undo(done))
+            done.append((name, now.get(name)))
+            now[name] = value
+
+    def _send_firmware(self, name: str, value: float) -> str | None:
+        """Send one parameter; None when the firmware accepted it, else why not."""
+        tables = self.board.tables
         try:
-            answer = self.board.command(tables.param_index.value(name), float(value))
-        except MstcError as exc:  # no answer, not authenticated
+            answer = self.board.command(tables.param_index.value(name), value)
+        except MstcError as exc:  # no answer, not authenticated, a forged answer
             return str(exc)
         if answer.signals["result"] != tables.param_ok:
             result = tables.param_result.name_of(int(answer.signals["result"]))
-            return f"the firmware answers {result} to {name} = {value}"
+            return f"the firmware answers {result} to {name} = {value:g}"
         return None
+
+    def _undo(self, done: list[tuple[str, float | None]]) -> str:
+        """Set back the parameters of @p done (sent, with their values
+        before), the last first; what to add to the error."""
+        if not done:
+            return ""
+        failed = []
+        for name, before in reversed(done):
+            if before is None or self._send_firmware(name, before) is not None:
+                failed.append(name)
+        if failed:
+            return f"; the firmware keeps the new {', '.join(failed)}: set it again"
+        return f"; {', '.join(n for n, _ in done)} set back"
 
     def _on_set_parameters(self, params: list[Parameter[Any]]) -> SetParametersResult:
         if self._syncing:
             return SetParametersResult(successful=True)
+        firmware: dict[str, Any] = {}
         for param in params:
             if param.name.startswith(FIRMWARE_PREFIX):
-                why = self._set_firmware(param.name.removeprefix(FIRMWARE_PREFIX), param.value)
-                if why is not None:
-                    return SetParametersResult(successful=False, reason=why)
-            elif param.name in PARAMETERS and param.name not in ("plan_speed", "obstacle_timeout"):
+                firmware[param.name.removeprefix(FIRMWARE_PREFIX)] = param.value
+            elif param.name in PARAMETERS and param.name not in RUN_TIME:
                 return SetParametersResult(
                     successful=False, reason=f"{param.name} is read at start: restart the bridge"
                 )
+            elif (why := problem(param.name, param.value)) is not None:
+                return SetParametersResult(successful=False, reason=why)
+        if firmware:
+            try:
+                self._set_firmware(firmware, self._firmware_held())
+            except MstcError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
     def _on_arm(self, request: Any, response: Any) -> Any:
@@ -351,6 +450,9 @@ class Bridge(Node):
         if msg.child_frame_id and msg.child_frame_id != base:
             self._drop(f"odom of {msg.child_frame_id}, not {base}")
             return
+        stamp = _ns(msg.header.stamp)
+        if self.step_source == "odom" and self._ahead(stamp, "odom"):
+            return
         p = msg.pose.pose
         self.inputs.odom = Pose(p.position.x, p.position.y, _yaw(p.orientation))
         self.inputs.odom_new = True
@@ -358,10 +460,24 @@ class Bridge(Node):
             self._send_odometry()
             return
         if self.step_source == "odom":
-            stamp = _ns(msg.header.stamp)
             last = self.state.last_ns
-            if last is None or stamp - last >= (1 - ODOM_STEP_SLACK) * self.period * 1e9:
+            # A stamp before the last step's is a clock that jumped back (a
+            # bag played in a loop, a restarted simulator): a step, which
+            # _control_step takes as late.
+            if (
+                last is None
+                or stamp < last
+                or stamp - last >= (1 - ODOM_STEP_SLACK) * self.period * 1e9
+            ):
                 self._control_step(stamp)
+
+    def _ahead(self, stamp_ns: int, topic: str) -> bool:
+        """A stamp more than FUTURE_BOUND_S ahead of the node's clock: the
+        message is not used, and counted."""
+        if stamp_ns - self.get_clock().now().nanoseconds > FUTURE_BOUND_S * 1e9:
+            self._drop(f"{topic} stamped more than {FUTURE_BOUND_S:g} s ahead of the clock")
+            return True
+        return False
 
     def _on_plan(self, msg: PathMsg) -> None:
         if not self._in_world(msg.header.frame_id, "plan"):
@@ -378,9 +494,13 @@ class Bridge(Node):
     def _on_reference(self, msg: PoseStamped) -> None:
         if not self._in_world(msg.header.frame_id, "reference"):
             return
+        stamp = _ns(msg.header.stamp)
+        if self._ahead(stamp, "reference"):
+            return
         p = msg.pose
         pose = Pose(p.position.x, p.position.y, _yaw(p.orientation))
-        self.inputs.stream.add(_ns(msg.header.stamp), pose)
+        if self.inputs.stream.add(stamp, pose):
+            self.inputs.stream_age = 0
 
     def _on_obstacles(self, msg: MarkerArray) -> None:
         cylinders: dict[int, Marker] = {}
@@ -432,11 +552,19 @@ class Bridge(Node):
         if self.state.running:
             self.inputs.plan_tau += dt
         ref = self._reference()
+        if self.reference_source == "reference" and ref is not None:
+            # A sample is sent for STALE_PERIODS periods, then no more: the
+            # firmware halts (reference) when the stream stops, as it would
+            # on the bus.
+            if self.inputs.stream_age >= STALE_PERIODS:
+                self._drop(f"reference older than {STALE_PERIODS} periods (not sent)")
+                ref = None
+            self.inputs.stream_age += 1
         if ref is not None:
             frames += self.board.reference(ref.pose, ref.v, ref.w)
         timeout = float(self._param("obstacle_timeout"))
         if time.monotonic() - self.inputs.obstacles_at <= timeout:
-            frames += self.board.obstacles(self.inputs.obstacles)
+            frames += self.board.obstacles(self.inputs.obstacles, self.inputs.odom)
         return frames
 
     def _on_tick(self) -> None:
@@ -447,14 +575,38 @@ class Bridge(Node):
 
     def _control_step(self, stamp_ns: int) -> None:
         """One lock-step control step at node time @p stamp_ns: odometry (if
-        new), reference, obstacles, STEP."""
+        new), reference, obstacles, STEP.
+
+        A step more than the filter's longest period (MAX_DT) after the last,
+        or before it (the clock jumped back), is late: the controller must not
+        run over such a gap. It goes without its odometry and at least the
+        firmware's timeout (STALE_S) after the last on the firmware's clock,
+        so that the firmware halts (odometry), as it does when the bus is
+        lost; counted (``late_steps``)."""
         st = self.state
         if st.origin_ns is None:
             st.origin_ns = stamp_ns
-        dt = (stamp_ns - st.last_ns) / 1e9 if st.last_ns is not None else 0.0
+        t_us = (stamp_ns - st.origin_ns) // 1000 + st.offset_us
+        late = st.last_ns is not None and not (
+            0 <= stamp_ns - st.last_ns <= MAX_DT * (1 + ODOM_STEP_SLACK) * 1e9
+        )
+        if late:
+            self.late_steps += 1
+            if self.late_steps == 1:
+                self.get_logger().warning(
+                    f"a control step {(stamp_ns - (st.last_ns or 0)) / 1e9:g} s after the last: "
+                    f"more than {MAX_DT:g} s, sent without odometry so that the firmware halts "
+                    "(counted in mstc/status, late_steps)"
+                )
+            least = st.t_us + round(STALE_S * 1e6)
+            if t_us < least:
+                st.offset_us += least - t_us
+                t_us = least
+        dt = (t_us - st.t_us) / 1e6 if st.last_ns is not None else 0.0
         st.last_ns = stamp_ns
-        frames = self._send_odometry() + self._inputs(dt)
-        step, msg = self.board.step((stamp_ns - st.origin_ns) // 1000)
+        st.t_us = t_us
+        frames = ([] if late else self._send_odometry()) + self._inputs(dt)
+        step, msg = self.board.step(t_us)
         st.stamps[step] = _time(stamp_ns)
         st.stamps.pop(step - 8, None)
         self.board.send([*frames, msg])
@@ -587,6 +739,9 @@ class Bridge(Node):
             ("frames_received", counts.received),
             ("send_failures", counts.send_failures),
             ("inputs_refused", counts.refused_inputs),
+            ("late_steps", self.late_steps),
+            ("obstacles_clamped", counts.obstacles_clamped),
+            ("velocities_clamped", counts.velocities_clamped),
         ]
         values += [(f"input_dropped: {k}", v) for k, v in self.dropped_inputs.items()]
         now = self.get_clock().now().to_msg()

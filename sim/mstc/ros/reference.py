@@ -98,12 +98,15 @@ class StampedReference:
         self.sample: ReferenceSample | None = None
         """The reference now, None before the first pose."""
 
-    def add(self, stamp_ns: int, pose: Pose) -> None:
-        """A pose stamped @p stamp_ns; one not after the latest is ignored."""
+    def add(self, stamp_ns: int, pose: Pose) -> bool:
+        """A pose stamped @p stamp_ns; one not after the latest is ignored.
+
+        :returns: it was taken.
+        """
         if self._last is not None:
             t0, p0 = self._last
             if stamp_ns <= t0:
-                return
+                return False
             dt = (stamp_ns - t0) / 1e9
             dx, dy = pose.x - p0.x, pose.y - p0.y
             # Signed along the earlier heading: a reference may back up.
@@ -113,3 +116,4 @@ class StampedReference:
         else:
             self.sample = ReferenceSample(pose, 0.0, 0.0)
         self._last = (stamp_ns, pose)
+        return True

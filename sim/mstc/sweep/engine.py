@@ -1,21 +1,15 @@
 # SPDX-License-Identifier: MIT
-"""Running a sweep: many scenes, several strategies, on every core or on a
-Dask cluster, resumable.
+"""Running a batch of (scene, strategy) jobs in one process: a worker's part
+of a sweep (:mod:`mstc.sweep.plan` cuts a sweep into slices and
+:mod:`mstc.sweep.jobs` sends them to the workers).
 
-Work is cut into batches of (scene, strategy) jobs. A batch carries each
-scene's name and either the text of its file or, when the client has parsed
-it (as ``mstc sweep`` does to validate every scene first), the parsed
-scenario, pickled (:class:`mstc.sweep.spool.Spool`): plain data, never a
-controller. The client sends a batch when a worker is about to need it
-(two batches a worker in flight), reading its scenes from the spool then,
-so its memory holds the batches in flight, not every scene. Every worker
-process loads the firmware library itself (ctypes handles do not travel),
-parses or unpickles its scenes, runs them and sends back one small row and
-the text of events.json per job. The client writes DIR/<strategy>/<scene>/events.json,
-then appends the row to DIR/runs.csv, so a row on disk always has its
-events.json and ``--resume`` can skip it. When all is done runs.csv is
-rewritten in plan order (scene order, then strategy order), the same
-whichever worker finished first.
+A job is a scene and a strategy. A scene travels as a small record
+(:class:`Scene`): its name and either its scenario, parsed (a suite's scenes
+are made so where they run), pickled (a scenario file the client has
+validated, :class:`mstc.sweep.spool.Spool`), or the text of its file: plain
+data, never a controller. Every worker process loads the firmware library
+itself (ctypes handles do not travel) and gives back, per job, its row of
+runs.csv and the text of its events.json (:class:`Outcome`).
 
 Two engines run the firmware's strategies. "batched" (the default) runs a
 batch's scenes together: the plant steps every scene at once with numpy and
@@ -25,44 +19,32 @@ goes (:class:`mstc.sweep.metrics.RunningMetrics`); its batches are large (up
 to ``batch`` scenes) and a worker holds no trace. "scene" runs each scene
 alone through :func:`mstc.loop.lockstep.simulate` and judges its trace
 (:func:`mstc.sweep.metrics.evaluate`): the reference the batched engine is
-compared with (docs/sweeps.md, "Engines"). Both write the same rows and
+compared with (docs/sweeps.md, "Engines"). Both give the same rows and
 events.json, with ideal wheels and with "lag" wheels alike. The DWA baseline
 always runs scene by scene, and so do scenes on "dc" wheels (the firmware's
 wheel loop, which the batched plant does not model).
 
 A scene that fails (an exception, a non-finite state) is a row with its
-error. A worker that dies (a crash in the library) takes its batch down:
-those jobs run again one at a time on a single worker, which names the one
-that kills it; that job becomes an error row and the rest go on.
+error, and the batch goes on.
 """
 
 from __future__ import annotations
 
-import collections
-import csv
 import dataclasses
-import functools
 import hashlib
-import importlib.util
-import io
-import itertools
 import math
-import multiprocessing
 import os
 import pickle
-import socket
 import sys
 import tomllib
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import get_type_hints
 
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
-from mstc.errors import ClusterError, DependencyError, FirmwareError, UsageError
+from mstc.errors import FirmwareError
 from mstc.firmware.sil import SilBatch, SilController
 from mstc.firmware.wheels import DcWheels, wheels_for
 from mstc.loop.batched import simulate_batch
@@ -73,7 +55,7 @@ from mstc.plant.batch import table_width
 from mstc.plant.scenario import DC_HANDED, Scenario, parse_scenario
 from mstc.report.outputs import events_json, events_text
 from mstc.sweep.dwa import DwaConfig, DwaController
-from mstc.sweep.folder import read_sources, text_sha256, write_sources
+from mstc.sweep.folder import text_sha256
 from mstc.sweep.metrics import METRIC_COLUMNS, Metrics, RunningMetrics, evaluate
 from mstc.sweep.spool import Spool
 
@@ -274,7 +256,7 @@ def dwa_config(scenario: Scenario) -> DwaConfig:
     )
 
 
-def _new_row(scene: Scene, strategy: str) -> dict[str, str]:
+def new_row(scene: Scene, strategy: str) -> dict[str, str]:
     """A row of runs.csv for @p scene and @p strategy, nothing run yet."""
     row = {c: "" for c in ROW_COLUMNS}
     row.update(scene=scene.name, family=scene.family, strategy=strategy, actuator=scene.actuator)
@@ -284,7 +266,7 @@ def _new_row(scene: Scene, strategy: str) -> dict[str, str]:
 
 def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, dict[str, str]]:
     """Run one scene with one strategy; the result (None on failure) and its row."""
-    row = _new_row(scene, strategy)
+    row = new_row(scene, strategy)
     try:
         scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
@@ -294,14 +276,14 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
         result = simulate(scenario, controller, wheels=wheels)
         metrics = evaluate(result)
     except Exception as exc:  # any failure of one scene is its row, not the sweep's end
-        row["error"] = _one_line(exc)
+        row["error"] = one_line(exc)
         return None, row
     row["steps"] = str(scenario.sim.steps + 1)
     row.update(format_metrics(metrics))
     return result, row
 
 
-def _one_line(exc: BaseException) -> str:
+def one_line(exc: BaseException) -> str:
     return " ".join(f"{type(exc).__name__}: {exc}".split())
 
 
@@ -335,11 +317,11 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
     outcomes: dict[int, Outcome] = {}
     ready: list[tuple[int, Scenario, dict[str, str]]] = []
     for index, (scene, strategy) in enumerate(jobs):
-        row = _new_row(scene, strategy)
+        row = new_row(scene, strategy)
         try:
             scenario = scene.parsed()
         except Exception as exc:  # as run_job: a scene's failure is its row
-            row["error"] = _one_line(exc)
+            row["error"] = one_line(exc)
             outcomes[index] = Outcome(scene.name, strategy, row, None, sha)
             continue
         if strategy == "dwa" or scenario.actuator.model == "dc":
@@ -363,7 +345,7 @@ def run_jobs_batched(jobs: Sequence[Job], lib: str, sha: str) -> list[Outcome]:
         runs = simulate_batch(scenarios, controller, metrics)
     except Exception as exc:  # the batch's failure is each of its rows
         for index, _, row in ready:
-            row["error"] = _one_line(exc)
+            row["error"] = one_line(exc)
             outcomes[index] = Outcome(row["scene"], row["strategy"], row, None, sha)
         ready = []
         runs = []
@@ -406,7 +388,7 @@ def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outc
         sha = library_sha256(path)
     except (OSError, FirmwareError) as exc:
         path, sha = lib, ""
-        failure = _one_line(exc)
+        failure = one_line(exc)
     else:
         failure = ""
     if engine == "batched" and not failure:
@@ -414,7 +396,7 @@ def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outc
     outcomes = []
     for scene, strategy in jobs:
         if failure and strategy != "dwa":
-            outcomes.append(_crash_row((scene, strategy), failure))
+            outcomes.append(crash_row((scene, strategy), failure))
             continue
         result, row = run_job(scene, strategy, path)
         events = events_json(result) if result is not None else None
@@ -422,13 +404,13 @@ def run_batch(jobs: Sequence[Job], lib: str, engine: str = "scene") -> list[Outc
     return outcomes
 
 
-# ------------------------------------------------------------------ runs.csv
+# ------------------------------------------------------------------ rows
 
 
 _METRIC_TYPES = get_type_hints(Metrics)
 
 
-def _well_formed(row: dict[str, str]) -> bool:
+def well_formed(row: Mapping[str, str]) -> bool:
     """Whether @p row holds what this module writes: a failed run's metrics
     empty, a finished run's each a value of its type."""
     if row["error"]:
@@ -449,98 +431,12 @@ def _well_formed(row: dict[str, str]) -> bool:
     return True
 
 
-def read_rows(path: Path) -> list[dict[str, str]]:
-    """The complete, well-formed rows of a runs.csv (a line cut short by an
-    interruption, or a value that is not one of its column, is left out)."""
-    if not path.is_file():
-        return []
-    with path.open(newline="") as f:
-        reader = csv.DictReader(f)
-        if tuple(reader.fieldnames or ()) != ROW_COLUMNS:
-            return []
-        return [r for r in reader if None not in r.values() and None not in r and _well_formed(r)]
-
-
-class Row(Mapping[str, str]):
-    """A row of runs.csv as a sweep keeps it until the end: its values in
-    :data:`ROW_COLUMNS` order in one tuple, the repeated ones (scene,
-    family, actuator, strategy, ...) shared between rows; some 0.8 kB where
-    a dict takes 1.6 kB."""
-
-    __slots__ = ("_values",)
-
-    def __init__(self, row: Mapping[str, str]) -> None:
-        self._values = tuple(sys.intern(row[c]) if c in _SHARED else row[c] for c in ROW_COLUMNS)
-
-    def __getitem__(self, column: str) -> str:
-        return self._values[_INDEX[column]]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(ROW_COLUMNS)
-
-    def __len__(self) -> int:
-        return len(ROW_COLUMNS)
-
-
-_INDEX = {c: i for i, c in enumerate(ROW_COLUMNS)}
-_SHARED = frozenset(("scene", "family", "actuator", "strategy", "steps", "error"))
-
-
-def _row_text(row: Mapping[str, str]) -> str:
-    buf = io.StringIO()
-    csv.writer(buf, lineterminator="\n").writerow([row[c] for c in ROW_COLUMNS])
-    return buf.getvalue()
-
-
-def write_rows(path: Path, rows: Iterable[Mapping[str, str]]) -> None:
-    """Write runs.csv whole (through a temporary file, then renamed)."""
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as f:
-        f.write(",".join(ROW_COLUMNS) + "\n")
-        for row in rows:
-            f.write(_row_text(row))
-    tmp.replace(path)
-
-
-# ------------------------------------------------------------------ the sweep
-
-
-def batches(
-    jobs: Sequence[Job], workers: int, most: int = 16, per_worker: int = 8
-) -> list[list[Job]]:
-    """Cut @p jobs into batches: about @p per_worker a worker so the load
-    evens out, at most @p most jobs each."""
-    size = max(1, min(most, math.ceil(len(jobs) / max(1, workers * per_worker))))
-    return [list(jobs[i : i + size]) for i in range(0, len(jobs), size)]
-
-
-def engine_batches(
-    jobs: Sequence[Job], workers: int, engine: str, batch: int = BATCH
-) -> list[list[Job]]:
-    """@p jobs cut for @p engine: small batches for "scene" (:func:`batches`);
-    for "batched" as large as @p batch allows, about 2 a worker (the
-    batched engine's cost per scene falls with the batch's size)."""
-    if engine == "batched":
-        return batches(jobs, workers, most=batch, per_worker=2)
-    return batches(jobs, workers)
-
-
-def _crash_row(job: Job, why: str) -> Outcome:
+def crash_row(job: Job, why: str) -> Outcome:
+    """The outcome of @p job that failed before it could run (@p why)."""
     scene, strategy = job
-    row = {c: "" for c in ROW_COLUMNS}
-    row.update(
-        scene=scene.name, family=scene.family, actuator=scene.actuator, strategy=strategy, error=why
-    )
-    row["seed"] = "" if scene.seed is None else str(scene.seed)
+    row = new_row(scene, strategy)
+    row["error"] = why
     return Outcome(scene.name, strategy, row, None, "")
-
-
-Emit = Callable[[Outcome], None]
-Ship = Callable[[list[Job]], list[Job]]
-"""A batch as a worker needs it (:func:`shipped`), made as it is sent."""
-IN_FLIGHT = 2
-"""Batches sent a worker at a time: one running, one waiting, so that a
-worker never waits for the client and the client holds no more."""
 
 
 def shipped(jobs: list[Job], spool: Spool) -> list[Job]:
@@ -559,290 +455,3 @@ def shipped(jobs: list[Job], spool: Spool) -> list[Job]:
             sent[scene.name] = dataclasses.replace(scene, pickled=spool.read(scene.name))
         out.append((sent[scene.name], strategy))
     return out
-
-
-def run_local(
-    jobs: Sequence[Job],
-    lib: str,
-    workers: int,
-    emit: Emit,
-    engine: str = "scene",
-    batch_size: int = BATCH,
-    ship: Ship = list,
-) -> None:
-    """Run @p jobs on a pool of @p workers processes with @p engine, calling
-    @p emit for each outcome as it comes. Workers start fresh (spawn) and
-    load the library themselves; a batch is made (@p ship) and sent when
-    one of the :data:`IN_FLIGHT` a worker comes back."""
-    context = multiprocessing.get_context("spawn")
-    pending = list(jobs)
-    while pending:
-        done_ids: set[int] = set()
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
-        try:
-            cut = iter(engine_batches(pending, workers, engine, batch_size))
-            futures: dict[Future[list[Outcome]], list[Job]] = {}
-            broken = False
-            while True:
-                if not broken:
-                    for b in itertools.islice(cut, workers * IN_FLIGHT - len(futures)):
-                        futures[pool.submit(run_batch, ship(b), lib, engine)] = b
-                if not futures:
-                    break
-                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    batch = futures.pop(fut)
-                    try:
-                        outcomes = fut.result()
-                    except BrokenProcessPool:
-                        broken = True
-                        continue
-                    for job, outcome in zip(batch, outcomes, strict=True):
-                        done_ids.add(id(job))
-                        emit(outcome)
-        except BaseException:
-            # Interrupted (Ctrl-C) or failed: drop the batches not started
-            # rather than wait for them; --resume runs them later.
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-        pool.shutdown()
-        if not broken:
-            return
-        left = [j for j in pending if id(j) not in done_ids]
-        pending = _isolate(left, lib, context, emit, engine, ship)
-
-
-def _isolate(
-    jobs: list[Job],
-    lib: str,
-    context: multiprocessing.context.BaseContext,
-    emit: Emit,
-    engine: str,
-    ship: Ship = list,
-) -> list[Job]:
-    """After a worker died: run @p jobs one by one on one worker until it dies
-    again; the job it died on becomes an error row. Returns the jobs not run."""
-    with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
-        sent: collections.deque[tuple[int, Future[list[Outcome]]]] = collections.deque()
-        i = 0
-        while i < len(jobs) or sent:
-            while i < len(jobs) and len(sent) < IN_FLIGHT:
-                sent.append((i, pool.submit(run_batch, ship([jobs[i]]), lib, engine)))
-                i += 1
-            index, fut = sent.popleft()
-            try:
-                (outcome,) = fut.result()
-            except BrokenProcessPool:
-                emit(_crash_row(jobs[index], "the worker process died running this scene"))
-                return jobs[index + 1 :]
-            emit(outcome)
-    return []
-
-
-def require_dask() -> None:
-    """Dask's ``distributed`` is installed (the extra ``mstc[cluster]``).
-
-    :raises DependencyError: it is not.
-    """
-    if importlib.util.find_spec("distributed") is None:
-        raise DependencyError(
-            "a Dask cluster needs Dask's distributed, which is not installed: "
-            "pip install 'mstc[cluster]' (docs/sweeps.md)"
-        )
-
-
-SCHEDULER_TIMEOUT = 5.0
-"""How long :func:`check_scheduler` waits for a scheduler's port to answer [s]."""
-
-
-def check_scheduler(address: str) -> None:
-    """@p address is a Dask scheduler's, and its port answers (tcp:// and
-    tls://): a wrong or closed address is said at once, before anything runs,
-    not after the client's 30 s of retries.
-
-    :raises DependencyError: Dask is not installed.
-    :raises UsageError: @p address is not an address.
-    :raises ClusterError: nothing answers there.
-    """
-    require_dask()
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    try:
-        scheme, location = parse_address(address)
-        host, port = parse_host_port(location) if scheme in ("tcp", "tls") else ("", 0)
-    except ValueError as exc:
-        raise UsageError(
-            f"--scheduler {address}: {exc} (expected tcp://HOST:PORT, docs/sweeps.md)"
-        ) from exc
-    if not host:
-        return
-    try:
-        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT).close()
-    except OSError as exc:
-        why = exc.strerror or str(exc) or type(exc).__name__
-        raise ClusterError(f"cannot reach the Dask scheduler at {address}: {why}") from exc
-
-
-def run_dask(
-    jobs: Sequence[Job],
-    lib: str,
-    scheduler: str,
-    emit: Emit,
-    engine: str = "scene",
-    batch_size: int = BATCH,
-    ship: Ship = list,
-) -> None:
-    """Run @p jobs with @p engine on the Dask cluster at @p scheduler
-    (``tcp://host:port``): a task is a batch of jobs, made (@p ship) and
-    submitted when one of the :data:`IN_FLIGHT` a worker comes back.
-    Dask retries the tasks of a dead worker elsewhere; a batch that keeps
-    killing workers is run again job by job, and the job that still does
-    becomes an error row.
-
-    :raises DependencyError: Dask is not installed.
-    """
-    require_dask()
-    from distributed import Client, as_completed
-    from distributed.scheduler import KilledWorker
-
-    try:
-        client = Client(scheduler, timeout="30s")
-    except OSError as exc:  # distributed's TimeoutError too
-        raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
-    with client:
-        workers = max(1, len(client.scheduler_info()["workers"]))
-        cut = iter(engine_batches(jobs, workers, engine, batch_size))
-        todo = {
-            client.submit(run_batch, ship(b), lib, engine, pure=False): b
-            for b in itertools.islice(cut, workers * IN_FLIGHT)
-        }
-        queue = as_completed(list(todo))
-        for fut in queue:
-            batch = todo.pop(fut)
-            for b in itertools.islice(cut, max(0, workers * IN_FLIGHT - len(todo))):
-                new = client.submit(run_batch, ship(b), lib, engine, pure=False)
-                todo[new] = b
-                queue.add(new)
-            try:
-                outcomes = fut.result()
-            except KilledWorker:
-                if len(batch) == 1:
-                    emit(_crash_row(batch[0], "the worker process died running this scene"))
-                    continue
-                for job in batch:
-                    single = client.submit(run_batch, ship([job]), lib, engine, pure=False)
-                    todo[single] = [job]
-                    queue.add(single)
-                continue
-            for outcome in outcomes:
-                emit(outcome)
-
-
-# ------------------------------------------------------------------ orchestration
-
-
-@dataclass
-class SweepResult:
-    """What a sweep leaves: every row in plan order, and what this call ran."""
-
-    rows: list[Row]
-    ran: int
-    """Jobs run by this call (the rest came from a previous, resumed one)."""
-
-
-def run_sweep(
-    scenes: Sequence[Scene],
-    strategies: Sequence[str],
-    out: Path,
-    lib: str,
-    *,
-    workers: int,
-    scheduler: str | None = None,
-    resume: bool = False,
-    progress: Callable[[int, int], None] | None = None,
-    engine: str = "batched",
-    batch: int = BATCH,
-    spool: Spool | None = None,
-) -> SweepResult:
-    """Run every scene with every strategy; write events.json and runs.csv
-    under @p out.
-
-    :param workers: processes of the local pool (ignored with @p scheduler).
-    :param scheduler: a Dask scheduler's address, or None for the local pool.
-    :param resume: keep the rows of DIR/runs.csv (and their events.json) run
-        from the same scene text and library (DIR/sources.json:
-        :mod:`mstc.sweep.folder`) and run only the jobs it lacks; otherwise
-        start afresh.
-    :param progress: called with (done, total) as jobs finish.
-    :param engine: :data:`ENGINES` (the module's docstring).
-    :param batch: most scenes of one batch of the batched engine.
-    :param spool: where @p scenes, records without text or scenario
-        (:meth:`Scene.from_scenario`), are kept parsed: each batch is read
-        from it as it is sent (None: the scenes carry what a worker needs).
-
-    :raises FirmwareError: a worker ran another firmware library than @p lib
-        (different contents), so its rows would not be comparable.
-    """
-    out.mkdir(parents=True, exist_ok=True)
-    runs = out / "runs.csv"
-    # Each run's row at its place in the plan: scene order, then strategy order.
-    first = {scene.name: i * len(strategies) for i, scene in enumerate(scenes)}
-    column = {strategy: j for j, strategy in enumerate(strategies)}
-    rows: list[Row | None] = [None] * (len(scenes) * len(strategies))
-    local_sha = library_sha256(lib) if Path(lib).is_file() else ""
-    texts = {scene.name: scene.digest() for scene in scenes}
-    if resume:
-        before = read_sources(out)
-        ran_from = before.get("scenes")
-        ran_from = ran_from if isinstance(ran_from, dict) else {}
-        for row in read_rows(runs):
-            finished = (
-                bool(row["error"])
-                or (out / row["strategy"] / row["scene"] / "events.json").is_file()
-            )
-            same = ran_from.get(row["scene"]) == texts.get(row["scene"]) and (
-                row["strategy"] == "dwa" or before.get("library") == local_sha
-            )
-            planned = row["scene"] in first and row["strategy"] in column
-            if planned and finished and same:
-                rows[first[row["scene"]] + column[row["strategy"]]] = Row(row)
-    write_rows(runs, (r for r in rows if r is not None))
-    write_sources(out, local_sha, texts)  # after runs.csv: it holds no row from before
-    todo = [
-        (scene, strategy)
-        for scene in scenes
-        for strategy in strategies
-        if rows[first[scene.name] + column[strategy]] is None
-    ]
-    total, done = len(rows), sum(1 for r in rows if r is not None)
-    if progress:
-        progress(done, total)
-
-    with runs.open("a", newline="") as log:
-
-        def emit(outcome: Outcome) -> None:
-            nonlocal done
-            if outcome.library and local_sha and outcome.library != local_sha:
-                raise FirmwareError(
-                    f"a worker ran a different firmware library (sha256 {outcome.library[:12]}…, "
-                    f"here {local_sha[:12]}…): build the same sources on every machine"
-                )
-            if outcome.events is not None:
-                folder = out / outcome.strategy / outcome.scene
-                folder.mkdir(parents=True, exist_ok=True)
-                (folder / "events.json").write_text(outcome.events)
-            log.write(_row_text(outcome.row))
-            log.flush()
-            rows[first[outcome.scene] + column[outcome.strategy]] = Row(outcome.row)
-            done += 1
-            if progress:
-                progress(done, total)
-
-        ship: Ship = functools.partial(shipped, spool=spool) if spool is not None else list
-        if todo and scheduler:
-            run_dask(todo, lib, scheduler, emit, engine, batch, ship)
-        elif todo:
-            run_local(todo, lib, workers, emit, engine, batch, ship)
-    ordered = [r for r in rows if r is not None]
-    write_rows(runs, ordered)
-    return SweepResult(ordered, len(todo))

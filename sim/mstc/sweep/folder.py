@@ -7,9 +7,11 @@ other's rows, so a sweep holds the folder with an advisory lock (``flock`` on
 ``DIR/.lock``, which the kernel drops when the process ends, however it ends).
 
 ``--resume`` keeps a row only if it was run from the scene it would run now:
-``DIR/sources.json`` holds the sha256 of each scene file's text and of the
-firmware library the rows were run with, so that a suite changed since (another
-seed, another range) or another build is run again, not kept.
+``DIR/sources.json`` holds the sha256 of the firmware library the rows were
+run with, of each scenario file's text, and of each suite family's
+definition under each actuator profile (:mod:`mstc.sweep.plan`), so that a
+suite changed since (another seed, another range) or another build is run
+again, not kept.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import fcntl
 import hashlib
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -73,9 +75,9 @@ def read_sources(out: Path) -> dict[str, object]:
     return data if isinstance(data, dict) else {}
 
 
-def write_sources(out: Path, library: str, scenes: dict[str, str]) -> None:
-    """Write ``DIR/sources.json``: the library's sha256 and each scene's
-    (name: sha256 of its text)."""
+def write_sources(out: Path, sources: Mapping[str, object]) -> None:
+    """Write ``DIR/sources.json``: what the rows are run from
+    (:meth:`mstc.sweep.plan.Plan.sources`)."""
     tmp = out / f"{SOURCES}.tmp"
-    tmp.write_text(json.dumps({"library": library, "scenes": scenes}, indent=1) + "\n")
+    tmp.write_text(json.dumps(sources, indent=1) + "\n")
     tmp.replace(out / SOURCES)

@@ -438,9 +438,12 @@ class _Scene:
     obstacles: list[tuple[float, float, float, float, float]]
     """x, y, radius, vx, vy"""
 
+    def __post_init__(self) -> None:
+        self._c, self._s = math.cos(self.heading), math.sin(self.heading)
+
     def point(self, along: float, lateral: float) -> tuple[float, float]:
         """World point at @p along the straight reference and @p lateral to its left."""
-        c, s = math.cos(self.heading), math.sin(self.heading)
+        c, s = self._c, self._s
         return (along * c - lateral * s, along * s + lateral * c)
 
 
@@ -450,10 +453,11 @@ def _clear(scene: _Scene, x: float, y: float, r: float, p: Params, separation: f
     rx, ry, _ = scene.robot
     if math.hypot(x - rx, y - ry) <= p.activation_distance(r) + 0.1:
         return False
-    return all(
-        math.hypot(x - ox, y - oy) >= max(separation, r + orad + 0.05)
-        for ox, oy, orad, *_ in scene.obstacles
-    )
+    hypot = math.hypot
+    for ox, oy, orad, _, _ in scene.obstacles:
+        if hypot(x - ox, y - oy) < max(separation, r + orad + 0.05):
+            return False
+    return True
 
 
 def _place(
@@ -610,25 +614,33 @@ _DRAWERS: dict[str, Callable[[_Scene, _Draw, Mapping[str, Any], Params], None]] 
 }
 
 
-def _num(x: float) -> str:
-    """A number as the files hold it: rounded to 4 decimals, shortest repr, no -0."""
+def _round(x: float) -> float:
+    """A number as the files hold it: rounded to 4 decimals, no -0."""
     value = round(x, 4)
-    return repr(value + 0.0 if value != 0.0 else 0.0)
+    return value + 0.0 if value != 0.0 else 0.0
 
 
-def _array(values: tuple[float, ...] | list[float]) -> str:
-    return "[" + ", ".join(_num(v) for v in values) + "]"
+def _num(x: float) -> str:
+    """A number as the files write it: rounded (:func:`_round`), shortest repr."""
+    return repr(_round(x))
 
 
-def scene_text(
+def _array(values: tuple[float, ...] | list[float]) -> list[float]:
+    return [_round(v) for v in values]
+
+
+def scene_doc(
     suite: Suite,
     family: Family,
     index: int,
     params: Params | None = None,
     actuator: ActuatorProfile | None = None,
-) -> str:
-    """Scene @p index of @p family as the text of a scenario file, with the
-    wheels of @p actuator (default: ideal): the same scene, drawn from the
+) -> dict[str, Any]:
+    """Scene @p index of @p family as a scenario document: what
+    ``tomllib.loads(scene_text(...))`` gives (the text is written from it),
+    which :func:`mstc.plant.scenario.parse_scenario` takes as it is, so a
+    worker makes its scenes without writing or parsing any text. The wheels
+    are those of @p actuator (default: ideal): the same scene, drawn from the
     same seed, under every profile."""
     p = params or Params()
     g = family.draws
@@ -648,45 +660,83 @@ def scene_text(
     _DRAWERS[family.kind](scene, d, g, p)
     imp = {key: (d.i(r) if key == "delay" else d.u(r)) for key, r in family.imperfections.items()}
 
+    meta: dict[str, Any] = {"family": family.name, "seed": seed, "index": index}
+    if actuator is not None:
+        meta["actuator"] = actuator.name
+    doc: dict[str, Any] = {
+        "meta": meta,
+        "robot": {"pose": _array(scene.robot)},
+        "reference": {
+            "pose": _array((0.0, 0.0, scene.heading)),
+            "v": _round(scene.v_r),
+            "w": _round(scene.w_r),
+        },
+    }
+    obstacles = []
+    for x, y, r, vx, vy in scene.obstacles:
+        entry: dict[str, Any] = {"position": _array((x, y)), "radius": _round(r)}
+        if vx or vy:
+            entry["velocity"] = _array((vx, vy))
+        obstacles.append(entry)
+    if obstacles:
+        doc["obstacles"] = obstacles
+    doc["sim"] = {
+        "duration": _round(g["duration"]),
+        "dt": _round(suite.dt),
+        "integrator": str(suite.integrator),
+    }
+    if imp:
+        doc["imperfections"] = {
+            "seed": seed,
+            **{k: v if k == "delay" else _round(float(v)) for k, v in imp.items()},
+        }
+    if actuator is not None and actuator.values:
+        doc["actuator"] = {
+            k: v if isinstance(v, int) else _round(float(v)) for k, v in actuator.values.items()
+        }
+    return doc
+
+
+def _value(v: object) -> str:
+    """A value of a scene document as TOML writes it (numbers already rounded)."""
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    return repr(v)
+
+
+def doc_text(doc: Mapping[str, Any]) -> list[str]:
+    """The lines of the TOML text of a scene document (:func:`scene_doc`):
+    its tables in order, an array of tables as ``[[name]]`` entries."""
+    lines: list[str] = []
+    for name, table in doc.items():
+        for entry in table if isinstance(table, list) else [table]:
+            lines += ["", f"[[{name}]]" if isinstance(table, list) else f"[{name}]"]
+            lines += [f"{k} = {_value(v)}" for k, v in entry.items()]
+    return lines
+
+
+def scene_text(
+    suite: Suite,
+    family: Family,
+    index: int,
+    params: Params | None = None,
+    actuator: ActuatorProfile | None = None,
+) -> str:
+    """Scene @p index of @p family as the text of a scenario file: the
+    document of :func:`scene_doc`, under a comment saying where it comes from."""
+    return text_of(suite, family, index, scene_doc(suite, family, index, params, actuator))
+
+
+def text_of(suite: Suite, family: Family, index: int, doc: Mapping[str, Any]) -> str:
+    """The text of scene @p index of @p family, whose document is @p doc."""
     lines = [
         "# SPDX-License-Identifier: MIT",
         f"# Generated by `mstc sweep` from the suite {suite.name} ({suite.path.name}), family",
         f"# {family.name} (kind {family.kind}), scene {index}: format docs/scenarios.md.",
-        "",
-        "[meta]",
-        f'family = "{family.name}"',
-        f"seed = {seed}",
-        f"index = {index}",
-        *([f'actuator = "{actuator.name}"'] if actuator is not None else []),
-        "",
-        "[robot]",
-        f"pose = {_array(scene.robot)}",
-        "",
-        "[reference]",
-        f"pose = {_array((0.0, 0.0, scene.heading))}",
-        f"v = {_num(scene.v_r)}",
-        f"w = {_num(scene.w_r)}",
+        *doc_text(doc),
     ]
-    for x, y, r, vx, vy in scene.obstacles:
-        lines += ["", "[[obstacles]]", f"position = {_array((x, y))}", f"radius = {_num(r)}"]
-        if vx or vy:
-            lines.append(f"velocity = {_array((vx, vy))}")
-    lines += [
-        "",
-        "[sim]",
-        f"duration = {_num(g['duration'])}",
-        f"dt = {_num(suite.dt)}",
-        f'integrator = "{suite.integrator}"',
-    ]
-    if imp:
-        lines += ["", "[imperfections]", f"seed = {seed}"]
-        lines += [f"{k} = {v if k == 'delay' else _num(float(v))}" for k, v in imp.items()]
-    if actuator is not None and actuator.values:
-        lines += ["", "[actuator]"]
-        lines += [
-            f"{k} = {v if isinstance(v, int) else _num(float(v))}"
-            for k, v in actuator.values.items()
-        ]
     return "\n".join(lines) + "\n"
 
 
