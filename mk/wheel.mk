@@ -40,7 +40,8 @@ wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requir
 # make wheel-sil: the firmware's wheel loop in the simulation (docs/wheel.md):
 # the paper's two scenarios under "mstc" through CAN, and WHEEL_SIL_COUNT
 # seeded scenes of every family of the standard suite in memory (mstc sweep),
-# each with `[actuator] model = "dc"`, in both numeric modes; results under
+# each with `[actuator] model = "dc"` instead of the suite's actuator
+# profiles, in both numeric modes; results under
 # build/wheel/sil/ (summary.md of each sweep).
 WHEEL_SIL_COUNT ?= 50
 WHEEL_SIL := $(WHEEL_DIR)/sil
@@ -51,8 +52,10 @@ wheel-sil: deps-sim libs-both $(KEY_FILE)  ## the paper's scenarios and a subset
 	  sed -e 's/^strategy = "paper"/strategy = "mstc"/' -e '/^\[\[expected\]\]/,$$d' \
 	    sim/scenarios/$$s.toml > $(WHEEL_SIL)/paper/$$s-dc.toml; \
 	  printf '\n[actuator]\nmodel = "dc"\n' >> $(WHEEL_SIL)/paper/$$s-dc.toml; done
-	$(MSTC) sweep --generate-only --count $(WHEEL_SIL_COUNT) --out $(WHEEL_SIL) \
-	  sim/suites/standard.toml
+	@# The suite's actuator profiles give way to the dc wheels: the scenes of
+	@# its ideal profile (no [actuator] table) get them.
+	$(MSTC) sweep --generate-only --actuator ideal --count $(WHEEL_SIL_COUNT) \
+	  --out $(WHEEL_SIL) sim/suites/standard.toml
 	@for f in $(WHEEL_SIL)/scenes/*/*.toml; do printf '\n[actuator]\nmodel = "dc"\n' >> $$f; done
 	@set -e; for m in $(NUM_MODES); do \
 	  $(MSTC) sim --bus sil --lib build/host/$$m/libmstc_sil.so --key-file $(KEY_FILE) \
