@@ -210,6 +210,21 @@ static void test_drv_bxcan_three_mailboxes_full_frames_queue_none_lost_order_kep
         TEST_ASSERT_EQUAL_UINT8(i + 7u, can.sent[i].data[7]);
     }
     TEST_ASSERT_EQUAL_UINT32(0u, status().tx_dropped);
+    /* Frames sent with interrupts masked (from a critical section, or an
+     * interrupt of higher priority): one transmit interrupt, when they are
+     * unmasked, fills every empty mailbox, not one. */
+    const uint32_t was = stm32_host_irq_save();
+    for (uint8_t i = 0; i < 4u; i++) {
+        const hal_can_frame_t f = frame(0x100u + i, i);
+        TEST_ASSERT_EQUAL_INT(0, hal_can_send(&f));
+    }
+    TEST_ASSERT_FALSE(can.tx_pending[0] || can.tx_pending[1] || can.tx_pending[2]);
+    stm32_host_irq_restore(was);
+    TEST_ASSERT_TRUE(can.tx_pending[0] && can.tx_pending[1] && can.tx_pending[2]);
+    TEST_ASSERT_EQUAL_UINT(4u, bxcan_model_transmit(&can, 4u));
+    for (uint8_t i = 0; i < 4u; i++) {
+        TEST_ASSERT_EQUAL_UINT32(0x100u + i, can.sent[10u + i].id);
+    }
 }
 
 static void test_drv_bxcan_a_full_transmit_queue_refuses_and_counts(void)

@@ -77,6 +77,13 @@ static void test_drv_pwm_duty_is_the_command_with_its_direction(void)
     one_period();
     TEST_ASSERT_EQUAL_DOUBLE(0.5, tim_model_duty(&pwm, 1u));  /* CCR 2,100 */
     TEST_ASSERT_EQUAL_DOUBLE(0.25, tim_model_duty(&pwm, 2u)); /* CCR 1,050 */
+    /* And the other way round: each wheel's direction is its own. */
+    TEST_ASSERT_EQUAL_INT(0, hal_motor_set(-2500, 5000));
+    TEST_ASSERT_FALSE(board_host.forward[0]);
+    TEST_ASSERT_TRUE(board_host.forward[1]);
+    one_period();
+    TEST_ASSERT_EQUAL_DOUBLE(0.25, tim_model_duty(&pwm, 1u));
+    TEST_ASSERT_EQUAL_DOUBLE(0.5, tim_model_duty(&pwm, 2u));
     /* 1 of 10,000: 0.42 counts, rounded to 0; 3: 1.26, to 1. */
     TEST_ASSERT_EQUAL_INT(0, hal_motor_set(1, 3));
     one_period();
