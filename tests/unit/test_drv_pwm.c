@@ -17,8 +17,8 @@
 
 #include "board_host.h"
 #include "hal/hal_motor.h"
-#include "stm32_hal.h"
 #include "model_tim.h"
+#include "stm32_hal.h"
 #include "stm32_host.h"
 #include "unity.h"
 
