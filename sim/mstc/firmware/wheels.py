@@ -382,6 +382,12 @@ class DcWheels:
         """The wheel loop's measured speeds at the end of the last period."""
         return self.state.measured
 
+    @property
+    def address(self) -> int:
+        """Where their wheel loop is (:attr:`WheelLoop.address`): for a
+        firmware instance that measures them as its own."""
+        return self.loop.address
+
     def drive(self, plant: UnicyclePlant, left: float, right: float, dt: float) -> None:
         """See :meth:`mstc.plant.plant.WheelDrive.drive`."""
         dt_us = round(dt * 1e6)

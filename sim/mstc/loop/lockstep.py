@@ -21,7 +21,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Protocol as TypingProtocol
 
 import can
 import numpy as np
@@ -66,8 +66,17 @@ from mstc.plant.plant import WheelDrive
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import make_world
 
-if TYPE_CHECKING:
-    from mstc.firmware.wheels import DcWheels
+
+class BoardWheels(WheelDrive, TypingProtocol):
+    """Wheels that a firmware instance measures itself: their wheel loop is
+    in the firmware library, at :attr:`address`
+    (:class:`mstc.firmware.wheels.DcWheels`)."""
+
+    @property
+    def address(self) -> int:
+        """Where the wheel loop is, for :meth:`SilBus.attach_wheels`."""
+        ...
+
 
 # ------------------------------------------------------------------ the loop
 
@@ -767,7 +776,7 @@ PRIME_STEP = STEP_MODULO - 1
 def simulate_on_sil_bus(
     scenario: Scenario,
     lib: str | os.PathLike[str],
-    wheels: DcWheels | None = None,
+    wheels: BoardWheels | None = None,
     *,
     key: bytes | None = None,
     progress: Progress | None = None,
@@ -790,7 +799,7 @@ def simulate_on_sil_bus(
     """
     bus = SilBus(channel="sil0", lib=lib, key=key)
     if wheels is not None:
-        bus.attach_wheels(wheels.loop.address)
+        bus.attach_wheels(wheels.address)
     try:
         ctl = CanController(bus, scenario.params, sim_time_stamps=True, key=key)
         result = simulate(scenario, ctl if wrap is None else wrap(ctl), progress, wheels)
