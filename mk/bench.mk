@@ -17,12 +17,12 @@ BENCH_SCENARIOS := sim/scenarios/paper-line.toml sim/scenarios/paper-circle.toml
 QEMU_ARM ?= qemu-system-arm
 QEMU_MACHINE_m4f := mps2-an386
 QEMU_MACHINE_m3 := mps2-an385
-# The wheel loop's benchmark runs against the DC motor model (model/dcm.c).
+# The wheel loop's benchmark runs against the DC motor model (sim/dcmotor/, mk/host.mk).
 BENCH_TARGET_SRCS := tools/bench/startup.c tools/bench/bench_core.c tools/bench/bench_target.c \
-  tools/bench/bench_wheel.c $(MODEL_SRCS)
+  tools/bench/bench_wheel.c $(DCMOTOR_SRCS)
 BENCH_HOST_SRCS := tools/bench/bench_core.c tools/bench/bench_host.c
 # The benchmark's sources include the scenarios generated into BENCH_DIR.
-SRC_CFLAGS_tools/bench := -Itools/bench -I$(BENCH_DIR) -Imodel
+SRC_CFLAGS_tools/bench := -Itools/bench -I$(BENCH_DIR) $(DCMOTOR_INC)
 
 $(BENCH_DIR)/scenarios.h: sim/mstc/bench/scenarios.py $(BENCH_SCENARIOS) | .venv/.requirements.sha256
 	@mkdir -p $(@D)

@@ -43,8 +43,16 @@ SRC_CFLAGS_hal/stm32/slcan_codec.c := -fno-tree-loop-distribute-patterns
 CAN ?= bxcan
 STM32_CAN_SRCS_bxcan := hal/stm32/bxcan.c hal/stm32/bxcan_calc.c
 STM32_CAN_SRCS_slcan := hal/stm32/slcan.c hal/stm32/slcan_codec.c
+# The processor-in-the-loop variant (docs/hil.md): the wheels' drivers
+# (encoder timers, PWM) give way to two simulated motors, the DC motor model
+# of sim/dcmotor/ behind hal_encoder and hal_motor (hal/stm32/pil_wheels.c).
+# Built as <board>-pil, on the slcan transport, for `make pil`; `make flash`
+# cannot name it (no CAN transport is called pil), so no flashed image has it.
+STM32_WHEEL_SRCS := hal/stm32/encoder.c hal/stm32/motor_pwm.c
+PIL_WHEEL_SRCS := hal/stm32/pil_wheels.c $(DCMOTOR_SRCS)
+IMG_PIL_BOARDS := stm32f405 stm32f103
 # Shared STM32 code: IWDG, SysTick, timers, start-up, main loop.
-STM32_SRCS := $(filter-out $(STM32_CAN_SRCS_bxcan) $(STM32_CAN_SRCS_slcan), \
+STM32_SRCS := $(filter-out $(STM32_CAN_SRCS_bxcan) $(STM32_CAN_SRCS_slcan) $(PIL_WHEEL_SRCS), \
   $(sort $(wildcard hal/stm32/*.c)))
 
 ifneq ($(filter firmware flash,$(MAKECMDGOALS)),)
@@ -72,7 +80,8 @@ $(foreach b,$(IMG_BOARDS),$(eval $(call IMG_BOARD_LOAD,$(b))))
 img_name = $(1)$(if $(filter-out $(firstword $(IMG_CANS_$(1))),$(filter $(2),$(IMG_CANS_$(1)))),-$(2))
 
 # Rules of one image. $(1): image; $(2): its numeric mode; $(3): board;
-# $(4): CAN transport (empty for a board without the choice). The register
+# $(4): CAN transport (empty for a board without the choice); $(5): pil for
+# the simulated motors in place of the wheels' drivers, else empty. The register
 # header is the board's, shared by its images, so that their common objects
 # are compiled from the same files and come out identical.
 define IMG_RULES
@@ -84,9 +93,10 @@ BUILD_CC_img-$(1) := $$(CROSS_CC)
 BUILD_CFLAGS_img-$(1) := -std=c11 $$(IMG_OPT) $$(IMG_CPU_$(3)) -ffunction-sections \
   -fdata-sections -fno-common -fstack-usage $$(FW_INC) $$(IMG_INC_$(3)) \
   $$(if $$(IMG_SVD_$(3)),-I$$(IMG_GEN_$(1))) $$(NUM_CFLAGS_$(2)) \
-  $$(AUTH_CFLAGS)
+  $$(AUTH_CFLAGS) $$(if $(5),$$(DCMOTOR_INC))
 BUILD_DIR_img-$(1) := $$(IMG_OBJ_$(1))
-BUILD_SRCS_img-$(1) := $$(call fw_srcs,$(2)) $$(IMG_SRCS_$(3)) $$(STM32_CAN_SRCS_$(4))
+BUILD_SRCS_img-$(1) := $$(call fw_srcs,$(2)) $$(STM32_CAN_SRCS_$(4)) \
+  $$(if $(5),$$(filter-out $$(STM32_WHEEL_SRCS),$$(IMG_SRCS_$(3))) $$(PIL_WHEEL_SRCS),$$(IMG_SRCS_$(3)))
 BUILD_DEPS_img-$(1) := $$(NUM_DEPS_$(2)) $$(AUTH_DEPS)
 BUILD_ORDER_img-$(1) := $$(STAMP)/apt-test $$(IMG_GENH_$(1))
 $$(eval $$(call BUILD,img-$(1)))
@@ -129,6 +139,7 @@ img-$(1): $$(addprefix $$(IMG_DIR_$(1))/,mstc.elf mstc.bin mstc.hex size.txt)
 endef
 $(foreach b,$(IMG_BOARDS),$(foreach c,$(or $(IMG_CANS_$(b)),none),$(eval \
   $(call IMG_RULES,$(call img_name,$(b),$(c)),$(IMG_NUMERIC_$(b)),$(b),$(filter-out none,$(c))))))
+$(foreach b,$(IMG_PIL_BOARDS),$(eval $(call IMG_RULES,$(b)-pil,$(IMG_NUMERIC_$(b)),$(b),slcan,pil)))
 # The image `make firmware` and `make flash` mean.
 IMG := $(call img_name,$(BOARD),$(CAN))
 ifneq ($(filter firmware flash,$(MAKECMDGOALS)),)

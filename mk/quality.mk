@@ -91,24 +91,28 @@ fuzz: fuzz-build  ## run every libFuzzer harness for FUZZ_SECONDS (default 60) e
 
 # ------------------------------------------------------------------ coverage
 # The unit tests again, built with gcov at -O0 in build/coverage (float mode:
-# the mode whose branches include the non-finite checks), then gcovr.
+# the mode whose branches include the non-finite checks), then gcovr over the
+# firmware and the STM32 drivers the register tests run (mk/host.mk).
 COV_DIR := build/coverage
 BUILD_CC_cov := $(CC)
 BUILD_CFLAGS_cov := $(CSTD) -O0 -g --coverage $(FW_INC) $(AUTH_CFLAGS)
 BUILD_DIR_cov := $(COV_DIR)/obj
-BUILD_SRCS_cov := $(call fw_srcs,float) $(FAKE_SRCS) $(UNIT_SRCS) $(TEST_SRCS)
+BUILD_SRCS_cov := $(call fw_srcs,float) $(FAKE_SRCS) $(UNIT_SRCS) $(DRV_SRCS) $(TEST_SRCS)
 BUILD_DEPS_cov := $(AUTH_DEPS)
 BUILD_ORDER_cov := $(STAMP)/apt-sim
 $(eval $(call BUILD,cov))
 $(eval $(call UNIT_TEST_RULES,cov,$(COV_DIR)/tests,$(call fw_srcs,float) $(FAKE_SRCS),--coverage))
-COV_TESTS := $(addprefix $(COV_DIR)/tests/,$(UNIT_TESTS))
+COV_TESTS := $(addprefix $(COV_DIR)/tests/,$(UNIT_TESTS) $(DRV_TESTS))
+# The STM32 drivers the register tests run (tools/quality/coverage-check).
+COV_DRIVERS := encoder motor_pwm bxcan can_queue tick time sys
 
 .PHONY: coverage
 coverage: deps-test $(COV_TESTS)  ## unit tests under gcov; gcovr report, thresholds of docs/safety.md
 	@find $(COV_DIR) -name '*.gcda' -delete
 	@tools/run-unit-tests $(COV_TESTS) > $(COV_DIR)/tests.log || { cat $(COV_DIR)/tests.log; exit 1; }
 	@tail -n 1 $(COV_DIR)/tests.log
-	@$(PY) -m gcovr --root . --filter 'firmware/' --exclude 'firmware/comm/mstc_dbc\.c' \
+	@$(PY) -m gcovr --root . --filter 'firmware/' \
+	  $(foreach d,$(COV_DRIVERS),--filter 'hal/stm32/$(d)\.c') --exclude 'firmware/comm/mstc_dbc\.c' \
 	  --exclude-unreachable-branches --json-summary $(COV_DIR)/summary.json \
 	  --html-details $(COV_DIR)/index.html --txt $(COV_DIR)/coverage.txt $(COV_DIR)/obj
 	@cat $(COV_DIR)/coverage.txt
@@ -146,6 +150,14 @@ $(SA_DIR)/clang-tidy.ok: $(SA_SRCS) $(FW_HDRS) .clang-tidy $(NUM_DEPS_fixed) $(A
 cppcheck: $(SA_DIR)/cppcheck.ok
 clang-tidy: $(SA_DIR)/clang-tidy.ok
 static-analysis: cppcheck clang-tidy  ## cppcheck with the MISRA addon, clang-tidy: zero findings
+
+# ------------------------------------------------------------ driver mutants
+# Each STM32 driver broken on purpose, one bug at a time: the test of it
+# against its registers' models must fail (tools/quality/driver-mutants;
+# docs/porting.md). Not part of make test: about 15 minutes.
+.PHONY: driver-mutants
+driver-mutants: deps-test test-unit-float  ## break each STM32 driver on purpose: its register test must catch every bug (tools/quality/driver-mutants)
+	$(PY) tools/quality/driver-mutants
 
 # ------------------------------------------------------------------ warnings
 # Every firmware source under WARN with clang on the host and with the

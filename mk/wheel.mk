@@ -4,20 +4,21 @@
 # window against tracking loop, and the closed loop against the DC motor
 # model in the acceptance's situations, in both numeric modes. Included by
 # the top Makefile after mk/host.mk; uses CC, CSTD, OPT, FW_INC, PY, STAMP,
-# mk/host.mk's MODEL_SRCS and mk/numeric.mk's NUM_MODES, NUM_*_<mode>. Each
-# mode is a build of mk/compile.mk (wheel-<mode>).
+# mk/host.mk's DCMOTOR_SRCS and DCMOTOR_INC, and mk/numeric.mk's NUM_MODES,
+# NUM_*_<mode>. Each mode is a build of mk/compile.mk (wheel-<mode>).
 
 WHEEL_DIR := build/wheel
 # The wheel loop and what its defaults come from (the limits table).
-WHEEL_CORE_SRCS := firmware/wheel/whl.c firmware/ctrl/ctl_params.c firmware/ctrl/ctl_limits.c
-SRC_CFLAGS_tools/wheel := -Imodel
+WHEEL_CORE_SRCS := firmware/wheel/whl.c firmware/ctrl/ctl_params.c firmware/ctrl/ctl_limits.c \
+  $(sort $(wildcard firmware/num/*.c))
+SRC_CFLAGS_tools/wheel := $(DCMOTOR_INC)
 
 # $(1): numeric mode.
 define WHEEL_RULES
 BUILD_CC_wheel-$(1) := $$(CC)
 BUILD_CFLAGS_wheel-$(1) := $$(CSTD) $$(OPT) $$(FW_INC) $$(NUM_CFLAGS_$(1))
 BUILD_DIR_wheel-$(1) := $(WHEEL_DIR)/$(1)/obj
-BUILD_SRCS_wheel-$(1) := tools/wheel/wheel_study.c $$(WHEEL_CORE_SRCS) $$(MODEL_SRCS) \
+BUILD_SRCS_wheel-$(1) := tools/wheel/wheel_study.c $$(WHEEL_CORE_SRCS) $$(DCMOTOR_SRCS) \
   $$(NUM_SRCS_$(1))
 BUILD_DEPS_wheel-$(1) := $$(NUM_DEPS_$(1))
 BUILD_ORDER_wheel-$(1) := $$(STAMP)/apt-sim
@@ -39,7 +40,8 @@ wheel-figures: $(WHEEL_DIR)/float/.done $(WHEEL_DIR)/fixed/.done | .venv/.requir
 # make wheel-sil: the firmware's wheel loop in the simulation (docs/wheel.md):
 # the paper's two scenarios under "mstc" through CAN, and WHEEL_SIL_COUNT
 # seeded scenes of every family of the standard suite in memory (mstc sweep),
-# each with `[actuator] model = "dc"`, in both numeric modes; results under
+# each with `[actuator] model = "dc"` instead of the suite's actuator
+# profiles, in both numeric modes; results under
 # build/wheel/sil/ (summary.md of each sweep).
 WHEEL_SIL_COUNT ?= 50
 WHEEL_SIL := $(WHEEL_DIR)/sil
@@ -50,8 +52,10 @@ wheel-sil: deps-sim libs-both $(KEY_FILE)  ## the paper's scenarios and a subset
 	  sed -e 's/^strategy = "paper"/strategy = "mstc"/' -e '/^\[\[expected\]\]/,$$d' \
 	    sim/scenarios/$$s.toml > $(WHEEL_SIL)/paper/$$s-dc.toml; \
 	  printf '\n[actuator]\nmodel = "dc"\n' >> $(WHEEL_SIL)/paper/$$s-dc.toml; done
-	$(MSTC) sweep --generate-only --count $(WHEEL_SIL_COUNT) --out $(WHEEL_SIL) \
-	  sim/suites/standard.toml
+	@# The suite's actuator profiles give way to the dc wheels: the scenes of
+	@# its ideal profile (no [actuator] table) get them.
+	$(MSTC) sweep --generate-only --actuator ideal --count $(WHEEL_SIL_COUNT) \
+	  --out $(WHEEL_SIL) sim/suites/standard.toml
 	@for f in $(WHEEL_SIL)/scenes/*/*.toml; do printf '\n[actuator]\nmodel = "dc"\n' >> $$f; done
 	@set -e; for m in $(NUM_MODES); do \
 	  $(MSTC) sim --bus sil --lib build/host/$$m/libmstc_sil.so --key-file $(KEY_FILE) \

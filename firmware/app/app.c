@@ -109,11 +109,42 @@ static bool bus_off(app_t *a)
     return moved || st.state == HAL_CAN_STATE_BUS_OFF;
 }
 
+void app_set_wheel_source(app_t *a, app_wheel_source_t source)
+{
+    a->wheel_source = (uint8_t)source;
+}
+
+void app_wheels_measured(app_t *a, const kin_wheels_t *speed, uint8_t faults, uint32_t age_us)
+{
+    if (a->wheel_source != (uint8_t)APP_WHEELS_OWN) {
+        return;
+    }
+    a->wheel_speed = *speed;
+    a->wheel_faults = faults;
+    a->wheel_age_us = age_us;
+    a->wheels_handed = true;
+}
+
 /* The wheels move: commanded, or last measured, at a speed other than zero. */
 static bool wheels_move(const app_t *a)
 {
     return a->wheels.left != NUM_ZERO || a->wheels.right != NUM_ZERO ||
            a->wheel_speed.left != NUM_ZERO || a->wheel_speed.right != NUM_ZERO;
+}
+
+/* The measured wheel speeds fail (app.h): a wheel fault they report, or a
+ * measurement missing while the wheels move: from the own wheel loop, none
+ * handed since the last step; from the bus (@p bus_usable: WHEEL_SPEED at
+ * this step), not valid or timed out once it has been valid. */
+static bool wheel_speeds_failed(const app_t *a, bool bus_usable)
+{
+    if (a->wheel_faults != 0u) {
+        return true;
+    }
+    const bool missing = a->wheel_source == (uint8_t)APP_WHEELS_OWN
+                             ? !a->wheels_handed
+                             : a->wheel_speed_watched && !bus_usable;
+    return missing && wheels_move(a);
 }
 
 /* Why the robot must not move at this step, COMM_HALT_NONE if it may. Every
@@ -135,15 +166,16 @@ static comm_halt_t check_inputs(app_t *a, uint64_t t_us, bool lockstep)
         why = COMM_HALT_REFERENCE;
     } else if (lockstep && !usable[APP_IN_STEP]) {
         why = COMM_HALT_STEP;
-    } else if (a->wheel_speed_watched && !usable[APP_IN_WHEEL_SPEED] && wheels_move(a)) {
+    } else if (wheel_speeds_failed(a, usable[APP_IN_WHEEL_SPEED])) {
         why = COMM_HALT_WHEEL_SPEED;
     } else {
         /* every input usable */
     }
-    if (!usable[APP_IN_WHEEL_SPEED]) {
+    if (a->wheel_source != (uint8_t)APP_WHEELS_OWN && !usable[APP_IN_WHEEL_SPEED]) {
         /* Timed out: the last measurement is forgotten, and the watch with it
          * once the wheels stand. What a node sent ends when it stops
-         * (docs/safety.md, "Threat model"), whoever it was. */
+         * (docs/safety.md, "Threat model"), whoever it was. The own wheel
+         * loop's estimate is no bus input: it is handed at every step. */
         a->wheel_speed = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
         a->wheel_speed_watched = a->wheel_speed_watched && wheels_move(a);
     }
@@ -207,6 +239,7 @@ int app_arm(app_t *a, bool arm)
      * own, as every step does. The plausibility check starts again from the
      * next full pose: the robot may have been moved while halted. */
     a->halt = (uint8_t)COMM_HALT_NONE;
+    a->wheel_faults = 0u; /* a fault still there is reported again */
     odo_reset(&a->odo);
     return 0;
 }
@@ -231,10 +264,16 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
         odo_reset(&a->odo);
     }
     comm_halt_t why = check_inputs(a, t_us, lockstep);
-    /* Speeds the wheels measured over the period that just ended, when they
-     * came with this step: the motion odometry must follow. Otherwise the
-     * commands: wheels that lag them would make odometry look implausible. */
-    const bool measured = a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u;
+    /* Speeds the wheels measured, when they came with this step (the own
+     * wheel loop's, or WHEEL_SPEED's over the period that just ended, its
+     * state machine VALID: check_inputs() forgot one that is not): the
+     * motion odometry must follow. Otherwise the commands: wheels that lag
+     * them would make odometry look implausible. */
+    const bool own = a->wheel_source == (uint8_t)APP_WHEELS_OWN;
+    const bool measured =
+        own ? a->wheels_handed
+            : a->in[APP_IN_WHEEL_SPEED].ever && a->in[APP_IN_WHEEL_SPEED].missed == 0u &&
+                  comm_rx(&a->comm, COMM_ID_WHEEL_SPEED)->state == (uint8_t)COMM_SM_VALID;
     if (a->halt == (uint8_t)COMM_HALT_NONE && why == COMM_HALT_NONE &&
         odo_step(&a->odo, &a->ctl.p.kin, measured ? &a->wheel_speed : &a->wheels,
                  num_from_float((float)dt_us * 1.0e-6f), &a->odom,
@@ -266,6 +305,9 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
             .t_us = t_us,
             .wheels = a->wheel_speed,
             .wheels_measured = measured,
+            /* Through float in both modes (as ramp_down's dt); 0 (half the
+             * period) for WHEEL_SPEED. */
+            .wheels_age = own ? num_from_float((float)a->wheel_age_us * 1.0e-6f) : NUM_ZERO,
         };
         ctl_step(&a->ctl, &in, &out);
         a->wheels = out.wheels;
@@ -284,6 +326,14 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
     a->steps++;
 
     hal_can_frame_t f;
+    if (own && a->wheels_handed) {
+        /* What the board measured, first: nobody else says it (a CAN
+         * controller does not receive its own frames, the plant and the
+         * tools do). */
+        (void)comm_encode_wheel_speed_faults(&a->comm, &a->wheel_speed, a->wheel_faults, &f);
+        send(&f);
+    }
+    a->wheels_handed = false;
     for (size_t i = 0; i < out.n_events; i++) {
         (void)comm_encode_event(&a->comm, &out.events[i], &f);
         send(&f);
@@ -519,7 +569,14 @@ int app_on_frame(app_t *a, const hal_can_frame_t *f)
     }
     case COMM_ID_PARAM_SET: on_param_set(a, &m); break;
     case COMM_ID_PARAM_AUTH: on_param_auth(a, &m); break;
-    case COMM_ID_WHEEL_SPEED: a->wheel_speed = m.u.wheel_speed; break;
+    case COMM_ID_WHEEL_SPEED:
+        /* The input of the external drives' topology only: a board that
+         * measures its own wheels takes no one else's word for them. */
+        if (a->wheel_source != (uint8_t)APP_WHEELS_OWN) {
+            a->wheel_speed = m.u.wheel_speed.speed;
+            a->wheel_faults = m.u.wheel_speed.faults;
+        }
+        break;
     case COMM_ID_FW_VERSION_GET: send_fw_version(a); break;
     default: /* COMM_ID_PARAM_GET: comm_decode only returns frames the firmware receives */
         on_param(a, m.u.param_get, false, false, 0.0f);

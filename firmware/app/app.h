@@ -52,13 +52,24 @@
  * the motion commanded (a replayed recording, a stuck sensor) halts with
  * COMM_HALT_ODOMETRY_IMPLAUSIBLE.
  *
- * Measured wheel speeds (WHEEL_SPEED, optional): a step on which one arrived
- * hands it to the control step, which otherwise predicts the wheel speeds
- * from its own commands (ctrl/act.h). Once the input has been valid (its
- * E2E state machine VALID, fresh) at a step, it is watched like odometry:
- * not valid or timed out (APP_TIMEOUT_PERIODS, APP_TIMEOUT_US) while the
- * wheels move (commanded or measured speed not zero), it halts with
- * COMM_HALT_WHEEL_SPEED; standing, it does not.
+ * Measured wheel speeds come from one of two places, the port's choice
+ * (app_set_wheel_source(); docs/wheel.md, "Two topologies"):
+ * - external drives (APP_WHEELS_EXTERNAL, the default): WHEEL_SPEED frames,
+ *   optional. A step on which one arrived hands it to the control step,
+ *   which otherwise predicts the wheel speeds from its own commands
+ *   (ctrl/act.h). Once the input has been valid (its E2E state machine
+ *   VALID, fresh) at a step, it is watched like odometry: not valid or timed
+ *   out (APP_TIMEOUT_PERIODS, APP_TIMEOUT_US) while the wheels move
+ *   (commanded or measured speed not zero), it halts with
+ *   COMM_HALT_WHEEL_SPEED; standing, it does not.
+ * - the integrated board (APP_WHEELS_OWN): the port's own wheel loop hands
+ *   its encoder estimate and its age before every control step
+ *   (app_wheels_measured()), and the step takes that; WHEEL_SPEED frames are
+ *   not its input (ignored). A step without one while the wheels move halts
+ *   with COMM_HALT_WHEEL_SPEED, and every step sends what was measured, with
+ *   the faults, as WHEEL_SPEED (first of the step's frames).
+ * Either way a wheel fault the measurement reports (WHEEL_SPEED_faults: a
+ * dead or implausible encoder, a stall) halts with COMM_HALT_WHEEL_SPEED.
  *
  * Every step's STATUS_TRK echoes the alive counter of the ODOM_XY frame whose
  * position the step used (STATUS_TRK_odom_counter), in both modes: in real
@@ -129,6 +140,13 @@ enum {
     APP_N_IN,
 };
 
+/** @brief Where the control step's measured wheel speeds come from (app.h's
+ *         file comment; docs/wheel.md, "Two topologies"). */
+typedef enum {
+    APP_WHEELS_EXTERNAL = 0, /**< external drives: WHEEL_SPEED frames (the default) */
+    APP_WHEELS_OWN = 1,      /**< the integrated board: its own wheel loop */
+} app_wheel_source_t;
+
 /** @brief Freshness of one input frame. */
 typedef struct {
     uint8_t missed;   /**< control steps since the last one with an accepted frame (saturating) */
@@ -175,10 +193,20 @@ typedef struct {
     /** Alive counter of the ODOM_XY frame odom.x and odom.y came from (0
      *  before the first), echoed in STATUS_TRK. */
     uint8_t odom_counter;
-    /** Latest WHEEL_SPEED: each wheel's measured speed [rad/s] (the mean over
-     *  the sender's last period); handed to the control step when one arrived
-     *  since the last step. */
+    /** Latest measured wheel speeds [rad/s]: WHEEL_SPEED's (each wheel's mean
+     *  over the sender's last period), handed to the control step when one
+     *  arrived since the last step; or the own wheel loop's
+     *  (app_wheels_measured()). */
     kin_wheels_t wheel_speed;
+    /** app_wheel_source_t: where they come from. */
+    uint8_t wheel_source;
+    /** The wheel faults they came with (WHL_FAULT_* bits, WHEEL_SPEED_faults);
+     *  forgotten at a re-arm. */
+    uint8_t wheel_faults;
+    /** APP_WHEELS_OWN: a measurement was handed since the last step ... */
+    bool wheels_handed;
+    /** ... of this age at the step [µs]. */
+    uint32_t wheel_age_us;
     /** WHEEL_SPEED has been valid at a step (its E2E state machine VALID,
      *  fresh): from then on it is watched like odometry, until it times out
      *  while the wheels stand (then optional again, and wheel_speed zero). */
@@ -233,6 +261,24 @@ void app_set_key(app_t *a, const uint8_t key[AUTH_KEY_LEN], uint32_t session);
 int app_set_node(app_t *a, uint8_t node);
 
 /**
+ * @brief Where the measured wheel speeds come from: the port's choice, once,
+ *        at start (after app_init(), before the first frame). A board whose
+ *        own wheel loop reads the encoders says APP_WHEELS_OWN; without a
+ *        call, APP_WHEELS_EXTERNAL.
+ */
+void app_set_wheel_source(app_t *a, app_wheel_source_t source);
+
+/**
+ * @brief APP_WHEELS_OWN: the wheel loop's measurement, before a control step
+ *        (the next one takes it): the speeds @p speed [rad/s] estimated at
+ *        the loop's last period, its fault bits @p faults (WHL_FAULT_*), and
+ *        the estimate's age @p age_us at the step [µs] (half its speed
+ *        window, plus the time since that period). Ignored with
+ *        APP_WHEELS_EXTERNAL. Task context.
+ */
+void app_wheels_measured(app_t *a, const kin_wheels_t *speed, uint8_t faults, uint32_t age_us);
+
+/**
  * @brief Handle one received frame; replies go out through hal_can_send().
  *        A frame that fails its checks is dropped and counted.
  * @retval 0 handled. @retval negative errno from comm_decode() when dropped.
@@ -267,6 +313,18 @@ void app_housekeeping(app_t *a, uint64_t now_us);
  *        step's WHEEL_CMD, before the frame's scaling.
  */
 static inline const kin_wheels_t *app_last_wheels(const app_t *a) { return &a->wheels; }
+
+/**
+ * @brief The setpoint ramp of a board's wheel loop [rad/s²] (whl.h):
+ *        wheel_accel, what the wheels can do; while halted at least the
+ *        halt's deceleration, so that the wheel loop passes the halt's ramp
+ *        on unslowed (the wheels then brake as fast as they can).
+ */
+static inline num_t app_wheel_accel(const app_t *a)
+{
+    const num_t accel = a->ctl.p.wheel_accel;
+    return a->halt != (uint8_t)COMM_HALT_NONE ? num_max(accel, a->ramp_decel) : accel;
+}
 
 /**
  * @brief Re-arm (@p arm true) or disarm. Disarming halts (COMM_HALT_NOT_ARMED,

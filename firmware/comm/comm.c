@@ -424,8 +424,9 @@ static void decode_payload(uint32_t id, const uint8_t *d, comm_msg_t *m)
     case COMM_ID_WHEEL_SPEED: {
         struct mstc_dbc_wheel_speed_t s;
         (void)mstc_dbc_wheel_speed_unpack(&s, d, FRAME_LEN);
-        m->u.wheel_speed.left = num_from_raw(s.wheel_speed_left, &s_wheel);
-        m->u.wheel_speed.right = num_from_raw(s.wheel_speed_right, &s_wheel);
+        m->u.wheel_speed.speed.left = num_from_raw(s.wheel_speed_left, &s_wheel);
+        m->u.wheel_speed.speed.right = num_from_raw(s.wheel_speed_right, &s_wheel);
+        m->u.wheel_speed.faults = (uint8_t)(s.wheel_speed_faults & COMM_WHEEL_FAULTS_MASK);
         break;
     }
     case COMM_ID_FW_VERSION_GET: break; /* no payload */

@@ -199,7 +199,10 @@ typedef struct {
             uint8_t mac[AUTH_MAC_LEN]; /**< bytes 4..7: the truncated CMAC */
         } param_auth;                  /**< PARAM_AUTH */
         uint8_t param_get;             /**< PARAM_GET index */
-        kin_wheels_t wheel_speed;      /**< WHEEL_SPEED: measured [rad/s] */
+        struct {
+            kin_wheels_t speed; /**< measured [rad/s] */
+            uint8_t faults;     /**< the sender's wheel faults (WHL_FAULT_* bits) */
+        } wheel_speed;          /**< WHEEL_SPEED */
     } u;
 } comm_msg_t;
 

@@ -159,7 +159,6 @@ extern "C" {
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_COUNTS_CHOICE (21u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RATE_CHOICE (22u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_WINDOW_CHOICE (23u)
-#define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_RAMP_CHOICE (24u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_ARM_CHOICE (128u)
 
@@ -187,7 +186,6 @@ extern "C" {
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_COUNTS_CHOICE (21u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RATE_CHOICE (22u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_WINDOW_CHOICE (23u)
-#define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_RAMP_CHOICE (24u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_GET_PARAM_GET_INDEX_ARM_CHOICE (128u)
 
@@ -259,7 +257,6 @@ extern "C" {
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_COUNTS_CHOICE (21u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RATE_CHOICE (22u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_WINDOW_CHOICE (23u)
-#define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_RAMP_CHOICE (24u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_WHEEL_STALL_TIME_CHOICE (25u)
 #define MSTC_DBC_PARAM_VALUE_PARAM_VALUE_INDEX_ARM_CHOICE (128u)
 
@@ -597,7 +594,7 @@ struct mstc_dbc_step_t {
 /**
  * Signals in message WHEEL_SPEED.
  *
- * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it: the plant in simulation (SIL, HIL, replay), standing for the motor drivers; on a robot, the motor drivers, or the motor-controller board itself when it runs the wheel loop (it then sends what its encoders measure). Lock-step: sent before STEP, like odometry. Once they have been valid the firmware expects them: missing or stale while the wheels move, they halt it as stale odometry does (STATUS_halt 7, docs/safety.md). Bits 12..15 and 56..63 are spare.
+ * Each wheel's measured angular speed, as a CAN motor driver reports it (positive forward). Who sends it depends on the topology (docs/wheel.md): with external drives, the motor drivers (in simulation the plant, standing for them), and it is the firmware's input: lock-step, sent before STEP, like odometry; once they have been valid the firmware expects them: missing or stale while the wheels move, or with fault bits, they halt it (STATUS_halt 7, docs/safety.md). On an integrated board, the board itself, at every control step, the first of its frames: what its own wheel loop measured, with its faults; it then takes no one else's WHEEL_SPEED. Bits 12..15 and 56..63 are spare.
  *
  * All signal values are as on the CAN bus.
  */
@@ -631,7 +628,7 @@ struct mstc_dbc_wheel_speed_t {
     int32_t wheel_speed_right;
 
     /**
-     * The sending board's wheel loop (docs/wheel.md), latched until the next re-arm, while they last its motors are stopped: bit 0 left wheel stalled, bit 1 right wheel stalled (full drive without motion in its direction for wheel_stall_time), bit 2 left encoder, bit 3 right encoder (drive without a single count for 0.1 s, or more counts than the wheel can turn). 0 from a plant or a motor driver.
+     * The sending board's or drive's wheel loop (docs/wheel.md), latched until the next re-arm, while they last its motors are stopped; not 0 halts the firmware (STATUS_halt 7): bit 0 left wheel stalled, bit 1 right wheel stalled (full drive without motion in its direction for wheel_stall_time), bit 2 left encoder, bit 3 right encoder (a quarter of full drive or more without a single count for 0.1 s, or more counts than the wheel can turn). 0 from a plant or a drive without such faults.
      *
      * Range: 0..15 (0..15 -)
      * Scale: 1
@@ -994,7 +991,7 @@ struct mstc_dbc_status_t {
     uint8_t status_step;
 
     /**
-     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off; 6 odometry implausible: it disagrees with the motion the firmware commanded (replayed or stale odometry); 7 wheel speeds: WHEEL_SPEED, once it has been valid, not valid or not received for 3 control periods while the wheels are commanded or measured to move. Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
+     * Why the wheels are held at zero (ramped down with max_wheel_decel; docs/safety.md): 0 running; 1 not armed (start-up, or disarmed); 2 odometry, 3 reference or 4 STEP not valid (E2E state machine) or not received for 3 control periods; 5 CAN bus-off; 6 odometry implausible: it disagrees with the motion the firmware commanded (replayed or stale odometry); 7 wheel speeds: a wheel fault the measured speeds report (WHEEL_SPEED_faults), or the measurement missing while the wheels are commanded or measured to move: from external drives, WHEEL_SPEED, once it has been valid, not valid or not received for 3 control periods; on an integrated board, its own wheel loop's at a control step (docs/wheel.md). Latched until re-armed: PARAM_SET index arm (128) with value 1, accepted only while odometry and reference are valid and their last 5 frames each were received in sequence.
      *
      * Range: 0..7 (0..7 -)
      * Scale: 1

@@ -139,12 +139,17 @@ static inline bool act_limit(act_t *a, num_t step, kin_wheels_t *w)
 
 /**
  * @brief The horizon over which the wheels' lag carries the robot on [s]:
- *        wheel_tau, plus half a period when the speeds are measured (a
- *        period's mean is half a period old).
+ *        wheel_tau, plus the measurement's age when the speeds are measured:
+ *        @p age when one is given (> 0: a board's own wheel loop, from the
+ *        middle of its speed window to the step, app.h), else half the
+ *        period @p dt (WHEEL_SPEED: a period's mean is half a period old).
  */
-static inline num_t act_horizon(num_t tau, num_t dt, bool measured)
+static inline num_t act_horizon(num_t tau, num_t dt, num_t age, bool measured)
 {
-    return measured ? num_add(tau, num_mul(dt, NUM_C(0.5))) : tau;
+    if (!measured) {
+        return tau;
+    }
+    return num_add(tau, age > NUM_ZERO ? age : num_mul(dt, NUM_C(0.5)));
 }
 
 /* The rotation of act_predict() (in this header, as the functions below it:

@@ -94,8 +94,10 @@ static bool inputs_in_range(const ctl_input_t *in)
            within(in->robot.theta, CTL_MAX_ABS_ANGLE) && within(in->ref.x, CTL_MAX_ABS_POSITION) &&
            within(in->ref.y, CTL_MAX_ABS_POSITION) && within(in->ref.theta, CTL_MAX_ABS_ANGLE) &&
            within(in->v_r, CTL_MAX_ABS_SPEED) && within(in->w_r, CTL_MAX_ABS_SPEED) &&
-           (!in->wheels_measured || (within(in->wheels.left, CTL_MAX_ABS_WHEEL_SPEED) &&
-                                     within(in->wheels.right, CTL_MAX_ABS_WHEEL_SPEED)));
+           (!in->wheels_measured ||
+            (within(in->wheels.left, CTL_MAX_ABS_WHEEL_SPEED) &&
+             within(in->wheels.right, CTL_MAX_ABS_WHEEL_SPEED) && in->wheels_age >= NUM_ZERO &&
+             within(in->wheels_age, CTL_MAX_WHEELS_AGE)));
 }
 
 /* A report the supervisor may compute with: its values within their ranges
@@ -313,7 +315,7 @@ static void wheels_now(ctl_t *c, const ctl_input_t *in, num_t cos_th, num_t sin_
     }
     wn->step = mo->step;
     act_estimate_lag(&c->act, mo->lag_k, in->wheels_measured ? &in->wheels : NULL);
-    wn->horizon = act_horizon(p->wheel_tau, wn->dt, in->wheels_measured);
+    wn->horizon = act_horizon(p->wheel_tau, wn->dt, in->wheels_age, in->wheels_measured);
     kin_vw_from_wheels(&p->kin, &c->act.est, &wn->v, &wn->w);
     act_predict(&in->robot, cos_th, sin_th, wn->v, wn->w, wn->horizon, &wn->at);
     /* The command in force is the last step's: its body velocity is the one

@@ -52,13 +52,13 @@ typedef struct {
      *  parameter the table checks (an enumerated one: a whole number). */
     num_t strategy;
     /** What the wheels can do [rad/s²]: "mstc" changes no wheel command
-     *  faster (act.h) and brakes with it in its safety filter (cbf.h). */
+     *  faster (act.h) and brakes with it in its safety filter (cbf.h); the
+     *  boards' wheel loop ramps its setpoint at it (whl.h). */
     num_t wheel_accel;
     /** The wheels' lag to their command, delays included [s] (act.h). */
     num_t wheel_tau;
-    /** The boards' wheel-speed loop (firmware/wheel, PARAM_SET 17..): not
-     *  used by the control step; in the set for its checks (wheel_ramp is
-     *  bounded by max_wheel_decel). */
+    /** The boards' wheel-speed loop (firmware/wheel, PARAM_SET 17..25): not
+     *  used by the control step; in the set for its checks. */
     whl_params_t wheel;
 } ctl_params_t;
 
@@ -126,6 +126,7 @@ enum {
 #define CTL_MAX_ABS_SPEED       NUM_C(100.0) /**< |v_r| [m/s], |ω_r| [rad/s], obstacle |vx|, |vy| */
 #define CTL_MAX_RADIUS          NUM_C(100.0)  /**< obstacle radius [m] */
 #define CTL_MAX_ABS_WHEEL_SPEED NUM_C(1000.0) /**< measured wheel speeds [rad/s] */
+#define CTL_MAX_WHEELS_AGE      NUM_C(1.0)    /**< their age, in [0, 1) [s] */
 /** @} */
 
 /** @brief Inputs of one step. */
@@ -137,11 +138,16 @@ typedef struct {
     const sup_obstacle_t *obstacles; /**< obstacles the sensor reports now */
     size_t n_obstacles;
     uint64_t t_us; /**< step time [µs] */
-    /** Measured wheel speeds (WHEEL_SPEED: each wheel's mean over the period
-     *  that just ended) [rad/s], when wheels_measured; "mstc" predicts them
-     *  from its own commands otherwise (act.h). */
+    /** Measured wheel speeds [rad/s], when wheels_measured: from the bus
+     *  (WHEEL_SPEED: each wheel's mean over the period that just ended), or
+     *  a board's own wheel loop (app.h); "mstc" predicts them from its own
+     *  commands otherwise (act.h). */
     kin_wheels_t wheels;
     bool wheels_measured;
+    /** How old wheels is [s]: from the middle of the time it averages to
+     *  t_us (a board's own wheel loop: half its speed window, and the time
+     *  since its last period); 0: half the period (WHEEL_SPEED's). */
+    num_t wheels_age;
 } ctl_input_t;
 
 /** @brief What the step did, for telemetry. ctl_step() clears it member by

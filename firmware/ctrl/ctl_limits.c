@@ -31,8 +31,8 @@ const ctl_limit_t ctl_limits[CTL_N_PARAMS] = {
     { NUM_C(4.0), NUM_C(30000.0), NUM_C(1920.0), true, true, false },  /* 21 wheel_counts [1/rev] */
     { NUM_C(100.0), NUM_C(1000.0), NUM_C(1000.0), true, true, false }, /* 22 wheel_rate [Hz] */
     { NUM_C(0.001), NUM_C(0.032), NUM_C(0.01), true, true, false },    /* 23 wheel_window [s] */
-    { NUM_C(1.25), NUM_C(10000.0), NUM_C(10000.0), true, true, false }, /* 24 wheel_ramp [rad/s²] */
-    { NUM_C(0.05), NUM_C(10.0), NUM_C(0.5), true, true, false }, /* 25 wheel_stall_time [s] */
+    { NUM_C(0.0), NUM_C(0.0), NUM_C(0.0), false, false, false },       /* 24 reserved */
+    { NUM_C(0.05), NUM_C(10.0), NUM_C(0.5), true, true, false },       /* 25 wheel_stall_time [s] */
 };
 
 /* In the order they are checked: { lhs, op, factor, { rhs, rhs } }. */
@@ -47,8 +47,6 @@ const ctl_relation_t ctl_relations[CTL_N_RELATIONS] = {
     { CTL_P_R_M, CTL_REL_GE, NUM_C(0.5), { CTL_P_TRACK_WIDTH, CTL_P_NONE } },
     /* max_wheel_decel >= 1.25 × max_wheel_speed */
     { CTL_P_MAX_WHEEL_DECEL, CTL_REL_GE, NUM_C(1.25), { CTL_P_MAX_WHEEL_SPEED, CTL_P_NONE } },
-    /* wheel_ramp >= max_wheel_decel */
-    { CTL_P_WHEEL_RAMP, CTL_REL_GE, NUM_C(1.0), { CTL_P_MAX_WHEEL_DECEL, CTL_P_NONE } },
 };
 
 num_t *ctl_param_slot(ctl_params_t *p, unsigned index)
@@ -78,7 +76,6 @@ num_t *ctl_param_slot(ctl_params_t *p, unsigned index)
     case CTL_P_WHEEL_COUNTS: return &p->wheel.counts;
     case CTL_P_WHEEL_RATE: return &p->wheel.rate;
     case CTL_P_WHEEL_WINDOW: return &p->wheel.window;
-    case CTL_P_WHEEL_RAMP: return &p->wheel.ramp;
     case CTL_P_WHEEL_STALL_TIME: return &p->wheel.stall_time;
     default: return NULL; /* unknown, or not held yet */
     }

@@ -35,7 +35,6 @@ enum {
     CTL_P_WHEEL_COUNTS = 21,     /**< wheel_counts [1/rev] */
     CTL_P_WHEEL_RATE = 22,       /**< wheel_rate [Hz] */
     CTL_P_WHEEL_WINDOW = 23,     /**< wheel_window [s] */
-    CTL_P_WHEEL_RAMP = 24,       /**< wheel_ramp [rad/s²] */
     CTL_P_WHEEL_STALL_TIME = 25, /**< wheel_stall_time [s] */
 };
 
@@ -44,9 +43,9 @@ enum {
 #define CTL_N_PARAMS    26u
 /** @brief 1 when every index below CTL_N_PARAMS has a row (none
  *         reserved): the firmware then skips the held test. */
-#define CTL_ALL_HELD    1
+#define CTL_ALL_HELD    0
 /** @brief Relations in ctl_relations[]. */
-#define CTL_N_RELATIONS 6u
+#define CTL_N_RELATIONS 5u
 /** @brief No parameter: the second term of a one-term relation. */
 #define CTL_P_NONE      0xFFu
 

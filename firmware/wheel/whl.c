@@ -13,9 +13,12 @@ uint32_t whl_period_us(const whl_params_t *p)
     return (uint32_t)(1.0e6f / num_to_float(p->rate) + 0.5f);
 }
 
-void whl_set_params(whl_t *w, const whl_params_t *p)
+uint32_t whl_age_us(const whl_t *w) { return (whl_period_us(&w->p) * w->window + 1u) / 2u; }
+
+void whl_set_params(whl_t *w, const whl_params_t *p, num_t accel)
 {
     w->p = *p;
+    w->accel = accel;
     uint32_t win = periods(num_mul(p->window, p->rate));
     win = win < 1u ? 1u : (win > WHL_MAX_WINDOW ? WHL_MAX_WINDOW : win);
     if (win != w->window) {
@@ -36,7 +39,7 @@ void whl_set_params(whl_t *w, const whl_params_t *p)
         num_div(num_div(num_mul(NUM_TWO_PI, p->rate), p->counts), num_from_int((int32_t)win));
     w->inv_free_speed = num_div(NUM_ONE, p->free_speed);
     w->accel_ff = num_div(num_mul(p->rate, p->motor_tau), p->free_speed);
-    w->ramp_step = num_div(p->ramp, p->rate);
+    w->ramp_step = num_div(accel, p->rate);
     w->ki_dt = num_div(p->ki, p->rate);
     const uint32_t stall = periods(num_mul(p->stall_time, p->rate));
     const uint32_t dead = periods(num_mul(WHL_DEAD_TIME, p->rate));
@@ -49,10 +52,10 @@ void whl_set_params(whl_t *w, const whl_params_t *p)
         (int32_t)periods(num_mul(per_period, num_mul(WHL_MAX_SPEED_FACTOR, p->free_speed))) + 1;
 }
 
-void whl_init(whl_t *w, const whl_params_t *p)
+void whl_init(whl_t *w, const whl_params_t *p, num_t accel)
 {
     *w = (whl_t){ 0 };
-    whl_set_params(w, p);
+    whl_set_params(w, p, accel);
 }
 
 void whl_clear_faults(whl_t *w)
@@ -63,6 +66,8 @@ void whl_clear_faults(whl_t *w)
         w->w[k].dead_periods = 0u;
     }
 }
+
+void whl_latch_faults(whl_t *w, uint8_t faults) { w->faults |= faults; }
 
 int16_t whl_motor_cmd(num_t u)
 {
@@ -80,7 +85,7 @@ int16_t whl_motor_cmd(num_t u)
 /* Stall and encoder checks of wheel @p k, on the drive applied over the
  * period that just ended and what the encoder saw of it (@p step counts
  * this period); returns the fault bits found. */
-static uint8_t check_faults(whl_t *w, unsigned k, int32_t count, int32_t step)
+static uint8_t check_faults(whl_t *w, unsigned k, int32_t step)
 {
     whl_wheel_t *s = &w->w[k];
     uint8_t found = 0u;
@@ -101,25 +106,19 @@ static uint8_t check_faults(whl_t *w, unsigned k, int32_t count, int32_t step)
     } else {
         s->stall_periods = 0u;
     }
-    /* An episode: |u| at or above WHL_DEAD_DRIVE, one sign. It needs one
-     * count, any time, to show the encoder lives: a wheel held under torque
-     * still gives the few counts of its gearbox and tyre winding up, a dead
-     * encoder none (docs/wheel.md). */
-    const bool driven = num_abs(u) >= WHL_DEAD_DRIVE;
-    if (!driven) {
+    /* Periods in a row driven at |u| >= WHL_DEAD_DRIVE in one direction
+     * without a count: a healthy wheel so driven turns by many counts in
+     * WHL_DEAD_TIME, whenever it is, so none is an encoder that is dead from
+     * the start or died while turning (then the loop, seeing the wheel
+     * stopped, drives it harder), or a wheel held so rigidly that it does not
+     * turn at all (docs/wheel.md). */
+    const bool fwd = u > NUM_ZERO;
+    if (num_abs(u) < WHL_DEAD_DRIVE || step != 0 || fwd != s->dead_fwd) {
         s->dead_periods = 0u;
+        s->dead_fwd = fwd;
     } else {
-        const bool fwd = u > NUM_ZERO;
-        const bool was_fwd = s->dead_fwd;
-        if (s->dead_periods == 0u || fwd != was_fwd) {
-            s->dead_periods = 0u;
-            s->dead_count = count;
-            s->dead_moved = false;
-            s->dead_fwd = fwd;
-        }
         s->dead_periods = s->dead_periods < UINT16_MAX ? s->dead_periods + 1u : UINT16_MAX;
-        s->dead_moved = s->dead_moved || count != s->dead_count;
-        if (!s->dead_moved && s->dead_periods >= w->dead_limit) {
+        if (s->dead_periods >= w->dead_limit) {
             found |= (uint8_t)(WHL_FAULT_ENCODER_LEFT << k);
         }
     }
@@ -190,7 +189,7 @@ void whl_step(whl_t *w, const whl_input_t *in, whl_output_t *out)
         const int32_t step = (int32_t)((uint32_t)c - (uint32_t)s->hist[w->head]);
         s->hist[next] = c;
         s->speed = num_mul(num_from_int(delta[k]), w->speed_per_count);
-        found |= check_faults(w, k, c, step);
+        found |= check_faults(w, k, step);
     }
     w->head = (uint8_t)next;
     w->primed = true;

@@ -14,8 +14,10 @@
  *    the measurement in docs/wheel.md: at 1,920 counts/rev and the same noise
  *    it lags less.
  * 2. **Setpoint ramp**: the command moves towards the control step's wheel
- *    speed by at most ramp/rate a period (ODrive's vel_ramp_rate, VESC's
- *    s_pid_ramp_erpms_s).
+ *    speed by at most accel/rate a period (ODrive's vel_ramp_rate, VESC's
+ *    s_pid_ramp_erpms_s), accel being what the wheels can do: the control
+ *    step's wheel_accel (ctl.h), handed to whl_init() and whl_set_params()
+ *    beside the loop's own parameters.
  * 3. **Drive** u = ω_sp/free_speed + kp·e + I, e = ω_sp − ω̂, clamped to
  *    [−1, 1] (full drive). The feed-forward term is the drive that holds
  *    ω_sp with no load (the motor constant: speed proportional to voltage).
@@ -27,13 +29,14 @@
  *    count per window gives u = 0 and I = 0 (VESC's s_pid_min_erpm), so a
  *    stopped robot does not hum.
  * 5. **Faults**, latched: a *stall* (|u| ≥ WHL_STALL_DRIVE and ω̂ below
- *    WHL_STALL_SPEED in the drive's direction, for stall_time: held, or an
- *    encoder that died while turning or counts backwards), a *dead encoder*
- *    (|u| ≥ WHL_DEAD_DRIVE in one direction for WHL_DEAD_TIME without a
- *    single count since it rose there) and an *implausible encoder* (more
- *    counts in a period than WHL_MAX_SPEED_FACTOR times the free speed
- *    gives). Any stops both wheels (u = 0) until whl_clear_faults(): a robot
- *    with one wheel driven turns on the spot.
+ *    WHL_STALL_SPEED in the drive's direction, for stall_time: a wheel that
+ *    barely creeps under its load, or an encoder that counts backwards), a
+ *    *dead encoder* (|u| ≥ WHL_DEAD_DRIVE in one direction for WHL_DEAD_TIME
+ *    without a single count: dead from the start, dead while turning, or a
+ *    wheel held so rigidly that it does not turn) and an *implausible
+ *    encoder* (more counts in a period than WHL_MAX_SPEED_FACTOR times the
+ *    free speed gives). Any stops both wheels (u = 0) until
+ *    whl_clear_faults(): a robot with one wheel driven turns on the spot.
  *
  * Both numeric modes (num.h). No clock, no heap: the period is the
  * parameter rate, the caller keeps the time.
@@ -77,9 +80,11 @@ enum whl_fault {
 };
 
 /**
- * @brief The wheel loop's parameters (PARAM_SET indexes 17.., the rows
+ * @brief The wheel loop's own parameters (PARAM_SET indexes 17..25, the rows
  *        wheel_* of firmware/ctrl/ctl_params.toml, which hold their ranges
- *        and defaults: the Pololu 37D 30:1 gearmotor of docs/wheel.md).
+ *        and defaults: the Pololu 37D 30:1 gearmotor of docs/wheel.md). Its
+ *        setpoint ramp is not among them: it is what the wheels can do, the
+ *        control step's wheel_accel, one parameter for one fact.
  */
 typedef struct {
     num_t kp;         /**< proportional gain [drive per rad/s] */
@@ -90,7 +95,6 @@ typedef struct {
     num_t counts;     /**< encoder counts per wheel revolution (×4 quadrature) */
     num_t rate;       /**< loop rate [Hz] */
     num_t window;     /**< speed window [s] */
-    num_t ramp;       /**< setpoint ramp [rad/s²] */
     num_t stall_time; /**< full drive without motion for this long is a stall [s] */
 } whl_params_t;
 
@@ -104,15 +108,14 @@ typedef struct {
     num_t integ;                   /**< integral term I [drive] */
     num_t drive;                   /**< drive u of the last step, [−1, 1] */
     uint16_t stall_periods;        /**< periods in the stall condition */
-    uint16_t dead_periods;         /**< periods of the present drive episode */
-    int32_t dead_count;            /**< count when the episode began */
-    bool dead_moved;               /**< a count came during the episode */
-    bool dead_fwd;                 /**< the episode's drive is forward */
+    uint16_t dead_periods;         /**< periods in a row driven one way without a count */
+    bool dead_fwd;                 /**< ... the way they were driven */
 } whl_wheel_t;
 
 /** @brief The loop: both wheels and what the parameters give. */
 typedef struct {
     whl_params_t p;
+    num_t accel; /**< setpoint ramp [rad/s²] (wheel_accel) */
     whl_wheel_t w[WHL_N];
     uint8_t head;          /**< ring index of the latest count */
     uint8_t window;        /**< W [periods] */
@@ -122,7 +125,7 @@ typedef struct {
     num_t inv_window;      /**< 1/W */
     num_t inv_free_speed;  /**< 1/free_speed */
     num_t accel_ff;        /**< rate·motor_tau/free_speed [drive per rad/s of ramp step] */
-    num_t ramp_step;       /**< ramp/rate [rad/s] */
+    num_t ramp_step;       /**< accel/rate [rad/s] */
     num_t ki_dt;           /**< ki/rate [drive per rad/s] */
     uint16_t stall_limit;  /**< stall_time·rate [periods] */
     uint16_t dead_limit;   /**< WHL_DEAD_TIME·rate [periods] */
@@ -145,21 +148,36 @@ typedef struct {
 
 /**
  * @brief Start at rest with parameters @p p (which ctl_params_check() has
- *        accepted: every one positive, within its range).
+ *        accepted: every one positive, within its range) and the setpoint
+ *        ramp @p accel [rad/s²] (wheel_accel, > 0).
  */
-void whl_init(whl_t *w, const whl_params_t *p);
+void whl_init(whl_t *w, const whl_params_t *p, num_t accel);
 
 /**
- * @brief Take new parameters, keeping the state (speeds, integrators,
- *        faults). Cheap enough to call every control period.
+ * @brief Take new parameters and ramp (as whl_init()), keeping the state
+ *        (speeds, integrators, faults). Cheap enough to call every control
+ *        period.
  */
-void whl_set_params(whl_t *w, const whl_params_t *p);
+void whl_set_params(whl_t *w, const whl_params_t *p, num_t accel);
 
 /** @brief Forget the faults (a re-arm): the wheels may be driven again. */
 void whl_clear_faults(whl_t *w);
 
+/** @brief Latch faults found outside the loop: @p faults (WHL_FAULT_* bits),
+ *         such as an encoder its driver could not read (hal_encoder.h), as
+ *         the loop's own until whl_clear_faults(); the next whl_step() stops
+ *         both wheels. */
+void whl_latch_faults(whl_t *w, uint8_t faults);
+
 /** @brief Period [µs] of the loop at the parameters' rate, rounded. */
 uint32_t whl_period_us(const whl_params_t *p);
+
+/**
+ * @brief Age of the speed estimate at the period it was made [µs]: half its
+ *        window (W periods), the middle of the time it averages. A caller
+ *        that uses it later adds the time since that period.
+ */
+uint32_t whl_age_us(const whl_t *w);
 
 /**
  * @brief One period. Total: a non-finite setpoint counts as 0; a count that

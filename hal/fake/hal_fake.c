@@ -84,10 +84,12 @@ int hal_sys_boot_nonce(uint32_t *nonce)
 
 int hal_encoder_init(void) { return hal_fake.encoder_rc; }
 
+uint8_t hal_encoder_overran(void) { return hal_fake.encoder_overran; }
+
 int hal_encoder_read(int32_t *left, int32_t *right)
 {
     hal_fake.encoder_reads++;
-    const bool ok = hal_fake.encoder_rc == 0;
+    const bool ok = hal_fake.encoder_rc != -ENODEV;
     *left = ok ? hal_fake.encoder[0] : 0;
     *right = ok ? hal_fake.encoder[1] : 0;
     return hal_fake.encoder_rc;

@@ -35,8 +35,10 @@ typedef struct {
     int can_status_rc;           /**< its return value (0) */
     uint32_t boot_nonce;         /**< returned by hal_sys_boot_nonce(), then incremented */
     int boot_nonce_rc;           /**< its return value (0) */
-    int32_t encoder[2];          /**< counts hal_encoder_read() returns, left and right */
+    int32_t encoder[2];          /**< counts hal_encoder_read() returns, left and right
+                                      (0 when encoder_rc is -ENODEV) */
     int encoder_rc;              /**< returned by hal_encoder_init() and _read() (0) */
+    uint8_t encoder_overran;     /**< returned by hal_encoder_overran() (0) */
     unsigned encoder_reads;      /**< hal_encoder_read() calls */
     int16_t motor[2];            /**< commands of the last hal_motor_set() */
     bool motor_enabled;   /**< driver enabled: by hal_motor_set(), not since hal_motor_stop() */

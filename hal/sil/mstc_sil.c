@@ -2,6 +2,7 @@
 /* The control step as a shared library with a plain C ABI (mstc_sil.h). The
  * numeric conversions of the host side live here, outside the firmware. */
 #include "mstc_sil.h"
+#include "mstc_sil_wheel.h"
 
 #include <errno.h>
 #include <math.h>
@@ -25,6 +26,11 @@ _Static_assert(sizeof(mstc_sil_frame_t) == sizeof(hal_can_frame_t) &&
 
 /* The frame path's firmware instance: one per library, like one board. */
 static app_t app;
+/* The wheels of its board (mstc_sil_fw_wheels()), or NULL: external drives. */
+static void *board_wheels;
+/* The application's halt after the last frame or tick: a re-arm clears the
+ * board's wheel faults, as hal/stm32/main.c does. */
+static uint8_t last_halt;
 
 #if defined(NUM_FIXED)
 /* double to Q16.16: rounded to nearest, ties away from zero (as NUM_C and
@@ -152,11 +158,42 @@ int mstc_sil_init(void *mem, const mstc_sil_params_t *p)
 int mstc_sil_fw_init(const mstc_sil_params_t *p)
 {
     hal_sil_reset();
-    if (p == NULL) {
-        return app_init(&app, NULL);
+    board_wheels = NULL;
+    const ctl_params_t c = p != NULL ? params_from(p) : (ctl_params_t){ 0 };
+    const int rc = app_init(&app, p != NULL ? &c : NULL);
+    last_halt = app.halt;
+    return rc;
+}
+
+int mstc_sil_fw_wheels(void *mem)
+{
+    board_wheels = mem;
+    app_set_wheel_source(&app, mem != NULL ? APP_WHEELS_OWN : APP_WHEELS_EXTERNAL);
+    return 0;
+}
+
+/* Before a control step: the board's wheel loop's measurement, as a board's
+ * main loop hands it. */
+static void hand_wheels(void)
+{
+    kin_wheels_t speed;
+    uint8_t faults;
+    uint32_t age_us;
+    if (board_wheels != NULL &&
+        hal_sil_wheels_measurement(board_wheels, &speed, &faults, &age_us)) {
+        app_wheels_measured(&app, &speed, faults, age_us);
     }
-    const ctl_params_t c = params_from(p);
-    return app_init(&app, &c);
+}
+
+/* After the application ran: a re-arm (the halt cleared) clears the wheel
+ * loop's faults, as on a board. */
+static void after_app(void)
+{
+    if (board_wheels != NULL && last_halt != (uint8_t)COMM_HALT_NONE &&
+        app.halt == (uint8_t)COMM_HALT_NONE) {
+        (void)mstc_sil_wheels_clear_faults(board_wheels);
+    }
+    last_halt = app.halt;
 }
 
 int mstc_sil_fw_set_node(uint8_t node) { return app_set_node(&app, node); }
@@ -203,9 +240,13 @@ int mstc_sil_fw_send(const mstc_sil_frame_t *f)
     }
     hal_can_frame_t hf = { .id = f->id, .dlc = f->dlc };
     memcpy(hf.data, f->data, sizeof hf.data);
+    if (hf.id == COMM_ID_STEP) {
+        hand_wheels(); /* a STEP runs a control step */
+    }
     const int rc = hal_sil_to_fw(&hf);
     if (rc == 0) {
         (void)app_poll(&app, 0);
+        after_app();
     }
     return rc;
 }
@@ -224,7 +265,12 @@ int mstc_sil_fw_recv(mstc_sil_frame_t *f)
     return rc;
 }
 
-void mstc_sil_fw_tick(uint64_t now_us) { app_control_tick(&app, now_us); }
+void mstc_sil_fw_tick(uint64_t now_us)
+{
+    hand_wheels();
+    app_control_tick(&app, now_us);
+    after_app();
+}
 
 int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
 {
@@ -259,6 +305,8 @@ int mstc_sil_step(void *mem, const mstc_sil_input_t *in, mstc_sil_output_t *out)
         .t_us = in->t_us,
         .wheels = { from_d(in->wheel_speed[0]), from_d(in->wheel_speed[1]) },
         .wheels_measured = in->wheel_measured != 0u,
+        /* As the application takes a board's: through float in both modes. */
+        .wheels_age = num_from_float((float)in->wheel_age_us * 1.0e-6f),
     };
     ctl_output_t co;
     ctl_step((ctl_t *)mem, &ci, &co);
@@ -383,6 +431,7 @@ static const mstc_sil_layout_t layout[] = {
     LAYOUT_FIELD(mstc_sil_input_t, obstacles),
     LAYOUT_FIELD(mstc_sil_input_t, wheel_speed),
     LAYOUT_FIELD(mstc_sil_input_t, wheel_measured),
+    LAYOUT_FIELD(mstc_sil_input_t, wheel_age_us),
 
     LAYOUT_STRUCT(mstc_sil_event_t),
     LAYOUT_FIELD(mstc_sil_event_t, t_us),

@@ -53,12 +53,16 @@ typedef struct {
     uint64_t t_us;   /**< step time [µs] */
     uint32_t n_obstacles;
     const mstc_sil_obstacle_t *obstacles;
-    /** Measured wheel speeds, left and right [rad/s] (WHEEL_SPEED: each
-     *  wheel's mean over the period that just ended), used when
+    /** Measured wheel speeds, left and right [rad/s], used when
      *  wheel_measured is not 0; otherwise the firmware predicts them from its
-     *  own commands. */
+     *  own commands. From external drives (WHEEL_SPEED: each wheel's mean
+     *  over the period that just ended) or a board's own wheel loop
+     *  (mstc_sil_wheel.h's measured, of age wheel_age_us). */
     double wheel_speed[2];
     uint32_t wheel_measured;
+    /** Their age [µs] (ctl_input_t::wheels_age): from the middle of the time
+     *  they average to t_us; 0: half the period (WHEEL_SPEED's). */
+    uint32_t wheel_age_us;
 } mstc_sil_input_t;
 
 /** @brief An event (see sup_event_t). */
@@ -211,6 +215,20 @@ int mstc_sil_fw_send(const mstc_sil_frame_t *f);
  * @retval 0 taken. @retval -EAGAIN none waiting.
  */
 int mstc_sil_fw_recv(mstc_sil_frame_t *f);
+
+/**
+ * @brief Give the firmware instance's board its own wheels: @p mem, a wheel
+ *        loop on two motors (mstc_sil_wheels_init(), mstc_sil_wheel.h) that
+ *        the caller advances. From now on the instance is an integrated
+ *        board (docs/wheel.md, "Two topologies"): before each control step
+ *        (a STEP frame, mstc_sil_fw_tick()) it takes that loop's estimate,
+ *        faults and age as the measured wheel speeds, ignores WHEEL_SPEED
+ *        frames and sends its own, and a re-arm clears the loop's faults.
+ *        NULL: external drives again (WHEEL_SPEED from the bus).
+ *        mstc_sil_fw_init() forgets them.
+ * @retval 0 done.
+ */
+int mstc_sil_fw_wheels(void *mem);
 
 /**
  * @brief Real-time mode: one control step of the library's firmware at

@@ -12,6 +12,7 @@
 
 #include "ctrl/ctl.h"
 #include "dcm.h"
+#include "hal_sil.h"
 #include "wheel/whl.h"
 
 typedef struct {
@@ -44,8 +45,8 @@ void mstc_sil_wheels_defaults(mstc_sil_wheel_params_t *wp, mstc_sil_motor_t *mp)
         .counts = to_d(p->counts),
         .rate = to_d(p->rate),
         .window = to_d(p->window),
-        .ramp = to_d(p->ramp),
         .stall_time = to_d(p->stall_time),
+        .accel = to_d(c.wheel_accel),
     };
     dcm_params_t d;
     dcm_params_default(&d);
@@ -55,10 +56,10 @@ void mstc_sil_wheels_defaults(mstc_sil_wheel_params_t *wp, mstc_sil_motor_t *mp)
 
 /* The wheel parameters as the firmware holds them, checked as a PARAM_SET
  * of each would be: within the default set, by ctl_params_check(). */
-static int params_from(const mstc_sil_wheel_params_t *wp, whl_params_t *out)
+static int params_from(const mstc_sil_wheel_params_t *wp, whl_params_t *out, num_t *accel)
 {
     const double v[] = { wp->kp,   wp->ki,     wp->free_speed, wp->motor_tau, wp->counts,
-                         wp->rate, wp->window, wp->ramp,       wp->stall_time };
+                         wp->rate, wp->window, wp->stall_time, wp->accel };
     for (size_t i = 0; i < sizeof v / sizeof v[0]; i++) {
         if (!isfinite(v[i])) {
             return -EINVAL; /* fixed mode has no NaN to refuse later */
@@ -74,13 +75,14 @@ static int params_from(const mstc_sil_wheel_params_t *wp, whl_params_t *out)
         .counts = num_from_float((float)wp->counts),
         .rate = num_from_float((float)wp->rate),
         .window = num_from_float((float)wp->window),
-        .ramp = num_from_float((float)wp->ramp),
         .stall_time = num_from_float((float)wp->stall_time),
     };
+    c.wheel_accel = num_from_float((float)wp->accel);
     if (ctl_params_check(&c) != 0) {
         return -EINVAL;
     }
     *out = c.wheel;
+    *accel = c.wheel_accel;
     return 0;
 }
 
@@ -107,7 +109,8 @@ int mstc_sil_wheels_init(void *mem, const mstc_sil_wheel_params_t *wp, const mst
         return -EINVAL;
     }
     whl_params_t p;
-    if (params_from(wp, &p) != 0) {
+    num_t accel;
+    if (params_from(wp, &p, &accel) != 0) {
         return -EINVAL;
     }
     wheels_t *w = mem;
@@ -116,7 +119,7 @@ int mstc_sil_wheels_init(void *mem, const mstc_sil_wheel_params_t *wp, const mst
                 mp->counts_per_rev, mp->hold_k, mp->hold_c },
         .period_us = whl_period_us(&p),
     };
-    whl_init(&w->loop, &p);
+    whl_init(&w->loop, &p, accel);
     dcm_init(&w->motor[0]);
     dcm_init(&w->motor[1]);
     return 0;
@@ -170,7 +173,26 @@ int mstc_sil_wheels_advance(void *mem, const mstc_sil_wheels_input_t *in, uint32
     }
     out->faults = w->out.faults;
     out->periods = w->periods;
+    kin_wheels_t speed;
+    uint8_t faults;
+    uint32_t age_us;
+    out->age_us = hal_sil_wheels_measurement(w, &speed, &faults, &age_us) ? age_us : 0u;
     return 0;
+}
+
+bool hal_sil_wheels_measurement(const void *mem, kin_wheels_t *speed, uint8_t *faults,
+                                uint32_t *age_us)
+{
+    const wheels_t *w = mem;
+    if (w->periods == 0u) {
+        return false;
+    }
+    *speed = (kin_wheels_t){ w->out.speed[0], w->out.speed[1] };
+    *faults = w->out.faults;
+    /* The last period ran at next_us − period_us, at or before t_us. */
+    const uint64_t since = w->t_us - (w->next_us - w->period_us);
+    *age_us = whl_age_us(&w->loop) + (uint32_t)since;
+    return true;
 }
 
 int mstc_sil_wheels_hold(void *mem, uint32_t wheel, uint32_t held)
@@ -224,8 +246,8 @@ static const mstc_sil_layout_t layout[] = {
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, counts),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, rate),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, window),
-    MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, ramp),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, stall_time),
+    MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheel_params_t, accel),
 
     MSTC_SIL_LAYOUT_STRUCT(mstc_sil_wheels_input_t),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_input_t, setpoint),
@@ -238,6 +260,7 @@ static const mstc_sil_layout_t layout[] = {
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, drive),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, faults),
     MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, periods),
+    MSTC_SIL_LAYOUT_FIELD(mstc_sil_wheels_output_t, age_us),
 };
 
 const mstc_sil_layout_t *mstc_sil_wheels_layout(size_t *n)

@@ -2,7 +2,7 @@
 /**
  * @file mstc_sil_wheel.h
  * @brief C ABI of the firmware's wheel loop (firmware/wheel/whl.h) running
- *        against two DC motor models (model/dcm.h) in the shared library
+ *        against two DC motor models (sim/dcmotor/dcm.h) in the shared library
  *        (build/host/<numeric>/libmstc_sil.so), for the plant's "dc"
  *        actuator: the simulation drives the robot with the wheels the
  *        firmware's own inner loop turns (docs/wheel.md).
@@ -32,9 +32,10 @@ typedef struct {
 } mstc_sil_motor_t;
 
 /** @brief The wheel loop's parameters (whl_params_t; ctl_params.toml's
- *         wheel_* rows), SI units. */
+ *         wheel_* rows) and its setpoint ramp, wheel_accel, SI units. */
 typedef struct {
-    double kp, ki, free_speed, motor_tau, counts, rate, window, ramp, stall_time;
+    double kp, ki, free_speed, motor_tau, counts, rate, window, stall_time;
+    double accel; /**< the setpoint ramp: wheel_accel [rad/s²] */
 } mstc_sil_wheel_params_t;
 
 /** @brief What the wheels are asked and what they meet. */
@@ -51,12 +52,15 @@ typedef struct {
     double drive[2];    /**< the drives in force, [−1, 1] */
     uint32_t faults;    /**< WHL_FAULT_* bits (whl.h): the drives are then 0 */
     uint32_t periods;   /**< wheel periods run since init */
+    uint32_t age_us;    /**< the estimate's age now [µs]: half its window plus the
+                             time since the last period (0 before the first) */
 } mstc_sil_wheels_output_t;
 
 /** @brief Bytes the caller must provide. */
 size_t mstc_sil_wheels_size(void);
 
-/** @brief The defaults: the limits table's wheel loop, the default motor. */
+/** @brief The defaults: the limits table's wheel loop and wheel_accel, the
+ *         default motor. */
 void mstc_sil_wheels_defaults(mstc_sil_wheel_params_t *wp, mstc_sil_motor_t *mp);
 
 /**

@@ -30,6 +30,7 @@
 static can_ring_t rx_ring; /* ISR -> task */
 static can_ring_t tx_ring; /* task -> ISR */
 static volatile uint32_t bus_off_events;
+static volatile bool was_bus_off; /* at the last status-change interrupt */
 static volatile uint32_t fifo_overruns;
 static volatile uint32_t tx_refused;
 static volatile bool opened;
@@ -79,6 +80,7 @@ int hal_can_open(const char *iface)
     can_ring_init(&rx_ring);
     can_ring_init(&tx_ring);
     bus_off_events = 0u;
+    was_bus_off = false;
     fifo_overruns = 0u;
     tx_refused = 0u;
     board_can_enable();
@@ -236,10 +238,12 @@ void BOARD_CAN_TX_IRQHandler(void)
     }
 }
 
-/* Status change: count entries into bus-off (the event; ABOM recovers). */
+/* Status change: count entries into bus-off (the event; ABOM recovers). A
+ * bus that fails again after a recovery passes error-passive first (the
+ * transmit error count climbs through 128 to 256), whose interrupt (EPVIE)
+ * brings was_bus_off back to false before the next entry. */
 void BOARD_CAN_SCE_IRQHandler(void)
 {
-    static bool was_bus_off;
     const bool bus_off = (CAN->ESR & CAN_ESR_BOFF_Msk) != 0u;
     if (bus_off && !was_bus_off) {
         bus_off_events = bus_off_events + 1u;

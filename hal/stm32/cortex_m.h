@@ -12,7 +12,15 @@
 
 #include <stdint.h>
 
-#define CM_REG(addr) (*(volatile uint32_t *)(addr))
+#if defined(STM32_HOST)
+/* The drivers compiled for the host (tests/unit/stm32_host): the registers
+ * are at their own addresses, in host memory a model answers; the core's
+ * instructions are the model's functions (below). */
+#include "stm32_host.h"
+#endif
+
+#define CM_REG(addr)  (*(volatile uint32_t *)(uintptr_t)(addr))
+#define CM_REG8(addr) (*(volatile uint8_t *)(uintptr_t)(addr))
 
 /* System Control Block (B3.2.2). */
 #define CM_SCB_ICSR             CM_REG(0xE000ED04u) /**< Interrupt Control and State */
@@ -37,11 +45,20 @@
 #define CM_NVIC_ISER(n)   CM_REG(0xE000E100u + 4u * (n))
 #define CM_NVIC_ICER(n)   CM_REG(0xE000E180u + 4u * (n))
 #define CM_NVIC_ISPR(n)   CM_REG(0xE000E200u + 4u * (n))
-#define CM_NVIC_IPR8(irq) (*(volatile uint8_t *)(0xE000E400u + (irq)))
+#define CM_NVIC_IPR8(irq) CM_REG8(0xE000E400u + (irq))
 
 /** @brief Priority bits the STM32 implement (the upper nibble of each byte). */
 #define CM_PRIO_BITS 4u
 
+#if defined(STM32_HOST)
+static inline void cm_irq_enable_all(void) { stm32_host_irq_enable_all(); }
+static inline void cm_irq_disable_all(void) { stm32_host_irq_disable_all(); }
+static inline uint32_t cm_irq_save(void) { return stm32_host_irq_save(); }
+static inline void cm_irq_restore(uint32_t primask) { stm32_host_irq_restore(primask); }
+static inline void cm_wfi(void) { stm32_host_wfi(); }
+static inline void cm_dsb(void) {}
+static inline void cm_isb(void) {}
+#else
 static inline void cm_irq_enable_all(void) { __asm volatile("cpsie i" ::: "memory"); }
 static inline void cm_irq_disable_all(void) { __asm volatile("cpsid i" ::: "memory"); }
 
@@ -73,10 +90,17 @@ static inline void cm_irq_restore(uint32_t primask)
 static inline void cm_wfi(void) { __asm volatile("wfi" ::: "memory"); }
 static inline void cm_dsb(void) { __asm volatile("dsb" ::: "memory"); }
 static inline void cm_isb(void) { __asm volatile("isb" ::: "memory"); }
+#endif
 
 static inline void cm_nvic_enable(unsigned irq) { CM_NVIC_ISER(irq >> 5) = 1u << (irq & 31u); }
 static inline void cm_nvic_disable(unsigned irq) { CM_NVIC_ICER(irq >> 5) = 1u << (irq & 31u); }
-static inline void cm_nvic_set_pending(unsigned irq) { CM_NVIC_ISPR(irq >> 5) = 1u << (irq & 31u); }
+static inline void cm_nvic_set_pending(unsigned irq)
+{
+    CM_NVIC_ISPR(irq >> 5) = 1u << (irq & 31u);
+#if defined(STM32_HOST)
+    stm32_host_take_interrupts(); /* taken at once when not masked, as by the core */
+#endif
+}
 
 /** @brief Priority of an IRQ, 0 (most urgent) .. 15. */
 static inline void cm_nvic_set_priority(unsigned irq, unsigned prio)
@@ -90,8 +114,12 @@ static inline void cm_system_reset(void)
     cm_dsb();
     CM_SCB_AIRCR = CM_AIRCR_VECTKEY | CM_AIRCR_SYSRESETREQ;
     cm_dsb();
+#if defined(STM32_HOST)
+    stm32_host_system_reset();
+#else
     for (;;) {
     }
+#endif
 }
 
 #endif /* STM32_CORTEX_M_H */

@@ -16,10 +16,14 @@
  * The wheel loop (firmware/wheel, docs/wheel.md) runs in both modes on the
  * millisecond tick of hal_time (SysTick), every 1000/wheel_rate ms: the
  * encoders, the control step's last wheel speeds as setpoints, the motors
- * (wheel_cmd.h). Its faults stop the motors until the application is armed
- * again; they do not halt the application (docs/wheel.md, "Design"), so a
- * board under QEMU, whose encoders never count, still runs the plant's
- * scenarios in lock-step (make pil). */
+ * (wheel_cmd.h). This is the integrated board (docs/wheel.md, "Two
+ * topologies"): before every control step the loop's estimate, with its
+ * age, is the step's measured wheel speeds (app_wheels_measured()), and the
+ * application reports it as WHEEL_SPEED. A wheel fault stops the motors and
+ * halts the application until it is armed again. Built with
+ * BOARD_WHEELS_EXTERNAL (board_config.h), the board drives CAN motor
+ * drivers instead: no wheel loop, the motor outputs off, WHEEL_SPEED from
+ * the drives. */
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
@@ -27,6 +31,7 @@
 #include "app/app.h"
 #include "board.h"
 #include "comm/comm.h"
+#include "comm/mstc_dbc.h"
 #include "cortex_m.h"
 #include "hal/hal_can.h"
 #include "hal/hal_encoder.h"
@@ -47,11 +52,20 @@ volatile stm32_loop_stats_t stm32_loop_stats;
  * every other identifier in hardware, so the bus's other traffic (our own
  * telemetry echoed by nobody, other nodes) never reaches the queue. */
 static const hal_can_filter_t rx_filters[] = {
-    { COMM_ID_ODOM_XY, HAL_CAN_MAX_STD_ID },      { COMM_ID_ODOM_THETA, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_REF_XY, HAL_CAN_MAX_STD_ID },       { COMM_ID_REF_MOTION, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_STEP, HAL_CAN_MAX_STD_ID },         { COMM_ID_OBSTACLE, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_OBSTACLE_VEL, HAL_CAN_MAX_STD_ID }, { COMM_ID_PARAM_SET, HAL_CAN_MAX_STD_ID },
-    { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },    { COMM_ID_PARAM_AUTH, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_ODOM_XY, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_ODOM_THETA, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_REF_XY, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_REF_MOTION, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_STEP, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_OBSTACLE, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_OBSTACLE_VEL, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_PARAM_SET, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_PARAM_GET, HAL_CAN_MAX_STD_ID },
+    { COMM_ID_PARAM_AUTH, HAL_CAN_MAX_STD_ID },
+#if BOARD_WHEELS_EXTERNAL
+    /* The drives' measured speeds: the input of this topology only. */
+    { COMM_ID_WHEEL_SPEED, HAL_CAN_MAX_STD_ID },
+#endif
 };
 
 /* The device key, in a section of its own that sections.ld fills with 0xFF
@@ -113,8 +127,17 @@ volatile stm32_wheel_stats_t stm32_wheel_stats;
 
 static struct {
     uint64_t next_ms;   /* the next period is due at this millisecond */
+    uint64_t last_us;   /* when the last period read the encoders */
     uint32_t period_ms; /* 1000 / wheel_rate, rounded, at least 1 */
+    uint32_t period_us; /* whl_period_us() */
     uint8_t halt;       /* the application's halt at the last period */
+    /* The motors are a model (a PIL image, pil_wheels.c), whose time is the
+     * loop's: in lock-step their periods run on the plant's time, the
+     * STEP frames' (on_steps), not on the millisecond tick. */
+    bool simulated;
+    bool on_steps;
+    uint32_t step_time_us; /* the last STEP's time */
+    uint32_t owed_us;      /* the plant's time the periods have not run yet */
 } wheel_sched;
 
 /* The wheel parameters in force in the application (PARAM_SET changes them
@@ -122,57 +145,105 @@ static struct {
 static void wheel_params(void)
 {
     const whl_params_t *p = &app.ctl.p.wheel;
-    if (memcmp(p, &wheels.p, sizeof *p) != 0) {
-        whl_set_params(&wheels, p);
+    const num_t accel = app_wheel_accel(&app);
+    if (memcmp(p, &wheels.p, sizeof *p) != 0 || accel != wheels.accel) {
+        whl_set_params(&wheels, p, accel);
     }
-    const uint32_t ms = (whl_period_us(p) + 500u) / 1000u;
+    wheel_sched.period_us = whl_period_us(p);
+    const uint32_t ms = (wheel_sched.period_us + 500u) / 1000u;
     wheel_sched.period_ms = ms > 0u ? ms : 1u;
+    wheel_sched.simulated = stm32_wheels_period(wheel_sched.period_us);
 }
 
-static bool wheel_due(void) { return hal_time_now_us() / 1000u >= wheel_sched.next_ms; }
-
-/* One wheel period if one is due: the last control step's wheel speeds,
- * the encoders, the motors. A re-arm (the halt cleared) clears the wheel
- * loop's faults. */
-static void wheel_period(void)
+static bool wheel_due(void)
 {
-    const uint64_t now_ms = hal_time_now_us() / 1000u;
-    if (now_ms < wheel_sched.next_ms) {
-        return;
-    }
+    return !wheel_sched.on_steps && hal_time_now_us() / 1000u >= wheel_sched.next_ms;
+}
+
+/* One wheel period: the last control step's wheel speeds, the encoders, the
+ * motors. A re-arm (the halt cleared) clears the wheel loop's faults. The
+ * cycles counted are the firmware's: a simulated motor's are not. */
+static void wheel_run(void)
+{
     volatile stm32_wheel_stats_t *st = &stm32_wheel_stats;
-    const uint64_t late = (now_ms - wheel_sched.next_ms) / wheel_sched.period_ms;
-    st->overruns += (uint32_t)late;
-    wheel_sched.next_ms += (late + 1u) * wheel_sched.period_ms;
     if (app.halt == (uint8_t)COMM_HALT_NONE && wheel_sched.halt != (uint8_t)COMM_HALT_NONE) {
         whl_clear_faults(&wheels);
     }
     wheel_sched.halt = app.halt;
     const kin_wheels_t *w = app_last_wheels(&app);
+    wheel_sched.last_us = hal_time_now_us();
     const uint32_t c0 = stm32_time_cycles();
     wheel_measured = wheel_cmd_period(&wheels, w->left, w->right, &wheel_out) == 0;
-    const uint32_t cycles = stm32_time_cycles() - c0;
+    const uint32_t cycles = stm32_time_cycles() - c0 - stm32_wheels_model_cycles();
     st->cycles_max = cycles > st->cycles_max ? cycles : st->cycles_max;
+    const uint32_t lo = st->cycles_sum_lo + cycles;
+    st->cycles_sum_hi += lo < cycles ? 1u : 0u;
+    st->cycles_sum_lo = lo;
     st->periods++;
+    st->step_periods += wheel_sched.on_steps ? 1u : 0u;
     st->closed_loop = wheel_measured ? 1u : 0u;
     st->faults = wheel_out.faults;
     st->speed_mrad_s[0] = (int32_t)(num_to_float(wheel_out.speed[0]) * 1000.0f);
     st->speed_mrad_s[1] = (int32_t)(num_to_float(wheel_out.speed[1]) * 1000.0f);
 }
 
-/* Real-time mode, before each control step: what the encoders measure and
- * the wheel loop's faults, on the bus (WHEEL_SPEED: the board sends it when
- * it runs the wheel loop, mstc.dbc). Not in lock-step, where the plant's
- * wheels are the robot's, and not open loop, where nothing is measured. */
-static void send_wheel_speed(void)
+/* The millisecond tick: one wheel period if one is due. */
+static void wheel_period(void)
+{
+    if (wheel_sched.on_steps) {
+        return; /* run by the STEP frames */
+    }
+    const uint64_t now_ms = hal_time_now_us() / 1000u;
+    if (now_ms < wheel_sched.next_ms) {
+        return;
+    }
+    const uint64_t late = (now_ms - wheel_sched.next_ms) / wheel_sched.period_ms;
+    stm32_wheel_stats.overruns += (uint32_t)late;
+    wheel_sched.next_ms += (late + 1u) * wheel_sched.period_ms;
+    wheel_run();
+}
+
+/* Lock-step with simulated motors, before the control step of a STEP frame
+ * @p f: the wheel periods that fall in the plant's time since the last STEP,
+ * at the setpoints of the last control step, as the simulation's wheels run
+ * over a period (mstc_sil_wheel.h). A board's real motors keep their
+ * millisecond tick. The frame is read here as it came; the application may
+ * yet drop it (then the plant's time has passed all the same). */
+static void wheel_catch_up(const hal_can_frame_t *f)
+{
+    struct mstc_dbc_step_t s;
+    if (!wheel_sched.simulated || mstc_dbc_step_unpack(&s, f->data, f->dlc) != 0) {
+        return;
+    }
+    if (!wheel_sched.on_steps) {
+        wheel_sched.on_steps = true; /* the first STEP: no time has passed */
+        wheel_sched.step_time_us = s.step_time;
+        stm32_wheels_lockstep();
+        return;
+    }
+    /* Modulo 2^32, as the STEP time wraps. */
+    wheel_sched.owed_us += s.step_time - wheel_sched.step_time_us;
+    wheel_sched.step_time_us = s.step_time;
+    while (wheel_sched.owed_us >= wheel_sched.period_us) {
+        wheel_sched.owed_us -= wheel_sched.period_us;
+        wheel_run();
+    }
+}
+
+/* Before each control step, in both modes: the wheel loop's last estimate
+ * and faults are the step's measured wheel speeds, their age half the speed
+ * window and the time since that period (the application sends them as
+ * WHEEL_SPEED). Open loop nothing is measured. */
+static void hand_wheel_speeds(void)
 {
     if (!wheel_measured) {
         return;
     }
     const kin_wheels_t w = { wheel_out.speed[0], wheel_out.speed[1] };
-    hal_can_frame_t f;
-    (void)comm_encode_wheel_speed_faults(&app.comm, &w, wheel_out.faults, &f);
-    (void)hal_can_send(&f);
+    /* On the plant's time the last period ran at the STEP's time. */
+    const uint64_t since = wheel_sched.on_steps ? 0u : hal_time_now_us() - wheel_sched.last_us;
+    const uint64_t age = whl_age_us(&wheels) + since;
+    app_wheels_measured(&app, &w, wheel_out.faults, age < UINT32_MAX ? (uint32_t)age : UINT32_MAX);
 }
 
 /* The main loop's updates of stm32_loop_stats go between these two: the
@@ -229,8 +300,10 @@ int main(void)
     board_debug_init();
     board_gpio_init();
     stm32_time_init(board_clocks()->sysclk_hz);
+    /* The motor outputs start disabled either way; an external-drives
+     * board never enables them. */
     (void)hal_motor_init();
-    (void)hal_encoder_init();
+    const bool own_wheels = !BOARD_WHEELS_EXTERNAL && hal_encoder_init() == 0;
 
     stats_begin();
     stm32_loop_stats.reset_cause = (uint32_t)hal_sys_reset_cause();
@@ -248,7 +321,8 @@ int main(void)
         can_ok = hal_can_set_filters(rx_filters, sizeof rx_filters / sizeof rx_filters[0]) == 0;
     }
     (void)app_init(&app, NULL);
-    whl_init(&wheels, &app.ctl.p.wheel);
+    app_set_wheel_source(&app, own_wheels ? APP_WHEELS_OWN : APP_WHEELS_EXTERNAL);
+    whl_init(&wheels, &app.ctl.p.wheel, app_wheel_accel(&app));
     wheel_params();
     wheel_sched.halt = app.halt;
     install_key();
@@ -259,12 +333,19 @@ int main(void)
     for (;;) {
         /* The wheel loop first: its period is the shortest, and its
          * encoder reads the more regular the better. */
-        wheel_period();
+        if (!BOARD_WHEELS_EXTERNAL) {
+            wheel_period();
+        }
         /* Every received frame into the application (app_poll(), one frame
          * at a time, so that a STEP's step can be timed). */
         hal_can_frame_t f;
         while (hal_can_recv(&f, 0u) == 0) {
             const uint32_t before = app.steps;
+            if (f.id == COMM_ID_STEP && !BOARD_WHEELS_EXTERNAL) {
+                /* A STEP runs a control step. */
+                wheel_catch_up(&f);
+                hand_wheel_speeds();
+            }
             const uint32_t c0 = stm32_time_cycles();
             (void)app_on_frame(&app, &f);
             const uint32_t cycles = stm32_time_cycles() - c0;
@@ -278,14 +359,15 @@ int main(void)
              * when this loop got to it: steps stay evenly spaced. Missed
              * periods are skipped (stm32_tick_overruns() counts them). */
             t_us += (uint64_t)periods * BOARD_CONTROL_PERIOD_US;
-            send_wheel_speed();
+            hand_wheel_speeds();
             const uint32_t c0 = stm32_time_cycles();
             app_control_tick(&app, t_us);
             after_step(stm32_time_cycles() - c0, stm32_loop_stats.steps == 0u, false, can_ok);
         }
         /* Sleep until the next interrupt unless work arrived meanwhile. */
         const uint32_t primask = cm_irq_save();
-        if (!stm32_can_rx_pending() && !stm32_tick_pending() && !wheel_due()) {
+        if (!stm32_can_rx_pending() && !stm32_tick_pending() &&
+            (BOARD_WHEELS_EXTERNAL || !wheel_due())) {
             cm_wfi();
         }
         cm_irq_restore(primask);

@@ -11,6 +11,7 @@
 #include "board.h"
 #include "hal/hal_motor.h"
 #include "stm32_calc.h"
+#include "stm32_hal.h"
 
 static volatile bool ready;
 static uint32_t arr;
@@ -64,3 +65,14 @@ void hal_motor_stop(void)
     BOARD_PWM_TIM->CCR1 = 0u;
     BOARD_PWM_TIM->CCR2 = 0u;
 }
+
+/* A board's motors are real (pil_wheels.c has the PIL images' models). */
+bool stm32_wheels_period(uint32_t period_us)
+{
+    (void)period_us;
+    return false;
+}
+
+void stm32_wheels_lockstep(void) {}
+
+uint32_t stm32_wheels_model_cycles(void) { return 0u; }

@@ -82,6 +82,12 @@ uint32_t stm32_pwm_compare(int32_t cmd, int32_t full_scale, uint32_t arr)
     return (uint32_t)div64_u(mag * period + (uint32_t)full_scale / 2u, (uint32_t)full_scale, NULL);
 }
 
+bool stm32_encoder_trusted(int32_t step, unsigned bits)
+{
+    const int64_t quarter = (int64_t)1 << (bits - 2u);
+    return (int64_t)step < quarter && (int64_t)step > -quarter;
+}
+
 int32_t stm32_encoder_step(uint32_t now, uint32_t last, unsigned bits)
 {
     const uint32_t d = now - last;

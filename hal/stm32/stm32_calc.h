@@ -68,6 +68,15 @@ uint32_t stm32_pwm_compare(int32_t cmd, int32_t full_scale, uint32_t arr);
  */
 int32_t stm32_encoder_step(uint32_t now, uint32_t last, unsigned bits);
 
+/**
+ * @brief Whether a counter's difference @p step (stm32_encoder_step()) of a
+ *        @p bits wide counter is taken as a motion: less than a quarter of
+ *        its range either way. A counter that moved past half its range reads
+ *        as a motion the other way, of at least a quarter up to three
+ *        quarters of a range (hal_encoder.h: the read then says so).
+ */
+bool stm32_encoder_trusted(int32_t step, unsigned bits);
+
 /** @brief Register values of a timer in encoder mode. */
 typedef struct {
     uint32_t smcr;  /**< SMS = 011: count on both edges of TI1 and TI2 (×4) */

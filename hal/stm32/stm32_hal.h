@@ -89,10 +89,52 @@ typedef struct {
     uint32_t closed_loop;    /**< 1: encoders read; 0: open loop (no encoders) */
     uint32_t faults;         /**< WHL_FAULT_* bits of the last period */
     int32_t speed_mrad_s[2]; /**< measured speeds of the last period [mrad/s] */
-    uint32_t cycles_max;     /**< longest period, encoders to motors [core cycles] */
+    /** Longest period, encoders to motors [core cycles], and the sum over
+     *  all (low, high word): the firmware's, a simulated motor's excluded
+     *  (stm32_wheels_model_cycles()). */
+    uint32_t cycles_max;
+    uint32_t cycles_sum_lo;
+    uint32_t cycles_sum_hi;
+    /** Periods run on the plant's time (lock-step with simulated motors). */
+    uint32_t step_periods;
 } stm32_wheel_stats_t;
 
 /** @brief Written by the main loop only. */
 extern volatile stm32_wheel_stats_t stm32_wheel_stats;
+
+/**
+ * @brief The wheel loop's period [µs], after each change (the main loop).
+ *        A board's drivers take no notice; a PIL image's simulated motors
+ *        (pil_wheels.c) move on by it at each encoder read.
+ * @return true when the motors are simulated: in lock-step the main loop then
+ *         runs the wheel periods on the plant's time (the STEP frames'),
+ *         not on its millisecond tick.
+ */
+bool stm32_wheels_period(uint32_t period_us);
+
+/** @brief The main loop runs the wheel periods on the plant's time from now
+ *         on (simulated motors in lock-step): a PIL image starts its trace. */
+void stm32_wheels_lockstep(void);
+
+/** @brief Core cycles the simulated motors took in the last encoder read
+ *         (0 on a board): not the firmware's, not in its statistics. */
+uint32_t stm32_wheels_model_cycles(void);
+
+/** @brief Periods stm32_pil_trace holds, from the first on the plant's time. */
+#define STM32_PIL_TRACE_N     1000u
+/** @brief Its scale: counts per rad/s. */
+#define STM32_PIL_TRACE_SCALE 512.0
+
+/** @brief A PIL image's simulated motors (pil_wheels.c): each wheel's true
+ *         speed [1/STM32_PIL_TRACE_SCALE rad/s] after each of the first
+ *         STM32_PIL_TRACE_N periods on the plant's time, for the harness
+ *         (mstc hil --qemu). */
+typedef struct {
+    uint32_t n; /**< periods held */
+    int16_t speed[STM32_PIL_TRACE_N][2];
+} stm32_pil_trace_t;
+
+/** @brief In the PIL images only. */
+extern volatile stm32_pil_trace_t stm32_pil_trace;
 
 #endif /* STM32_HAL_H */

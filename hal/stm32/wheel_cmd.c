@@ -35,12 +35,20 @@ int16_t wheel_cmd_from_speed(num_t speed, num_t max_speed)
 int wheel_cmd_period(whl_t *w, num_t left, num_t right, whl_output_t *out)
 {
     int32_t count[2];
-    if (hal_encoder_read(&count[0], &count[1]) != 0) {
+    const int rc = hal_encoder_read(&count[0], &count[1]);
+    if (rc == -ENODEV) {
         const int16_t l = wheel_cmd_from_speed(left, w->p.free_speed);
         const int16_t r = wheel_cmd_from_speed(right, w->p.free_speed);
         *out = (whl_output_t){ .cmd = { l, r } };
         (void)hal_motor_set(l, r);
         return -ENODEV;
+    }
+    if (rc != 0) {
+        /* A counter moved too far to be read (-ERANGE): that wheel's
+         * encoder fault, which stops both (whl.h). */
+        const uint8_t bad = hal_encoder_overran();
+        whl_latch_faults(w, (uint8_t)(((bad & 1u) != 0u ? WHL_FAULT_ENCODER_LEFT : 0u) |
+                                      ((bad & 2u) != 0u ? WHL_FAULT_ENCODER_RIGHT : 0u)));
     }
     const whl_input_t in = { { left, right }, { count[0], count[1] } };
     whl_step(w, &in, out);

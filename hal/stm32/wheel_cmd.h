@@ -22,7 +22,9 @@
  *        Without encoders (hal_encoder_read() answers -ENODEV) the motors
  *        are driven open loop on the feed-forward alone,
  *        wheel_cmd_from_speed(speed, free_speed), and @p out holds those
- *        commands, no speeds and no faults.
+ *        commands, no speeds and no faults. A counter that moved too far to
+ *        be read (hal_encoder_read()'s -ERANGE) is that wheel's encoder
+ *        fault (whl_latch_faults()): the motors stop.
  * @retval 0 closed loop. @retval -ENODEV open loop: no encoders.
  * Task context (the main loop), once per wheel period.
  */

@@ -86,6 +86,14 @@
 #define BOARD_ENC_FILTER     8u
 /** @brief Set where an encoder counts down while its wheel drives the robot
  *         forward (a mirrored motor), or swap its A and B wires. */
+/** @brief 1: a board for CAN motor drivers (docs/wheel.md, "Two topologies"):
+ *         no wheel loop, the motor outputs left disabled, the drives'
+ *         WHEEL_SPEED frames the measured wheel speeds. 0 (the default): the
+ *         integrated board, whose own wheel loop drives the H-bridges from
+ *         the encoders and measures the wheels. */
+#ifndef BOARD_WHEELS_EXTERNAL
+#define BOARD_WHEELS_EXTERNAL 0
+#endif
 #ifndef BOARD_ENC_LEFT_INVERT
 #define BOARD_ENC_LEFT_INVERT false
 #endif

@@ -154,14 +154,19 @@ void hal_motor_stop(void) {}
 int hal_encoder_init(void) { return -ENODEV; }
 
 /* TODO: each counter's signed difference since the last read (sign-extended
- * from the counter's width) added to a 32-bit running count. Called from the
- * wheel loop only, at least once per HAL_ENCODER_MAX_STEP counts. */
+ * from the counter's width) added to a 32-bit running count; a difference of
+ * a quarter of the counter's range or more not taken but reported (-ERANGE,
+ * hal_encoder_overran(); hal/stm32/encoder.c). Called from the wheel loop
+ * only, at least once per HAL_ENCODER_MAX_STEP counts. */
 int hal_encoder_read(int32_t *left, int32_t *right)
 {
     *left = 0;
     *right = 0;
     return -ENODEV;
 }
+
+/* TODO: the wheels the last hal_encoder_read() did not take. */
+uint8_t hal_encoder_overran(void) { return 0u; }
 
 /* ------------------------------------------------------ board (template.h) */
 

@@ -57,7 +57,7 @@ int main(void)
     }
     (void)hal_encoder_init();
     (void)app_init(&app, NULL);
-    whl_init(&wheels, &app.ctl.p.wheel);
+    whl_init(&wheels, &app.ctl.p.wheel, app_wheel_accel(&app));
     (void)template_tick_start(CONTROL_PERIOD_US);
     (void)hal_sys_watchdog_start(WATCHDOG_MS);
 
@@ -68,7 +68,7 @@ int main(void)
         if (periods > 0u) {
             t_us += (uint64_t)periods * CONTROL_PERIOD_US;
             app_control_tick(&app, t_us);
-            whl_set_params(&wheels, &app.ctl.p.wheel);
+            whl_set_params(&wheels, &app.ctl.p.wheel, app_wheel_accel(&app));
             wheel_period();
             hal_sys_watchdog_kick();
         }

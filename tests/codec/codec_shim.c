@@ -435,8 +435,8 @@ int shim_comm_decode(uint32_t id, uint8_t dlc, const uint8_t *data, double *out)
         out[3] = (double)num_to_float(m.u.obstacle.radius);
         break;
     case COMM_ID_WHEEL_SPEED:
-        out[0] = (double)num_to_float(m.u.wheel_speed.left);
-        out[1] = (double)num_to_float(m.u.wheel_speed.right);
+        out[0] = (double)num_to_float(m.u.wheel_speed.speed.left);
+        out[1] = (double)num_to_float(m.u.wheel_speed.speed.right);
         break;
     case COMM_ID_OBSTACLE_VEL:
         out[0] = (double)m.u.obstacle_vel.id;

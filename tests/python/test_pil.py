@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: MIT
 """Processor in the loop: the board images themselves, under QEMU, in closed
-loop with the plant (issue 14; docs/hil.md).
+loop with the plant (issues 14 and 32; docs/hil.md).
 
-The images are the ones `make flash` would write, built with CAN=slcan: the
-same objects as the bxCAN images but for the CAN transport (checked here,
-object by object). `make pil` boots each under qemu-system-arm (F405 on
-netduinoplus2, F103 on netduino2), and the plant drives it through
+The images are the PIL variant of those `make flash` would write: built with
+CAN=slcan (the same objects as the bxCAN images but for the CAN transport),
+and with two simulated motors, the DC motor model, in place of the wheels'
+drivers (the same objects as the slcan images but for those: both checked
+here, object by object). `make pil` boots each under qemu-system-arm (F405
+on netduinoplus2, F103 on netduino2), and the plant drives it through
 python-can's slcan interface on its USART2, in lock-step.
 
 - Both boards, both paper scenarios: every event at the paper's time to the
@@ -23,6 +25,16 @@ python-can's slcan interface on its USART2, in lock-step.
   at a seeded step and phase, the halt flagged within 3 control periods and
   the wheels ramped down at max_wheel_decel, checked by the very function the
   host build's test uses (tests/python/test_faults.py).
+- The paper's line on "dc" wheels under "mstc" (issue 32): the board's wheel
+  loop closes on its own simulated motors at 1 kHz, on the plant's time, and
+  the control step runs on its measurements. Its events are the in-process
+  run's (the host library of the board's numeric mode, an integrated board
+  too) within two control steps; the wheel loop's figures from the board's
+  motors (rise to 63 % and 90 % of the command, the largest and RMS error
+  against the ramped command: mstc.firmware.wheels.loop_figures) within 5 %
+  of those of the loop in process under the commands the board gave (its
+  WHEEL_CMD in bus.log, decoded with cantools); no wheel fault; a
+  WHEEL_SPEED from the board at every step.
 
 Needs the cross toolchain and qemu-system-arm (tools/setup/debian-test.txt);
 without them these fail, loudly. `make pil` takes about 2 to 3 minutes.
@@ -37,14 +49,18 @@ import time
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import can
 import pytest
 
 from mstc.can.protocol import load_database, wire_limits
 from mstc.cli.hil import SLCAN_BITRATE
-from mstc.firmware.qemu import BoardVm
-from mstc.loop.lockstep import CanController, enter_lockstep, simulate
+from mstc.firmware.qemu import PIL_TRACE_N, BoardVm
+from mstc.firmware.wheels import SUBSTEP_US, loop_figures, wheels_for
+from mstc.loop.lockstep import CanController, enter_lockstep, simulate, simulate_on_sil_bus
+from mstc.model import Pose
+from mstc.plant.plant import Integrator, UnicyclePlant
 from mstc.plant.scenario import load_scenario
 from mstc.report.outputs import events_json, write_trace_csv
 from test_board_images import make
@@ -57,6 +73,9 @@ PIL = ROOT / "build" / "pil"
 BOARDS = ("stm32f405", "stm32f103")
 NAMES = sorted(PAPER)
 TRANSPORT = {"bxcan": {"bxcan.o", "bxcan_calc.o"}, "slcan": {"slcan.o", "slcan_codec.o"}}
+WHEEL_DRIVERS = {"slcan": {"encoder.o", "motor_pwm.o"}, "pil": {"pil_wheels.o", "dcm.o"}}
+DC = ROOT / "build" / "pil" / "scenarios" / "paper-line-dc.toml"
+"""The paper's line on "dc" wheels under "mstc", as `make pil` writes it."""
 CUT_SEEDS = (100, 109)
 """test_faults' seeds of two odometry cuts (steps 79 and 148, phases 3 and 1)."""
 
@@ -66,6 +85,8 @@ SIM_KEY_FILE = ROOT / "keys" / "sim.key"
 (SIM_KEY_FILE, mk/auth.mk, mk/pil.mk): the simulations', never a device's."""
 PIL_IMAGES = PIL / "images"
 """Where `make pil` keeps those copies."""
+MODE = {"stm32f103": "fixed", "stm32f405": "float"}
+"""Each board image's numeric mode."""
 
 
 @pytest.fixture(scope="module")
@@ -219,7 +240,7 @@ def test_f103_image_halts_within_3_periods_and_ramps_down_when_odometry_is_cut(
     # key the other tests use (conftest.py).
     monkeypatch.setenv("MSTC_KEY_FILE", str(SIM_KEY_FILE))
     scenario = load_scenario(SCENARIOS / "paper-line.toml", wire_limits())
-    with BoardVm(PIL_IMAGES / "stm32f103-slcan", serial=True) as vm:
+    with BoardVm(PIL_IMAGES / "stm32f103-pil", serial=True) as vm:
         bus = can.Bus(
             interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
         )
@@ -231,6 +252,109 @@ def test_f103_image_halts_within_3_periods_and_ramps_down_when_odometry_is_cut(
         finally:
             bus.shutdown()
     assert end.steps - start.steps == end.frame_steps - start.frame_steps, "no timer step"
+
+
+# ------------------------------------------------- the wheels, on the board
+
+
+def _in_process_dc(lib: Path) -> dict[str, Any]:
+    """The "dc" line in process, through CAN frames, the firmware an
+    integrated board on the wheels it measures: its events.json."""
+    scenario = load_scenario(DC, wire_limits())
+    wheels = wheels_for(scenario, lib)
+    assert wheels is not None
+    result, _, _ = simulate_on_sil_bus(scenario, lib, wheels)
+    loaded: dict[str, Any] = json.loads(events_json(result))
+    return loaded
+
+
+def _in_process_wheels(folder: Path, lib: Path) -> tuple[list[Any], list[Any]]:
+    """The wheel loop in process (the host library of the board's numeric
+    mode) under the commands the board gave its own in the run: each STEP
+    step's WHEEL_CMD of bus.log, decoded with cantools, in force for a control
+    period. Its wheels' true speeds over the first PIL_TRACE_N periods, and
+    those commands."""
+    db = load_database()
+    cmd = db.get_message_by_name("WHEEL_CMD")
+    step = db.get_message_by_name("STEP")
+    commands: list[tuple[float, float]] = []
+    stepping = False
+    for m in can.LogReader(folder / "bus.log"):
+        if m.arbitration_id == step.frame_id:
+            stepping = step.decode(bytes(m.data))["STEP_step"] != 0xFFFF  # not the primer
+        elif m.arbitration_id == cmd.frame_id and stepping:
+            s = cmd.decode(bytes(m.data))
+            commands.append((float(s["WHEEL_CMD_left"]), float(s["WHEEL_CMD_right"])))
+    scenario = load_scenario(DC, wire_limits())
+    wheels = wheels_for(scenario, lib)
+    assert wheels is not None
+    wheels.record = PIL_TRACE_N
+    plant = UnicyclePlant(Pose(0.0, 0.0, 0.0), 0.05, 0.3, Integrator.EULER)
+    for left, right in commands[: PIL_TRACE_N // 20 + 1]:
+        wheels.drive(plant, left, right, 0.02)
+    return wheels.speeds, wheels.commands
+
+
+def _matched(ours: list[dict[str, Any]], theirs: list[dict[str, Any]], slack: float) -> bool:
+    """Every event of @p ours has one of the same kind, obstacle and side in
+    @p theirs within @p slack seconds."""
+    key = ("event", "obstacle", "side")
+    return all(
+        any(
+            all(a.get(k) == b.get(k) for k in key) and abs(a["t"] - b["t"]) <= slack for b in theirs
+        )
+        for a in ours
+    )
+
+
+@pytest.mark.parametrize("board", BOARDS)
+def test_pil_dc_line_closes_the_wheel_loop_on_the_board_like_the_simulation(
+    pil: str, libs: dict[str, Path], board: str
+) -> None:
+    folder = _folder(board, "paper-line-dc")
+    stats = json.loads((folder / "loop_stats.json").read_text())
+    wheel = stats["wheel_loop"]
+    steps = stats["steps"]
+    # Both loops ran: a wheel period every millisecond of the plant's time
+    # (20 a control period), closed on the simulated encoders, no fault.
+    assert wheel["periods_on_steps"] == 20 * (steps - 1)
+    assert wheel["closed_loop"] and wheel["faults"] == 0
+    assert wheel["instructions_per_period"]["mean"] > 0
+    assert stats["timer_steps"] == 0
+    # The board reported what it measured: a WHEEL_SPEED at every step.
+    db = load_database()
+    speed_id = db.get_message_by_name("WHEEL_SPEED").frame_id
+    reports = [m for m in can.LogReader(folder / "bus.log") if m.arbitration_id == speed_id]
+    assert len(reports) >= steps
+    # The events: the in-process run's, each within two control steps.
+    ours = json.loads((folder / "events.json").read_text())
+    theirs = _in_process_dc(libs[MODE[board]])
+    slack = 2 * 0.02 + 1e-9
+    assert _matched(ours["events"], theirs["events"], slack)
+    assert _matched(theirs["events"], ours["events"], slack)
+    assert all(d >= D_S for d in ours["min_distance"])
+    # The wheel loop's figures from the board's motors: within 5 % of those
+    # of the loop in process under the same commands.
+    speeds, commands = _in_process_wheels(folder, libs[MODE[board]])
+    per_step = 20000 // SUBSTEP_US
+    sim = loop_figures(speeds, commands, per_step, 125.0).as_dict()
+    got = wheel["figures"]["board"]
+    for name, pair in sim.items():
+        for wheel_got, wheel_sim in zip(got[name], pair, strict=True):
+            assert abs(wheel_got - wheel_sim) <= 0.05 * abs(wheel_sim), (name, got, sim)
+
+
+def test_pil_image_differs_from_the_slcan_image_in_the_wheel_drivers_only() -> None:
+    for board in BOARDS:
+        r = make(f"img-{board}-slcan", f"img-{board}-pil")
+        assert r.returncode == 0, (r.stdout + r.stderr)[-4000:]
+        sl, pil = _objects(f"{board}-slcan"), _objects(f"{board}-pil")
+        assert {Path(p).name for p in set(sl) - set(pil)} == WHEEL_DRIVERS["slcan"]
+        assert {Path(p).name for p in set(pil) - set(sl)} == WHEEL_DRIVERS["pil"]
+        common = sorted(set(sl) & set(pil))
+        assert "hal/stm32/main.o" in common and "firmware/wheel/whl.o" in common
+        different = [p for p in common if sl[p].read_bytes() != pil[p].read_bytes()]
+        assert different == [], "objects that differ beyond the wheel drivers"
 
 
 # ------------------------------------------------------ only the transport

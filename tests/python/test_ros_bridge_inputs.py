@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""The ROS 2 bridge checks what it is told (issue 30, R1-R7).
+"""The ROS 2 bridge checks what it is told (issue 30, R1-R7), and publishes
+what the wheels measured on ``joint_states`` (issue 32).
 
 The bridge node (``mstc.ros.bridge.Bridge``) runs in this process with the
 firmware in process (mstc-sil, its real library), stepping on odometry
@@ -33,19 +34,26 @@ from pathlib import Path
 from typing import Any
 
 import can
+import cantools
 import pytest
 import rclpy
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 from visualization_msgs.msg import Marker, MarkerArray
 
 from conftest import ROOT
+from logfiles import DBC
+from mstc.can.library import Library
 from mstc.can.protocol import Protocol
 from mstc.errors import MstcError, UsageError
+from mstc.firmware.wheels import DcWheels
 from mstc.model import Params, Pose
+from mstc.plant.plant import Integrator, UnicyclePlant
 from mstc.ros.bridge import Bridge
 
 PROFILE = ROOT / "tests" / "data" / "fastdds-loopback.xml"
@@ -143,12 +151,15 @@ def obstacles(*items: tuple[int, float, float, float, float, float]) -> MarkerAr
 class Robot:
     """A unicycle driven by the bridge's wheel commands, one period a step."""
 
-    def __init__(self, bridge: Bridge) -> None:
+    def __init__(self, bridge: Bridge, wheels: DcWheels | None = None) -> None:
         self.bridge = bridge
         self.pose = Pose(0.0, 0.0, 0.0)
         self.k = 0
         self.params = Params()
         self.halts: list[int] = []
+        self.wheels = wheels
+        """"dc" wheels the commands drive (the board's own, whose wheel loop
+        it measures), instead of ideal ones."""
 
     @property
     def ns(self) -> int:
@@ -166,6 +177,12 @@ class Robot:
             halt = -1  # no step ran
         left, right = self.bridge.state.wheels
         p = self.params
+        if self.wheels is not None:
+            plant = UnicyclePlant(self.pose, p.wheel_radius, p.track_width, Integrator.EXACT)
+            self.wheels.drive(plant, left, right, gap_ns / 1e9)
+            self.pose = plant.pose
+            self.halts.append(halt)
+            return halt
         v = p.wheel_radius * (left + right) / 2
         w = p.wheel_radius * (right - left) / p.track_width
         dt = gap_ns / 1e9
@@ -179,8 +196,12 @@ class Robot:
         return str(answer.message)
 
 
-def armed_robot(bridge: Bridge, plan: bool = True) -> Robot:
-    robot = Robot(bridge)
+def armed_robot(
+    bridge: Bridge, plan: bool = True, wheels: DcWheels | None = None, start: Pose | None = None
+) -> Robot:
+    robot = Robot(bridge, wheels)
+    if start is not None:
+        robot.pose = start
     if plan:
         bridge._on_plan(straight_plan(50.0))
     for _ in range(6):
@@ -483,3 +504,86 @@ def test_an_atomic_set_whose_second_value_the_firmware_refuses_is_undone(
     assert "armed" in result.reason
     assert firmware_value(bridge, "max_wheel_decel") == pytest.approx(125.0)
     assert firmware_value(bridge, "D_s") == pytest.approx(0.35)
+
+
+# ------------------------------------------------------------ joint_states
+
+
+def test_joint_states_are_the_wheel_speed_frames_on_the_bus(
+    bridges: list[Bridge], sil_lib: Path, tmp_path: Path
+) -> None:
+    """The firmware in process as an integrated board: its own wheel loop on
+    two "dc" motors (attached to mstc-sil's firmware, driven by its commands)
+    sends WHEEL_SPEED at every step. Every frame on the bus goes to a candump
+    log (python-can's writer); ``joint_states``, received by a subscriber of
+    its own, holds each WHEEL_SPEED of that log, in order, with the speeds
+    cantools decodes from it (the DBC read here, not by the bridge), the
+    joints' names and the step's stamp."""
+    bridge = make_bridge(sil_lib)
+    bridges.append(bridge)
+    wheels = DcWheels(Library.open(sil_lib))
+    bridge.bus.attach_wheels(wheels.loop.address)  # type: ignore[attr-defined]  # a SilBus
+    log_path = tmp_path / "bus.log"
+    log = can.Logger(str(log_path))
+    bus = bridge.bus
+    send, recv = bus.send, bus.recv
+
+    def logged_send(msg: can.Message, timeout: float | None = None) -> None:
+        send(msg, timeout)
+        log(msg)
+
+    def logged_recv(timeout: float | None = None) -> can.Message | None:
+        msg = recv(timeout)
+        if msg is not None:
+            log(msg)
+        return msg
+
+    bus.send = logged_send  # type: ignore[method-assign]
+    bus.recv = logged_recv  # type: ignore[method-assign]
+    listener = rclpy.create_node(f"joint_states_listener_{next(_nodes)}")
+    got: list[JointState] = []
+    listener.create_subscription(
+        JointState, f"/{bridge.get_namespace().strip('/')}/joint_states", got.append, 100
+    )
+    executor = SingleThreadedExecutor()
+    executor.add_node(listener)
+    try:
+        for _ in range(100):  # discovery: the publisher sees the subscriber
+            if bridge.joint_pub.get_subscription_count() > 0:
+                break
+            executor.spin_once(timeout_sec=0.1)
+        assert bridge.joint_pub.get_subscription_count() > 0
+        # 0.2 m left of the plan: the robot turns back to it, its wheels
+        # at different speeds.
+        robot = armed_robot(bridge, wheels=wheels, start=Pose(0.0, 0.2, 0.0))
+        stamps = []
+        for _ in range(50):
+            assert robot.step() == HALT_NONE
+            stamps.append(robot.ns)
+            executor.spin_once(timeout_sec=0.0)
+        for _ in range(50):  # what is still on its way
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        log.stop()
+        executor.shutdown()
+        listener.destroy_node()
+    db = cantools.database.load_file(str(DBC))
+    message = db.get_message_by_name("WHEEL_SPEED")
+    want = [
+        message.decode(bytes(m.data))
+        for m in can.LogReader(str(log_path))
+        if m.arbitration_id == message.frame_id
+    ]
+    # One a step the firmware ran: the 6 before arming and the 50 after.
+    assert len(want) == 56
+    assert max(abs(w["WHEEL_SPEED_left"]) for w in want) > 5.0  # the wheels did turn
+    assert max(abs(w["WHEEL_SPEED_left"] - w["WHEEL_SPEED_right"]) for w in want) > 1.0
+    assert len(got) == len(want)
+    for js, w in zip(got, want, strict=True):
+        assert list(js.name) == ["left_wheel_joint", "right_wheel_joint"]
+        assert list(js.velocity) == [w["WHEEL_SPEED_left"], w["WHEEL_SPEED_right"]]
+        assert w["WHEEL_SPEED_faults"] == 0
+    # Stamped with their step's time: the last 50 with the odometry stamps
+    # that ran them.
+    got_ns = [js.header.stamp.sec * 1_000_000_000 + js.header.stamp.nanosec for js in got]
+    assert got_ns[-50:] == stamps

@@ -212,39 +212,49 @@ def test_obstacles_are_those_the_sensor_saw(run: tuple[Path, Path, str]) -> None
                 assert abs(m.scale.x - 2 * o.radius) <= 1e-9
 
 
-def test_measured_wheel_speeds_are_the_wheel_speed_frames(sil_lib: Path, tmp_path: Path) -> None:
-    """A run whose wheels lag (an ``[actuator]``) carries WHEEL_SPEED frames;
-    /wheel_speeds holds each of them, at its bus time, with the speeds
-    cantools decodes from bus.log's line (the DBC read here, not by the
-    exporter); a run with ideal wheels has none (the fixture's)."""
-    scenario = tmp_path / "lag.toml"
-    # The paper's line without its expected events (lagging wheels switch
-    # later), with wheels that follow their command through a lag.
+@pytest.mark.parametrize(
+    "actuator",
+    [
+        # drives that report what they measure (external drives: the plant
+        # sends WHEEL_SPEED)
+        "time_constant = 0.06\nmax_accel = 20.0\nencoder_counts = 1920\n",
+        # the integrated board: the firmware's own wheel loop sends it
+        'model = "dc"\n',
+    ],
+    ids=["lag", "dc"],
+)
+def test_measured_wheel_speeds_are_the_wheel_speed_frames(
+    sil_lib: Path, tmp_path: Path, actuator: str
+) -> None:
+    """A run whose wheels are not ideal (an ``[actuator]``) carries
+    WHEEL_SPEED frames; /joint_states holds each of them, at its bus time,
+    with the speeds cantools decodes from bus.log's line (the DBC read here,
+    not by the exporter); a run with ideal wheels has none (the fixture's)."""
+    scenario = tmp_path / "wheels.toml"
+    # The paper's line without its expected events (real wheels switch
+    # later), with wheels of their own.
     text = SCENARIO.read_text()
-    scenario.write_text(
-        text[: text.index("[[expected]]")]
-        + "\n[actuator]\ntime_constant = 0.06\nmax_accel = 20.0\nencoder_counts = 1920\n"
-    )
+    scenario.write_text(text[: text.index("[[expected]]")] + "\n[actuator]\n" + actuator)
     quiet = io.StringIO()
     with contextlib.redirect_stdout(quiet):
         rc = main(["sim", "--lib", str(sil_lib), "--out", str(tmp_path), "-q", str(scenario)])
         # The paper's strategy on lagging wheels may touch an obstacle (exit 4,
         # docs/strategy-wheels.md); the run's outputs are written either way.
         assert rc in (0, 4)
-        rc = main(["export", str(tmp_path / "lag"), "--rosbag2", str(tmp_path / "bag"), "-q"])
+        rc = main(["export", str(tmp_path / "wheels"), "--rosbag2", str(tmp_path / "bag"), "-q"])
         assert rc == 0
     db = cantools.database.load_file(str(DBC))
     wheel_speed = db.get_message_by_name("WHEEL_SPEED")
     want = []
-    for line in (tmp_path / "lag" / "bus.log").read_text().splitlines():
+    for line in (tmp_path / "wheels" / "bus.log").read_text().splitlines():
         stamp, _, frame = line.split()
         ident, data = frame.split("#")
         if int(ident, 16) == wheel_speed.frame_id:
             s = wheel_speed.decode(bytes.fromhex(data))
             t = round(float(stamp.strip("()")) * 1e9)
             want.append((t, s["WHEEL_SPEED_left"], s["WHEEL_SPEED_right"]))
-    got = messages(tmp_path / "bag", "/wheel_speeds")
-    steps = len(trace_rows(tmp_path / "lag"))
+    got = messages(tmp_path / "bag", "/joint_states")
+    steps = len(trace_rows(tmp_path / "wheels"))
     assert steps - 1 <= len(want) <= steps  # one a step, after the first
     assert any(left != 0.0 for _, left, _ in want)
     assert len(got) == len(want)
@@ -256,7 +266,7 @@ def test_measured_wheel_speeds_are_the_wheel_speed_frames(sil_lib: Path, tmp_pat
 
 def test_a_run_with_ideal_wheels_has_no_measured_speeds(run: tuple[Path, Path, str]) -> None:
     _, bag, _ = run
-    assert messages(bag, "/wheel_speeds") == []
+    assert messages(bag, "/joint_states") == []
 
 
 def test_an_export_replaces_an_earlier_one_and_leaves_anything_else(

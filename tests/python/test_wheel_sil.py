@@ -2,7 +2,7 @@
 """The firmware's wheel loop in the simulation: the "dc" actuator.
 
 - The Python motor (mstc.firmware.wheels.Motor.pololu_37d) and the C model's
-  defaults (model/dcm.c, through mstc_sil_wheels_defaults) are two
+  defaults (sim/dcmotor/dcm.c, through mstc_sil_wheels_defaults) are two
   derivations from one datasheet: they must agree; both must give the
   datasheet's points.
 - The loop through the library behaves as the acceptance of issue 20 asks
@@ -41,6 +41,7 @@ from mstc.firmware.wheels import (
     WheelLoop,
     WheelParams,
     library_defaults,
+    loop_figures,
     wheels_for,
 )
 from mstc.loop.lockstep import simulate
@@ -93,8 +94,19 @@ def _run(loop: WheelLoop, sp: float, ms: int, load: float = 0.0) -> list[float]:
     return [loop.advance(sp, sp, 1000, (load, load)).speed[0] for _ in range(ms)]
 
 
+def _stepping_params() -> WheelParams:
+    """The table's wheel loop with wheel_accel at its largest, 10000 rad/s²
+    (wheels that follow at once): its setpoint steps, as the acceptance's
+    tests want."""
+    return dataclasses.replace(WheelParams.defaults(), accel=10000.0)
+
+
+def _stepping(lib: Library) -> WheelLoop:
+    return WheelLoop(lib, _stepping_params())
+
+
 def test_step_through_the_library_meets_the_acceptance(lib: Library) -> None:
-    loop = WheelLoop(lib)  # the table's ramp: none, a step
+    loop = _stepping(lib)
     speeds = _run(loop, 20.0, 400)
     outside = [k for k, w in enumerate(speeds) if abs(w - 20.0) > 0.4]
     assert outside[-1] + 1 < 150  # settled within 2 % in under 150 ms
@@ -103,7 +115,7 @@ def test_step_through_the_library_meets_the_acceptance(lib: Library) -> None:
 
 
 def test_load_through_the_library_is_rejected_within_100_ms(lib: Library) -> None:
-    loop = WheelLoop(lib)
+    loop = _stepping(lib)
     _run(loop, 20.0, 300)
     speeds = _run(loop, 20.0, 300, load=0.3 * STALL_TORQUE)
     assert min(speeds) < 19.6  # the load did knock it off
@@ -111,18 +123,29 @@ def test_load_through_the_library_is_rejected_within_100_ms(lib: Library) -> Non
 
 
 def test_faults_show_through_the_library(lib: Library) -> None:
-    loop = WheelLoop(lib)
-    loop.hold(0, True)
-    states = [loop.advance(20.0, 20.0, 1000) for _ in range(600)]
+    loop = _stepping(lib)
+    # A load full drive turns the left wheel against at 0.5 rad/s only
+    # (ω∞ = (Kt·V/R − τc − τL)/(b + Kt·Ke/R), by hand): a stall after 0.5 s.
+    motor = Motor.pololu_37d()
+    creep = STALL_TORQUE - 0.5 * motor.damping
+    assert motor.speed_steady(1.0, creep) == pytest.approx(0.5)
+    states = [loop.advance(20.0, 20.0, 1000, (creep, 0.0)) for _ in range(600)]
     first = next(k for k, s in enumerate(states) if s.faults)
     assert states[-1].faults == 0x1  # left stall (WHL_FAULT_STALL_LEFT)
     assert 500 <= first + 1 <= 550
     assert states[-1].drive == (0.0, 0.0)
     loop.clear_faults()
-    loop.hold(0, False)
     loop.kill_encoder(1)
     states = [loop.advance(10.0, 10.0, 1000) for _ in range(200)]
     assert states[-1].faults == 0x8  # right encoder (WHL_FAULT_ENCODER_RIGHT)
+    # Held rigidly: the windup's few counts, then none: an encoder fault
+    # 0.1 s after the last (the loop cannot tell it from a dead encoder).
+    loop = _stepping(lib)
+    loop.hold(0, True)
+    states = [loop.advance(20.0, 20.0, 1000) for _ in range(400)]
+    first = next(k for k, s in enumerate(states) if s.faults)
+    assert states[first].faults == 0x4  # left encoder (WHL_FAULT_ENCODER_LEFT)
+    assert 100 <= first + 1 <= 150
 
 
 def test_the_library_refuses_what_the_firmware_would(lib: Library) -> None:
@@ -131,7 +154,7 @@ def test_the_library_refuses_what_the_firmware_would(lib: Library) -> None:
         dataclasses.replace(defaults, kp=-1.0),
         dataclasses.replace(defaults, rate=5000.0),
         dataclasses.replace(defaults, counts=math.nan),
-        dataclasses.replace(defaults, ramp=10.0),  # below max_wheel_decel (125)
+        dataclasses.replace(defaults, accel=0.5),  # below wheel_accel's range (1 .. 10000)
     ):
         with pytest.raises(FirmwareError, match="refuses"):
             WheelLoop(lib, bad)
@@ -141,7 +164,7 @@ def test_the_library_refuses_what_the_firmware_would(lib: Library) -> None:
 
 def test_the_plant_moves_by_the_wheels_angles(lib: Library) -> None:
     plant = UnicyclePlant(Pose(0.0, 0.0, 0.0), 0.05, 0.3, Integrator.EULER)
-    wheels = DcWheels(lib)
+    wheels = DcWheels(lib, _stepping_params())
     for _ in range(50):
         wheels.drive(plant, 10.0, 10.0, 0.02)
     # Straight ahead: x = r·(θL + θR)/2, y = 0, θ = 0.
@@ -152,6 +175,33 @@ def test_the_plant_moves_by_the_wheels_angles(lib: Library) -> None:
     # 1 s at 10 rad/s, less the start: between 0.94 and 1.0 of r·10·1 s.
     assert 0.94 * 0.5 < plant.pose.x < 0.5
     assert wheels.measured[0] == pytest.approx(10.0, abs=0.4)
+
+
+def test_loop_figures_of_a_first_order_lag_by_hand() -> None:
+    """A wheel following a constant 10 rad/s as a first-order lag of 20 ms,
+    sampled every millisecond: ω_i = 10·(1 − e^(−(i+1)·T/τ)). It reaches 63 %
+    at −τ·ln(0.37) = 19.885 ms and 90 % at −τ·ln(0.1) = 46.052 ms (linear
+    interpolation between samples: within 0.01 ms here). With a ramp of
+    10,000 rad/s² the reference is 10 from the first period, so the largest
+    error is the first sample's, 10·e^(−1/20) = 9.5123, and the RMS is
+    10·sqrt(Σ e^(−2(i+1)/20) / N)."""
+    tau, n = 0.02, 200
+    speeds = [(10 * (1 - math.exp(-(i + 1) * 1e-3 / tau)), 0.0) for i in range(n)]
+    commands = [(10.0, 0.0)] * (n // 20)
+    fig = loop_figures(speeds, commands, 20, 10000.0)
+    assert fig.rise_63_ms[0] == pytest.approx(-tau * math.log(0.37) * 1e3, abs=0.01)
+    assert fig.rise_90_ms[0] == pytest.approx(-tau * math.log(0.1) * 1e3, abs=0.01)
+    assert fig.track_max[0] == pytest.approx(10 * math.exp(-1 / 20), rel=1e-12)
+    rms = 10 * math.sqrt(sum(math.exp(-2 * (i + 1) / 20) for i in range(n)) / n)
+    assert fig.track_rms[0] == pytest.approx(rms, rel=1e-12)
+    # The right wheel is not commanded: no rise, no error.
+    assert math.isnan(fig.rise_63_ms[1]) and fig.track_max[1] == 0.0
+    # A ramp of 125 rad/s² as the reference: the wheel that follows it
+    # exactly has no error (0.125 rad/s a period, 10 reached after 80).
+    ramp = [(min(10.0, 0.125 * (i + 1)), 0.0) for i in range(n)]
+    assert loop_figures(ramp, commands, 20, 125.0).track_max[0] == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError):
+        loop_figures(speeds, commands[:2], 20, 125.0)
 
 
 # ------------------------------------------------------------ the scenario
@@ -184,8 +234,9 @@ def test_the_actuator_table_is_read_and_checked() -> None:
 
 def _judge(data: dict[str, object], name: str, lib_path: Path) -> tuple[bool, bool, bool | None]:
     scenario = parse_scenario(data, name, wire_limits())
-    controller = SilController(scenario.params, lib_path)
-    result = simulate(scenario, controller, wheels=wheels_for(scenario, lib_path))
+    wheels = wheels_for(scenario, lib_path)
+    controller = SilController(scenario.params, lib_path, wheels)
+    result = simulate(scenario, controller, wheels=wheels)
     m = evaluate(result)
     return m.contact, m.ds_kept, m.rejoined
 
@@ -226,7 +277,7 @@ def test_the_gearmotor_profiles_lag_is_no_faster_than_this_loop(lib: Library) ->
     start 0 -> 20 rad/s; both lags are shorter than 0.06 s."""
 
     def fitted(w0: float, w1: float, before_ms: int) -> float:
-        loop = WheelLoop(lib)
+        loop = _stepping(lib)
         _run(loop, w0, before_ms)
         speeds = _run(loop, w1, 300)
         best = min(

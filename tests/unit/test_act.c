@@ -105,8 +105,14 @@ static void test_act_brake_time_is_half_the_stop_and_half_a_period(void)
 
 static void test_act_horizon_adds_half_a_period_for_a_measurement(void)
 {
-    TEST_ASSERT_NUM_WITHIN(TOL, 0.06, act_horizon(tu_num(0.06), tu_num(0.02), false));
-    TEST_ASSERT_NUM_WITHIN(TOL, 0.07, act_horizon(tu_num(0.06), tu_num(0.02), true));
+    TEST_ASSERT_NUM_WITHIN(TOL, 0.06, act_horizon(tu_num(0.06), tu_num(0.02), NUM_ZERO, false));
+    TEST_ASSERT_NUM_WITHIN(TOL, 0.07, act_horizon(tu_num(0.06), tu_num(0.02), NUM_ZERO, true));
+    /* A measurement of a given age (a board's own wheel loop: half its 10 ms
+     * window, 1 ms after its last period): 0.06 + 0.006 s. */
+    TEST_ASSERT_NUM_WITHIN(TOL, 0.066,
+                           act_horizon(tu_num(0.06), tu_num(0.02), tu_num(0.006), true));
+    TEST_ASSERT_NUM_WITHIN(TOL, 0.06,
+                           act_horizon(tu_num(0.06), tu_num(0.02), tu_num(0.006), false));
 }
 
 static void test_act_predict_is_the_arc_within_its_bound(void)

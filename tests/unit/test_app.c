@@ -28,13 +28,8 @@ static app_t app;
 
 void setUp(void)
 {
-    hal_fake_reset();
-    memset(tf_counters, 0, sizeof tf_counters);
-    const ctl_params_t p = tf_instant_wheels();
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
-    app_set_key(&app, tf_test_key, TF_SESSION);
+    tf_app_start(&app, 0);
     tf_auth = &app.auth;
-    tf_freshness = 0u;
 }
 
 void tearDown(void) {}

@@ -30,16 +30,7 @@ static app_t app;
 
 #define DT_US 20000u
 
-void setUp(void)
-{
-    hal_fake_reset();
-    hal_fake.can_status_rc = -ENOTSUP;
-    memset(tf_counters, 0, sizeof tf_counters);
-    const ctl_params_t p = tf_instant_wheels();
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
-    app_set_key(&app, tf_test_key, TF_SESSION);
-    tf_freshness = 0u;
-}
+void setUp(void) { tf_app_start(&app, -ENOTSUP); }
 
 void tearDown(void) {}
 

@@ -33,14 +33,8 @@ static app_t app;
 
 void setUp(void)
 {
-    hal_fake_reset();
-    hal_fake.can_status_rc = -ENOTSUP; /* a port without a controller, unless a test says */
-    memset(tf_counters, 0, sizeof tf_counters);
-    const ctl_params_t p = tf_instant_wheels();
-    TEST_ASSERT_EQUAL_INT(0, app_init(&app, &p));
-    app_set_key(&app, tf_test_key, TF_SESSION);
+    tf_app_start(&app, -ENOTSUP); /* a port without a controller, unless a test says */
     tf_auth = &app.auth;
-    tf_freshness = 0u;
 }
 
 void tearDown(void) {}
@@ -976,6 +970,35 @@ static void test_app_safety_a_non_finite_parameter_value_is_out_of_range(void)
     TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
 }
 
+/* Index 24 was wheel_ramp, folded into wheel_accel (15): reserved, so an old
+ * tool's PARAM_SET 24 is refused and sets nothing, nor is it read. */
+static void test_app_safety_the_reserved_index_of_wheel_ramp_is_unknown(void)
+{
+    const ctl_params_t before = app.ctl.p;
+    (void)set_param(24, 125.0f);
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
+    TEST_ASSERT_EQUAL_MEMORY(&before, &app.ctl.p, sizeof before);
+    feed(tf_param_get(24));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_UNKNOWN_INDEX, tf_last_param_value().param_value_result);
+}
+
+/* The wheel loop's ramp (app_wheel_accel()): wheel_accel while running;
+ * while halted at least the halt's deceleration, so that a halt's ramp
+ * reaches the wheels unslowed. By hand: wheel_accel 20 against the default
+ * max_wheel_decel, 125 rad/s². */
+static void test_app_safety_the_wheel_loop_ramps_at_wheel_accel_and_passes_a_halt(void)
+{
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param(15, 20.0f)); /* not armed: accepted */
+    TEST_ASSERT_NUM_WITHIN(1e-3, 125.0, app_wheel_accel(&app));   /* halted: not armed */
+    arm();
+    TEST_ASSERT_NUM_WITHIN(1e-3, 20.0, app_wheel_accel(&app));
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, arm_cmd(0.0f));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 125.0, app_wheel_accel(&app));
+    /* Wheels faster than the halt: their own figure. */
+    TEST_ASSERT_EQUAL_UINT8(COMM_PARAM_OK, set_param(15, 400.0f));
+    TEST_ASSERT_NUM_WITHIN(1e-2, 400.0, app_wheel_accel(&app));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -1020,5 +1043,7 @@ int main(void)
     RUN_TEST(test_app_safety_control_law_parameters_are_refused_while_armed);
     RUN_TEST(test_app_safety_a_halt_keeps_the_deceleration_it_began_with);
     RUN_TEST(test_app_safety_a_non_finite_parameter_value_is_out_of_range);
+    RUN_TEST(test_app_safety_the_reserved_index_of_wheel_ramp_is_unknown);
+    RUN_TEST(test_app_safety_the_wheel_loop_ramps_at_wheel_accel_and_passes_a_halt);
     return UNITY_END();
 }

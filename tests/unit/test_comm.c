@@ -582,19 +582,22 @@ static void test_comm_decode_obstacle_velocity(void)
 static void test_comm_decode_wheel_speed(void)
 {
     /* left 12.5 rad/s: raw 12800 (2^-10 rad/s) at bits 16..33; right
-     * -0.75 rad/s: raw -768 at 34..51; the spare bits 12..15 and 52..63 set,
-     * to show they are ignored. */
+     * -0.75 rad/s: raw -768 at 34..51; the faults 0b1010 at 52..55 (right
+     * stall, right encoder); the spare bits 12..15 and 56..63 set, to show
+     * they are ignored. */
     uint8_t payload[8] = { 0 };
     set_field(payload, 12, 4, 0xF);
     set_field(payload, 16, 18, 12800);
     set_field(payload, 34, 18, -768);
-    set_field(payload, 52, 12, 0xFFF);
+    set_field(payload, 52, 4, 0xA);
+    set_field(payload, 56, 8, 0xFF);
     hal_can_frame_t f = sealed(COMM_ID_WHEEL_SPEED, payload, 5);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
     TEST_ASSERT_EQUAL_HEX32(COMM_ID_WHEEL_SPEED, m.id);
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 12.5, m.u.wheel_speed.left);
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -0.75, m.u.wheel_speed.right);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 12.5, m.u.wheel_speed.speed.left);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -0.75, m.u.wheel_speed.speed.right);
+    TEST_ASSERT_EQUAL_HEX8(0xA, m.u.wheel_speed.faults);
 }
 
 static void test_comm_decode_param_set_and_get(void)

@@ -98,6 +98,38 @@ static void test_ctl_ranges_measured_wheel_speeds_beyond_their_range_stop_the_st
     TEST_ASSERT_EQUAL_UINT8(0, out.status.faults & CTL_FAULT_INPUT_NONFINITE);
 }
 
+static void test_ctl_ranges_a_measurement_age_outside_its_range_stops_the_step(void)
+{
+    /* A board's wheel loop hands its speeds with their age (ctl.h): a
+     * negative age, or one of CTL_MAX_WHEELS_AGE (1 s) or more, is bad
+     * input; 0 and 0.5 s are in range. An age is not looked at when the
+     * speeds are not marked measured. */
+    const num_t bad[] = { tu_num(-0.001), tu_num(1.001) };
+    for (size_t i = 0; i < 2u; i++) {
+        setUp();
+        ctl_input_t in = good_input();
+        in.wheels_measured = true;
+        in.wheels_age = bad[i];
+        ctl_step(&c, &in, &out);
+        assert_stopped_for_input();
+    }
+    const num_t good[] = { NUM_ZERO, tu_num(0.5) };
+    for (size_t i = 0; i < 2u; i++) {
+        setUp();
+        ctl_input_t in = good_input();
+        in.wheels_measured = true;
+        in.wheels_age = good[i];
+        ctl_step(&c, &in, &out);
+        TEST_ASSERT_EQUAL_UINT8(0, out.status.faults & CTL_FAULT_INPUT_NONFINITE);
+        TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, out.status.mode);
+    }
+    setUp();
+    ctl_input_t in = good_input();
+    in.wheels_age = bad[1];
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(0, out.status.faults & CTL_FAULT_INPUT_NONFINITE);
+}
+
 static void test_ctl_ranges_a_lowered_wheel_limit_holds_at_the_next_step(void)
 {
     /* The wheels turn at (5, 90) rad/s (the application's halt ramp,
@@ -358,6 +390,7 @@ int main(void)
     UNITY_BEGIN();
     RUN_TEST(test_ctl_ranges_each_input_beyond_its_range_stops_the_step);
     RUN_TEST(test_ctl_ranges_measured_wheel_speeds_beyond_their_range_stop_the_step);
+    RUN_TEST(test_ctl_ranges_a_measurement_age_outside_its_range_stops_the_step);
     RUN_TEST(test_ctl_ranges_a_lowered_wheel_limit_holds_at_the_next_step);
     RUN_TEST(test_ctl_ranges_extreme_inputs_in_range_give_outputs_in_range);
     RUN_TEST(test_ctl_ranges_bad_obstacle_reports_are_dropped_not_used);

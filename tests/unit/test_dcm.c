@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Unity tests of the DC gearmotor model (model/dcm.h), which the wheel loop's
+ * Unity tests of the DC gearmotor model (sim/dcmotor/dcm.h), which the wheel loop's
  * tests and the simulation run against: its defaults against the datasheet
  * they come from, and its motion against the first-order solution.
  *

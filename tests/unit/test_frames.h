@@ -16,6 +16,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "app/app.h"
 #include "auth/auth.h"
 #include "comm/comm.h"
 #include "comm/mstc_dbc.h"
@@ -122,14 +123,19 @@ static inline hal_can_frame_t tf_ref_motion(double theta, double v, double w)
     return tf_seal(COMM_ID_REF_MOTION, p);
 }
 
-static inline hal_can_frame_t tf_wheel_speed(double left, double right)
+static inline hal_can_frame_t tf_wheel_speed_faults(double left, double right, uint8_t faults)
 {
     uint8_t p[8] = { 0 };
     const struct mstc_dbc_wheel_speed_t s = { .wheel_speed_left = (int32_t)lround(left * 1024.0),
-                                              .wheel_speed_right =
-                                                  (int32_t)lround(right * 1024.0) };
+                                              .wheel_speed_right = (int32_t)lround(right * 1024.0),
+                                              .wheel_speed_faults = faults };
     (void)mstc_dbc_wheel_speed_pack(p, &s, 8);
     return tf_seal(COMM_ID_WHEEL_SPEED, p);
+}
+
+static inline hal_can_frame_t tf_wheel_speed(double left, double right)
+{
+    return tf_wheel_speed_faults(left, right, 0u);
 }
 
 static inline hal_can_frame_t tf_step(uint16_t step, uint32_t time_us)
@@ -255,6 +261,23 @@ static inline struct mstc_dbc_param_value_t tf_last_param_value(void)
     TEST_ASSERT_EQUAL_INT(
         0, mstc_dbc_param_value_unpack(&v, tf_last_sent(COMM_ID_PARAM_VALUE)->data, 8));
     return v;
+}
+
+/**
+ * @brief A test's start: the HAL fake reset (its CAN status then @p can_rc),
+ *        every sender's counter at 0, @p app initialised with
+ *        tf_instant_wheels() and keyed with tf_test_key in TF_SESSION, the
+ *        commands' freshness at 0.
+ */
+static inline void tf_app_start(app_t *app, int can_rc)
+{
+    hal_fake_reset();
+    hal_fake.can_status_rc = can_rc;
+    memset(tf_counters, 0, sizeof tf_counters);
+    const ctl_params_t p = tf_instant_wheels();
+    TEST_ASSERT_EQUAL_INT(0, app_init(app, &p));
+    app_set_key(app, tf_test_key, TF_SESSION);
+    tf_freshness = 0u;
 }
 
 #endif /* MSTC_TEST_FRAMES_H */

@@ -244,6 +244,21 @@ static void test_wheel_cmd_clamps_and_guards(void)
 
 /* ------------------------------------------------------------ encoder */
 
+static void test_stm32_encoder_trusts_less_than_a_quarter_of_the_range(void)
+{
+    /* 16 bits: a quarter is 16,384; 16,383 either way is taken. */
+    TEST_ASSERT_TRUE(stm32_encoder_trusted(16383, 16u));
+    TEST_ASSERT_TRUE(stm32_encoder_trusted(-16383, 16u));
+    TEST_ASSERT_FALSE(stm32_encoder_trusted(16384, 16u));
+    TEST_ASSERT_FALSE(stm32_encoder_trusted(-16384, 16u));
+    /* +40,000 counts between two reads sign-extend to −25,536: not taken. */
+    TEST_ASSERT_FALSE(stm32_encoder_trusted(stm32_encoder_step(40000u, 0u, 16u), 16u));
+    /* 32 bits: a quarter is 2^30. */
+    TEST_ASSERT_TRUE(stm32_encoder_trusted(0x3FFFFFFF, 32u));
+    TEST_ASSERT_FALSE(stm32_encoder_trusted(0x40000000, 32u));
+    TEST_ASSERT_FALSE(stm32_encoder_trusted(INT32_MIN, 32u));
+}
+
 static void test_stm32_encoder_step_sign_extends_16_bits(void)
 {
     TEST_ASSERT_EQUAL_INT32(5, stm32_encoder_step(105u, 100u, 16u));
@@ -289,7 +304,7 @@ static void loop_start(void)
 {
     ctl_params_t c;
     ctl_params_default(&c);
-    whl_init(&loop, &c.wheel);
+    whl_init(&loop, &c.wheel, c.wheel_accel);
 }
 
 static void test_wheel_period_reads_encoders_and_drives_the_motors(void)
@@ -326,6 +341,24 @@ static void test_wheel_period_stops_the_motors_on_a_fault(void)
     (void)wheel_cmd_period(&loop, num_from_int(10), num_from_int(10), &out);
     TEST_ASSERT_EQUAL_UINT(sets, hal_fake.motor_sets); /* stays stopped */
     TEST_ASSERT_FALSE(hal_fake.motor_enabled);
+}
+
+static void test_wheel_period_stops_the_motors_when_a_counter_overran(void)
+{
+    loop_start();
+    whl_output_t out;
+    (void)wheel_cmd_period(&loop, num_from_int(10), num_from_int(10), &out);
+    TEST_ASSERT_EQUAL_UINT8(0u, out.faults);
+    /* The right counter moved too far to be read (hal_encoder.h): that
+     * wheel's encoder fault, both motors stopped at once. */
+    hal_fake.encoder_rc = -ERANGE;
+    hal_fake.encoder_overran = 2u;
+    TEST_ASSERT_EQUAL_INT(0, wheel_cmd_period(&loop, num_from_int(10), num_from_int(10), &out));
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_RIGHT, out.faults);
+    TEST_ASSERT_EQUAL_UINT(1u, hal_fake.motor_stops);
+    TEST_ASSERT_FALSE(hal_fake.motor_enabled);
+    TEST_ASSERT_EQUAL_INT16(0, out.cmd[0]);
+    TEST_ASSERT_EQUAL_INT16(0, out.cmd[1]);
 }
 
 static void test_wheel_period_without_encoders_drives_open_loop(void)
@@ -407,10 +440,12 @@ int main(void)
     RUN_TEST(test_wheel_cmd_scales_to_full_scale);
     RUN_TEST(test_wheel_cmd_clamps_and_guards);
     RUN_TEST(test_stm32_encoder_step_sign_extends_16_bits);
+    RUN_TEST(test_stm32_encoder_trusts_less_than_a_quarter_of_the_range);
     RUN_TEST(test_stm32_encoder_step_takes_32_bits_whole);
     RUN_TEST(test_stm32_encoder_regs_hand_values);
     RUN_TEST(test_wheel_period_reads_encoders_and_drives_the_motors);
     RUN_TEST(test_wheel_period_stops_the_motors_on_a_fault);
+    RUN_TEST(test_wheel_period_stops_the_motors_when_a_counter_overran);
     RUN_TEST(test_wheel_period_without_encoders_drives_open_loop);
     return UNITY_END();
 }

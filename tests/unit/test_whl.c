@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Unity tests of the wheel-speed loop (firmware/wheel/whl.h), in closed loop
- * against the DC gearmotor model (model/dcm.h, itself tested against its
+ * against the DC gearmotor model (sim/dcmotor/dcm.h, itself tested against its
  * datasheet and its first-order solution in test_dcm.c), at 1 kHz, with the
  * defaults of the limits table: the acceptance of the wheel loop.
  *
@@ -26,13 +26,14 @@
 static dcm_params_t mp;
 static dcm_t m[WHL_N];
 static whl_params_t wp;
+static num_t accel; /* the setpoint ramp, wheel_accel [rad/s²] */
 static whl_t w;
 static whl_output_t out;
 static unsigned k; /* periods run */
 
 static void start(void)
 {
-    whl_init(&w, &wp);
+    whl_init(&w, &wp, accel);
     k = 0;
 }
 
@@ -44,6 +45,9 @@ void setUp(void)
     ctl_params_t c;
     ctl_params_default(&c);
     wp = c.wheel;
+    /* No ramp of the loop's own: 10000 rad/s², wheel_accel's largest
+     * (wheels that follow at once), 10 rad/s a period. */
+    accel = tu_num(10000.0);
     start();
 }
 void tearDown(void) {}
@@ -70,7 +74,7 @@ static double stall_torque(void) { return mp.kt * mp.v_supply / mp.r_ohm - mp.ta
 
 static void test_whl_step_settles_within_2_percent_in_150_ms(void)
 {
-    TEST_ASSERT_NUM_WITHIN(1e-3, 10000.0, wp.ramp); /* the default: a step */
+    TEST_ASSERT_NUM_WITHIN(1e-3, 10.0, w.ramp_step); /* 10000 / 1000: a step */
     double peak[2] = { 0.0, 0.0 };
     double settled[2] = { 0.0, 0.0 }; /* last time outside ±2 % */
     double drive_sum[2] = { 0.0, 0.0 };
@@ -111,7 +115,7 @@ static void test_whl_ramp_is_tracked_within_1_rad_s(void)
      * for this motor (four fifths of what full drive gives at 20 rad/s,
      * (34.56/0.0856)·(1 − 20/34.56) = 170 rad/s²), tracked thanks to the
      * acceleration feed-forward. */
-    wp.ramp = tu_num(125.0);
+    accel = tu_num(125.0);
     start();
     double worst = 0.0;
     while (now() < 1.5) {
@@ -133,14 +137,66 @@ static void test_whl_ramp_is_tracked_within_1_rad_s(void)
     TEST_ASSERT_TRUE(worst > 0.0);
 }
 
+static void test_whl_setpoint_ramps_at_wheel_accel(void)
+{
+    /* One parameter for one fact: the loop's ramp is the control step's
+     * wheel_accel, handed beside the loop's parameters. The table's default,
+     * 20 rad/s² at 1 kHz: 0.02 rad/s a period, so 2 rad/s after 100 periods
+     * and the 10 rad/s asked after 500 (by hand). */
+    ctl_params_t c;
+    ctl_params_default(&c);
+    TEST_ASSERT_NUM_WITHIN(1e-3, 20.0, c.wheel_accel);
+    accel = c.wheel_accel;
+    start();
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-6, 2e-5), 0.02, w.ramp_step);
+    while (k < 100u) {
+        period(10.0, -10.0);
+    }
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-3), 2.0, w.w[0].setpoint);
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-3), -2.0, w.w[1].setpoint);
+    while (k < 520u) {
+        period(10.0, -10.0);
+    }
+    TEST_ASSERT_NUM_WITHIN(1e-6, 10.0, w.w[0].setpoint);
+    /* A new ramp takes effect at once, the state kept: 125 rad/s² down to
+     * 0 from 10 rad/s is 80 periods (0.125 rad/s each). */
+    whl_set_params(&w, &wp, tu_num(125.0));
+    for (unsigned i = 0; i < 40u; i++) {
+        period(0.0, 0.0);
+    }
+    TEST_ASSERT_NUM_WITHIN(TU_TOL(1e-4, 2e-3), 5.0, w.w[0].setpoint);
+}
+
+/* The steady speed at full drive against @p load, moving forward: ω∞ of
+ * dcm.h with u = 1. */
+static double full_drive_speed(double load)
+{
+    const double damp = mp.b + mp.kt * mp.ke / mp.r_ohm;
+    return (mp.kt * mp.v_supply / mp.r_ohm - mp.tau_c - load) / damp;
+}
+
+/* The load under which full drive turns the wheel at @p omega (by hand from
+ * the same ω∞). */
+static double load_for(double omega)
+{
+    const double damp = mp.b + mp.kt * mp.ke / mp.r_ohm;
+    return stall_torque() - omega * damp;
+}
+
 static void test_whl_release_after_a_1_s_stall_overshoots_at_most_10_percent(void)
 {
+    /* Held for 1 s by a load it can barely turn against (2 rad/s at full
+     * drive: the drive saturated all the while, the windup's situation; a
+     * wheel held so rigidly that it gives no count at all is stopped within
+     * 0.1 s, test_whl_a_wheel_held_rigid_is_stopped_within_0_1_s). */
     wp.stall_time = tu_num(2.0); /* the windup, not the stall fault, is tested */
     start();
+    const double load = load_for(2.0);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 2.0, full_drive_speed(load));
     double peak = 0.0;
     double integ_max = 0.0;
     while (now() < 2.0) {
-        dcm_hold(&m[0], now() >= 0.3 && now() < 1.3);
+        m[0].load = now() >= 0.3 && now() < 1.3 ? load : 0.0;
         period(20.0, 20.0);
         if (now() >= 1.3) {
             peak = fmax(peak, m[0].omega);
@@ -215,9 +271,11 @@ static void test_whl_speed_noise_at_10_rad_s_is_below_0_4_rad_s(void)
 
 static void test_whl_stall_fault_stops_both_wheels_after_its_time(void)
 {
-    /* The left wheel held from the start, as against a wall: full drive, no
-     * motion; after stall_time (0.5 s) the loop stops. */
-    dcm_hold(&m[0], true);
+    /* The left wheel loaded from the start so that full drive only creeps
+     * it, at 0.5 rad/s (a count every 6.5 ms: the encoder lives): no motion
+     * worth the name the way it drives; after stall_time (0.5 s) the loop
+     * stops. */
+    m[0].load = load_for(0.5);
     double fault_at = -1.0;
     while (now() < 1.5) {
         period(20.0, 20.0);
@@ -235,6 +293,35 @@ static void test_whl_stall_fault_stops_both_wheels_after_its_time(void)
     TEST_ASSERT_TRUE(fault_at >= 0.5);
     TEST_ASSERT_TRUE(fault_at <= 0.5 + 0.05);
     TEST_ASSERT_TRUE(m[1].omega < 1.0); /* the free wheel coasted down */
+}
+
+static void test_whl_a_wheel_held_rigid_is_stopped_within_0_1_s(void)
+{
+    /* Held from the start, as against a wall: the gearbox and tyre wind up
+     * by a few counts (the model's hold: 1° at stall torque, 5 counts), then
+     * none come: WHL_DEAD_TIME after the last, an encoder fault (the loop
+     * cannot tell a rigid hold from a dead encoder; either way the drive
+     * stops). */
+    dcm_hold(&m[0], true);
+    int32_t last = dcm_count(&m[0], &mp);
+    double last_at = 0.0;
+    double fault_at = -1.0;
+    while (now() < 1.0 && fault_at < 0.0) {
+        period(20.0, 20.0);
+        const int32_t c = dcm_count(&m[0], &mp);
+        if (c != last) {
+            last = c;
+            last_at = now();
+        }
+        if (out.faults != 0u) {
+            fault_at = now();
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_LEFT, out.faults);
+    TEST_ASSERT_TRUE(last != 0); /* it did wind up */
+    TEST_ASSERT_TRUE(fault_at >= last_at + 0.1);
+    TEST_ASSERT_TRUE(fault_at <= last_at + 0.1 + 2.0 * DT);
+    TEST_ASSERT_EQUAL_INT16(0, out.cmd[0]);
 }
 
 static void test_whl_dead_encoder_fault_stops_both_wheels_after_its_time(void)
@@ -261,25 +348,34 @@ static void test_whl_dead_encoder_fault_stops_both_wheels_after_its_time(void)
 
 /* ------------------------------------------------------------- behaviour */
 
-static void test_whl_an_encoder_dying_while_turning_ends_in_a_stall_fault(void)
+static void test_whl_an_encoder_dying_while_turning_is_a_fault_within_0_1_s(void)
 {
     /* Counts from the start of the drive show the encoder alive; when it
-     * dies later the loop sees a stopped wheel, drives it fully, and the
-     * stall check stops it (docs/wheel.md, "Faults"). */
+     * dies later the loop sees a stopped wheel and drives it harder, the
+     * wheel speeding up unseen: no count for WHL_DEAD_TIME at well over a
+     * quarter of full drive, an encoder fault (docs/wheel.md, "Faults"),
+     * before the wheel has gained much. */
     while (now() < 0.3) {
         period(20.0, 20.0);
     }
     dcm_kill_encoder(&m[0], &mp);
     double fault_at = -1.0;
+    double top = 0.0;
     while (now() < 1.5) {
         period(20.0, 20.0);
+        top = fmax(top, m[0].omega);
         if (fault_at < 0.0 && out.faults != 0u) {
             fault_at = now();
         }
     }
-    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_STALL_LEFT, out.faults);
-    TEST_ASSERT_TRUE(fault_at >= 0.3 + 0.5);
-    TEST_ASSERT_TRUE(fault_at <= 0.3 + 0.5 + 0.05);
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_LEFT, out.faults);
+    TEST_ASSERT_TRUE(fault_at >= 0.3 + 0.1);
+    TEST_ASSERT_TRUE(fault_at <= 0.3 + 0.1 + 2.0 * DT);
+    /* Full drive for 0.1 s from 20 rad/s: at most ω∞ − (ω∞ − 20)·e^(−0.1/τm)
+     * (dcm.h's solution), 27.8 rad/s, by hand. */
+    const double w_full = full_drive_speed(0.0);
+    const double tau_m = mp.j / (mp.b + mp.kt * mp.ke / mp.r_ohm);
+    TEST_ASSERT_TRUE(top <= w_full - (w_full - 20.0) * exp(-(0.1 + 2.0 * DT) / tau_m));
 }
 
 static void test_whl_an_encoder_counting_backwards_ends_in_a_stall_fault(void)
@@ -326,17 +422,17 @@ static void test_whl_more_counts_than_the_wheel_can_turn_are_an_encoder_fault(vo
 
 static void test_whl_faults_latch_until_cleared_then_resume_without_a_jump(void)
 {
-    wp.ramp = tu_num(125.0);
+    accel = tu_num(125.0);
     start();
     dcm_hold(&m[0], true);
     while (now() < 0.6) {
         period(20.0, 20.0);
     }
-    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_STALL_LEFT, out.faults);
+    TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_LEFT, out.faults);
     dcm_hold(&m[0], false);
     while (now() < 1.6) {
         period(20.0, 20.0);
-        TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_STALL_LEFT, out.faults);
+        TEST_ASSERT_EQUAL_UINT8(WHL_FAULT_ENCODER_LEFT, out.faults);
         TEST_ASSERT_EQUAL_INT16(0, out.cmd[0]);
     }
     whl_clear_faults(&w);
@@ -400,12 +496,24 @@ static void test_whl_window_is_whole_periods_within_the_ring(void)
     TEST_ASSERT_EQUAL_UINT8(32u, w.window);
     wp.rate = tu_num(100.0);
     wp.window = tu_num(0.001); /* a tenth of a period: one */
-    whl_set_params(&w, &wp);
+    whl_set_params(&w, &wp, accel);
     TEST_ASSERT_EQUAL_UINT8(1u, w.window);
     wp.window = tu_num(0.032); /* 3.2 periods at 100 Hz */
-    whl_set_params(&w, &wp);
+    whl_set_params(&w, &wp, accel);
     TEST_ASSERT_EQUAL_UINT8(3u, w.window);
     TEST_ASSERT_EQUAL_UINT32(10000u, whl_period_us(&wp));
+    /* The estimate's age: half of 3 periods of 10 ms. */
+    TEST_ASSERT_EQUAL_UINT32(15000u, whl_age_us(&w));
+}
+
+static void test_whl_estimate_is_half_its_window_old(void)
+{
+    /* The defaults: 10 periods of 1 ms, 5 ms; one period of 1 ms, 0.5 ms
+     * (rounded up to 1 µs: 500). */
+    TEST_ASSERT_EQUAL_UINT32(5000u, whl_age_us(&w));
+    wp.window = tu_num(0.001);
+    whl_set_params(&w, &wp, accel);
+    TEST_ASSERT_EQUAL_UINT32(500u, whl_age_us(&w));
 }
 
 static void test_whl_motor_command_rounds_and_clamps(void)
@@ -435,12 +543,14 @@ int main(void)
     UNITY_BEGIN();
     RUN_TEST(test_whl_step_settles_within_2_percent_in_150_ms);
     RUN_TEST(test_whl_ramp_is_tracked_within_1_rad_s);
+    RUN_TEST(test_whl_setpoint_ramps_at_wheel_accel);
     RUN_TEST(test_whl_release_after_a_1_s_stall_overshoots_at_most_10_percent);
     RUN_TEST(test_whl_load_step_of_30_percent_stall_is_rejected_within_100_ms);
     RUN_TEST(test_whl_speed_noise_at_10_rad_s_is_below_0_4_rad_s);
     RUN_TEST(test_whl_stall_fault_stops_both_wheels_after_its_time);
+    RUN_TEST(test_whl_a_wheel_held_rigid_is_stopped_within_0_1_s);
     RUN_TEST(test_whl_dead_encoder_fault_stops_both_wheels_after_its_time);
-    RUN_TEST(test_whl_an_encoder_dying_while_turning_ends_in_a_stall_fault);
+    RUN_TEST(test_whl_an_encoder_dying_while_turning_is_a_fault_within_0_1_s);
     RUN_TEST(test_whl_an_encoder_counting_backwards_ends_in_a_stall_fault);
     RUN_TEST(test_whl_more_counts_than_the_wheel_can_turn_are_an_encoder_fault);
     RUN_TEST(test_whl_faults_latch_until_cleared_then_resume_without_a_jump);
@@ -448,6 +558,7 @@ int main(void)
     RUN_TEST(test_whl_speed_from_counts_by_hand);
     RUN_TEST(test_whl_running_count_wraps_without_a_jump);
     RUN_TEST(test_whl_window_is_whole_periods_within_the_ring);
+    RUN_TEST(test_whl_estimate_is_half_its_window_old);
     RUN_TEST(test_whl_motor_command_rounds_and_clamps);
 #if !defined(NUM_FIXED)
     RUN_TEST(test_whl_a_non_finite_setpoint_counts_as_zero);

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* The wheel loop's benchmark (make bench, bench_wheel.h): a closed loop of
- * whl_step against two DC motor models (model/dcm.h), recorded, then
+ * whl_step against two DC motor models (sim/dcmotor/dcm.h), recorded, then
  * replayed through whl_step alone. */
 #include "bench_wheel.h"
 
@@ -31,12 +31,12 @@ static void setpoints(size_t k, double sp[2])
     }
 }
 
-void bench_wheel_params(whl_params_t *p)
+num_t bench_wheel_params(whl_params_t *p)
 {
     ctl_params_t c;
     ctl_params_default(&c);
     *p = c.wheel;
-    p->ramp = num_from_float(125.0f); /* docs/wheel.md's ramp for this motor */
+    return num_from_float(125.0f); /* docs/wheel.md's ramp (wheel_accel) for this motor */
 }
 
 size_t bench_wheel_record(bench_wheel_period_t *rec, size_t n)
@@ -47,9 +47,9 @@ size_t bench_wheel_record(bench_wheel_period_t *rec, size_t n)
     dcm_init(&m[0]);
     dcm_init(&m[1]);
     whl_params_t p;
-    bench_wheel_params(&p);
+    const num_t accel = bench_wheel_params(&p);
     whl_t w;
-    whl_init(&w, &p);
+    whl_init(&w, &p, accel);
     for (size_t k = 0; k < n; k++) {
         double sp[2];
         setpoints(k, sp);
@@ -74,9 +74,9 @@ size_t bench_wheel_record(bench_wheel_period_t *rec, size_t n)
 size_t bench_wheel_verify(const bench_wheel_period_t *rec, size_t n)
 {
     whl_params_t p;
-    bench_wheel_params(&p);
+    const num_t accel = bench_wheel_params(&p);
     whl_t w;
-    whl_init(&w, &p);
+    whl_init(&w, &p, accel);
     size_t differ = 0;
     for (size_t k = 0; k < n; k++) {
         whl_output_t out;
@@ -99,9 +99,9 @@ void bench_wheel_replay(const bench_wheel_period_t *rec, size_t n, bool empty,
                         uint64_t (*ticks)(void), uint64_t *total, uint64_t *largest)
 {
     whl_params_t p;
-    bench_wheel_params(&p);
+    const num_t accel = bench_wheel_params(&p);
     whl_t w;
-    whl_init(&w, &p);
+    whl_init(&w, &p, accel);
     void (*step)(whl_t *, const whl_input_t *, whl_output_t *) = empty ? empty_step : whl_step;
     volatile int16_t sink = 0;
     *total = 0u;

@@ -2,7 +2,7 @@
 /**
  * @file bench_wheel.h
  * @brief The wheel loop's benchmark (make bench): whl_step for both wheels
- *        against two DC motor models (model/dcm.h) at 1 kHz, the default
+ *        against two DC motor models (sim/dcmotor/dcm.h) at 1 kHz, the default
  *        motor and parameters with docs/wheel.md's ramp, through a start, a
  *        turn under a 30 %-of-stall load, a reversal and a stop, recorded
  *        once, then replayed through whl_step alone and timed (bench_target.c
@@ -27,8 +27,9 @@ typedef struct {
     int16_t cmd[2];
 } bench_wheel_period_t;
 
-/** @brief The benchmark's parameters. */
-void bench_wheel_params(whl_params_t *p);
+/** @brief The benchmark's parameters into @p p. @return its setpoint ramp
+ *         (wheel_accel) [rad/s²]. */
+num_t bench_wheel_params(whl_params_t *p);
 
 /** @brief Record @p n periods of the closed loop. @return @p n. */
 size_t bench_wheel_record(bench_wheel_period_t *rec, size_t n);

@@ -37,6 +37,12 @@ static void whl_params_defaults(whl_params_t *p)
     *p = c.wheel;
 }
 
+/* The setpoint ramps (wheel_accel) of the runs: none of the loop's own
+ * (wheel_accel's largest, wheels that follow at once), and docs/wheel.md's
+ * for this motor. */
+#define NO_RAMP    10000.0f
+#define MOTOR_RAMP 125.0f
+
 /* A shaft turning θ(t) = θ0 + ω0·t + α·t²/2, as the encoder counts it. */
 static int32_t count_at(double theta0, double w0, double alpha, double t)
 {
@@ -57,7 +63,7 @@ static void window_figures(double window_s, double w0, double alpha, double *rms
     long n = 0;
     for (int ph = 0; ph < 64; ph++) {
         whl_t w;
-        whl_init(&w, &p);
+        whl_init(&w, &p, num_from_float(NO_RAMP));
         const double theta0 = TWO_PI / COUNTS * ph / 64.0;
         for (int k = 0; k < 2000; k++) {
             const whl_input_t in = { { NUM_ZERO, NUM_ZERO },
@@ -76,7 +82,7 @@ static void window_figures(double window_s, double w0, double alpha, double *rms
     *rms = sqrt(sq / (double)n);
     *max = worst;
     whl_t w;
-    whl_init(&w, &p);
+    whl_init(&w, &p, num_from_float(NO_RAMP));
     double lag_sum = 0.0;
     long m = 0;
     for (int k = 0; k < 400; k++) {
@@ -193,6 +199,11 @@ static int response(const char *dir)
     dcm_params_t mp;
     dcm_params_default(&mp);
     const double tau_stall = mp.kt * mp.v_supply / mp.r_ohm - mp.tau_c;
+    /* The hold: a load full drive turns the wheel against at 2 rad/s only
+     * (dcm.h's ω∞ with u = 1), the drive saturated: the windup's situation.
+     * A wheel held rigidly gives no count and is stopped within 0.1 s
+     * (docs/wheel.md, "Faults"). */
+    const double hold_load = tau_stall - 2.0 * (mp.b + mp.kt * mp.ke / mp.r_ohm);
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++) {
         char path[512];
         snprintf(path, sizeof path, "%s/%s.csv", dir, runs[r].name);
@@ -204,14 +215,13 @@ static int response(const char *dir)
         fprintf(f, "t,setpoint,speed,estimate,drive\n");
         whl_params_t p;
         whl_params_defaults(&p);
-        if (runs[r].kind == RUN_RAMP || runs[r].kind == RUN_STALL) {
-            p.ramp = num_from_float(125.0f); /* docs/wheel.md's ramp for this motor */
-        }
+        const bool ramped = runs[r].kind == RUN_RAMP || runs[r].kind == RUN_STALL;
+        const float ramp = ramped ? MOTOR_RAMP : NO_RAMP;
         if (runs[r].kind == RUN_STALL) {
             p.stall_time = num_from_float(5.0f); /* the windup, not the fault */
         }
         whl_t w;
-        whl_init(&w, &p);
+        whl_init(&w, &p, num_from_float(ramp));
         dcm_t m;
         dcm_init(&m);
         for (int k = 0; k < 1500; k++) {
@@ -224,7 +234,7 @@ static int response(const char *dir)
                 sp = t < 0.1 ? 0.0 : (t < 0.5 ? 20.0 : (t < 1.0 ? -20.0 : 0.0));
             }
             if (runs[r].kind == RUN_STALL) {
-                dcm_hold(&m, t >= 0.3 && t < 1.3);
+                m.load = t >= 0.3 && t < 1.3 ? hold_load : 0.0;
             }
             if (runs[r].kind == RUN_LOAD) {
                 m.load = t >= 0.5 ? 0.3 * tau_stall : 0.0;

@@ -15,7 +15,11 @@
  * extends them in hal_encoder_read() by adding the signed difference since
  * the previous read, so it must be called before either wheel has moved
  * HAL_ENCODER_MAX_STEP counts since (docs/porting.md gives the bound in
- * time for the STM32 boards). The wheel loop reads every period (1 ms).
+ * time for the STM32 boards). The wheel loop reads every period (1 ms). A
+ * counter that did move that far is not read as a motion (past half its
+ * range the difference would even come out the other way): the read says so
+ * (-ERANGE, hal_encoder_overran()) and the wheel loop stops the motors with
+ * that wheel's encoder fault.
  *
  * A port without encoders (the host ports, the blank template) returns
  * -ENODEV from both functions, and zero counts; the board then drives its
@@ -26,9 +30,11 @@
 
 #include <stdint.h>
 
-/** @brief Largest motion between two reads [counts] of a 16-bit counter:
- *         a difference up to this is taken with its sign. */
-#define HAL_ENCODER_MAX_STEP 32767
+/** @brief Largest motion between two reads [counts] of a 16-bit counter
+ *         that is taken: a quarter of its range, so that a motion past half
+ *         of it, which its difference would read as one the other way, is
+ *         caught (up to three quarters of the range; docs/porting.md). */
+#define HAL_ENCODER_MAX_STEP 16383
 
 /**
  * @brief Set up both encoders; their running counts start at 0.
@@ -43,9 +49,20 @@ int hal_encoder_init(void);
  * @param[out] right right wheel's count.
  * @retval 0 read. @retval -ENODEV no encoders (hal_encoder_init() failed or
  *         was not called): both counts 0.
+ * @retval -ERANGE a counter moved more than HAL_ENCODER_MAX_STEP counts (of
+ *         its width's: a quarter of its range) since the last read: that
+ *         wheel's count is left as it was (hal_encoder_overran() says which);
+ *         the other's is read.
  * Task context (one caller: the wheel loop); does not block. Must be called
  * at least once per HAL_ENCODER_MAX_STEP counts of either wheel.
  */
 int hal_encoder_read(int32_t *left, int32_t *right);
+
+/**
+ * @brief The wheels whose counter moved too far at the last
+ *        hal_encoder_read() (which returned -ERANGE): bit 0 left, bit 1 right.
+ * Task context; does not block.
+ */
+uint8_t hal_encoder_overran(void);
 
 #endif /* HAL_ENCODER_H */

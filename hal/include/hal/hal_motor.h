@@ -4,11 +4,11 @@
  * @brief Motor service of the HAL: the two wheel outputs of a board.
  *
  * A board drives each wheel's motor driver with a PWM duty cycle and a
- * direction (sign-magnitude), open loop: the command is a fraction of full
- * drive, not a speed. The board's main loop converts the control step's wheel
- * speeds to commands (speed / max_wheel_speed, see docs/porting.md), so
- * max_wheel_speed should be set to the wheel speed the motor reaches at full
- * drive. Why PWM rather than a CAN frame to a motor driver: the control step
+ * direction (sign-magnitude): the command is a fraction of full drive, not
+ * a speed. The board's wheel loop (firmware/wheel/whl.h) turns the control
+ * step's wheel speeds into commands on its encoders' counts; a board without
+ * encoders drives open loop, speed / wheel_free_speed (docs/porting.md).
+ * Why PWM rather than a CAN frame to a motor driver: the control step
  * already puts WHEEL_CMD on the bus, which a CAN motor driver can follow
  * directly; what the bus cannot do is drive an H-bridge.
  *

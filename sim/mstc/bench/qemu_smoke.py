@@ -75,7 +75,6 @@ CFSR, HFSR = 0xE000ED28, 0xE000ED2C
 # loop's implausible-encoder fault (WHL_FAULT_ENCODER_*), motors stopped. The
 # F103's TIM1 reads 0: a wheel standing still, no fault while nothing drives it.
 WHEEL_FAULTS = {"stm32f405": 0x4 | 0x8, "stm32f103": 0x4}
-WHEEL_STATS_WORDS = 7  # stm32_wheel_stats_t (hal/stm32/stm32_hal.h)
 
 
 def app_offsets(board: str, numeric: str) -> dict[str, int]:
@@ -134,9 +133,8 @@ def smoke(image_dir: Path, seconds: float, min_steps: int) -> bool:
         state = mon.byte_at(app + off["state"])
         halt = mon.byte_at(app + off["halt"])
         ccr1, ccr2 = mon.words(TIM3 + 0x34, 2)
-        periods, _, closed_loop, wheel_faults = mon.words(
-            vm.address("stm32_wheel_stats"), WHEEL_STATS_WORDS
-        )[:4]
+        wheel = vm.wheel_stats()
+        periods, closed_loop, wheel_faults = wheel.periods, wheel.closed_loop, wheel.faults
         regs = mon.cmd("info registers")
         m = re.search(r"R15=([0-9a-f]{8})", regs)
         pc = int(m.group(1), 16) if m else -1
@@ -151,7 +149,7 @@ def smoke(image_dir: Path, seconds: float, min_steps: int) -> bool:
         (halt == COMM_HALT_NOT_ARMED, f"halt reason {halt} (1: not armed)"),
         (ccr1 == ccr2 == 0, f"PWM compare {ccr1}, {ccr2} (both 0: no motion without inputs)"),
         (
-            periods >= 10 * st.steps and closed_loop == 1,
+            periods >= 10 * st.steps and closed_loop,
             f"wheel periods {periods} (>= 10 per control step), on the encoders",
         ),
         (

@@ -101,6 +101,7 @@ class InputStruct(AbiStruct):
         ("obstacles", ctypes.POINTER(ObstacleStruct)),
         ("wheel_speed", ctypes.c_double * 2),
         ("wheel_measured", ctypes.c_uint32),
+        ("wheel_age_us", ctypes.c_uint32),
     ]
 
 
@@ -367,6 +368,7 @@ def _declare(dll: ctypes.CDLL) -> None:
         ("mstc_sil_fw_set_session", [ctypes.c_uint32], c_int),
         ("mstc_sil_fw_send", [pointer(FrameStruct)], c_int),
         ("mstc_sil_fw_recv", [pointer(FrameStruct)], c_int),
+        ("mstc_sil_fw_wheels", [ctypes.c_void_p], c_int),
     ]
     for name, argtypes, restype in signatures:
         fn = getattr(dll, name)

@@ -68,6 +68,7 @@ class SilBus(can.BusABC):
         self.channel_info = f"mstc-sil ({self.numeric}) {library.path}"
         self._now = 0.0
         self._node = node
+        self._wheels: int | None = None
         try:
             self._key = secoc.load_key() if key is None else key
         except AuthKeyError as exc:
@@ -93,6 +94,19 @@ class SilBus(can.BusABC):
                 f"mstc-sil: the firmware refused the key ({len(self._key)} bytes, want "
                 f"{secoc.KEY_LEN}), or the OS gave no random value for its session"
             )
+        if self._wheels is not None:
+            self._lib.mstc_sil_fw_wheels(self._wheels)
+
+    def attach_wheels(self, address: int | None) -> None:
+        """Make the firmware an integrated board whose own wheel loop runs the
+        wheels at @p address (a wheel loop on two motors of this library:
+        :attr:`mstc.firmware.wheels.WheelLoop.address`), which the caller
+        advances: each control step takes their estimate and its age, and
+        WHEEL_SPEED frames are not its input (docs/wheel.md, "Two
+        topologies"). None: external drives again. Kept across
+        :meth:`restart`."""
+        self._wheels = address
+        self._lib.mstc_sil_fw_wheels(address)
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         """Hand @p msg to the firmware, which handles it before this returns."""

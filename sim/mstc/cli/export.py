@@ -27,7 +27,8 @@ a Plot panel takes any signal, e.g.
 
 With --rosbag2 the run becomes a rosbag2 folder (MCAP storage) of standard ROS 2
 messages in the frames odom and base_link: /odom, /tf, /reference,
-/reference/path, /obstacles, /cmd_wheels, /mstc/status, /mstc/events and every
+/reference/path, /obstacles, /cmd_wheels, /joint_states (the measured wheel
+speeds, when the run has them), /mstc/status, /mstc/events and every
 raw frame on /can/frames (can_msgs/msg/Frame), for ros2 bag play, rviz2, rqt
 (docs/ros2.md). It needs the extra mstc[ros].
 

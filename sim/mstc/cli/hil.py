@@ -14,12 +14,15 @@ from pathlib import Path
 import can
 
 from mstc.can import secoc
+from mstc.can.library import LIB_ENV
 from mstc.can.vmbridge import Bridge, BridgeBus
-from mstc.cli.common import add_bus_arguments, add_key_argument, open_args_bus, run_scenarios
+from mstc.cli.common import add_bus_arguments, add_key_argument, library, open_args_bus, run_scenarios
 from mstc.cli.sim import add_output_arguments, tolerance
 from mstc.errors import ControllerError, UsageError
 from mstc.firmware.process import start_firmware, stop_firmware
-from mstc.firmware.qemu import ICOUNT, BoardVm, LoopStats
+from mstc.firmware.qemu import ICOUNT, PIL_TRACE_N, BoardVm, LoopStats, WheelStats
+from mstc.firmware.wheels import SUBSTEP_US, DcWheels, loop_figures, wheels_for
+from mstc.logs.play import open_bus
 from mstc.loop.lockstep import CanController, enter_lockstep, simulate
 from mstc.loop.realtime import (
     COMM_LOSS_TAIL,
@@ -72,7 +75,12 @@ python-can's slcan interface on the image's USART2 (processor in the loop,
 `make pil`). One STEP frame first switches the board's main loop to
 lock-step; the run fails if its timer ran a step after that. Each scenario
 also writes loop_stats.json: the board's steps, and the instructions per
-control step counted under QEMU's -icount.
+control step and per wheel period counted under QEMU's -icount. A scenario
+with `[actuator] model = "dc"` needs a PIL image (build/firmware/<board>-pil),
+whose wheel loop drives simulated motors on the target: the board measures
+its own wheels, the plant moves the robot with a twin of them (the library
+of --lib, in the board's numeric mode), and loop_stats.json gets the wheel
+loop's figures from the board's motors and wheel_trace.csv their speeds.
 
 A run that misses its scenario's [[expected]] events, or whose firmware
 ended it halted when it was not asked to (--stop-odometry-at asks, and the
@@ -93,7 +101,7 @@ examples:
       sim/scenarios/paper-line.toml
   .venv/bin/mstc hil --realtime --interface socketcan --channel can0 \\
       sim/scenarios/paper-line.toml          # a board (docs/hil.md)
-  .venv/bin/mstc hil --qemu build/firmware/stm32f103-slcan --out build/pil/stm32f103 \\
+  .venv/bin/mstc hil --qemu build/firmware/stm32f103-pil --out build/pil/stm32f103 \\
       sim/scenarios/paper-line.toml
 """
 
@@ -132,8 +140,16 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--qemu",
         metavar="IMAGE_DIR",
         type=Path,
-        help="boot this board image (build/firmware/<board>-slcan) under QEMU for each "
-        "scenario and run it over its serial line with python-can's slcan interface",
+        help="boot this board image (build/firmware/<board>-pil or <board>-slcan) under QEMU "
+        "for each scenario and run it over its serial line with python-can's slcan interface",
+    )
+    parser.add_argument(
+        "--lib",
+        metavar="PATH",
+        type=Path,
+        help='with --qemu and a "dc" scenario: the firmware library whose wheel loop is '
+        f"the plant's twin of the board's wheels (default: ${LIB_ENV}, else "
+        "build/host/float/libmstc_sil.so)",
     )
     add_key_argument(parser)
     timing = parser.add_argument_group("real time")
@@ -249,10 +265,15 @@ class BoardBusLog(BusLog):
     board: str = ""
     loop_stats: str = ""
     """loop_stats.json: the board's steps and instructions per step."""
+    wheel_trace: str = ""
+    """wheel_trace.csv of a PIL image's simulated wheels, when it has them."""
 
     @property
     def files(self) -> dict[str, str]:
-        return {"loop_stats.json": self.loop_stats}
+        files = {"loop_stats.json": self.loop_stats}
+        if self.wheel_trace:
+            files["wheel_trace.csv"] = self.wheel_trace
+        return files
 
     def describe(self) -> str:
         return f"{super().describe()}\n  board         {self.board}"
@@ -288,19 +309,29 @@ def check_lockstep(start: LoopStats, end: LoopStats, steps: int) -> None:
         )
 
 
-def loop_record(vm: BoardVm, start: LoopStats, end: LoopStats) -> dict[str, object]:
-    """loop_stats.json: the board's steps and their cost during the run.
+def loop_record(
+    vm: BoardVm,
+    start: LoopStats,
+    end: LoopStats,
+    wheels: tuple[WheelStats, WheelStats] | None = None,
+) -> dict[str, object]:
+    """loop_stats.json: the board's steps and their cost during the run, and
+    with @p wheels (its wheel loop's statistics at the start and the end) the
+    wheel periods and their cost.
 
     Cycles are SysTick counts at the core clock QEMU models; under -icount
     shift=0 one instruction takes 1 ns of virtual time, so a count is
     10⁹ / core_hz instructions (mstc.firmware.qemu). The mean is over the run's
     steps; the maximum over every lock-step step (the one before arming too).
+    A wheel period's are the firmware's: encoders to motors, a simulated
+    motor's own cycles excluded (hal/stm32/pil_wheels.c); its maximum over
+    every period since start.
     """
     n = end.frame_steps - start.frame_steps
     core_hz = vm.core_hz()
     per_count = 1e9 / core_hz
     mean = (end.step_cycles_sum - start.step_cycles_sum) / n if n else 0.0
-    return {
+    record: dict[str, object] = {
         "board": vm.board,
         "image": str(vm.image_dir),
         "machine": vm.machine,
@@ -314,29 +345,83 @@ def loop_record(vm: BoardVm, start: LoopStats, end: LoopStats) -> dict[str, obje
             "max": round(end.step_cycles_max * per_count),
         },
     }
+    if wheels is not None:
+        w0, w1 = wheels
+        periods = w1.periods - w0.periods
+        w_mean = (w1.cycles_sum - w0.cycles_sum) / periods if periods else 0.0
+        record["wheel_loop"] = {
+            "periods": periods,
+            "periods_on_steps": w1.step_periods - w0.step_periods,
+            "closed_loop": w1.closed_loop,
+            "faults": w1.faults,
+            "instructions_per_period": {
+                "mean": round(w_mean * per_count),
+                "max": round(w1.cycles_max * per_count),
+            },
+        }
+    return record
+
+
+PIL_TRACE_COLUMNS = "t,board_left,board_right,plant_left,plant_right,cmd_left,cmd_right"
+"""wheel_trace.csv: per wheel period, the board's simulated wheels' true speeds,
+the plant's twin's and the command in force [rad/s]."""
+
+
+def _wheel_trace(
+    board: list[tuple[float, float]], twin: DcWheels, per_step: int, period_s: float
+) -> str:
+    lines = [PIL_TRACE_COLUMNS]
+    for i, (b, p) in enumerate(zip(board, twin.speeds, strict=False)):
+        c = twin.commands[i // per_step]
+        t = (i + 1) * period_s
+        lines.append(f"{t:.3f},{b[0]:.4f},{b[1]:.4f},{p[0]:.4f},{p[1]:.4f},{c[0]:.4f},{c[1]:.4f}")
+    return "\n".join(lines) + "\n"
 
 
 def _run_on_qemu(
     args: argparse.Namespace, scenario: Scenario, bar: ProgressBar
 ) -> tuple[str, RunResult, BusLog]:
+    # "dc": the board's wheels are its own, simulated on the target; the
+    # plant moves the robot with a twin of them, recording the start.
+    twin = wheels_for(scenario, library(args.lib)) if scenario.actuator.model == "dc" else None
+    if twin is not None:
+        twin.record = PIL_TRACE_N
     with BoardVm(args.qemu, serial=True) as vm:
         bus = can.Bus(
             interface="slcan", channel=vm.channel, bitrate=SLCAN_BITRATE, sleep_after_open=0
         )
         try:
             before = vm.stats()
+            wheels_before = vm.wheel_stats()
             primer = enter_lockstep(bus)
             # The primer's step, once counted: the board counts a step after
             # its WHEEL_CMD, which the plant may see first.
             start = settled_stats(vm, before, 1)
             ctl = CanController(bus, scenario.params, sim_time_stamps=False, key=args.key)
             ctl.traffic.frames[:0] = primer
-            result = simulate(scenario, ctl, bar)
+            result = simulate(scenario, ctl, bar, twin)
             end = settled_stats(vm, start, len(result.trace.values))
+            wheels_after = vm.wheel_stats()
+            board_trace = vm.pil_trace() if twin is not None else []
         finally:
             bus.shutdown()
         check_lockstep(start, end, len(result.trace.values))
-        record = loop_record(vm, start, end)
+        record = loop_record(vm, start, end, (wheels_before, wheels_after))
+    trace = ""
+    if twin is not None:
+        # The loop's period is the twin's substep and the board's wheel
+        # period: 1 ms (wheel_rate is not a scenario's parameter).
+        per_step = round(scenario.sim.dt_us / SUBSTEP_US)
+        accel = scenario.params.wheel_accel
+        figures = {
+            "board": loop_figures(board_trace, twin.commands, per_step, accel),
+            "plant": loop_figures(twin.speeds, twin.commands, per_step, accel),
+        }
+        wheel_loop = record["wheel_loop"]
+        assert isinstance(wheel_loop, dict)
+        wheel_loop["figures"] = {k: v.as_dict() for k, v in figures.items()}
+        wheel_loop["trace_periods"] = len(board_trace)
+        trace = _wheel_trace(board_trace, twin, per_step, SUBSTEP_US * 1e-6)
     ins = record["instructions_per_step"]
     assert isinstance(ins, dict)
     board = (
@@ -344,7 +429,11 @@ def _run_on_qemu(
         f"one per STEP; {ins['mean']} instructions per step (mean), {ins['max']} (max)"
     )
     stats = json.dumps(record, indent=2) + "\n"
-    return f"{args.qemu}/mstc.elf under QEMU", result, BoardBusLog("slcan0", ctl, board, stats)
+    return (
+        f"{args.qemu}/mstc.elf under QEMU",
+        result,
+        BoardBusLog("slcan0", ctl, board, stats, trace),
+    )
 
 
 def _check_realtime(args: argparse.Namespace) -> str | None:
@@ -389,10 +478,11 @@ def run(args: argparse.Namespace) -> int:
     run_one = _run_on_qemu if args.qemu is not None else _run_one
 
     def run_checked(scenario: Scenario, bar: ProgressBar) -> tuple[str, RunResult, BusLog]:
-        if scenario.actuator.model == "dc":
+        if scenario.actuator.model == "dc" and args.qemu is None:
             raise UsageError(
                 f'{scenario.path}: [actuator] model = "dc" runs the wheel loop in the '
-                "plant's process (mstc sim, mstc sweep); mstc hil has its firmware elsewhere"
+                "plant's process (mstc sim, mstc sweep) or on a PIL image's simulated motors "
+                "(--qemu build/firmware/<board>-pil); mstc-fw and a board have no such motors"
             )
         return run_one(args, scenario, bar)
 

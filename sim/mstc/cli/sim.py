@@ -15,7 +15,7 @@ from mstc.cli.common import add_key_argument, add_lib_argument, library, run_sce
 from mstc.errors import UsageError
 from mstc.firmware.sil import SilController
 from mstc.firmware.wheels import wheels_for
-from mstc.loop.lockstep import CanController, simulate
+from mstc.loop.lockstep import simulate, simulate_on_sil_bus
 from mstc.loop.result import RunResult
 from mstc.plant.scenario import Scenario
 from mstc.report.outputs import BusLog
@@ -138,16 +138,13 @@ def _run_one(
     lib = library(args.lib)
     wheels = wheels_for(scenario, lib)
     if args.bus == "memory":
-        controller = SilController(scenario.params, lib)
+        controller = SilController(scenario.params, lib, wheels)
         result = simulate(scenario, controller, bar, wheels)
         return f"{controller.lib_path} ({controller.numeric})", result, None
-    bus = can.Bus(interface="mstc-sil", channel="sil0", lib=str(lib), key=args.key)
-    try:
-        ctl = CanController(bus, scenario.params, sim_time_stamps=True, key=args.key)
-        result = simulate(scenario, ctl, bar, wheels)
-    finally:
-        bus.shutdown()
-    return bus.channel_info, result, BusLog("sil0", ctl)
+    result, ctl, channel_info = simulate_on_sil_bus(
+        scenario, lib, wheels, key=args.key, progress=bar
+    )
+    return channel_info, result, BusLog("sil0", ctl)
 
 
 def tolerance(args: argparse.Namespace, default: float = 0.0) -> float:

@@ -194,6 +194,56 @@ class LoopStats:
         return self.frame_steps if self.lockstep else self.steps
 
 
+WHEEL_STATS_WORDS = 11
+"""Words of stm32_wheel_stats_t (hal/stm32/stm32_hal.h)."""
+
+
+@dataclass(frozen=True)
+class WheelStats:
+    """stm32_wheel_stats of the board's wheel loop (hal/stm32/stm32_hal.h):
+    written by the main loop with no sequence word, so read it while the
+    loop is still (after a run, or for the smoke test's coarse checks)."""
+
+    periods: int
+    overruns: int
+    closed_loop: bool
+    faults: int
+    speed: tuple[float, float]
+    """Measured at the last period [rad/s]."""
+    cycles_max: int
+    """The longest period's, the firmware's (a simulated motor's not)."""
+    cycles_sum: int
+    step_periods: int
+    """Periods run on the plant's time (a PIL image in lock-step)."""
+
+    @classmethod
+    def from_words(cls, w: list[int]) -> WheelStats:
+        if len(w) != WHEEL_STATS_WORDS:
+            raise FirmwareError(
+                f"read {len(w)} words of stm32_wheel_stats, not {WHEEL_STATS_WORDS}"
+            )
+
+        def signed(x: int) -> int:
+            return x - (1 << 32) if x >= 1 << 31 else x
+
+        return cls(
+            periods=w[0],
+            overruns=w[1],
+            closed_loop=bool(w[2]),
+            faults=w[3],
+            speed=(signed(w[4]) / 1000.0, signed(w[5]) / 1000.0),
+            cycles_max=w[6],
+            cycles_sum=w[7] | (w[8] << 32),
+            step_periods=w[9],
+        )
+
+
+PIL_TRACE_N = 1000
+"""Periods stm32_pil_trace holds (STM32_PIL_TRACE_N, hal/stm32/stm32_hal.h)."""
+PIL_TRACE_SCALE = 512.0
+"""Its counts per rad/s (STM32_PIL_TRACE_SCALE)."""
+
+
 class BoardVm:
     """A board image running under ``qemu-system-arm``, until :meth:`stop`.
 
@@ -276,6 +326,33 @@ class BoardVm:
     def stats(self) -> LoopStats:
         """stm32_loop_stats now: a consistent copy (:meth:`LoopStats.read`)."""
         return LoopStats.read(self.monitor.words, self.address("stm32_loop_stats"))
+
+    def wheel_stats(self) -> WheelStats:
+        """stm32_wheel_stats now (:class:`WheelStats` says when to read it)."""
+        return WheelStats.from_words(
+            self.monitor.words(self.address("stm32_wheel_stats"), WHEEL_STATS_WORDS)
+        )
+
+    def pil_trace(self) -> list[tuple[float, float]]:
+        """A PIL image's stm32_pil_trace (hal/stm32/pil_wheels.c): each
+        wheel's true speed after each of its first periods on the plant's
+        time [rad/s].
+
+        :raises FirmwareError: not a PIL image (build/firmware/<board>-pil).
+        """
+        addr = self.address("stm32_pil_trace")
+        n = min(self.monitor.words(addr, 1)[0], PIL_TRACE_N)
+        words = self.monitor.words(addr + 4, n) if n else []
+        out = []
+        for w in words:  # one period: left in the low half, right in the high
+            left, right = w & 0xFFFF, w >> 16
+            out.append(
+                (
+                    (left - 0x10000 if left >= 0x8000 else left) / PIL_TRACE_SCALE,
+                    (right - 0x10000 if right >= 0x8000 else right) / PIL_TRACE_SCALE,
+                )
+            )
+        return out
 
     def core_hz(self) -> int:
         """The core clock QEMU models for this machine [Hz] (SysTick's

@@ -21,7 +21,7 @@ import math
 import os
 from collections.abc import Sequence
 from struct import Struct
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,6 +39,9 @@ from mstc.can.library import (
     field_packer,
 )
 from mstc.errors import FirmwareError
+
+if TYPE_CHECKING:
+    from mstc.firmware.wheels import DcWheels
 from mstc.model import (
     Event,
     Fault,
@@ -66,7 +69,7 @@ _WHEELS_AT: int = InputStruct.wheel_speed.offset
 """Where the measured wheel speeds of one step's input start, after the
 obstacle pointer: a packer of its own, since pack_into writes the padding it
 skips."""
-_WHEELS = Struct(f"=2d{InputStruct.wheel_measured.offset - _WHEELS_AT - 16}xI")
+_WHEELS = Struct(f"=2d{InputStruct.wheel_measured.offset - _WHEELS_AT - 16}xII")
 _OBSTACLE = field_packer(ObstacleStruct, ("id", "x", "y", "radius", "vx", "vy"))
 _OBSTACLE_SIZE = ctypes.sizeof(ObstacleStruct)
 _OUTPUT = field_packer(
@@ -127,11 +130,22 @@ class SilController:
     :param params: controller parameters.
     :param lib_path: path of ``libmstc_sil.so``; None reads it from the
         environment variable ``MSTC_SIL_LIB``.
+    :param wheels: the board's own wheels (the plant's "dc" actuator), for an
+        integrated board (docs/wheel.md, "Two topologies"): each step takes
+        their wheel loop's estimate and its age, as a board's main loop hands
+        them, and the ``wheel_speeds`` a step is given (WHEEL_SPEED, external
+        drives) are not its input. None: external drives.
 
     :raises FirmwareError: no library, it cannot be loaded, or it rejects ``params``.
     """
 
-    def __init__(self, params: Params, lib_path: str | os.PathLike[str] | None = None) -> None:
+    def __init__(
+        self,
+        params: Params,
+        lib_path: str | os.PathLike[str] | None = None,
+        wheels: DcWheels | None = None,
+    ) -> None:
+        self._wheels = wheels
         library = Library.open(lib_path)
         self._lib = library.dll
         self.lib_path = library.path
@@ -277,12 +291,18 @@ class SilController:
             t_us,
             len(obstacles),
         )
-        if wheel_speeds is None:
+        if self._wheels is not None:
+            # The board's own: the wheel loop's estimate now, of its age.
+            state = self._wheels.state
+            measured = state.periods > 0
+            left, right = state.measured if measured else (0.0, 0.0)
+            _WHEELS.pack_into(self._in, _WHEELS_AT, left, right, int(measured), state.age_us)
+        elif wheel_speeds is None:
             if self._measured:
-                _WHEELS.pack_into(self._in, _WHEELS_AT, 0.0, 0.0, 0)
+                _WHEELS.pack_into(self._in, _WHEELS_AT, 0.0, 0.0, 0, 0)
                 self._measured = False
         else:
-            _WHEELS.pack_into(self._in, _WHEELS_AT, wheel_speeds[0], wheel_speeds[1], 1)
+            _WHEELS.pack_into(self._in, _WHEELS_AT, wheel_speeds[0], wheel_speeds[1], 1, 0)
             self._measured = True
         pack, table = _OBSTACLE.pack_into, self._obstacles
         for i, o in enumerate(obstacles):

@@ -1,10 +1,10 @@
 # SPDX-License-Identifier: MIT
 """The firmware's wheel loop against DC motors, in this process: the bindings
 of ``mstc_sil_wheels_*`` (hal/sil/mstc_sil_wheel.h), the library's wheel loop
-(firmware/wheel/whl.h) running two DC gearmotors (model/dcm.h) on its own
+(firmware/wheel/whl.h) running two DC gearmotors (sim/dcmotor/dcm.h) on its own
 clock; and :class:`DcWheels`, which makes of it the plant's "dc" actuator
 (``[actuator] model = "dc"``, docs/wheel.md): two brushed DC gearmotors
-(model/dcm.h) whose speed loop is the firmware's own (firmware/wheel/whl.h):
+(sim/dcmotor/dcm.h) whose speed loop is the firmware's own (firmware/wheel/whl.h):
 the control step's wheel speeds are the loop's setpoints, the loop runs at
 its rate (1 kHz) on the motors' encoders, and the plant's pose follows the
 wheels as they turn, in substeps of at most 1 ms. So ``mstc sim`` and the
@@ -21,8 +21,8 @@ from __future__ import annotations
 import ctypes
 import errno
 import math
-from collections.abc import Callable
-from dataclasses import astuple, dataclass, fields
+from collections.abc import Callable, Sequence
+from dataclasses import astuple, dataclass, fields, replace
 from pathlib import Path
 
 from mstc.can.library import AbiStruct, Library, check_layout, library_layout
@@ -67,8 +67,8 @@ class WheelParamsStruct(AbiStruct):
             "counts",
             "rate",
             "window",
-            "ramp",
             "stall_time",
+            "accel",
         )
     ]
 
@@ -91,6 +91,7 @@ class WheelsOutputStruct(AbiStruct):
         ("drive", ctypes.c_double * 2),
         ("faults", ctypes.c_uint32),
         ("periods", ctypes.c_uint32),
+        ("age_us", ctypes.c_uint32),
     ]
 
 
@@ -105,7 +106,7 @@ WHEEL_STRUCTS: tuple[type[AbiStruct], ...] = (
 
 @dataclass(frozen=True)
 class Motor:
-    """A DC gearmotor's constants at its output shaft, SI units (model/dcm.h)."""
+    """A DC gearmotor's constants at its output shaft, SI units (sim/dcmotor/dcm.h)."""
 
     r_ohm: float
     """Armature resistance R [Ω]."""
@@ -181,7 +182,8 @@ class Motor:
 
 @dataclass(frozen=True)
 class WheelParams:
-    """The wheel loop's parameters (firmware/ctrl/ctl_params.toml's wheel_* rows)."""
+    """The wheel loop's parameters (firmware/ctrl/ctl_params.toml's wheel_* rows),
+    its setpoint ramp among them: wheel_accel, what the wheels can do."""
 
     kp: float
     ki: float
@@ -190,8 +192,9 @@ class WheelParams:
     counts: float
     rate: float
     window: float
-    ramp: float
     stall_time: float
+    accel: float
+    """The setpoint ramp [rad/s²]: the firmware's wheel_accel."""
 
     @classmethod
     def defaults(cls) -> WheelParams:
@@ -216,6 +219,9 @@ class WheelsState:
     faults: int
     """The loop's fault bits (WHL_FAULT_*, WHEEL_SPEED_faults)."""
     periods: int
+    age_us: int
+    """The estimate's age now [µs]: half its window plus the time since the
+    loop's last period (0 before the first)."""
 
 
 def _declare(lib: Library) -> None:
@@ -317,7 +323,15 @@ class WheelLoop:
             drive=(o.drive[0], o.drive[1]),
             faults=int(o.faults),
             periods=int(o.periods),
+            age_us=int(o.age_us),
         )
+
+    @property
+    def address(self) -> int:
+        """Where the loop and its motors are in memory: for
+        ``mstc_sil_fw_wheels()``, which makes them a board's own
+        (:meth:`mstc.can.silbus.SilBus.attach_wheels`)."""
+        return int(self._mem.value or 0)
 
     def hold(self, wheel: int, held: bool) -> None:
         """Hold wheel @p wheel (0 left, 1 right), or let it go."""
@@ -356,11 +370,23 @@ class DcWheels:
         self.state = self.loop.advance(0.0, 0.0, 0)
         self.load = (0.0, 0.0)
         """Torque against each wheel's forward motion [N·m]."""
+        self.record = 0
+        """Substeps still to record in :attr:`speeds` (0: none)."""
+        self.speeds: list[tuple[float, float]] = []
+        """The true wheel speeds at the end of each recorded substep [rad/s]."""
+        self.commands: list[tuple[float, float]] = []
+        """The setpoints of each recorded period (one per :meth:`drive`)."""
 
     @property
     def measured(self) -> tuple[float, float]:
         """The wheel loop's measured speeds at the end of the last period."""
         return self.state.measured
+
+    @property
+    def address(self) -> int:
+        """Where their wheel loop is (:attr:`WheelLoop.address`): for a
+        firmware instance that measures them as its own."""
+        return self.loop.address
 
     def drive(self, plant: UnicyclePlant, left: float, right: float, dt: float) -> None:
         """See :meth:`mstc.plant.plant.WheelDrive.drive`."""
@@ -370,11 +396,16 @@ class DcWheels:
         pose = plant.pose
         state = self.state
         done = 0
+        if self.record > 0:
+            self.commands.append((left, right))
         for k in range(1, n + 1):
             h_us = dt_us * k // n - done
             done += h_us
             before = state.angle
             state = self.loop.advance(left, right, h_us, self.load)
+            if self.record > 0:
+                self.speeds.append(state.speed)
+                self.record -= 1
             h = h_us * 1e-6
             mean_l = (state.angle[0] - before[0]) / h
             mean_r = (state.angle[1] - before[1]) / h
@@ -384,9 +415,84 @@ class DcWheels:
         self.state = state
 
 
+@dataclass(frozen=True)
+class LoopFigures:
+    """How a wheel loop followed its commands at the start of a run
+    (:func:`loop_figures`), each wheel's figure (left, right)."""
+
+    rise_63_ms: tuple[float, float]
+    """When the wheel first reached 63 % of the command in force [ms], from
+    the first control step, interpolated between periods."""
+    rise_90_ms: tuple[float, float]
+    """... 90 % of it [ms]."""
+    track_max: tuple[float, float]
+    """The largest |ω − r| [rad/s], r the commands ramped at wheel_accel as
+    the loop ramps its setpoint."""
+    track_rms: tuple[float, float]
+    """The RMS of ω − r [rad/s]."""
+
+    def as_dict(self) -> dict[str, list[float]]:
+        """Each figure as [left, right], rounded for a report."""
+        return {f.name: [round(v, 4) for v in getattr(self, f.name)] for f in fields(self)}
+
+
+def loop_figures(
+    speeds: Sequence[tuple[float, float]],
+    commands: Sequence[tuple[float, float]],
+    per_step: int,
+    accel: float,
+    period_s: float = SUBSTEP_US * 1e-6,
+) -> LoopFigures:
+    """The step response and ramp tracking of a wheel loop from its wheels'
+    true speeds @p speeds (after each loop period of @p period_s, from the
+    first control step on) and the control step's commands @p commands, each
+    in force for @p per_step periods: the same figures from a board's motors
+    under QEMU and from the simulation's (docs/hil.md).
+
+    The reference r is each command ramped at @p accel [rad/s²], a step of
+    accel·period a period from 0, as ``whl_step`` ramps its setpoint
+    (firmware/wheel/whl.c); a rise is timed against the command in force at
+    each period, in the command's direction.
+
+    :raises ValueError: fewer commands than the speeds need, or no speeds.
+    """
+    if not speeds or len(commands) * per_step < len(speeds):
+        raise ValueError(f"{len(speeds)} periods of speeds, {len(commands)} commands")
+    step = accel * period_s
+    figures: dict[str, list[float]] = {"r63": [], "r90": [], "max": [], "rms": []}
+    for wheel in (0, 1):
+        r = 0.0
+        rise = {0.63: math.nan, 0.9: math.nan}
+        worst, sq = 0.0, 0.0
+        before = 0.0  # the share of the command reached at the last period
+        for i, pair in enumerate(speeds):
+            w = pair[wheel]
+            c = commands[i // per_step][wheel]
+            r += min(max(c - r, -step), step)
+            e = w - r
+            worst, sq = max(worst, abs(e)), sq + e * e
+            reached = w / c if c != 0.0 else 0.0
+            for share in rise:
+                if math.isnan(rise[share]) and reached >= share:
+                    # Interpolated between this period and the last: the
+                    # figures are finer than a period.
+                    frac = (share - before) / (reached - before) if reached > before else 1.0
+                    rise[share] = (i + frac) * period_s * 1e3
+            before = reached
+        figures["r63"].append(rise[0.63])
+        figures["r90"].append(rise[0.9])
+        figures["max"].append(worst)
+        figures["rms"].append(math.sqrt(sq / len(speeds)))
+    pair2 = {k: (v[0], v[1]) for k, v in figures.items()}
+    return LoopFigures(pair2["r63"], pair2["r90"], pair2["max"], pair2["rms"])
+
+
 def wheels_for(scenario: Scenario, lib: str | Path | None) -> DcWheels | None:
     """The wheels @p scenario's ``[actuator]`` asks for: :class:`DcWheels` on
-    the firmware library @p lib for "dc", None for the ideal ones."""
+    the firmware library @p lib for "dc", their loop ramping at the
+    scenario's wheel_accel (what the firmware is told they can do), None for
+    the ideal ones."""
     if scenario.actuator.model != "dc":
         return None
-    return DcWheels(Library.open(lib))
+    params = replace(WheelParams.defaults(), accel=scenario.params.wheel_accel)
+    return DcWheels(Library.open(lib), params)

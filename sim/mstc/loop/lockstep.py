@@ -17,17 +17,27 @@ drives the in-process firmware (``can.Bus(interface="mstc-sil")``),
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol as TypingProtocol
 
 import can
 import numpy as np
 
 from mstc.can import secoc
 from mstc.can.dbc import Tables, tables
-from mstc.can.protocol import COUNTER_MODULO, DropReason, Frame, Protocol, e2e_crc, wire_limits
+from mstc.can.protocol import (
+    COUNTER_MODULO,
+    DropReason,
+    Frame,
+    Protocol,
+    e2e_crc,
+    wire_limits,
+)
+from mstc.can.silbus import SilBus
 from mstc.errors import ControllerError, FrameDropped, SignalRangeError, SimulationError
 from mstc.loop.result import (
     PROGRESS_UPDATES,
@@ -56,6 +66,18 @@ from mstc.model import (
 from mstc.plant.plant import WheelDrive
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import make_world
+
+
+class BoardWheels(WheelDrive, TypingProtocol):
+    """Wheels that a firmware instance measures itself: their wheel loop is
+    in the firmware library, at :attr:`address`
+    (:class:`mstc.firmware.wheels.DcWheels`)."""
+
+    @property
+    def address(self) -> int:
+        """Where the wheel loop is, for :meth:`SilBus.attach_wheels`."""
+        ...
+
 
 # ------------------------------------------------------------------ the loop
 
@@ -116,9 +138,11 @@ def simulate(
     recorded; then robot and reference are integrated over dt, the robot with
     the wheel speeds commanded ``delay`` periods earlier (standing still
     before the first), or, with an ``[actuator]`` of model "lag", by its
-    wheels in substeps (:mod:`mstc.plant.actuator`), or by @p wheels; the
-    speeds those wheels measure go to the next step (``wheel_speeds``, the
-    WHEEL_SPEED frame). The run ends with the row of step N, so the trace
+    wheels in substeps (:mod:`mstc.plant.actuator`), whose drivers' measured
+    speeds go to the next step (``wheel_speeds``, the WHEEL_SPEED frame: the
+    external drives' topology), or by @p wheels, a board's own (the
+    integrated board: no WHEEL_SPEED; the controller takes their measurement
+    itself, docs/wheel.md). The run ends with the row of step N, so the trace
     spans t = 0 to the duration and the minimum distances include the final
     state.
 
@@ -131,8 +155,10 @@ def simulate(
     :param progress: told how many steps are done, now and then, and closed
         when the run ends.
     :param wheels: wheels with dynamics of their own (the scenario's
-        ``[actuator]``, e.g. :class:`mstc.firmware.wheels.DcWheels`) that move
-        the robot instead of the ideal ones.
+        ``[actuator]``, :class:`mstc.firmware.wheels.DcWheels`) that move the
+        robot instead of the ideal ones: the board's own, which its
+        controller measures itself (``SilController(wheels=...)``,
+        ``SilBus.attach_wheels()``, or a board image's own wheel loop).
 
     :returns: The trace, the events and the minimum distance to each obstacle;
         the firmware's halt state at the end when the controller keeps one
@@ -167,7 +193,7 @@ def simulate(
     pending: deque[tuple[float, float]] = deque([(0.0, 0.0)] * imp.delay)
     actuator = world.actuator
     measured_wheels: tuple[float, float] | None = None
-    if actuator is not None or wheels is not None:
+    if actuator is not None:
         measured_wheels = (0.0, 0.0)
 
     values = np.empty((steps + 1, len(TRACE_COLUMNS)), dtype=float)
@@ -244,8 +270,6 @@ def simulate(
                         pending.append((left, right))
                         left, right = pending.popleft()
                     plant_step(left, right, dt)
-                    if wheels is not None:
-                        measured_wheels = wheels.measured
                 ref_step(dt)
             if progress is not None and (k + 1) % tick == 0:
                 progress.update(k + 1)
@@ -768,6 +792,41 @@ class CanController:
 
 PRIME_STEP = STEP_MODULO - 1
 """Step number of the STEP frame that :func:`enter_lockstep` sends."""
+
+
+def simulate_on_sil_bus(
+    scenario: Scenario,
+    lib: str | os.PathLike[str],
+    wheels: BoardWheels | None = None,
+    *,
+    key: bytes | None = None,
+    progress: Progress | None = None,
+    wrap: Callable[[CanController], Controller] | None = None,
+) -> tuple[RunResult, CanController, str]:
+    """Run @p scenario through CAN frames to the firmware library @p lib in
+    process (:class:`mstc.can.silbus.SilBus`, channel "sil0").
+
+    :param wheels: the scenario's "dc" wheels
+        (:func:`mstc.firmware.wheels.wheels_for`): attached to the bus's
+        firmware, whose wheel loop measures them (the integrated board:
+        docs/wheel.md, "Two topologies"); None: ideal wheels, or the external
+        drives' WHEEL_SPEED of an ``[actuator]`` "lag".
+    :param key: the firmware's key, for the bus and the controller.
+    :param progress: as :func:`simulate`'s.
+    :param wrap: what stands between the loop and the controller (a test's
+        stand-in that alters its inputs), given the controller.
+    :returns: the run, the controller (its traffic, its halt) and the bus's
+        channel_info.
+    """
+    bus = SilBus(channel="sil0", lib=lib, key=key)
+    if wheels is not None:
+        bus.attach_wheels(wheels.address)
+    try:
+        ctl = CanController(bus, scenario.params, sim_time_stamps=True, key=key)
+        result = simulate(scenario, ctl if wrap is None else wrap(ctl), progress, wheels)
+    finally:
+        bus.shutdown()
+    return result, ctl, bus.channel_info
 
 
 def enter_lockstep(bus: can.BusABC, timeout: float = 2.0) -> list[tuple[can.Message, bool]]:

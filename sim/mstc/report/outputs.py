@@ -23,7 +23,7 @@ from mstc.model import Event
 
 FIGURES = ("path", "position_error", "angle_error", "v", "w", "distance", "overview")
 """Stems of the PNG figures :func:`mstc.report.plots.plot_all` writes."""
-EXTRA_FILES = ("loop_stats.json",)
+EXTRA_FILES = ("loop_stats.json", "wheel_trace.csv")
 """Files a bus log may add to a run's folder (:attr:`BusLog.files`): a board
 image's own account under QEMU (``mstc hil --qemu``)."""
 RUN_FILES = (

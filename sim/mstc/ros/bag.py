@@ -23,8 +23,9 @@ topic                  type                              messages
                                                          velocity (1 s) for a moving one: the
                                                          bridge's own input format
 ``/cmd_wheels``        sensor_msgs/msg/JointState        each step: the wheel speed commands
-``/wheel_speeds``      sensor_msgs/msg/JointState        each WHEEL_SPEED frame: the speeds the
-                                                         wheels measured (runs with an
+``/joint_states``      sensor_msgs/msg/JointState        each WHEEL_SPEED frame: the speeds the
+                                                         wheels measured, as the bridge
+                                                         publishes them (runs with an
                                                          ``[actuator]`` only: the ideal wheels
                                                          send none)
 ``/mstc/status``       diagnostic_msgs/msg/               each step: every STATUS and STATUS_TRK
@@ -405,7 +406,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
             name=list(JOINTS),
             velocity=np.array([left, right], dtype=np.float64),
         )
-        bag.add("/wheel_speeds", ns, measured)
+        bag.add("/joint_states", ns, measured)
 
     reports = _obstacle_reports(decoded, db)
     for row, obstacles in sorted(reports.items()):

@@ -11,6 +11,8 @@ other ROS 2 topics with standard types, in REP-103 units and REP-105 frames:
   (visualization_msgs/MarkerArray: a CYLINDER per obstacle, an ARROW of the
   same id for its velocity) → OBSTACLE, OBSTACLE_VEL;
 - out: ``cmd_wheels`` (sensor_msgs/JointState: the wheel speed commands),
+  ``joint_states`` (sensor_msgs/JointState: the wheel speeds measured, each
+  WHEEL_SPEED frame on the bus, ros2_control's topic),
   ``mstc/status`` (diagnostic_msgs/DiagnosticArray: mode, errors, halt,
   faults, and every E2E and authentication failure counted),
   ``mstc/events`` (DiagnosticArray: the switching events, and the bridge's
@@ -122,6 +124,8 @@ class StepState:
     status: dict[str, float | int] = field(default_factory=dict)
     trk: dict[str, float | int] = field(default_factory=dict)
     events: list[Event] = field(default_factory=list)
+    last_step: int | None = None
+    """Number of the last STEP sent."""
     running: bool | None = None
     """The firmware's latest step ran (STATUS_halt none)."""
     wheels: tuple[float, float] = (0.0, 0.0)
@@ -231,6 +235,7 @@ class Bridge(Node):
             depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE
         )
         self.cmd_pub = self.create_publisher(JointState, "cmd_wheels", qout)
+        self.joint_pub = self.create_publisher(JointState, "joint_states", qout)
         self.status_pub = self.create_publisher(DiagnosticArray, "mstc/status", qout)
         self.events_pub = self.create_publisher(DiagnosticArray, "mstc/events", events_qos)
         self.tf_pub: Any = None
@@ -619,6 +624,7 @@ class Bridge(Node):
         step, msg = self.board.step(t_us)
         st.stamps[step] = _time(stamp_ns)
         st.stamps.pop(step - 8, None)
+        st.last_step = step
         self.board.send([*frames, msg])
 
     # ----------------------------------------------------------- outputs
@@ -636,6 +642,19 @@ class Bridge(Node):
             st.status = frame.signals
         elif name == "STATUS_TRK":
             st.trk = frame.signals
+        elif name == "WHEEL_SPEED":
+            # What the wheels measured: the board's own encoders (it sends
+            # them at the step, before WHEEL_CMD) or the motor drivers'.
+            # Stamped with the last step's time in lock-step, else on arrival.
+            stamp = st.stamps.get(st.last_step) if st.last_step is not None else None
+            if stamp is None:
+                stamp = self.get_clock().now().to_msg()
+            joints = JointState()
+            joints.header.stamp = stamp
+            joints.header.frame_id = self.frames["base_frame"]
+            joints.name = list(self.joints)
+            joints.velocity = [float(frame.signals["left"]), float(frame.signals["right"])]
+            self.joint_pub.publish(joints)
         elif name == "WHEEL_CMD":
             step = int(frame.signals["step"])
             stamp = st.stamps.pop(step, None)

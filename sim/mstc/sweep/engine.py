@@ -46,7 +46,7 @@ from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
 from mstc.errors import FirmwareError
 from mstc.firmware.sil import SilBatch, SilController
-from mstc.firmware.wheels import wheels_for
+from mstc.firmware.wheels import DcWheels, wheels_for
 from mstc.loop.batched import simulate_batch
 from mstc.loop.lockstep import simulate
 from mstc.loop.result import RunResult
@@ -225,14 +225,17 @@ def actuator_name(scenario: Scenario) -> str:
     return scenario.actuator.model
 
 
-def controller_for(scenario: Scenario, strategy: str, lib: str) -> tuple[Scenario, Controller]:
+def controller_for(
+    scenario: Scenario, strategy: str, lib: str, wheels: DcWheels | None = None
+) -> tuple[Scenario, Controller]:
     """The scenario with @p strategy applied, and its controller (DWA's
-    window limited to the actuator's acceleration, when it has one)."""
+    window limited to the actuator's acceleration, when it has one); the
+    firmware's measures @p wheels, its own, when given."""
     if strategy == "dwa":
         return scenario, DwaController(scenario.params, dwa_config(scenario))
     params = dataclasses.replace(scenario.params, strategy=Strategy(strategy))
     scenario = dataclasses.replace(scenario, params=params)
-    return scenario, SilController(params, lib)
+    return scenario, SilController(params, lib, wheels)
 
 
 def dwa_config(scenario: Scenario) -> DwaConfig:
@@ -268,8 +271,9 @@ def run_job(scene: Scene, strategy: str, lib: str) -> tuple[RunResult | None, di
         scenario = scene.parsed()
         row["family"] = scenario.meta.family or scene.family
         row["actuator"] = actuator_name(scenario)
-        scenario, controller = controller_for(scenario, strategy, lib)
-        result = simulate(scenario, controller, wheels=wheels_for(scenario, lib))
+        wheels = wheels_for(scenario, lib)
+        scenario, controller = controller_for(scenario, strategy, lib, wheels)
+        result = simulate(scenario, controller, wheels=wheels)
         metrics = evaluate(result)
     except Exception as exc:  # any failure of one scene is its row, not the sweep's end
         row["error"] = one_line(exc)

@@ -37,7 +37,7 @@ esac
 mkdir -p "$o"
 # shellcheck disable=SC2086
 arm-none-eabi-gcc $cpu -std=c11 -D_DEFAULT_SOURCE -O2 -g -ffunction-sections -fdata-sections \
-    -Ifirmware -Ihal/include $def -Itools/bench -Ibuild/bench -Imodel -DPROF_LOAD="$load" \
+    -Ifirmware -Ihal/include $def -Itools/bench -Ibuild/bench -Isim/dcmotor -DPROF_LOAD="$load" \
     -DPROF_STRATEGY="$strat" -c "$here/prof_main.c" -o "$o/prof_main.o"
 # shellcheck disable=SC2086
 arm-none-eabi-gcc $cpu "build/bench/$cfg/obj/tools/bench/startup.o" \
