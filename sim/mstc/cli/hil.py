@@ -16,13 +16,18 @@ import can
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
 from mstc.can.vmbridge import Bridge, BridgeBus
-from mstc.cli.common import add_bus_arguments, add_key_argument, library, open_args_bus, run_scenarios
+from mstc.cli.common import (
+    add_bus_arguments,
+    add_key_argument,
+    library,
+    open_args_bus,
+    run_scenarios,
+)
 from mstc.cli.sim import add_output_arguments, tolerance
 from mstc.errors import ControllerError, UsageError
 from mstc.firmware.process import start_firmware, stop_firmware
 from mstc.firmware.qemu import ICOUNT, PIL_TRACE_N, BoardVm, LoopStats, WheelStats
 from mstc.firmware.wheels import SUBSTEP_US, DcWheels, loop_figures, wheels_for
-from mstc.logs.play import open_bus
 from mstc.loop.lockstep import CanController, enter_lockstep, simulate
 from mstc.loop.realtime import (
     COMM_LOSS_TAIL,
