@@ -373,7 +373,7 @@ static void test_app_answers_fw_version_get_under_its_node_id(void)
     TEST_ASSERT_EQUAL_UINT(1, hal_fake.n_sent);
     TEST_ASSERT_EQUAL_HEX32(0x491u, hal_fake.sent[0].id);
     TEST_ASSERT_EQUAL_UINT8(3, (hal_fake.sent[0].data[1] >> 4) & 0x7u);
-    TEST_ASSERT_EQUAL_UINT8(1, hal_fake.sent[0].data[2] & 0x0Fu);
+    TEST_ASSERT_EQUAL_UINT8(2, hal_fake.sent[0].data[2] & 0x0Fu); /* mstc.dbc: VERSION "mstc 2" */
 }
 
 /* Node 0's frames reach a board of node 1 on a shared bus: not its own, so
