@@ -102,6 +102,15 @@ SWEEP_FLAGS ?=
 sweep: deps-sim $(B)/libmstc_sil.so  ## run a scenario suite for several strategies on every core (SUITE=, STRATEGY=, SWEEP_FLAGS=--resume)
 	$(MSTC) sweep --lib $(B)/libmstc_sil.so --strategy $(STRATEGY) --out $(SWEEP_OUT) $(SWEEP_FLAGS) $(SUITE)
 
+# ---------------------------------------------------------------------- barn
+# BARN's 300 worlds (docs/barn.md): the benchmark's Jackal, protocol and
+# score, both references, into build/barn/ (runs.csv, summary.md, gallery/).
+BARN_STRATEGY ?= paper,mstc
+BARN_FLAGS ?=
+.PHONY: barn
+barn: deps-sim $(B)/libmstc_sil.so  ## run BARN's 300 worlds (BARN_STRATEGY=paper,mstc,dwa, BARN_FLAGS=--speed 1.0)
+	$(MSTC) barn --lib $(B)/libmstc_sil.so --strategy $(BARN_STRATEGY) --reference line,path --out build/barn $(BARN_FLAGS)
+
 # ----------------------------------------------------------------------- hil
 # The firmware as its own process (mstc-fw) on vcan0, the plant on python-can's
 # socketcan interface; inside a VM where the host kernel has no CAN.

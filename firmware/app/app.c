@@ -12,6 +12,7 @@
 
 _Static_assert(APP_TIMEOUT_US == APP_TIMEOUT_PERIODS * APP_PERIOD_US, "timeout in periods");
 _Static_assert((APP_OBSTACLE_IDS & (APP_OBSTACLE_IDS - 1u)) == 0u, "ids masked: a power of two");
+_Static_assert(APP_OBSTACLE_IDS > COMM_OBSTACLE_ID_MAX, "a velocity for every id the frames carry");
 
 /* The frame of each watched input (app.h, APP_IN_*). */
 static const uint32_t input_id[APP_N_IN] = {
@@ -283,11 +284,14 @@ static void control_step(app_t *a, uint16_t step, uint64_t t_us, bool lockstep)
         halt(a, why);
     }
 
-    ctl_output_t out;
+    /* Static, not on the stack: with a table of 48 its events and
+     * distances are 1.1 KB (the F103's stack, docs/performance.md). The
+     * control step runs from one context only (app.h). */
+    static ctl_output_t out;
     if (a->halt == (uint8_t)COMM_HALT_NONE) {
         for (uint8_t i = 0; i < a->n_reports; i++) {
             sup_obstacle_t *o = &a->reports[i];
-            const uint8_t id = o->id & (uint8_t)(APP_OBSTACLE_IDS - 1u); /* 4 bits, as sent */
+            const uint8_t id = o->id & (uint8_t)(APP_OBSTACLE_IDS - 1u); /* 6 bits, as sent */
             o->vx = a->obstacle_v[id][0];
             o->vy = a->obstacle_v[id][1];
         }
@@ -493,7 +497,7 @@ static void on_param_auth(app_t *a, const comm_msg_t *m)
  * plant sends it after the obstacle's OBSTACLE frame, each step it moves. */
 static void on_obstacle_vel(app_t *a, const comm_msg_t *m)
 {
-    /* The frame's id is 4 bits: the mask only says so to the compiler. */
+    /* The frame's id is 6 bits: the mask only says so to the compiler. */
     const uint8_t id = m->u.obstacle_vel.id & (uint8_t)(APP_OBSTACLE_IDS - 1u);
     a->obstacle_v[id][0] = m->u.obstacle_vel.vx;
     a->obstacle_v[id][1] = m->u.obstacle_vel.vy;
@@ -501,6 +505,11 @@ static void on_obstacle_vel(app_t *a, const comm_msg_t *m)
 
 static void on_obstacle(app_t *a, const sup_obstacle_t *o)
 {
+    /* Static unless its OBSTACLE_VEL follows: an id the sensor gives to
+     * another obstacle carries no velocity over (docs/protocol.md). */
+    const uint8_t id = o->id & (uint8_t)(APP_OBSTACLE_IDS - 1u); /* 6 bits, as sent */
+    a->obstacle_v[id][0] = NUM_ZERO;
+    a->obstacle_v[id][1] = NUM_ZERO;
     /* One report per id per step: a repeat replaces the earlier one. */
     for (uint8_t i = 0; i < a->n_reports; i++) {
         if (a->reports[i].id == o->id) {

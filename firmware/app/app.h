@@ -105,8 +105,9 @@
  *         in time, never slower. */
 #define APP_MAX_DT_US       1000000u
 
-/** @brief Obstacle ids the OBSTACLE and OBSTACLE_VEL frames carry: 0..15. */
-#define APP_OBSTACLE_IDS 16u
+/** @brief Obstacle ids the 6-bit id of OBSTACLE and OBSTACLE_VEL can hold:
+ *         0..63 (the DBC's range is 1..COMM_OBSTACLE_ID_MAX). */
+#define APP_OBSTACLE_IDS 64u
 
 /** @brief A PARAM_SET whose PARAM_AUTH has not come by the start of this many
  *         control steps after it is refused (2: one full period, whatever
@@ -163,8 +164,9 @@ typedef struct {
     num_t w_r;
     sup_obstacle_t reports[SUP_MAX_OBSTACLES]; /**< obstacles reported since the last step */
     uint8_t n_reports;
-    /** Last OBSTACLE_VEL of each id (the frame's 4-bit id), vx then vy [m/s];
-     *  zero until one arrives: a report without one is a static obstacle. */
+    /** OBSTACLE_VEL of each id (the frame's 6-bit id), vx then vy [m/s],
+     *  set to zero by each OBSTACLE frame of the id: a report without one
+     *  after it is a static obstacle (docs/protocol.md). */
     num_t obstacle_v[APP_OBSTACLE_IDS][2];
     uint16_t step;       /**< step of the last control step */
     uint32_t time_raw;   /**< last STEP time [µs], as sent (wraps at 2^32) */

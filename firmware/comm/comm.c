@@ -40,6 +40,8 @@ _Static_assert(COMM_ID_WHEEL_SPEED == MSTC_DBC_WHEEL_SPEED_FRAME_ID, "WHEEL_SPEE
 _Static_assert(COMM_ID_FW_VERSION_GET == MSTC_DBC_FW_VERSION_GET_FRAME_ID, "FW_VERSION_GET id");
 _Static_assert(COMM_ID_FW_VERSION == MSTC_DBC_FW_VERSION_FRAME_ID, "FW_VERSION id");
 _Static_assert(COMM_WHEEL_FAULTS_MASK == 15u, "WHEEL_SPEED_faults: 4 bits (mstc.dbc)");
+_Static_assert(COMM_OBSTACLE_ID_MAX == SUP_MAX_OBSTACLES,
+               "an entry of the supervisor's table for every id the frames carry");
 /* So are the enumerations that go on the wire unchanged. */
 _Static_assert(COMM_PARAM_MAX_WHEEL_SPEED ==
                        MSTC_DBC_PARAM_SET_PARAM_SET_INDEX_MAX_WHEEL_SPEED_CHOICE &&
@@ -230,10 +232,11 @@ static const scale_t s_pos = SIGNED_BITS(16, 24);       /* ODOM_XY, REF_XY x, y 
 static const scale_t s_theta = SIGNED_BITS(16, 20);     /* ODOM_THETA [rad] */
 static const scale_t s_ref_theta = SIGNED_BITS(15, 18); /* REF_MOTION theta [rad] */
 static const scale_t s_ref_vw = SIGNED_BITS(12, 17);    /* REF_MOTION v [m/s], w [rad/s] */
-static const scale_t s_obs_xy = SIGNED_BITS(12, 20);    /* OBSTACLE x, y [m] */
+static const scale_t s_obs_xy = SIGNED_BITS(11, 19);    /* OBSTACLE x, y [m] */
 static const scale_t s_obs_v = SIGNED_BITS(10, 16);     /* OBSTACLE_VEL vx, vy [m/s] */
 static const scale_t s_wheel = SIGNED_BITS(10, 18);     /* WHEEL_CMD, WHEEL_SPEED [rad/s] */
-static const scale_t s_angle13 = SIGNED_BITS(13, 16);   /* STATUS e, STATUS_TRK e3 [rad] */
+static const scale_t s_angle13 = SIGNED_BITS(13, 16);   /* STATUS_TRK e3 [rad] */
+static const scale_t s_angle11 = SIGNED_BITS(11, 14);   /* STATUS e [rad] */
 static const scale_t s_err = SIGNED_BITS(10, 16);       /* STATUS_TRK e1, e2 [m] */
 static const scale_t s_distance = { 10, 0, 65535 };     /* STATUS distance [m] */
 
@@ -635,7 +638,7 @@ static uint16_t status_distance(comm_t *c, const ctl_status_t *st)
     }
     const size_t n = st->n_obstacles < SUP_MAX_OBSTACLES ? st->n_obstacles : SUP_MAX_OBSTACLES;
     num_t d = st->distance[0];
-    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n is up to 16 */
+    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n is up to 48 */
     for (size_t i = 0; i < n; i++) {
         if (st->active_obstacle != 0u && st->obstacle_id[i] == st->active_obstacle) {
             d = st->distance[i];
@@ -654,12 +657,12 @@ int comm_encode_status(comm_t *c, const ctl_status_t *st, uint16_t step, bool fr
     const uint8_t ctl_faults =
         (uint8_t)(st->faults & (CTL_FAULT_INPUT_NONFINITE | CTL_FAULT_OBSTACLE_DROPPED |
                                 CTL_FAULT_SATURATED | CTL_FAULT_FILTER));
-    const int16_t e = (int16_t)raw_from_num(c, st->e, &s_angle13);
+    const int16_t e = (int16_t)raw_from_num(c, st->e, &s_angle11);
     const uint16_t distance = status_distance(c, st);
     const struct mstc_dbc_status_t s = {
         .status_mode = sat_u8((uint32_t)st->mode, MSTC_DBC_STATUS_STATUS_MODE_BLOCKED_CHOICE),
         .status_side = side_to_wire(st->side),
-        .status_obstacle = sat_u8(st->active_obstacle, 15u),
+        .status_obstacle = sat_u8(st->active_obstacle, COMM_OBSTACLE_ID_MAX),
         .status_faults = (uint8_t)(ctl_faults | (frame_faults ? 0x08u : 0u) |
                                    (c->clipped ? COMM_FAULT_CLIPPED : 0u)),
         .status_e = e,
@@ -705,7 +708,7 @@ int comm_encode_event(comm_t *c, const sup_event_t *e, hal_can_frame_t *f)
     const struct mstc_dbc_event_t s = {
         .event_kind = sat_u8(e->kind, MSTC_DBC_EVENT_EVENT_KIND_INFEASIBLE_CHOICE),
         .event_side = side_to_wire(e->side),
-        .event_obstacle = sat_u8(e->obstacle, 15u),
+        .event_obstacle = sat_u8(e->obstacle, COMM_OBSTACLE_ID_MAX),
         /* A time stamp wraps with the STEP time it answers (comm.h). */
         .event_time = (uint32_t)(e->t_us & UINT32_MAX),
     };

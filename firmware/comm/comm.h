@@ -73,7 +73,7 @@ enum {
 /** @} */
 
 /** @brief The protocol the codec speaks: N of mstc.dbc's VERSION line ("mstc N"). */
-#define COMM_PROTOCOL_VERSION 1u
+#define COMM_PROTOCOL_VERSION 2u
 
 /** @brief E2E data ID of PARAM_SET, also the data ID its MAC covers (auth.h). */
 #define COMM_PARAM_SET_DATA_ID      0x1120u
@@ -143,6 +143,11 @@ typedef enum {
  *         controller's (CTL_FAULT_*), bit 3 a dropped frame, bit 4 the
  *         safety filter's. */
 #define COMM_FAULT_CLIPPED 0x20u
+
+/** @brief The largest obstacle id OBSTACLE, OBSTACLE_VEL, STATUS and EVENT
+ *         carry (6 bits, 1..48 in mstc.dbc): as many as the supervisor's
+ *         table holds (SUP_MAX_OBSTACLES, checked in comm.c). */
+#define COMM_OBSTACLE_ID_MAX 48u
 
 /** @brief Heartbeat states. */
 typedef enum {
@@ -363,7 +368,8 @@ int comm_encode_wheel_speed_faults(comm_t *c, const kin_wheels_t *w, uint8_t fau
 /**
  * @brief STATUS from the status of a step.
  *
- * mode and side from @p st; obstacle = st->active_obstacle (saturated at 15);
+ * mode and side from @p st; obstacle = st->active_obstacle (saturated at
+ * COMM_OBSTACLE_ID_MAX);
  * faults = st->faults bits 0..2 and 4 (CTL_FAULT_*), bit 3 = @p frame_faults, bit 5
  * = a value clipped since the previous STATUS, this one's e and distance
  * included (then cleared); e; distance = centre distance to the active

@@ -833,14 +833,15 @@ int mstc_dbc_obstacle_pack(
     dst_p[0] |= pack_left_shift_u8(src_p->obstacle_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->obstacle_counter, 0u, 0x0fu);
     dst_p[1] |= pack_left_shift_u8(src_p->obstacle_id, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u8(src_p->obstacle_id, 4u, 0x03u);
     obstacle_x = (uint32_t)src_p->obstacle_x;
-    dst_p[2] |= pack_left_shift_u32(obstacle_x, 0u, 0xffu);
-    dst_p[3] |= pack_right_shift_u32(obstacle_x, 8u, 0xffu);
-    dst_p[4] |= pack_right_shift_u32(obstacle_x, 16u, 0x0fu);
+    dst_p[2] |= pack_left_shift_u32(obstacle_x, 2u, 0xfcu);
+    dst_p[3] |= pack_right_shift_u32(obstacle_x, 6u, 0xffu);
+    dst_p[4] |= pack_right_shift_u32(obstacle_x, 14u, 0x1fu);
     obstacle_y = (uint32_t)src_p->obstacle_y;
-    dst_p[4] |= pack_left_shift_u32(obstacle_y, 4u, 0xf0u);
-    dst_p[5] |= pack_right_shift_u32(obstacle_y, 4u, 0xffu);
-    dst_p[6] |= pack_right_shift_u32(obstacle_y, 12u, 0xffu);
+    dst_p[4] |= pack_left_shift_u32(obstacle_y, 5u, 0xe0u);
+    dst_p[5] |= pack_right_shift_u32(obstacle_y, 3u, 0xffu);
+    dst_p[6] |= pack_right_shift_u32(obstacle_y, 11u, 0xffu);
     dst_p[7] |= pack_left_shift_u8(src_p->obstacle_radius, 0u, 0xffu);
 
     return (8);
@@ -861,21 +862,22 @@ int mstc_dbc_obstacle_unpack(
     dst_p->obstacle_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->obstacle_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
     dst_p->obstacle_id = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
-    obstacle_x = unpack_right_shift_u32(src_p[2], 0u, 0xffu);
-    obstacle_x |= unpack_left_shift_u32(src_p[3], 8u, 0xffu);
-    obstacle_x |= unpack_left_shift_u32(src_p[4], 16u, 0x0fu);
+    dst_p->obstacle_id |= unpack_left_shift_u8(src_p[2], 4u, 0x03u);
+    obstacle_x = unpack_right_shift_u32(src_p[2], 2u, 0xfcu);
+    obstacle_x |= unpack_left_shift_u32(src_p[3], 6u, 0xffu);
+    obstacle_x |= unpack_left_shift_u32(src_p[4], 14u, 0x1fu);
 
-    if ((obstacle_x & (1u << 19)) != 0u) {
-        obstacle_x |= 0xfff00000u;
+    if ((obstacle_x & (1u << 18)) != 0u) {
+        obstacle_x |= 0xfff80000u;
     }
 
     dst_p->obstacle_x = (int32_t)obstacle_x;
-    obstacle_y = unpack_right_shift_u32(src_p[4], 4u, 0xf0u);
-    obstacle_y |= unpack_left_shift_u32(src_p[5], 4u, 0xffu);
-    obstacle_y |= unpack_left_shift_u32(src_p[6], 12u, 0xffu);
+    obstacle_y = unpack_right_shift_u32(src_p[4], 5u, 0xe0u);
+    obstacle_y |= unpack_left_shift_u32(src_p[5], 3u, 0xffu);
+    obstacle_y |= unpack_left_shift_u32(src_p[6], 11u, 0xffu);
 
-    if ((obstacle_y & (1u << 19)) != 0u) {
-        obstacle_y |= 0xfff00000u;
+    if ((obstacle_y & (1u << 18)) != 0u) {
+        obstacle_y |= 0xfff80000u;
     }
 
     dst_p->obstacle_y = (int32_t)obstacle_y;
@@ -917,32 +919,32 @@ bool mstc_dbc_obstacle_obstacle_counter_is_in_phys_range(float value)
 
 bool mstc_dbc_obstacle_obstacle_id_is_in_range(uint8_t value)
 {
-    return ((value >= 1u) && (value <= 15u));
+    return ((value >= 1u) && (value <= 48u));
 }
 
 bool mstc_dbc_obstacle_obstacle_id_is_in_phys_range(float value)
 {
-    return ((value >= 1.0f) && (value <= 15.0f));
+    return ((value >= 1.0f) && (value <= 48.0f));
 }
 
 bool mstc_dbc_obstacle_obstacle_x_is_in_range(int32_t value)
 {
-    return ((value >= -524288) && (value <= 524287));
+    return ((value >= -262144) && (value <= 262143));
 }
 
 bool mstc_dbc_obstacle_obstacle_x_is_in_phys_range(float value)
 {
-    return ((value >= -128.0f) && (value <= 127.999755859375f));
+    return ((value >= -128.0f) && (value <= 127.99951171875f));
 }
 
 bool mstc_dbc_obstacle_obstacle_y_is_in_range(int32_t value)
 {
-    return ((value >= -524288) && (value <= 524287));
+    return ((value >= -262144) && (value <= 262143));
 }
 
 bool mstc_dbc_obstacle_obstacle_y_is_in_phys_range(float value)
 {
-    return ((value >= -128.0f) && (value <= 127.999755859375f));
+    return ((value >= -128.0f) && (value <= 127.99951171875f));
 }
 
 bool mstc_dbc_obstacle_obstacle_radius_is_in_range(uint8_t value)
@@ -972,12 +974,15 @@ int mstc_dbc_obstacle_vel_pack(
     dst_p[0] |= pack_left_shift_u8(src_p->obstacle_vel_crc, 0u, 0xffu);
     dst_p[1] |= pack_left_shift_u8(src_p->obstacle_vel_counter, 0u, 0x0fu);
     dst_p[1] |= pack_left_shift_u8(src_p->obstacle_vel_id, 4u, 0xf0u);
+    dst_p[2] |= pack_right_shift_u8(src_p->obstacle_vel_id, 4u, 0x03u);
     obstacle_vel_vx = (uint16_t)src_p->obstacle_vel_vx;
-    dst_p[2] |= pack_left_shift_u16(obstacle_vel_vx, 0u, 0xffu);
-    dst_p[3] |= pack_right_shift_u16(obstacle_vel_vx, 8u, 0xffu);
+    dst_p[2] |= pack_left_shift_u16(obstacle_vel_vx, 2u, 0xfcu);
+    dst_p[3] |= pack_right_shift_u16(obstacle_vel_vx, 6u, 0xffu);
+    dst_p[4] |= pack_right_shift_u16(obstacle_vel_vx, 14u, 0x03u);
     obstacle_vel_vy = (uint16_t)src_p->obstacle_vel_vy;
-    dst_p[4] |= pack_left_shift_u16(obstacle_vel_vy, 0u, 0xffu);
-    dst_p[5] |= pack_right_shift_u16(obstacle_vel_vy, 8u, 0xffu);
+    dst_p[4] |= pack_left_shift_u16(obstacle_vel_vy, 2u, 0xfcu);
+    dst_p[5] |= pack_right_shift_u16(obstacle_vel_vy, 6u, 0xffu);
+    dst_p[6] |= pack_right_shift_u16(obstacle_vel_vy, 14u, 0x03u);
 
     return (8);
 }
@@ -997,11 +1002,14 @@ int mstc_dbc_obstacle_vel_unpack(
     dst_p->obstacle_vel_crc = unpack_right_shift_u8(src_p[0], 0u, 0xffu);
     dst_p->obstacle_vel_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
     dst_p->obstacle_vel_id = unpack_right_shift_u8(src_p[1], 4u, 0xf0u);
-    obstacle_vel_vx = unpack_right_shift_u16(src_p[2], 0u, 0xffu);
-    obstacle_vel_vx |= unpack_left_shift_u16(src_p[3], 8u, 0xffu);
+    dst_p->obstacle_vel_id |= unpack_left_shift_u8(src_p[2], 4u, 0x03u);
+    obstacle_vel_vx = unpack_right_shift_u16(src_p[2], 2u, 0xfcu);
+    obstacle_vel_vx |= unpack_left_shift_u16(src_p[3], 6u, 0xffu);
+    obstacle_vel_vx |= unpack_left_shift_u16(src_p[4], 14u, 0x03u);
     dst_p->obstacle_vel_vx = (int16_t)obstacle_vel_vx;
-    obstacle_vel_vy = unpack_right_shift_u16(src_p[4], 0u, 0xffu);
-    obstacle_vel_vy |= unpack_left_shift_u16(src_p[5], 8u, 0xffu);
+    obstacle_vel_vy = unpack_right_shift_u16(src_p[4], 2u, 0xfcu);
+    obstacle_vel_vy |= unpack_left_shift_u16(src_p[5], 6u, 0xffu);
+    obstacle_vel_vy |= unpack_left_shift_u16(src_p[6], 14u, 0x03u);
     dst_p->obstacle_vel_vy = (int16_t)obstacle_vel_vy;
 
     return (0);
@@ -1040,12 +1048,12 @@ bool mstc_dbc_obstacle_vel_obstacle_vel_counter_is_in_phys_range(float value)
 
 bool mstc_dbc_obstacle_vel_obstacle_vel_id_is_in_range(uint8_t value)
 {
-    return ((value >= 1u) && (value <= 15u));
+    return ((value >= 1u) && (value <= 48u));
 }
 
 bool mstc_dbc_obstacle_vel_obstacle_vel_id_is_in_phys_range(float value)
 {
-    return ((value >= 1.0f) && (value <= 15.0f));
+    return ((value >= 1.0f) && (value <= 48.0f));
 }
 
 bool mstc_dbc_obstacle_vel_obstacle_vel_vx_is_in_range(int16_t value)
@@ -1562,13 +1570,13 @@ int mstc_dbc_status_pack(
     dst_p[1] |= pack_left_shift_u8(src_p->status_counter, 0u, 0x0fu);
     dst_p[1] |= pack_left_shift_u8(src_p->status_mode, 4u, 0x30u);
     dst_p[1] |= pack_left_shift_u8(src_p->status_side, 6u, 0xc0u);
-    dst_p[2] |= pack_left_shift_u8(src_p->status_obstacle, 0u, 0x0fu);
-    dst_p[2] |= pack_left_shift_u8(src_p->status_faults, 4u, 0xf0u);
-    dst_p[3] |= pack_right_shift_u8(src_p->status_faults, 4u, 0x03u);
+    dst_p[2] |= pack_left_shift_u8(src_p->status_obstacle, 0u, 0x3fu);
+    dst_p[2] |= pack_left_shift_u8(src_p->status_faults, 6u, 0xc0u);
+    dst_p[3] |= pack_right_shift_u8(src_p->status_faults, 2u, 0x0fu);
     status_e = (uint16_t)src_p->status_e;
-    dst_p[3] |= pack_left_shift_u16(status_e, 2u, 0xfcu);
-    dst_p[4] |= pack_right_shift_u16(status_e, 6u, 0xffu);
-    dst_p[5] |= pack_right_shift_u16(status_e, 14u, 0x03u);
+    dst_p[3] |= pack_left_shift_u16(status_e, 4u, 0xf0u);
+    dst_p[4] |= pack_right_shift_u16(status_e, 4u, 0xffu);
+    dst_p[5] |= pack_right_shift_u16(status_e, 12u, 0x03u);
     dst_p[5] |= pack_left_shift_u16(src_p->status_distance, 2u, 0xfcu);
     dst_p[6] |= pack_right_shift_u16(src_p->status_distance, 6u, 0xffu);
     dst_p[7] |= pack_right_shift_u16(src_p->status_distance, 14u, 0x03u);
@@ -1593,12 +1601,17 @@ int mstc_dbc_status_unpack(
     dst_p->status_counter = unpack_right_shift_u8(src_p[1], 0u, 0x0fu);
     dst_p->status_mode = unpack_right_shift_u8(src_p[1], 4u, 0x30u);
     dst_p->status_side = unpack_right_shift_u8(src_p[1], 6u, 0xc0u);
-    dst_p->status_obstacle = unpack_right_shift_u8(src_p[2], 0u, 0x0fu);
-    dst_p->status_faults = unpack_right_shift_u8(src_p[2], 4u, 0xf0u);
-    dst_p->status_faults |= unpack_left_shift_u8(src_p[3], 4u, 0x03u);
-    status_e = unpack_right_shift_u16(src_p[3], 2u, 0xfcu);
-    status_e |= unpack_left_shift_u16(src_p[4], 6u, 0xffu);
-    status_e |= unpack_left_shift_u16(src_p[5], 14u, 0x03u);
+    dst_p->status_obstacle = unpack_right_shift_u8(src_p[2], 0u, 0x3fu);
+    dst_p->status_faults = unpack_right_shift_u8(src_p[2], 6u, 0xc0u);
+    dst_p->status_faults |= unpack_left_shift_u8(src_p[3], 2u, 0x0fu);
+    status_e = unpack_right_shift_u16(src_p[3], 4u, 0xf0u);
+    status_e |= unpack_left_shift_u16(src_p[4], 4u, 0xffu);
+    status_e |= unpack_left_shift_u16(src_p[5], 12u, 0x03u);
+
+    if ((status_e & (1u << 13)) != 0u) {
+        status_e |= 0xc000u;
+    }
+
     dst_p->status_e = (int16_t)status_e;
     dst_p->status_distance = unpack_right_shift_u16(src_p[5], 2u, 0xfcu);
     dst_p->status_distance |= unpack_left_shift_u16(src_p[6], 6u, 0xffu);
@@ -1662,12 +1675,12 @@ bool mstc_dbc_status_status_side_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_obstacle_is_in_range(uint8_t value)
 {
-    return (value <= 15u);
+    return (value <= 48u);
 }
 
 bool mstc_dbc_status_status_obstacle_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 15.0f));
+    return ((value >= 0.0f) && (value <= 48.0f));
 }
 
 bool mstc_dbc_status_status_faults_is_in_range(uint8_t value)
@@ -1682,14 +1695,12 @@ bool mstc_dbc_status_status_faults_is_in_phys_range(float value)
 
 bool mstc_dbc_status_status_e_is_in_range(int16_t value)
 {
-    (void)value;
-
-    return (true);
+    return ((value >= -8192) && (value <= 8191));
 }
 
 bool mstc_dbc_status_status_e_is_in_phys_range(float value)
 {
-    return ((value >= -4.0f) && (value <= 3.9998779296875f));
+    return ((value >= -4.0f) && (value <= 3.99951171875f));
 }
 
 bool mstc_dbc_status_status_distance_is_in_range(uint16_t value)
@@ -1996,7 +2007,7 @@ int mstc_dbc_event_pack(
     dst_p[1] |= pack_left_shift_u8(src_p->event_kind, 4u, 0x70u);
     dst_p[1] |= pack_left_shift_u8(src_p->event_side, 7u, 0x80u);
     dst_p[2] |= pack_right_shift_u8(src_p->event_side, 1u, 0x01u);
-    dst_p[2] |= pack_left_shift_u8(src_p->event_obstacle, 1u, 0x1eu);
+    dst_p[2] |= pack_left_shift_u8(src_p->event_obstacle, 1u, 0x7eu);
     dst_p[3] |= pack_left_shift_u32(src_p->event_time, 0u, 0xffu);
     dst_p[4] |= pack_right_shift_u32(src_p->event_time, 8u, 0xffu);
     dst_p[5] |= pack_right_shift_u32(src_p->event_time, 16u, 0xffu);
@@ -2019,7 +2030,7 @@ int mstc_dbc_event_unpack(
     dst_p->event_kind = unpack_right_shift_u8(src_p[1], 4u, 0x70u);
     dst_p->event_side = unpack_right_shift_u8(src_p[1], 7u, 0x80u);
     dst_p->event_side |= unpack_left_shift_u8(src_p[2], 1u, 0x01u);
-    dst_p->event_obstacle = unpack_right_shift_u8(src_p[2], 1u, 0x1eu);
+    dst_p->event_obstacle = unpack_right_shift_u8(src_p[2], 1u, 0x7eu);
     dst_p->event_time = unpack_right_shift_u32(src_p[3], 0u, 0xffu);
     dst_p->event_time |= unpack_left_shift_u32(src_p[4], 8u, 0xffu);
     dst_p->event_time |= unpack_left_shift_u32(src_p[5], 16u, 0xffu);
@@ -2081,12 +2092,12 @@ bool mstc_dbc_event_event_side_is_in_phys_range(float value)
 
 bool mstc_dbc_event_event_obstacle_is_in_range(uint8_t value)
 {
-    return (value <= 15u);
+    return (value <= 48u);
 }
 
 bool mstc_dbc_event_event_obstacle_is_in_phys_range(float value)
 {
-    return ((value >= 0.0f) && (value <= 15.0f));
+    return ((value >= 0.0f) && (value <= 48.0f));
 }
 
 bool mstc_dbc_event_event_time_is_in_range(uint32_t value)

@@ -640,7 +640,7 @@ struct mstc_dbc_wheel_speed_t {
 /**
  * Signals in message OBSTACLE.
  *
- * An obstacle reported by the range sensor (Definition 1).
+ * An obstacle reported by the range sensor (Definition 1): each step the obstacles within its range, nearest first, at most 48 (the firmware's table holds 48). The id is a slot: it stays with an obstacle while that obstacle stays reported, and may then be given to another. An id that comes back elsewhere is a new obstacle: a report farther than 0.1 m (in x or in y) from the obstacle the firmware has under its id replaces that one, in its place in the table, with a new one (EVENT detect), and the strategy forgets what it kept of the old one; when either moves (OBSTACLE_VEL), the 0.1 m grow by the distance the faster of the two covers along that axis in 0.5 s. A new one reported beyond D_det is not yet detected: until it comes within, the firmware keeps the old one (firmware/ctrl/sup.h).
  *
  * All signal values are as on the CAN bus.
  */
@@ -660,22 +660,24 @@ struct mstc_dbc_obstacle_t {
     uint8_t obstacle_counter;
 
     /**
-     * Range: 1..15 (1..15 -)
+     * The slot the sensor reports the obstacle in, 1 to 48: as many as the firmware's table holds, so that every slot has an entry.
+     *
+     * Range: 1..48 (1..48 -)
      * Scale: 1
      * Offset: 0
      */
     uint8_t obstacle_id;
 
     /**
-     * Range: -524288..524287 (-128..127.99976 m)
-     * Scale: 0.000244140625
+     * Range: -262144..262143 (-128..127.99951 m)
+     * Scale: 0.00048828125
      * Offset: 0
      */
     int32_t obstacle_x;
 
     /**
-     * Range: -524288..524287 (-128..127.99976 m)
-     * Scale: 0.000244140625
+     * Range: -262144..262143 (-128..127.99951 m)
+     * Scale: 0.00048828125
      * Offset: 0
      */
     int32_t obstacle_y;
@@ -693,7 +695,7 @@ struct mstc_dbc_obstacle_t {
 /**
  * Signals in message OBSTACLE_VEL.
  *
- * Velocity of a moving obstacle, sent right after its OBSTACLE frame each step, for every obstacle whose velocity is not zero. The firmware keeps the last velocity received per id (zero until one arrives).
+ * Velocity of a moving obstacle, sent right after its OBSTACLE frame each step, for every obstacle whose velocity is not zero. Each OBSTACLE frame sets its id's velocity to zero and the OBSTACLE_VEL after it gives it, so an obstacle reported without one is static (an id given to another obstacle carries no velocity over).
  *
  * All signal values are as on the CAN bus.
  */
@@ -713,7 +715,7 @@ struct mstc_dbc_obstacle_vel_t {
     uint8_t obstacle_vel_counter;
 
     /**
-     * Range: 1..15 (1..15 -)
+     * Range: 1..48 (1..48 -)
      * Scale: 1
      * Offset: 0
      */
@@ -946,7 +948,9 @@ struct mstc_dbc_status_t {
     uint8_t status_side;
 
     /**
-     * Range: 0..15 (0..15 -)
+     * Id of the obstacle avoided (followed, strategy mstc); 0 when none.
+     *
+     * Range: 0..48 (0..48 -)
      * Scale: 1
      * Offset: 0
      */
@@ -962,8 +966,8 @@ struct mstc_dbc_status_t {
     uint8_t status_faults;
 
     /**
-     * Range: -32768..32767 (-4..3.99988 rad)
-     * Scale: 0.0001220703125
+     * Range: -8192..8191 (-4..3.99951 rad)
+     * Scale: 0.00048828125
      * Offset: 0
      */
     int16_t status_e;
@@ -1139,7 +1143,7 @@ struct mstc_dbc_event_t {
     /**
      * Obstacle id; 0 when the event concerns none.
      *
-     * Range: 0..15 (0..15 -)
+     * Range: 0..48 (0..48 -)
      * Scale: 1
      * Offset: 0
      */

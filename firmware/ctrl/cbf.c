@@ -275,15 +275,15 @@ CBF_INLINE bool binding(const lookahead_t *fr, const sup_entry_t *e, uint8_t i, 
     if (slack_sure(fr, &e[i], dist, speed, still)) {
         return false;
     }
-    const uint16_t bit = (uint16_t)(1u << i);
     cbf_t *const f = fr->f;
-    if ((f->cached & bit) == 0u) {
+    if (!sup_mask_has(f->cached, i)) {
         num_t h;
         bool doomed;
         constraint_of(fr, &e[i], &f->k[i], &h, &doomed);
-        f->cached = (uint16_t)(f->cached | bit);
+        const sup_mask_t bit = sup_mask_of(i);
+        f->cached |= bit;
         if (doomed) {
-            f->doomed = (uint16_t)(f->doomed | bit);
+            f->doomed |= bit;
         }
     }
     *k = fr->f->k[i];
@@ -535,7 +535,7 @@ uint8_t cbf_unreachable(const cbf_t *f, const sup_entry_t *e, uint8_t n, const k
     for (uint8_t i = 0; i < n; i++) {
         const sup_entry_t *o = &e[i];
         /* Only a moving obstacle is ever doomed (brake_margin). */
-        if ((f->doomed & (uint16_t)(1u << i)) == 0u) {
+        if (!sup_mask_has(f->doomed, i)) {
             continue;
         }
         const cbf_constraint_t *k = &f->k[i];

@@ -109,11 +109,11 @@ typedef struct {
  *         constraints of this step, computed once each (they depend on the
  *         pose and the obstacle, not on the command being tested). */
 typedef struct {
-    bool active;     /**< an intervention episode is running */
-    bool infeasible; /**< the previous step found a constraint it could not meet */
-    uint16_t cached; /**< bit i: k[i] holds entry i's constraint of this step */
-    uint16_t doomed; /**< bit i: and its obstacle closes faster than the robot
-                          can null before the bodies touch (cbf_unreachable()) */
+    bool active;       /**< an intervention episode is running */
+    bool infeasible;   /**< the previous step found a constraint it could not meet */
+    sup_mask_t cached; /**< entry i in it: k[i] holds entry i's constraint of this step */
+    sup_mask_t doomed; /**< entry i in it: and its obstacle closes faster than the robot
+                            can null before the bodies touch (cbf_unreachable()) */
     cbf_constraint_t k[SUP_MAX_OBSTACLES];
 } cbf_t;
 

@@ -6,11 +6,18 @@
 
 #include "ctrl/oset.h"
 
+/* Avoiding, a heading error e with cos e below this slows the robot by
+ * cos e / this (to a turn in place beyond a right angle): the circle's
+ * direction is met by turning, not by a wide arc into the next member. */
+#define CTL_TURN_FIRST NUM_C(0.7)
+
 /* |x| <= lim, for a finite x only, without FE_INVALID for a NaN (num.h). */
 static bool within(num_t x, num_t lim) { return num_within(x, lim); }
 
-/* The robot's width 2 R_m: the gap below which obstacles form a cluster. */
-static num_t robot_width(const ctl_params_t *p) { return num_add(p->r_m, p->r_m); }
+/* The gap between two obstacles' D_s circles below which they form one
+ * cluster: where the circles the robot follows round them (D_s +
+ * MSW_FOLLOW_OFFSET) overlap, so that following one leads into the other. */
+static num_t cluster_gap(void) { return num_add(MSW_FOLLOW_OFFSET, MSW_FOLLOW_OFFSET); }
 
 static sup_params_t sup_params_of(const ctl_params_t *p)
 {
@@ -35,7 +42,7 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     }
     const sup_params_t sp = sup_params_of(&c->p);
     sup_init(&c->sup, &sp);
-    msw_init(&c->msw, robot_width(&c->p));
+    msw_init(&c->msw, cluster_gap());
     cbf_init(&c->cbf);
     act_init(&c->act);
     act_configure(&c->act, &c->p.kin, c->p.wheel_accel, CBF_LOOKAHEAD);
@@ -59,7 +66,7 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
         c->p = *p;
         const sup_params_t sp = sup_params_of(p);
         sup_set_params(&c->sup, &sp);
-        c->msw.width = robot_width(p);
+        c->msw.width = cluster_gap();
         act_configure(&c->act, &p->kin, p->wheel_accel, CBF_LOOKAHEAD);
         /* A lowered max_wheel_speed holds from the next step: the rate
          * limiter starts from commands within it. */
@@ -130,11 +137,18 @@ static void fill_distances(const ctl_t *c, const pose_t *robot, ctl_status_t *st
     }
 }
 
+/* Reports screened into a copy this many at a time: the copy (384 bytes) is
+ * all of them the stack holds, whatever the table's size (the F103's stack,
+ * docs/performance.md). */
+#define CTL_SCREEN_CHUNK 16u
+
 /* The step's reports into the table (sup_take_reports), screened: at most
  * SUP_MAX_OBSTACLES, the rest dropped (CTL_FAULT_OBSTACLE_DROPPED, as for a
  * report the table rejects). Their DETECT events start out->events. A
- * function of its own, so that the copy of the reports (384 bytes) is off
- * the stack before the strategy runs. */
+ * function of its own, so that the copy of the reports is off the stack
+ * before the strategy runs; the table takes them in order, so taking them
+ * CTL_SCREEN_CHUNK at a time gives the table and the events of taking them
+ * at once. */
 static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ctl_output_t *out)
 {
     const size_t n_reports =
@@ -143,28 +157,33 @@ static void take_reports(ctl_t *c, const ctl_input_t *in, bool with_velocity, ct
     /* Reports that screening leaves as they are (velocities kept, every value
      * in range) go to the table uncopied. */
     bool as_they_are = with_velocity;
-    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
+    /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 48 */
     for (size_t i = 0; as_they_are && i < n_reports; i++) {
         as_they_are = report_ok(&in->obstacles[i], true);
     }
-    const sup_obstacle_t *taken = in->obstacles;
-    sup_obstacle_t reports[SUP_MAX_OBSTACLES];
-    if (!as_they_are) {
-        /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 16 */
-        for (size_t i = 0; i < n_reports; i++) {
-            screen(&in->obstacles[i], with_velocity, &reports[i]);
-        }
-        taken = reports;
-    }
     size_t n_ev = 0;
-    /* Screened: every value finite (within()), or the report is id 0.
-     * "mstc" (with velocities) averages the reports of static obstacles. */
-    if (with_velocity) {
-        sup_take_averaged_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events,
-                                  &n_ev);
+    if (as_they_are) {
+        /* "mstc" (with velocities) averages the reports of static obstacles. */
+        sup_take_averaged_reports(&c->sup, &in->robot, in->obstacles, n_reports, in->t_us,
+                                  out->events, &n_ev);
     } else {
-        sup_take_finite_reports(&c->sup, &in->robot, taken, n_reports, in->t_us, out->events,
-                                &n_ev);
+        /* cppcheck-suppress knownConditionTrueFalse ; false positive: n_reports is up to 48 */
+        for (size_t at = 0; at < n_reports; at += CTL_SCREEN_CHUNK) {
+            const size_t n = n_reports - at < CTL_SCREEN_CHUNK ? n_reports - at : CTL_SCREEN_CHUNK;
+            sup_obstacle_t reports[CTL_SCREEN_CHUNK];
+            /* Screened: every value finite (within()), or the report is id 0. */
+            /* cppcheck-suppress knownConditionTrueFalse ; false positive: n is 1 to 16 here */
+            for (size_t i = 0; i < n; i++) {
+                screen(&in->obstacles[at + i], with_velocity, &reports[i]);
+            }
+            if (with_velocity) {
+                sup_take_averaged_reports(&c->sup, &in->robot, reports, n, in->t_us, out->events,
+                                          &n_ev);
+            } else {
+                sup_take_finite_reports(&c->sup, &in->robot, reports, n, in->t_us, out->events,
+                                        &n_ev);
+            }
+        }
     }
     out->n_events = n_ev;
     if (c->sup.dropped != dropped_before || in->n_obstacles > n_reports) {
@@ -364,6 +383,9 @@ static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const whee
     if (back ? along >= NUM_ZERO : along <= NUM_ZERO) {
         return v; /* ahead of its reference: it waits */
     }
+    if (back ? pe->e.e1 > NUM_ZERO : pe->e.e1 < NUM_ZERO) {
+        return v; /* its reference behind its direction of motion: it turns first */
+    }
     const unsigned n = c->sup.n_obs;
     for (unsigned i = 0; i < n; i++) {
         const sup_entry_t *e = &c->sup.obs[i];
@@ -419,10 +441,14 @@ static void avoid_command(const ctl_t *c, const ctl_input_t *in, const wheels_no
 {
     const act_limits_t *lim = &c->act.lim;
     const num_t v23 = num_add(num_mul(in->v_r, pe->c3), num_mul(c->p.avd.k1, pe->e.e1));
-    const num_t slowest = num_mul(MSW_SPEED_MIN, num_abs(in->v_r));
+    const num_t slowest = c->msw.held ? num_abs(in->v_r) : num_mul(MSW_SPEED_MIN, num_abs(in->v_r));
     const num_t cap = num_max(num_mul(d->circle.d_s, lim->sqrt_gamma), slowest);
     *v = num_clamp(v23, slowest, num_min(speed_limit(in->v_r), cap));
     avd_turn(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, d->side, *v, w, e);
+    const num_t ce = num_cos(*e);
+    if (ce < CTL_TURN_FIRST) {
+        *v = num_mul(*v, num_max(num_div(ce, CTL_TURN_FIRST), NUM_ZERO));
+    }
     const num_t corr = num_mul(c->p.avd.k2, *e);
     const num_t most = c->memo.avoid_most; /* 2γ'/k2 */
     *w = num_add(num_sub(*w, corr), num_clamp(corr, num_neg(most), most));
@@ -486,8 +512,45 @@ static uint8_t nearest_id(const ctl_t *c, const ctl_status_t *st)
 /* The "mstc" step (ctl.h): the table, the strategy, the active controller
  * through the wheels' limits, kinematics, then the safety filter on what the
  * wheels will do, the rate limiter and the braking guard. */
-static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
+/* The input with the reference replaced by the strategy's aim while it
+ * holds (msw.h: the reference waits, and the robot goes to a point of its
+ * line ahead), else @p in. */
+static const ctl_input_t *aimed_input(ctl_t *c, const ctl_input_t *in, ctl_input_t *copy)
 {
+    msw_t *m = &c->msw;
+    if (!m->aimed) {
+        return in;
+    }
+    if (in->ref.x != m->aim_rx || in->ref.y != m->aim_ry) {
+        m->aimed = false; /* the reference moved on */
+        return in;
+    }
+    msw_slide_aim(m, &in->robot, &in->ref);
+    *copy = *in;
+    copy->ref = m->aim;
+    copy->w_r = NUM_ZERO;
+    return copy;
+}
+
+/* How far the obstacles are known [m]: D_det, or when the sensor reported
+ * as many as the table holds, the farthest report (nearer first). */
+static num_t known_range(const ctl_t *c, const ctl_input_t *in)
+{
+    if (in->n_obstacles < SUP_MAX_OBSTACLES) {
+        return c->p.d_det;
+    }
+    num_t far = NUM_ZERO;
+    for (size_t i = 0; i < in->n_obstacles; i++) {
+        far = num_max(far, oset_distance(num_sub(in->obstacles[i].x, in->robot.x),
+                                         num_sub(in->obstacles[i].y, in->robot.y)));
+    }
+    return num_min(far, c->p.d_det);
+}
+
+static void mstc_step(ctl_t *c, const ctl_input_t *in0, ctl_output_t *out)
+{
+    ctl_input_t copy;
+    const ctl_input_t *in = aimed_input(c, in0, &copy);
     ctl_status_t *st = &out->status;
     size_t n_ev = out->n_events;
     num_t sin_th;
@@ -522,6 +585,8 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     }
     const msw_input_t mi = { .robot = &in->robot,
                              .ref = &in->ref,
+                             .host = &in0->ref,
+                             .range = known_range(c, in0),
                              .v_r = in->v_r,
                              .w_r = in->w_r,
                              .cos_th = cos_th,
@@ -656,19 +721,11 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out)
     st->v = NUM_ZERO;
     st->w = NUM_ZERO;
     st->faults = 0u;
+    /* obstacle_id[] and distance[] hold n_obstacles entries, written by the
+     * strategy's step; the rest are left as they were (ctl.h): clearing all
+     * SUP_MAX_OBSTACLES of them cost about 100 instructions a step on a Cortex-M4F
+     * (make bench). */
     st->n_obstacles = 0u;
-    _Static_assert(SUP_MAX_OBSTACLES % 4u == 0u, "the clear below goes by fours");
-    for (size_t i = 0; i < SUP_MAX_OBSTACLES; i += 4u) {
-        /* By fours: the ids' four bytes in one store. */
-        st->obstacle_id[i] = 0u;
-        st->obstacle_id[i + 1u] = 0u;
-        st->obstacle_id[i + 2u] = 0u;
-        st->obstacle_id[i + 3u] = 0u;
-        st->distance[i] = NUM_ZERO;
-        st->distance[i + 1u] = NUM_ZERO;
-        st->distance[i + 2u] = NUM_ZERO;
-        st->distance[i + 3u] = NUM_ZERO;
-    }
     out->n_events = 0;
     out->wheels = (kin_wheels_t){ NUM_ZERO, NUM_ZERO };
 

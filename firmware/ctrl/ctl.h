@@ -152,7 +152,9 @@ typedef struct {
 
 /** @brief What the step did, for telemetry. ctl_step() clears it member by
  *         member (no memset on a Cortex-M): a member added here is cleared
- *         there too. */
+ *         there too. obstacle_id[] and distance[] hold n_obstacles entries;
+ *         the ones past them are not written (whatever the caller's buffer
+ *         held stays). */
 typedef struct {
     sup_mode_t mode;
     uint8_t active_obstacle; /**< id of the obstacle avoided (followed, "mstc"), 0 when none */
@@ -162,9 +164,9 @@ typedef struct {
     num_t v;                 /**< commanded linear velocity after saturation [m/s] */
     num_t w;                 /**< commanded angular velocity after saturation [rad/s] */
     uint8_t faults;          /**< CTL_FAULT_* bits of this step */
-    uint8_t n_obstacles;     /**< obstacles remembered */
-    uint8_t obstacle_id[SUP_MAX_OBSTACLES];
-    num_t distance[SUP_MAX_OBSTACLES]; /**< centre distance to each [m] */
+    uint8_t n_obstacles;     /**< obstacles remembered: entries of the two below */
+    uint8_t obstacle_id[SUP_MAX_OBSTACLES]; /**< id of each table entry */
+    num_t distance[SUP_MAX_OBSTACLES];      /**< centre distance to each [m] */
 } ctl_status_t;
 
 /** @brief Outputs of one step. */

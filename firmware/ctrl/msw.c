@@ -26,6 +26,12 @@ void msw_reset(msw_t *m)
     m->mark_x = NUM_ZERO;
     m->mark_y = NUM_ZERO;
     m->t_mark_us = 0u;
+    m->ref_x = NUM_ZERO;
+    m->ref_y = NUM_ZERO;
+    m->held = false;
+    m->ahead = false;
+    m->aimed = false;
+    m->reversed = false;
     for (size_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
         m->acts[i] = 0u;
     }
@@ -45,18 +51,10 @@ bool msw_moving(const sup_entry_t *e)
     return num_add(num_abs(e->o.vx), num_abs(e->o.vy)) > MSW_MOVING_SPEED;
 }
 
-static bool in_mask(uint16_t mask, unsigned i) { return (mask & (1u << i)) != 0u; }
-
-/* The lowest table index in @p mask (not 0), and @p mask without it: the
- * loops over a cluster visit its members alone, in the order of their
- * indices. */
-static unsigned lowest(uint16_t mask) { return (unsigned)__builtin_ctz(mask); }
-static uint16_t without_lowest(uint16_t mask) { return (uint16_t)(mask & (mask - 1u)); }
-
 /* @p mask's indices within the table. */
-static uint16_t in_table(uint16_t mask, const sup_t *s)
+static sup_mask_t in_table(sup_mask_t mask, const sup_t *s)
 {
-    return (uint16_t)(mask & ((1u << s->n_obs) - 1u));
+    return mask & sup_mask_first(s->n_obs);
 }
 
 /* Time since @p t0, 0 if the clock went backwards. */
@@ -68,6 +66,7 @@ static uint64_t since(uint64_t now, uint64_t t0) { return now >= t0 ? now - t0 :
 typedef struct {
     const msw_input_t *in;
     bool rolled;
+    bool aiming; /* the tracking command of this step goes to msw_t::aim */
     rol_path_t *path;
 } look_t;
 
@@ -138,6 +137,13 @@ static bool cpa_inside(look_t *lk, const sup_entry_t *e, num_t horizon, num_t ma
     return d2 < num_sq(r);
 }
 
+/* The tracking command's roll-out keeps static entry @p e beyond @p clear. */
+static bool clears(look_t *lk, const sup_entry_t *e, num_t clear, num_t d)
+{
+    const rol_path_t *path = rolled_out(lk);
+    return d >= num_add(path->reach, clear) || rol_clears(path, e->o.x, e->o.y, clear);
+}
+
 /* Boundary distance of entry @p i: centre distance less its own D_s. */
 static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
 {
@@ -146,7 +152,7 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
 
 /* The activation candidate (table index) outside the entries of @p skip,
  * or -1. */
-static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
+static int candidate(const msw_t *m, const sup_t *s, look_t *lk, sup_mask_t skip)
 {
     const msw_input_t *in = lk->in;
     /* In locals, that the calls below leave in registers: the loop runs for
@@ -161,10 +167,11 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
         /* Beyond any trigger's reach first: the cheapest test, and most
          * entries fail it. */
         if (dist[i] >= num_add(num_add(e->d_act, MSW_CPA_REACH), reach) ||
-            m->acts[i] >= MSW_MAX_ACTIVATIONS || in_mask(skip, i)) {
+            m->acts[i] >= MSW_MAX_ACTIVATIONS || sup_mask_has(skip, i)) {
             continue;
         }
-        bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e);
+        bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e) &&
+                    (msw_moving(e) || !clears(lk, e, num_add(e->d_s, MSW_ACT_MARGIN), dist[i]));
         if (!trig && msw_moving(e)) {
             /* Within d_act + MSW_CPA_REACH + reach: the test above. */
             trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, reach));
@@ -185,7 +192,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, uint16_t skip)
  * MSW_FOLLOW_AHEAD ahead of it, whichever is smaller. Looking ahead hands the
  * robot over to the next member before it reaches a concave corner of the
  * cluster, where the tangent of the member it leaves points into the next. */
-static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint16_t cluster,
+static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, sup_mask_t cluster,
                               uint8_t fallback)
 {
     const num_t qx = num_add(in->robot->x, num_mul(MSW_FOLLOW_AHEAD, in->cos_th));
@@ -193,8 +200,8 @@ static uint8_t nearest_member(const sup_t *s, const msw_input_t *in, uint16_t cl
     const num_t *const dist = in->dist;
     uint8_t best = fallback;
     num_t best_b = NUM_MAX;
-    for (uint16_t rest = in_table(cluster, s); rest != 0u; rest = without_lowest(rest)) {
-        const unsigned i = lowest(rest);
+    for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
+        const unsigned i = sup_mask_lowest(rest);
         const sup_entry_t *e = &s->obs[i];
         const num_t ahead = oset_distance(num_sub(e->o.x, qx), num_sub(e->o.y, qy));
         const num_t b = num_sub(num_min(dist[i], ahead), e->d_s);
@@ -215,7 +222,7 @@ static num_t asin01(num_t x) { return num_atan2(x, num_sqrt(num_sub(NUM_ONE, num
  * left edge, max(offset + ρ); passing on the right to its right edge,
  * min(offset − ρ). The side whose edge lies nearer the path wins; NONE when
  * they are within MSW_TIE_OFFSET. */
-static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offset,
+static avd_side_t side_by_reference(const sup_t *s, sup_mask_t cluster, num_t offset,
                                     const msw_input_t *in)
 {
     num_t ey;
@@ -227,16 +234,14 @@ static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offs
     }
     num_t left = num_neg(NUM_MAX);
     num_t right = NUM_MAX;
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (in_mask(cluster, i)) {
-            const sup_entry_t *e = &s->obs[i];
-            /* Signed offset of the centre to the left of the path. */
-            const num_t off = num_sub(num_mul(ex, num_sub(e->o.y, in->ref->y)),
-                                      num_mul(ey, num_sub(e->o.x, in->ref->x)));
-            const num_t rho = num_add(e->d_s, offset);
-            left = num_max(left, num_add(off, rho));
-            right = num_min(right, num_sub(off, rho));
-        }
+    for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
+        const sup_entry_t *e = &s->obs[sup_mask_lowest(rest)];
+        /* Signed offset of the centre to the left of the path. */
+        const num_t off = num_sub(num_mul(ex, num_sub(e->o.y, in->ref->y)),
+                                  num_mul(ey, num_sub(e->o.x, in->ref->x)));
+        const num_t rho = num_add(e->d_s, offset);
+        left = num_max(left, num_add(off, rho));
+        right = num_min(right, num_sub(off, rho));
     }
     /* Deviation to pass left: left (if > 0); to pass right: −right. */
     const num_t lean = num_add(num_max(left, NUM_ZERO), num_min(right, NUM_ZERO));
@@ -254,22 +259,21 @@ static avd_side_t side_by_reference(const sup_t *s, uint16_t cluster, num_t offs
  * L and R its left and right edges, LEFT when L + R < 0, i.e. the smaller
  * turn; for one obstacle this is eq. (11)-(12). NONE when |L + R| is within
  * 2 MSW_SIDE_DEADBAND. */
-static avd_side_t side_by_heading(const sup_t *s, uint16_t cluster, num_t offset,
+static avd_side_t side_by_heading(const sup_t *s, sup_mask_t cluster, num_t offset,
                                   const msw_input_t *in)
 {
     const pose_t *p = in->robot;
     num_t left = num_neg(NUM_MAX);
     num_t right = NUM_MAX;
-    for (uint8_t i = 0; i < s->n_obs; i++) {
-        if (in_mask(cluster, i)) {
-            const sup_entry_t *e = &s->obs[i];
-            const num_t psi = num_wrap(
-                num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), p->theta));
-            const num_t rho = num_add(e->d_s, offset);
-            const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
-            left = num_max(left, num_add(psi, half));
-            right = num_min(right, num_sub(psi, half));
-        }
+    for (sup_mask_t rest = in_table(cluster, s); rest != 0u; rest = sup_mask_without_lowest(rest)) {
+        const unsigned i = sup_mask_lowest(rest);
+        const sup_entry_t *e = &s->obs[i];
+        const num_t psi =
+            num_wrap(num_sub(num_atan2(num_sub(e->o.y, p->y), num_sub(e->o.x, p->x)), p->theta));
+        const num_t rho = num_add(e->d_s, offset);
+        const num_t half = in->dist[i] > rho ? asin01(num_div(rho, in->dist[i])) : NUM_HALF_PI;
+        left = num_max(left, num_add(psi, half));
+        right = num_min(right, num_sub(psi, half));
     }
     const num_t lean = num_add(left, right);
     const num_t band = num_add(MSW_SIDE_DEADBAND, MSW_SIDE_DEADBAND);
@@ -282,7 +286,7 @@ static avd_side_t side_by_heading(const sup_t *s, uint16_t cluster, num_t offset
     return AVD_SIDE_NONE;
 }
 
-avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, num_t offset,
+avd_side_t msw_choose_side(const sup_t *s, sup_mask_t cluster, uint8_t trigger, num_t offset,
                            const msw_input_t *in)
 {
     const sup_entry_t *t = &s->obs[trigger];
@@ -304,24 +308,22 @@ avd_side_t msw_choose_side(const sup_t *s, uint16_t cluster, uint8_t trigger, nu
     return side == AVD_SIDE_NONE ? AVD_SIDE_LEFT : side;
 }
 
-/* The tracking command's roll-out keeps every entry beyond its D_s + margin
- * and, for an entry within its D_act + margin, never comes more than the
- * margin closer than it is now (the robot is no longer closing on it). */
-static bool way_clear(const sup_t *s, look_t *lk)
+/* The tracking command's roll-out keeps every static entry of @p mask beyond
+ * its D_s + MSW_CLEAR_MARGIN (that it turns away from an entry it passes
+ * close to is not asked: the release's p1 and the safety filter see to
+ * that); a moving one is judged by its motion. */
+static bool way_clear_of(const sup_t *s, look_t *lk, sup_mask_t mask)
 {
     const msw_input_t *in = lk->in;
     const rol_path_t *path = rolled_out(lk);
     const num_t *const dist = in->dist; /* locals, as in candidate() */
-    const num_t reach = in->reach;
     const unsigned n = s->n_obs;
     for (unsigned i = 0; i < n; i++) {
-        const sup_entry_t *e = &s->obs[i];
-        num_t clear = num_add(e->d_s, MSW_MARGIN);
-        /* Within the reach of an activation (D_act + the braking reach,
-         * candidate()), by the margin. */
-        if (dist[i] < num_add(num_add(e->d_act, reach), MSW_MARGIN)) {
-            clear = num_max(clear, num_sub(dist[i], MSW_MARGIN));
+        if (!sup_mask_has(mask, i)) {
+            continue;
         }
+        const sup_entry_t *e = &s->obs[i];
+        const num_t clear = num_add(e->d_s, MSW_CLEAR_MARGIN);
         /* A moving entry: the robot no longer closes on it within reach of an
          * activation, and its closest approach over the activation's horizon
          * stays beyond what activates by the margin (hysteresis). */
@@ -340,6 +342,8 @@ static bool way_clear(const sup_t *s, look_t *lk)
     }
     return true;
 }
+
+static bool way_clear(const sup_t *s, look_t *lk) { return way_clear_of(s, lk, ~(sup_mask_t)0); }
 
 /* p1, eq. (19)-(20), as sup_p1() but on squares (no root): u1·u2 > 0 and
  * |u2| >= D_act (the paper's |u2| > D_act but for the equality). */
@@ -360,8 +364,15 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
     }
     /* p1 for every static member (a moving one may never let the reference
      * pass it: way_clear() judges it by its motion). */
-    for (uint16_t rest = in_table(m->cluster, s); rest != 0u; rest = without_lowest(rest)) {
-        const sup_entry_t *e = &s->obs[lowest(rest)];
+    if (m->held) {
+        /* Bug2: back on the path further along than before, or VisBug: the
+         * tracking command of this step goes to the aim (a point of the
+         * reference's line ahead, shortcut()) and its way is clear. */
+        return (m->ahead && way_clear_of(s, lk, m->cluster)) || (lk->aiming && way_clear(s, lk));
+    }
+    for (sup_mask_t rest = in_table(m->cluster, s); rest != 0u;
+         rest = sup_mask_without_lowest(rest)) {
+        const sup_entry_t *e = &s->obs[sup_mask_lowest(rest)];
         if (!msw_moving(e) && !p1(in, e)) {
             return false;
         }
@@ -369,13 +380,80 @@ static bool release_ok(const msw_t *m, const sup_t *s, look_t *lk)
     return way_clear(s, lk);
 }
 
-/* An obstacle outside the cluster calls for an activation and is nearer than
- * the member followed: the avoidance ends here, and the next step activates
- * the other's cluster. */
-static bool hand_over(const msw_t *m, const sup_t *s, look_t *lk)
+/* The robot's position along the line of @p host (the reference as
+ * received: its position and heading) [m], and the line's direction. */
+static num_t along_line(const pose_t *robot, const pose_t *host, num_t *ux, num_t *uy)
 {
-    const int other = candidate(m, s, lk, m->cluster);
-    return other >= 0 && boundary(s, lk->in, (unsigned)other) < boundary(s, lk->in, m->followed);
+    num_sincos(host->theta, uy, ux);
+    return num_add(num_mul(num_sub(robot->x, host->x), *ux),
+                   num_mul(num_sub(robot->y, host->y), *uy));
+}
+
+/* The reference waits (held): a point P of its line ahead of it, the foot of
+ * the perpendicular from the robot, that the robot sees a clear straight way
+ * to (VisBug's shortcut to the m-line). */
+static bool shortcut(msw_t *m, const sup_t *s, const msw_input_t *in)
+{
+    num_t uy;
+    num_t ux;
+    const num_t a = along_line(in->robot, in->host, &ux, &uy);
+    if (a < MSW_SHORTCUT_MIN) {
+        return false;
+    }
+    const num_t px = num_add(in->host->x, num_mul(a, ux));
+    const num_t py = num_add(in->host->y, num_mul(a, uy));
+    const num_t sx = num_sub(px, in->robot->x);
+    const num_t sy = num_sub(py, in->robot->y);
+    const num_t len = oset_distance(sx, sy);
+    for (unsigned i = 0; i < s->n_obs; i++) {
+        const sup_entry_t *e = &s->obs[i];
+        const num_t clear = num_add(e->d_s, MSW_SHORTCUT_MARGIN);
+        if (num_add(len, clear) > in->range) {
+            return false; /* beyond what the sensor tells */
+        }
+        if (in->dist[i] >= num_add(len, clear)) {
+            continue;
+        }
+        const num_t cx = num_sub(e->o.x, in->robot->x);
+        const num_t cy = num_sub(e->o.y, in->robot->y);
+        num_t t = len > NUM_C(0.001)
+                      ? num_div(num_add(num_mul(cx, sx), num_mul(cy, sy)), num_mul(len, len))
+                      : NUM_ZERO;
+        t = num_clamp(t, NUM_ZERO, NUM_ONE);
+        const num_t dx = num_sub(cx, num_mul(t, sx));
+        const num_t dy = num_sub(cy, num_mul(t, sy));
+        if (oset_within(dx, dy, clear)) {
+            return false;
+        }
+    }
+    m->aim_rx = in->host->x;
+    m->aim_ry = in->host->y;
+    msw_slide_aim(m, in->robot, in->host);
+    return true;
+}
+
+/* Held, the boundary has led the robot MSW_TURN_BACK behind the waiting
+ * reference along its line: it follows the boundary the other way (once an
+ * activation; the Bug family's reversal of direction). */
+static void turn_back(msw_t *m, const msw_input_t *in)
+{
+    num_t ux;
+    num_t uy;
+    if (!m->reversed && along_line(in->robot, in->host, &ux, &uy) < num_neg(MSW_TURN_BACK)) {
+        m->side = m->side == AVD_SIDE_LEFT ? AVD_SIDE_RIGHT : AVD_SIDE_LEFT;
+        m->reversed = true;
+    }
+}
+
+void msw_slide_aim(msw_t *m, const pose_t *robot, const pose_t *host)
+{
+    num_t uy;
+    num_t ux;
+    const num_t a = along_line(robot, host, &ux, &uy);
+    const num_t along = num_add(num_max(a, NUM_ZERO), MSW_AIM_LEAD);
+    m->aim.x = num_add(host->x, num_mul(along, ux));
+    m->aim.y = num_add(host->y, num_mul(along, uy));
+    m->aim.theta = host->theta;
 }
 
 /* Progress watchdog while avoiding: true when no progress is possible, that
@@ -394,7 +472,8 @@ static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
         m->mark_y = in->robot->y;
         m->t_mark_us = in->t_us;
     }
-    return num_abs(m->turned) > MSW_LOOP || since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
+    return (!m->held && num_abs(m->turned) > MSW_LOOP) ||
+           since(in->t_us, m->t_mark_us) >= MSW_STILL_US;
 }
 
 /* The cluster of the trigger, and the offset of the circles followed round
@@ -403,7 +482,7 @@ static bool no_progress(msw_t *m, const msw_input_t *in, bool p3)
 static void find_cluster(msw_t *m, const sup_t *s)
 {
     bool gapped;
-    m->cluster = oset_cluster(s->obs, s->n_obs, m->trigger, m->width, &gapped);
+    m->cluster = oset_cluster(s->obs, s->n_obs, m->followed, m->width, &gapped);
     m->revision = s->revision;
     m->offset =
         gapped ? num_add(num_mul(m->width, NUM_C(0.5)), MSW_FILL_MARGIN) : MSW_FOLLOW_OFFSET;
@@ -426,15 +505,34 @@ static void forget_left(msw_t *m, const sup_t *s, const msw_input_t *in)
     }
 }
 
+/* Each DETECT among the events of this step so far (sup_take_reports())
+ * names an entry that is a new obstacle, in a place that may have held
+ * another (an id that came back elsewhere, sup.h): what the strategy kept
+ * for that index, its count of activations, starts again. */
+static void forget_new(msw_t *m, const sup_t *s, const sup_event_t *events, size_t n_events)
+{
+    for (size_t k = 0; k < n_events; k++) {
+        const uint8_t slot = s->slot[events[k].obstacle]; /* index + 1, 0: not in the table */
+        if (events[k].kind == (uint8_t)SUP_EVENT_DETECT && slot != 0u) {
+            m->acts[slot - 1u] = 0u;
+        }
+    }
+}
+
 static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
                      sup_event_t *events, size_t *n_ev)
 {
     m->state = (uint8_t)MSW_AVOID;
     m->trigger = i;
+    m->followed = i;
     find_cluster(m, s);
     m->side = msw_choose_side(s, m->cluster, i, m->offset, in);
     m->acts[i]++;
     m->t_act_us = in->t_us;
+    m->held = false;
+    m->ahead = false;
+    m->aimed = false;
+    m->reversed = false;
     m->turned = NUM_ZERO;
     m->last_theta = in->robot->theta;
     m->mark_x = in->robot->x;
@@ -446,9 +544,24 @@ static void activate(msw_t *m, const sup_t *s, const msw_input_t *in, uint8_t i,
 void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *events,
               size_t *n_events, msw_decision_t *d)
 {
+    forget_new(m, s, events, *n_events);
     /* The path is written when first needed (rolled_out()). */
-    look_t lk = { .in = in, .rolled = false, .path = &m->path };
+    look_t lk = { .in = in, .rolled = false, .aiming = m->aimed, .path = &m->path };
     const bool p3 = sup_p3(in->v_r, in->w_r); /* once a step: a call to sup.c */
+    /* The reference waits for the robot: it stands still though its
+     * velocity says it moves (a reference at rest, v_r = 0, does not). */
+    const bool still = in->v_r != NUM_ZERO && in->host->x == m->ref_x && in->host->y == m->ref_y;
+    if (m->state == (uint8_t)MSW_AVOID) {
+        if (still) {
+            m->held = true;
+        } else if (m->held) {
+            m->ahead = true;
+        } else {
+            /* moving as scheduled */
+        }
+    }
+    m->ref_x = in->host->x;
+    m->ref_y = in->host->y;
     if (m->state == (uint8_t)MSW_BLOCKED) {
         if (way_clear(s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
@@ -458,8 +571,12 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         if (s->revision != m->revision) {
             find_cluster(m, s); /* obstacles joined or moved */
         }
-        m->followed = nearest_member(s, in, m->cluster, m->trigger);
-        if (release_ok(m, s, &lk) || hand_over(m, s, &lk)) {
+        m->followed = nearest_member(s, in, m->cluster, m->followed);
+        if (m->held) {
+            turn_back(m, in);
+            m->aimed = shortcut(m, s, in); /* the aim of the next step's tracking */
+        }
+        if (release_ok(m, s, &lk)) {
             m->state = (uint8_t)MSW_TRACK;
             emit(events, n_events, in->t_us, SUP_EVENT_COMPLETE, s->obs[m->followed].o.id,
                  AVD_SIDE_NONE);

@@ -17,33 +17,32 @@ oset_link_t oset_link(const sup_entry_t *a, const sup_entry_t *b, num_t width)
     return oset_within(dx, dy, touch) ? OSET_OVERLAP : OSET_GAP;
 }
 
-uint16_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped)
+sup_mask_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped)
 {
     /* Breadth first over bit masks: each member is expanded once, against
      * every other entry: the ones not yet in the cluster may join it, the
-     * ones in it already may leave a gap with it. */
-    uint16_t members = (uint16_t)(1u << seed);
-    uint16_t todo = members;
-    uint16_t done = 0u;
+     * ones in it already may leave a gap with it. The entries each member
+     * is tested against are walked as a mask too (those not yet expanded,
+     * in the order of their indices). */
+    const sup_mask_t table = sup_mask_first(n);
+    sup_mask_t members = sup_mask_of(seed);
+    sup_mask_t todo = members;
+    sup_mask_t done = 0u;
     *gapped = false;
     while (todo != 0u) {
-        uint8_t i = 0;
-        while ((todo & (1u << i)) == 0u) {
-            i++;
-        }
-        todo = (uint16_t)(todo & ~(1u << i));
-        done = (uint16_t)(done | (1u << i));
-        for (uint8_t j = 0; j < n; j++) {
-            const uint16_t bit = (uint16_t)(1u << j);
-            if ((done & bit) != 0u) {
-                continue; /* itself, or a pair tested from the other end */
-            }
+        const unsigned i = sup_mask_lowest(todo);
+        todo = sup_mask_without_lowest(todo);
+        done |= sup_mask_of(i);
+        /* Not itself, nor a pair tested from the other end. */
+        for (sup_mask_t rest = table & ~done; rest != 0u; rest = sup_mask_without_lowest(rest)) {
+            const unsigned j = sup_mask_lowest(rest);
             const oset_link_t link = oset_link(&e[i], &e[j], width);
             if (link != OSET_APART) {
                 *gapped = *gapped || link == OSET_GAP;
+                const sup_mask_t bit = sup_mask_of(j);
                 if ((members & bit) == 0u) {
-                    members = (uint16_t)(members | bit);
-                    todo = (uint16_t)(todo | bit);
+                    members |= bit;
+                    todo |= bit;
                 }
             }
         }

@@ -99,7 +99,7 @@ oset_link_t oset_link(const sup_entry_t *a, const sup_entry_t *b, num_t width);
  *             Conservative: a pair counts even where other members cover
  *             the space between them (every second obstacle of a row).
  */
-uint16_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped);
+sup_mask_t oset_cluster(const sup_entry_t *e, uint8_t n, uint8_t seed, num_t width, bool *gapped);
 
 /**
  * @brief Closing test: the robot moving at @p vx, @p vy relative to the

@@ -99,15 +99,44 @@ static const num_t avg_weight[] = {
 _Static_assert(sizeof avg_weight / sizeof avg_weight[0] == SUP_AVG_MAX + 1u,
                "a weight for each count");
 
-/* The report @p o, which moves static entry @p e, averaged into its centre
- * when it may be (sup_take_averaged_reports()), @p n its count of reports
- * averaged; false: take it as it comes. */
+/* Whether report @p o of entry @p e's id is another obstacle (sup.h,
+ * "an id that comes back elsewhere"): farther from the entry's centre than
+ * SUP_AVG_GATE in x or in y; when either moves, than SUP_AVG_GATE plus the
+ * distance the faster of the two covers along that axis in
+ * SUP_MOVING_GATE_TIME. */
+static bool elsewhere(const sup_entry_t *e, const sup_obstacle_t *o)
+{
+    num_t gate_x = SUP_AVG_GATE;
+    num_t gate_y = SUP_AVG_GATE;
+    if (num_any_nonzero(o->vx, o->vy) || num_any_nonzero(e->o.vx, e->o.vy)) {
+        gate_x = num_add(gate_x,
+                         num_mul(num_max(num_abs(o->vx), num_abs(e->o.vx)), SUP_MOVING_GATE_TIME));
+        gate_y = num_add(gate_y,
+                         num_mul(num_max(num_abs(o->vy), num_abs(e->o.vy)), SUP_MOVING_GATE_TIME));
+    }
+    return num_abs(num_sub(o->x, e->o.x)) > gate_x || num_abs(num_sub(o->y, e->o.y)) > gate_y;
+}
+
+/* Definition 1's range for report @p o, moved out by its extra radius as
+ * D_s and D_act are (set_entry): D_det is the centre distance at which an
+ * obstacle of radius R_ob is seen, so the range counts from the obstacle's
+ * boundary. Avoidance then starts within the range for every radius
+ * (D_act <= D_det), as for R_ob. */
+static bool in_range(const sup_t *s, const pose_t *robot, const sup_obstacle_t *o)
+{
+    const num_t range = num_add(s->p.d_det, num_sub(o->radius, s->p.r_ob));
+    return num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y)) <= range;
+}
+
+/* The report @p o, which moves static entry @p e and is not elsewhere(),
+ * averaged into its centre when it may be (sup_take_averaged_reports()),
+ * @p n its count of reports averaged; false: take it as it comes. */
 static bool average_into(sup_entry_t *e, uint8_t *n, const sup_obstacle_t *o)
 {
     const num_t dx = num_sub(o->x, e->o.x);
     const num_t dy = num_sub(o->y, e->o.y);
     if (o->vx != NUM_ZERO || o->vy != NUM_ZERO || e->o.vx != NUM_ZERO || e->o.vy != NUM_ZERO ||
-        o->radius != e->o.radius || num_abs(dx) > SUP_AVG_GATE || num_abs(dy) > SUP_AVG_GATE) {
+        o->radius != e->o.radius) {
         return false;
     }
     if (*n < SUP_AVG_MAX) {
@@ -131,8 +160,9 @@ static bool average_into(sup_entry_t *e, uint8_t *n, const sup_obstacle_t *o)
 #endif
 
 /* Definition 1: remember each reported obstacle from the first step at which
- * it lies within D_det. At most one new entry per id, so at most
- * SUP_MAX_OBSTACLES detect events per step. */
+ * it lies within D_det; a known id reported elsewhere() names a new obstacle,
+ * which takes its entry (sup.h). At most one detect event per report, so at
+ * most SUP_MAX_OBSTACLES per step (ctl.c passes no more reports). */
 SUP_INLINE void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t *reports,
                              size_t n_reports, uint64_t t_us, sup_event_t *events, size_t *n_ev,
                              bool finite, bool average)
@@ -146,8 +176,20 @@ SUP_INLINE void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t
         sup_entry_t *e = find(s, o->id);
         if (e != NULL) {
             if (moved(&e->o, o)) {
-                s->revision++;
                 uint8_t *n = &s->n_avg[s->slot[o->id] - 1u];
+                if (elsewhere(e, o)) {
+                    /* The id came back elsewhere: a new obstacle, detected
+                     * as an unknown id is (within range; until then the
+                     * entry stays the obstacle it was). */
+                    if (in_range(s, robot, o)) {
+                        set_entry(s, e, o);
+                        *n = 1u;
+                        s->revision++;
+                        emit(events, n_ev, t_us, SUP_EVENT_DETECT, o->id, AVD_SIDE_NONE);
+                    }
+                    continue;
+                }
+                s->revision++;
                 if (!average || !average_into(e, n, o)) {
                     set_entry(s, e, o);
                     *n = 1u;
@@ -160,13 +202,7 @@ SUP_INLINE void take_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t
             }
             continue;
         }
-        /* Definition 1, with the sensor's range moved out by the obstacle's
-         * extra radius as D_s and D_act are (set_entry): D_det is the centre
-         * distance at which an obstacle of radius R_ob is seen, so the range
-         * counts from the obstacle's boundary. Avoidance then starts within
-         * the range for every radius (D_act <= D_det), as for R_ob. */
-        const num_t range = num_add(s->p.d_det, num_sub(o->radius, s->p.r_ob));
-        if (num_hypot(num_sub(o->x, robot->x), num_sub(o->y, robot->y)) > range) {
+        if (!in_range(s, robot, o)) {
             continue; /* reported, but not yet detected */
         }
         if (s->n_obs >= SUP_MAX_OBSTACLES) {

@@ -17,6 +17,7 @@
 #ifndef MSTC_SUP_H
 #define MSTC_SUP_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -24,11 +25,62 @@
 #include "ctrl/pose.h"
 
 /** @brief Obstacles the supervisor can remember at once. */
-#define SUP_MAX_OBSTACLES 16u
+#define SUP_MAX_OBSTACLES 48u
 /** @brief Most events one step can emit: a detect per new obstacle, and two
  *         more: a complete and an activate ("paper"), or one change of mode
  *         and a filter event ("mstc", msw.h). */
 #define SUP_MAX_EVENTS    (SUP_MAX_OBSTACLES + 2u)
+
+/**
+ * @brief A set of table indices: bit i stands for sup_t::obs[i] ("mstc"'s
+ *        clusters, msw.h; the safety filter's caches, cbf.h).
+ *
+ * 64 bits, read and written through the helpers below, which work on its
+ * 32-bit halves: a Cortex-M has no 64-bit shift (a shift by a variable
+ * amount is 7 instructions) and __builtin_ctzll is a call into libgcc
+ * there (__ctzdi2), where a half is one RBIT and one CLZ (make bench).
+ */
+typedef uint64_t sup_mask_t;
+_Static_assert(SUP_MAX_OBSTACLES <= 64u, "a bit of sup_mask_t per table entry");
+
+/** @brief The half of @p m that holds bit @p i (i < 64). */
+static inline uint32_t sup_mask_half(sup_mask_t m, unsigned i)
+{
+    return (uint32_t)(i < 32u ? m : m >> 32u);
+}
+
+/** @brief Whether index @p i (< 64) is in @p m. */
+static inline bool sup_mask_has(sup_mask_t m, unsigned i)
+{
+    return ((sup_mask_half(m, i) >> (i & 31u)) & 1u) != 0u;
+}
+
+/** @brief The set of index @p i (< 64) alone. */
+static inline sup_mask_t sup_mask_of(unsigned i)
+{
+    const uint32_t bit = 1u << (i & 31u); /* in its half */
+    const sup_mask_t b = bit;
+    return i < 32u ? b : b << 32u;
+}
+
+/** @brief The indices 0 .. @p n − 1 (n < 64). */
+static inline sup_mask_t sup_mask_first(unsigned n)
+{
+    return n < 32u ? (sup_mask_t)((1u << n) - 1u)
+                   : ((sup_mask_t)((1u << (n & 31u)) - 1u) << 32u) | UINT32_MAX;
+}
+
+/** @brief The lowest index in @p m, which is not empty: the loops over a set
+ *         visit its members in the order of their indices. */
+static inline unsigned sup_mask_lowest(sup_mask_t m)
+{
+    const uint32_t lo = (uint32_t)m;
+    return lo != 0u ? (unsigned)__builtin_ctz(lo)
+                    : 32u + (unsigned)__builtin_ctz((uint32_t)(m >> 32u));
+}
+
+/** @brief @p m without its lowest index. */
+static inline sup_mask_t sup_mask_without_lowest(sup_mask_t m) { return m & (m - 1u); }
 
 /** @brief Which controller runs. */
 typedef enum {
@@ -91,24 +143,32 @@ typedef struct {
 /** @brief Most reports a static obstacle's centre is averaged over: a
  *         running mean of the first SUP_AVG_MAX, then an exponential one
  *         with weight 1 / SUP_AVG_MAX (sup_take_averaged_reports()). */
-#define SUP_AVG_MAX  8u
-/** @brief A static obstacle reported farther than this from its averaged
- *         centre (in x or y) is taken as it comes, the mean started anew:
- *         it was moved [m]. */
-#define SUP_AVG_GATE NUM_C(0.1)
+#define SUP_AVG_MAX          8u
+/** @brief A report of a known id farther than this from its entry's centre
+ *         (in x or in y), both static, names another obstacle: "an id that
+ *         comes back elsewhere" (sup_take_reports()) [m]. Below it a static
+ *         obstacle's reports are averaged ("mstc"). */
+#define SUP_AVG_GATE         NUM_C(0.1)
+/** @brief When the entry or the report moves, the gate is SUP_AVG_GATE plus
+ *         the distance the faster of the two velocities (along each axis)
+ *         covers in this time [s]: a moving obstacle missing from the
+ *         reports for up to half a second (25 periods of 20 ms) is still
+ *         itself when it comes back. */
+#define SUP_MOVING_GATE_TIME NUM_C(0.5)
 
 /** @brief Supervisor state. */
 typedef struct {
     sup_params_t p;
-    sup_entry_t obs[SUP_MAX_OBSTACLES]; /**< detected obstacles, in detection order */
+    sup_entry_t obs[SUP_MAX_OBSTACLES]; /**< detected obstacles, one per id, in the order
+                                             their ids were first detected */
     uint8_t n_obs;                      /**< entries used in obs[] */
     uint8_t avoiding;                   /**< 1 while the avoidance controller runs */
     uint8_t active;                     /**< index into obs[] while avoiding */
     avd_side_t side;                    /**< side held while avoiding */
     uint16_t dropped;                   /**< reports rejected (bad value or table full) */
-    uint16_t revision; /**< changes whenever an entry is added or moves (position or radius), or
-                            the thresholds change: "mstc" recomputes its cluster only then
-                            (msw.h) */
+    uint16_t revision; /**< changes whenever an entry is added, replaced or moves (position or
+                            radius), or the thresholds change: "mstc" recomputes its cluster
+                            only then (msw.h) */
     uint8_t n_avg[SUP_MAX_OBSTACLES]; /**< reports averaged into each entry's centre
                                            (sup_take_averaged_reports()); 1 for one
                                            taken as it came */
@@ -154,6 +214,20 @@ void sup_reset(sup_t *s);
  *        within D_det enter the table (DETECT), reports of known ids update
  *        their position and velocity; bad reports are counted in `dropped`.
  *        The "mstc" strategy keeps its table with it (msw.h).
+ *
+ * An id that comes back elsewhere is a new obstacle. A range sensor numbers
+ * what it reports in slots: an id stays with an obstacle while it stays
+ * reported, and may then be given to another (docs/protocol.md, OBSTACLE).
+ * So a report of a known id farther from its entry's centre than
+ * SUP_AVG_GATE in x or in y (both static; with a velocity, the gate widened
+ * by SUP_MOVING_GATE_TIME, sup.c's elsewhere()) replaces the entry, in its
+ * place in the table, as a new obstacle: DETECT, the revision changes, its
+ * averaging starts again (n_avg 1), and the strategy forgets what it kept
+ * for that index (msw_step(): a DETECT names an entry that is new). Like
+ * the first report of an unknown id it needs to be within D_det; until it
+ * is, the entry stays the obstacle it was. The "paper" supervisor's own
+ * state is its active index: an entry replaced while it is avoided stays
+ * the one avoided (the paper assumes ids that never change obstacle).
  * @param s        state.
  * @param robot    robot pose.
  * @param reports  obstacles reported this step (may be NULL when @p n_reports is 0).
@@ -177,7 +251,8 @@ void sup_take_finite_reports(sup_t *s, const pose_t *robot, const sup_obstacle_t
  * @brief sup_take_finite_reports() with the centres of static obstacles
  *        averaged ("mstc"): a report with zero velocity of an entry whose
  *        velocity is zero too, of the same radius, within SUP_AVG_GATE of
- *        its centre in x and y, moves the centre by (report − centre) / n,
+ *        its centre in x and y (beyond it: a new obstacle,
+ *        sup_take_reports()), moves the centre by (report − centre) / n,
  *        n the reports averaged so far, this one included, at most
  *        SUP_AVG_MAX: the mean of the first SUP_AVG_MAX reports, then an
  *        exponential mean. Any other report that moves a known obstacle is
@@ -194,9 +269,10 @@ void sup_take_averaged_reports(sup_t *s, const pose_t *robot, const sup_obstacle
  *        control period.
  *
  * 1. Reports of unknown ids within D_det enter the table (DETECT); reports of
- *    known ids update their position. Reports with id 0, a non-finite value or
- *    a radius <= 0, and new ones when the table is full, are counted in
- *    `dropped` and ignored.
+ *    known ids update their position, or replace the entry as a new obstacle
+ *    (DETECT) when they come back elsewhere (sup_take_reports()). Reports
+ *    with id 0, a non-finite value or a radius <= 0, and new ones when the
+ *    table is full, are counted in `dropped` and ignored.
  * 2. While avoiding, p1 of the active obstacle ends the avoidance (COMPLETE).
  * 3. While tracking, the nearest obstacle satisfying p2 is activated, its side
  *    chosen by avd_choose_side() and held (ACTIVATE).

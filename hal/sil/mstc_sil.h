@@ -24,8 +24,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define MSTC_SIL_MAX_OBSTACLES 16
-#define MSTC_SIL_MAX_EVENTS    18
+#define MSTC_SIL_MAX_OBSTACLES 48
+#define MSTC_SIL_MAX_EVENTS    50
 
 /** @brief Parameters, SI units (see ctl_params_t). */
 typedef struct {

@@ -251,7 +251,7 @@ def test_comm_receives_exactly_the_frames_the_dbc_sends_it(shim: Shim) -> None:
 
 
 def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
-    mode, side, active = rng.randint(0, 5), rng.choice([-1, 0, 1]), rng.randint(0, 20)
+    mode, side, active = rng.randint(0, 5), rng.choice([-1, 0, 1]), rng.randint(0, 60)
     faults, frame_faults = rng.randint(0, 255), rng.randint(0, 1)
     e, distance, step = _f32(rng.uniform(-5, 5)), _f32(rng.uniform(-2, 70)), rng.randint(0, 65535)
     halt = rng.randint(0, 9)
@@ -268,7 +268,7 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     wire = {
         "mode": min(mode, 3),
         "side": {0: 0, 1: 1, -1: 2}[side],
-        "obstacle": min(active, 15),
+        "obstacle": min(active, 48),  # COMM_OBSTACLE_ID_MAX
         "faults": (faults & 0x17) | (frame_faults << 3) | (0x20 if clipped else 0),
         "e": e,
         "distance": distance,
@@ -279,13 +279,13 @@ def _status(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 
 
 def _event(rng: random.Random) -> tuple[list[float], dict[str, float]]:
-    kind, side, obstacle = rng.randint(1, 9), rng.choice([-1, 0, 1]), rng.randint(0, 20)
+    kind, side, obstacle = rng.randint(1, 9), rng.choice([-1, 0, 1]), rng.randint(0, 60)
     t_us = rng.choice([0, rng.randint(0, 2**32 - 1), 2**32 - 1])
     inputs = [kind, side, obstacle, t_us]
     wire = {
         "kind": min(kind, 7),
         "side": {0: 0, 1: 1, -1: 2}[side],
-        "obstacle": min(obstacle, 15),
+        "obstacle": min(obstacle, 48),  # COMM_OBSTACLE_ID_MAX
         "time": t_us * 1e-6,
     }
     return inputs, wire

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 """The plant's frame encoder (mstc.can.protocol) never clips silently (issue 13,
-case 3 and case 4): a value beyond its signal's range, an obstacle id 16, a
+case 3 and case 4): a value beyond its signal's range, an obstacle id 49, a
 NaN, raise an error naming the frame, the signal, the value and the range; the
 firmware's saturating rule (comm.c) stays available on request, for the tests
 that compare the two encoders.
@@ -24,8 +24,8 @@ from mstc.errors import MstcError
 @pytest.mark.parametrize(
     ("name", "values", "words"),
     [
-        # Case 3: obstacle 16 would go out as id 15 and overwrite obstacle 15.
-        ("OBSTACLE", {"id": 16, "x": 1.0, "y": 2.0, "radius": 0.1}, ("OBSTACLE", "id", "16", "15")),
+        # Case 3: obstacle 49 would go out as id 48 and overwrite obstacle 48.
+        ("OBSTACLE", {"id": 49, "x": 1.0, "y": 2.0, "radius": 0.1}, ("OBSTACLE", "id", "49", "48")),
         ("OBSTACLE", {"id": 0, "x": 1.0, "y": 2.0, "radius": 0.1}, ("OBSTACLE", "id", "0", "1")),
         # Case 4: a robot at x = 200 m, a reference at 20 m/s, an obstacle of 3 m.
         ("ODOM_XY", {"x": 200.0, "y": 0.0}, ("ODOM_XY", "x", "200", "-128")),
@@ -61,10 +61,13 @@ def test_raw_values_beyond_the_bits_raise_too() -> None:
     proto = Protocol()
     # Within the bits, outside the DBC range: allowed raw, so that a test can
     # send what a faulty node would (an obstacle id 0).
+    # Within the 6 bits, outside the DBC range (1..48): id 63.
     msg = proto.encode("OBSTACLE", id=0, x=0, y=0, radius=0, raw=True)
-    assert msg.data[1] >> 4 == 0
-    with pytest.raises(protocol.SignalRangeError, match=r"OBSTACLE.*id.*16"):
-        proto.encode("OBSTACLE", id=16, x=0, y=0, radius=1, raw=True)
+    assert msg.data[1] >> 4 == 0 and msg.data[2] & 3 == 0
+    msg = proto.encode("OBSTACLE", id=63, x=0, y=0, radius=0, raw=True)
+    assert msg.data[1] >> 4 == 15 and msg.data[2] & 3 == 3
+    with pytest.raises(protocol.SignalRangeError, match=r"OBSTACLE.*id.*64"):
+        proto.encode("OBSTACLE", id=64, x=0, y=0, radius=1, raw=True)
     with pytest.raises(protocol.SignalRangeError, match=r"STEP.*time"):
         proto.encode("STEP", step=0, time=1 << 32, raw=True)
 
@@ -95,9 +98,9 @@ def test_a_value_that_rounds_to_the_edge_is_not_clipping() -> None:
 
 def test_the_firmware_rule_saturates_on_request() -> None:
     proto = Protocol()
-    msg = proto.encode("OBSTACLE", id=16, x=200.0, y=-200.0, radius=3.0, saturate=True)
+    msg = proto.encode("OBSTACLE", id=49, x=200.0, y=-200.0, radius=3.0, saturate=True)
     decoded = proto.db.get_message_by_name("OBSTACLE").decode(bytes(msg.data))
-    assert decoded["OBSTACLE_id"] == 15
-    assert decoded["OBSTACLE_x"] == 127.999755859375
+    assert decoded["OBSTACLE_id"] == 48
+    assert decoded["OBSTACLE_x"] == 127.99951171875  # 2^18 - 1 steps of 2^-11 m
     assert decoded["OBSTACLE_y"] == -128.0
     assert decoded["OBSTACLE_radius"] == pytest.approx(2.55, abs=1e-12)  # 255 cm

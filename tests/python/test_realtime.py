@@ -618,3 +618,19 @@ def test_mstc_hil_refuses_bad_real_time_options(
 ) -> None:
     assert main(["hil", *args, str(SCENARIOS / "paper-line.toml")]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_a_path_reference_is_refused_in_real_time(tmp_path: Path) -> None:
+    # A path's target waits for the robot and ends the run at the goal: the
+    # lock-step loop's; the real-time loop says so before it touches the link.
+    from mstc.errors import SimulationError
+
+    path = tmp_path / "path.toml"
+    path.write_text(
+        "[robot]\npose = [0.0, 0.0, 0.0]\n"
+        "[reference]\npath = [[0.0, 0.0], [2.0, 0.0]]\nspeed = 0.5\n"
+        '[sim]\nduration = 3.0\ndt = 0.02\nintegrator = "euler"\n'
+    )
+    scenario = load_scenario(path, wire_limits())
+    with pytest.raises(SimulationError, match=r"\[reference\] path: the real-time plant"):
+        simulate_realtime(scenario, None)  # type: ignore[arg-type]  # never reached

@@ -119,18 +119,17 @@ def test_plot_takes_a_run_folder_as_export_does(
     )
 
 
-# A scene of the standard suite's "cluster" family on "gearmotor" wheels
-# (sweep seed 2000173) where "mstc" reports an obstacle it cannot keep away
-# within the wheels' limits: an "infeasible" event.
+# A scene where "mstc" reports an obstacle it cannot keep away within the
+# wheels' limits: an "infeasible" event.
 _INFEASIBLE = {
-    "robot": {"pose": [-0.0219, 0.0086, -2.7868]},
-    "reference": {"pose": [0.0, 0.0, -2.8156], "v": 0.5664, "w": 0.0},
-    "obstacles": [
-        {"position": [-3.3383, -0.9179], "radius": 0.1},
-        {"position": [-3.2422, -1.2799], "radius": 0.1},
-        {"position": [-3.5157, -1.5766], "radius": 0.1},
-    ],
-    "sim": {"duration": 30.0, "dt": 0.02, "integrator": "euler"},
+    # An obstacle closing head-on at 3 m/s, 0.5 m off the robot's line,
+    # under the gearmotor profile: the filter reports that it cannot null the
+    # closing speed in time (infeasible, at 0.18 s), and the obstacle passes
+    # 0.46 m from the robot's centre (no contact).
+    "robot": {"pose": [0.0, 0.0, 0.0]},
+    "reference": {"pose": [0.0, 0.0, 0.0], "v": 0.5, "w": 0.0},
+    "obstacles": [{"position": [4.0, 0.5], "radius": 0.1, "velocity": [-3.0, 0.0]}],
+    "sim": {"duration": 6.0, "dt": 0.02, "integrator": "euler"},
     "actuator": {"time_constant": 0.06, "max_accel": 20.0, "encoder_counts": 1920},
     "params": {"strategy": "mstc"},
 }

@@ -104,10 +104,10 @@ def test_paper_scenarios_load() -> None:
         assert (s.sim.dt, s.sim.integrator) == (0.02, Integrator.EULER)
 
 
-SIXTEEN_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(16)]
+FORTY_NINE_OBSTACLES = [{"position": [float(i), 10.0]} for i in range(49)]
 # The frames' ranges (firmware/comm/mstc.dbc, read by hand): positions ±128 m
 # (ODOM_XY, REF_XY, OBSTACLE), v_r and ω_r ±16, radius 0.01 to 2.55 m in
-# whole centimetres, obstacle ids 1 to 15.
+# whole centimetres, obstacle ids 1 to 48.
 
 # (document, key named in the message (None: the whole file), words of the problem)
 BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
@@ -209,7 +209,7 @@ BAD: dict[str, tuple[dict[str, Any], str | None, str]] = {
     "zero wheel limit": (edit("params.max_wheel_speed", 0.0), "params.max_wheel_speed", "> 0"),
     "unknown integrator": (edit("sim.integrator", "rk4"), "sim.integrator", 'got "rk4"'),
     "integrator not a string": (edit("sim.integrator", 1), "sim.integrator", "must be a string"),
-    "16 obstacles": (edit("obstacles", SIXTEEN_OBSTACLES), "obstacles", "at most 15"),
+    "49 obstacles": (edit("obstacles", FORTY_NINE_OBSTACLES), "obstacles", "at most 48"),
     # Issue 13, case 4: what the frames cannot carry, naming the key and the limit.
     "robot beyond 128 m": (edit("robot.pose", [200.0, 2.5, 0.5]), "robot.pose", "-128"),
     "robot below -128 m": (edit("robot.pose", [0.0, -128.5, 0.5]), "robot.pose", "ODOM_XY.y"),
@@ -365,10 +365,10 @@ def test_values_at_the_frames_limits_load(write_scenario: WriteScenario) -> None
     doc = edit("robot.pose", [127.99, -128.0, 100.0])  # θ is sent wrapped: any heading
     doc["reference"] = {"pose": [-125.0, 125.0, -50.0], "v": -15.99, "w": 15.99}  # a 1 m circle
     # At the opposite corner from the robot: an obstacle on its start is refused.
-    doc["obstacles"] = [{"position": [-128.0, 127.99], "radius": 2.55}] * 15
+    doc["obstacles"] = [{"position": [-128.0, 127.99], "radius": 2.55}] * 48
     doc["expected"] = []
     s = load_scenario(write_scenario(doc, "limits"), wire_limits())
-    assert len(s.obstacles) == 15
+    assert len(s.obstacles) == 48
     assert s.obstacles[0].radius == 2.55
     # 0.15 m is 15.000000000000002 cm in binary: still a whole number of centimetres.
     assert (

@@ -7,12 +7,12 @@ on the way to the firmware.
 Seeded random scenes (those of test_numeric_modes.py: a reference line or
 arc, the robot near its start, obstacles near its path at least 1.2 m apart,
 here with radii of 5 to 30 cm and either integrator); some are pushed beyond what the frames
-carry (a 16th obstacle, a radius of 3 m, 20 m/s, a start or a path beyond
+carry (a 49th obstacle, a radius of 3 m, 20 m/s, a start or a path beyond
 ±128 m). Whether a scene is beyond is decided here, independently of the
 loader, from the DBC's ranges through cantools and a brute-force walk of the
 reference path. The two runs of an accepted scene must give the same events
 (kind, obstacle, side) within one control step and minimum distances within
-5 mm: the frames quantise positions to 2^-16 m (obstacles 2^-12 m) and wheel
+5 mm: the frames quantise positions to 2^-16 m (obstacles 2^-11 m) and wheel
 speeds to 2^-10 rad/s, which the closed loop corrects.
 """
 
@@ -43,7 +43,7 @@ SEED = 20130013
 DT = 0.02
 STEP_TOLERANCE = 1
 DISTANCE_TOLERANCE = {"paper": 0.005, "mstc": 0.01}  # [m]
-"""The frames carry positions to 2^-16 m and obstacles to 2^-12 m. The
+"""The frames carry positions to 2^-16 m and obstacles to 2^-11 m. The
 paper's controller follows such a perturbation smoothly: 3.3 mm at most over
 these scenes. The "mstc" strategy may release or hand over a step apart, with
 the same events: 0.16 mm at most over these scenes, but 5.4 mm on scene 12
@@ -80,8 +80,8 @@ def scene(rng: random.Random, index: int) -> tuple[dict[str, Any], str | None]:
     beyond: str | None = None
     kind = (index // 3) % 6 if index % 3 == 2 else -1  # a third are pushed beyond
     if kind == 0:
-        # Sixteen obstacles: those added far off the path.
-        far = [{"position": [x0 + 50.0 + i, y0 + 50.0]} for i in range(16 - len(obstacles))]
+        # 49 obstacles, one more than OBSTACLE's ids: those added far off the path.
+        far = [{"position": [x0 + 50.0 + i, y0 + 50.0]} for i in range(49 - len(obstacles))]
         doc["obstacles"] = obstacles + far
         beyond = "obstacles"
     elif kind == 1 and obstacles:
@@ -167,11 +167,12 @@ def test_accepted_scenes_agree_through_frames_and_in_memory(
     assert frames.min_distance == pytest.approx(memory.min_distance, abs=tolerance)
 
 
-def sixteen_obstacles() -> dict[str, Any]:
-    """The issue's case 3: O15 on the path, O16 beside it, both seen together.
-    Through the frames O16 went out as id 15 and overwrote O15, and the robot
-    drove into O15 (exit 0); in memory it avoided it."""
-    far = [{"position": [100.0 + i, 100.0]} for i in range(14)]
+def too_many_obstacles() -> dict[str, Any]:
+    """Issue 13's case 3, with OBSTACLE's ids of today (1 to 48): O48 on the
+    path, O49 beside it, both seen together. Through the frames O49 would go
+    out as id 48 and overwrite O48, and the robot drive into O48 (issue 13:
+    exit 0); in memory it would avoid it."""
+    far = [{"position": [60.0 + i, 100.0]} for i in range(47)]
     return {
         "robot": {"pose": [0.0, 0.0, 0.0]},
         "reference": {"pose": [0.0, 0.0, 0.0], "v": 0.5, "w": 0.0},
@@ -181,16 +182,16 @@ def sixteen_obstacles() -> dict[str, Any]:
 
 
 @pytest.mark.parametrize("bus", ["sil", "memory"])
-def test_sixteen_obstacles_are_refused_before_anything_runs(
+def test_more_obstacles_than_ids_are_refused_before_anything_runs(
     bus: str, tmp_path: Path, sil_lib: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    path = tmp_path / "sixteen.toml"
-    path.write_text(to_toml(sixteen_obstacles()))
+    path = tmp_path / "many.toml"
+    path.write_text(to_toml(too_many_obstacles()))
     out = tmp_path / "out"
     rc = main(["sim", "--bus", bus, "--lib", str(sil_lib), "--out", str(out), str(path)])
     err = capsys.readouterr().err.splitlines()
     assert rc == 2
     assert err == [
-        f"error: {path}: obstacles: at most 15 obstacles (OBSTACLE.id carries 1 to 15), got 16"
+        f"error: {path}: obstacles: at most 48 obstacles (OBSTACLE.id carries 1 to 48), got 49"
     ]
     assert not out.exists()

@@ -51,9 +51,10 @@ static void send_ref(double x, double y, double theta, double v, double w)
 static void send_obstacle(uint8_t id, double x, double y, uint8_t radius_cm)
 {
     uint8_t p[8] = { 0 };
+    /* x, y in 2^-11 m (mstc.dbc). */
     const struct mstc_dbc_obstacle_t o = { .obstacle_id = id,
-                                           .obstacle_x = (int32_t)lround(x * 4096.0),
-                                           .obstacle_y = (int32_t)lround(y * 4096.0),
+                                           .obstacle_x = (int32_t)lround(x * 2048.0),
+                                           .obstacle_y = (int32_t)lround(y * 2048.0),
                                            .obstacle_radius = radius_cm };
     mstc_dbc_obstacle_pack(p, &o, 8);
     feed(tf_seal(COMM_ID_OBSTACLE, p));
@@ -372,7 +373,7 @@ static void test_app_answers_fw_version_get_under_its_node_id(void)
     TEST_ASSERT_EQUAL_UINT(1, hal_fake.n_sent);
     TEST_ASSERT_EQUAL_HEX32(0x491u, hal_fake.sent[0].id);
     TEST_ASSERT_EQUAL_UINT8(3, (hal_fake.sent[0].data[1] >> 4) & 0x7u);
-    TEST_ASSERT_EQUAL_UINT8(1, hal_fake.sent[0].data[2] & 0x0Fu);
+    TEST_ASSERT_EQUAL_UINT8(2, hal_fake.sent[0].data[2] & 0x0Fu); /* mstc.dbc: VERSION "mstc 2" */
 }
 
 /* Node 0's frames reach a board of node 1 on a shared bus: not its own, so

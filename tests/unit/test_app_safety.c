@@ -487,8 +487,9 @@ static void test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once(voi
     odom();
     ref();
     uint8_t p[8] = { 0 };
+    /* x raw 4096: 2 m at 2^-11 m (mstc.dbc), within D_det. */
     const struct mstc_dbc_obstacle_t o = { .obstacle_id = 4,
-                                           .obstacle_x = 8192,
+                                           .obstacle_x = 4096,
                                            .obstacle_radius = 10 };
     (void)mstc_dbc_obstacle_pack(p, &o, 8);
     feed(tf_seal(COMM_ID_OBSTACLE, p));
@@ -498,34 +499,81 @@ static void test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once(voi
     TEST_ASSERT_EQUAL_UINT8(1, app.ctl.sup.n_obs);
 }
 
-static void test_app_safety_at_most_sixteen_obstacles_a_step(void)
+/* OBSTACLE @p id at x = 2 m + id·2^-11 m (raw 4096 + id, mstc.dbc), of
+ * radius @p radius_cm. */
+static void obstacle_frame(uint8_t id, uint8_t radius_cm)
+{
+    uint8_t p[8] = { 0 };
+    const struct mstc_dbc_obstacle_t o = { .obstacle_id = id,
+                                           .obstacle_x = 4096 + id,
+                                           .obstacle_radius = radius_cm };
+    (void)mstc_dbc_obstacle_pack(p, &o, 8);
+    feed(tf_seal(COMM_ID_OBSTACLE, p));
+}
+
+static void test_app_safety_at_most_a_table_of_obstacles_a_step(void)
 {
     arm();
     odom();
     ref();
-    for (uint8_t id = 1; id <= SUP_MAX_OBSTACLES + 1u; id++) {
-        uint8_t p[8] = { 0 };
-        const struct mstc_dbc_obstacle_t o = { .obstacle_id = (uint8_t)(id & 15u),
-                                               .obstacle_x = 8192 + id,
-                                               .obstacle_radius = (uint8_t)(10 + id) };
-        (void)mstc_dbc_obstacle_pack(p, &o, 8);
-        feed(tf_seal(COMM_ID_OBSTACLE, p));
+    /* Every id OBSTACLE carries, 1..48: one report each, as many as the
+     * table holds. */
+    TEST_ASSERT_EQUAL_UINT(48u, SUP_MAX_OBSTACLES);
+    for (uint8_t id = 1; id <= 48u; id++) {
+        obstacle_frame(id, (uint8_t)(10 + id));
     }
-    /* ids 1..15 and 0 (16 & 15), then 1 again replaces the first. */
-    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, app.n_reports);
-    TEST_ASSERT_EQUAL_UINT8(10 + 17, (uint8_t)lround(tu_dbl(app.reports[0].radius) * 100.0));
-    /* Sixteen distinct ids are all a 4-bit OBSTACLE_id can carry; the guard
-     * against a seventeenth (a wider id in a later protocol) is checked by
-     * hand: a full table drops a new id. */
-    for (uint8_t i = 0; i < SUP_MAX_OBSTACLES; i++) {
-        app.reports[i].id = (uint8_t)(100u + i);
-    }
+    TEST_ASSERT_EQUAL_UINT8(48, app.n_reports);
+    TEST_ASSERT_EQUAL_UINT8(48, app.reports[47].id);
+    /* Id 49 fits the 6-bit field but not the DBC's range: the 49th distinct
+     * id of the step finds no room and is dropped; id 1 again replaces the
+     * first report (radius 0.99 m). */
+    obstacle_frame(49, 10);
+    TEST_ASSERT_EQUAL_UINT8(48, app.n_reports);
+    TEST_ASSERT_EQUAL_UINT8(48, app.reports[47].id);
+    obstacle_frame(1, 99);
+    TEST_ASSERT_EQUAL_UINT8(48, app.n_reports);
+    TEST_ASSERT_EQUAL_UINT8(99, (uint8_t)lround(tu_dbl(app.reports[0].radius) * 100.0));
+    /* The step takes all 48 into the table (each 2 m ahead, within D_det). */
+    step();
+    TEST_ASSERT_EQUAL_UINT8(48, app.ctl.sup.n_obs);
+}
+
+/* OBSTACLE_VEL of id @p id: vx raw @p vx_raw (2^-10 m/s), vy 0. */
+static void velocity_frame(uint8_t id, int16_t vx_raw)
+{
     uint8_t p[8] = { 0 };
-    const struct mstc_dbc_obstacle_t o = { .obstacle_id = 3, .obstacle_radius = 10 };
-    (void)mstc_dbc_obstacle_pack(p, &o, 8);
-    feed(tf_seal(COMM_ID_OBSTACLE, p));
-    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, app.n_reports);
-    TEST_ASSERT_EQUAL_UINT8(115, app.reports[SUP_MAX_OBSTACLES - 1u].id);
+    const struct mstc_dbc_obstacle_vel_t v = { .obstacle_vel_id = id, .obstacle_vel_vx = vx_raw };
+    (void)mstc_dbc_obstacle_vel_pack(p, &v, 8);
+    feed(tf_seal(COMM_ID_OBSTACLE_VEL, p));
+}
+
+/* docs/protocol.md, OBSTACLE_VEL: each OBSTACLE frame sets its id's velocity
+ * to zero, the OBSTACLE_VEL after it gives it. Obstacle 4 at 2 m with 0.25
+ * m/s (raw 256) after it: the table's entry moves at 0.25 m/s ("mstc", the
+ * default strategy, keeps velocities). The next step the same OBSTACLE
+ * without its OBSTACLE_VEL: static (an id given to another obstacle carries
+ * no velocity over). An OBSTACLE_VEL before its OBSTACLE: zeroed by it. */
+static void test_app_safety_an_obstacle_without_its_velocity_frame_is_static(void)
+{
+    arm();
+    odom();
+    ref();
+    obstacle_frame(4, 10);
+    velocity_frame(4, 256);
+    step();
+    TEST_ASSERT_EQUAL_UINT8(1, app.ctl.sup.n_obs);
+    TEST_ASSERT_TRUE(app.ctl.sup.obs[0].o.vx == NUM_C(0.25));
+    odom();
+    ref();
+    obstacle_frame(4, 10);
+    step();
+    TEST_ASSERT_TRUE(app.ctl.sup.obs[0].o.vx == NUM_ZERO);
+    odom();
+    ref();
+    velocity_frame(4, 256);
+    obstacle_frame(4, 10);
+    step();
+    TEST_ASSERT_TRUE(app.ctl.sup.obs[0].o.vx == NUM_ZERO);
 }
 
 static void test_app_safety_standing_reference_is_stop_not_a_halt(void)
@@ -977,7 +1025,8 @@ int main(void)
     RUN_TEST(test_app_safety_a_bus_off_between_steps_halts_too);
     RUN_TEST(test_app_safety_every_parameter_reads_back_its_default);
     RUN_TEST(test_app_safety_an_obstacle_reported_twice_in_a_step_counts_once);
-    RUN_TEST(test_app_safety_at_most_sixteen_obstacles_a_step);
+    RUN_TEST(test_app_safety_at_most_a_table_of_obstacles_a_step);
+    RUN_TEST(test_app_safety_an_obstacle_without_its_velocity_frame_is_static);
     RUN_TEST(test_app_safety_standing_reference_is_stop_not_a_halt);
     RUN_TEST(test_app_safety_ref_motion_alone_lost_is_a_reference_halt);
     RUN_TEST(test_app_safety_wheel_speeds_never_sent_are_not_needed);

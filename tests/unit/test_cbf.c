@@ -406,6 +406,27 @@ static void test_cbf_brakes_a_robot_driving_straight_at_an_obstacle(void)
     TEST_ASSERT_TRUE(v2 == v2_in && w2 == w2_in);
 }
 
+static void test_cbf_brakes_for_the_last_entry_of_a_full_table(void)
+{
+    /* The case above with the obstacle the last of a full table (index
+     * SUP_MAX_OBSTACLES − 1: in the upper half of the filter's masks,
+     * sup.h), the others static 20 m behind the robot, whose constraints
+     * do not bind (ḣ = a·u with a pointing away from u): the same
+     * projection, v = 14.85 / 1.9, named by its id. */
+    static sup_entry_t e[SUP_MAX_OBSTACLES];
+    for (uint8_t i = 0; i + 1u < SUP_MAX_OBSTACLES; i++) {
+        e[i] = entry((uint8_t)(i + 1u), -20.0, 0.5 * i, 0.35, 0, 0);
+    }
+    e[SUP_MAX_OBSTACLES - 1u] = entry(SUP_MAX_OBSTACLES, 1.0, 0.0, 0.35, 0, 0);
+    num_t v = tu_num(10.0), w = tu_num(0.3);
+    cbf_result_t r;
+    filter(0, 0, 0, e, SUP_MAX_OBSTACLES, &v, &w, &r);
+    TEST_ASSERT_TRUE(r.changed);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, r.obstacle);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 14.85 / 1.9, v);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.3, w);
+}
+
 static void test_cbf_episodes_start_once(void)
 {
     const sup_entry_t o = entry(2, 1.0, 0.0, 0.35, 0, 0);
@@ -712,6 +733,23 @@ static void test_cbf_reports_a_moving_obstacle_no_command_within_the_limits_keep
     cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, two, dists, 2, &v2, &w2, &r2);
     TEST_ASSERT_EQUAL_UINT8(2u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(5730.0)));
     TEST_ASSERT_EQUAL_UINT8(0u, cbf_unreachable(&f, two, 2, &kin, &rest, tu_num(5740.0)));
+    /* The doomed case (obstacle 1 of the first cases) as the last entry of
+     * a full table (index SUP_MAX_OBSTACLES − 1: the upper half of the
+     * masks, sup.h), the others static and 5 m away: reported by its id. */
+    static sup_entry_t full[SUP_MAX_OBSTACLES];
+    num_t far[SUP_MAX_OBSTACLES];
+    for (uint8_t i = 0; i + 1u < SUP_MAX_OBSTACLES; i++) {
+        full[i] = entry((uint8_t)(i + 1u), -5.0, 0.1 * i, 0.35, 0, 0);
+        far[i] = tu_num(sqrt(25.0 + 0.01 * i * i));
+    }
+    full[SUP_MAX_OBSTACLES - 1u] = entry(SUP_MAX_OBSTACLES, 0.05, 0.6, 0.35, 0.0, -0.5);
+    far[SUP_MAX_OBSTACLES - 1u] = tu_num(sqrt(0.05 * 0.05 + 0.6 * 0.6));
+    cbf_init(&f);
+    v2 = NUM_ZERO;
+    w2 = NUM_ZERO;
+    cbf_step(&f, &p, NUM_ONE, NUM_ZERO, &m, full, far, SUP_MAX_OBSTACLES, &v2, &w2, &r2);
+    TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES,
+                            cbf_unreachable(&f, full, SUP_MAX_OBSTACLES, &kin, &rest, tu_num(0.4)));
     /* A static obstacle is never reported: braking is the guard's. */
     const sup_entry_t still = entry(1, 0.05, 0.4, 0.35, 0, 0);
     const num_t dist = tu_num(sqrt(0.05 * 0.05 + 0.4 * 0.4));
@@ -732,6 +770,7 @@ int main(void)
     RUN_TEST(test_cbf_brake_guard_hand_cases);
     RUN_TEST(test_cbf_guard_keeps_d_s_under_wheels_within_their_limits);
     RUN_TEST(test_cbf_brakes_a_robot_driving_straight_at_an_obstacle);
+    RUN_TEST(test_cbf_brakes_for_the_last_entry_of_a_full_table);
     RUN_TEST(test_cbf_episodes_start_once);
     RUN_TEST(test_cbf_look_ahead_point_at_a_centre_stops_the_robot);
     RUN_TEST(test_cbf_moves_a_still_robot_out_of_the_way_of_a_moving_obstacle);

@@ -544,9 +544,14 @@ static void test_comm_decode_step(void)
 
 static void test_comm_decode_obstacle(void)
 {
-    /* id 2 at bits 12..15; x = 1.25 m: raw 5120 at 16..35; y = -2.5 m: raw
-     * -10240 at 36..55; radius 0.25 m: 25 cm in byte 7. Counter 4. */
-    static const uint8_t g[8] = { 0xBE, 0x24, 0x00, 0x14, 0x00, 0x80, 0xFD, 0x19 };
+    /* id 2 at bits 12..17 (bit 13); x = 1.25 m: raw 2560 (2^-11 m) =
+     * 2^11 + 2^9 at 18..36 (bits 29, 27: byte 3 0x28); y = -2.5 m: raw
+     * -5120, 19 bits 0x7EC00 (bits 10, 11, 13..18) at 37..55 (bits 47, 48,
+     * 50..55: byte 5 0x80, byte 6 0xFD); radius 0.25 m: 25 cm in byte 7.
+     * Counter 4. CRC-8H2F over data ID 0x1110 and bytes 1..7: 0xEB
+     * (crccheck's Crc8Autosar). Derived by hand for the layout of mstc.dbc
+     * since the table holds 48 (the 16-entry layout had x, y at 2^-12 m). */
+    static const uint8_t g[8] = { 0xEB, 0x24, 0x00, 0x28, 0x00, 0x80, 0xFD, 0x19 };
     hal_can_frame_t f = golden_in(COMM_ID_OBSTACLE, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -558,10 +563,13 @@ static void test_comm_decode_obstacle(void)
 
 static void test_comm_decode_obstacle_velocity(void)
 {
-    /* id 3 at bits 12..15; vx = 0.5 m/s: raw 512 (2^-10 m/s) at 16..31;
-     * vy = -1.25 m/s: raw -1280 at 32..47. Counter 2. CRC-8H2F over data ID
-     * 0x1111 and bytes 1..7: 0x62 (crccheck's Crc8Autosar). */
-    static const uint8_t g[8] = { 0x62, 0x32, 0x00, 0x02, 0x00, 0xFB, 0x00, 0x00 };
+    /* id 3 at bits 12..17 (bits 12, 13); vx = 0.5 m/s: raw 512 (2^-10 m/s)
+     * at 18..33 (bit 27: byte 3 0x08); vy = -1.25 m/s: raw -1280, 16 bits
+     * 0xFB00 (bits 8, 9, 11..15) at 34..49 (bits 42, 43, 45..49: byte 5
+     * 0xEC, byte 6 0x03). Counter 2. CRC-8H2F over data ID 0x1111 and bytes
+     * 1..7: 0x32 (crccheck's Crc8Autosar). Derived by hand for the 6-bit id
+     * of mstc.dbc (the 4-bit one put vx at bit 16). */
+    static const uint8_t g[8] = { 0x32, 0x32, 0x00, 0x08, 0x00, 0xEC, 0x03, 0x00 };
     hal_can_frame_t f = golden_in(COMM_ID_OBSTACLE_VEL, g);
     comm_msg_t m;
     TEST_ASSERT_EQUAL_INT(0, comm_decode(&c, &f, &m));
@@ -641,11 +649,16 @@ static void test_comm_decode_range_ends_are_exact(void)
                            decode_field(COMM_ID_REF_MOTION, 30, 17, 65535).u.ref_motion.v);
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -16.0,
                            decode_field(COMM_ID_REF_MOTION, 47, 17, -65536).u.ref_motion.w);
-    /* Obstacle: x, y 20 bits at 2^-12 m; radius 8 bits in cm. */
+    /* Obstacle: id 6 bits; x, y 19 bits at 2^-11 m: [-128, 128 - 2^-11];
+     * radius 8 bits in cm. */
+    TEST_ASSERT_EQUAL_UINT8(48, decode_field(COMM_ID_OBSTACLE, 12, 6, 48).u.obstacle.id);
+    TEST_ASSERT_EQUAL_UINT8(63, decode_field(COMM_ID_OBSTACLE, 12, 6, 63).u.obstacle.id);
     TEST_ASSERT_NUM_WITHIN(TOL_EXACT, -128.0,
-                           decode_field(COMM_ID_OBSTACLE, 16, 20, -524288).u.obstacle.x);
-    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 127.999755859375,
-                           decode_field(COMM_ID_OBSTACLE, 36, 20, 524287).u.obstacle.y);
+                           decode_field(COMM_ID_OBSTACLE, 18, 19, -262144).u.obstacle.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 127.99951171875,
+                           decode_field(COMM_ID_OBSTACLE, 37, 19, 262143).u.obstacle.y);
+    TEST_ASSERT_NUM_WITHIN(TOL_EXACT, 0x1p-11,
+                           decode_field(COMM_ID_OBSTACLE, 18, 19, 1).u.obstacle.x);
     TEST_ASSERT_NUM_WITHIN(TOL_RADIUS, 2.55,
                            decode_field(COMM_ID_OBSTACLE, 56, 8, 255).u.obstacle.radius);
     /* STEP time: the full 32 bits. */
@@ -713,14 +726,18 @@ static void test_comm_encode_wheel_speed_with_wheel_loop_faults(void)
 
 static void test_comm_encode_status(void)
 {
-    /* mode avoid (bits 12..13), side right (2, bits 14..15), obstacle 2
-     * (16..19), faults 0b001010 (obstacle dropped, frame dropped; 20..25),
-     * e = 0.5 rad: raw 4096 (26..41); distance to the active obstacle 2,
-     * 1.25 m: raw 1280 (42..57), although obstacle 5 is nearer; step 0x1234:
+    /* mode avoid (bits 12..13), side right (2, bits 14..15): byte 1 0x90;
+     * obstacle 2 (16..21: bit 17), faults 0b001010 (obstacle dropped, frame
+     * dropped; 22..27: bits 23, 25): byte 2 0x82, byte 3 bit 1; e = 0.5
+     * rad: raw 1024 at 2^-11 rad (28..41: bit 38, byte 4 0x40); distance to
+     * the active obstacle 2, 1.25 m: raw 1280 = 2^10 + 2^8 (42..57: bits
+     * 50, 52, byte 6 0x14), although obstacle 5 is nearer; step 0x1234:
      * low 3 bits 4 (58..60); halt 3, reference (61..63): byte 7 is
      * 4 << 2 | 3 << 5 = 0x70. CRC-8H2F over data ID 0x1181 and bytes 1..7:
-     * 0x13 (crccheck's Crc8Autosar). */
-    static const uint8_t golden[8] = { 0x13, 0x90, 0xA2, 0x00, 0x40, 0x00, 0x14, 0x70 };
+     * 0xEF (crccheck's Crc8Autosar). Derived by hand for the layout of
+     * mstc.dbc with 6-bit ids (the 4-bit one had faults at 20, e at 26 in
+     * 2^-13 rad). */
+    static const uint8_t golden[8] = { 0xEF, 0x90, 0x82, 0x02, 0x40, 0x00, 0x14, 0x70 };
     ctl_status_t st;
     memset(&st, 0, sizeof st);
     st.mode = SUP_MODE_AVOID;
@@ -788,8 +805,8 @@ static void test_comm_status_saturates_enumerations_and_ids(void)
     comm_encode_status(&c, &st, 0x00FF, false, 200, &f);
     TEST_ASSERT_EQUAL_INT64(3, get_field(f.data, 12, 2, false));
     TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 14, 2, false));
-    TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 16, 4, false));
-    TEST_ASSERT_EQUAL_INT64(0x17, get_field(f.data, 20, 6, false));
+    TEST_ASSERT_EQUAL_INT64(48, get_field(f.data, 16, 6, false)); /* the largest id, 48 */
+    TEST_ASSERT_EQUAL_INT64(0x17, get_field(f.data, 22, 6, false));
     TEST_ASSERT_EQUAL_INT64(0x7, get_field(f.data, 58, 3, false)); /* low 3 bits of the step */
     TEST_ASSERT_EQUAL_INT64(7, get_field(f.data, 61, 3, false));   /* saturated: wheel_speed */
 }
@@ -830,8 +847,9 @@ static void test_comm_encode_counters(void)
 static void test_comm_encode_event(void)
 {
     /* activate (2, bits 12..14), side right (2, bits 15..16), obstacle 3
-     * (17..20), time 2.5 s: raw 2500000 µs (24..55); CRC-8H2F over data ID
-     * 0x1184 and bytes 1..7: 0xA6 (crccheck's Crc8Autosar). */
+     * (17..22; 6 bits, whose two top bits are 0 here, so the bytes are the
+     * 4-bit layout's), time 2.5 s: raw 2500000 µs (24..55); CRC-8H2F over
+     * data ID 0x1184 and bytes 1..7: 0xA6 (crccheck's Crc8Autosar). */
     static const uint8_t golden[8] = { 0xA6, 0x20, 0x07, 0xA0, 0x25, 0x26, 0x00, 0x00 };
     const sup_event_t e = {
         .t_us = 2500000u, .kind = SUP_EVENT_ACTIVATE, .obstacle = 3, .side = AVD_SIDE_RIGHT
@@ -850,7 +868,7 @@ static void test_comm_event_time_is_the_low_32_bits_and_the_id_saturates(void)
     hal_can_frame_t f;
     comm_encode_event(&c, &e, &f);
     TEST_ASSERT_EQUAL_INT64(5, get_field(f.data, 24, 32, false));
-    TEST_ASSERT_EQUAL_INT64(15, get_field(f.data, 17, 4, false));
+    TEST_ASSERT_EQUAL_INT64(48, get_field(f.data, 17, 6, false)); /* the largest id, 48 */
     TEST_ASSERT_EQUAL_INT64(1, get_field(f.data, 12, 3, false));
     TEST_ASSERT_EQUAL_INT64(0, get_field(f.data, 15, 2, false));
 }
@@ -1003,7 +1021,9 @@ static void test_comm_tracking_errors_saturate_at_both_ends(void)
 static void test_comm_angles_of_pi_round_in_both_modes(void)
 {
     /* e3 = π at 2^-13 rad: π·8192 = 25735.93 → 25736 (float(π)·8192 and the
-     * Q16.16 π 205887 >> 3 with rounding give the same). */
+     * Q16.16 π 205887 >> 3 with rounding give the same); STATUS e = −π at
+     * 2^-11 rad (14 bits at 28): π·2048 = 6433.98 → −6434 (205887 / 32 =
+     * 6433.97 in Q16.16). */
     const trk_err_t e = { NUM_ZERO, NUM_ZERO, NUM_PI };
     hal_can_frame_t f;
     comm_encode_status_trk(&c, &e, 0u, &f);
@@ -1011,7 +1031,7 @@ static void test_comm_angles_of_pi_round_in_both_modes(void)
     ctl_status_t st = tracking_status();
     st.e = num_neg(NUM_PI);
     comm_encode_status(&c, &st, 0, false, COMM_HALT_NONE, &f);
-    TEST_ASSERT_EQUAL_INT64(-25736, get_field(f.data, 26, 16, true));
+    TEST_ASSERT_EQUAL_INT64(-6434, get_field(f.data, 28, 14, true));
 }
 
 #ifndef NUM_FIXED

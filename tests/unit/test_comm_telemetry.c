@@ -8,8 +8,9 @@
  *
  * Expected values by hand from the DBC: WHEEL_CMD left/right 18 bits of
  * 2^-10 rad/s (-128 .. 127.9990234375), STATUS_distance 16 unsigned bits of
- * 2^-10 m (0 .. 63.9990234375), STATUS_e and STATUS_TRK_e3 16 bits of 2^-13
- * rad (-4 .. 3.9998779296875), STATUS_TRK_e1/e2 16 bits of 2^-10 m
+ * 2^-10 m (0 .. 63.9990234375), STATUS_e 14 bits of 2^-11 rad
+ * (-4 .. 3.99951171875), STATUS_TRK_e3 16 bits of 2^-13 rad
+ * (-4 .. 3.9998779296875), STATUS_TRK_e1/e2 16 bits of 2^-10 m
  * (-32 .. 31.9990234375).
  */
 #include <string.h>

@@ -146,16 +146,16 @@ static void test_oset_cluster_is_the_transitive_closure(void)
     e[5] = entry(6, 10.0, 10.0, 0.375);
     bool gapped = false;
     const num_t width = tu_num(0.5);
-    TEST_ASSERT_EQUAL_HEX16(0x0017u, oset_cluster(e, 6, 0, width, &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0017u, oset_cluster(e, 6, 0, width, &gapped));
     TEST_ASSERT_TRUE(gapped);
     /* From another member: the same cluster. */
-    TEST_ASSERT_EQUAL_HEX16(0x0017u, oset_cluster(e, 6, 2, width, &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0017u, oset_cluster(e, 6, 2, width, &gapped));
     /* D and F stand alone. */
-    TEST_ASSERT_EQUAL_HEX16(0x0008u, oset_cluster(e, 6, 3, width, &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0008u, oset_cluster(e, 6, 3, width, &gapped));
     TEST_ASSERT_FALSE(gapped);
-    TEST_ASSERT_EQUAL_HEX16(0x0020u, oset_cluster(e, 6, 5, width, &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0020u, oset_cluster(e, 6, 5, width, &gapped));
     /* Only the first n entries count. */
-    TEST_ASSERT_EQUAL_HEX16(0x0003u, oset_cluster(e, 2, 0, width, &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0003u, oset_cluster(e, 2, 0, width, &gapped));
 }
 
 static void test_oset_cluster_of_overlapping_circles_has_no_gap(void)
@@ -166,7 +166,7 @@ static void test_oset_cluster_of_overlapping_circles_has_no_gap(void)
     e[1] = entry(2, 0.5, 0.0, 0.375);
     e[2] = entry(3, 0.25, 0.4375, 0.375); /* 0.504 from both */
     bool gapped = true;
-    TEST_ASSERT_EQUAL_HEX16(0x0007u, oset_cluster(e, 3, 1, tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0007u, oset_cluster(e, 3, 1, tu_num(0.5), &gapped));
     TEST_ASSERT_FALSE(gapped);
 }
 
@@ -179,13 +179,14 @@ static void test_oset_cluster_sees_a_gap_between_two_members_found_through_a_thi
     e[1] = entry(2, -0.5, 0.0, 0.375);
     e[2] = entry(3, 0.5, 0.0, 0.375);
     bool gapped = false;
-    TEST_ASSERT_EQUAL_HEX16(0x0007u, oset_cluster(e, 3, 0, tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x0007u, oset_cluster(e, 3, 0, tu_num(0.5), &gapped));
     TEST_ASSERT_TRUE(gapped);
 }
 
 static void test_oset_cluster_of_a_full_table(void)
 {
-    /* Sixteen obstacles 0.5 apart in a row: one cluster, all sixteen bits.
+    /* SUP_MAX_OBSTACLES obstacles 0.5 apart in a row: one cluster, a bit
+     * for each, found from the last one (both halves of the mask, sup.h).
      * Neighbours overlap; every second one is 1.0 apart, a gap (oset.h: any
      * pair of members counts, even where a third covers the gap). */
     sup_entry_t e[SUP_MAX_OBSTACLES];
@@ -193,15 +194,38 @@ static void test_oset_cluster_of_a_full_table(void)
         e[i] = entry((uint8_t)(i + 1u), 0.5 * i, 0.0, 0.375);
     }
     bool gapped = false;
-    TEST_ASSERT_EQUAL_HEX16(0xFFFFu, oset_cluster(e, SUP_MAX_OBSTACLES, 15, tu_num(0.5), &gapped));
+    const uint64_t all =
+        SUP_MAX_OBSTACLES == 64u ? UINT64_MAX : (UINT64_C(1) << SUP_MAX_OBSTACLES) - 1u;
+    TEST_ASSERT_EQUAL_HEX64(
+        all, oset_cluster(e, SUP_MAX_OBSTACLES, SUP_MAX_OBSTACLES - 1u, tu_num(0.5), &gapped));
     TEST_ASSERT_TRUE(gapped);
+    /* The row cut by moving entries k and k + 1 away (k = 40 of 48: the
+     * cut within the upper half, the part below it across both): 1.5 apart
+     * at the cut, beyond 0.75 + 0.5, so two clusters, each found from
+     * either end, and the two moved entries alone. */
+    const unsigned k = SUP_MAX_OBSTACLES - 8u;
+    e[k] = entry((uint8_t)(k + 1u), 0.5 * k, 5.0, 0.375);
+    e[k + 1u] = entry((uint8_t)(k + 2u), 0.5 * (k + 1u), -5.0, 0.375);
+    const uint64_t below = (UINT64_C(1) << k) - 1u;
+    const uint64_t above = all & ~below & ~(UINT64_C(3) << k);
+    TEST_ASSERT_EQUAL_HEX64(below, oset_cluster(e, SUP_MAX_OBSTACLES, 0, tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(
+        below, oset_cluster(e, SUP_MAX_OBSTACLES, (uint8_t)(k - 1u), tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(
+        above, oset_cluster(e, SUP_MAX_OBSTACLES, (uint8_t)(k + 2u), tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(
+        above, oset_cluster(e, SUP_MAX_OBSTACLES, SUP_MAX_OBSTACLES - 1u, tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(
+        UINT64_C(1) << (k + 1u),
+        oset_cluster(e, SUP_MAX_OBSTACLES, (uint8_t)(k + 1u), tu_num(0.5), &gapped));
+    TEST_ASSERT_FALSE(gapped);
     /* Spaced 0.25: neighbours up to the fourth overlap (< 0.75); the
      * fourth is 1.0 away: still a gap. Spaced 0.125 and only five: every
      * pair within 0.5, no gap. */
     for (uint8_t i = 0; i < 5u; i++) {
         e[i] = entry((uint8_t)(i + 1u), 0.125 * i, 0.0, 0.375);
     }
-    TEST_ASSERT_EQUAL_HEX16(0x001Fu, oset_cluster(e, 5, 0, tu_num(0.5), &gapped));
+    TEST_ASSERT_EQUAL_HEX64(0x001Fu, oset_cluster(e, 5, 0, tu_num(0.5), &gapped));
     TEST_ASSERT_FALSE(gapped);
 }
 

@@ -218,24 +218,33 @@ static void test_sup_detects_on_first_step_within_range_and_only_once(void)
     TEST_ASSERT_EQUAL_UINT8(5, s.obs[0].o.id);
     expect_tracking();
 
-    /* Closer, reported again: no second DETECT; the position is updated. */
-    o = obstacle(5, 4.4, 1.25, 0.1);
+    /* Closer, reported again within SUP_AVG_GATE of its entry (0.05 m in x
+     * and y): the same obstacle, no second DETECT; the position is updated. */
+    o = obstacle(5, 4.45, 1.05, 0.1);
     step(robot, ref, &o, 1, t0 + 40000u);
     TEST_ASSERT_EQUAL_size_t(0, d.n_events);
     TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 4.4, s.obs[0].o.x);
-    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.25, s.obs[0].o.y);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 4.45, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.05, s.obs[0].o.y);
 
     /* Not reported this step: still remembered, no event. */
     step(robot, ref, NULL, 0, t0 + 60000u);
     TEST_ASSERT_EQUAL_size_t(0, d.n_events);
     TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
 
-    /* Reported beyond D_det again: a known id, still no event. */
+    /* Reported beyond D_det, 1.55 m from its entry: another obstacle under
+     * the same id (sup.h), not yet detected: no event, the entry kept. */
     o = obstacle(5, 6.0, 1.0, 0.1);
     step(robot, ref, &o, 1, t0 + 80000u);
     TEST_ASSERT_EQUAL_size_t(0, d.n_events);
     TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 4.45, s.obs[0].o.x);
+    /* Within the gate and beyond D_det (3.501 m from the robot, 0.05 m
+     * from its entry): a known obstacle, updated, no event. */
+    o = obstacle(5, 4.501, 1.0, 0.1);
+    step(robot, ref, &o, 1, t0 + 100000u);
+    TEST_ASSERT_EQUAL_size_t(0, d.n_events);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 4.501, s.obs[0].o.x);
 }
 
 static void test_sup_the_range_counts_from_the_obstacle_s_boundary(void)
@@ -494,15 +503,16 @@ static void test_sup_drops_non_finite_reports(void)
 
 static void test_sup_table_full_drops_new_obstacles(void)
 {
-    /* 16 obstacles on a circle of 2 m around the robot: all detected (16
-     * DETECT events, fewer than SUP_MAX_EVENTS). A 17th id: dropped once per
-     * step; the 16 known ids are updates, not drops. */
+    /* SUP_MAX_OBSTACLES (48) obstacles on a circle of 2 m around the robot:
+     * all detected (48 DETECT events, fewer than SUP_MAX_EVENTS). Another
+     * id: dropped once per step; the 48 known ids are updates, not drops. */
     sup_obstacle_t r[SUP_MAX_OBSTACLES + 1];
     for (unsigned k = 0; k < SUP_MAX_OBSTACLES; k++) {
         const double a = TU_TWO_PI * (double)k / (double)SUP_MAX_OBSTACLES;
         r[k] = obstacle((uint8_t)(k + 1), 2.0 * cos(a), 2.0 * sin(a), 0.1);
     }
-    r[SUP_MAX_OBSTACLES] = obstacle(17, 0.0, 3.0, 0.1);
+    const uint8_t extra = (uint8_t)(SUP_MAX_OBSTACLES + 1u);
+    r[SUP_MAX_OBSTACLES] = obstacle(extra, 0.0, 3.0, 0.1);
     step(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), r, SUP_MAX_OBSTACLES, 0);
     TEST_ASSERT_EQUAL_size_t(SUP_MAX_OBSTACLES, d.n_events);
     TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, s.n_obs);
@@ -512,7 +522,7 @@ static void test_sup_table_full_drops_new_obstacles(void)
     TEST_ASSERT_EQUAL_UINT8(SUP_MAX_OBSTACLES, s.n_obs);
     TEST_ASSERT_EQUAL_UINT16(1, s.dropped);
     for (unsigned k = 0; k < SUP_MAX_OBSTACLES; k++) {
-        TEST_ASSERT_TRUE(s.obs[k].o.id != 17);
+        TEST_ASSERT_TRUE(s.obs[k].o.id != extra);
     }
 }
 
@@ -890,6 +900,153 @@ static void test_sup_averaged_reports_that_do_not_move_change_nothing(void)
     TEST_ASSERT_TRUE(plain.obs[0].d_s == s.obs[0].d_s && plain.obs[0].d_act == s.obs[0].d_act);
 }
 
+/* ------------------------- an id that comes back elsewhere (sup.h, slots) */
+
+/* Reports @p o, the robot at (@p robot_x, 0), through the averaged path
+ * ("mstc") or the plain one ("paper"): the events it gave. */
+static size_t take(const sup_obstacle_t *o, double robot_x, bool averaged)
+{
+    const pose_t robot = tu_pose(robot_x, 0.0, 0.0);
+    size_t n = 0;
+    memset(ev, 0, sizeof ev);
+    if (averaged) {
+        sup_take_averaged_reports(&s, &robot, o, 1, 40000, ev, &n);
+    } else {
+        sup_take_reports(&s, &robot, o, 1, 40000, ev, &n);
+    }
+    return n;
+}
+
+static void expect_detect(size_t n, uint8_t id)
+{
+    TEST_ASSERT_EQUAL_size_t(1, n);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_DETECT, ev[0].kind);
+    TEST_ASSERT_EQUAL_UINT8(id, ev[0].obstacle);
+    TEST_ASSERT_EQUAL_UINT64(40000, ev[0].t_us);
+}
+
+static void test_sup_a_static_id_reported_beyond_the_gate_is_a_new_obstacle(void)
+{
+    for (int averaged = 1; averaged >= 0; averaged--) {
+        setUp();
+        /* Detected at (1, 0.5). */
+        sup_obstacle_t o = obstacle(7, 1.0, 0.5, 0.1);
+        expect_detect(take(&o, 0.0, averaged != 0), 7);
+        /* 0.05 m on in x, within the gate (0.1): the same obstacle, no
+         * event. Averaged: the mean of 1.0 and 1.05, 1.025, two reports;
+         * plain: taken as it comes, 1.05. */
+        o.x = tu_num(1.05);
+        uint16_t rev = s.revision;
+        TEST_ASSERT_EQUAL_size_t(0, take(&o, 0.0, averaged != 0));
+        TEST_ASSERT_NUM_WITHIN(TOL_M, averaged ? 1.025 : 1.05, s.obs[0].o.x);
+        TEST_ASSERT_EQUAL_UINT8(averaged ? 2 : 1, s.n_avg[0]);
+        TEST_ASSERT_TRUE(s.revision != rev);
+        /* 0.15 m beyond that centre in x (1.175 or 1.2): another obstacle
+         * under the same id: DETECT, the entry the report's, in the same
+         * place of the table, its mean started anew, the revision new. */
+        const double x = averaged ? 1.175 : 1.2;
+        o.x = tu_num(x);
+        rev = s.revision;
+        expect_detect(take(&o, 0.0, averaged != 0), 7);
+        TEST_ASSERT_EQUAL_UINT8(1, s.n_obs);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, x, s.obs[0].o.x);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, 0.5, s.obs[0].o.y);
+        TEST_ASSERT_EQUAL_UINT8(1, s.n_avg[0]);
+        TEST_ASSERT_TRUE(s.revision != rev);
+        /* And in y alone: 0.15 m on. */
+        o.y = tu_num(0.65);
+        expect_detect(take(&o, 0.0, averaged != 0), 7);
+        TEST_ASSERT_NUM_WITHIN(TOL_M, 0.65, s.obs[0].o.y);
+        /* Another radius within the gate: not another obstacle (taken as it
+         * comes, D_s 0.35 + 0.1 with it). */
+        o.radius = tu_num(0.2);
+        TEST_ASSERT_EQUAL_size_t(0, take(&o, 0.0, averaged != 0));
+        TEST_ASSERT_NUM_WITHIN(TOL_M, 0.45, s.obs[0].d_s);
+    }
+}
+
+static void test_sup_an_id_back_elsewhere_beyond_the_range_is_not_yet_detected(void)
+{
+    /* Detected at (1, 0.5) from the origin; the id then reported at (4, 0),
+     * 4 m from the robot, beyond D_det (3.5): not yet detected, so the
+     * entry stays the obstacle it was (and the revision with it). From
+     * (1, 0) it is 3 m away: detected, the entry replaced. */
+    sup_obstacle_t o = obstacle(7, 1.0, 0.5, 0.1);
+    expect_detect(take(&o, 0.0, true), 7);
+    o = obstacle(7, 4.0, 0.0, 0.1);
+    const uint16_t rev = s.revision;
+    TEST_ASSERT_EQUAL_size_t(0, take(&o, 0.0, true));
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.0, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.5, s.obs[0].o.y);
+    TEST_ASSERT_EQUAL_UINT16(rev, s.revision);
+    expect_detect(take(&o, 1.0, true), 7);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 4.0, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.y);
+}
+
+static void test_sup_a_moving_id_has_a_gate_widened_by_its_speed(void)
+{
+    /* Moving at 1 m/s along x: the gate in x is 0.1 + 1 × 0.5 = 0.6 m, in y
+     * 0.1 + 0 × 0.5 = 0.1 m (SUP_MOVING_GATE_TIME 0.5 s). */
+    TEST_ASSERT_TRUE(SUP_MOVING_GATE_TIME == NUM_C(0.5));
+    sup_obstacle_t o = obstacle(8, 1.0, 0.0, 0.1);
+    o.vx = NUM_ONE;
+    expect_detect(take(&o, 0.0, true), 8);
+    /* 0.55 m on in x: itself, taken as it comes. */
+    o.x = tu_num(1.55);
+    TEST_ASSERT_EQUAL_size_t(0, take(&o, 0.0, true));
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.55, s.obs[0].o.x);
+    /* 0.65 m on: another obstacle. */
+    o.x = tu_num(2.2);
+    expect_detect(take(&o, 0.0, true), 8);
+    /* 0.15 m across (y), where it does not move: another. */
+    o.y = tu_num(0.15);
+    expect_detect(take(&o, 0.0, true), 8);
+    /* A report that says it stopped, 0.4 m on: the entry's speed (1 m/s)
+     * still widens the gate to 0.6 m: itself, its velocity now 0. */
+    o.x = tu_num(2.6);
+    o.vx = NUM_ZERO;
+    TEST_ASSERT_EQUAL_size_t(0, take(&o, 0.0, true));
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 2.6, s.obs[0].o.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, s.obs[0].o.vx);
+    /* Static again, both: 0.15 m on is another. */
+    o.x = tu_num(2.75);
+    expect_detect(take(&o, 0.0, true), 8);
+}
+
+/* ------------------------------------------- sets of table indices (sup.h) */
+
+static void test_sup_mask_helpers_work_on_both_halves(void)
+{
+    /* Hand values: bit i of a 64-bit word is 2^i. */
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x1), sup_mask_of(0));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x80000000), sup_mask_of(31));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x100000000), sup_mask_of(32));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x800000000000), sup_mask_of(47));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x8000000000000000), sup_mask_of(63));
+    const sup_mask_t m = UINT64_C(0x0000800100000001); /* indices 0, 32, 47 */
+    const bool want[64] = { [0] = true, [32] = true, [47] = true };
+    for (unsigned i = 0; i < 64u; i++) {
+        TEST_ASSERT_EQUAL_INT_MESSAGE(want[i], sup_mask_has(m, i), "index");
+    }
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0), sup_mask_first(0));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x1), sup_mask_first(1));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x7FFFFFFF), sup_mask_first(31));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0xFFFFFFFF), sup_mask_first(32));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x1FFFFFFFF), sup_mask_first(33));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0xFFFFFFFFFFFF), sup_mask_first(48));
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0x7FFFFFFFFFFFFFFF), sup_mask_first(63));
+    /* Walking m: 0, 32, 47, in that order, then empty. */
+    const unsigned order[3] = { 0, 32, 47 };
+    sup_mask_t rest = m;
+    for (unsigned k = 0; k < 3u; k++) {
+        TEST_ASSERT_EQUAL_UINT(order[k], sup_mask_lowest(rest));
+        rest = sup_mask_without_lowest(rest);
+    }
+    TEST_ASSERT_EQUAL_HEX64(UINT64_C(0), rest);
+    TEST_ASSERT_EQUAL_UINT(63u, sup_mask_lowest(UINT64_C(0x8000000000000000)));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -927,5 +1084,9 @@ int main(void)
     RUN_TEST(test_sup_averaged_reports_take_other_reports_as_they_come);
     RUN_TEST(test_sup_averaged_reports_across_the_gate_or_moving_along_y_come_as_they_are);
     RUN_TEST(test_sup_averaged_reports_that_do_not_move_change_nothing);
+    RUN_TEST(test_sup_a_static_id_reported_beyond_the_gate_is_a_new_obstacle);
+    RUN_TEST(test_sup_an_id_back_elsewhere_beyond_the_range_is_not_yet_detected);
+    RUN_TEST(test_sup_a_moving_id_has_a_gate_widened_by_its_speed);
+    RUN_TEST(test_sup_mask_helpers_work_on_both_halves);
     return UNITY_END();
 }

@@ -11,8 +11,9 @@
  * double, a range sensor reporting obstacles within D_det, Table 1 parameters,
  * and the scenarios of sim/scenarios/ (python -m mstc.bench.scenarios), each
  * with its strategy ("paper" unless its [params] say otherwise). The load
- * scenes (bench_loads) add runs with 1, 4 and 8 obstacles in view, under
- * both strategies.
+ * scenes (bench_loads) add runs with 1, 4 and 8 obstacles in view, and a
+ * full table of SUP_MAX_OBSTACLES reported from a BARN-like field of
+ * cylinders, under both strategies.
  */
 #ifndef MSTC_BENCH_H
 #define MSTC_BENCH_H
@@ -22,7 +23,8 @@
 
 #include "ctrl/ctl.h"
 
-#define BENCH_MAX_OBS      8u
+#define BENCH_MAX_OBS      8u                /**< obstacles a scenario lists */
+#define BENCH_MAX_REPORTS  SUP_MAX_OBSTACLES /**< obstacles reported in a step */
 #define BENCH_MAX_EXPECTED 8u
 #define BENCH_MAX_EVENTS   16u
 
@@ -36,6 +38,12 @@ typedef struct {
     unsigned n_obs;
     double obs[BENCH_MAX_OBS][3]; /**< x, y, radius [m] */
     uint8_t strategy;             /**< CTL_STRATEGY_* */
+    /** Not 0: the obstacles are the BARN-like field of bench_core.c
+     *  (n_obs 0), reported as a sensor with slots reports them: the
+     *  nearest within D_det of their surface, at most BENCH_MAX_REPORTS,
+     *  each under an id (1..BENCH_MAX_REPORTS) it keeps while it stays
+     *  reported. */
+    unsigned field;
     unsigned n_expected;
     struct {
         double t;
@@ -46,7 +54,7 @@ typedef struct {
 /** @brief One recorded control step. */
 typedef struct {
     ctl_input_t in; /**< in.obstacles points into obs */
-    sup_obstacle_t obs[BENCH_MAX_OBS];
+    sup_obstacle_t obs[BENCH_MAX_REPORTS];
     kin_wheels_t wheels; /**< what ctl_step answered when recorded */
     uint8_t mode;        /**< sup_mode_t it ran in */
 } bench_step_t;
@@ -57,17 +65,24 @@ typedef struct {
     size_t n_events;
     sup_event_t events[BENCH_MAX_EVENTS];
     int events_match; /**< 1 when the events are the scenario's expected ones, to the step */
-    double min_distance[BENCH_MAX_OBS]; /**< [m], centre to centre */
-    double in_view;                     /**< obstacles reported per step, on average */
+    double min_distance[BENCH_MAX_OBS]; /**< [m], centre to centre (a scenario's obstacles) */
+    double min_clearance; /**< smallest centre distance less the obstacle's D_s (Table 1's
+                               0.35 m moved out by its radius less 0.1 m), over the run [m] */
+    double in_view;       /**< obstacles reported per step, on average */
 } bench_run_t;
 
 /** @brief Modes a step can run in (sup_mode_t), for the per-mode figures. */
 #define BENCH_N_MODES 4u
 
-/** @brief Load scenes: a straight reference past 1, 4 and 8 obstacles, all
- *         within D_det for most of the run (bench_core.c). */
-#define BENCH_N_LOADS 3u
+/** @brief Load scenes: a circular reference past 1, 4 and 8 obstacles, all
+ *         within D_det for most of the run; and load-48, a straight one
+ *         through a BARN-like field, a full table reported every step
+ *         (bench_core.c). */
+#define BENCH_N_LOADS 4u
 extern const bench_scenario_t bench_loads[BENCH_N_LOADS];
+
+/** @brief Cylinders in load-48's field. */
+unsigned bench_field_size(void);
 
 /** @brief A step function with ctl_step's signature. */
 typedef void (*bench_step_fn)(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);

@@ -289,18 +289,14 @@ static void load(const bench_scenario_t *sc)
     for (unsigned m = 0; m < BENCH_N_MODES; m++) {
         largest = max[m] > largest ? max[m] : largest;
     }
-    /* Smallest clearance to D_s (0.35 for the radius 0.1 of every load). */
-    double clear = 1e9;
-    for (unsigned i = 0; i < sc->n_obs; i++) {
-        const double c = run.min_distance[i] - (0.35 + sc->obs[i][2] - 0.1);
-        clear = c < clear ? c : clear;
-    }
+    /* Smallest clearance to D_s (bench_record()). */
+    const double clear = run.min_clearance;
     printf("load %s strategy %s obstacles %u in_view %.2f steps %u replay_differs %u "
            "instr_per_step %.1f max %.0f min_clearance %.4f events",
-           sc->name, sc->strategy == (uint8_t)CTL_STRATEGY_MSTC ? "mstc" : "paper", sc->n_obs,
-           run.in_view, (unsigned)n, (unsigned)differ,
-           ((double)t_step - (double)t_empty) * ips / (double)n, ((double)largest - base) * ips,
-           clear);
+           sc->name, sc->strategy == (uint8_t)CTL_STRATEGY_MSTC ? "mstc" : "paper",
+           sc->field != 0u ? bench_field_size() : sc->n_obs, run.in_view, (unsigned)n,
+           (unsigned)differ, ((double)t_step - (double)t_empty) * ips / (double)n,
+           ((double)largest - base) * ips, clear);
     for (size_t i = 0; i < run.n_events; i++) {
         const sup_event_t *e = &run.events[i];
         printf(" %.2f:%u:%u:%d", (double)e->t_us * 1e-6, e->kind, e->obstacle, e->side);

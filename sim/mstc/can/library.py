@@ -38,9 +38,9 @@ from mstc.errors import FirmwareError
 LIB_ENV = "MSTC_SIL_LIB"
 """Environment variable naming the library when no path is given."""
 
-MAX_OBSTACLES = 16
+MAX_OBSTACLES = 48
 """MSTC_SIL_MAX_OBSTACLES (checked through the size of ``mstc_sil_output_t.obstacle_id``)."""
-MAX_EVENTS = 18
+MAX_EVENTS = 50
 """MSTC_SIL_MAX_EVENTS (checked through the size of ``mstc_sil_output_t.events``)."""
 FRAME_DATA = 8
 """Data bytes of ``mstc_sil_frame_t``."""

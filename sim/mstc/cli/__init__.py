@@ -18,10 +18,10 @@ import sys
 from collections.abc import Mapping, Sequence
 
 from mstc import __version__
-from mstc.cli import board, export, hil, play, plot, replay, ros, sim, sweep
+from mstc.cli import barn, board, export, hil, play, plot, replay, ros, sim, sweep
 from mstc.errors import EXIT_INTERRUPTED, MstcError
 
-COMMANDS = (sim, hil, replay, play, plot, sweep, export, ros, board)
+COMMANDS = (sim, hil, replay, play, plot, sweep, barn, export, ros, board)
 """The subcommands, in the order ``mstc --help`` lists them."""
 
 

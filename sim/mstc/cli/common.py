@@ -85,6 +85,16 @@ def library(given: Path | None) -> Path:
     )
 
 
+def add_lib_argument(parser: argparse.ArgumentParser) -> None:
+    """``--lib``: the firmware built as a shared library (:func:`library`)."""
+    parser.add_argument(
+        "--lib",
+        metavar="PATH",
+        type=Path,
+        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
+    )
+
+
 def add_bus_arguments(
     parser: argparse.ArgumentParser, default_interface: str, default_channel: str | None = None
 ) -> None:

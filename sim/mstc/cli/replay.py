@@ -4,11 +4,10 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
-from mstc.cli.common import add_key_argument, add_log_arguments, library, load_log
+from mstc.cli.common import add_key_argument, add_lib_argument, add_log_arguments, library, load_log
 from mstc.errors import (
     EXIT_FAILED,
     EXIT_NO_TARGET,
@@ -76,12 +75,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_log_arguments(parser)
-    parser.add_argument(
-        "--lib",
-        metavar="PATH",
-        type=Path,
-        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
-    )
+    add_lib_argument(parser)
     parser.add_argument(
         "--allow-empty",
         action="store_true",

@@ -11,7 +11,7 @@ import can
 
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
-from mstc.cli.common import add_key_argument, library, run_scenarios
+from mstc.cli.common import add_key_argument, add_lib_argument, library, run_scenarios
 from mstc.errors import UsageError
 from mstc.firmware.sil import SilController
 from mstc.firmware.wheels import wheels_for
@@ -36,7 +36,7 @@ is in docs/scenarios.md.
 Every scenario is validated before any runs: a bad file prints one line
 (file, key, problem) and nothing is written. Values the CAN frames cannot
 carry (positions beyond 128 m, speeds beyond 16, radii beyond 2.55 m or off
-whole centimetres, more than 15 obstacles) and runs of more than 100,000
+whole centimetres, more than 48 obstacles) and runs of more than 100,000
 control steps are refused (docs/scenarios.md). A run longer than a second
 shows its progress on stderr (--quiet hides it).
 
@@ -120,12 +120,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--lib",
-        metavar="PATH",
-        type=Path,
-        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
-    )
+    add_lib_argument(parser)
     parser.add_argument(
         "--bus",
         choices=("sil", "memory"),

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
-from mstc.cli.common import find_library, library
+from mstc.cli.common import add_lib_argument, find_library, library
 from mstc.errors import EXIT_OK, ScenarioError, UsageError, writing
 from mstc.firmware.sil import SilController
 from mstc.model import Params, WireLimits
@@ -118,12 +118,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default=Path("build/sweep"),
         help="output folder (default: %(default)s)",
     )
-    parser.add_argument(
-        "--lib",
-        metavar="PATH",
-        type=Path,
-        help=f"firmware shared library (default: ${LIB_ENV}, else build/host/float/libmstc_sil.so)",
-    )
+    add_lib_argument(parser)
     parser.add_argument(
         "--jobs",
         metavar="N",

@@ -31,7 +31,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from mstc.model import Event, Mode
-from mstc.plant.batch import BatchWorld, exact_hypot, wrap
+from mstc.plant.batch import BatchWorld, Within, exact_hypot, wrap
 from mstc.plant.scenario import Scenario
 
 
@@ -107,10 +107,23 @@ class BatchRun:
     plant's state becomes non-finite."""
     step_time: float
     """Mean time of the batched firmware call per scene-step [s] (a measurement)."""
+    last: int = -1
+    """The scene's last step (its N, or where it ended early)."""
+    reached: bool = False
+    """It ended within its goal radius."""
+    touched: bool = False
+    """It ended on contact (``stop_on_contact``)."""
+    unreported: int = 0
+    """Periods with an obstacle within D_act of the robot's surface not
+    reported (worlds' slot sensor)."""
 
 
 def simulate_batch(
-    scenarios: Sequence[Scenario], controller: BatchController, watch: Watch | None = None
+    scenarios: Sequence[Scenario],
+    controller: BatchController,
+    watch: Watch | None = None,
+    *,
+    stop_on_contact: bool = False,
 ) -> list[BatchRun]:
     """Run every scenario in closed loop with its controller of @p controller
     (one per scenario, in order), as :func:`mstc.loop.lockstep.simulate`
@@ -118,9 +131,20 @@ def simulate_batch(
 
     :param watch: called after each step's controller step, before the plant
         moves.
+    :param stop_on_contact: a scene ends at the first step at which the
+        robot's centre is within R_m + r of an obstacle's (as
+        :func:`~mstc.loop.lockstep.simulate` with the same flag).
     """
     world = BatchWorld(scenarios)
     n, width = world.n, world.width
+    slots = world.slot_sensor
+    end = world.steps.copy()
+    """The last step of each scene: its N, or where it reached its goal or
+    touched (the step whose row is its last)."""
+    ended = np.zeros(n, dtype=bool)
+    touch = Within(world.r_m[:, None] + world.radius)
+    reached = np.zeros(n, dtype=bool)
+    touched = np.zeros(n, dtype=bool)
     if controller.n != n:
         raise ValueError(f"{controller.n} controllers for {n} scenes")
     inputs = controller.inputs
@@ -128,13 +152,17 @@ def simulate_batch(
     robot, ref = given["robot"], given["ref"]
     t_us_in = given["t_us"]
     given["v_r"], given["w_r"] = world.v_r, world.w_r
-    given["n_obstacles"] = world.count
+    given["n_obstacles"] = width if slots is not None else world.count
     table = inputs["table"][:, :width]
-    table["id"] = world.obstacle_id
-    table["radius"] = world.radius
-    table["vx"], table["vy"] = world.vx, world.vy
-    table["x"], table["y"] = world.ox0, world.oy0
-    table_moves = world.moving is not None or world.noisy
+    if slots is not None:  # slot ids 1..width, filled as the sensor reports
+        table["id"] = np.arange(1, width + 1, dtype=np.uint32)
+        table["vx"], table["vy"] = 0.0, 0.0
+    else:
+        table["id"] = world.obstacle_id
+        table["radius"] = world.radius
+        table["vx"], table["vy"] = world.vx, world.vy
+        table["x"], table["y"] = world.ox0, world.oy0
+    table_moves = world.moving is not None or world.noisy or slots is not None
     reported = inputs["reported"][:, :width]
     outputs = controller.outputs
     out_left, out_right = outputs["wheel_left"], outputs["wheel_right"]
@@ -144,15 +172,16 @@ def simulate_batch(
     if wheels is not None:  # their drivers report speeds from the first step on (0 at t = 0)
         given["wheel_measured"][wheels.rows] = 1
         speeds[wheels.rows] = 0.0
-    straight = not world.w_r.any()
+    straight = world.paths is None and not world.w_r.any()
     if straight:  # the references' headings never change
         ref[:, 2] = wrap(world.theta_r)
 
     events: list[list[Event]] = [[] for _ in range(n)]
-    nearest = np.full((n, width), np.inf)
-    near_dx = np.zeros((n, width))
-    near_dy = np.zeros((n, width))
-    closer = np.empty((n, width), dtype=bool)
+    m = world.world_width
+    nearest = np.full((n, m), np.inf)
+    near_dx = np.zeros((n, m))
+    near_dy = np.zeros((n, m))
+    closer = np.empty((n, m), dtype=bool)
     bad_at = np.full(n, -1, dtype=np.int64)
     last = int(world.steps.max(initial=0))
     uniform = bool((world.steps == last).all())
@@ -160,7 +189,11 @@ def simulate_batch(
     spent, scene_steps = 0, 0
     clock = time.perf_counter_ns
     for k in range(last + 1):
-        active = everyone if uniform else k <= world.steps
+        if ended.any():
+            uniform = False
+        active = everyone if uniform else k <= end
+        if not active.any():
+            break
         t_us = k * world.dt_us
         t = t_us / 1e6
         x, y = world.x, world.y
@@ -168,9 +201,16 @@ def simulate_batch(
         dx = ox - x[:, None]
         dy = oy - y[:, None]
         d2 = dx * dx + dy * dy
-        seen, rx, ry = world.scan(k, d2, dx, dy, ox, oy)
+        if slots is not None:
+            slots.scan(np.hypot(dx, dy), active)
+            seen, rx, ry, table["radius"] = slots.table(ox, oy)
+        else:
+            seen, rx, ry = world.scan(k, d2, dx, dy, ox, oy)
         mx, my, mth = world.measured(k)
         robot[:, 0], robot[:, 1], robot[:, 2] = mx, my, wrap(mth)
+        world.references(k, mx, my)
+        if world.paths is not None:
+            given["v_r"], given["w_r"] = world.v_r, world.w_r
         ref[:, 0], ref[:, 1] = world.x_r, world.y_r
         if not straight:
             ref[:, 2] = wrap(world.theta_r)
@@ -204,6 +244,23 @@ def simulate_batch(
                     k, t, active, x, y, world.x_r, world.y_r, d2, dx, dy, out_mode, w, emitted
                 )
             )
+        # A scene that reached its goal, or touched when told to stop there,
+        # ends with this step's row.
+        live = active & ~ended
+        home = np.zeros(n, dtype=bool)
+        goals = np.flatnonzero(live & np.isfinite(world.goal))
+        if len(goals):
+            gd = exact_hypot(x[goals] - world.goal_x[goals], y[goals] - world.goal_y[goals])
+            home[goals] = gd <= world.goal[goals]
+        stop = home.copy()
+        if stop_on_contact:
+            hit = touch.rows(d2, dx, dy) & live
+            touched |= hit & ~home
+            stop |= hit
+        if stop.any():
+            end = np.where(stop, k, end)
+            ended |= stop
+            reached |= home
         if k < last:
             world.advance(k, left, right, v, w)
             if wheels is not None:
@@ -218,5 +275,17 @@ def simulate_batch(
         if bad_at[i] >= 0:
             at = int(bad_at[i]) * int(world.dt_us[i]) / 1e6
             error = f"{scenario.path}: the plant's state became non-finite at t = {at:g} s"
-        runs.append(BatchRun(scenario, tuple(events[i]), tuple(exact.tolist()), error, step_time))
+        runs.append(
+            BatchRun(
+                scenario,
+                tuple(events[i]),
+                tuple(exact.tolist()),
+                error,
+                step_time,
+                int(end[i]),
+                bool(reached[i]),
+                bool(touched[i]),
+                int(slots.unreported[i]) if slots is not None else 0,
+            )
+        )
     return runs

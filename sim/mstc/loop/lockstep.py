@@ -16,6 +16,7 @@ drives the in-process firmware (``can.Bus(interface="mstc-sil")``),
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections import deque
@@ -125,6 +126,8 @@ def simulate(
     controller: Controller,
     progress: Progress | None = None,
     wheels: WheelDrive | None = None,
+    *,
+    stop_on_contact: bool = False,
 ) -> RunResult:
     """Run a scenario in closed loop.
 
@@ -177,8 +180,12 @@ def simulate(
     plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
     odometry_rng = world.odometry_rng
     moving = any(o.moving for o in obstacles)
-    v_r, w_r = ref.v, ref.w
+    sample_ref = ref.sample
+    goal = scenario.reference.goal_radius
+    r_m = scenario.params.r_m
+    goal_x, goal_y = scenario.reference.path[-1] if goal is not None else (0.0, 0.0)
     steps = sim.steps
+    ended = steps
     odometry_noise = None
     if imp.position_noise or imp.heading_noise:
         sigma = np.array([imp.position_noise, imp.position_noise, imp.heading_noise])
@@ -218,7 +225,7 @@ def simulate(
         for k in range(steps + 1):
             t_us = k * dt_us
             t = t_us / 1e6
-            robot, reference = plant.pose, ref.pose
+            robot = plant.pose
             seen = scan(robot, t)
             measured = robot
             if odometry_noise is not None:
@@ -233,6 +240,8 @@ def simulate(
             for o in seen if roaming else ():
                 if not (ox_lo <= o.x <= ox_hi and oy_lo <= o.y <= oy_hi):
                     raise _not_carried(wire.obstacle, o.x, o.y)
+            sample = sample_ref(measured)
+            reference, v_r, w_r = sample.pose, sample.v, sample.w
             start = clock()
             left, right, mode, faults, e1, e2, e3, e, emitted = step(
                 measured, reference, v_r, w_r, seen, t_us, measured_wheels
@@ -245,6 +254,14 @@ def simulate(
                 events.extend(emitted)
             if faults:
                 fault_masks.append(faults)
+            if goal is not None and math.hypot(robot.x - goal_x, robot.y - goal_y) <= goal:
+                ended = k  # within the goal radius: the run ends here
+                break
+            if stop_on_contact and any(
+                math.hypot(o.x - robot.x, o.y - robot.y) <= r_m + o.radius for o in sensor.world(t)
+            ):
+                ended = k  # touched: the run ends here
+                break
             if k < steps:
                 if actuator is not None:
                     measured_wheels = actuator.step(left, right)
@@ -260,6 +277,7 @@ def simulate(
         if progress is not None:
             progress.close()
 
+    values = values[: ended + 1]
     if not np.isfinite(values[:, 1:7]).all():
         k = int(np.argmin(np.isfinite(values[:, 1:7]).all(axis=1)))
         raise SimulationError(
@@ -272,8 +290,9 @@ def simulate(
         events=tuple(events),
         min_distance=tuple(float(d) for d in distance.min(axis=0)) if len(obstacles) else (),
         faults=fault_counts(fault_masks),
-        step_time=spent / 1e9 / (steps + 1),
+        step_time=spent / 1e9 / (ended + 1),
         halt=getattr(controller, "halt", None),
+        unreported=getattr(sensor, "unreported", 0),
     )
 
 

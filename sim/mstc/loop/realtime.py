@@ -44,6 +44,7 @@ from mstc.loop.result import PROGRESS_UPDATES, RunResult, Trace, distances, faul
 from mstc.loop.timing import FirmwareStep, OdomSent, analyse
 from mstc.model import Event, Mode, Obstacle, Params, Pose, Progress
 from mstc.plant.plant import integrate
+from mstc.plant.reference import ReferenceRobot
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import make_world
 
@@ -489,12 +490,19 @@ def simulate_realtime(
 
     :returns: the run, with its :class:`~mstc.loop.timing.Timing`.
     :raises ControllerError: the firmware could not be armed.
-    :raises SimulationError: the scenario has an ``[actuator]``.
+    :raises SimulationError: the scenario has an ``[actuator]``, or a path
+        reference (``[reference] path``).
     """
     if scenario.actuator.model != "ideal":
         raise SimulationError(
             f"{scenario.path}: [actuator]: the real-time plant has ideal wheels; run the "
             "scenario in lock-step (mstc sim, mstc hil without --realtime)"
+        )
+    if scenario.reference.path:
+        raise SimulationError(
+            f"{scenario.path}: [reference] path: the real-time plant follows time-parameterised "
+            "references only (a path's target waits for the robot and ends the run at its goal "
+            "in lock-step); run the scenario in lock-step (mstc sim, mstc hil without --realtime)"
         )
     period = 1.0 / rate_hz
     last_k = round(scenario.sim.duration * rate_hz)
@@ -586,6 +594,8 @@ def _run(
     sim = scenario.sim
     world = make_world(scenario)
     plant, ref, obstacles, sensor = world.plant, world.reference, world.obstacles, world.sensor
+    # simulate_realtime refused path references: the reference is a clock.
+    assert isinstance(ref, ReferenceRobot), "a path reference in the real-time loop"
     v_r, w_r = ref.v, ref.w
     imp = scenario.imperfections
     noise = None

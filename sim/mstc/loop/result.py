@@ -87,6 +87,9 @@ class RunResult:
     """STATUS_halt of the firmware's last step of the run: 0 running, else why
     it holds the robot (docs/safety.md); None where the run has no such
     state (the control step in memory)."""
+    unreported: int = 0
+    """Periods in which an obstacle within D_act of the robot's surface was
+    not reported (a world's slot sensor, :class:`mstc.plant.sensor.SlotSensor`)."""
 
 
 def fault_counts(masks: Iterable[int]) -> dict[Fault, int]:

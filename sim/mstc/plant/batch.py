@@ -40,6 +40,7 @@ import numpy as np
 
 from mstc.plant.actuator import substeps
 from mstc.plant.plant import Integrator
+from mstc.plant.reference import LEAD, ON_PATH, VERTEX_TOLERANCE, PathReference
 from mstc.plant.scenario import Scenario
 from mstc.plant.world import random_streams
 
@@ -53,8 +54,161 @@ _SMALL_ANGLE = 1e-4
 
 def table_width(scenarios: Sequence[Scenario]) -> int:
     """Entries of every scene's obstacle table in a batch of @p scenarios:
-    the largest scene's (at least 1)."""
-    return max([1, *(len(s.obstacles) for s in scenarios)])
+    the largest scene's (at least 1); the slots, for scenes with a world."""
+    return max([1, *(s.slots or len(s.obstacles) for s in scenarios)])
+
+
+class BatchSlots:
+    """:class:`mstc.plant.sensor.SlotSensor` over N scenes (a batch of
+    scenes with worlds): the same reports, slots and count of unreported
+    periods, from the same distances (``np.hypot``) and the same rules.
+
+    :param radius: (N, M) the obstacles' radii (the padding's anything).
+    :param reach: (N, M) each obstacle's range, d_det + (r − r_ob) (-inf for
+        the padding).
+    :param near: (N, M) r_m + r + d_act (-inf for the padding).
+    :param slots: the slot ids 1..slots.
+    """
+
+    def __init__(self, radius: np.ndarray, reach: np.ndarray, near: np.ndarray, slots: int) -> None:
+        self.radius, self.reach, self.near, self.slots = radius, reach, near, slots
+        n, m = radius.shape
+        self.slot_of = np.zeros((n, m), dtype=np.int64)
+        """Slot of each obstacle reported last period (0: none)."""
+        self.held = np.full((n, slots + 1), -1, dtype=np.int64)
+        """Obstacle in each slot (-1: free); column 0 unused."""
+        self.unreported = np.zeros(n, dtype=np.int64)
+        """Periods with an obstacle within d_act of the robot's surface not reported."""
+        self._rows = np.arange(n)
+
+    def scan(self, d: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """The reports of a period from the centre distances @p d (N, M):
+        which obstacles are reported (N, M) (slots updated); the unreported
+        count grows for the @p active scenes."""
+        n, m = d.shape
+        k = self.slots
+        inside = d <= self.reach
+        seen = inside
+        counts = inside.sum(axis=1)
+        full = np.flatnonzero(counts > k)
+        if len(full):
+            # Nearest first by surface distance, ties by index: a stable sort.
+            seen = inside.copy()
+            surface = np.where(inside[full], d[full] - self.radius[full], np.inf)
+            order = np.argsort(surface, axis=1, kind="stable")[:, k:]
+            seen[full[:, None], order] = False
+        missed = (d <= self.near) & ~seen
+        self.unreported += missed.any(axis=1) & active
+        # Slots: the reported keep theirs; the others free them.
+        leaving = (self.slot_of > 0) & ~seen
+        li, lj = np.nonzero(leaving)
+        self.held[li, self.slot_of[li, lj]] = -1
+        self.slot_of[li, lj] = 0
+        new = seen & (self.slot_of == 0)
+        for i in np.flatnonzero(new.any(axis=1)).tolist():
+            js = np.flatnonzero(new[i])
+            js = js[np.argsort(d[i, js] - self.radius[i, js], kind="stable")]
+            free = np.flatnonzero(self.held[i, 1:] < 0)[: len(js)] + 1
+            self.held[i, free] = js
+            self.slot_of[i, js] = free
+        return seen
+
+    def table(
+        self, ox: np.ndarray, oy: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The firmware's table, slot by slot (N, slots): reported, x, y, radius."""
+        held = self.held[:, 1:]
+        reported = held >= 0
+        at = np.where(reported, held, 0)
+        take = np.take_along_axis
+        return reported, take(ox, at, 1), take(oy, at, 1), take(self.radius, at, 1)
+
+
+class BatchPaths:
+    """:class:`mstc.plant.reference.PathReference` over N scenes, each
+    waiting (:meth:`~mstc.plant.reference.PathReference.follow`) or on the
+    clock (:meth:`~mstc.plant.reference.PathReference.at`): the same
+    formulas in the same order over padded arrays (numpy's functions, libm's
+    bits as ``math``'s), so each target is the per-scene one bit for bit.
+
+    :param paths: one path per scene.
+    """
+
+    def __init__(self, paths: Sequence[PathReference]) -> None:
+        n = len(paths)
+        segs = max(len(p.headings) for p in paths)
+        self.n = n
+        self.wait = np.array([p.wait for p in paths])
+        self.speed = np.array([p.speed for p in paths])
+        self.period = np.array([p.period for p in paths])
+        self.length = np.array([p.length for p in paths])
+        self.count = np.array([len(p.headings) for p in paths])
+        self.ax = np.zeros((n, segs))
+        self.ay = np.zeros((n, segs))
+        self.ux = np.zeros((n, segs))
+        self.uy = np.zeros((n, segs))
+        self.seg = np.zeros((n, segs))
+        self.start = np.full((n, segs), np.inf)
+        """Arc length at each segment's start; inf for the padding."""
+        self.heading = np.zeros((n, segs))
+        for i, p in enumerate(paths):
+            c = len(p.headings)
+            self.ax[i, :c], self.ay[i, :c] = p._a[:, 0], p._a[:, 1]
+            self.ux[i, :c], self.uy[i, :c] = p._u[:, 0], p._u[:, 1]
+            self.seg[i, :c] = p._len
+            self.start[i, :c] = p._start
+            self.heading[i, :c] = p.headings
+        self._real = np.isfinite(self.start)
+        self.s = np.zeros(n)
+        self.q = np.zeros(n)
+        self._rows = np.arange(n)
+
+    def _segment(self, s: np.ndarray) -> np.ndarray:
+        """bisect_right(starts, s + tolerance) − 1, clamped to the segments."""
+        i: np.ndarray = (self.start <= (s + VERTEX_TOLERANCE)[:, None]).sum(axis=1) - 1
+        clipped: np.ndarray = np.clip(i, 0, self.count - 1)
+        return clipped
+
+    def _pose(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s = np.minimum(np.maximum(s, 0.0), self.length)
+        i = self._segment(s)
+        r = self._rows
+        theta = self.heading[r, i]
+        along = s - self.start[r, i]
+        return self.ax[r, i] + along * np.cos(theta), self.ay[r, i] + along * np.sin(theta), theta
+
+    def _progress(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        rx = x[:, None] - self.ax
+        ry = y[:, None] - self.ay
+        t = np.clip(rx * self.ux + ry * self.uy, 0.0, self.seg)
+        near = (np.hypot(rx - t * self.ux, ry - t * self.uy) <= ON_PATH) & self._real
+        best: np.ndarray = np.where(near, self.start + t, -np.inf).max(axis=1)
+        return best
+
+    def sample(
+        self, k: int, x: np.ndarray, y: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The references of step @p k for robots measured at (@p x, @p y):
+        x_r, y_r, θ_r, v_r, ω_r; the waiting targets move to their next arc
+        length (sample and step of the per-scene reference in one)."""
+        self.q = np.where(self.wait, np.maximum(self.q, self._progress(x, y)), self.q)
+        clock = np.minimum(np.maximum(self.speed * (k * self.period), 0.0), self.length)
+        s = np.where(self.wait, self.s, clock)
+        px, py, theta = self._pose(s)
+        end = s >= self.length - VERTEX_TOLERANCE
+        step = self.speed * self.period
+        follow = np.minimum(
+            np.maximum(np.maximum(s, np.minimum(s + step, self.q + LEAD)), self.q), self.length
+        )
+        ahead_s = np.where(self.wait, follow, np.minimum(s + step, self.length))
+        ahead = np.where(
+            self.wait, self._pose(ahead_s)[2], self.heading[self._rows, self._segment(ahead_s)]
+        )
+        turn = wrap(ahead - theta) / self.period
+        self.s = np.where(self.wait & ~end, follow, self.s)
+        v = np.where(end, 0.0, self.speed)
+        w = np.where(end, 0.0, turn)
+        return px, py, theta, v, w
 
 
 def exact_hypot(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
@@ -384,12 +538,42 @@ class BatchWorld:
         self.x = col([s.robot.x for s in sc])
         self.y = col([s.robot.y for s in sc])
         self.theta = col([s.robot.theta for s in sc])
+        with_path = [bool(s.reference.path) for s in sc]
+        if any(with_path) and not all(with_path):
+            raise ValueError("a batch mixes path references with others")
+        self.paths = (
+            BatchPaths(
+                [
+                    PathReference(s.reference.path, s.reference.v, s.sim.dt, wait=s.reference.wait)
+                    for s in sc
+                ]
+            )
+            if all(with_path) and n
+            else None
+        )
+        """The scenes' path references (None: the paper's virtual robots)."""
+        self.goal = col(
+            [math.inf if s.reference.goal_radius is None else s.reference.goal_radius for s in sc]
+        )
+        """The goal radius of each scene's path end (inf: none)."""
+        self.goal_x = col([s.reference.path[-1][0] if s.reference.path else 0.0 for s in sc])
+        self.goal_y = col([s.reference.path[-1][1] if s.reference.path else 0.0 for s in sc])
         self.x_r = col([s.reference.pose.x for s in sc])
         self.y_r = col([s.reference.pose.y for s in sc])
         self.theta_r = col([s.reference.pose.theta for s in sc])
         self.v_r = col([s.reference.v for s in sc])
         self.w_r = col([s.reference.w for s in sc])
 
+        with_slots = [s.slots > 0 for s in sc]
+        if any(with_slots) and not all(with_slots):
+            raise ValueError("a batch mixes scenes with worlds and without")
+        self.slot_sensor: BatchSlots | None = None
+        """The slot sensor of scenes with worlds (None: obstacle i is reported as id i)."""
+        if all(with_slots) and n:
+            m = max(len(s.obstacles) for s in sc)
+        self.world_width = m
+        """Obstacles of every scene's world (the largest's); :attr:`width` when
+        there are no worlds."""
         self.count = np.array([len(s.obstacles) for s in sc], dtype=np.uint32)
         self.obstacle_id = np.zeros((n, m), dtype=np.uint32)
         self.ox0 = np.full((n, m), math.inf)
@@ -406,6 +590,7 @@ class BatchWorld:
                 moving[i, j] = o.moving
         self.moving = moving if moving.any() else None
         """Which obstacles move (None: none does)."""
+        self.r_m = col([s.params.r_m for s in sc])
 
         imp = [s.imperfections for s in sc]
         self.sensor_range = col(
@@ -417,7 +602,20 @@ class BatchWorld:
         r_ob = col([s.params.r_ob for s in sc])
         # Each obstacle's reach as the per-scene sensor has it: the range plus
         # how much larger than R_ob it is (d + (r - R_ob), the same bits).
-        self._in_range = Within(self.sensor_range[:, None] + (self.radius - r_ob[:, None]))
+        reach = self.sensor_range[:, None] + (self.radius - r_ob[:, None])
+        self._in_range = Within(reach)
+        if all(with_slots) and n:
+            d_act = col([s.params.d_act for s in sc])
+            pad = ~np.isfinite(self.ox0)
+            near = self.r_m[:, None] + self.radius + d_act[:, None]
+            self.slot_sensor = BatchSlots(
+                self.radius,
+                np.where(pad, -np.inf, reach),
+                np.where(pad, -np.inf, near),
+                int(sc[0].slots),
+            )
+            if any(s.slots != sc[0].slots for s in sc):
+                raise ValueError("a batch mixes scenes with different slots")
         self.delay = np.array(
             [
                 m_.delay + (s.actuator.delay if s.actuator.model == "lag" else 0)
@@ -453,7 +651,7 @@ class BatchWorld:
         self.noisy = bool(self._odometry_noisy.any() or self._sensor_noisy.any())
         """Whether any scene draws random numbers."""
         self._ref_step: tuple[np.ndarray, np.ndarray] | None = None
-        if not self.w_r.any():
+        if self.paths is None and not self.w_r.any():
             # ω_r = 0 everywhere: θ_r + 0·dt is θ_r, so each period adds the
             # same terms to x_r and y_r that integrate() adds (v cos θ dt, or
             # the chord's), computed once with its formulas.
@@ -551,6 +749,13 @@ class BatchWorld:
             np.where(on, self.theta + d[:, 2], self.theta),
         )
 
+    def references(self, k: int, x: np.ndarray, y: np.ndarray) -> None:
+        """Step @p k's path references for robots measured at (@p x, @p y)
+        (x_r, y_r, θ_r, v_r, ω_r set); nothing for the virtual robots, which
+        :meth:`advance` moves."""
+        if self.paths is not None:
+            self.x_r, self.y_r, self.theta_r, self.v_r, self.w_r = self.paths.sample(k, x, y)
+
     def body_velocity(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(v, ω) of wheel speeds [rad/s], :func:`mstc.plant.plant.body_velocity`."""
         v = self.wheel_radius * (right + left) / 2.0
@@ -597,7 +802,9 @@ class BatchWorld:
             else:
                 nx, ny, nt = act.step(left[rows], right[rows], x0[rows], y0[rows], theta0[rows])
                 self.x[rows], self.y[rows], self.theta[rows] = nx, ny, nt
-        if self._ref_step is not None:  # straight: the same increments every period
+        if self.paths is not None:
+            pass  # the targets move in references()
+        elif self._ref_step is not None:  # straight: the same increments every period
             self.x_r = self.x_r + self._ref_step[0]
             self.y_r = self.y_r + self._ref_step[1]
         else:

@@ -16,6 +16,7 @@ from :func:`mstc.can.protocol.wire_limits`). A run is bounded by
 """
 
 import difflib
+import json
 import math
 import re
 import tomllib
@@ -99,14 +100,24 @@ class MetaSpec:
 
 @dataclass(frozen=True)
 class ReferenceSpec:
-    """The virtual reference robot."""
+    """The reference: the paper's virtual robot (pose, v, w), or a path
+    travelled at a speed (``path``, docs/scenarios.md)."""
 
     pose: Pose
-    """Initial pose q_r(0)."""
+    """Initial pose q_r(0) (of a path: its first point, heading along its
+    first segment)."""
     v: float
-    """v_r [m/s]."""
+    """v_r [m/s] (of a path: its speed)."""
     w: float
-    """ω_r [rad/s]."""
+    """ω_r [rad/s] (of a path: 0, the start)."""
+    path: tuple[tuple[float, float], ...] = ()
+    """The path's vertices (x, y) [m], repeated points dropped; () for the
+    virtual robot."""
+    wait: bool = True
+    """A path's target waits for the robot (:meth:`mstc.plant.reference.PathReference.follow`);
+    False: it runs on the clock (:meth:`~mstc.plant.reference.PathReference.at`)."""
+    goal_radius: float | None = None
+    """The run ends once the robot is within this of the path's end [m]."""
 
 
 @dataclass(frozen=True)
@@ -193,6 +204,14 @@ class Scenario:
     imperfections: ImperfectionSpec = ImperfectionSpec()
     meta: MetaSpec = MetaSpec()
     actuator: ActuatorSpec = ActuatorSpec()
+    world: int = 0
+    """How many of :attr:`obstacles` (the last ones) come from ``[world]``."""
+    world_source: str = ""
+    """Where the ``[world]`` came from: ``FILE, world N`` or ``inline``
+    (reports summarise a world by it rather than list its obstacles)."""
+    slots: int = 0
+    """With a world, the slot ids the sensor reports under (what OBSTACLE's id
+    carries: :class:`mstc.plant.sensor.SlotSensor`); 0: obstacle i under id i."""
 
     @property
     def name(self) -> str:
@@ -204,6 +223,7 @@ _TOP_KEYS = (
     "robot",
     "reference",
     "obstacles",
+    "world",
     "sim",
     "params",
     "imperfections",
@@ -455,28 +475,44 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
     c.keys(robot, "robot", ("pose",), ("pose",))
     robot_pose = _pose(c, robot["pose"], "robot.pose", wire.robot)
 
-    ref = c.table(data["reference"], "reference")
-    c.keys(ref, "reference", ("pose", "v", "w"), ("pose", "v", "w"))
-    reference = ReferenceSpec(
-        pose=_pose(c, ref["pose"], "reference.pose", wire.reference),
-        v=c.within(c.number(ref["v"], "reference.v"), "reference.v", wire.v),
-        w=c.within(c.number(ref["w"], "reference.w"), "reference.w", wire.w),
-    )
-
-    obstacles = _parse_obstacles(c, data.get("obstacles", []), params, wire)
+    reference = _parse_reference(c, data["reference"], wire)
+    world = _parse_world(c, data["world"], path, wire) if "world" in data else ()
+    obstacles = _parse_obstacles(c, data.get("obstacles", []), params, wire, bool(world))
+    listed = len(obstacles)
+    obstacles += tuple(replace(o, id=listed + o.id) for o in world)
     for o in obstacles:
         gap = math.hypot(o.x - robot_pose.x, o.y - robot_pose.y) - params.r_m - o.radius
         if gap < 0.0:  # the bodies overlap at t = 0: a collision before the first step
+            where = (
+                f"obstacles[{o.id}].position"
+                if o.id <= listed
+                else f"world (obstacle {o.id - listed}, at {o.x:g}, {o.y:g})"
+            )
             raise c.fail(
-                f"obstacles[{o.id}].position",
+                where,
                 f"the robot starts inside it (its body, R_m = {params.r_m:g} m, overlaps the "
                 f"obstacle's, radius {o.radius:g} m, by {-gap:.4g} m)",
             )
     sim = _parse_sim(c, data["sim"])
     actuator = _parse_actuator(c, data.get("actuator", {}))
     params = _hand_actuator(c, params, actuator, c.table(data.get("params", {}), "params"), sim)
-    _check_reference_path(c, reference, sim, wire.reference)
+    if not reference.path:
+        _check_reference_path(c, reference, sim, wire.reference)
+    if world and data.get("expected"):
+        raise c.fail(
+            "expected",
+            "a scenario with a [world] reports its obstacles under slot ids, not their "
+            "numbers: expected events cannot name them",
+        )
     expected = _parse_expected(c, data.get("expected", []), len(obstacles), sim)
+    imperfections = _parse_imperfections(c, data.get("imperfections", {}))
+    if world:
+        for key in ("obstacle_noise", "dropout"):
+            if getattr(imperfections, key):
+                raise c.fail(
+                    f"imperfections.{key}",
+                    "is not modelled for a [world] (its sensor reports through slots)",
+                )
     return Scenario(
         path=Path(path),
         robot=robot_pose,
@@ -485,9 +521,12 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
         sim=sim,
         params=params,
         expected=expected,
-        imperfections=_parse_imperfections(c, data.get("imperfections", {})),
+        imperfections=imperfections,
         meta=_parse_meta(c, data.get("meta", {})),
         actuator=actuator,
+        world=len(world),
+        world_source=_world_source(data["world"]) if world else "",
+        slots=wire.max_obstacles if world else 0,
     )
 
 
@@ -551,11 +590,168 @@ def _pose(c: _Checker, value: object, key: str, carried: tuple[SignalRange, Sign
     return Pose(x, y, theta)
 
 
+MAX_PATH_POINTS = 10_000
+"""The most vertices a path may have."""
+MAX_WORLD = 100_000
+"""The most obstacles a ``[world]`` may hold."""
+REFERENCE_KEYS = ("pose", "v", "w")
+PATH_KEYS = ("path", "speed", "wait", "goal_radius")
+
+
+def _parse_reference(c: _Checker, value: object, wire: WireLimits) -> ReferenceSpec:
+    """[reference]: the virtual robot (pose, v, w) or a path (path, speed,
+    wait, goal_radius)."""
+    ref = c.table(value, "reference")
+    if "path" not in ref:
+        c.keys(ref, "reference", REFERENCE_KEYS, (*REFERENCE_KEYS, *PATH_KEYS))
+        for key in PATH_KEYS:
+            if key in ref:
+                raise c.fail(f"reference.{key}", "belongs to a path reference (reference.path)")
+        return ReferenceSpec(
+            pose=_pose(c, ref["pose"], "reference.pose", wire.reference),
+            v=c.within(c.number(ref["v"], "reference.v"), "reference.v", wire.v),
+            w=c.within(c.number(ref["w"], "reference.w"), "reference.w", wire.w),
+        )
+    c.keys(ref, "reference", ("path", "speed"), (*REFERENCE_KEYS, *PATH_KEYS))
+    for key in REFERENCE_KEYS:
+        if key in ref:
+            raise c.fail(
+                f"reference.{key}", "belongs to the virtual robot, not to a path reference"
+            )
+    raw = ref["path"]
+    if not isinstance(raw, list) or not raw:
+        raise c.fail("reference.path", f"must be an array of [x, y] points, got {_type_name(raw)}")
+    if len(raw) > MAX_PATH_POINTS:
+        raise c.fail("reference.path", f"at most {MAX_PATH_POINTS:,} points, got {len(raw):,}")
+    points: list[tuple[float, float]] = []
+    for i, item in enumerate(raw, start=1):
+        x, y = c.numbers(item, f"reference.path[{i}]", ("x", "y"))
+        c.within(x, f"reference.path[{i}]", wire.reference[0], "element x ")
+        c.within(y, f"reference.path[{i}]", wire.reference[1], "element y ")
+        if not points or (x, y) != points[-1]:
+            points.append((x, y))
+    if len(points) < 2:
+        raise c.fail("reference.path", "needs two distinct points")
+    speed = c.positive(ref["speed"], "reference.speed")
+    c.within(speed, "reference.speed", wire.v)
+    wait = ref.get("wait", True)
+    if not isinstance(wait, bool):
+        raise c.fail("reference.wait", f"must be true or false, got {_type_name(wait)}")
+    goal = None
+    if "goal_radius" in ref:
+        goal = c.positive(ref["goal_radius"], "reference.goal_radius")
+    (x0, y0), (x1, y1) = points[0], points[1]
+    return ReferenceSpec(
+        pose=Pose(x0, y0, math.atan2(y1 - y0, x1 - x0)),
+        v=speed,
+        w=0.0,
+        path=tuple(points),
+        wait=wait,
+        goal_radius=goal,
+    )
+
+
+def _parse_world(c: _Checker, value: object, path: str, wire: WireLimits) -> tuple[Obstacle, ...]:
+    """[world]: static circles, inline (``obstacles``, ``radius``) or from a
+    JSON-lines file (``file``, ``world``: the line whose "world" is that
+    number, in the format of BARN's worlds, docs/barn.md). Ids 1.. in order;
+    radii rounded up to what OBSTACLE carries."""
+    table = c.table(value, "world")
+    c.keys(table, "world", (), ("file", "world", "obstacles", "radius"))
+    if ("file" in table) == ("obstacles" in table):
+        raise c.fail("world", "needs either file (a JSON-lines file of worlds) or obstacles")
+    if "file" in table:
+        for key in ("obstacles", "radius"):
+            if key in table:
+                raise c.fail(f"world.{key}", "comes from the file (world.file)")
+        centres, radius = _world_file(c, table, Path(path).parent)
+    else:
+        if "world" in table:
+            raise c.fail("world.world", "names a world of world.file")
+        if "radius" not in table:
+            raise c.fail("world.radius", "missing required key (the obstacles' radius)")
+        radius = c.positive(table["radius"], "world.radius")
+        raw = table["obstacles"]
+        if not isinstance(raw, list):
+            raise c.fail("world.obstacles", f"must be an array of [x, y], got {_type_name(raw)}")
+        centres = [
+            c.numbers(item, f"world.obstacles[{i}]", ("x", "y")) for i, item in enumerate(raw, 1)
+        ]
+    key = "world.radius" if "radius" in table else "world.file"
+    c.within(radius, key, wire.radius)
+    # What OBSTACLE_radius carries, on the safe side: BARN's 0.075 m is 0.08 m.
+    steps = math.ceil(radius / wire.radius.scale - 1e-9)
+    reported = steps * wire.radius.scale
+    if not centres:
+        raise c.fail("world", "holds no obstacle")
+    if len(centres) > MAX_WORLD:
+        raise c.fail("world", f"at most {MAX_WORLD:,} obstacles, got {len(centres):,}")
+    result = []
+    for i, (x, y) in enumerate(centres, start=1):
+        where = f"world.obstacles[{i}]" if "obstacles" in table else f"world.file (obstacle {i})"
+        c.within(x, where, wire.obstacle[0], "element x ")
+        c.within(y, where, wire.obstacle[1], "element y ")
+        result.append(Obstacle(i, x, y, round(reported, 9)))
+    return tuple(result)
+
+
+def _world_source(table: object) -> str:
+    """:attr:`Scenario.world_source` of a valid ``[world]`` table."""
+    assert isinstance(table, Mapping)
+    if "file" not in table:
+        return "inline"
+    return f"{table['file']}" + (f", world {table['world']}" if "world" in table else "")
+
+
+def _world_file(
+    c: _Checker, table: Mapping[str, object], folder: Path
+) -> tuple[list[tuple[float, ...]], float]:
+    """The obstacles of one line of a JSON-lines file of worlds, and their radius."""
+    name = table["file"]
+    if not isinstance(name, str):
+        raise c.fail("world.file", f"must be a string, got {_type_name(name)}")
+    file = folder / name
+    want = c.integer(table["world"], "world.world") if "world" in table else None
+    try:
+        lines = file.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise c.fail("world.file", f"cannot read {file}: {exc}") from exc
+    found = None
+    for n, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise c.fail("world.file", f"{file}:{n}: not JSON: {exc.msg}") from exc
+        if not isinstance(entry, dict):
+            raise c.fail("world.file", f"{file}:{n}: a line must be a JSON object")
+        if want is None or entry.get("world") == want:
+            if want is None and found is not None:
+                raise c.fail("world.world", f"{file} holds several worlds: name one")
+            found = (n, entry)
+            if want is not None:
+                break
+    if found is None:
+        what = f"no world {want}" if want is not None else "no world"
+        raise c.fail("world.world" if want is not None else "world.file", f"{file}: {what}")
+    n, entry = found
+    where = f"world.file ({file}:{n})"
+    for key in ("cylinders", "cylinder_radius"):
+        if key not in entry:
+            raise c.fail("world.file", f"{file}:{n}: missing key {key!r}")
+    radius = c.positive(entry["cylinder_radius"], where)
+    raw = entry["cylinders"]
+    if not isinstance(raw, list):
+        raise c.fail("world.file", f"{file}:{n}: cylinders must be an array of [x, y]")
+    return [c.numbers(item, where, ("x", "y")) for item in raw], radius
+
+
 def _parse_obstacles(
-    c: _Checker, value: object, params: Params, wire: WireLimits
+    c: _Checker, value: object, params: Params, wire: WireLimits, slots: bool = False
 ) -> tuple[Obstacle, ...]:
     entries = c.array_of_tables(value, "obstacles")
-    if len(entries) > wire.max_obstacles:
+    if len(entries) > wire.max_obstacles and not slots:
         ids = wire.ids
         raise c.fail(
             "obstacles",

@@ -89,3 +89,76 @@ class RangeSensor:
                 o = replace(o, x=o.x + float(noise[i, 0]), y=o.y + float(noise[i, 1]))
             result.append(o)
         return result
+
+
+class SlotSensor:
+    """An obstacle sensor node for worlds of many obstacles (a scenario's
+    ``[world]``, docs/scenarios.md): each period it reports the obstacles in
+    range (as :class:`RangeSensor`: centre within d_det + (r − r_ob)),
+    nearest first by the distance to their surface, at most @p slots of them,
+    each under a slot id 1..slots that it keeps while it stays reported; an
+    obstacle that drops out frees its slot, and a newcomer takes the lowest
+    free one, nearest first. The firmware thus meets an id that comes back
+    elsewhere, which it takes as a new obstacle (msw.h). The reports come in
+    slot order.
+
+    It also counts the periods in which an obstacle whose surface is within
+    @p d_act of the robot's surface (centre distance <= r_m + r + d_act) was
+    not reported (:attr:`unreported`): zero when the firmware's table holds
+    every obstacle that could activate.
+
+    :param obstacles: the world (static obstacles).
+    :param slots: the ids the frames and the firmware's table have.
+    """
+
+    def __init__(
+        self,
+        obstacles: Sequence[Obstacle],
+        d_det: float,
+        *,
+        r_ob: float,
+        slots: int,
+        r_m: float,
+        d_act: float,
+    ) -> None:
+        self.obstacles = tuple(obstacles)
+        self.d_det = d_det
+        self.slots = slots
+        xy = np.array([(o.x, o.y) for o in self.obstacles], dtype=float).reshape(-1, 2)
+        radius = np.array([o.radius for o in self.obstacles], dtype=float)
+        self._x, self._y = xy[:, 0].copy(), xy[:, 1].copy()
+        self._radius = radius
+        self._reach = d_det + (radius - r_ob)
+        self._near = r_m + radius + d_act
+        self._slot_of: dict[int, int] = {}
+        """World index → slot id of the obstacles reported last period."""
+        self.unreported = 0
+        """Periods with an obstacle within d_act of the robot's surface not reported."""
+
+    def world(self, t: float) -> tuple[Obstacle, ...]:  # noqa: ARG002 - a static world
+        """Where the obstacles are (static)."""
+        return self.obstacles
+
+    def scan(self, pose: Pose, t: float = 0.0) -> list[Obstacle]:  # noqa: ARG002
+        """The reports from @p pose, with their slot ids, in slot order."""
+        d = np.hypot(self._x - pose.x, self._y - pose.y)
+        seen = np.flatnonzero(d <= self._reach)
+        if len(seen) > self.slots:
+            # Nearest first by surface distance; ties by world order (stable).
+            order = np.argsort(d[seen] - self._radius[seen], kind="stable")
+            seen = np.sort(seen[order[: self.slots]])
+        kept = set(seen.tolist())
+        if bool(((d <= self._near) & ~np.isin(np.arange(len(d)), seen)).any()):
+            self.unreported += 1
+        old = self._slot_of
+        slot_of = {i: s for i, s in old.items() if i in kept}
+        used = set(slot_of.values())
+        free = (s for s in range(1, self.slots + 1) if s not in used)
+        newcomers = [i for i in seen.tolist() if i not in slot_of]
+        newcomers.sort(key=lambda i: (d[i] - self._radius[i], i))
+        for i in newcomers:
+            slot_of[i] = next(free)
+        self._slot_of = slot_of
+        reports = [replace(self.obstacles[i], id=s) for i, s in slot_of.items()]
+        reports.sort(key=lambda o: o.id)
+        return reports

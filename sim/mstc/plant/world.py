@@ -13,9 +13,9 @@ import numpy as np
 from mstc.model import Obstacle
 from mstc.plant.actuator import Actuator
 from mstc.plant.plant import UnicyclePlant
-from mstc.plant.reference import ReferenceRobot
+from mstc.plant.reference import PathReference, ReferenceRobot
 from mstc.plant.scenario import Scenario
-from mstc.plant.sensor import RangeSensor
+from mstc.plant.sensor import RangeSensor, SlotSensor
 
 
 def random_streams(
@@ -37,9 +37,9 @@ class World:
     """What a run moves and senses, whatever its clock."""
 
     plant: UnicyclePlant
-    reference: ReferenceRobot
+    reference: ReferenceRobot | PathReference
     obstacles: tuple[Obstacle, ...]
-    sensor: RangeSensor
+    sensor: RangeSensor | SlotSensor
     odometry_rng: np.random.Generator
     """The stream of the odometry noise (the sensor has its own)."""
     actuator: Actuator | None = None
@@ -55,20 +55,30 @@ def make_world(scenario: Scenario) -> World:
     sim = scenario.sim
     imp = scenario.imperfections
     plant = UnicyclePlant(scenario.robot, p.wheel_radius, p.track_width, sim.integrator)
-    ref = ReferenceRobot(
-        scenario.reference.pose, scenario.reference.v, scenario.reference.w, sim.integrator
-    )
+    spec = scenario.reference
+    ref: ReferenceRobot | PathReference
+    if spec.path:
+        ref = PathReference(spec.path, spec.v, sim.dt, wait=spec.wait)
+    else:
+        ref = ReferenceRobot(spec.pose, spec.v, spec.w, sim.integrator)
     obstacles = scenario.obstacles
     odometry_rng, sensor_rng, dropout_rng = random_streams(imp.seed)
-    sensor = RangeSensor(
-        obstacles,
-        p.d_det if imp.sensor_range is None else imp.sensor_range,
-        r_ob=p.r_ob,
-        noise=imp.obstacle_noise,
-        dropout=imp.dropout,
-        rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
-        dropout_rng=dropout_rng,
-    )
+    d_det = p.d_det if imp.sensor_range is None else imp.sensor_range
+    sensor: RangeSensor | SlotSensor
+    if scenario.slots:
+        sensor = SlotSensor(
+            obstacles, d_det, r_ob=p.r_ob, slots=scenario.slots, r_m=p.r_m, d_act=p.d_act
+        )
+    else:
+        sensor = RangeSensor(
+            obstacles,
+            d_det,
+            r_ob=p.r_ob,
+            noise=imp.obstacle_noise,
+            dropout=imp.dropout,
+            rng=sensor_rng if (imp.obstacle_noise or imp.dropout) else None,
+            dropout_rng=dropout_rng,
+        )
     actuator = None
     if scenario.actuator.model == "lag":
         actuator = Actuator(scenario.actuator, plant, sim.dt, imp.delay + scenario.actuator.delay)

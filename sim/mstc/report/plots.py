@@ -13,6 +13,7 @@ from typing import Self
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PatchCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch
@@ -69,6 +70,10 @@ class PlotData:
     """For D_s and D_act."""
     obstacles: tuple[Obstacle, ...]
     """One per column of ``trace.distance``, with the id events refer to."""
+    world: int = 0
+    """How many of :attr:`obstacles` (the last ones) are a scenario's
+    ``[world]``: drawn as plain circles and summarised by the nearest, not
+    each labelled."""
 
     @classmethod
     def from_run(cls, result: RunResult) -> Self:
@@ -81,6 +86,7 @@ class PlotData:
             events=result.events,
             params=scenario.params,
             obstacles=scenario.obstacles,
+            world=scenario.world,
         )
 
     @classmethod
@@ -165,7 +171,13 @@ def draw_path(ax: Axes, result: PlotData) -> None:
     ax.plot(trace["x_r"][0], trace["y_r"][0], "o", color=_REFERENCE, ms=5)
 
     track = trace.obstacle_xy
-    for i, o in enumerate(result.obstacles):
+    listed = len(result.obstacles) - result.world
+    if result.world:  # hundreds of static circles: drawn, not labelled
+        world = result.obstacles[listed:]
+        ax.add_collection(
+            PatchCollection([Circle((o.x, o.y), o.radius) for o in world], color="0.45")
+        )
+    for i, o in enumerate(result.obstacles[:listed]):
         color = _obstacle_color(o.id)
         d_s, d_act = p.safe_distance(o.radius), p.activation_distance(o.radius)
         cx, cy = o.x, o.y
@@ -294,9 +306,23 @@ def draw_distance(ax: Axes, result: PlotData) -> None:
     """(f) centre distance to each obstacle, with its D_s and the minimum."""
     t = result.trace["t"]
     p = result.params
-    obstacles = result.obstacles
-    safe = {o.id: p.safe_distance(o.radius) for o in obstacles}
+    listed = len(result.obstacles) - result.world
+    obstacles = result.obstacles[:listed]
+    safe = {o.id: p.safe_distance(o.radius) for o in result.obstacles}
     one_line = len(set(safe.values())) <= 1
+    if result.world:  # a world's obstacles: the nearest of them at each step
+        d = result.trace.distance[:, listed:].min(axis=1)
+        ax.plot(t, d, color="0.3", label=f"nearest of the world's {result.world}")
+        k = int(np.argmin(d))
+        ax.plot(t[k], d[k], "v", color="0.3", ms=6)
+        ax.annotate(
+            f"min {d[k]:.4f} m",
+            (t[k], d[k]),
+            textcoords="offset points",
+            xytext=(4, 6),
+            fontsize="x-small",
+            bbox=_LABEL_BOX,
+        )
     for i, o in enumerate(obstacles):
         color = _obstacle_color(o.id)
         d = result.trace.distance[:, i]
@@ -316,7 +342,7 @@ def draw_distance(ax: Axes, result: PlotData) -> None:
             bbox=_LABEL_BOX,
             color=color,
         )
-    if not obstacles:
+    if not result.obstacles:
         ax.text(0.5, 0.5, "no obstacles", transform=ax.transAxes, ha="center", va="center")
     if one_line and safe:
         d_s = next(iter(safe.values()))

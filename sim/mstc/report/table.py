@@ -155,11 +155,24 @@ def format_report(result: RunResult, folder: Path) -> str:
     if not result.events and not scenario.expected:
         lines.append("  (no events)")
     p = scenario.params
-    for i, (o, d) in enumerate(zip(scenario.obstacles, result.min_distance, strict=True)):
+    listed = len(scenario.obstacles) - scenario.world
+    pairs = list(zip(scenario.obstacles, result.min_distance, strict=True))
+    for i, (o, d) in enumerate(pairs[:listed]):
         d_s = p.safe_distance(o.radius)
         label = "min distance" if i == 0 else ""
         verdict = _verdict(p, o.radius, d)
         lines.append(f"  {label:<13} O{i + 1} {d:.4f} m  (D_s {d_s:g} m: {verdict})")
+    if scenario.world:
+        # A world's hundreds of obstacles: how many, from where, the nearest.
+        world = pairs[listed:]
+        k = min(range(len(world)), key=lambda j: world[j][1])
+        o, d = world[k]
+        below = sum(1 for w, dw in world if dw < p.safe_distance(w.radius))
+        lines.append(
+            f"  {'world':<13} {scenario.world} obstacles ({scenario.world_source}): nearest "
+            f"O{listed + k + 1} {d:.4f} m  (D_s {p.safe_distance(o.radius):g} m: "
+            f"{_verdict(p, o.radius, d)}); {below} came within D_s"
+        )
     for fault, count in result.faults.items():
         lines.append(f"  {'fault':<13} {_FAULT_NAMES.get(fault, str(fault))} in {count} steps")
     if result.timing is not None:

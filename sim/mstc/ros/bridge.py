@@ -58,7 +58,7 @@ from std_srvs.srv import SetBool
 from visualization_msgs.msg import Marker, MarkerArray
 
 from mstc.can import secoc
-from mstc.can.protocol import Frame
+from mstc.can.protocol import Frame, wire_limits
 from mstc.errors import ControllerError, DependencyError, MstcError, UsageError
 from mstc.limits import Held, violation
 from mstc.logs.play import open_bus as open_can_bus
@@ -81,8 +81,8 @@ from mstc.ros.parameters import (
 from mstc.ros.reference import PathReference, ReferenceSample, StampedReference
 
 NODE_NAME = "mstc_bridge"
-OBSTACLE_IDS = range(1, 16)
-"""The firmware's obstacle ids (OBSTACLE_id, 4 bits)."""
+OBSTACLE_IDS = range(int(wire_limits().ids.lo), int(wire_limits().ids.hi) + 1)
+"""The firmware's obstacle ids (OBSTACLE_id: 1..48)."""
 ODOM_STEP_SLACK = 0.01
 """With step_source odom, a step runs for the first odometry at least
 (1 - this) periods after the last step's."""
@@ -497,7 +497,8 @@ class Bridge(Node):
         points = [(ps.pose.position.x, ps.pose.position.y) for ps in msg.poses]
         try:
             speed = float(self._param("plan_speed"))
-            self.inputs.plan = PathReference(points, speed, self.period)
+            # On its clock (at(τ)): the bridge has no goal to wait for the robot at.
+            self.inputs.plan = PathReference(points, speed, self.period, wait=False)
         except ValueError as exc:
             self._drop(f"plan: {exc}")
             return
@@ -521,7 +522,9 @@ class Bridge(Node):
             if m.action != Marker.ADD or not self._in_world(m.header.frame_id, "obstacles"):
                 continue
             if m.id not in OBSTACLE_IDS:
-                self._drop(f"obstacle marker id {m.id} outside 1..15")
+                self._drop(
+                    f"obstacle marker id {m.id} outside {OBSTACLE_IDS[0]}..{OBSTACLE_IDS[-1]}"
+                )
                 continue
             if m.type == Marker.CYLINDER:
                 cylinders[m.id] = m

@@ -7,7 +7,7 @@
 #include "bench.h"
 
 #ifndef PROF_LOAD
-#define PROF_LOAD 2 /* bench_loads[]: 0 load-1, 1 load-4, 2 load-8 */
+#define PROF_LOAD 2 /* bench_loads[]: 0 load-1, 1 load-4, 2 load-8, 3 load-48 */
 #endif
 #ifndef PROF_STRATEGY
 #define PROF_STRATEGY 1 /* CTL_STRATEGY_*: 0 paper, 1 mstc */

@@ -4,7 +4,7 @@
 # (docs/strategy.md, "Cost"). Run from the repository after
 # `make build/bench/CONFIG.elf`:
 #   tools/bench/profile/profile.sh CONFIG [LOAD [STRATEGY]] [OUT]
-# CONFIG m4f-float or m3-fixed; LOAD 0..2 (load-1, load-4, load-8; default
+# CONFIG m4f-float or m3-fixed; LOAD 0..3 (load-1, load-4, load-8, load-48; default
 # 2); STRATEGY 0 paper, 1 mstc (default). Builds prof_main.c against the
 # bench's objects and the config's library, runs it under QEMU with
 # -icount shift=0 -d in_asm,exec,nochain (a line per translation block run,
