@@ -150,9 +150,8 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
     return num_sub(in->dist[i], s->obs[i].d_s);
 }
 
-/* The activation candidate (table index) outside the entries of @p skip,
- * or -1. */
-static int candidate(const msw_t *m, const sup_t *s, look_t *lk, sup_mask_t skip)
+/* The activation candidate (table index), or -1. */
+static int candidate(const msw_t *m, const sup_t *s, look_t *lk)
 {
     const msw_input_t *in = lk->in;
     /* In locals, that the calls below leave in registers: the loop runs for
@@ -167,7 +166,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk, sup_mask_t skip
         /* Beyond any trigger's reach first: the cheapest test, and most
          * entries fail it. */
         if (dist[i] >= num_add(num_add(e->d_act, MSW_CPA_REACH), reach) ||
-            m->acts[i] >= MSW_MAX_ACTIVATIONS || sup_mask_has(skip, i)) {
+            m->acts[i] >= MSW_MAX_ACTIVATIONS) {
             continue;
         }
         bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e) &&
@@ -589,7 +588,7 @@ void msw_step(msw_t *m, const sup_t *s, const msw_input_t *in, sup_event_t *even
         }
     } else {
         forget_left(m, s, in);
-        const int i = candidate(m, s, &lk, 0u);
+        const int i = candidate(m, s, &lk);
         if (i >= 0) {
             activate(m, s, in, (uint8_t)i, events, n_events);
             m->followed = nearest_member(s, in, m->cluster, (uint8_t)i);

@@ -679,6 +679,43 @@ static void test_ctl_mstc_blocked_stops_the_wheels(void)
     TEST_ASSERT_EQUAL_UINT8(0, out.status.active_obstacle);
 }
 
+static void test_ctl_mstc_tracks_the_aim_while_its_reference_waits(void)
+{
+    /* Obstacle 5 at (0.45, 0) activated from the origin, the reference at
+     * (0.1, 0) heading +x at v_r = 0.5 and staying there (it waits). At
+     * 0.6 s the robot is at (0.9, 0.3): 0.8 past the reference along its
+     * line, and the segment to the foot (0.9, 0) keeps 0.45 from the centre,
+     * more than D_s + 0.08 = 0.43, within D_det: the strategy aims at the
+     * line, taken from the reference at (0.1, 0) (test_msw has the rule).
+     * The next step, the reference unchanged, tracks the aim, (1.2, 0),
+     * 0.3 ahead: it drives on (eq. (2): v = 0.5 + 3 · 0.3 > 0.2) and turns
+     * right towards the line (ω < 0); tracking the waiting reference, 0.8
+     * behind, eq. (2) would give v = 0.5 − 3 · 0.8 < 0, held at 0. When the reference moves on
+     * to (0.2, 0), the aim taken from the old one is dropped. */
+    mstc_init();
+    sup_obstacle_t o = obstacle(5, 0.45, 0.0, 0.1);
+    ctl_input_t in = input(tu_pose(0.0, 0.0, 0.0), tu_pose(0.1, 0.0, 0.0), 0.5, 0.0, &o, 1, 0);
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, out.status.mode);
+    in.robot = tu_pose(0.9, 0.3, 0.0);
+    in.t_us = 600000u;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE(c.msw.held);
+    TEST_ASSERT_TRUE(c.msw.aimed);
+    TEST_ASSERT_NUM_WITHIN(TOL_VW, 0.1, c.msw.aim_rx);
+    in.t_us = 620000u;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_TRUE(out.status.v > tu_num(0.2));
+    TEST_ASSERT_TRUE(out.status.w < NUM_ZERO);
+    /* Its roll-out clear, the aim's command also ends the avoidance. */
+    TEST_ASSERT_EQUAL_size_t(1, out.n_events);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_COMPLETE, out.events[0].kind);
+    in.ref = tu_pose(0.2, 0.0, 0.0);
+    in.t_us = 640000u;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_FALSE(c.msw.aimed);
+}
+
 static void test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper(void)
 {
     /* A report with vx = 101 m/s (beyond CTL_MAX_ABS_SPEED): "mstc" drops it;
@@ -706,6 +743,18 @@ static void test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper(
     TEST_ASSERT_EQUAL_UINT8(1, out.status.n_obstacles);
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, -0.5, c.sup.obs[0].o.vx);
     TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 100.0, c.sup.obs[0].o.vy);
+    /* Beside a report that is dropped (screened one by one), a good one
+     * keeps its velocity under "mstc". */
+    mstc_init();
+    sup_obstacle_t two[2] = { obstacle(2, 1.0, 1.0, 0.1), obstacle(3, -1.0, 1.0, 0.1) };
+    two[0].vx = tu_num(101.0);
+    two[1].vx = tu_num(0.25);
+    in.obstacles = two;
+    in.n_obstacles = 2;
+    ctl_step(&c, &in, &out);
+    TEST_ASSERT_EQUAL_UINT8(1, out.status.n_obstacles);
+    TEST_ASSERT_EQUAL_UINT8(3, c.sup.obs[0].o.id);
+    TEST_ASSERT_NUM_WITHIN(TOL_PARAM, 0.25, c.sup.obs[0].o.vx);
 }
 
 static void test_ctl_mstc_drops_reports_beyond_the_table(void)
@@ -1126,6 +1175,7 @@ int main(void)
     RUN_TEST(test_ctl_mstc_tracks_as_the_paper_away_from_obstacles);
     RUN_TEST(test_ctl_mstc_filter_brakes_and_says_so);
     RUN_TEST(test_ctl_mstc_blocked_stops_the_wheels);
+    RUN_TEST(test_ctl_mstc_tracks_the_aim_while_its_reference_waits);
     RUN_TEST(test_ctl_obstacle_velocity_is_screened_by_mstc_and_ignored_by_paper);
     RUN_TEST(test_ctl_mstc_drops_reports_beyond_the_table);
     RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);

@@ -581,6 +581,20 @@ static void test_msw_held_leaves_where_the_reference_moves_on_and_the_way_is_cle
     expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
 }
 
+static void test_msw_held_leave_judges_its_own_cluster(void)
+{
+    /* As the Bug2 leave above, with obstacle 2 at (1.6, 0.1), 1.15 from 1
+     * (apart: not in its cluster, the harness's gap 0.4). The roll-out from
+     * (0.95, 0.1) heading +x ends at (1.45, 0.1), 0.15 from 2, but the leave
+     * judges the cluster it followed: COMPLETE; 2 is the next activation's
+     * (and the filter's) to deal with. */
+    const sup_obstacle_t o[2] = { obstacle(1, 0.45, 0.0, 0, 0), obstacle(2, 1.6, 0.1, 0, 0) };
+    hold_over_one(o, 2);
+    step_t k = at(0.95, 0.1, 0.0, 1.0, 0.0, 0.0, 620000);
+    step(&k, o, 2);
+    expect_event(SUP_EVENT_COMPLETE, 1, AVD_SIDE_NONE);
+}
+
 static void test_msw_held_aims_at_the_reference_line_when_a_straight_way_is_clear(void)
 {
     /* VisBug's shortcut: the reference still at (0.1, 0); the robot at
@@ -662,7 +676,96 @@ static void test_msw_held_turns_back_once_when_led_behind_the_reference(void)
     k.robot = tu_pose(-1.5, 0.3, TU_PI);
     k.t_us += 20000;
     step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    TEST_ASSERT_TRUE(m.reversed);
     TEST_ASSERT_EQUAL_INT(AVD_SIDE_RIGHT, m.side);
+    /* Mirrored: the obstacle at (0.45, 0.05), left of the path, is passed on
+     * the right (the left edge 0.48 from the path, the right 0.38); led to
+     * (−0.95, −0.3), 1.05 behind, the robot follows it on the left. */
+    setUp();
+    const sup_obstacle_t left = obstacle(1, 0.45, 0.05, 0, 0);
+    k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, &left, 1);
+    expect_event(SUP_EVENT_ACTIVATE, 1, AVD_SIDE_RIGHT);
+    k = at(0.45, -0.43, 0.0, 0.1, 0.0, 0.0, 600000);
+    step(&k, &left, 1);
+    TEST_ASSERT_TRUE(m.held);
+    k = at(-0.95, -0.3, TU_PI, 0.1, 0.0, 0.0, 620000);
+    step(&k, &left, 1);
+    TEST_ASSERT_EQUAL_INT(AVD_SIDE_LEFT, m.side);
+}
+
+static void test_msw_held_aimed_waits_for_a_clear_roll_out(void)
+{
+    /* As test_msw_held_aims_at_the_reference_line_..., but the step after
+     * the aim was taken the tracking command turns back towards the
+     * obstacle (heading −x from (0.9, 0.3): the roll-out, 0.5 m straight on,
+     * ends at (0.4, 0.3), 0.304 from its centre, within 0.395): no release
+     * while aiming either. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    hold_over_one(&o, 1);
+    step_t k = at(0.9, 0.3, 0.0, 0.1, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_TRUE(m.aimed);
+    k.robot = tu_pose(0.9, 0.3, TU_PI);
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+}
+
+static void test_msw_held_takes_no_shortcut_beyond_the_sensors_range(void)
+{
+    /* The robot at (1.6, 1.5): the foot (1.6, 0) is 1.5 away, and the
+     * segment's end must clear D_s + 0.08 = 0.43 beyond it: 1.93 > the
+     * 1.5 m the harness's sensor covers (msw_input_t.range): no aim. */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    hold_over_one(&o, 1);
+    step_t k = at(1.6, 1.5, 0.0, 0.1, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_FALSE(m.aimed);
+}
+
+static void test_msw_held_on_the_line_aims_ahead_of_itself(void)
+{
+    /* The robot on the reference's line itself, at (1.2, 0), 1.1 past the
+     * waiting reference and 0.75 beyond the obstacle's centre (clear of
+     * 0.43): the segment to the foot has no length; the aim is 0.3 ahead,
+     * (1.5, 0). */
+    const sup_obstacle_t o = obstacle(1, 0.45, 0.0, 0, 0);
+    hold_over_one(&o, 1);
+    step_t k = at(1.2, 0.0, 0.0, 0.1, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_TRUE(m.aimed);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 1.5, m.aim.x);
+    TEST_ASSERT_NUM_WITHIN(TOL_M, 0.0, m.aim.y);
+    /* At (0.84, 0), 0.39 from the centre, within 0.43: the point itself is
+     * not clear, no aim. */
+    setUp();
+    hold_over_one(&o, 1);
+    k = at(0.84, 0.0, 0.0, 0.1, 0.0, 0.0, 620000);
+    step(&k, &o, 1);
+    TEST_ASSERT_FALSE(m.aimed);
+}
+
+static void test_msw_slow_robot_does_not_activate_before_its_roll_out_comes_near(void)
+{
+    /* Obstacle 1 straight ahead at 0.49 < D_act, the robot closing at
+     * v_trk = 0.1 m/s: its 1 s roll-out, 0.1 m, ends 0.39 from the centre,
+     * beyond D_s + MSW_ACT_MARGIN = 0.38 (and the obstacle is beyond the
+     * roll-out's reach plus that, 0.48, without a look along it): no
+     * activation. At 0.2 m/s it ends 0.29 away: ACTIVATE. */
+    const sup_obstacle_t o = obstacle(1, 0.49, 0.0, 0, 0);
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    k.v_trk = 0.1;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+    k.v_trk = 0.2;
+    k.t_us += 20000;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(1, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_EVENT_ACTIVATE, ev[0].kind);
 }
 
 static void test_msw_no_activation_beside_a_clear_way(void)
@@ -952,6 +1055,11 @@ int main(void)
     RUN_TEST(test_msw_held_takes_no_shortcut_past_an_obstacle);
     RUN_TEST(test_msw_held_circling_is_no_block);
     RUN_TEST(test_msw_held_turns_back_once_when_led_behind_the_reference);
+    RUN_TEST(test_msw_held_leave_judges_its_own_cluster);
+    RUN_TEST(test_msw_held_aimed_waits_for_a_clear_roll_out);
+    RUN_TEST(test_msw_held_takes_no_shortcut_beyond_the_sensors_range);
+    RUN_TEST(test_msw_held_on_the_line_aims_ahead_of_itself);
+    RUN_TEST(test_msw_slow_robot_does_not_activate_before_its_roll_out_comes_near);
     RUN_TEST(test_msw_no_activation_beside_a_clear_way);
     RUN_TEST(test_msw_blocked_after_a_full_turn_around);
     RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);
