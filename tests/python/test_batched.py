@@ -163,16 +163,19 @@ def test_the_engines_agree_on_every_family_under_every_actuator_profile(
 
 
 def test_the_engines_count_activations_per_encounter_alike(any_lib: str) -> None:
-    # Circular references under "gearmotor" wheels: the robot meets each
+    # Circular references under "sluggish" wheels: the robot meets each
     # obstacle again a lap later, so some obstacle is activated more than
     # twice in a run but at most twice an encounter (mstc.sweep.metrics,
     # most_activations). The batched engine counts the encounters step by
-    # step, the per-scene one from the whole trace: the same rows.
+    # step, the per-scene one from the whole trace: the same rows. (Of the
+    # first 60 scenes, 4 meet an obstacle in two encounters under the
+    # strategy of BARN's round, which activates a static obstacle only when
+    # the roll-out comes near it; 0 of the first 30 under "gearmotor".)
     suite = load_suite(STANDARD)
     family = next(f for f in suite.families if f.name == "circle")
-    profile = next(a for a in suite.actuators if a.name == "gearmotor")
+    profile = next(a for a in suite.actuators if a.name == "sluggish")
     jobs: list[Job] = []
-    for i in range(30):
+    for i in range(60):
         stem = suite.scene_name(family, i, profile)
         scene = Scene(stem, stem, scene_text(suite, family, i, actuator=profile), "circle")
         jobs.append((scene, "mstc"))

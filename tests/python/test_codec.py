@@ -363,14 +363,14 @@ def _auth_challenge(rng: random.Random) -> tuple[list[float], dict[str, float]]:
 
 def _fw_version(rng: random.Random) -> tuple[list[float], dict[str, float]]:
     """Version fields beyond their bits saturate (4, 6 and 5 bits); the build
-    id keeps its low 28 bits; node 0 (comm_init's), protocol 1 (the DBC's
-    VERSION "mstc 1")."""
+    id keeps its low 28 bits; node 0 (comm_init's), the protocol N of the
+    DBC's VERSION line ("mstc N")."""
     major, minor, patch = rng.randint(0, 20), rng.randint(0, 70), rng.randint(0, 40)
     dirty, fixed, build = rng.randint(0, 1), rng.randint(0, 1), rng.randint(0, 2**32 - 1)
     return [major, minor, patch, dirty, build, fixed], {
         "node": 0,
         "numeric": fixed,
-        "protocol": 1,
+        "protocol": int(str(load_database().version).split()[1]),
         "major": min(major, 15),
         "minor": min(minor, 63),
         "patch": min(patch, 31),
