@@ -786,6 +786,10 @@ def run(args: Sequence[str]) -> int:
     # Ctrl-C and SIGTERM both end spin with KeyboardInterrupt, Python's own
     # way, at any point of the start (rclpy's handlers shut the context
     # down under a starting executor, which then fails with a traceback).
+    # SIGINT too is set here: Python leaves it ignored when the process
+    # starts with it ignored (a shell's background job, `cmd &` in a
+    # script), and the bridge then ran on after Ctrl-C or `kill -INT`.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         rclpy.init(args=["mstc-ros", *args], signal_handler_options=SignalHandlerOptions.NO)
