@@ -62,6 +62,10 @@ def ros_context() -> Iterator[None]:
     rclpy.shutdown()
 
 
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @contextlib.contextmanager
 def bridge(
     sil_lib: Path, log: Path, *params: str, sigint_ignored: bool = False
@@ -77,7 +81,9 @@ def bridge(
             stdout=out,
             stderr=subprocess.STDOUT,
             env=dict(os.environ),
-            preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None,
+            preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+            if sigint_ignored
+            else None,
         )
         try:
             yield proc

@@ -18,6 +18,8 @@ import io
 import json
 import math
 import shutil
+import time
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -51,13 +53,19 @@ WHEEL_LSB = 2.0**-10
 """WHEEL_CMD's resolution [rad/s]."""
 
 
+RUN_BOUNDS: dict[str, int] = {}
+"""The wall clock [ns since 1970] before and after the fixture's ``mstc sim``."""
+
+
 @pytest.fixture(scope="module")
 def run(sil_lib: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
     """A paper-line run folder, and its bag."""
     out = tmp_path_factory.mktemp("rosbag2")
     quiet = io.StringIO()
     with contextlib.redirect_stdout(quiet):
+        RUN_BOUNDS["before"] = time.time_ns()
         rc = main(["sim", "--lib", str(sil_lib), "--out", str(out), "-q", str(SCENARIO)])
+        RUN_BOUNDS["after"] = time.time_ns()
         assert rc == 0
         folder = out / "paper-line"
         bag = out / "bag"
@@ -77,6 +85,12 @@ def messages(bag: Path, topic: str) -> list[tuple[int, Any]]:
             (t, reader.deserialize(raw, c.msgtype))
             for c, t, raw in reader.messages(connections=conns)
         ]
+
+
+def started(folder: Path) -> int:
+    """The run's start [ns since 1970], from its run.json: where the bag
+    places the simulation's bus time 0."""
+    return int(json.loads((folder / "run.json").read_text())["started_ns"])
 
 
 def stamp_ns(header: Any) -> int:
@@ -109,8 +123,65 @@ def test_topics_types_and_storage(run: tuple[Path, Path, str]) -> None:
     assert odom_line.split()[1] == f"{rows:,}"
 
 
+def test_the_bag_starts_when_the_run_did(run: tuple[Path, Path, str]) -> None:
+    """Issue 35: a simulation's bag started in 1970. Its bus time 0 is the
+    run's start, which lies between the wall clock read before and after
+    ``mstc sim``; metadata.yaml's starting_time is that, and what the
+    command prints."""
+    folder, bag, printed = run
+    t0 = started(folder)
+    assert RUN_BOUNDS["before"] <= t0 <= RUN_BOUNDS["after"]
+    with AnyReader([bag]) as reader:
+        assert reader.start_time == t0  # the first step's frames, at bus time 0
+    iso = datetime.fromtimestamp(t0 / 1e9, UTC).isoformat(timespec="milliseconds")
+    (line,) = (line for line in printed.splitlines() if line.startswith("export: "))
+    assert line.endswith(f" from {iso.replace('+00:00', 'Z')}"), line
+
+
+def test_a_log_moved_out_of_its_run_folder_counts_from_1970(
+    run: tuple[Path, Path, str], tmp_path: Path
+) -> None:
+    """Without the run.json beside it, the log's own stamps are all there is."""
+    folder, _, _ = run
+    log = tmp_path / "moved.log"
+    shutil.copy(folder / "bus.log", log)
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["export", str(log), "--rosbag2", str(tmp_path / "bag"), "-q"]) == 0
+    with AnyReader([tmp_path / "bag"]) as reader:
+        assert reader.start_time == 0
+
+
+@pytest.mark.parametrize(
+    ("text", "problem"),
+    [
+        ("{", "cannot read the run's start"),
+        ('{"started": "today"}', "cannot read the run's start"),
+        ('{"started_ns": -5}', "started_ns: expected ns since 1970, got -5"),
+        ('{"started_ns": 1.5e18}', "started_ns: expected ns since 1970, got 1.5e+18"),
+    ],
+)
+def test_a_broken_run_json_is_named(
+    run: tuple[Path, Path, str],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    text: str,
+    problem: str,
+) -> None:
+    folder, _, _ = run
+    copy = tmp_path / "run"
+    shutil.copytree(folder, copy)
+    (copy / "run.json").write_text(text)
+    capsys.readouterr()
+    # exit 2: a log that cannot be used (mstc export --help)
+    assert main(["export", str(copy), "--rosbag2", str(tmp_path / "bag"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"error: {copy / 'run.json'}: {problem}" in err, err
+    assert not (tmp_path / "bag").exists()
+
+
 def test_odometry_reference_and_time_match_the_trace(run: tuple[Path, Path, str]) -> None:
     folder, bag, _ = run
+    t0 = started(folder)
     rows = trace_rows(folder)
     odom = messages(bag, "/odom")
     refs = messages(bag, "/reference")
@@ -118,7 +189,7 @@ def test_odometry_reference_and_time_match_the_trace(run: tuple[Path, Path, str]
     assert len(odom) == len(refs) == len(tf) == len(rows)
     for row, (t, o), (_, r), (_, f) in zip(rows, odom, refs, tf, strict=True):
         # The SIL run's bus time is the simulation's: each step at its t.
-        assert t == stamp_ns(o.header) == round(float(row["t"]) * 1e9)
+        assert t == stamp_ns(o.header) == t0 + round(float(row["t"]) * 1e9)
         assert (o.header.frame_id, o.child_frame_id) == ("odom", "base_link")
         p = o.pose.pose
         # Odometry through ODOM_XY and ODOM_THETA: the trace's pose, rounded to the frame's LSB.
@@ -159,6 +230,7 @@ def test_events_match_events_json(run: tuple[Path, Path, str]) -> None:
     folder, bag, _ = run
     want = json.loads((folder / "events.json").read_text())["events"]
     got = messages(bag, "/mstc/events")
+    t0 = started(folder)
     assert len(got) == len(want) == 6
     for w, (t, array) in zip(want, got, strict=True):
         (status,) = array.status
@@ -168,7 +240,7 @@ def test_events_match_events_json(run: tuple[Path, Path, str]) -> None:
         assert values["side"] == w.get("side", "")
         assert float(values["t"]) == pytest.approx(w["t"], abs=1e-9)
         # Stamped at its step's time.
-        assert t == stamp_ns(array.header) == round(w["t"] * 1e9)
+        assert t == stamp_ns(array.header) == t0 + round(w["t"] * 1e9)
 
 
 def test_raw_frames_are_the_bus_log(run: tuple[Path, Path, str]) -> None:
@@ -176,12 +248,13 @@ def test_raw_frames_are_the_bus_log(run: tuple[Path, Path, str]) -> None:
     lines = (folder / "bus.log").read_text().split("\n")
     lines = [line for line in lines if line.strip()]
     frames = messages(bag, "/can/frames")
+    t0 = started(folder)
     assert len(frames) == len(lines)
     # Frames in the log's order (the bag sorts by time; equal times keep it).
     for line, (t, f) in zip(lines, frames, strict=True):
         stamp, channel, frame = line.split()
         ident, data = frame.split("#")
-        assert t == round(float(stamp.strip("()")) * 1e9)
+        assert t == t0 + round(float(stamp.strip("()")) * 1e9)
         assert f.header.frame_id == channel
         assert f.id == int(ident, 16)
         assert not f.is_extended
@@ -246,12 +319,13 @@ def test_measured_wheel_speeds_are_the_wheel_speed_frames(
     db = cantools.database.load_file(str(DBC))
     wheel_speed = db.get_message_by_name("WHEEL_SPEED")
     want = []
+    t0 = started(tmp_path / "wheels")
     for line in (tmp_path / "wheels" / "bus.log").read_text().splitlines():
         stamp, _, frame = line.split()
         ident, data = frame.split("#")
         if int(ident, 16) == wheel_speed.frame_id:
             s = wheel_speed.decode(bytes.fromhex(data))
-            t = round(float(stamp.strip("()")) * 1e9)
+            t = t0 + round(float(stamp.strip("()")) * 1e9)
             want.append((t, s["WHEEL_SPEED_left"], s["WHEEL_SPEED_right"]))
     got = messages(tmp_path / "bag", "/joint_states")
     steps = len(trace_rows(tmp_path / "wheels"))

@@ -145,9 +145,10 @@ def test_a_rerun_clears_the_earlier_runs_outputs(
     assert sim("--bus", "sil", "--lib", sil_lib, "--out", out, path) == 0
     folder = out / "again"
     first = sorted(p.name for p in folder.iterdir())
-    assert first == sorted(["bus.log", "events.json", "trace.csv", *(f"{f}.png" for f in FIGURES)])
+    want = ["bus.log", "events.json", "run.json", "trace.csv", *(f"{f}.png" for f in FIGURES)]
+    assert first == sorted(want)
     assert sim("--bus", "memory", "--no-figures", "--lib", sil_lib, "--out", out, path) == 0
-    assert sorted(p.name for p in folder.iterdir()) == ["events.json", "trace.csv"]
+    assert sorted(p.name for p in folder.iterdir()) == ["events.json", "run.json", "trace.csv"]
     capsys.readouterr()
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from mstc.errors import (
     RunError,
     UsageError,
 )
-from mstc.logs.decode import DecodedLog, decode_log
+from mstc.logs.decode import DecodedLog, decode_log, log_epoch
 from mstc.logs.framelog import FrameLog, ProblemList
 from mstc.logs.play import open_bus
 from mstc.logs.read import FORMATS, read_log
@@ -225,28 +226,29 @@ def run_scenarios(
         written): one line per such run, naming its file.
     """
     scenarios = load_all(paths, out)
-    results: list[tuple[RunResult, BusLog | None]] = []
+    results: list[tuple[RunResult, BusLog | None, int]] = []
     firmware = ""
     caught: tuple[type[BaseException], ...] = (MstcError, *failures)
     for scenario in scenarios:
         bar = ProgressBar(scenario.sim.steps + 1, scenario.name, "steps", enabled=not quiet)
+        started = time.time_ns()
         try:
             firmware, result, log = run_one(scenario, bar)
         except BusError:
             raise  # the bus's fault, not the scenario's: it names the bus
         except caught as exc:  # named with its scenario, for main's one error line
             raise RunError(run_failure(scenario, exc)) from exc
-        results.append((result, log))
+        results.append((result, log, started))
     print(f"firmware: {firmware}")
-    for result, log in results:
-        folder = write_outputs(result, out, log, figures=figures)
+    for result, log, started in results:
+        folder = write_outputs(result, out, log, figures=figures, started_ns=started)
         print()
         print(format_report(result, folder))
         if log is not None:
             print(f"  bus           {log.describe()}")
     misses = [
         f"{result.scenario.path}: missed its expectations: {'; '.join(problems)}"
-        for result, _ in results
+        for result, _, _ in results
         if (problems := missed(result, slack, stop_at))
     ]
     if misses:
@@ -318,6 +320,8 @@ def load_decoded(args: argparse.Namespace) -> tuple[Database, DecodedLog]:
     db, log = load_log(args)
     bar = ProgressBar(len(log), "decode", "frames", enabled=not args.quiet)
     decoded = decode_log(log, db, bar, max_problems=max(args.max_problems, 0))
+    if len(log):
+        decoded.epoch_ns = log_epoch(args.log, float(log.time[0]))
     print_problems(decoded.problems, args.log)
     if decoded.problems.total and args.strict:
         raise LogError(f"{args.log}: {decoded.problems.total:,} frames not decoded (--strict)")

@@ -37,8 +37,12 @@ the rosbag2 folder); a path that holds anything else is left alone.
 
 exit status: 0 written; 1 the file cannot be written (a path that holds
 something other than an earlier export); 2 bad arguments, a log that cannot
-be used (with --strict, any problem in it), or --rosbag2 without rosbags
-installed.
+be used (with --strict, any problem in it; a run.json beside it that does not
+say when the run started), or --rosbag2 without rosbags installed.
+
+A simulation's bus.log counts from 0: the export places it at the run's
+start, which mstc sim writes beside it (run.json); a log elsewhere keeps its
+own stamps.
 
 examples:
   .venv/bin/mstc export tests/data/paper-line.log --mcap build/paper-line.mcap

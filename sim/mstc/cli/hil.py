@@ -49,7 +49,7 @@ The plant runs on this machine and reaches the firmware through a python-can
 bus: by default SocketCAN's vcan0, where the firmware runs as its own process
 (--fw build/host/mstc-fw, started afresh for each scenario, like a board) or
 on a board behind a CAN adapter. Each scenario writes DIR/<file stem>/ with
-events.json, trace.csv, bus.log (every frame, candump -L) and the figures,
+events.json, trace.csv, run.json, bus.log (every frame, candump -L) and the figures,
 and prints the table of `mstc sim`. Scenario limits, progress, and reruns into
 the same folder are as for `mstc sim` (see its --help).
 

@@ -25,7 +25,8 @@ NAME = "sim"
 HELP = "run scenario files against the firmware in process"
 
 _EPILOG = f"""\
-Each scenario writes DIR/<file stem>/: events.json, trace.csv and the figures
+Each scenario writes DIR/<file stem>/: events.json, trace.csv, run.json (when
+it started, where mstc export places its bus.log) and the figures
 path.png, position_error.png, angle_error.png, v.png, w.png, distance.png and
 overview.png; through CAN (--bus sil) also bus.log, every frame in candump -L
 format. The table printed for each lists the switching events beside the

@@ -24,9 +24,11 @@ the reader's, the decoder's problems are all counted and the first ones kept.
 
 from __future__ import annotations
 
+import json
 import math
 import statistics
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -102,11 +104,52 @@ class DecodedLog:
     """The median control period [s] (0 with fewer than two steps)."""
     stamps: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """The log's time stamp of each row's WHEEL_CMD [s]."""
+    epoch_ns: int = 0
+    """Wall-clock time of the log's time 0 [ns since 1970]: 0 for a log
+    stamped in wall-clock time (a bus's), the run's start for a simulation's,
+    whose stamps count from 0 (its folder's run.json; :func:`run_start`)."""
+
+    def ns(self, seconds: float) -> int:
+        """The wall-clock time [ns since 1970] of the log's time @p seconds."""
+        return self.epoch_ns + round(seconds * 1e9)
 
     @property
     def name(self) -> str:
         """The name of its output folder: see :func:`output_name`."""
         return output_name(self.log.path)
+
+
+RUN_FILE = "run.json"
+"""The file of a run's folder that says when the run started (``mstc sim``,
+``mstc hil``): ``{"started": ISO 8601 UTC, "started_ns": ns since 1970}``."""
+_RELATIVE = 1e8
+"""A log whose first time stamp is below this [s] (1973) counts from its
+run's start, as a simulation's does; a bus's counts from 1970."""
+
+
+def run_json(started_ns: int) -> str:
+    """The text of a run's :data:`RUN_FILE`, for a run started at @p started_ns."""
+    started = datetime.fromtimestamp(started_ns / 1e9, UTC).isoformat(timespec="microseconds")
+    return json.dumps({"started": started.replace("+00:00", "Z"), "started_ns": started_ns}) + "\n"
+
+
+def log_epoch(path: Path, first: float) -> int:
+    """:attr:`DecodedLog.epoch_ns` of the log @p path whose first time stamp
+    is @p first [s]: its run's start (the :data:`RUN_FILE` beside it) when it
+    counts from 0, else 0 (stamped in wall-clock time, or no run's folder).
+
+    :raises LogError: that file exists but does not say when the run started.
+    """
+    started = path.parent / RUN_FILE
+    if first >= _RELATIVE or not started.is_file():
+        return 0
+    try:
+        ns = json.loads(started.read_text())["started_ns"]
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+        raise LogError(f"{started}: cannot read the run's start: {exc}") from exc
+    if type(ns) is not int or not 0 <= ns < 2**63:
+        raise LogError(f"{started}: started_ns: expected ns since 1970, got {ns!r}")
+    return ns
 
 
 def output_name(path: Path) -> str:

@@ -4,7 +4,8 @@ robotics tools open.
 
 Every message is stamped with the log's time stamp of the frame it comes
 from (for a control step: its WHEEL_CMD), in nanoseconds, as both its log
-and publish time. Topics:
+and publish time; a simulation's log, which counts from 0, is placed at its
+run's start (the run.json beside it). Topics:
 
 =====================  ========  ======================  =====================================
 topic                  encoding  schema                  messages
@@ -38,6 +39,7 @@ import math
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -101,10 +103,6 @@ class ExportSummary:
     def total(self) -> int:
         """Messages written."""
         return sum(self.messages.values())
-
-
-def _ns(seconds: float) -> int:
-    return round(seconds * 1e9)
 
 
 def _stamp(ns: int) -> Timestamp:
@@ -205,7 +203,7 @@ def _frames(
         except Exception:  # cantools raises several kinds on bad data
             left_out["not decodable"] += 1
             continue
-        yield message, _ns(float(log.time[row])), signals
+        yield message, decoded.ns(float(log.time[row])), signals
 
 
 def _circle(x: float, y: float, r: float) -> list[Point3]:
@@ -300,7 +298,7 @@ def export_mcap(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
             for xs, ys, thetas in columns.values():
                 known &= np.isfinite(xs) & np.isfinite(ys) & np.isfinite(thetas)
             steps = np.flatnonzero(known)
-            stamps = [_ns(float(decoded.stamps[k])) for k in steps]
+            stamps = [decoded.ns(float(decoded.stamps[k])) for k in steps]
             paths: dict[str, list[Pose]] = {}
             for name, (xs, ys, thetas) in columns.items():
                 paths[name] = [_pose(float(xs[k]), float(ys[k]), float(thetas[k])) for k in steps]
@@ -340,7 +338,7 @@ def export_mcap(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
             step_us = np.round(trace["t"] * 1e6)
             for event in decoded.events:
                 k = min(int(np.searchsorted(step_us, event.t_us)), len(step_us) - 1)
-                ns = _ns(float(decoded.stamps[k]))
+                ns = decoded.ns(float(decoded.stamps[k]))
                 side = f" {event.side}" if event.side else ""
                 text = f"{event.kind} O{event.obstacle}{side} at t = {event.t:.6g} s"
                 log = Log(timestamp=_stamp(ns), level=Log.INFO, message=text, name="mstc")
@@ -353,10 +351,10 @@ def export_mcap(decoded: DecodedLog, db: Database, out: Path) -> ExportSummary:
 def format_summary(summary: ExportSummary, source: Path) -> str:
     """What ``mstc export`` prints."""
     span = (summary.end_ns - summary.start_ns) / 1e9
+    start = datetime.fromtimestamp(summary.start_ns / 1e9, UTC).isoformat(timespec="milliseconds")
     lines = [
         f"export: {source} -> {summary.path}: {summary.total:,} messages on "
-        f"{len(summary.messages)} topics, {summary.start_ns / 1e9:.6f} .. "
-        f"{summary.end_ns / 1e9:.6f} s ({span:g} s)"
+        f"{len(summary.messages)} topics, {span:g} s from {start.replace('+00:00', 'Z')}"
     ]
     width = max((len(t) for t in summary.messages), default=0)
     for topic, n in sorted(summary.messages.items()):

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from mstc.errors import OutputError, writing
 from mstc.logs.candump import write_candump
+from mstc.logs.decode import RUN_FILE, run_json
 from mstc.loop.lockstep import CanController
 from mstc.loop.result import TRACE_COLUMNS, RunResult, Trace
 from mstc.model import Event
@@ -31,6 +32,7 @@ RUN_FILES = (
     "trace.csv",
     "bus.log",
     "timing.json",
+    RUN_FILE,
     *EXTRA_FILES,
     *(f"{stem}.png" for stem in (*FIGURES, "timing")),
 )
@@ -172,11 +174,18 @@ def write_trace_csv(trace: Trace, obstacles: Sequence[int], path: Path) -> None:
 
 
 def write_outputs(
-    result: RunResult, out_dir: Path, bus_log: BusLog | None = None, *, figures: bool = True
+    result: RunResult,
+    out_dir: Path,
+    bus_log: BusLog | None = None,
+    *,
+    figures: bool = True,
+    started_ns: int | None = None,
 ) -> Path:
     """Write every output of a run into ``out_dir/<scenario name>/``, with
-    bus.log when the run went through CAN and timing.json when it ran in real
-    time, after removing what an earlier run left there (:func:`fresh_folder`).
+    bus.log when the run went through CAN, timing.json when it ran in real
+    time and run.json when @p started_ns says when it started [ns since 1970]
+    (a simulation's bus.log counts from 0: an export places it there), after
+    removing what an earlier run left there (:func:`fresh_folder`).
 
     :returns: That folder.
     :raises WriteError: the folder cannot be used (:func:`output_folder`) or
@@ -186,6 +195,8 @@ def write_outputs(
     with writing(f"the outputs of {scenario.path}"):
         folder = fresh_folder(out_dir, scenario.name, RUN_FILES)
         (folder / "events.json").write_text(events_json(result))
+        if started_ns is not None:
+            (folder / RUN_FILE).write_text(run_json(started_ns))
         ids = [o.id for o in scenario.obstacles]
         write_trace_csv(result.trace, ids, folder / "trace.csv")
         if result.timing is not None:

@@ -5,7 +5,9 @@ installation needed.
 
 Standard message types only, in REP-105 frames (``odom``, ``base_link``),
 each message stamped (header and record time) with the bus time stamp of the
-frame it comes from; for what a control step gives, that step's WHEEL_CMD:
+frame it comes from (a simulation's, which count from 0, placed at its run's
+start: :attr:`mstc.logs.decode.DecodedLog.epoch_ns`); for what a control
+step gives, that step's WHEEL_CMD:
 
 =====================  ================================  =======================================
 topic                  type                              messages
@@ -175,10 +177,6 @@ class _Messages:
         return self.make("diagnostic_msgs/msg/KeyValue", key=key, value=str(value))
 
 
-def _ns(seconds: float) -> int:
-    return round(seconds * 1e9)
-
-
 _LATCHED = [
     # rosbag2 plays a transient-local topic back as such (a latched path).
     Qos(
@@ -311,7 +309,7 @@ def _measured_speeds(decoded: DecodedLog, db: Database) -> list[tuple[int, float
             s = numeric_values(message, log.data[row, : int(log.dlc[row])].tobytes())
         except Exception:  # cantools raises several kinds on bad data
             continue
-        speeds.append((_ns(float(log.time[row])), float(s["left"]), float(s["right"])))
+        speeds.append((decoded.ns(float(log.time[row])), float(s["left"]), float(s["right"])))
     return speeds
 
 
@@ -331,7 +329,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
         n = int(log.dlc[row])
         data = np.zeros(8, dtype=np.uint8)
         data[:n] = log.data[row, :n]
-        ns = _ns(float(log.time[row]))
+        ns = decoded.ns(float(log.time[row]))
         frame = m.make(
             CAN_FRAME_TYPE,
             header=m.header(ns, log.channel[row]),
@@ -343,7 +341,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
         bag.add("/can/frames", ns, frame)
 
     trace = decoded.trace
-    stamps = [_ns(float(s)) for s in decoded.stamps]
+    stamps = [decoded.ns(float(s)) for s in decoded.stamps]
     columns = [decoded.status_columns.index(c) for c in ("wheel_left", "wheel_right")]
     trace_wheels = np.array([[row[i] for i in columns] for row in decoded.status_rows], dtype=float)
     path_poses = []
@@ -395,7 +393,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
         bag.add("/cmd_wheels", ns, cmd)
         bag.add("/mstc/status", ns, _status(m, decoded, k, ns))
     if path_poses:
-        first = _ns(float(decoded.stamps[0]))
+        first = decoded.ns(float(decoded.stamps[0]))
         path = m.make("nav_msgs/msg/Path", header=m.header(first, WORLD), poses=path_poses)
         bag.add("/reference/path", first, path, latched=True)
 
@@ -410,7 +408,7 @@ def export_rosbag2(decoded: DecodedLog, db: Database, out: Path) -> ExportSummar
 
     reports = _obstacle_reports(decoded, db)
     for row, obstacles in sorted(reports.items()):
-        ns = _ns(float(log.time[row]))
+        ns = decoded.ns(float(log.time[row]))
         markers = [m.make("visualization_msgs/msg/Marker", header=m.header(ns, WORLD), action=3)]
         for oid, x, y, r, vx, vy in obstacles:
             markers.append(
