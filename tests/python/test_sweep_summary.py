@@ -93,3 +93,32 @@ def test_percentages_keep_two_digits_of_their_distance_from_an_end(value: float,
 def test_no_contact_in_a_million_runs_shows_its_upper_bound() -> None:
     # 0 of 1,000,000: the upper end z²/(n + z²) = 3.84e-6, 0.00038 %.
     assert rate(0, 1_000_000) == "0 % [0, 0.00038] (0/1000000)"
+
+
+def test_the_histograms_count_whole_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 35: clearance.png's axis showed fractional run counts. With
+    three runs, one a bin, matplotlib's own ticks would be 0, 0.2, ... 1.0;
+    the axis's ticks are whole numbers of runs."""
+    from matplotlib.figure import Figure
+
+    rows = [
+        _row(scene=f"s{i}", min_clearance=f"{0.1 * (i + 1):g}", rms_error=f"{0.01 * (i + 1):g}")
+        for i in range(3)
+    ]
+    runs = tmp_path / "runs.csv"
+    runs.write_text(",".join(ROW_COLUMNS) + "\n" + "".join(",".join(r) + "\n" for r in rows))
+    tally = Tally(["mstc"])
+    tally.add(rows)
+    tally.finish(runs)
+    ticks: dict[str, list[float]] = {}
+
+    def savefig(fig: Figure, path: Path, **_: object) -> None:
+        (ax,) = fig.axes
+        lo, hi = ax.get_ylim()
+        ticks[Path(path).stem] = [t for t in ax.get_yticks() if lo <= t <= hi]
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    assert tally._histograms(tmp_path) == ["clearance.png", "tracking_error.png"]
+    for name, values in ticks.items():
+        assert any(t > 0 for t in values), (name, values)
+        assert all(t == round(t) for t in values), (name, values)
