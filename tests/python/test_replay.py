@@ -214,3 +214,21 @@ def test_a_replay_under_another_key_says_the_commands_were_refused(
         f"than the log's firmware had (the key of {other}); the committed logs under tests/data "
         "are signed with tests/data/test.key: --key-file tests/data/test.key"
     ]
+
+
+def test_the_float_log_through_the_fixed_build_differs_as_docs_replay_says(
+    libs: dict[str, Path], run_replay: Run
+) -> None:
+    """docs/replay.md's second example, as pasted (issue 35: it made `make`
+    fail): the float build's log through the fixed-point build says
+    DIFFERENT and exits 1, which the page's `|| test $? -eq 1` expects; the
+    difference is the rounding (docs/numerics.md), not the key: nothing is
+    refused. Through the float build the same log is bit-exact."""
+    key = DATA / "test.key"
+    log = DATA / "paper-line.log"
+    rc, out, err = run_replay("--lib", libs["float"], "--quiet", "--key-file", key, log, lib=False)
+    assert rc == 0 and "DIFFERENT" not in out, out + err
+    rc, out, err = run_replay("--lib", libs["fixed"], "--quiet", "--key-file", key, log, lib=False)
+    assert rc == 1, out + err
+    assert "DIFFERENT" in out
+    assert "refused" not in err, err
