@@ -107,7 +107,7 @@ class DecodedLog:
     epoch_ns: int = 0
     """Wall-clock time of the log's time 0 [ns since 1970]: 0 for a log
     stamped in wall-clock time (a bus's), the run's start for a simulation's,
-    whose stamps count from 0 (its folder's run.json; :func:`run_start`)."""
+    whose stamps count from 0 (its folder's run.json; :func:`log_epoch`)."""
 
     def ns(self, seconds: float) -> int:
         """The wall-clock time [ns since 1970] of the log's time @p seconds."""
