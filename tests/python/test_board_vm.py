@@ -34,7 +34,7 @@ KEY = TOP / "tests" / "data" / "test.key"
 # a process of its own on the host; prints (arguments, exit status, stdout,
 # stderr) of each.
 GUEST = r"""
-import json, os, select, subprocess, sys
+import json, os, select, subprocess, sys, time
 fw, key = sys.argv[1], sys.argv[2]
 both = (f"trap 'kill 0' TERM; {fw} --can vcan0 --key-file {key} --node 0 & "
         f"{fw} --can vcan0 --key-file {key} --node 1 --realtime & wait")
@@ -42,11 +42,18 @@ runner = [sys.executable, "-m", "mstc.can.vmbridge", "run", "--"]
 if not os.environ.get("MSTC_VCAN_BRIDGE"):
     runner = []  # the host has vcan0
 # One session for both firmwares: the VM's agent runs them side by side.
-proc = subprocess.Popen([*runner, "bash", "-c", both], stderr=subprocess.PIPE, text=True)
-starts = []
-for _ in range(2):
-    ready, _, _ = select.select([proc.stderr], [], [], 300)
-    starts.append(proc.stderr.readline().strip() if ready else "(no start line in 300 s)")
+proc = subprocess.Popen([*runner, "bash", "-c", both], stderr=subprocess.PIPE)
+# The start lines from the pipe itself: a buffered readline() may take both
+# lines in one read (they come together on a busy machine), and select() on
+# the pipe then waits for a second line that is already in the buffer.
+err, fd, deadline = b"", proc.stderr.fileno(), time.monotonic() + 300
+while err.count(b"\n") < 2 and select.select([fd], [], [], max(deadline - time.monotonic(), 0))[0]:
+    chunk = os.read(fd, 4096)
+    if not chunk:
+        break
+    err += chunk
+starts = err.decode(errors="replace").splitlines()[:2]
+starts += ["(no start line in 300 s)"] * (2 - len(starts))
 runs = []
 if all(" mode on " in line for line in starts):
     for args in json.loads(sys.argv[3]):
@@ -92,6 +99,7 @@ def test_two_mstc_fw_on_vcan_each_driven_by_its_own_mstc_board(tmp_path: Path) -
     )
     assert proc.returncode == 0, report
     result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert all(", node " in x for x in result["starts"]), report
     assert sorted(x.split(", node ")[1][0] for x in result["starts"]) == ["0", "1"], report
     runs = {" ".join(args): (rc, out, err) for args, rc, out, err in result["runs"]}
     version = tomllib.loads((TOP / "pyproject.toml").read_text())["project"]["version"]

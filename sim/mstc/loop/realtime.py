@@ -29,6 +29,7 @@ from __future__ import annotations
 import gc
 import math
 import os
+import statistics
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -411,14 +412,16 @@ def _arrival(steps: Sequence[FirmwareStep], period: float) -> float:
     last step by its step count. A single arrival is early or late by the
     scheduling of the emulated side and of the bridge (milliseconds, under
     load); samples placed after the first armed step alone would sit that
-    much off the intended phase for the whole run."""
+    much off the intended phase for the whole run. (statistics.median, not
+    numpy's: numpy's first call in a process takes some 14 ms, which made
+    the first run's sample 0 that late, and its first step stale.)"""
     last = steps[-1]
     moved = [
         s.t + ((last.step - s.step) % (1 << 16)) * period
         for s in steps[-PHASE_STEPS:]
         if (last.step - s.step) % (1 << 16) < 2 * PHASE_STEPS
     ]
-    return float(np.median(moved))
+    return statistics.median(moved)
 
 
 def _drift(
