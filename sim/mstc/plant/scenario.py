@@ -971,7 +971,7 @@ def _check_reference_path(
     (the robot follows it; its own excursions beyond are refused at run time).
     No step moves it further than |v|·dt (an arc's chord is shorter), so a
     start that far inside the range needs no path: a sweep's scenes all are,
-    and the path took a quarter of the time of parsing one."""
+    and the path took half the time of parsing one."""
     start = reference.pose
     reach = abs(reference.v) * sim.dt * sim.steps + REACH_MARGIN
     if all(
