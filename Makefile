@@ -67,7 +67,13 @@ $(STAMP)/apt-%: tools/setup/debian-sim.txt tools/setup/debian-%.txt | $(STAMP)
 	@touch $@
 .venv/.requirements.sha256: requirements.txt pyproject.toml $(STAMP)/apt-sim
 	@tools/setup/venv
-venv: .venv/.requirements.sha256
+venv: .venv/.requirements.sha256 .venv/.bytecode
+# mstc's own modules compiled once per change: Python reads the cached
+# bytecode even where PYTHONDONTWRITEBYTECODE keeps it from writing it (then
+# every mstc command would compile them again as it starts: 0.25 s of CPU).
+.venv/.bytecode: .venv/.requirements.sha256 $(wildcard sim/mstc/*.py sim/mstc/*/*.py)
+	@$(PY) -m compileall -q sim/mstc
+	@touch $@
 # Third-party C sources (Unity, libfixmath, Mbed TLS): tools/setup/sources.lock.
 deps/%/.sha256: tools/setup/sources.lock | $(STAMP)/apt-sim
 	@tools/setup/fetch-source $*

@@ -36,6 +36,23 @@ def test_help_describes_the_sim_command() -> None:
         assert words in run.stdout
 
 
+def test_a_command_imports_its_own_module_alone() -> None:
+    """`mstc sweep` starts without the other commands' modules (BARN's,
+    ROS's, the MCAP export's, matplotlib): a sweep's client pays only for
+    its own imports; `mstc --help` still lists every command."""
+    probe = (
+        "import sys; from mstc.cli import COMMANDS, main\n"
+        "try:\n    main(['sweep', '--help'])\nexcept SystemExit:\n    pass\n"
+        "print(sorted(n for n in COMMANDS if f'mstc.cli.{n}' in sys.modules), "
+        "'matplotlib' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert done.stdout.splitlines()[-1] == "['sweep'] False", done.stdout
+    top = mstc("--help")
+    for command in ("sim", "hil", "replay", "play", "plot", "sweep", "barn", "export", "ros"):
+        assert f"    {command} " in top.stdout, command
+
+
 def test_version() -> None:
     done = mstc("--version")
     assert done.returncode == 0

@@ -26,7 +26,7 @@ from mstc.limits import Held, load_table, violation
 from mstc.loop.result import RunResult, Trace
 from mstc.model import Obstacle, Params, Pose
 from mstc.plant.plant import Integrator
-from mstc.plant.scenario import ReferenceSpec, Scenario, SimSpec, load_scenario
+from mstc.plant.scenario import ReferenceSpec, Scenario, SimSpec, load_scenario, params_values
 from mstc.report.table import format_report
 
 WriteScenario = Callable[[Mapping[str, object], str], Path]
@@ -196,3 +196,11 @@ def test_every_held_value_is_checked_in_every_way_the_firmware_holds_it() -> Non
     for way in Held:
         problem = violation({"trk_k1": 1e-6}, ways=(way,))
         assert problem is not None and problem.names == ("trk_k1",) and not problem.relation
+
+
+def test_table_1s_defaults_pass_the_limits_table_in_every_way_it_is_held() -> None:
+    """The scenario loader takes Table 1's parameters without a check when a
+    scenario's [params] sets none (a sweep's scenes): the table must pass
+    them, as the firmware's own defaults, in every way a value is held."""
+    for way in Held:
+        assert violation(params_values(Params()), ways=(way,)) is None, way

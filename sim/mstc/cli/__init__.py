@@ -14,29 +14,55 @@ class to status) among its parser's defaults.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 from mstc import __version__
-from mstc.cli import barn, board, export, hil, play, plot, replay, ros, sim, sweep
 from mstc.errors import EXIT_INTERRUPTED, MstcError
 
-COMMANDS = (sim, hil, replay, play, plot, sweep, barn, export, ros, board)
-"""The subcommands, in the order ``mstc --help`` lists them."""
+COMMANDS: dict[str, str] = {
+    "sim": "run scenario files against the firmware in process",
+    "hil": "run scenario files over SocketCAN (or another python-can bus) against mstc-fw or "
+    "a board",
+    "replay": "feed a bus log through the firmware and compare what it sends, bit for bit",
+    "play": "play a bus log onto a bus with its original timing, like canplayer",
+    "plot": "decode a bus log: events, status, trace and the paper's figures",
+    "sweep": "run scenario files or suites for several strategies, on all cores or a Dask cluster",
+    "barn": "run BARN's 300 worlds (the benchmark's Jackal, its protocol and score)",
+    "export": "write a run or a bus log as an MCAP file (Foxglove) or a rosbag2 (ROS 2 tools)",
+    "ros": "bridge a CAN bus with the firmware on it to ROS 2 topics (a node Nav2 can drive)",
+    "board": "talk to a board on a CAN bus: status, parameters, arm, version, frames",
+}
+"""The subcommands (each the module ``mstc.cli.NAME``) and their one-line
+help, in the order ``mstc --help`` lists them."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``mstc``."""
+def build_parser(commands: Collection[str] = tuple(COMMANDS)) -> argparse.ArgumentParser:
+    """The argument parser of ``mstc``, whole for the subcommands @p commands;
+    the others are listed with their help alone and their modules left
+    unimported (:func:`main` builds the one it runs: a command then starts
+    without every other's imports, e.g. a sweep's client without ROS's and
+    matplotlib's)."""
     parser = argparse.ArgumentParser(
         prog="mstc",
         description="mstc: the plant, the CAN harness and the log tools of the mstc "
         "motor-controller firmware. `mstc COMMAND --help` describes each command.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for command in COMMANDS:
-        command.add_parser(commands)
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, text in COMMANDS.items():
+        if name in commands:
+            importlib.import_module(f"mstc.cli.{name}").add_parser(subparsers)
+        else:
+            subparsers.add_parser(name, help=text)
     return parser
+
+
+def _command(argv: Sequence[str]) -> str | None:
+    """The subcommand @p argv names: its first word that is not an option
+    (``mstc`` has no option taking a value)."""
+    return next((word for word in argv if not word.startswith("-")), None)
 
 
 def exit_status(exc: MstcError, args: argparse.Namespace) -> int:
@@ -48,7 +74,9 @@ def exit_status(exc: MstcError, args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``mstc``; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    named = _command(words)
+    args = build_parser([named] if named in COMMANDS else []).parse_args(words)
     try:
         status: int = args.run(args)
     except MstcError as exc:

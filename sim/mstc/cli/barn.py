@@ -27,6 +27,7 @@ from mstc.barn.run import (
 from mstc.barn.summary import gallery, lines, picked_runs, table, worst
 from mstc.barn.worlds import WORLDS, load_worlds, pick, published_dwa
 from mstc.can.library import LIB_ENV
+from mstc.cli import COMMANDS
 from mstc.cli.common import ROOT, add_lib_argument, library
 from mstc.errors import EXIT_OK, SuiteError, UsageError, writing
 from mstc.report.progress import ProgressBar
@@ -36,7 +37,7 @@ from mstc.sweep.rows import RowFile
 from mstc.sweep.suite import load_suite
 
 NAME = "barn"
-HELP = "run BARN's 300 worlds (the benchmark's Jackal, its protocol and score)"
+HELP = COMMANDS[NAME]
 PROFILES = ROOT / "sim" / "suites" / "standard.toml"
 """The suite whose [actuator.<name>] tables are the actuator profiles."""
 ACTUATORS = ("ideal", "gearmotor", "sluggish")

@@ -19,6 +19,7 @@ import can
 
 from mstc.can import secoc
 from mstc.can.protocol import MAX_NODE_ID, Frame, Protocol
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_bus_arguments, add_key_argument, find_library, open_args_bus
 from mstc.errors import (
     EXIT_FAILED,
@@ -33,7 +34,7 @@ from mstc.model import Fault
 from mstc.ros.board import Board, result_text
 
 NAME = "board"
-HELP = "talk to a board on a CAN bus: status, parameters, arm, version, frames"
+HELP = COMMANDS[NAME]
 
 _EPILOG = """\
 actions:

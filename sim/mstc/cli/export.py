@@ -7,13 +7,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_log_arguments, load_decoded
 from mstc.errors import EXIT_OK
 from mstc.logs.export import export_mcap, format_summary
 from mstc.ros import require
 
 NAME = "export"
-HELP = "write a run or a bus log as an MCAP file (Foxglove) or a rosbag2 (ROS 2 tools)"
+HELP = COMMANDS[NAME]
 
 _EPILOG = """\
 RUN_DIR is a folder mstc sim or mstc hil wrote (its bus.log is read); LOG is

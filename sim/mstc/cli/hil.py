@@ -16,6 +16,7 @@ import can
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
 from mstc.can.vmbridge import Bridge, BridgeBus
+from mstc.cli import COMMANDS
 from mstc.cli.common import (
     add_bus_arguments,
     add_key_argument,
@@ -42,7 +43,7 @@ from mstc.report.outputs import BusLog
 from mstc.report.progress import ProgressBar
 
 NAME = "hil"
-HELP = "run scenario files over SocketCAN (or another python-can bus) against mstc-fw or a board"
+HELP = COMMANDS[NAME]
 
 _EPILOG = f"""\
 The plant runs on this machine and reaches the firmware through a python-can

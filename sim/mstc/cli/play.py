@@ -9,6 +9,7 @@ import sys
 
 import can
 
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_bus_arguments, add_log_arguments, load_log, open_args_bus
 from mstc.errors import EXIT_OK, UsageError
 from mstc.logs.candump import candump_line
@@ -17,7 +18,7 @@ from mstc.logs.replay import firmware_ids
 from mstc.report.progress import ProgressBar
 
 NAME = "play"
-HELP = "play a bus log onto a bus with its original timing, like canplayer"
+HELP = COMMANDS[NAME]
 
 _EPILOG = """\
 Like canplayer: the frames are sent with the log's timing, scaled by --rate,

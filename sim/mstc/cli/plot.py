@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from mstc.can.protocol import wire_limits
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_log_arguments, load_decoded, run_log
 from mstc.errors import EXIT_OK
 from mstc.logs.decode import output_name
@@ -15,7 +16,7 @@ from mstc.report.logplot import PLOT_FILES, format_events, write_log_outputs
 from mstc.report.outputs import output_folder
 
 NAME = "plot"
-HELP = "decode a bus log: events, status, trace and the paper's figures"
+HELP = COMMANDS[NAME]
 
 _EPILOG = """\
 LOG is a bus log, or a run's folder (mstc sim or mstc hil wrote it), whose

@@ -7,6 +7,7 @@ import argparse
 
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_key_argument, add_lib_argument, add_log_arguments, library, load_log
 from mstc.errors import (
     EXIT_FAILED,
@@ -20,7 +21,7 @@ from mstc.logs.replay import format_difference, format_summary, replay
 from mstc.report.progress import ProgressBar
 
 NAME = "replay"
-HELP = "feed a bus log through the firmware and compare what it sends, bit for bit"
+HELP = COMMANDS[NAME]
 
 _EPILOG = f"""\
 The frames the DBC says the firmware (node FW) receives are fed, in the log's

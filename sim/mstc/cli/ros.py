@@ -7,13 +7,14 @@ import argparse
 import os
 
 from mstc.can.library import LIB_ENV
+from mstc.cli import COMMANDS
 from mstc.cli.common import find_library
 from mstc.errors import EXIT_OK
 from mstc.ros import require
 from mstc.ros.parameters import describe
 
 NAME = "ros"
-HELP = "bridge a CAN bus with the firmware on it to ROS 2 topics (a node Nav2 can drive)"
+HELP = COMMANDS[NAME]
 
 _EPILOG = f"""\
 Everything after --ros-args goes to ROS 2, as for any ROS 2 node: parameters

@@ -11,6 +11,7 @@ import can
 
 from mstc.can import secoc
 from mstc.can.library import LIB_ENV
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_key_argument, add_lib_argument, library, run_scenarios
 from mstc.errors import UsageError
 from mstc.firmware.sil import SilController
@@ -22,7 +23,7 @@ from mstc.report.outputs import BusLog
 from mstc.report.progress import ProgressBar
 
 NAME = "sim"
-HELP = "run scenario files against the firmware in process"
+HELP = COMMANDS[NAME]
 
 _EPILOG = f"""\
 Each scenario writes DIR/<file stem>/: events.json, trace.csv, run.json (when

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from mstc.can.library import LIB_ENV
 from mstc.can.protocol import wire_limits
+from mstc.cli import COMMANDS
 from mstc.cli.common import add_lib_argument, find_library, library
 from mstc.errors import EXIT_OK, ScenarioError, UsageError, writing
 from mstc.firmware.sil import SilController
@@ -29,7 +30,7 @@ from mstc.sweep.suite import MAX_COUNT, Suite, generate, is_suite, load_suite
 from mstc.sweep.summary import Tally
 
 NAME = "sweep"
-HELP = "run scenario files or suites for several strategies, on all cores or a Dask cluster"
+HELP = COMMANDS[NAME]
 
 _EPILOG = f"""\
 INPUT is a suite file (a TOML file with [family.<name>] tables), a scenario

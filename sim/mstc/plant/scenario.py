@@ -360,6 +360,12 @@ class _Checker:
 
     def numbers(self, value: object, key: str, names: tuple[str, ...]) -> tuple[float, ...]:
         """An array of exactly len(names) numbers; names are used in messages."""
+        if (
+            type(value) is list
+            and len(value) == len(names)
+            and all(type(v) is float and -math.inf < v < math.inf for v in value)
+        ):  # the common case, checked at once (a sweep parses every scene)
+            return tuple(value)
         if not isinstance(value, list):
             raise self.fail(
                 key,
@@ -530,6 +536,13 @@ def parse_scenario(data: Mapping[str, object], path: str, wire: WireLimits) -> S
     )
 
 
+@lru_cache(maxsize=1)
+def _default_params() -> Params:
+    """Table 1's parameters, which the limits table passes (one frozen
+    instance, made once)."""
+    return Params()
+
+
 @lru_cache(maxsize=64)
 def _violation(p: Params) -> Violation | None:
     """The limits table's verdict on @p p, remembered: a sweep's scenes share
@@ -542,6 +555,8 @@ def _parse_params(c: _Checker, value: object) -> Params:
     against the limits table as the firmware will check it (mstc.limits):
     the problem names the key and the limit."""
     table = c.table(value, "params")
+    if not table:
+        return _default_params()  # a sweep's scenes mostly set none
     scalars, arrays = _param_keys()
     c.keys(table, "params", (), (*scalars, *arrays, "strategy"))
     overrides: dict[str, Any] = {}
@@ -759,13 +774,14 @@ def _parse_obstacles(
             f"{ids.hi:g}), got {len(entries)}",
         )
     result = []
+    default = f"the default radius params.R_ob = {params.r_ob:g} m "
     for i, entry in enumerate(entries, start=1):
         prefix = f"obstacles[{i}]"
         c.keys(entry, prefix, ("position",), ("position", "radius", "velocity"))
         x, y = c.numbers(entry["position"], f"{prefix}.position", ("x", "y"))
         c.within(x, f"{prefix}.position", wire.obstacle[0], "element x ")
         c.within(y, f"{prefix}.position", wire.obstacle[1], "element y ")
-        radius, what = params.r_ob, f"the default radius params.R_ob = {params.r_ob:g} m "
+        radius, what = params.r_ob, default
         if "radius" in entry:
             radius, what = c.positive(entry["radius"], f"{prefix}.radius"), ""
         c.within(radius, f"{prefix}.radius", wire.radius, what)
