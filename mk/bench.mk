@@ -99,13 +99,13 @@ $(BENCH_DIR)/can-realtime.json: build/host/mstc-fw build/host/can-bridge sim/mst
 # per-scene one, `mstc sweep` of 10,000 scenes end to end against its engine's
 # own CPU time, 1,000 paper-like scenes on every core and the same on a local
 # Dask cluster (python -m mstc.bench.sweep).
-$(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so sim/mstc/bench/sweep.py | .venv/.requirements.sha256
+$(BENCH_DIR)/sweep.json: $(B)/libmstc_sil.so sim/mstc/bench/sweep.py | .venv/.bytecode
 	$(PY) -m mstc.bench.sweep run --lib $< --out $@
 
 .PHONY: bench
 BENCH_ALL := $(BENCH_RESULTS) $(BENCH_CAN) $(PIL_STAMPS) $(BENCH_DIR)/sweep.json \
   $(BENCH_DIR)/can-realtime.json replay-bench $(addprefix img-,$(BUDGET_IMGS))
-bench: $(BENCH_ALL) | .venv/.requirements.sha256  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN, sweep and real-time figures: docs/performance.md
+bench: $(BENCH_ALL) | .venv/.bytecode  ## instructions per control step on Cortex-M (QEMU, alone and in the closed loop of the board images), ns on the host, CAN, sweep and real-time figures: docs/performance.md
 	@$(PY) -m mstc.bench.ctl_step --doc docs/performance.md --pil build/pil $(BENCH_RESULTS)
 	@$(PY) -m mstc.bench.canbus report --doc docs/performance.md $(BENCH_CAN)
 	@$(PY) -m mstc.bench.sweep report --doc docs/performance.md $(BENCH_DIR)/sweep.json
