@@ -1,9 +1,11 @@
 # SPDX-License-Identifier: MIT
 """The ``mstc`` command: one subcommand per job, each with ``--help``.
 
-Each subcommand is a module of this package with ``NAME``, ``HELP``,
-``add_parser(commands)`` (which sets ``run`` as the parser's default) and
-``run(args) -> int`` returning the exit status. A subcommand does not catch
+Each subcommand is a module of this package, listed with its one-line help
+in :data:`COMMANDS` (so that ``mstc --help`` lists it without importing it),
+with ``NAME``, ``HELP`` (its line there), ``add_parser(commands)`` (which
+sets ``run`` as the parser's default) and ``run(args) -> int`` returning the
+exit status. A subcommand does not catch
 errors to print them: every error mstc raises on purpose (:mod:`mstc.errors`)
 ends in :func:`main`, which prints it as ``error: ...`` and returns its exit
 status (as cantools' ``_main`` does). A subcommand whose exit status for an
