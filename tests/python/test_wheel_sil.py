@@ -26,7 +26,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import tomllib
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
 from pathlib import Path
 
 import pytest
@@ -254,17 +257,22 @@ SUBSET = 12
 
 def test_every_suite_family_on_dc_wheels(libs: dict[str, Path]) -> None:
     suite = load_suite(ROOT / "sim" / "suites" / "standard.toml")
-    failures = []
+    runs = []
     for family in suite.families:
         for index in range(SUBSET):
             text = scene_text(suite, family, index, Params(strategy=Strategy.MSTC))
             data = tomllib.loads(text + '\n[actuator]\nmodel = "dc"\n')
             data["params"] = {"strategy": "mstc"}
-            for mode in MODES:
-                contact, ds_kept, rejoined = _judge(data, f"{family.name}-{index}", libs[mode])
-                if contact or not ds_kept or rejoined is False:
-                    failures.append((family.name, index, mode, contact, ds_kept, rejoined))
-    assert failures == []
+            runs += [(data, f"{family.name}-{index}", mode) for mode in MODES]
+    # On every core: 240 lock-step runs of 1,500 steps with 1 ms motor substeps.
+    with ProcessPoolExecutor(os.cpu_count(), mp_context=get_context("fork")) as pool:
+        verdicts = pool.map(_judge, *zip(*((d, n, libs[m]) for d, n, m in runs), strict=True))
+        failures = [
+            (name, mode, *verdict)
+            for (_, name, mode), verdict in zip(runs, verdicts, strict=True)
+            if verdict[0] or not verdict[1] or verdict[2] is False
+        ]
+    assert runs and failures == []
 
 
 # ------------------------------------------------- the gearmotor profile's τ
