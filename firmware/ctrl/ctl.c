@@ -49,6 +49,7 @@ int ctl_init(ctl_t *c, const ctl_params_t *p)
     memo_reset(c);
     c->last_t_us = 0u;
     c->stepped = false;
+    c->filtered = 0u;
     return rc;
 }
 
@@ -76,6 +77,7 @@ int ctl_set_params(ctl_t *c, const ctl_params_t *p)
         if (new_strategy) {
             msw_reset(&c->msw);
             cbf_reset(&c->cbf);
+            c->filtered = 0u;
         }
     }
     return rc;
@@ -86,6 +88,7 @@ void ctl_reset(ctl_t *c)
     sup_reset(&c->sup);
     msw_reset(&c->msw);
     cbf_reset(&c->cbf);
+    c->filtered = 0u;
 }
 
 static bool inputs_in_range(const ctl_input_t *in)
@@ -595,7 +598,8 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in0, ctl_output_t *out)
                              .w_trk = w_trk,
                              .dist = st->distance,
                              .t_us = in->t_us,
-                             .reach = activation_reach(c, &wn) };
+                             .reach = activation_reach(c, &wn),
+                             .filtered = c->filtered };
     msw_decision_t d;
     msw_step(&c->msw, &c->sup, &mi, out->events, &n_ev, &d);
 
@@ -647,6 +651,7 @@ static void mstc_step(ctl_t *c, const ctl_input_t *in0, ctl_output_t *out)
         c->cbf.active = true;
         fr.obstacle = fr.obstacle != 0u ? fr.obstacle : nearest_id(c, st);
     }
+    c->filtered = fr.changed ? fr.obstacle : 0u; /* the next step's msw_input_t::filtered */
     if (fr.changed) {
         st->faults |= CTL_FAULT_FILTER;
         if (fr.new_episode && n_ev < SUP_MAX_EVENTS) {

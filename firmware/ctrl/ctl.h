@@ -207,6 +207,7 @@ typedef struct {
     ctl_memo_t memo;    /**< values "mstc" keeps (ctl_memo_t) */
     uint64_t last_t_us; /**< time of the last step [µs] */
     bool stepped;       /**< a step has run since init or reset */
+    uint8_t filtered;   /**< id the filter changed the last step's command for, or 0 */
 } ctl_t;
 
 /** @brief The period the first "mstc" step assumes [s]: the inputs' DBC cycle

@@ -150,6 +150,16 @@ static num_t boundary(const sup_t *s, const msw_input_t *in, unsigned i)
     return num_sub(in->dist[i], s->obs[i].d_s);
 }
 
+/* How far from static entry @p e the tracking command's roll-out must keep
+ * for it not to activate: D_s + MSW_ACT_MARGIN, or + MSW_FILTERED_MARGIN when
+ * the safety filter changed the previous step's command for it (the command
+ * closes on it faster than the barrier allows: it is in the way, though the
+ * roll-out passes it). */
+static num_t act_clear(const sup_entry_t *e, const msw_input_t *in)
+{
+    return num_add(e->d_s, e->o.id == in->filtered ? MSW_FILTERED_MARGIN : MSW_ACT_MARGIN);
+}
+
 /* The activation candidate (table index), or -1. */
 static int candidate(const msw_t *m, const sup_t *s, look_t *lk)
 {
@@ -170,7 +180,7 @@ static int candidate(const msw_t *m, const sup_t *s, look_t *lk)
             continue;
         }
         bool trig = dist[i] < num_add(e->d_act, reach) && closing(lk, e) &&
-                    (msw_moving(e) || !clears(lk, e, num_add(e->d_s, MSW_ACT_MARGIN), dist[i]));
+                    (msw_moving(e) || !clears(lk, e, act_clear(e, in), dist[i]));
         if (!trig && msw_moving(e)) {
             /* Within d_act + MSW_CPA_REACH + reach: the test above. */
             trig = cpa_inside(lk, e, MSW_CPA_HORIZON, num_add(MSW_CPA_MARGIN, reach));

@@ -83,6 +83,7 @@
 #define MSW_ROLLOUT_INV     NUM_C(1.0)   /**< 1 / MSW_ROLLOUT [1/s] */
 #define MSW_MARGIN          NUM_C(0.02)  /**< hysteresis margin of the release [m] */
 #define MSW_ACT_MARGIN      NUM_C(0.03)  /**< activation: roll-out within D_s + this [m] */
+#define MSW_FILTERED_MARGIN NUM_C(0.10)  /**< ... of an obstacle the filter acted on [m] */
 #define MSW_CLEAR_MARGIN    NUM_C(0.045) /**< way clear: roll-out beyond D_s + this [m] */
 #define MSW_TURN_BACK       NUM_C(1.0)   /**< held: side turned back this far behind [m] */
 #define MSW_AIM_LEAD        NUM_C(0.3)   /**< aim: this far along the line past the robot [m] */
@@ -157,6 +158,9 @@ typedef struct {
     /** How much farther than D_act a closing obstacle activates [m]: the
      *  distance the wheels need to brake (0: at D_act, as the paper). */
     num_t reach;
+    /** Id of the obstacle the safety filter changed the previous step's
+     *  command for, or 0 (ctl_t::filtered). */
+    uint8_t filtered;
 } msw_input_t;
 
 /** @brief What the strategy decided. */

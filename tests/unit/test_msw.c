@@ -63,6 +63,7 @@ typedef struct {
     pose_t robot, ref;
     double v_r, w_r, v_trk, w_trk;
     uint64_t t_us;
+    uint8_t filtered; /* msw_input_t::filtered */
 } step_t;
 
 static void decide(const step_t *k);
@@ -94,7 +95,8 @@ static void decide(const step_t *k)
                              .v_trk = tu_num(k->v_trk),
                              .w_trk = tu_num(k->w_trk),
                              .dist = dist,
-                             .t_us = k->t_us };
+                             .t_us = k->t_us,
+                             .filtered = k->filtered };
     msw_step(&m, &s, &in, ev, &n_ev, &d);
 }
 
@@ -786,6 +788,37 @@ static void test_msw_no_activation_beside_a_clear_way(void)
     TEST_ASSERT_EQUAL_INT(SUP_EVENT_ACTIVATE, ev[0].kind);
 }
 
+static void test_msw_obstacle_the_filter_acted_on_activates_with_a_wider_margin(void)
+{
+    /* Obstacle 1 at (0.1, 0.42), 0.432 away (< D_act), closing; the
+     * roll-out (0.5 m along +x) passes it at 0.42 > D_s + MSW_ACT_MARGIN =
+     * 0.38: no activation. When the filter changed the previous step's
+     * command for it (filtered = its id), the roll-out must keep D_s +
+     * MSW_FILTERED_MARGIN = 0.45 > 0.42: ACTIVATE. The filter's acting on
+     * another obstacle (id 2) changes nothing. */
+    const sup_obstacle_t o = obstacle(1, 0.1, 0.42, 0, 0);
+    step_t k = at(0, 0, 0, 0.1, 0.0, 0.0, 0);
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+    setUp();
+    k.filtered = 2;
+    step(&k, &o, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    setUp();
+    k.filtered = 1;
+    step(&k, &o, 1);
+    expect_event(SUP_EVENT_ACTIVATE, 1, m.side);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_AVOID, d.mode);
+    /* At (0.1, 0.46) (0.471 away) the roll-out passes at 0.46 > 0.45: no
+     * activation even so. */
+    setUp();
+    const sup_obstacle_t farther = obstacle(1, 0.1, 0.46, 0, 0);
+    step(&k, &farther, 1);
+    TEST_ASSERT_EQUAL_size_t(0, n_ev);
+    TEST_ASSERT_EQUAL_INT(SUP_MODE_TRACK, d.mode);
+}
+
 /* --------------------------------------------------------------- blocked */
 
 static void test_msw_blocked_after_a_full_turn_around(void)
@@ -1061,6 +1094,7 @@ int main(void)
     RUN_TEST(test_msw_held_on_the_line_aims_ahead_of_itself);
     RUN_TEST(test_msw_slow_robot_does_not_activate_before_its_roll_out_comes_near);
     RUN_TEST(test_msw_no_activation_beside_a_clear_way);
+    RUN_TEST(test_msw_obstacle_the_filter_acted_on_activates_with_a_wider_margin);
     RUN_TEST(test_msw_blocked_after_a_full_turn_around);
     RUN_TEST(test_msw_blocked_when_still_then_resumes_when_the_way_clears);
     RUN_TEST(test_msw_p3_stops_and_is_not_blocked);
