@@ -28,7 +28,7 @@ from cryptography.hazmat.primitives.cmac import CMAC
 from mstc.can import secoc
 from mstc.can.protocol import Frame, Protocol, wire_limits
 from mstc.errors import FrameDropped
-from mstc.loop.lockstep import ACCEPTED, AGAIN, REFUSED, outcome
+from mstc.loop.lockstep import ACCEPTED, AGAIN, REFUSED, decides, outcome
 from mstc.model import wrap_angle
 from mstc.plant.plant import UnicyclePlant
 from mstc.plant.reference import ReferenceRobot
@@ -302,6 +302,52 @@ def test_wrong_key_replayed_and_stale_commands_are_refused_and_counted(tool: Too
     assert tool.result(tool.send_all(good.param_set(tool.proto, ARM, 1.0)), ARM) == 0
 
 
+def test_a_command_that_comes_after_its_challenge_expired_is_decided_by_its_own_refusal(
+    tool: Tool,
+) -> None:
+    """docs/safety.md: a challenge unused for 0.5 s of firmware time is
+    replaced at the next housekeeping (every 100 ms; outcome expired), and a
+    command signed for it that comes after is refused as stale, using up the
+    next challenge. The status that decides the command is that refusal's, not
+    the expiry, which reached the tool first: read as the decision, the expiry
+    had `mstc board set` sign again for the challenge its own late command
+    then used up (each retry one behind, on the vcan VM's bridge)."""
+    tool.preroll()
+    auth = tool.sender(TEST_KEY)
+    st0 = auth.status
+    assert st0 is not None
+    late = auth.param_set(tool.proto, D_S, 0.4)
+    signed = auth.signed
+    assert signed == st0.freshness + 1
+    seen: list[secoc.Status] = []  # every status the tool adopts, in the bus's order
+
+    def send(msg: can.Message) -> list[Frame]:
+        before = auth.status
+        got = tool.send(msg)
+        if auth.status is not before:
+            seen.extend(a for a in [auth.status] if a is not None)
+        return got
+
+    # 0.7 s of firmware time on its 20 ms steps, the command still on its way.
+    for k in range(1, 36):
+        send(tool.proto.encode("STEP", step=k, time=k * 20_000, raw=True))
+        if any(x.last == secoc.EXPIRED for x in seen):
+            break
+    expiry = next(x for x in seen if x.last == secoc.EXPIRED)
+    assert (expiry.session, expiry.freshness) == (st0.session, signed)
+    got = [f for m in late for f in send(m)]
+    assert tool.result(got, D_S) == UNAUTHENTICATED
+    refusal = seen[-1]
+    assert (refusal.freshness, refusal.last) == (signed + 1, secoc.STALE)
+    # The first status, in order, that decides it: the refusal, not the expiry.
+    decided = next(x for x in seen if decides(st0.session, signed)(x))
+    assert decided == refusal
+    assert outcome(st0, signed, decided, refused=True) == AGAIN
+    # Signed again for the challenge after the refusal: accepted.
+    got = tool.send_all(auth.param_set(tool.proto, D_S, 0.4))
+    assert tool.result(got, D_S) == 0
+
+
 # ------------------------------------------------------------------- odometry
 
 
@@ -375,6 +421,10 @@ def test_the_outcome_of_a_signed_command_follows_the_status_that_decided_it() ->
     assert outcome(before, 6, status(7, 6, 0), refused=True) == REFUSED
     assert outcome(before, 6, status(7, 6, 2), refused=False) == REFUSED  # mac
     assert outcome(before, 6, status(7, 6, 3), refused=False) == AGAIN  # stale
+    # Its challenge expired on its way: its own refusal decides it, one later.
+    assert not decides(7, 6)(status(7, 6, secoc.EXPIRED))
+    assert decides(7, 6)(status(7, 7, secoc.STALE))
+    assert outcome(before, 6, status(7, 7, secoc.STALE), refused=True) == AGAIN
     assert outcome(before, 6, status(9, 0, 0), refused=False) == AGAIN  # restarted
     # Another command decided freshness 6: this one was not the one used.
     assert outcome(before, 6, status(7, 7, 0), refused=False) == REFUSED

@@ -291,6 +291,9 @@ class Authenticator:
 STALE = 3
 """AUTH_STATUS_last of a command signed for a challenge already used up: the
 one outcome a tool signs again for (once)."""
+EXPIRED = 6
+"""AUTH_STATUS_last of a challenge nobody used for 0.5 s, replaced at a
+housekeeping: no command decided it (:func:`mstc.loop.lockstep.decides`)."""
 
 OUTCOMES = {
     1: "another PARAM_SET came between its PARAM_SET and its PARAM_AUTH, or the "

@@ -399,8 +399,20 @@ def unauthenticated(what: str, auth: secoc.Authenticator) -> ControllerError:
 
 def decides(session: int, signed: int) -> Callable[[secoc.Status], bool]:
     """Matches a status that decided the command signed for @p signed in
-    @p session, or a later one (another session: the firmware restarted)."""
-    return lambda s: s.session != session or s.freshness >= signed
+    @p session, or a later one (another session: the firmware restarted).
+
+    Not the expiry of that challenge (last = expired): a housekeeping
+    replaced it while the command was on its way, so no command decided it,
+    and the command, when it comes, is refused as stale under the next
+    challenge, whose status is the one that decides it. Taken for the
+    decision, the expiry had a tool sign again for that next challenge, which
+    the late command then used up, and each retry was one challenge behind
+    (`mstc board set` on the vcan VM's bridge: refused four times in a row)."""
+    return lambda s: (
+        s.session != session
+        or s.freshness > signed
+        or (s.freshness == signed and s.last != secoc.EXPIRED)
+    )
 
 
 ACCEPTED, AGAIN, REFUSED, CONTESTED = "accepted", "again", "refused", "contested"
