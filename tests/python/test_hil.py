@@ -221,8 +221,29 @@ def how_it_ran(folder: Path) -> str:
     return (
         f"plant CPU {timing['plant_cpu_ms_per_sample']} ms per 20 ms sample, "
         f"plant {timing['plant']}, firmware {timing['firmware']}, "
-        f"period {timing['wheel_cmd_period_ms']}; first halt (t [s], reason): {halt}"
+        f"period {timing['wheel_cmd_period_ms']}; first halt (t [s], reason): {halt}; "
+        f"host: {timing.get('host')}\n{around_the_longest_periods(timing)}"
     )
+
+
+def around_the_longest_periods(timing: dict, count: int = 3) -> str:
+    """Where a late step came from: for each of the @p count longest
+    intervals between WHEEL_CMD arrivals, the arrivals and the odometry sent
+    (with its latency to the step that used it) in the three periods
+    before; an odometry sample that no step used is missing from the
+    latency series, so a gap in its send times shows a stale step."""
+    periods = timing["series"]["period"]
+    sent = timing["series"]["latency"]
+    lines = []
+    for t, ms in sorted(periods, key=lambda x: -x[1])[:count]:
+        lo = t - 3.5 * PERIOD
+        arrivals = [f"{a:.4f}" for a, _ in periods if lo <= a <= t]
+        odometry = [f"{o:.4f} (+{lat:.1f} ms)" for o, lat in sent if lo <= o <= t]
+        lines.append(
+            f"WHEEL_CMD interval {ms:.1f} ms ending at {t:.4f} s: arrivals {arrivals}, "
+            f"odometry sent {odometry}"
+        )
+    return "\n".join(lines)
 
 
 @pytest.mark.parametrize("name", NAMES)

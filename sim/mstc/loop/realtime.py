@@ -515,16 +515,42 @@ def simulate_realtime(
     try:
         # On a clock of its own (a test's) a run needs no priority.
         wall = link.now is time.monotonic
+        cpu_before = _host_cpu()
         with _no_gc_pauses(), real_time_priority(boost, enabled=wall) as priority:
             result = _run(
                 scenario, link, period, phase, stop_odometry_at, last_k, drops_before, progress
             )
+        cpu_after = _host_cpu()
     finally:
         if progress is not None:
             progress.close()
     assert result.timing is not None
-    extra = {**result.timing.extra, "priority": priority}
+    extra = {**result.timing.extra, "priority": priority, "host": _host(cpu_before, cpu_after)}
     return replace(result, timing=replace(result.timing, extra=extra))
+
+
+def _host_cpu() -> list[int] | None:
+    """The host's CPU time by kind (/proc/stat's first line: user, nice,
+    system, idle, iowait, irq, softirq, steal) [clock ticks]; None where
+    there is no such file."""
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            return [int(x) for x in f.readline().split()[1:9]]
+    except (OSError, ValueError):
+        return None
+
+
+def _host(before: list[int] | None, after: list[int] | None) -> dict[str, object]:
+    """What else the host did over a run, for timing.json's ``host``: the
+    CPU its hypervisor took from it (steal) and the time its cores spent
+    waiting for the disk (iowait) [ms], which no priority here can give
+    back, and the load average at the end."""
+    doc: dict[str, object] = {"load": round(os.getloadavg()[0], 2)}
+    if before is not None and after is not None and len(before) == len(after) == 8:
+        ms = 1e3 / os.sysconf("SC_CLK_TCK")
+        doc["steal_ms"] = round((after[7] - before[7]) * ms, 1)
+        doc["iowait_ms"] = round((after[4] - before[4]) * ms, 1)
+    return doc
 
 
 RT_PRIORITY = 1
