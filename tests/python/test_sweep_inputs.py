@@ -83,6 +83,20 @@ def test_resume_after_the_suite_changed_runs_the_new_scenes(
     assert "3 runs (3 run now, 0 resumed)" in text
 
 
+def _group_alive(pgid: int) -> bool:
+    """Whether a process of group @p pgid is still running (a zombie, ended
+    but not yet reaped, holds no file)."""
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            # pid (comm) state ppid pgrp ...: comm may hold spaces, so after its ")"
+            state, _ppid, pgrp = stat.read_text().rsplit(")", 1)[1].split()[:3]
+        except (OSError, ValueError, IndexError):
+            continue  # ended while listed
+        if int(pgrp) == pgid and state != "Z":
+            return True
+    return False
+
+
 def test_two_sweeps_into_one_folder_at_once_the_second_is_refused(tmp_path: Path) -> None:
     suite = tmp_path / "long.toml"
     # 400 scenes of 30 s: minutes of work, far longer than the second sweep.
@@ -110,6 +124,12 @@ def test_two_sweeps_into_one_folder_at_once_the_second_is_refused(tmp_path: Path
     finally:
         os.killpg(first.pid, signal.SIGTERM)
         first.wait(timeout=60)
+        # Its worker processes too: each holds the lock it was forked with
+        # (flock belongs to the open file, which a fork shares) until it ends,
+        # which on a busy machine can be a while after the main process.
+        deadline = time.monotonic() + 60
+        while _group_alive(first.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
     assert second.returncode == 2, second.stdout + second.stderr
     lines = second.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and str(out) in lines[0], lines
