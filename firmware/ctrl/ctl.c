@@ -11,6 +11,19 @@
  * direction is met by turning, not by a wide arc into the next member. */
 #define CTL_TURN_FIRST NUM_C(0.7)
 
+/* Round a moving obstacle, wheels whose lag is within this (2/α, the time
+ * of motion the safety filter watches ahead: cbf.c's reach) do not turn
+ * first (ctl_turn_first()). */
+#define CTL_TURN_FIRST_LAG NUM_C(2.0 / CBF_ALPHA_PER_S)
+
+num_t ctl_turn_first(num_t cos_e, bool moving, num_t wheel_tau)
+{
+    if (cos_e >= CTL_TURN_FIRST || (moving && wheel_tau <= CTL_TURN_FIRST_LAG)) {
+        return NUM_ONE;
+    }
+    return num_max(num_div(cos_e, CTL_TURN_FIRST), NUM_ZERO);
+}
+
 /* |x| <= lim, for a finite x only, without FE_INVALID for a NaN (num.h). */
 static bool within(num_t x, num_t lim) { return num_within(x, lim); }
 
@@ -448,9 +461,9 @@ static void avoid_command(const ctl_t *c, const ctl_input_t *in, const wheels_no
     const num_t cap = num_max(num_mul(d->circle.d_s, lim->sqrt_gamma), slowest);
     *v = num_clamp(v23, slowest, num_min(speed_limit(in->v_r), cap));
     avd_turn(&c->p.avd, &wn->at.p, wn->at.c, wn->at.s, &d->circle, d->side, *v, w, e);
-    const num_t ce = num_cos(*e);
-    if (ce < CTL_TURN_FIRST) {
-        *v = num_mul(*v, num_max(num_div(ce, CTL_TURN_FIRST), NUM_ZERO));
+    const num_t slow = ctl_turn_first(num_cos(*e), msw_moving(d->followed), c->p.wheel_tau);
+    if (slow < NUM_ONE) {
+        *v = num_mul(*v, slow);
     }
     const num_t corr = num_mul(c->p.avd.k2, *e);
     const num_t most = c->memo.avoid_most; /* 2γ'/k2 */

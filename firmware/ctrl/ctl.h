@@ -286,6 +286,18 @@ void ctl_sync_wheels(ctl_t *c, const kin_wheels_t *w);
  */
 void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
 
+/**
+ * @brief The factor on the avoidance's speed for a heading error e off the
+ *        circle's direction ("mstc", docs/strategy.md "The turn first"):
+ *        cos e / 0.7 when cos e < 0.7 (none below zero: a turn in place
+ *        beyond a right angle), else 1. Not round a moving obstacle
+ *        (@p moving) when the wheels' lag @p wheel_tau is within 2/α = 0.1 s,
+ *        the time of motion the safety filter watches ahead: such wheels
+ *        carry out its corrections, and slowing only holds the robot while
+ *        the obstacle comes; slower wheels turn first round every obstacle.
+ */
+num_t ctl_turn_first(num_t cos_e, bool moving, num_t wheel_tau);
+
 /** @brief Whether @p p selects the "mstc" strategy (ctl_params_check() has
  *         made strategy a whole 0 or 1). */
 static inline bool ctl_is_mstc(const ctl_params_t *p)

@@ -885,6 +885,25 @@ static void test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns(vo
     expect_behind_at(-0.5, -0.03, -1.8, -8.0, 0.0, -0.4, -17.323018, 1.323018);
 }
 
+static void test_ctl_turn_first_spares_moving_obstacles_on_fast_wheels(void)
+{
+    /* cos e / 0.7 below 0.7, none below zero: cos e = 0.35 gives 0.5, cos e
+     * = -0.2 (beyond a right angle) 0, 0.7 and 0.8 nothing. Round a moving
+     * obstacle, wheels with a lag within 2/α = 2/20 = 0.1 s (the gearmotor
+     * profile's 0.06 s, and 0.1 s itself) are not slowed; the sluggish
+     * profile's 0.14 s is, as every static obstacle. */
+    const num_t fast = NUM_C(0.06), edge = NUM_C(0.1), slow = NUM_C(0.14);
+    TEST_ASSERT_NUM_WITHIN(1e-4, 0.5, ctl_turn_first(NUM_C(0.35), false, fast));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 0.5, ctl_turn_first(NUM_C(0.35), false, NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 0.0, ctl_turn_first(NUM_C(-0.2), false, fast));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 1.0, ctl_turn_first(NUM_C(0.7), false, slow));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 1.0, ctl_turn_first(NUM_C(0.8), true, slow));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 1.0, ctl_turn_first(NUM_C(0.35), true, fast));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 1.0, ctl_turn_first(NUM_C(-0.2), true, NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 1.0, ctl_turn_first(NUM_C(0.35), true, edge));
+    TEST_ASSERT_NUM_WITHIN(1e-4, 0.5, ctl_turn_first(NUM_C(0.35), true, slow));
+}
+
 static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
 {
     /* Avoiding under "mstc"; a parameter set that switches to "paper" and
@@ -1180,6 +1199,7 @@ int main(void)
     RUN_TEST(test_ctl_mstc_drops_reports_beyond_the_table);
     RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);
     RUN_TEST(test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns);
+    RUN_TEST(test_ctl_turn_first_spares_moving_obstacles_on_fast_wheels);
     RUN_TEST(test_ctl_changing_the_strategy_restarts_the_mstc_state);
     RUN_TEST(test_ctl_mstc_guard_holds_a_robot_that_would_back_into_the_margin);
     RUN_TEST(test_ctl_mstc_reports_once_an_obstacle_closing_faster_than_the_wheels_brake);
