@@ -324,8 +324,8 @@ def test_a_command_that_comes_after_its_challenge_expired_is_decided_by_its_own_
     def send(msg: can.Message) -> list[Frame]:
         before = auth.status
         got = tool.send(msg)
-        if auth.status is not before:
-            seen.extend(a for a in [auth.status] if a is not None)
+        if auth.status is not None and auth.status is not before:
+            seen.append(auth.status)
         return got
 
     # 0.7 s of firmware time on its 20 ms steps, the command still on its way.
