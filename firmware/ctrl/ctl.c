@@ -412,20 +412,37 @@ static num_t track_least_speed(const ctl_t *c, const ctl_input_t *in, const whee
     return back ? num_neg(least) : least;
 }
 
+/* A robot within this of its reference's line (|e2| [m]) and heading
+ * (|sin e3|, cos e3 > 0) is aligned with it (ctl_most_speed()). */
+#define CTL_ALIGNED NUM_C(0.1)
+
+/* a'' / a': the braking curve of an aligned robot decelerates at
+ * a'' = 0.75 r a, not at a' = ACT_LAW_SHARE × r a = 0.5 r a. */
+#define CTL_ALIGNED_GAIN NUM_C(1.5)
+
+num_t ctl_most_speed(num_t law_accel, const trk_err_t *e, num_t cos_e3, num_t sin_e3)
+{
+    num_t twice_a = num_add(law_accel, law_accel);
+    if (cos_e3 > NUM_ZERO && num_abs(sin_e3) < CTL_ALIGNED && num_abs(e->e2) < CTL_ALIGNED) {
+        twice_a = num_mul(twice_a, CTL_ALIGNED_GAIN);
+    }
+    return num_sqrt(num_mul(twice_a, num_abs(e->e1)));
+}
+
 /* The tracking command through the wheels' limits ("mstc"): eq. (2)-(3) on
  * the errors the lag carries the robot to (predict_errors()); the turn
  * beyond ω_r held within 2γ'/(k3 |v_r|) and the speed beyond v_r cos e3
  * within sqrt(2 a' |e1|): the largest corrections a heading (or distance)
  * error can be brought to zero with, decelerating at γ' (a'), without
  * overshoot (a braking curve; for a law of gain K the curve
- * |x| <= sqrt(2 γ' |x| / K) is the bound 2γ'/K). */
+ * |x| <= sqrt(2 γ' |x| / K) is the bound 2γ'/K); an aligned robot's speed
+ * on a steeper curve (ctl_most_speed()). */
 static void track_command(ctl_t *c, const ctl_input_t *in, const pred_err_t *pe, num_t *v, num_t *w)
 {
     const act_limits_t *lim = &c->act.lim;
     const trk_gains_t *g = &c->p.trk;
     const num_t ff = num_mul(in->v_r, pe->c3);
-    const num_t most_v =
-        num_sqrt(num_mul(num_add(lim->law_accel, lim->law_accel), num_abs(pe->e.e1)));
+    const num_t most_v = ctl_most_speed(lim->law_accel, &pe->e, pe->c3, pe->s3);
     *v = num_add(ff, num_clamp(num_mul(g->k1, pe->e.e1), num_neg(most_v), most_v));
     const num_t turn = num_mul(in->v_r, num_add(num_mul(g->k2, pe->e.e2), num_mul(g->k3, pe->s3)));
     const num_t k3v = num_mul(g->k3, num_abs(in->v_r));

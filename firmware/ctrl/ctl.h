@@ -298,6 +298,19 @@ void ctl_step(ctl_t *c, const ctl_input_t *in, ctl_output_t *out);
  */
 num_t ctl_turn_first(num_t cos_e, bool moving, num_t wheel_tau);
 
+/**
+ * @brief The largest correction of the tracking speed beyond v_r cos e3
+ *        ("mstc", docs/strategy-wheels.md, step 2): sqrt(2 a |e1|),
+ *        the speed an error e1 can be brought to zero from decelerating at
+ *        a without overshoot (a braking curve). a is the laws' share
+ *        @p law_accel = a' = ACT_LAW_SHARE r a; for a robot aligned with its
+ *        reference (|e2| < 0.1 m, |sin e3| < 0.1 and cos e3 > 0: the errors
+ *        @p e, @p cos_e3, @p sin_e3), whose turn corrections need little of
+ *        the wheels, 1.5 a' = 0.75 r a: catching up after a detour, it brakes
+ *        onto the reference later and arrives sooner.
+ */
+num_t ctl_most_speed(num_t law_accel, const trk_err_t *e, num_t cos_e3, num_t sin_e3);
+
 /** @brief Whether @p p selects the "mstc" strategy (ctl_params_check() has
  *         made strategy a whole 0 or 1). */
 static inline bool ctl_is_mstc(const ctl_params_t *p)

@@ -219,12 +219,15 @@ static void test_ctl_init_with_bad_parameters_falls_back_to_defaults(void)
      * them from standstill by at most 20 × 0.02 = 0.4 rad/s over the first
      * period (CTL_FIRST_DT), both by one factor 0.4/12.3: 0.4 and
      * 11.7 × 0.4/12.3 = 0.3804878. The prediction (wheel_tau 0.06 s) sees
-     * standstill, the catch-up limit sqrt(2 × 0.5 × 0.05 × 20 × 0.2) = 0.447
-     * m/s leaves v = 0.6 (its correction k1 e1 = 0.6 > 0.447!): v = 0.447,
-     * so ω_R = (0.447 + 0.015)/0.05 = 9.244, ω_L = 8.644 before the limiter:
-     * 0.4 and 8.644 × 0.4/9.244 = 0.37404. */
+     * standstill; the robot is aligned with its reference (e2 = 0, e3 =
+     * 0.1 × T_p, a few hundredths: ctl_most_speed()), so the catch-up limit
+     * is sqrt(2 × 0.75 × 0.05 × 20 × 0.2) = sqrt(0.3) = 0.5477226 m/s, and
+     * it leaves v = 0.6 (its correction k1 e1 = 0.6 > 0.5477!): v =
+     * 0.5477226, so ω_R = (0.5477226 + 0.015)/0.05 = 11.254452, ω_L =
+     * 10.654452 before the limiter: 0.4 and 10.654452 × 0.4/11.254452 =
+     * 0.3786751. */
     TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.4, out.wheels.right);
-    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.37404, out.wheels.left);
+    TEST_ASSERT_NUM_WITHIN(TOL_WHEEL, 0.3786751, out.wheels.left);
 }
 
 /* ---------------------------------------------------------------- tracking */
@@ -904,6 +907,28 @@ static void test_ctl_turn_first_spares_moving_obstacles_on_fast_wheels(void)
     TEST_ASSERT_NUM_WITHIN(1e-4, 0.5, ctl_turn_first(NUM_C(0.35), true, slow));
 }
 
+static void test_ctl_most_speed_is_a_steeper_curve_for_an_aligned_robot(void)
+{
+    /* The sluggish profile's share a' = 0.5 × 0.05 m × 10 rad/s² = 0.25
+     * m/s², an error e1 of 2 m (behind or ahead): sqrt(2 × 0.25 × 2) = 1 m/s;
+     * aligned (|e2| < 0.1 m, |sin e3| < 0.1, cos e3 > 0) at 1.5 a' = 0.375:
+     * sqrt(2 × 0.375 × 2) = sqrt(1.5) = 1.2247449 m/s. Each bound is strict:
+     * 0.1 itself is not aligned; facing away (cos e3 = -1) neither. */
+    const num_t a = NUM_C(0.25);
+    const num_t c09 = NUM_C(0.9959418); /* cos of the angle whose sine is 0.09 */
+    const trk_err_t on = { .e1 = NUM_C(2.0), .e2 = NUM_ZERO, .e3 = NUM_ZERO };
+    const trk_err_t ahead = { .e1 = NUM_C(-2.0), .e2 = NUM_C(-0.09), .e3 = NUM_ZERO };
+    const trk_err_t near = { .e1 = NUM_C(2.0), .e2 = NUM_C(0.09), .e3 = NUM_ZERO };
+    const trk_err_t beside = { .e1 = NUM_C(2.0), .e2 = NUM_C(0.1), .e3 = NUM_ZERO };
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.2247449, ctl_most_speed(a, &on, NUM_ONE, NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.2247449, ctl_most_speed(a, &ahead, NUM_ONE, NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.2247449, ctl_most_speed(a, &near, NUM_ONE, NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.2247449, ctl_most_speed(a, &on, c09, NUM_C(-0.09)));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.0, ctl_most_speed(a, &beside, NUM_ONE, NUM_ZERO));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.0, ctl_most_speed(a, &on, NUM_C(0.9949874), NUM_C(0.1)));
+    TEST_ASSERT_NUM_WITHIN(1e-3, 1.0, ctl_most_speed(a, &on, NUM_C(-1.0), NUM_ZERO));
+}
+
 static void test_ctl_changing_the_strategy_restarts_the_mstc_state(void)
 {
     /* Avoiding under "mstc"; a parameter set that switches to "paper" and
@@ -1200,6 +1225,7 @@ int main(void)
     RUN_TEST(test_ctl_mstc_near_obstacles_never_reverses_and_caps_the_speed);
     RUN_TEST(test_ctl_mstc_behind_its_reference_keeps_its_speed_while_it_turns);
     RUN_TEST(test_ctl_turn_first_spares_moving_obstacles_on_fast_wheels);
+    RUN_TEST(test_ctl_most_speed_is_a_steeper_curve_for_an_aligned_robot);
     RUN_TEST(test_ctl_changing_the_strategy_restarts_the_mstc_state);
     RUN_TEST(test_ctl_mstc_guard_holds_a_robot_that_would_back_into_the_margin);
     RUN_TEST(test_ctl_mstc_reports_once_an_obstacle_closing_faster_than_the_wheels_brake);
